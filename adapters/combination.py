@@ -1,0 +1,56 @@
+"""Pair materials onto an engine's combination rule.
+
+Engines store friction and restitution per body and combine two bodies' values into the
+pair's (PyBullet and Pymunk: product; DART: min for friction, product for restitution;
+MuJoCo: max for friction). A scene states pair values; this module finds per-body values
+whose combination reproduces every pair of the scene exactly, or says it cannot.
+"""
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+from adapters.base import Unsupported
+from cases.scene import Material, Scene
+
+RULES: dict[str, Callable[[float, float], float]] = {
+    "product": lambda a, b: a * b,
+    "min": min,
+    "max": max,
+}
+# A value that leaves the partner's value unchanged under each rule.
+NEUTRAL = {"product": 1.0, "min": 1e6, "max": 0.0}
+
+
+def per_body_values(scene: Scene, value_of: Callable[[Material], float], rule: str,
+                    what: str) -> dict[str, float]:
+    """Per-body values v with rule(v[a], v[b]) == value_of(pair material) for every pair
+    that may touch. Tries, in order: static bodies neutral and each dynamic body the value
+    of its pairs; every body the same value (sqrt of it for the product rule)."""
+    combine = RULES[rule]
+    pairs = [(a.name, b.name, value_of(scene.material_of(a.name, b.name))) for a, b in scene.contact_pairs()]
+
+    def fits(v: dict[str, float]) -> bool:
+        return all(math.isclose(combine(v[a], v[b]), c, rel_tol=1e-12, abs_tol=1e-15) for a, b, c in pairs)
+
+    candidates = []
+    # 1. static bodies neutral, each dynamic body carries its pair value
+    v = {b.name: NEUTRAL[rule] for b in scene.bodies if b.static}
+    for a, b, c in pairs:
+        for name in (a, b):
+            if name not in v:
+                v[name] = c
+    candidates.append(v)
+    # 2. one value for everyone
+    values = {c for _, _, c in pairs}
+    if len(values) == 1:
+        (c,) = values
+        same = math.sqrt(c) if rule == "product" else c
+        candidates.append({b.name: same for b in scene.bodies})
+    for v in candidates:
+        if all(b.name in v for b in scene.bodies) and fits(v):
+            return v
+        if fits({**{b.name: NEUTRAL[rule] for b in scene.bodies}, **v}):
+            return {**{b.name: NEUTRAL[rule] for b in scene.bodies}, **v}
+    raise Unsupported(f"the scene's pair {what} values cannot be expressed as per-body values "
+                      f"under this engine's {rule} rule")

@@ -1,0 +1,42 @@
+"""Engines by name. Each entry is one adapter file; the engine's package is imported only
+when the engine is used, so a missing engine fails only the runs that need it."""
+from __future__ import annotations
+
+import importlib
+
+from adapters.base import Adapter
+
+# name -> (module, class, keyword arguments)
+ENGINES: dict[str, tuple[str, str, dict]] = {
+    "reference": ("adapters.reference_engine", "ReferenceAdapter", {}),
+    "pybullet": ("adapters.pybullet_engine", "PyBulletAdapter", {}),
+    "mujoco": ("adapters.mujoco_engine", "MuJoCoAdapter", {}),
+}
+
+
+class EngineError(ValueError):
+    """An unknown or unavailable engine; the message says which and what to do."""
+
+
+def engine_names() -> list[str]:
+    return list(ENGINES)
+
+
+def get(name: str) -> Adapter:
+    if name not in ENGINES:
+        raise EngineError(f"unknown engine {name!r}: choose from {', '.join(ENGINES)}")
+    module, cls, kwargs = ENGINES[name]
+    try:
+        mod = importlib.import_module(module)
+    except ImportError as exc:
+        raise EngineError(f"engine {name!r} is not installed ({exc.name or exc}): "
+                          f"pip install '.[{name}]'") from None
+    return getattr(mod, cls)(**kwargs)
+
+
+def available(name: str) -> bool:
+    try:
+        get(name)
+        return True
+    except EngineError:
+        return False

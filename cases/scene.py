@@ -1,0 +1,345 @@
+"""The engine-neutral scene vocabulary: shapes, bodies, pair materials, gravity, effects.
+
+This module is the one thing `cases/` and `adapters/` share. A scene is immutable and is
+validated when it is made: a bad field raises `SceneError` naming the field and the range
+it must lie in, so no engine ever sees it.
+
+Conventions (SI units throughout):
+- positions in metres, world frame, z up;
+- orientation as a unit quaternion (w, x, y, z), body to world;
+- angular velocity in the world frame, rad/s;
+- a 2D scene (`dimension=2`) lies in the x-z plane: y and the rotations about x and z
+  stay zero, and its shapes are `Circle` and `Rect`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+EFFECTS = ("gravity", "contact", "restitution", "friction", "rotation")
+
+# Bodies may start this far inside each other: contact geometry built by hand is exact to
+# rounding (1e-12 m), and 1 um is far below any depth an engine resolves at dt = 1e-3.
+DEFAULT_ALLOWED_OVERLAP = 1e-6
+
+
+class SceneError(ValueError):
+    """A scene field outside its allowed range; the message names the field."""
+
+
+def _finite(value, where: str, shape: tuple[int, ...] | None = None) -> np.ndarray:
+    array = np.asarray(value, dtype=float)
+    if shape is not None and array.shape != shape:
+        raise SceneError(f"{where} = {value!r}: must have {shape[0]} components")
+    if not np.all(np.isfinite(array)):
+        raise SceneError(f"{where} = {value!r}: must be finite (no NaN or infinity)")
+    return array
+
+
+def _positive(value: float, where: str) -> float:
+    _finite(value, where)
+    if not value > 0:
+        raise SceneError(f"{where} = {value!r}: must be > 0")
+    return float(value)
+
+
+# --- shapes -------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Sphere:
+    radius: float
+    kind = "sphere"
+    dimension = 3
+
+    def inertia(self, m: float) -> tuple[float, float, float]:
+        i = 2.0 / 5.0 * m * self.radius**2
+        return (i, i, i)
+
+    def validate(self, where: str) -> None:
+        _positive(self.radius, f"{where}.radius")
+
+
+@dataclass(frozen=True)
+class Box:
+    half_extents: tuple[float, float, float]
+    kind = "box"
+    dimension = 3
+
+    def inertia(self, m: float) -> tuple[float, float, float]:
+        a, b, c = self.half_extents
+        return (m * (b * b + c * c) / 3.0, m * (a * a + c * c) / 3.0, m * (a * a + b * b) / 3.0)
+
+    def validate(self, where: str) -> None:
+        _finite(self.half_extents, f"{where}.half_extents", (3,))
+        for axis, h in zip("xyz", self.half_extents):
+            _positive(h, f"{where}.half_extents.{axis}")
+
+
+@dataclass(frozen=True)
+class Plane:
+    """The static half-space below the plane n . x = offset (solid on the side opposite n)."""
+    normal: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    offset: float = 0.0
+    kind = "plane"
+    dimension = None  # a line in 2D scenes, a plane in 3D ones
+
+    def inertia(self, m: float):
+        raise SceneError("a plane is static: it has no inertia")
+
+    def validate(self, where: str) -> None:
+        n = _finite(self.normal, f"{where}.normal", (3,))
+        _finite(self.offset, f"{where}.offset")
+        if abs(np.linalg.norm(n) - 1.0) > 1e-9:
+            raise SceneError(f"{where}.normal = {self.normal!r}: must be a unit vector")
+
+
+@dataclass(frozen=True)
+class Circle:
+    """A disc in a 2D scene (x-z plane); 3D engines embed it as a cylinder along y."""
+    radius: float
+    kind = "circle"
+    dimension = 2
+
+    def inertia(self, m: float) -> tuple[float, float, float]:
+        i = 0.5 * m * self.radius**2  # about y, the only axis a 2D body turns about
+        return (i, i, i)
+
+    def validate(self, where: str) -> None:
+        _positive(self.radius, f"{where}.radius")
+
+
+@dataclass(frozen=True)
+class Rect:
+    """A box in a 2D scene: half-extents along x and z."""
+    half_extents: tuple[float, float]
+    kind = "rect"
+    dimension = 2
+
+    def inertia(self, m: float) -> tuple[float, float, float]:
+        a, c = self.half_extents
+        i = m * (a * a + c * c) / 3.0
+        return (i, i, i)
+
+    def validate(self, where: str) -> None:
+        _finite(self.half_extents, f"{where}.half_extents", (2,))
+        for axis, h in zip("xz", self.half_extents):
+            _positive(h, f"{where}.half_extents.{axis}")
+
+
+Shape = Sphere | Box | Plane | Circle | Rect
+
+
+# --- materials and bodies -----------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Material:
+    """What a pair of bodies does on contact: restitution e, static mu_s, kinetic mu_k."""
+    e: float = 0.0
+    mu_s: float = 0.0
+    mu_k: float | None = None  # None: equal to mu_s
+
+    @property
+    def mu_k_(self) -> float:
+        return self.mu_s if self.mu_k is None else self.mu_k
+
+    def validate(self, where: str) -> None:
+        _finite(self.e, f"{where}.e")
+        if not 0.0 <= self.e <= 1.0:
+            raise SceneError(f"{where}.e = {self.e!r}: coefficient of restitution must lie in [0, 1]")
+        _finite(self.mu_s, f"{where}.mu_s")
+        if self.mu_s < 0:
+            raise SceneError(f"{where}.mu_s = {self.mu_s!r}: friction coefficient must be >= 0")
+        if self.mu_k is not None:
+            _finite(self.mu_k, f"{where}.mu_k")
+            if self.mu_k < 0:
+                raise SceneError(f"{where}.mu_k = {self.mu_k!r}: friction coefficient must be >= 0")
+            if self.mu_k > self.mu_s:
+                raise SceneError(f"{where}.mu_k = {self.mu_k!r}: must be <= mu_s = {self.mu_s!r}")
+
+    @property
+    def frictional(self) -> bool:
+        return self.mu_s > 0
+
+
+@dataclass(frozen=True)
+class Body:
+    name: str
+    shape: Shape
+    mass: float | None = None  # None for a static body
+    inertia: tuple[float, float, float] | None = None  # principal, body frame; None: from shape
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    orientation: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    static: bool = False
+    rotates: bool = True  # False: the orientation is held fixed (e.g. a sphere in a frictionless impact)
+
+    @property
+    def dynamic(self) -> bool:
+        return not self.static
+
+    @property
+    def principal_inertia(self) -> tuple[float, float, float]:
+        if self.inertia is not None:
+            return tuple(float(i) for i in self.inertia)
+        return self.shape.inertia(self.mass)
+
+    def validate(self, where: str) -> None:
+        if not self.name:
+            raise SceneError(f"{where}.name: must be a non-empty string")
+        self.shape.validate(f"{where}.shape")
+        _finite(self.position, f"{where}.position", (3,))
+        q = _finite(self.orientation, f"{where}.orientation", (4,))
+        if abs(np.linalg.norm(q) - 1.0) > 1e-9:
+            raise SceneError(f"{where}.orientation = {self.orientation!r}: must be a unit quaternion (w, x, y, z)")
+        _finite(self.velocity, f"{where}.velocity", (3,))
+        _finite(self.angular_velocity, f"{where}.angular_velocity", (3,))
+        if self.shape.kind == "plane" and not self.static:
+            raise SceneError(f"{where}.static = False: a plane must be static")
+        if self.static:
+            return
+        if self.mass is None:
+            raise SceneError(f"{where}.mass = None: a dynamic body needs a mass > 0")
+        _positive(self.mass, f"{where}.mass")
+        if self.inertia is not None:
+            _finite(self.inertia, f"{where}.inertia", (3,))
+            for axis, i in zip("xyz", self.inertia):
+                _positive(i, f"{where}.inertia.{axis}")
+
+
+def pair_key(a: str, b: str) -> tuple[str, str]:
+    """Pairs are unordered: one key for (a, b) and (b, a)."""
+    return (a, b) if a <= b else (b, a)
+
+
+# --- the scene ----------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Scene:
+    bodies: tuple[Body, ...]
+    gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
+    material: Material = Material()  # every pair not named in `pairs`
+    pairs: tuple[tuple[str, str, Material], ...] = ()  # per-pair overrides (a, b, material)
+    dimension: int = 3
+    allowed_overlap: float = DEFAULT_ALLOWED_OVERLAP
+    effects: frozenset[str] = field(init=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "bodies", tuple(self.bodies))
+        object.__setattr__(self, "pairs", tuple(self.pairs))
+        self._validate()
+        object.__setattr__(self, "effects", self._derive_effects())
+
+    # lookups
+    def body(self, name: str) -> Body:
+        for b in self.bodies:
+            if b.name == name:
+                return b
+        raise KeyError(name)
+
+    def material_of(self, a: str, b: str) -> Material:
+        key = pair_key(a, b)
+        for x, y, mat in self.pairs:
+            if pair_key(x, y) == key:
+                return mat
+        return self.material
+
+    @property
+    def dynamic_bodies(self) -> tuple[Body, ...]:
+        return tuple(b for b in self.bodies if b.dynamic)
+
+    def contact_pairs(self) -> list[tuple[Body, Body]]:
+        """Every pair that may touch: all pairs with at least one dynamic body."""
+        out = []
+        for i, a in enumerate(self.bodies):
+            for b in self.bodies[i + 1:]:
+                if a.dynamic or b.dynamic:
+                    out.append((a, b))
+        return out
+
+    def _derive_effects(self) -> frozenset[str]:
+        """The physics the scene calls for; adapters simulate these and nothing more."""
+        fx = set()
+        if any(g != 0.0 for g in self.gravity):
+            fx.add("gravity")
+        pairs = self.contact_pairs()
+        if pairs:
+            fx.add("contact")
+            mats = [self.material_of(a.name, b.name) for a, b in pairs]
+            if any(m.e > 0 for m in mats):
+                fx.add("restitution")
+            if any(m.frictional for m in mats):
+                fx.add("friction")
+        if any(b.rotates for b in self.dynamic_bodies):
+            fx.add("rotation")
+        return frozenset(fx)
+
+    def _validate(self) -> None:
+        if self.dimension not in (2, 3):
+            raise SceneError(f"dimension = {self.dimension!r}: must be 2 or 3")
+        if not self.bodies:
+            raise SceneError("bodies = (): a scene needs at least one body")
+        if not self.dynamic_bodies:
+            raise SceneError("bodies: a scene needs at least one dynamic body")
+        _finite(self.gravity, "gravity", (3,))
+        _finite(self.allowed_overlap, "allowed_overlap")
+        if self.allowed_overlap < 0:
+            raise SceneError(f"allowed_overlap = {self.allowed_overlap!r}: must be >= 0")
+        names = set()
+        for i, body in enumerate(self.bodies):
+            where = f"bodies[{i}]"
+            if not isinstance(body, Body):
+                raise SceneError(f"{where} = {body!r}: must be a Body")
+            body.validate(f"{where}({body.name})")
+            if body.name in names:
+                raise SceneError(f"{where}.name = {body.name!r}: body names must be unique")
+            names.add(body.name)
+            dim = body.shape.dimension
+            if dim is not None and dim != self.dimension:
+                raise SceneError(f"{where}({body.name}).shape = {body.shape.kind}: a {dim}D shape "
+                                 f"in a {self.dimension}D scene (2D: circle, rect, plane; 3D: sphere, box, plane)")
+        self.material.validate("material")
+        for j, (a, b, mat) in enumerate(self.pairs):
+            for n in (a, b):
+                if n not in names:
+                    raise SceneError(f"pairs[{j}] names body {n!r}: not in the scene ({', '.join(sorted(names))})")
+            mat.validate(f"pairs[{j}]({a},{b})")
+        if self.dimension == 2:
+            self._validate_planar()
+        from cases.overlap import penetration  # local: overlap.py imports this module
+        for a, b in self.contact_pairs():
+            depth = penetration(a, b)
+            if depth > self.allowed_overlap:
+                raise SceneError(f"bodies {a.name!r} and {b.name!r} start {depth:.3g} m inside each other: "
+                                 f"allowed_overlap is {self.allowed_overlap:.3g} m")
+
+    def _validate_planar(self) -> None:
+        for i, body in enumerate(self.bodies):
+            where = f"bodies[{i}]({body.name})"
+            if body.position[1] != 0 or body.velocity[1] != 0:
+                raise SceneError(f"{where}: a 2D scene lies in the x-z plane: position.y and velocity.y must be 0")
+            w = body.angular_velocity
+            if w[0] != 0 or w[2] != 0:
+                raise SceneError(f"{where}.angular_velocity = {w!r}: a 2D body turns about y only")
+        if self.gravity[1] != 0:
+            raise SceneError(f"gravity = {self.gravity!r}: a 2D scene lies in the x-z plane: gravity.y must be 0")
+
+
+# --- small helpers cases use to build scenes ----------------------------------------------
+
+def quat_about_y(angle: float) -> tuple[float, float, float, float]:
+    """Rotation by `angle` (rad) about +y as a (w, x, y, z) quaternion."""
+    return (math.cos(angle / 2), 0.0, math.sin(angle / 2), 0.0)
+
+
+def ground(name: str = "ground") -> Body:
+    """The static half-space z <= 0."""
+    return Body(name, Plane(), static=True)
+
+
+def tilted_gravity(theta: float, g: float = 9.81) -> tuple[float, float, float]:
+    """Gravity of an incline at angle theta (rad), with the incline as the plane z = 0:
+    the downhill direction is +x."""
+    return (g * math.sin(theta), 0.0, -g * math.cos(theta))

@@ -1,0 +1,44 @@
+"""What a simulation run hands to a case: body states and contact normal forces over time.
+
+Adapters produce the raw reads; the harness stacks them into a `Trajectory`; a case's
+observables read from it. State layout per row: position (3), orientation quaternion
+(w, x, y, z) (4), linear velocity (3), angular velocity in the world frame (3).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from cases.scene import pair_key
+
+POS, QUAT, VEL, OMEGA = slice(0, 3), slice(3, 7), slice(7, 10), slice(10, 13)
+STATE_SIZE = 13
+
+
+@dataclass
+class Trajectory:
+    dt: float
+    t: np.ndarray                      # (n+1,) simulated time of each sample
+    states: dict[str, np.ndarray]      # body name -> (n+1, 13)
+    forces: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)  # pair -> (n+1,) normal force, N
+
+    def pos(self, name: str) -> np.ndarray:
+        return self.states[name][:, POS]
+
+    def quat(self, name: str) -> np.ndarray:
+        return self.states[name][:, QUAT]
+
+    def vel(self, name: str) -> np.ndarray:
+        return self.states[name][:, VEL]
+
+    def omega(self, name: str) -> np.ndarray:
+        return self.states[name][:, OMEGA]
+
+    def force(self, a: str, b: str) -> np.ndarray:
+        """Normal force between a and b at every sample (zeros if they never touched)."""
+        return self.forces.get(pair_key(a, b), np.zeros_like(self.t))
+
+    def after(self, t0: float) -> np.ndarray:
+        """Boolean mask of the samples at or after time t0."""
+        return self.t >= t0 - 1e-12
