@@ -11,6 +11,8 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "reference": ("adapters.reference_engine", "ReferenceAdapter", {}),
     "pybullet": ("adapters.pybullet_engine", "PyBulletAdapter", {}),
     "mujoco": ("adapters.mujoco_engine", "MuJoCoAdapter", {}),
+    "pymunk": ("adapters.pymunk_engine", "PymunkAdapter", {}),
+    "dart": ("adapters.dart_engine", "DartAdapter", {}),
 }
 
 
