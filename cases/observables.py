@@ -1,0 +1,44 @@
+"""Readings that several case families take from a trajectory."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from cases.trajectory import Trajectory
+
+
+def ballistic_steps(traj: Trajectory, name: str, gravity) -> np.ndarray:
+    """For each step k (sample k -> k+1): True when the velocity changed by exactly g dt,
+    i.e. no contact acted on the body in that step. Tolerance 1e-3 g dt: far above float
+    round-off, far below any contact impulse."""
+    v = traj.vel(name)
+    dv = np.diff(v, axis=0) - np.asarray(gravity, float) * traj.dt
+    return np.linalg.norm(dv, axis=1) <= 1e-3 * max(np.linalg.norm(gravity), 1.0) * traj.dt
+
+
+def first_impact(traj: Trajectory, name: str, gravity) -> tuple[int, int | None]:
+    """(k_in, k_out): the last free-flight sample before the first contact, and the first
+    sample after it from which the body flies free again (None if it never does)."""
+    free = ballistic_steps(traj, name, gravity)
+    hit = np.flatnonzero(~free)
+    if hit.size == 0:
+        raise ValueError(f"{name} never touched anything")
+    k_in = int(hit[0])
+    after = np.flatnonzero(free[k_in:])
+    # free again from the first step after which every step up to the apex is ballistic
+    for k in after + k_in:
+        run = free[k:k + 5]
+        if run.all() and run.size == 5:
+            return k_in, int(k)
+    return k_in, None
+
+
+def speed_at_height(z: float, vz: float, z_contact: float, g: float) -> float:
+    """|v| at height z_contact of the ballistic arc through (z, vz): energy conservation."""
+    return math.sqrt(max(vz * vz + 2.0 * g * (z - z_contact), 0.0))
+
+
+def window_mean(traj: Trajectory, values: np.ndarray, t0: float) -> float:
+    """Mean of per-sample values over the samples from t0 on."""
+    return float(np.mean(values[traj.after(t0)]))

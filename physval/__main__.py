@@ -1,0 +1,3 @@
+from physval.cli import main
+
+raise SystemExit(main())

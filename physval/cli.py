@@ -1,0 +1,176 @@
+"""The `physval` command line."""
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import shlex
+import sys
+from collections import Counter
+from fnmatch import fnmatchcase
+from pathlib import Path
+
+EPILOG = """examples:
+  physval run                                   every case on every engine, report in reports/
+  physval run --cases central_impact --engines reference,mujoco
+  physval run --cases "incline_threshold[mu=0.5*]" --dt 5e-3 --out /tmp/incline
+  physval list                                  case families, variants, effects, engines
+  physval list --engines                        engines and their capabilities
+exit codes: 0 the run completed (failing physics is a result, not a crash); 2 bad input."""
+
+
+class UsageError(ValueError):
+    """Bad input on the command line: one line, exit code 2."""
+
+
+def _names(values: list[str] | None) -> list[str]:
+    out = []
+    for v in values or []:
+        out += [x.strip() for x in v.split(",") if x.strip()]
+    return out
+
+
+def _positive_float(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(x) and x > 0):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number > 0")
+    return x
+
+
+def _positive_int(text: str) -> int:
+    try:
+        x = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if x < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be >= 1")
+    return x
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="physval", formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG,
+        description="Validate rigid-body contact physics: run analytic cases on physics engines and "
+                    "report how far each is from the closed-form answer.")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+
+    ls = sub.add_parser("list", help="list case families and engines",
+                        description="List case families (variants, effects, which engines can run them), "
+                                    "or with --engines one engine per line with its capabilities.")
+    ls.add_argument("--engines", action="store_true", help="list engines and their capabilities")
+    ls.add_argument("--cases-dir", metavar="DIR", help="also load case families from *.py files in DIR")
+
+    run = sub.add_parser("run", help="run cases on engines and write results.csv, report.md, plots",
+                         formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG,
+                         description="Run case variants on engines; write results.csv, report.md and "
+                                     "plots/ into --out. Failing physics is a result (exit 0).")
+    run.add_argument("--cases", nargs="+", metavar="NAME",
+                     help="case families (default: all); NAME[VARIANT-GLOB] selects variants, "
+                          "e.g. 'central_impact[drop*]'; comma-separated lists work too")
+    run.add_argument("--engines", nargs="+", metavar="NAME", help="engines (default: all; see 'physval list --engines')")
+    run.add_argument("--dt", type=_positive_float, metavar="DT", help="time step in s for every case (default: each family's own)")
+    run.add_argument("--iterations", type=_positive_int, metavar="N", help="solver iterations (default: each adapter's stated default)")
+    run.add_argument("--out", default="reports", metavar="DIR", help="output folder (default: reports)")
+    run.add_argument("--cases-dir", metavar="DIR", help="also load case families from *.py files in DIR")
+    run.add_argument("--workers", type=_positive_int, default=1, metavar="N",
+                     help="parallel processes (default 1: keeps the timings in wall_s undisturbed)")
+    run.add_argument("--quiet", action="store_true", help="no progress bar")
+    return p
+
+
+def select_cases(families: dict, specs: list[str]) -> tuple[dict, dict]:
+    """(families, variant globs) for --cases specs; raises UsageError for unknown names."""
+    if not specs:
+        return families, {}
+    chosen, globs = {}, {}
+    for spec in specs:
+        m = re.fullmatch(r"(\w+)(?:\[(.+)\])?", spec)
+        if not m or m[1] not in families:
+            raise UsageError(f"unknown case {spec!r}: choose from {', '.join(families)}")
+        chosen[m[1]] = families[m[1]]
+        if m[2]:
+            globs.setdefault(m[1], []).append(m[2])
+            if not any(fnmatchcase(v.id, m[2]) for v in families[m[1]].variants):
+                raise UsageError(f"case {spec!r}: no variant of {m[1]} matches {m[2]!r} "
+                                 f"(variants: {', '.join(v.id for v in families[m[1]].variants)})")
+    return chosen, globs
+
+
+def cmd_list(args) -> int:
+    from adapters import registry
+    from cases.registry import all_families
+    if args.engines:
+        for name in registry.engine_names():
+            try:
+                a = registry.get(name)
+                print(f"{name}\t{a.version()}\t{a.capabilities.describe()}")
+            except registry.EngineError as exc:
+                print(f"{name}\tnot installed\t{exc}")
+        return 0
+    fams = all_families(args.cases_dir)
+    adapters = {}
+    for name in registry.engine_names():
+        try:
+            adapters[name] = registry.get(name)
+        except registry.EngineError:
+            pass
+    for fam in fams.values():
+        print(f"{fam.name}: {fam.summary}")
+        print(f"  closed form: {fam.source}; default dt {fam.dt:g} s")
+        for v in fam.variants:
+            scene = fam.scene(v.params)
+            can = [n for n, a in adapters.items() if a.capabilities.cannot_run(scene, fam.needs) is None]
+            print(f"  [{v.id}]  effects: {','.join(sorted(scene.effects))}  engines: {','.join(can) or 'none'}")
+    return 0
+
+
+def cmd_run(args) -> int:
+    from adapters import registry
+    from adapters.base import Settings
+    from cases.registry import all_families
+    from physval.report import write_report
+    from physval.runner import plan, run_jobs
+
+    families = all_families(args.cases_dir)
+    families, globs = select_cases(families, _names(args.cases))
+    engines = _names(args.engines) or registry.engine_names()
+    for e in engines:
+        if e not in registry.ENGINES:
+            raise UsageError(f"unknown engine {e!r}: choose from {', '.join(registry.ENGINES)}")
+    if args.dt is not None:
+        Settings(dt=args.dt)  # validates the range once, with a message naming dt
+    jobs = [j for j in plan(families, engines, args.dt, args.iterations)
+            if j.family not in globs or any(fnmatchcase(j.variant.id, g) for g in globs[j.family])]
+    out = Path(args.out)
+    print(f"physval: {len(jobs)} runs ({len(families)} families x {len(engines)} engines) -> {out}/", file=sys.stderr)
+    rows = run_jobs(jobs, families, workers=args.workers, cases_dir=args.cases_dir,
+                    progress=not args.quiet and sys.stderr.isatty())
+    command = "physval " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    write_report(rows, out, command=command)
+    counts = Counter(r["status"] for r in rows)
+    print(f"{len(rows)} checks: " + ", ".join(f"{n} {s}" for s, n in counts.most_common()))
+    print(f"wrote {out / 'results.csv'}, {out / 'report.md'}, {out / 'plots'}/")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    from adapters.base import SettingsError
+    from adapters.registry import EngineError
+    from cases.family import CaseError
+    from cases.scene import SceneError
+    p = parser()
+    args = p.parse_args(argv)
+    if args.command is None:
+        p.print_help()
+        return 0
+    try:
+        return cmd_list(args) if args.command == "list" else cmd_run(args)
+    except (UsageError, CaseError, SceneError, SettingsError, EngineError) as exc:
+        print(f"physval: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("physval: interrupted; files already written are complete", file=sys.stderr)
+        return 130

@@ -1,0 +1,281 @@
+"""Writes a run's results: `results.csv`, `report.md` and `plots/*.png`.
+
+Every file is written to a temporary name beside its target and moved into place, so an
+interrupt never leaves a half-written file.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import math
+import os
+import platform
+import sys
+import tempfile
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from cases.family import Check
+from physval import deviations
+from physval.metrics import STATUSES, error_over_tolerance
+from physval.runner import COLUMNS
+
+STATUS_MARK = {"pass": "pass", "fail": "FAIL", "deviation": "dev", "unsupported": "n/a",
+               "unstable": "UNSTABLE", "error": "ERROR"}
+
+
+# --- atomic writes ------------------------------------------------------------------------
+
+def write_atomic(path: Path, data: str | bytes) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data.encode() if isinstance(data, str) else data)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def frame(rows: list[dict]) -> pd.DataFrame:
+    df = pd.DataFrame(rows, columns=COLUMNS)
+    for col in ("expected", "measured", "abs_error", "rel_error", "tolerance", "wall_s", "sim_s"):
+        df[col] = pd.to_numeric(df[col], errors="coerce")
+    df["over_tol"] = [error_over_tolerance(Check(r.metric, r.unit, r.expected, r.tolerance, r.tolerance_kind or "abs", "-"),
+                                           r.abs_error, r.rel_error) if r.status in ("pass", "fail", "deviation")
+                      else math.nan for r in df.itertuples()]
+    return df
+
+
+def write_csv(df: pd.DataFrame, path: Path) -> None:
+    write_atomic(path, df[COLUMNS].to_csv(index=False))
+
+
+# --- environment --------------------------------------------------------------------------
+
+def environment(df: pd.DataFrame) -> dict:
+    env = {
+        "date (UTC)": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M"),
+        "python": sys.version.split()[0],
+        "numpy": np.__version__,
+        "pandas": pd.__version__,
+        "platform": platform.platform(),
+        "machine": f"{platform.machine()}, {os.cpu_count()} cores",
+    }
+    for eng, ver in sorted(df.groupby("engine")["engine_version"].first().items()):
+        env[eng] = ver or "not run"
+    return env
+
+
+# --- plots --------------------------------------------------------------------------------
+
+def _plt():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def plot_summary(df: pd.DataFrame, path: Path) -> None:
+    """Heat map of the worst error/tolerance per family and engine (log colour scale)."""
+    plt = _plt()
+    fams, engs = sorted(df.case.unique()), list(dict.fromkeys(df.engine))
+    worst = np.full((len(fams), len(engs)), np.nan)
+    for i, f in enumerate(fams):
+        for j, e in enumerate(engs):
+            vals = df[(df.case == f) & (df.engine == e)].over_tol.dropna()
+            if len(vals):
+                worst[i, j] = max(vals.max(), 1e-6)
+    fig, ax = plt.subplots(figsize=(1.6 * len(engs) + 3, 0.6 * len(fams) + 1.8))
+    shown = np.log10(np.clip(worst, 1e-3, 1e3))
+    im = ax.imshow(shown, cmap="RdYlGn_r", vmin=-3, vmax=3, aspect="auto")
+    ax.set_xticks(range(len(engs)), engs, rotation=30, ha="right")
+    ax.set_yticks(range(len(fams)), fams)
+    for i in range(len(fams)):
+        for j in range(len(engs)):
+            text = "n/a" if np.isnan(worst[i, j]) else f"{worst[i, j]:.2g}"
+            ax.text(j, i, text, ha="center", va="center", fontsize=8)
+    fig.colorbar(im, ax=ax, label="log10(worst error / tolerance)")
+    ax.set_title("Worst error in tolerances (<1: within tolerance)")
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def plot_family(df: pd.DataFrame, family: str, path: Path) -> None:
+    """Every check's error/tolerance, one column of points per engine."""
+    plt = _plt()
+    sub = df[(df.case == family) & df.over_tol.notna()]
+    engs = list(dict.fromkeys(df.engine))
+    fig, ax = plt.subplots(figsize=(1.3 * len(engs) + 3, 3.6))
+    colours = {"pass": "tab:green", "fail": "tab:red", "deviation": "tab:orange"}
+    rng = np.random.default_rng(0)
+    for j, eng in enumerate(engs):
+        part = sub[sub.engine == eng]
+        y = np.clip(part.over_tol.to_numpy(dtype=float), 1e-6, 1e6)
+        x = j + rng.uniform(-0.25, 0.25, size=len(y))
+        ax.scatter(x, y, s=14, c=[colours.get(s, "grey") for s in part.status], alpha=0.8)
+    ax.axhline(1.0, color="black", lw=0.8, ls="--")
+    ax.set_yscale("log")
+    ax.set_xticks(range(len(engs)), engs, rotation=30, ha="right")
+    ax.set_ylabel("error / tolerance")
+    ax.set_title(f"{family}: each check (green pass, orange known deviation, red fail)")
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def _save(fig, path: Path) -> None:
+    plt = _plt()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
+    os.close(fd)
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    os.replace(tmp, path)
+
+
+# --- markdown -----------------------------------------------------------------------------
+
+def _md_table(df: pd.DataFrame) -> str:
+    return df.to_markdown(index=False) if len(df) else "_(none)_"
+
+
+def _fmt(x) -> str:
+    if isinstance(x, (float, np.floating)):
+        if math.isnan(x):
+            return ""
+        return f"{x:.4g}"
+    return str(x)
+
+
+def summary_matrix(df: pd.DataFrame) -> pd.DataFrame:
+    engs = list(dict.fromkeys(df.engine))
+    out = []
+    for fam in sorted(df.case.unique()):
+        line = {"family": fam}
+        for eng in engs:
+            sub = df[(df.case == fam) & (df.engine == eng)]
+            counts = Counter(sub.status)
+            cell = " ".join(f"{counts[s]} {STATUS_MARK[s]}" for s in STATUSES if counts[s])
+            worst = sub.over_tol.dropna()
+            if len(worst):
+                cell += f"; worst {worst.max():.2g}x tol"
+            line[eng] = cell
+        out.append(line)
+    return pd.DataFrame(out)
+
+
+def family_table(df: pd.DataFrame, family: str) -> pd.DataFrame:
+    sub = df[df.case == family]
+    engs = list(dict.fromkeys(df.engine))
+    out = []
+    for (variant, metric), grp in sub.groupby(["variant", "metric"], sort=False):
+        first = grp.iloc[0]
+        line = {"variant": variant, "metric": f"{metric} [{first.unit}]", "expected": _fmt(first.expected),
+                "tolerance": f"{_fmt(first.tolerance)} {first.tolerance_kind}"}
+        for eng in engs:
+            r = grp[grp.engine == eng]
+            if not len(r):
+                line[eng] = ""
+                continue
+            r = r.iloc[0]
+            shown = _fmt(r.measured) if r.status in ("pass", "fail", "deviation") else ""
+            line[eng] = f"{shown} {STATUS_MARK[r.status]}".strip()
+        out.append(line)
+    return pd.DataFrame(out)
+
+
+def stale_deviations(df: pd.DataFrame) -> list[str]:
+    """Entries of adapters/xfails that matched no check, or whose checks all passed."""
+    notes = []
+    for eng in df.engine.unique():
+        for d in deviations.load(eng):
+            hit = df[(df.engine == eng) & (df.case == d.family)]
+            hit = hit[[d.matches(r.case, r.variant, r.metric) for r in hit.itertuples()]]
+            if hit.empty:
+                if d.family in set(df.case):
+                    notes.append(f"{eng}: `{d.pattern}` (line {d.line}) matched no check in this run")
+            elif (hit.status == "pass").all():
+                notes.append(f"{eng}: `{d.pattern}` (line {d.line}) passed everywhere: the deviation is gone, remove the entry")
+    return notes
+
+
+def write_report(rows: list[dict], out: Path, title: str = "physval report", command: str = "") -> pd.DataFrame:
+    """Write results.csv, report.md and plots into `out`; return the frame."""
+    out = Path(out)
+    df = frame(rows)
+    write_csv(df, out / "results.csv")
+    plots = out / "plots"
+    plot_summary(df, plots / "summary.png")
+    for fam in sorted(df.case.unique()):
+        plot_family(df, fam, plots / f"{fam}.png")
+
+    counts = Counter(df.status)
+    lines = [f"# {title}", ""]
+    if command:
+        lines += [f"Command: `{command}`", ""]
+    lines += [f"{len(df)} checks from {df.groupby(['case', 'variant', 'engine']).ngroups} runs: "
+              + ", ".join(f"{counts[s]} {s}" for s in STATUSES if counts[s]) + ".", "",
+              "Statuses: **pass** within the tolerance; **fail** outside it; **deviation** a known engine "
+              "shortfall (listed in `adapters/xfails/<engine>.txt`, shown below with its measured size); "
+              "**unsupported** the engine cannot represent the scene; **unstable** NaN or blow-up; "
+              "**error** an exception. Each tolerance's reason is in `results.csv` (`tolerance_reason`).", "",
+              "## Summary", "", _md_table(summary_matrix(df)), "",
+              "![worst error per family and engine](plots/summary.png)", ""]
+
+    lines += ["## Known deviations", ""]
+    dev = df[df.status == "deviation"]
+    if len(dev):
+        lines += [_md_table(pd.DataFrame({
+            "engine": dev.engine, "check": dev.case + "[" + dev.variant + "]:" + dev.metric,
+            "expected": dev.expected.map(_fmt), "measured": dev.measured.map(_fmt),
+            "error/tol": dev.over_tol.map(lambda x: f"{x:.3g}"), "cause": dev.known_deviation})), ""]
+    else:
+        lines += ["_(none in this run)_", ""]
+    stale = stale_deviations(df)
+    if stale:
+        lines += ["Stale entries in the deviation files:", ""] + [f"- {s}" for s in stale] + [""]
+
+    bad = df[df.status.isin(["fail", "unstable", "error"])]
+    lines += ["## Failures, blow-ups and errors", ""]
+    if len(bad):
+        lines += [_md_table(pd.DataFrame({
+            "status": bad.status, "engine": bad.engine, "check": bad.case + "[" + bad.variant + "]:" + bad.metric,
+            "expected": bad.expected.map(_fmt), "measured": bad.measured.map(_fmt), "reason": bad.reason})), ""]
+    else:
+        lines += ["_(none)_", ""]
+
+    uns = df[df.status == "unsupported"].drop_duplicates(["engine", "case", "reason"])
+    if len(uns):
+        lines += ["## Unsupported", "", _md_table(uns[["engine", "case", "reason"]]), ""]
+
+    lines += ["## Families", ""]
+    for fam in sorted(df.case.unique()):
+        first = df[df.case == fam].iloc[0]
+        lines += [f"### {fam}", "", f"Effects simulated: {first.effects}.", "",
+                  f"![{fam}](plots/{fam}.png)", "", _md_table(family_table(df, fam)), ""]
+
+    lines += ["## Engine settings", "",
+              "The knobs each adapter set (engine's own names), from one run per engine; every run's "
+              "record is in the `knobs` column of `results.csv`.", ""]
+    for eng, grp in df[df.knobs != ""].groupby("engine", sort=False):
+        lines += [f"**{eng}** (effects simulated in that run: {grp.iloc[0].effects_simulated})", "", "```",
+                  json.dumps(json.loads(grp.iloc[0].knobs), indent=1, sort_keys=True), "```", ""]
+
+    timing = df.drop_duplicates(["case", "variant", "engine"])
+    timing = timing[timing.steps.astype(str) != ""]
+    if len(timing):
+        t = timing.groupby("engine").apply(
+            lambda g: pd.Series({"runs": len(g), "steps": int(pd.to_numeric(g.steps).sum()),
+                                 "us per step (median over runs)": float(np.median(g.wall_s / pd.to_numeric(g.steps)) * 1e6)}),
+            include_groups=False).reset_index()
+        lines += ["## Cost", "", "Wall time of stepping only (scene construction excluded), all families "
+                  "together; see `physval sweep` for error against cost.", "", _md_table(t), ""]
+
+    lines += ["## Environment", "", _md_table(pd.DataFrame(list(environment(df).items()), columns=["what", "value"])), ""]
+    write_atomic(out / "report.md", "\n".join(lines))
+    return df
