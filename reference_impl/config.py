@@ -1,0 +1,41 @@
+"""Settings of the reference engine: one explicit, immutable object, never globals."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class Config:
+    # which formulation solves the contacts: a module of reference_impl (see __init__.py)
+    formulation: str = "si"
+    # velocity iterations: an upper bound; a sweep whose largest velocity change is below
+    # `tolerance` ends the loop early (so a warm-started resting stack costs one sweep)
+    iterations: int = 200
+    tolerance: float = 1e-12           # m/s
+    # Baumgarte depenetration (note 001, "de-penetration bias velocity"):
+    # v_bias = beta/dt * (delta - slop)+, applied to pseudo-velocities (split impulse)
+    beta: float = 0.2
+    slop: float = 1e-5                 # m: penetration left alone (0.1 of the 1e-4 m budget)
+    position_iterations: int = 200     # pseudo-velocity sweeps, same early exit
+    warm_start: bool = True            # start from the last step's impulses (note 001, persistence)
+    # a contact sticks (mu_s bounds friction) while its tangential speed at the start of
+    # the step is below this; above it slides (mu_k). Well above the solver's residual
+    # (~1e-12 m/s) and below one step of the gentlest sliding we test (~1e-4 m/s).
+    stick_speed: float = 1e-5          # m/s
+    # shapes this close (gap) already count as touching: scenes built "exactly touching"
+    # are so only to rounding (1e-12 m); far below anything a step resolves.
+    touch_tolerance: float = 1e-9      # m
+    # formulation-specific settings (each formulation documents its keys)
+    params: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        for name in ("iterations", "position_iterations"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name} = {value!r}: must be a whole number >= 1")
+        for name in ("tolerance", "beta", "slop", "stick_speed", "touch_tolerance"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and value >= 0):
+                raise ValueError(f"{name} = {value!r}: must be a number >= 0")
+        if self.beta > 1:
+            raise ValueError(f"beta = {self.beta!r}: must lie in [0, 1]")
