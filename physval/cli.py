@@ -23,6 +23,13 @@ class UsageError(ValueError):
     """Bad input on the command line: one line, exit code 2."""
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with a one-line error: the message and where to find help."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
 def _names(values: list[str] | None) -> list[str]:
     out = []
     for v in values or []:
@@ -51,7 +58,7 @@ def _positive_int(text: str) -> int:
 
 
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="physval", formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG,
         description="Validate rigid-body contact physics: run analytic cases on physics engines and "
                     "report how far each is from the closed-form answer.")

@@ -148,19 +148,21 @@ def run_job(job: Job, family: CaseFamily, adapter: Adapter | None = None,
     try:
         measured = family.observe(run.trajectory, params)
     except Exception as exc:
-        return rows_with("error", "observing the trajectory failed: " + _describe(exc), **timing)
+        return rows_with("error", "observing the trajectory failed: " + _describe(exc),
+                         **{k: v for k, v in timing.items() if k != "iterations"})
     known = deviations.load(job.engine) if known is None else known
+    done = {**base, **timing}
     rows = []
     for c in checks:
         value = measured.get(c.metric)
         if value is None:
-            rows.append(_row(job, family, c, status="error", reason=f"observe() gave no {c.metric!r}", **base, **timing))
+            rows.append(_row(job, family, c, status="error", reason=f"observe() gave no {c.metric!r}", **done))
             continue
         value = float(value)
         abs_err, rel_err = errors(c.expected, value)
         entry = deviations.find(known, family.name, job.variant.id, c.metric)
         fields = dict(measured=value, abs_error=abs_err, rel_error=rel_err,
-                      known_deviation=entry.reason if entry else "", **base, **timing)
+                      known_deviation=entry.reason if entry else "", **done)
         if not math.isfinite(value):
             rows.append(_row(job, family, c, status="unstable", reason=f"{c.metric} is {value}", **fields))
         elif within(c, abs_err, rel_err):

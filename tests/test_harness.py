@@ -1,0 +1,241 @@
+"""Tests of the harness itself: tolerance logic, the status taxonomy, known deviations,
+the results table contract and the report files. Engines are stand-ins (tests/fakes.py)."""
+from __future__ import annotations
+
+import csv
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from cases.family import CaseError, CaseFamily, Check, Variant
+from cases.scene import Body, Circle, Material, Plane, Scene, Sphere
+from physval import deviations
+from physval.metrics import errors, within
+from physval.report import write_report
+from physval.runner import COLUMNS, Job, run_job
+from tests.fakes import FakeAdapter
+
+ROOT = Path(__file__).resolve().parent.parent
+CHECK_RESULTS = ROOT.parent / "shared" / "tools" / "check_results.py"
+G, Z0, T, DT = 9.81, 10.0, 0.5, 1e-3
+
+
+def _fall_scene(p):
+    return Scene(bodies=(Body("ball", Sphere(0.1), mass=1.0, position=(0, 0, Z0), rotates=False),),
+                 gravity=(0, 0, -G))
+
+
+def _fall_observe(traj, p):
+    return {"z_end": traj.pos("ball")[-1, 2], "vz_end": traj.vel("ball")[-1, 2]}
+
+
+def _fall_expect(p, dt):
+    n = round(T / dt)
+    # symplectic Euler (velocity first): z_n = z0 - g dt^2 n (n+1) / 2, v_n = -g n dt
+    return [Check("z_end", "m", Z0 - G * dt**2 * n * (n + 1) / 2 + p.get("offset", 0.0), 1e-9, "abs",
+                  "the discrete closed form of symplectic Euler: exact to round-off"),
+            Check("vz_end", "m/s", -G * n * dt, 1e-9, "rel", "exact to round-off")]
+
+
+FALL = CaseFamily(name="free_fall", summary="a ball falls", source="symplectic Euler",
+                  grid=({"offset": 0.0}, {"offset": 0.5}), scene=_fall_scene, duration=lambda p: T,
+                  observe=_fall_observe, expect=_fall_expect, dt=DT, variant_id=lambda p: f"offset={p['offset']}")
+
+
+def _job(variant_index=0, engine="fake"):
+    return Job("free_fall", FALL.variants[variant_index], engine)
+
+
+# --- tolerance logic ----------------------------------------------------------------------
+
+def test_errors_are_absolute_and_relative():
+    assert errors(2.0, 2.5) == (0.5, 0.25)
+    a, r = errors(0.0, 1e-3)
+    assert a == 1e-3 and math.isnan(r)
+    assert all(math.isnan(x) for x in errors(1.0, math.nan))
+
+
+@pytest.mark.parametrize("kind,expected,measured,tol,ok", [
+    ("abs", 1.0, 1.0 + 1e-4, 1e-4 * 1.0001, True),
+    ("abs", 1.0, 1.0 + 2e-4, 1e-4, False),
+    ("rel", 100.0, 100.5, 0.01, True),
+    ("rel", 100.0, 102.0, 0.01, False),
+    ("rel", 0.0, 0.0, 0.01, False),     # a relative error of an expected 0 is undefined: never a pass
+    ("abs", 0.0, math.nan, 1.0, False),
+])
+def test_within_uses_the_checks_own_error_kind(kind, expected, measured, tol, ok):
+    c = Check("m", "-", expected, tol, kind, "reason")
+    assert within(c, *errors(expected, measured)) is ok
+
+
+def test_a_check_needs_a_reason_and_a_valid_tolerance():
+    with pytest.raises(CaseError, match="reason"):
+        Check("m", "-", 1.0, 0.1, "abs", " ")
+    with pytest.raises(CaseError, match="tolerance"):
+        Check("m", "-", 1.0, -0.1, "abs", "why")
+    with pytest.raises(CaseError, match="kind"):
+        Check("m", "-", 1.0, 0.1, "percent", "why")
+
+
+# --- the status taxonomy ------------------------------------------------------------------
+
+def test_pass_and_fail_are_judged_per_check():
+    rows = run_job(_job(0), FALL, FakeAdapter(), known=[])
+    assert [r["status"] for r in rows] == ["pass", "pass"]
+    assert rows[0]["steps"] == 500 and rows[0]["sim_s"] == pytest.approx(T) and rows[0]["wall_s"] > 0
+    rows = run_job(_job(1), FALL, FakeAdapter(), known=[])  # expects the ball 0.5 m higher
+    assert [r["status"] for r in rows] == ["fail", "pass"]
+    assert rows[0]["abs_error"] == pytest.approx(0.5) and "> tolerance" in rows[0]["reason"]
+
+
+def test_a_known_deviation_is_reported_with_its_measured_size():
+    known = [deviations.Deviation("fake", "free_fall", "offset=0.5", "z_*", "the fake engine floats", 1)]
+    rows = run_job(_job(1), FALL, FakeAdapter(), known=known)
+    assert rows[0]["status"] == "deviation"
+    assert "the fake engine floats" in rows[0]["reason"] and "0.5" in rows[0]["reason"]
+    rows = run_job(_job(0), FALL, FakeAdapter(), known=known)
+    assert rows[0]["status"] == "pass" and rows[0]["known_deviation"] == ""
+
+
+def test_nan_is_unstable_and_the_engine_is_closed():
+    adapter = FakeAdapter(blow_up_at=10)
+    rows = run_job(_job(0), FALL, adapter, known=[])
+    assert {r["status"] for r in rows} == {"unstable"}
+    assert "NaN" in rows[0]["reason"] and "t = 0.01" in rows[0]["reason"]
+    assert adapter.built[0].closed == 1
+
+
+def test_an_engine_crash_is_an_error_row_and_not_an_exception():
+    rows = run_job(_job(0), FALL, FakeAdapter(crash_at=3), known=[])
+    assert {r["status"] for r in rows} == {"error"}
+    assert "RuntimeError: engine crashed" in rows[0]["reason"]
+    rows = run_job(_job(0), FALL, FakeAdapter(crash_on_build=True), known=[])
+    assert {r["status"] for r in rows} == {"error"} and "MemoryError" in rows[0]["reason"]
+
+
+def test_unsupported_carries_the_reason():
+    rows = run_job(_job(0), FALL, FakeAdapter(unsupported="no spheres today"), known=[])
+    assert {r["status"] for r in rows} == {"unsupported"} and rows[0]["reason"] == "no spheres today"
+    rows = run_job(_job(0), FALL, FakeAdapter(dimensions=frozenset({2})), known=[])
+    assert rows[0]["status"] == "unsupported" and "3D scene" in rows[0]["reason"]
+
+
+def test_a_case_needing_contact_forces_is_unsupported_without_them():
+    from cases.resting_blocks import FAMILY
+    job = Job(FAMILY.name, FAMILY.variants[0], "fake")
+    rows = run_job(job, FAMILY, FakeAdapter(contact_forces=False), known=[])
+    assert rows[0]["status"] == "unsupported" and "contact forces" in rows[0]["reason"]
+
+
+def test_unknown_engine_is_unsupported_in_a_row():
+    rows = run_job(_job(0, engine="no-such-engine"), FALL, known=[])
+    assert rows[0]["status"] == "unsupported" and "unknown engine" in rows[0]["reason"]
+
+
+def test_rows_record_effects_and_knobs():
+    rows = run_job(_job(0), FALL, FakeAdapter(), known=[])
+    assert rows[0]["effects"] == "gravity" and rows[0]["effects_simulated"] == "gravity"
+    assert '"integrator"' in rows[0]["knobs"]
+
+
+# --- known-deviation files ----------------------------------------------------------------
+
+def test_deviation_file_format(tmp_path):
+    (tmp_path / "eng.txt").write_text("# comment\n\ncentral_impact[e=0.5,*]:v*_after  # soft contact\n")
+    (d,) = deviations.load("eng", tmp_path)
+    assert d.matches("central_impact", "e=0.5,m=1:3", "v1_after")
+    assert not d.matches("central_impact", "e=0.9,m=1:3", "v1_after")
+    (tmp_path / "bad.txt").write_text("central_impact v1_after no reason\n")
+    with pytest.raises(deviations.DeviationFileError, match="bad.txt:1"):
+        deviations.load("bad", tmp_path)
+
+
+def test_every_deviation_entry_matches_a_check_of_a_builtin_case():
+    """The deviation files cannot rot: each entry names a family, variant and metric that exist."""
+    from adapters.registry import engine_names
+    from cases.registry import builtin_families
+    fams = builtin_families()
+    for eng in engine_names():
+        for d in deviations.load(eng):
+            assert d.family in fams, f"{eng}.txt:{d.line}: no family {d.family!r}"
+            fam = fams[d.family]
+            hits = [(v.id, c.metric) for v in fam.variants for c in fam.expect(v.params, fam.dt)
+                    if d.matches(fam.name, v.id, c.metric)]
+            assert hits, f"adapters/xfails/{eng}.txt:{d.line}: {d.pattern} matches no check"
+
+
+# --- the results table and the report -----------------------------------------------------
+
+def _rows():
+    rows = []
+    for adapter in (FakeAdapter(), FakeAdapter(blow_up_at=5), FakeAdapter(unsupported="not today")):
+        for i in (0, 1):
+            rows += run_job(_job(i), FALL, adapter, known=[])
+    return rows
+
+
+def test_results_csv_meets_the_agreed_contract(tmp_path):
+    write_report(_rows(), tmp_path)
+    with open(tmp_path / "results.csv", newline="") as fh:
+        reader = csv.DictReader(fh)
+        assert reader.fieldnames == COLUMNS
+        rows = list(reader)
+    assert {r["status"] for r in rows} == {"pass", "fail", "unstable", "unsupported"}
+    if not CHECK_RESULTS.exists():
+        pytest.skip(f"{CHECK_RESULTS} not found (shared/ is not beside the repository)")
+    out = subprocess.run([sys.executable, str(CHECK_RESULTS), str(tmp_path / "results.csv")],
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout
+
+
+def test_report_has_its_sections_and_no_temporary_files(tmp_path):
+    write_report(_rows(), tmp_path, command="physval run")
+    md = (tmp_path / "report.md").read_text()
+    for heading in ("## Summary", "## Known deviations", "## Failures, blow-ups and errors", "## Families",
+                    "## Engine settings", "## Environment", "### free_fall"):
+        assert heading in md
+    assert (tmp_path / "plots" / "summary.png").stat().st_size > 1000
+    assert (tmp_path / "plots" / "free_fall.png").exists()
+    assert not [p for p in tmp_path.rglob(".*") if p.is_file()], "temporary files left behind"
+
+
+def test_an_interrupted_write_leaves_the_old_file_whole(tmp_path, monkeypatch):
+    from physval import report
+    target = tmp_path / "report.md"
+    target.write_text("old and complete")
+
+    def broken_replace(src, dst):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(report.os, "replace", broken_replace)
+    with pytest.raises(KeyboardInterrupt):
+        report.write_atomic(target, "new")
+    assert target.read_text() == "old and complete"
+    assert list(tmp_path.iterdir()) == [target]
+
+
+# --- scene and case validation ------------------------------------------------------------
+
+def test_variant_ids_are_readable():
+    from cases.central_impact import FAMILY
+    ids = [Variant.test_id.fget(v) for v in FAMILY.variants]
+    assert "central_impact[e=0.5,m=1:3]" in ids
+
+
+def test_a_family_with_a_bad_scene_names_the_variant():
+    bad = CaseFamily(name="bad", summary="", source="", grid=({"m": -1.0},),
+                     scene=lambda p: Scene(bodies=(Body("b", Sphere(0.1), mass=p["m"]),)),
+                     duration=lambda p: 1.0, observe=lambda t, p: {}, expect=lambda p, dt: [])
+    with pytest.raises(CaseError, match=r"bad\[m=-1.0\].*mass = -1.0: must be > 0"):
+        bad.validate()
+
+
+def test_2d_scene_rejects_3d_shapes():
+    from cases.scene import SceneError
+    with pytest.raises(SceneError, match="3D shape in a 2D scene"):
+        Scene(bodies=(Body("b", Sphere(0.1), mass=1.0),), dimension=2)
+    Scene(bodies=(Body("g", Plane(), static=True), Body("c", Circle(0.1), mass=1.0, position=(0, 0, 0.1))),
+          dimension=2, material=Material(e=0.5))
