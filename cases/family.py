@@ -69,8 +69,12 @@ class CaseFamily:
     observe: Callable[[Trajectory, dict], dict]         # trajectory, params -> {metric: value}
     expect: Callable[[dict, float], list[Check]]        # params, dt -> checks
     dt: float = 1e-3                                    # default time step, s
-    needs: frozenset[str] = frozenset()                 # extra capabilities, e.g. {"contact_forces"}
+    needs: frozenset[str] | Callable[[dict], frozenset[str]] = frozenset()  # e.g. {"contact_forces"}, or per variant
     variant_id: Callable[[dict], str] = _default_id     # params -> readable id
+
+    def needs_of(self, params: dict) -> frozenset[str]:
+        """Capabilities beyond the scene's that a variant needs (e.g. contact forces)."""
+        return frozenset(self.needs(params) if callable(self.needs) else self.needs)
 
     @property
     def variants(self) -> tuple[Variant, ...]:

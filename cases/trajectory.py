@@ -22,6 +22,7 @@ class Trajectory:
     t: np.ndarray                      # (n+1,) simulated time of each sample
     states: dict[str, np.ndarray]      # body name -> (n+1, 13)
     forces: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)  # pair -> (n+1,) normal force, N
+    effects: frozenset[str] = frozenset()  # what the engine says it simulated (Simulation.effects)
 
     def pos(self, name: str) -> np.ndarray:
         return self.states[name][:, POS]

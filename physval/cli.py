@@ -108,7 +108,7 @@ def select_cases(families: dict, specs: list[str]) -> tuple[dict, dict]:
 
 def cmd_list(args) -> int:
     from adapters import registry
-    from cases.registry import all_families
+    from physval.runner import families as all_families
     if args.engines:
         for name in registry.engine_names():
             try:
@@ -129,7 +129,7 @@ def cmd_list(args) -> int:
         print(f"  closed form: {fam.source}; default dt {fam.dt:g} s")
         for v in fam.variants:
             scene = fam.scene(v.params)
-            can = [n for n, a in adapters.items() if a.capabilities.cannot_run(scene, fam.needs) is None]
+            can = [n for n, a in adapters.items() if a.capabilities.cannot_run(scene, fam.needs_of(v.params)) is None]
             print(f"  [{v.id}]  effects: {','.join(sorted(scene.effects))}  engines: {','.join(can) or 'none'}")
     return 0
 
@@ -137,9 +137,8 @@ def cmd_list(args) -> int:
 def cmd_run(args) -> int:
     from adapters import registry
     from adapters.base import Settings
-    from cases.registry import all_families
     from physval.report import write_report
-    from physval.runner import plan, run_jobs
+    from physval.runner import families as all_families, plan, run_jobs
 
     families = all_families(args.cases_dir)
     families, globs = select_cases(families, _names(args.cases))

@@ -93,7 +93,7 @@ def simulate(sim: Simulation, scene: Scene, dt: float, duration: float) -> Run:
         if speed > v_max:
             raise Unstable(f"speed {speed:.3g} m/s at t = {k * dt:.4g} s exceeds {v_max:.3g} m/s: blew up")
     traj = Trajectory(dt=dt, t=np.arange(n + 1) * dt, states={nm: states[i] for i, nm in enumerate(names)},
-                      forces=forces)
+                      forces=forces, effects=frozenset(sim.effects))
     return Run(traj, wall, n, dict(sim.knobs), frozenset(sim.effects), sim.iterations)
 
 
@@ -124,7 +124,7 @@ def run_job(job: Job, family: CaseFamily, adapter: Adapter | None = None,
     except registry.EngineError as exc:
         return rows_with("unsupported", str(exc))
     base["engine_version"] = _version(adapter)
-    why_not = adapter.capabilities.cannot_run(scene, family.needs)
+    why_not = adapter.capabilities.cannot_run(scene, family.needs_of(params))
     if why_not:
         return rows_with("unsupported", why_not)
     try:
@@ -154,29 +154,30 @@ def run_job(job: Job, family: CaseFamily, adapter: Adapter | None = None,
     done = {**base, **timing}
     rows = []
     for c in checks:
-        value = measured.get(c.metric)
-        if value is None:
+        if c.metric not in measured:
             rows.append(_row(job, family, c, status="error", reason=f"observe() gave no {c.metric!r}", **done))
             continue
-        value = float(value)
-        abs_err, rel_err = errors(c.expected, value)
         entry = deviations.find(known, family.name, job.variant.id, c.metric)
-        fields = dict(measured=value, abs_error=abs_err, rel_error=rel_err,
-                      known_deviation=entry.reason if entry else "", **done)
-        if not math.isfinite(value):
-            rows.append(_row(job, family, c, status="unstable", reason=f"{c.metric} is {value}", **fields))
-        elif within(c, abs_err, rel_err):
-            rows.append(_row(job, family, c, status="pass", **fields))
-        elif entry:
-            size = abs_err if c.kind == "abs" else rel_err
-            rows.append(_row(job, family, c, status="deviation", **fields, reason=(
-                f"{entry.reason} [measured {value:.6g} {c.unit}, expected {c.expected:.6g}: "
-                f"{c.kind} error {size:.3g} > tolerance {c.tolerance:.3g}]")))
-        else:
-            rows.append(_row(job, family, c, status="fail",
-                             reason=f"{c.kind} error {abs_err if c.kind == 'abs' else rel_err:.3g} > tolerance {c.tolerance:.3g}",
-                             **fields))
+        rows.append(_row(job, family, c, **judge(c, float(measured[c.metric]), entry), **done))
     return rows
+
+
+def judge(c: Check, value: float, entry: deviations.Deviation | None) -> dict:
+    """The verdict fields of one check: pass, fail, deviation (failing, but a known entry),
+    or unstable (the measured value is not a number)."""
+    abs_err, rel_err = errors(c.expected, value)
+    fields = dict(measured=value, abs_error=abs_err, rel_error=rel_err,
+                  known_deviation=entry.reason if entry else "")
+    size = abs_err if c.kind == "abs" else rel_err
+    if not math.isfinite(value):
+        return dict(fields, status="unstable", reason=f"{c.metric} is {value}")
+    if within(c, abs_err, rel_err):
+        return dict(fields, status="pass")
+    if entry:
+        return dict(fields, status="deviation", reason=(
+            f"{entry.reason} [measured {value:.6g} {c.unit}, expected {c.expected:.6g}: "
+            f"{c.kind} error {size:.3g} > tolerance {c.tolerance:.3g}]"))
+    return dict(fields, status="fail", reason=f"{c.kind} error {size:.3g} > tolerance {c.tolerance:.3g}")
 
 
 def _version(adapter: Adapter) -> str:
@@ -200,11 +201,18 @@ def plan(families: dict[str, CaseFamily], engines: list[str], dt: float | None =
             for v in fam.variants for eng in engines]
 
 
+def families(cases_dir=None) -> dict[str, CaseFamily]:
+    """Every family physval runs: the built-in cases, a user's --cases-dir, and the
+    adapter conformance battery."""
+    from physval import conformance
+    return {**all_families(cases_dir), conformance.FAMILY.name: conformance.FAMILY}
+
+
 _WORKER_FAMILIES: dict[str, CaseFamily] = {}
 
 
 def _init_worker(cases_dir):
-    _WORKER_FAMILIES.update(all_families(cases_dir))
+    _WORKER_FAMILIES.update(families(cases_dir))
 
 
 def _run_in_worker(job: Job) -> list[dict]:

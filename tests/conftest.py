@@ -25,8 +25,10 @@ def selected_engines(config) -> list[str]:
 
 
 def pytest_generate_tests(metafunc):
-    if "job" in metafunc.fixturenames:
-        from cases.registry import builtin_families
-        from physval.runner import plan
-        jobs = plan(builtin_families(), selected_engines(metafunc.config))
-        metafunc.parametrize("job", jobs, ids=[j.test_id for j in jobs])
+    from cases.registry import builtin_families
+    from physval import conformance
+    from physval.runner import plan
+    for name, fams in (("job", builtin_families), ("conformance_job", lambda: {"conformance": conformance.FAMILY})):
+        if name in metafunc.fixturenames:
+            jobs = plan(fams(), selected_engines(metafunc.config))
+            metafunc.parametrize(name, jobs, ids=[j.test_id for j in jobs])
