@@ -21,7 +21,7 @@ import numpy as np
 
 from cases.family import CaseFamily, Check
 from cases.observables import first_impact, speed_at_height
-from cases.scene import Body, Material, Scene, Sphere, ground
+from cases.scene import Body, Material, Scene, ball, ground
 
 R = 0.1        # sphere radius, m
 V1, V2 = 2.0, -1.0  # approach velocities along x, m/s (closing speed 3 m/s)
@@ -31,10 +31,13 @@ G = 9.81
 
 # Grid: restitution from perfectly plastic to elastic, and mass ratios from equal to 1:100
 # (a light sphere hitting a near-wall exercises the effective mass m1 m2 / (m1 + m2)).
+# The 2D variants (discs in the x-z plane) let 2D engines take part; 3D engines embed them.
 E_VALUES = (0.0, 0.5, 0.9, 1.0)
 MASS_RATIOS = (1, 3, 100)
-GRID = tuple({"setup": "spheres", "e": e, "m": f"1:{r}"} for e in E_VALUES for r in MASS_RATIOS) + \
-       tuple({"setup": "drop", "e": e, "h": H} for e in E_VALUES)
+GRID = tuple({"setup": "spheres", "e": e, "m": f"1:{r}", "dim": 3} for e in E_VALUES for r in MASS_RATIOS) + \
+       tuple({"setup": "drop", "e": e, "h": H, "dim": 3} for e in E_VALUES) + \
+       tuple({"setup": "spheres", "e": e, "m": "1:3", "dim": 2} for e in (0.0, 0.5, 1.0)) + \
+       tuple({"setup": "drop", "e": e, "h": H, "dim": 2} for e in (0.0, 0.5, 0.9))
 
 
 def masses(p) -> tuple[float, float]:
@@ -60,18 +63,19 @@ def first_apex(e, h):
 # --- scene ----------------------------------------------------------------------------
 
 def scene(p) -> Scene:
+    dim = p.get("dim", 3)
     if p["setup"] == "spheres":
         m1, m2 = masses(p)
         x1 = -(R + GAP / 2)
         return Scene(
-            bodies=(Body("a", Sphere(R), mass=m1, position=(x1, 0, 0), velocity=(V1, 0, 0), rotates=False),
-                    Body("b", Sphere(R), mass=m2, position=(-x1, 0, 0), velocity=(V2, 0, 0), rotates=False)),
+            bodies=(Body("a", ball(R, dim), mass=m1, position=(x1, 0, 0), velocity=(V1, 0, 0), rotates=False),
+                    Body("b", ball(R, dim), mass=m2, position=(-x1, 0, 0), velocity=(V2, 0, 0), rotates=False)),
             gravity=(0.0, 0.0, 0.0),
-            material=Material(e=p["e"]))
+            material=Material(e=p["e"]), dimension=dim)
     return Scene(
-        bodies=(ground(), Body("ball", Sphere(R), mass=1.0, position=(0, 0, R + p["h"]), rotates=False)),
+        bodies=(ground(), Body("ball", ball(R, dim), mass=1.0, position=(0, 0, R + p["h"]), rotates=False)),
         gravity=(0.0, 0.0, -G),
-        material=Material(e=p["e"]))
+        material=Material(e=p["e"]), dimension=dim)
 
 
 def duration(p) -> float:
@@ -135,9 +139,10 @@ def expect(p, dt) -> list[Check]:
 
 
 def variant_id(p) -> str:
+    plane = ",2D" if p.get("dim", 3) == 2 else ""
     if p["setup"] == "spheres":
-        return f"e={p['e']},m={p['m']}"
-    return f"drop,e={p['e']}"
+        return f"e={p['e']},m={p['m']}{plane}"
+    return f"drop,e={p['e']}{plane}"
 
 
 FAMILY = CaseFamily(

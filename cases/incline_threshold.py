@@ -19,7 +19,7 @@ import numpy as np
 
 from cases.family import CaseFamily, Check
 from cases.observables import window_mean
-from cases.scene import Body, Box, Material, Scene, ground, tilted_gravity
+from cases.scene import Body, Material, Scene, cube, ground, tilted_gravity
 
 HALF = 0.1     # half-extent of the cube, m
 G = 9.81
@@ -31,10 +31,11 @@ SLIDE_DISTANCE = 0.01
 # Grid: low, medium and high friction; angles well below, just below, just above and well
 # above the threshold atan(mu_s). A pair with mu_k < mu_s exercises static vs kinetic.
 OFFSETS_DEG = (-10.0, -1.0, 1.0, 10.0)
-GRID = tuple({"mu_s": mu, "mu_k": mu, "offset_deg": d} for mu in (0.2, 0.5, 0.8) for d in OFFSETS_DEG) + (
-    {"mu_s": 0.5, "mu_k": 0.3, "offset_deg": -1.0},   # stays: static friction decides
-    {"mu_s": 0.5, "mu_k": 0.3, "offset_deg": 1.0},    # slides: kinetic friction acts
-)
+# The 2D variants (a square in the x-z plane) let 2D engines take part.
+GRID = tuple({"mu_s": mu, "mu_k": mu, "offset_deg": d, "dim": 3} for mu in (0.2, 0.5, 0.8) for d in OFFSETS_DEG) + (
+    {"mu_s": 0.5, "mu_k": 0.3, "offset_deg": -1.0, "dim": 3},   # stays: static friction decides
+    {"mu_s": 0.5, "mu_k": 0.3, "offset_deg": 1.0, "dim": 3},    # slides: kinetic friction acts
+) + tuple({"mu_s": 0.5, "mu_k": 0.5, "offset_deg": d, "dim": 2} for d in OFFSETS_DEG)
 
 
 def theta(p) -> float:
@@ -59,9 +60,9 @@ def sliding_acceleration(th: float, mu_k: float, g: float = G) -> float:
 
 def scene(p) -> Scene:
     return Scene(
-        bodies=(ground(), Body("box", Box((HALF, HALF, HALF)), mass=1.0, position=(0, 0, HALF))),
+        bodies=(ground(), Body("box", cube(HALF, p.get("dim", 3)), mass=1.0, position=(0, 0, HALF))),
         gravity=tilted_gravity(theta(p), G),
-        material=Material(e=0.0, mu_s=p["mu_s"], mu_k=p["mu_k"]))
+        material=Material(e=0.0, mu_s=p["mu_s"], mu_k=p["mu_k"]), dimension=p.get("dim", 3))
 
 
 def duration(p) -> float:
@@ -102,7 +103,8 @@ def expect(p, dt) -> list[Check]:
 
 def variant_id(p) -> str:
     mu = f"mu={p['mu_s']}" if p["mu_s"] == p["mu_k"] else f"mu_s={p['mu_s']},mu_k={p['mu_k']}"
-    return f"{mu},theta=atan(mu_s){p['offset_deg']:+g}deg"
+    plane = ",2D" if p.get("dim", 3) == 2 else ""
+    return f"{mu},theta=atan(mu_s){p['offset_deg']:+g}deg{plane}"
 
 
 FAMILY = CaseFamily(

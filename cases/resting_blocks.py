@@ -13,7 +13,7 @@ import numpy as np
 
 from cases.family import CaseFamily, Check
 from cases.observables import window_mean
-from cases.scene import Body, Box, Material, Scene, ground
+from cases.scene import Body, Material, Scene, cube, ground
 
 HALF = 0.1   # half-extent of each cube, m
 M = 1.0      # mass of each cube, kg
@@ -21,8 +21,9 @@ G = 9.81
 T = 3.0      # simulated time, s
 SETTLED = 1.0  # forces and drift are read from here on, s
 
-# Grid: a single box, then stacks growing to 5 (each level adds one more force to carry).
-GRID = tuple({"n": n} for n in range(1, 6))
+# Grid: a single box, then stacks growing to 5 (each level adds one more force to carry);
+# 2D variants (squares in the x-z plane) let 2D engines take part.
+GRID = tuple({"n": n, "dim": 3} for n in range(1, 6)) + tuple({"n": n, "dim": 2} for n in (1, 3))
 
 
 def names(n: int) -> list[str]:
@@ -40,9 +41,10 @@ def interface_force(n: int, k: int, m: float = M, g: float = G) -> float:
 
 def scene(p) -> Scene:
     n = p["n"]
-    boxes = tuple(Body(name, Box((HALF, HALF, HALF)), mass=M, position=(0, 0, HALF + 2 * HALF * k))
+    dim = p.get("dim", 3)
+    boxes = tuple(Body(name, cube(HALF, dim), mass=M, position=(0, 0, HALF + 2 * HALF * k))
                   for k, name in enumerate(names(n)))
-    return Scene(bodies=(ground(),) + boxes, gravity=(0, 0, -G), material=Material(e=0.0, mu_s=0.5))
+    return Scene(bodies=(ground(),) + boxes, gravity=(0, 0, -G), material=Material(e=0.0, mu_s=0.5), dimension=dim)
 
 
 def duration(p) -> float:
@@ -94,6 +96,6 @@ FAMILY = CaseFamily(
     observe=observe,
     expect=expect,
     dt=1e-3,
-    variant_id=lambda p: f"n={p['n']}",
+    variant_id=lambda p: f"n={p['n']}" + (",2D" if p.get("dim", 3) == 2 else ""),
     needs=frozenset({"contact_forces"}),
 )

@@ -329,6 +329,16 @@ class Scene:
 
 # --- small helpers cases use to build scenes ----------------------------------------------
 
+def ball(radius: float, dimension: int = 3) -> Sphere | Circle:
+    """A sphere in a 3D scene, a disc in a 2D one."""
+    return Sphere(radius) if dimension == 3 else Circle(radius)
+
+
+def cube(half: float, dimension: int = 3) -> Box | Rect:
+    """A cube of half-extent `half` in a 3D scene, a square in a 2D one."""
+    return Box((half, half, half)) if dimension == 3 else Rect((half, half))
+
+
 def quat_about_y(angle: float) -> tuple[float, float, float, float]:
     """Rotation by `angle` (rad) about +y as a (w, x, y, z) quaternion."""
     return (math.cos(angle / 2), 0.0, math.sin(angle / 2), 0.0)

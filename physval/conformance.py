@@ -18,7 +18,7 @@ from typing import Callable
 import numpy as np
 
 from cases.family import CaseFamily, Check
-from cases.scene import Body, Box, Circle, Material, Rect, Scene, Sphere, ground
+from cases.scene import Body, Material, Scene, ball, cube, ground
 from cases.trajectory import Trajectory
 
 G = 9.81
@@ -35,11 +35,11 @@ class Probe:
 
 
 def _ball(dim: int, **kw) -> Body:
-    return Body("body", Sphere(R) if dim == 3 else Circle(R), mass=1.0, **kw)
+    return Body("body", ball(R, dim), mass=1.0, **kw)
 
 
 def _box(dim: int, **kw) -> Body:
-    return Body("body", Box((R, R, R)) if dim == 3 else Rect((R, R)), mass=1.0, **kw)
+    return Body("body", cube(R, dim), mass=1.0, **kw)
 
 
 # --- the checks ---------------------------------------------------------------------------

@@ -91,4 +91,4 @@ def test_grid_is_what_the_issue_asks_for():
     assert {p["m"] for p in spheres} == {"1:1", "1:3", "1:100"}
     offsets = {p["offset_deg"] for p in it.GRID}
     assert {-10.0, -1.0, 1.0, 10.0} <= offsets  # well below, just below, just above, well above
-    assert [p["n"] for p in rb.GRID] == [1, 2, 3, 4, 5]
+    assert [p["n"] for p in rb.GRID if p["dim"] == 3] == [1, 2, 3, 4, 5]
