@@ -84,6 +84,8 @@ def parser() -> argparse.ArgumentParser:
     run.add_argument("--cases-dir", metavar="DIR", help="also load case families from *.py files in DIR")
     run.add_argument("--workers", type=_positive_int, default=1, metavar="N",
                      help="parallel processes (default 1: keeps the timings in wall_s undisturbed)")
+    run.add_argument("--no-effective", action="store_true",
+                     help="skip measuring the restitution and friction each engine really produces")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
 
@@ -154,8 +156,14 @@ def cmd_run(args) -> int:
     print(f"physval: {len(jobs)} runs ({len(families)} families x {len(engines)} engines) -> {out}/", file=sys.stderr)
     rows = run_jobs(jobs, families, workers=args.workers, cases_dir=args.cases_dir,
                     progress=not args.quiet and sys.stderr.isatty())
+    effective = []
+    if not args.no_effective:
+        from physval.effective import measure
+        for eng in engines:
+            print(f"physval: measuring the restitution and friction {eng} really produces", file=sys.stderr)
+            effective += measure(eng)
     command = "physval " + " ".join(shlex.quote(a) for a in sys.argv[1:])
-    write_report(rows, out, command=command)
+    write_report(rows, out, command=command, effective=effective)
     counts = Counter(r["status"] for r in rows)
     print(f"{len(rows)} checks: " + ", ".join(f"{n} {s}" for s, n in counts.most_common()))
     print(f"wrote {out / 'results.csv'}, {out / 'report.md'}, {out / 'plots'}/")

@@ -204,11 +204,51 @@ def stale_deviations(df: pd.DataFrame) -> list[str]:
     return notes
 
 
-def write_report(rows: list[dict], out: Path, title: str = "physval report", command: str = "") -> pd.DataFrame:
-    """Write results.csv, report.md and plots into `out`; return the frame."""
+def plot_effective(eff: pd.DataFrame, path: Path) -> None:
+    """Asked against measured restitution and friction, one line per engine."""
+    plt = _plt()
+    params = list(dict.fromkeys(eff.parameter))
+    fig, axes = plt.subplots(1, len(params), figsize=(4.2 * len(params), 3.8), squeeze=False)
+    for ax, param in zip(axes[0], params):
+        part = eff[eff.parameter == param]
+        lo, hi = float(part.asked.min()), float(part.asked.max())
+        ax.plot([lo, hi], [lo, hi], color="black", lw=0.8, ls="--", label="asked = measured")
+        for eng, grp in part.groupby("engine", sort=False):
+            ax.plot(grp.asked, grp.measured, marker="o", label=eng)
+        ax.set_xlabel(f"asked {param}")
+        ax.set_ylabel("measured")
+        ax.set_title(param)
+    axes[0][0].legend(fontsize=8)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def effective_section(eff: pd.DataFrame) -> list[str]:
+    lines = ["## Asked vs measured parameters", "",
+             "What each engine actually produces when asked for a restitution or friction coefficient "
+             "(`physval/effective.py`; also in `effective_parameters.csv`). No tolerance: a mismatch is "
+             "a finding about the engine's contact model.", "",
+             "![asked vs measured](plots/effective_parameters.png)", ""]
+    for eng, grp in eff.groupby("engine", sort=False):
+        shown = grp[["parameter", "asked", "measured", "difference", "note"]].copy()
+        for col in ("asked", "measured", "difference"):
+            shown[col] = shown[col].map(_fmt)
+        lines += [f"**{eng}**", "", _md_table(shown), ""]
+    return lines
+
+
+def write_report(rows: list[dict], out: Path, title: str = "physval report", command: str = "",
+                 effective: list[dict] | None = None) -> pd.DataFrame:
+    """Write results.csv, report.md and plots into `out` (and effective_parameters.csv when
+    asked-vs-measured rows are given); return the results frame."""
     out = Path(out)
     df = frame(rows)
     write_csv(df, out / "results.csv")
+    eff = pd.DataFrame(effective or [], columns=["engine", "parameter", "asked", "measured", "difference", "note"])
+    if len(eff):
+        write_atomic(out / "effective_parameters.csv", eff.to_csv(index=False))
+        if eff.measured.notna().any():
+            plot_effective(eff[eff.measured.notna()], out / "plots" / "effective_parameters.png")
     plots = out / "plots"
     plot_summary(df, plots / "summary.png")
     for fam in sorted(df.case.unique()):
@@ -252,6 +292,9 @@ def write_report(rows: list[dict], out: Path, title: str = "physval report", com
     uns = df[df.status == "unsupported"].drop_duplicates(["engine", "case", "reason"])
     if len(uns):
         lines += ["## Unsupported", "", _md_table(uns[["engine", "case", "reason"]]), ""]
+
+    if len(eff):
+        lines += effective_section(eff)
 
     lines += ["## Families", ""]
     for fam in sorted(df.case.unique()):
