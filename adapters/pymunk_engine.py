@@ -1,0 +1,236 @@
+"""Pymunk (Chipmunk2D, via its Munk2D fork) behind the engine contract: 2D scenes only.
+
+Frames. A 2D scene lies in the x-z plane; Pymunk's plane is x-y. Scene (x, z) maps to
+Pymunk (x, y). A positive rotation phi about scene +y takes +z towards +x, while Pymunk's
+positive angle takes +x towards +y (= scene +z), so the Pymunk angle is -phi and the
+Pymunk angular velocity is -omega_y.
+
+What one `space.step(dt)` does (Munk2D src/cpSpaceStep.c, read for 7.3.1): positions move
+with the *old* velocity (x += v dt), then contacts are found (overlapping shapes only; a
+polygon also when exactly touching; no speculative contacts), pre_solve runs, restitution
+targets -e v_n are taken from the relative normal velocity before gravity is added,
+velocities get gravity (v += g dt), then `iterations` sweeps of sequential impulses with
+accumulation, clamping and warm starting (001 notes, "Sequential Impulses"), and post_solve
+runs. Overlap beyond `collision_slop` is pushed out through a separate bias velocity that
+moves positions only (split impulse), at a rate set by `collision_bias`. The integrator
+order is Pymunk's, recorded here, not corrected: free fall follows
+z_n = z_0 - g dt^2 n(n-1)/2, above the continuous solution by g t dt / 2.
+"""
+from __future__ import annotations
+
+import math
+
+import pymunk
+
+from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
+from adapters.combination import per_body_values
+from adapters.frames import state_row
+from cases.scene import Body, Circle, Plane, Rect, Scene, pair_key, quat_about_y
+
+DEFAULT_ITERATIONS = 10  # Pymunk's own default Space.iterations, stated here
+# Overlap the solver leaves alone (m). Pymunk's default 0.1 is pixel scale: bodies would rest
+# up to 0.1 m deep. 0.1 mm is far below the scenes' sizes and above rounding.
+COLLISION_SLOP = 1e-4
+# Fraction of overlap beyond the slop left after one second: Pymunk's default (10 % per
+# 1/60 s), set explicitly so it is recorded. Per step it is the bias factor of
+# v_bias = beta/dt (delta - delta_slop)_+ (001 notes, "Sequential Impulses") with
+# beta = 1 - COLLISION_BIAS**dt (0.0063 at dt = 1e-3: overlap decays with a 0.16 s time
+# constant). It moves positions only, never velocities.
+COLLISION_BIAS = (1.0 - 0.1) ** 60
+COLLISION_PERSISTENCE = 3  # steps a separated pair's impulses are kept for warm starting (default)
+# The static plane is a thick segment (a capsule) whose flat top lies exactly on the plane: a
+# solid half-space this deep and twice this long, centred on the point of the plane nearest
+# the origin. Rounding on its surface is about depth * 1e-16 m.
+PLANE_HALF_LENGTH = 1e4  # m
+PLANE_DEPTH = 1.0  # m: far more than any overlap v*dt at the scenes' speeds
+
+
+class PymunkAdapter(Adapter):
+    name = "pymunk"
+    package = "pymunk"
+    capabilities = Capabilities(
+        dimensions=frozenset({2}),
+        shapes=frozenset({"circle", "rect", "plane"}),
+        native_restitution=True,
+        static_kinetic=False,  # one friction coefficient per pair
+        contact_forces=True,
+        iterations=True,
+    )
+
+    def version(self) -> str:
+        return f"{pymunk.version} (Munk2D {pymunk.chipmunk_version})"
+
+    def build(self, scene: Scene, settings: Settings) -> Simulation:
+        reason = self.capabilities.cannot_run(scene)
+        if reason:
+            raise Unsupported(reason)
+        return PymunkSimulation(scene, settings)
+
+
+def _angle(body: Body) -> float:
+    """Pymunk angle of a 2D body: minus its rotation about scene +y (see module docstring)."""
+    w, x, y, z = body.orientation
+    if abs(x) > 1e-12 or abs(z) > 1e-12:
+        raise Unsupported(f"body {body.name!r}: orientation {body.orientation} is not a rotation "
+                          "about y, which a 2D engine cannot represent")
+    return -2.0 * math.atan2(y, w)
+
+
+def _json(value: float):
+    """Infinity as the string 'inf' so knobs stay strict JSON."""
+    return value if math.isfinite(value) else "inf"
+
+
+class PymunkSimulation(Simulation):
+    def __init__(self, scene: Scene, settings: Settings):
+        self._dt = settings.dt
+        self.iterations = DEFAULT_ITERATIONS if settings.iterations is None else settings.iterations
+        space = pymunk.Space()
+        space.iterations = self.iterations
+        space.collision_slop = COLLISION_SLOP
+        space.collision_bias = COLLISION_BIAS
+        space.collision_persistence = COLLISION_PERSISTENCE
+        space.damping = 1.0  # velocity kept per second: 1 is no damping
+        space.sleep_time_threshold = math.inf  # sleeping off
+        gx, gz = float(scene.gravity[0]), float(scene.gravity[2])
+        space.gravity = (gx, gz)
+        self.knobs = {
+            "iterations": self.iterations,
+            "collision_slop": COLLISION_SLOP,
+            "collision_bias": COLLISION_BIAS,
+            "bias_factor_per_step": 1.0 - COLLISION_BIAS ** self._dt,  # beta, for reading only
+            "collision_persistence": COLLISION_PERSISTENCE,
+            "damping": 1.0,
+            "sleep_time_threshold": "inf",
+            "gravity": [gx, gz],
+            "bodies": {},
+        }
+
+        self._space = space
+        self._bodies: dict[str, pymunk.Body] = {}  # dynamic bodies, for states()
+        shapes: dict[str, pymunk.Shape] = {}
+        for kind, body in enumerate(scene.bodies, start=1):
+            shapes[body.name] = self._add(body)
+            shapes[body.name].collision_type = kind  # one per body: handlers are per pair
+            if body.dynamic:
+                self._bodies[body.name] = shapes[body.name].body
+
+        # Pair materials. Pymunk multiplies the two shapes' elasticity and friction. Where
+        # per-body values reproduce every pair under that product, the shapes carry them and
+        # no Python runs for materials inside the step. Otherwise each pair's pre_solve sets
+        # the arbiter's restitution and friction: it runs after the product is taken and
+        # before the restitution target is, so it is exact for any scene, at a few us of Python
+        # per touching pair and step (3-4 us measured here).
+        self._pairs = {pair_key(a.name, b.name): scene.material_of(a.name, b.name)
+                       for a, b in scene.contact_pairs()}
+        try:
+            e = per_body_values(scene, lambda m: m.e, "product", "restitution")
+            mu = per_body_values(scene, lambda m: m.mu_s, "product", "friction")
+            pre_solve = None
+        except Unsupported:
+            e = mu = {name: 0.0 for name in shapes}  # overridden per pair
+            pre_solve = self._pre_solve
+        for name, shape in shapes.items():
+            shape.elasticity, shape.friction = e[name], mu[name]
+            self.knobs["bodies"][name].update(elasticity=e[name], friction=mu[name])
+        self.knobs["pair_materials"] = "product of shape values" if pre_solve is None else "pre_solve"
+        if pre_solve is not None:
+            self.knobs["pre_solve"] = [{"pair": list(k), "restitution": m.e, "friction": m.mu_s}
+                                       for k, m in self._pairs.items()]
+
+        # Contact forces: each pair's post_solve reads this step's impulse (3-4 us of Python per
+        # touching pair and step: the engine alone steps a five-box stack in about 10 us).
+        self._forces: dict[tuple[str, str], float] = {}
+        for a, b in self._pairs:
+            space.on_collision(shapes[a].collision_type, shapes[b].collision_type,
+                               pre_solve=pre_solve, post_solve=self._post_solve, data=(a, b))
+        self.knobs["contact_force"] = "post_solve: |total_impulse . normal| / dt"
+        space.reindex_static()
+
+        self.effects = self._built_effects()
+
+    def _add(self, body: Body) -> pymunk.Shape:
+        knobs = self.knobs["bodies"]
+        if body.static:
+            pb = pymunk.Body(body_type=pymunk.Body.STATIC)
+            knobs[body.name] = {"static": True}
+        else:
+            moment = body.principal_inertia[1] if body.rotates else math.inf
+            pb = pymunk.Body(body.mass, moment)
+            knobs[body.name] = {"mass": body.mass, "moment": _json(moment)}
+        if isinstance(body.shape, Plane):
+            shape = self._plane(pb, body.shape)
+            knobs[body.name]["Segment"] = {"a": list(shape.a), "b": list(shape.b), "radius": shape.radius}
+        else:
+            pb.position = (body.position[0], body.position[2])
+            pb.angle = _angle(body)
+            if body.dynamic:
+                pb.velocity = (body.velocity[0], body.velocity[2])
+                # rotates=False holds the orientation fixed: no spin either
+                pb.angular_velocity = -body.angular_velocity[1] if body.rotates else 0.0
+            if isinstance(body.shape, Circle):
+                shape = pymunk.Circle(pb, body.shape.radius)
+            else:
+                a, c = body.shape.half_extents
+                shape = pymunk.Poly.create_box(pb, (2 * a, 2 * c), radius=0.0)
+        self._space.add(pb, shape)
+        return shape
+
+    @staticmethod
+    def _plane(pb: pymunk.Body, plane: Plane) -> pymunk.Segment:
+        """The half-space n . x <= offset as a capsule whose flat top is the line n . x = offset."""
+        nx, ny, nz = plane.normal
+        if ny != 0.0:
+            raise Unsupported(f"plane normal {plane.normal}: not in the x-z plane of a 2D scene")
+        axis = plane.offset - PLANE_DEPTH  # the capsule's axis, PLANE_DEPTH below the surface
+        cx, cy = axis * nx, axis * nz
+        tx, ty = -nz * PLANE_HALF_LENGTH, nx * PLANE_HALF_LENGTH  # along the line
+        return pymunk.Segment(pb, (cx - tx, cy - ty), (cx + tx, cy + ty), PLANE_DEPTH)
+
+    def _built_effects(self) -> frozenset[str]:
+        fx = set()
+        if any(g != 0.0 for g in self._space.gravity):
+            fx.add("gravity")
+        if self._pairs:
+            fx.add("contact")
+            if any(m.e > 0 for m in self._pairs.values()):
+                fx.add("restitution")
+            if any(m.mu_s > 0 for m in self._pairs.values()):
+                fx.add("friction")
+        if any(math.isfinite(b.moment) for b in self._bodies.values()):
+            fx.add("rotation")
+        return frozenset(fx)
+
+    # --- callbacks, once per touching pair and step -----------------------------------
+
+    def _pre_solve(self, arbiter: pymunk.Arbiter, space, key) -> None:
+        m = self._pairs[key]
+        arbiter.restitution, arbiter.friction = m.e, m.mu_s
+
+    def _post_solve(self, arbiter: pymunk.Arbiter, space, key) -> None:
+        # total_impulse sums this step's normal and friction impulses over the contact points
+        self._forces[key] = abs(arbiter.total_impulse.dot(arbiter.normal)) / self._dt
+
+    # --- the contract -------------------------------------------------------------------
+
+    def step(self) -> None:
+        self._forces = {}
+        self._space.step(self._dt)
+
+    def states(self):
+        out = {}
+        for name, pb in self._bodies.items():
+            x, z = pb.position
+            vx, vz = pb.velocity
+            out[name] = state_row((x, 0.0, z), quat_about_y(-pb.angle), (vx, 0.0, vz),
+                                  (0.0, -pb.angular_velocity, 0.0))
+        return out
+
+    def contact_forces(self):
+        return dict(self._forces)
+
+    def close(self) -> None:
+        space, self._space = getattr(self, "_space", None), None
+        if space is not None:
+            space.remove(*space.shapes, *space.bodies)
+        self._bodies = {}
