@@ -1,0 +1,382 @@
+"""MuJoCo adapter: a scene becomes one MJCF string; contact is MuJoCo's soft constraint.
+
+MuJoCo has no coefficient of restitution. Every contact row is a unilateral
+spring-damper in constraint space, and e is mapped onto it: k = w^2, b = 2 zeta w with
+w = pi / (n dt) for a contact lasting about n steps, zeta from the spring-damper that lets
+go when its force reaches zero (`restitution_of_damping_ratio`). n trades rebound accuracy
+(error ~ 1/n) for penetration (~ v n dt / pi): the adapter's accuracy knob, in `knobs`.
+
+Every pair of the scene that may touch is an explicit `<pair>`, and geoms collide with
+nothing else (contype = conaffinity = 0). A `<pair>` states its own friction, condim and
+solref, so any pair table of the scene is reproduced exactly; MuJoCo's geom combination
+(friction max, solref averaged by solmix, condim max) cannot give two pairs that share a
+body different e at all. `adapters.combination` is therefore not needed here.
+"""
+from __future__ import annotations
+
+import math
+from xml.sax.saxutils import quoteattr
+
+import mujoco
+import numpy as np
+
+from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
+from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
+
+# Contact lasts about n = 16 steps: worst |rebound ratio - e| 0.03 (e = 0.5), peak
+# penetration ~ v n dt / pi (23 mm at 4.4 m/s, dt = 1e-3). Error falls as 1/n and depth
+# grows as n: this is the speed/accuracy axis (measured, see the adapter's report).
+CONTACT_STEPS = 16
+
+# MuJoCo's own default cap; the Newton solver stops at `tolerance` long before it (a
+# five-box stack converges in 1 iteration, notes/engines.md).
+ITERATIONS = 100
+TOLERANCE = 1e-8  # MuJoCo's default, stated
+
+# Constant impedance d = dmin = dmax = 0.99. With the direct (negative) solref form MuJoCo
+# divides k by dmax^2 and b by dmax and multiplies back by d, so a contact row obeys
+# a = -b v - k r + (1 - d) a_free exactly: 1 % of the unconstrained acceleration leaks
+# through (a body resting under gravity sits 0.01 g / k deep, 2.5 um at n = 16).
+SOLIMP = (0.99, 0.99, 0.001, 0.5, 2.0)
+
+# Friction: elliptic cone with friction rows 100x less regularised than normal rows, so a
+# box below the incline threshold creeps < 0.001 mm/s (pyramidal, impratio 1: ~0.25 mm/s).
+# Friction rows are damped with b = 1/dt (`solreffriction`): slip is removed in one step
+# up to the cone, as a rigid Coulomb impulse would, whatever the pair's e.
+CONE = "elliptic"
+IMPRATIO = 100.0
+
+
+# --- e onto the contact spring-damper ---------------------------------------------------
+
+def restitution_of_damping_ratio(zeta: float) -> float:
+    """Rebound ratio e of a mass hitting a spring-damper that cannot pull.
+
+    In time units of 1/w (tau = w t) the penetration x obeys x'' + 2 zeta x' + x = 0 with
+    x(0) = 0, x'(0) = v. The contact force, proportional to x + 2 zeta x', falls to zero
+    while x > 0; there the body lets go with x' < 0, so e = -x'(tau*) / v.
+    Underdamped (s = sqrt(1 - zeta^2)): x = v/s e^(-zeta tau) sin(s tau), and
+    x + 2 zeta x' = 0 gives tan(s tau*) = -2 zeta s / (1 - 2 zeta^2), i.e.
+    th = s tau* = pi - atan2(2 zeta s, 1 - 2 zeta^2), e = -exp(-zeta th/s) (cos th - zeta/s sin th).
+    Overdamped (r1,2 = -zeta +- sqrt(zeta^2 - 1), so 1 + 2 zeta r = -r^2): release at
+    r1^2 e^(r1 tau) = r2^2 e^(r2 tau), tau* = 2 ln(r2/r1) / (r1 - r2).
+    Both branches give e^-2 at zeta = 1. The textbook log-decrement zeta (release at x = 0)
+    is another model: it overestimates e by ~0.05 at e = 0.5 (notes/engines.md, MuJoCo).
+    """
+    if zeta < 1.0:
+        s = math.sqrt(1.0 - zeta * zeta)
+        th = math.pi - math.atan2(2.0 * zeta * s, 1.0 - 2.0 * zeta * zeta)
+        return -math.exp(-zeta * th / s) * (math.cos(th) - zeta / s * math.sin(th))
+    if zeta == 1.0:
+        return math.exp(-2.0)
+    q = math.sqrt(zeta * zeta - 1.0)
+    r2 = -zeta - q
+    r1 = 1.0 / r2  # = -zeta + q, without the cancellation at large zeta
+    tau = 2.0 * math.log(r2 / r1) / (r1 - r2)
+    return -(r1 * math.exp(r1 * tau) - r2 * math.exp(r2 * tau)) / (r1 - r2)
+
+
+def damping_ratio_of_restitution(e: float) -> float:
+    """Inverse of `restitution_of_damping_ratio` by bisection (e falls as zeta grows).
+    e = 0 needs infinite damping: math.inf."""
+    if e <= 0.0:
+        return math.inf
+    if e >= 1.0:
+        return 0.0
+    lo, hi = 0.0, 1.0
+    while restitution_of_damping_ratio(hi) > e:
+        lo, hi = hi, 2.0 * hi
+    while hi - lo > 1e-14 * hi:
+        mid = 0.5 * (lo + hi)
+        if restitution_of_damping_ratio(mid) > e:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def contact_spring_damper(e: float, n: float, dt: float) -> tuple[float, float]:
+    """(k, b) of a contact row: k = w^2, b = 2 zeta w, w = pi / (n dt). b is capped at 1/dt,
+    which removes the whole normal velocity in one explicit step (more would reverse it):
+    the value for e = 0 and the limit for very small e."""
+    w = math.pi / (n * dt)
+    return w * w, min(2.0 * damping_ratio_of_restitution(e) * w, 1.0 / dt)
+
+
+# --- MJCF ----------------------------------------------------------------------------------
+
+def _num(x: float) -> str:
+    return format(float(x), ".17g")
+
+
+def _vec(xs) -> str:
+    return quoteattr(" ".join(_num(x) for x in xs))
+
+
+def _rotate(quat, v) -> tuple[float, float, float]:
+    """v turned by the unit quaternion (w, x, y, z): v + w t + u x t with t = 2 u x v."""
+    w, x, y, z = quat
+    vx, vy, vz = v
+    tx, ty, tz = 2.0 * (y * vz - z * vy), 2.0 * (z * vx - x * vz), 2.0 * (x * vy - y * vx)
+    return (vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz, vz + w * tz + x * ty - y * tx)
+
+
+def _geom(body: Body, quat) -> dict:
+    """MJCF attributes of a body's collision geom. 2D shapes become solids in the plane
+    y = 0: a circle a sphere (every contact a planar scene makes lies in y = 0, where the
+    sphere's section is the disc, and sphere collisions are analytic; MuJoCo's cylinder
+    pairs go through general convex collision, whose normals are ~0.1 deg off), a rect a
+    box as deep along y as it is wide."""
+    s = body.shape
+    if isinstance(s, Plane):
+        # MuJoCo's plane is z = 0 of its frame, solid below it: put that frame on the
+        # scene's plane n . x = offset (a plane is its normal and offset, as in cases.overlap)
+        n = np.asarray(s.normal, float)
+        return {"type": "plane", "size": [0, 0, 1], "pos": list(s.offset * n), "zaxis": list(n)}
+    if isinstance(s, (Sphere, Circle)):
+        return {"type": "sphere", "size": [s.radius]}
+    if isinstance(s, Box):
+        return {"type": "box", "size": list(s.half_extents), "quat": list(quat)}
+    if isinstance(s, Rect):
+        a, c = s.half_extents
+        return {"type": "box", "size": [a, a, c], "quat": list(quat)}
+    raise Unsupported(f"shape {s.kind} has no MuJoCo geom in this adapter")
+
+
+def _element(tag: str, attrs: dict, inner: str = "") -> str:
+    text = " ".join(f"{k}={_vec(v) if isinstance(v, (list, tuple)) else quoteattr(str(v))}"
+                    for k, v in attrs.items())
+    return f"<{tag} {text}>{inner}</{tag}>"
+
+
+# Joints of a dynamic body held in the x-z plane or from rotating: (type, world axis).
+_SLIDES_3D = (("slide", (1, 0, 0)), ("slide", (0, 1, 0)), ("slide", (0, 0, 1)))
+_SLIDES_2D = (("slide", (1, 0, 0)), ("slide", (0, 0, 1)))
+_HINGE_Y = (("hinge", (0, 1, 0)),)
+
+
+def _joints(body: Body, dimension: int):
+    """'free' for a 3D body that rotates, else its (type, world axis) joints."""
+    if dimension == 3:
+        return "free" if body.rotates else _SLIDES_3D
+    return _SLIDES_2D + (_HINGE_Y if body.rotates else ())
+
+
+def _unrepresentable(scene: Scene) -> str | None:
+    for b in scene.dynamic_bodies:
+        if not b.rotates and any(w != 0.0 for w in b.angular_velocity):
+            return (f"body {b.name!r}: rotates=False with angular velocity {b.angular_velocity}: "
+                    "a body held from rotating cannot spin")
+    if scene.dimension == 2:
+        for b in scene.bodies:
+            if isinstance(b.shape, Plane):
+                if b.shape.normal[1] != 0.0:
+                    return f"plane {b.name!r}: normal {b.shape.normal} leaves the x-z plane of a 2D scene"
+            elif b.orientation[1] != 0.0 or b.orientation[3] != 0.0:
+                return f"body {b.name!r}: orientation {b.orientation} is not a rotation about y (2D scene)"
+    return None
+
+
+def _body_xml(body: Body, dimension: int, knobs: dict) -> str:
+    q0 = list(body.orientation)
+    no_collide = {"contype": 0, "conaffinity": 0}  # collisions come from <pair> only
+    if body.static:
+        geom = _geom(body, q0)
+        if not isinstance(body.shape, Plane):
+            geom["pos"] = list(body.position)
+        geom = {"name": body.name, **geom, **no_collide}
+        knobs["geom"][body.name] = geom
+        return _element("geom", geom)
+    joints = _joints(body, dimension)
+    if joints == "free":
+        # the body frame is the scene body's frame and carries the inertia, so the free
+        # joint's qpos and qvel describe the body itself (align="false" keeps it so)
+        frame = {"name": body.name, "pos": list(body.position), "quat": q0}
+        geom = {"name": body.name, **_geom(body, [1, 0, 0, 0]), **no_collide}
+        joint_xml = '<freejoint align="false"/>'
+        inertial = {"pos": [0, 0, 0], "quat": [1, 0, 0, 0]}
+        knobs["joint"][body.name] = "free"
+    else:
+        # a world-aligned frame at the start position: joints slide / turn along world
+        # axes, and the geom and inertia carry the body's orientation
+        frame = {"name": body.name, "pos": list(body.position)}
+        geom = {"name": body.name, **_geom(body, q0), **no_collide}
+        joint = [{"name": f"{body.name}:{t}{i}", "type": t, "axis": list(axis), "damping": 0,
+                  "stiffness": 0, "armature": 0, "frictionloss": 0, "limited": "false"}
+                 for i, (t, axis) in enumerate(joints)]
+        joint_xml = "".join(_element("joint", j) for j in joint)
+        inertial = {"pos": [0, 0, 0], "quat": q0}
+        knobs["joint"][body.name] = joint
+    inertial.update(mass=body.mass, diaginertia=list(body.principal_inertia))
+    knobs["geom"][body.name] = geom
+    knobs["inertial"][body.name] = inertial
+    return _element("body", frame, joint_xml + _element("inertial", inertial) + _element("geom", geom))
+
+
+def _pair_xml(scene: Scene, n: float, dt: float, knobs: dict) -> str:
+    out = []
+    for a, b in scene.contact_pairs():
+        mat = scene.material_of(a.name, b.name)
+        k, damping = contact_spring_damper(mat.e, n, dt)
+        pair = {"geom1": a.name, "geom2": b.name, "solref": [-k, -damping], "solimp": list(SOLIMP),
+                "margin": 0, "gap": 0, "adhesion": 0}
+        if mat.frictional:  # one coefficient: capabilities turn away mu_k != mu_s
+            pair.update(condim=3, friction=[mat.mu_s, mat.mu_s, 0, 0, 0], solreffriction=[0, -1.0 / dt])
+        else:  # no friction rows at all
+            pair.update(condim=1, friction=[0, 0, 0, 0, 0])
+        zeta = damping_ratio_of_restitution(mat.e)
+        knobs["pair"]["|".join(pair_key(a.name, b.name))] = {
+            **pair, "e": mat.e, "zeta": zeta if math.isfinite(zeta) else None,
+            "damping_capped_at_1_over_dt": math.isclose(damping * dt, 1.0)}
+        out.append(_element("pair", pair))
+    return "".join(out)
+
+
+def scene_mjcf(scene: Scene, settings: Settings, iterations: int, n: float) -> tuple[str, dict]:
+    """The MJCF of `scene` and the knobs it sets, by MJCF element and attribute name."""
+    option = {"timestep": settings.dt, "gravity": list(scene.gravity), "integrator": "Euler",
+              "solver": "Newton", "iterations": iterations, "tolerance": TOLERANCE,
+              "ls_iterations": 50, "noslip_iterations": 0, "cone": CONE, "impratio": IMPRATIO,
+              "density": 0, "viscosity": 0, "wind": [0, 0, 0]}
+    flag = {"gravity": "enable" if "gravity" in scene.effects else "disable",
+            "contact": "enable" if "contact" in scene.effects else "disable",
+            "sleep": "disable", "speculative": "disable", "override": "disable",
+            "autoreset": "disable",  # a blown-up state stays visible instead of resetting
+            "warmstart": "enable"}
+    compiler = {"inertiafromgeom": "false", "alignfree": "false", "angle": "radian"}
+    knobs = {"compiler": compiler, "option": option, "flag": flag,
+             "restitution_map": {"contact_steps_n": n, "w": math.pi / (n * settings.dt),
+                                 "k": "w^2", "b": "2 zeta w, at most 1/dt"},
+             "joint": {}, "inertial": {}, "geom": {}, "pair": {}}
+    bodies = "".join(_body_xml(b, scene.dimension, knobs) for b in scene.bodies)
+    pairs = _pair_xml(scene, n, settings.dt, knobs)
+    xml = ('<mujoco model="physval">' + _element("compiler", compiler)
+           + _element("option", option, _element("flag", flag))
+           + f"<worldbody>{bodies}</worldbody><contact>{pairs}</contact></mujoco>")
+    return xml, knobs
+
+
+# --- the simulation -------------------------------------------------------------------------
+
+class MuJoCoSimulation(Simulation):
+    def __init__(self, scene: Scene, model: mujoco.MjModel, knobs: dict, iterations: int):
+        self.knobs = knobs
+        self.iterations = iterations
+        self._model = model
+        self._data = d = mujoco.MjData(model)
+        # per dynamic body: name, qpos address, dof address, and for bodies on joints other
+        # than a free joint: start position, start quat, slide axes (rows), has a hinge
+        self._bodies = []
+        for body in scene.dynamic_bodies:
+            jnt = model.body_jntadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body.name)]
+            qa, va = model.jnt_qposadr[jnt], model.jnt_dofadr[jnt]
+            joints = _joints(body, scene.dimension)
+            q0 = np.asarray(body.orientation, float)
+            v, w = np.asarray(body.velocity, float), np.asarray(body.angular_velocity, float)
+            if joints == "free":
+                d.qvel[va:va + 3] = v                                    # world frame
+                d.qvel[va + 3:va + 6] = _rotate((q0 * [1, -1, -1, -1]).tolist(), w.tolist())  # body frame
+                self._bodies.append((body.name, qa, va, None))
+                continue
+            for i, (kind, axis) in enumerate(joints):
+                d.qvel[va + i] = (w if kind == "hinge" else v) @ np.asarray(axis, float)
+            slides = np.array([axis for kind, axis in joints if kind == "slide"], float)
+            hinge = joints[-1][0] == "hinge"
+            self._bodies.append((body.name, qa, va, (np.asarray(body.position, float), q0, slides, hinge)))
+        names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in range(model.ngeom)]
+        self._pair_of = {(g1, g2): pair_key(names[g1], names[g2])
+                         for g1, g2 in zip(model.pair_geom1.tolist(), model.pair_geom2.tolist())}
+        self._f6 = np.zeros(6)
+        mujoco.mj_forward(model, d)  # start-state quantities, so build cost stays out of step()
+        self.effects = self._built_effects(knobs)
+
+    def _built_effects(self, knobs: dict) -> frozenset[str]:
+        m = self._model
+        fx = set()
+        if not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY and np.any(m.opt.gravity != 0):
+            fx.add("gravity")
+        if m.npair and not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT:
+            fx.add("contact")
+            if any(p["e"] > 0 for p in knobs["pair"].values()):
+                fx.add("restitution")
+            if np.any(m.pair_dim > 1):
+                fx.add("friction")
+        if np.any(np.isin(m.jnt_type, (mujoco.mjtJoint.mjJNT_FREE, mujoco.mjtJoint.mjJNT_HINGE))):
+            fx.add("rotation")
+        return frozenset(fx)
+
+    def step(self) -> None:
+        mujoco.mj_step(self._model, self._data)
+
+    def states(self) -> dict[str, np.ndarray]:
+        # from qpos/qvel: after mj_step, xpos/xquat still describe the start of the step
+        qpos, qvel = self._data.qpos, self._data.qvel
+        out = {}
+        for name, qa, va, held in self._bodies:
+            if held is None:  # free joint: qpos = pos, quat; qvel = world vel, BODY-frame omega
+                pose, vel = qpos[qa:qa + 7].tolist(), qvel[va:va + 6].tolist()
+                out[name] = np.array(pose + vel[:3] + list(_rotate(pose[3:], vel[3:])))
+            else:
+                row = np.zeros(13)  # cases.trajectory: pos, quat w-x-y-z, vel, world angular vel
+                p0, q0, slides, hinge = held
+                ns = len(slides)
+                row[0:3] = p0 + qpos[qa:qa + ns] @ slides
+                row[7:10] = qvel[va:va + ns] @ slides
+                if hinge:  # turns the start orientation about world y
+                    th = qpos[qa + ns]
+                    mujoco.mju_mulQuat(row[3:7], np.array([math.cos(th / 2), 0.0, math.sin(th / 2), 0.0]), q0)
+                    row[11] = qvel[va + ns]
+                else:
+                    row[3:7] = q0
+                out[name] = row
+        return out
+
+    def contact_forces(self) -> dict[tuple[str, str], float]:
+        # d.contact and efc_force belong to the step just taken: mj_step solves, then integrates
+        m, d = self._model, self._data
+        out: dict[tuple[str, str], float] = {}
+        if d.ncon == 0:
+            return out
+        con = d.contact
+        for i, (g1, g2, row, excluded) in enumerate(zip(con.geom1.tolist(), con.geom2.tolist(),
+                                                        con.efc_address.tolist(), con.exclude.tolist())):
+            if row < 0 or excluded:
+                continue  # no constraint row (e.g. exactly touching, dist = 0): no force
+            mujoco.mj_contactForce(m, d, i, self._f6)
+            key = self._pair_of[g1, g2]
+            out[key] = out.get(key, 0.0) + float(self._f6[0])
+        return out
+
+    def close(self) -> None:
+        self._model = self._data = None
+
+
+class MuJoCoAdapter(Adapter):
+    name = "mujoco"
+    package = "mujoco"
+    capabilities = Capabilities(
+        dimensions=frozenset({2, 3}),
+        shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
+        native_restitution=False,  # e is mapped onto the contact spring-damper
+        static_kinetic=False,
+        contact_forces=True,
+        iterations=True,
+    )
+
+    def __init__(self, contact_steps: float = CONTACT_STEPS):
+        self.contact_steps = contact_steps
+
+    def version(self) -> str:
+        return mujoco.__version__
+
+    def build(self, scene: Scene, settings: Settings) -> Simulation:
+        reason = self.capabilities.cannot_run(scene) or _unrepresentable(scene)
+        if reason:
+            raise Unsupported(reason)
+        iterations = ITERATIONS if settings.iterations is None else settings.iterations
+        xml, knobs = scene_mjcf(scene, settings, iterations, self.contact_steps)
+        try:
+            model = mujoco.MjModel.from_xml_string(xml)
+        except ValueError as exc:
+            raise Unsupported(f"MuJoCo rejects the scene: {exc}") from None
+        return MuJoCoSimulation(scene, model, knobs, iterations)
