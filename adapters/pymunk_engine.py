@@ -19,6 +19,7 @@ z_n = z_0 - g dt^2 n(n-1)/2, above the continuous solution by g t dt / 2.
 from __future__ import annotations
 
 import math
+import sys
 
 import pymunk
 
@@ -29,14 +30,15 @@ from cases.scene import Body, Circle, Plane, Rect, Scene, pair_key, quat_about_y
 
 DEFAULT_ITERATIONS = 10  # Pymunk's own default Space.iterations, stated here
 # Overlap the solver leaves alone (m). Pymunk's default 0.1 is pixel scale: bodies would rest
-# up to 0.1 m deep. 0.1 mm is far below the scenes' sizes and above rounding.
+# up to 0.1 m deep. 0.1 mm is far below the scenes' sizes and above rounding; 1e-5 m with
+# beta = 0.2 lets a five-box stack at dt = 5e-3 walk sideways 1.5 mm/s (measured).
 COLLISION_SLOP = 1e-4
-# Fraction of overlap beyond the slop left after one second: Pymunk's default (10 % per
-# 1/60 s), set explicitly so it is recorded. Per step it is the bias factor of
-# v_bias = beta/dt (delta - delta_slop)_+ (001 notes, "Sequential Impulses") with
-# beta = 1 - COLLISION_BIAS**dt (0.0063 at dt = 1e-3: overlap decays with a 0.16 s time
-# constant). It moves positions only, never velocities.
-COLLISION_BIAS = (1.0 - 0.1) ** 60
+# Depenetration: v_bias = beta/dt (delta - delta_slop)_+ on pseudo-velocities (note 001,
+# "Sequential Impulses": beta in [0.1, 0.3]); beta = 0.2 as in reference_impl, so the two
+# differ by engine, not by knob. Pymunk takes it per second, as `collision_bias`, the
+# fraction of overlap left after 1 s: beta = 1 - collision_bias**dt (its default, 0.9**60,
+# is beta = 0.0063 at dt = 1e-3: an e = 0 impact's overlap would linger for 0.5 s).
+BIAS_FACTOR = 0.2
 COLLISION_PERSISTENCE = 3  # steps a separated pair's impulses are kept for warm starting (default)
 # The static plane is a thick segment (a capsule) whose flat top lies exactly on the plane: a
 # solid half-space this deep and twice this long, centred on the point of the plane nearest
@@ -88,7 +90,10 @@ class PymunkSimulation(Simulation):
         space = pymunk.Space()
         space.iterations = self.iterations
         space.collision_slop = COLLISION_SLOP
-        space.collision_bias = COLLISION_BIAS
+        # (1 - beta)**(1/dt) underflows below dt = 3e-4 s: floored at the smallest normal
+        # float, where beta becomes 1 - exp(-708 dt) (recorded)
+        collision_bias = max((1.0 - BIAS_FACTOR) ** (1.0 / self._dt), sys.float_info.min)
+        space.collision_bias = collision_bias
         space.collision_persistence = COLLISION_PERSISTENCE
         space.damping = 1.0  # velocity kept per second: 1 is no damping
         space.sleep_time_threshold = math.inf  # sleeping off
@@ -97,8 +102,8 @@ class PymunkSimulation(Simulation):
         self.knobs = {
             "iterations": self.iterations,
             "collision_slop": COLLISION_SLOP,
-            "collision_bias": COLLISION_BIAS,
-            "bias_factor_per_step": 1.0 - COLLISION_BIAS ** self._dt,  # beta, for reading only
+            "collision_bias": collision_bias,
+            "bias_factor_per_step": 1.0 - collision_bias ** self._dt,  # beta in force
             "collision_persistence": COLLISION_PERSISTENCE,
             "damping": 1.0,
             "sleep_time_threshold": "inf",
@@ -119,8 +124,8 @@ class PymunkSimulation(Simulation):
         # per-body values reproduce every pair under that product, the shapes carry them and
         # no Python runs for materials inside the step. Otherwise each pair's pre_solve sets
         # the arbiter's restitution and friction: it runs after the product is taken and
-        # before the restitution target is, so it is exact for any scene, at a few us of Python
-        # per touching pair and step (3-4 us measured here).
+        # before the restitution target is, so it is exact for any scene, at 2-4 us of Python
+        # per touching pair and step (measured here).
         self._pairs = {pair_key(a.name, b.name): scene.material_of(a.name, b.name)
                        for a, b in scene.contact_pairs()}
         try:
@@ -138,8 +143,8 @@ class PymunkSimulation(Simulation):
             self.knobs["pre_solve"] = [{"pair": list(k), "restitution": m.e, "friction": m.mu_s}
                                        for k, m in self._pairs.items()]
 
-        # Contact forces: each pair's post_solve reads this step's impulse (3-4 us of Python per
-        # touching pair and step: the engine alone steps a five-box stack in about 10 us).
+        # Contact forces: each pair's post_solve reads this step's impulse (2-4 us of Python per
+        # touching pair and step: the engine alone steps a five-box stack in 5-10 us).
         self._forces: dict[tuple[str, str], float] = {}
         for a, b in self._pairs:
             space.on_collision(shapes[a].collision_type, shapes[b].collision_type,
