@@ -1,0 +1,348 @@
+"""PyBullet (Bullet 3) adapter: one `p.connect(p.DIRECT)` engine per built scene.
+
+Bullet has two body models and neither suits every scene (measured with pybullet 3.2.7,
+dt = 1e-3, worst over ten contact phases):
+- maximal coordinates (btRigidBody) with split impulse, whose push-out moves positions
+  and leaves velocities alone, apply Newton's law v_n+ = -e v_n (002 Cornell "09
+  Collision response", Restitution) to machine precision in a central impact; but their
+  friction is wrong (-0.01 to -0.3 m/s^2 on an incline, creep up to 0.12 mm/s below the
+  threshold);
+- reduced coordinates (btMultiBody) with cone friction and friction anchors slide to
+  <= 7e-4 m/s^2 and hold without creep; but they have no split impulse (penetration is
+  pushed out through the velocity, the bias beta/dt * delta of 001 "CG3 Collisions",
+  sequential impulses, which adds bounce) and restitution acts on the velocity after
+  gravity, a bias of +e g dt / v in the bounce ratio.
+So frictionless 3D scenes use maximal coordinates and the others reduced coordinates;
+2D scenes need joints to stay in the x-z plane, which only reduced coordinates have.
+Every parameter set is recorded in `knobs` under pybullet's own name.
+"""
+from __future__ import annotations
+
+import math
+import os
+import sys
+from importlib import metadata
+
+import numpy as np
+
+from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
+from adapters.combination import per_body_values
+from adapters.frames import state_row, wxyz_to_xyzw, xyzw_to_wxyz
+from cases.scene import Body, Scene, pair_key
+
+
+def _import_pybullet():
+    """pybullet's module init prints its build time on the C-level stderr: hold fd 2 on
+    /dev/null while it loads (an ImportError still propagates)."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+            import pybullet
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+    return pybullet
+
+
+p = _import_pybullet()
+
+DEFAULT_ITERATIONS = 50  # the engine's own default numSolverIterations
+CONTACT_ERP = 0.08       # the engine's default contactERP, stated: it is the push-out rate
+FRICTION_ERP = 0.2       # the engine's default frictionERP: the friction anchors' spring
+RESIDUAL = 1e-7          # the engine's default solverResidualThreshold: iterations stop below it
+EVERY_POINT = 1e30       # contactProcessingThreshold that keeps speculative points (BT_LARGE_FLOAT)
+NO_VELOCITY_CLAMP = 1e30  # maxJointVelocity: btMultiBody clamps every dof to 100 by default
+LOCK_CREATION_MASS = 1e30  # see _add_body: a non-rotating maximal body is created this heavy
+# Rotation about +x by -90 deg (x, y, z, w): takes the cylinder's z axis onto y.
+Z_TO_Y = [-math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5)]
+AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+GEOM_NAMES = {p.GEOM_SPHERE: "GEOM_SPHERE", p.GEOM_BOX: "GEOM_BOX", p.GEOM_PLANE: "GEOM_PLANE",
+              p.GEOM_CYLINDER: "GEOM_CYLINDER"}
+
+
+class PyBulletAdapter(Adapter):
+    name = "pybullet"
+    package = "pybullet"
+    capabilities = Capabilities(
+        dimensions=frozenset({2, 3}),
+        shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
+        native_restitution=True,
+        static_kinetic=False,   # one lateralFriction per body
+        contact_forces=True,
+        iterations=True,
+    )
+
+    def version(self) -> str:
+        return metadata.version("pybullet")
+
+    def build(self, scene: Scene, settings: Settings) -> Simulation:
+        reason = self.capabilities.cannot_run(scene)
+        if reason:
+            raise Unsupported(reason)
+        return PyBulletSimulation(scene, settings)
+
+
+def _solver_parameters(scene: Scene, settings: Settings, maximal: bool) -> dict:
+    """setPhysicsEngineParameter arguments, by path (see the module notes)."""
+    common = dict(
+        fixedTimeStep=settings.dt,
+        numSubSteps=0,
+        numSolverIterations=settings.iterations or DEFAULT_ITERATIONS,
+        restitutionVelocityThreshold=0.0,  # default 0.2 m/s: slower impacts lose all bounce
+        contactSlop=0.0,                    # default 1e-5 m of tolerated overlap
+        frictionERP=FRICTION_ERP,
+        solverResidualThreshold=RESIDUAL,  # so numSolverIterations is an upper bound
+    )
+    if maximal:
+        # split impulse: the push-out changes positions only, never the velocity that
+        # restitution and the next step see
+        return {**common, "useSplitImpulse": 1, "splitImpulsePenetrationThreshold": 0.0,
+                "contactERP": CONTACT_ERP}
+    # multibody: no split impulse; with restitution the push-out would add bounce, so it
+    # is switched off (penetration then stays until the bodies separate)
+    bouncy = "restitution" in scene.effects
+    return {**common, "enableConeFriction": 1, "contactERP": 0.0 if bouncy else CONTACT_ERP}
+
+
+def _contact_processing_threshold(scene: Scene) -> float:
+    """Whether the solver sees speculative points (up to ~3.5 mm apart) or only touching
+    ones (0). A speculative point holds the gap closing speed to gap/dt, which makes a
+    resting contact exact and an inelastic impact stop at the surface, but takes gap/dt
+    off every bounce (up to all of it, depending on the contact phase). So they go only
+    when restitution matters; without them a resting box chatters in and out of contact
+    (creep 0.1-0.35 mm/s below the friction limit, rocking on a frictionless plane)."""
+    return 0.0 if "restitution" in scene.effects else EVERY_POINT
+
+
+def _material_values(scene: Scene) -> tuple[dict[str, float], dict[str, float]]:
+    """Per-body lateralFriction and restitution whose products give each pair's values;
+    0 everywhere for an effect the scene does not call for."""
+    names = [b.name for b in scene.bodies]
+
+    def values(effect, value_of, what):
+        if effect not in scene.effects:
+            return {n: 0.0 for n in names}
+        return per_body_values(scene, value_of, "product", what)
+
+    friction = values("friction", lambda m: m.mu_s, "friction")
+    restitution = values("restitution", lambda m: m.e, "restitution")
+    return friction, restitution
+
+
+def _collision_shape(body: Body, client: int) -> tuple[int, dict]:
+    """The engine shape of a body and the record of how it was made."""
+    s = body.shape
+    if s.kind == "sphere":
+        kw = dict(shapeType=p.GEOM_SPHERE, radius=s.radius)
+    elif s.kind == "box":
+        kw = dict(shapeType=p.GEOM_BOX, halfExtents=list(s.half_extents))
+    elif s.kind == "plane":
+        kw = dict(shapeType=p.GEOM_PLANE, planeNormal=list(s.normal))
+    elif s.kind == "circle":  # a cylinder along y; its depth only spreads the contact points
+        kw = dict(shapeType=p.GEOM_CYLINDER, radius=s.radius, height=2 * s.radius,
+                  collisionFrameOrientation=Z_TO_Y)
+    else:  # rect: a box as deep along y as its larger half-extent
+        a, c = s.half_extents
+        kw = dict(shapeType=p.GEOM_BOX, halfExtents=[a, max(a, c), c])
+    record = {**kw, "shapeType": GEOM_NAMES[kw["shapeType"]]}
+    return p.createCollisionShape(physicsClientId=client, **kw), record
+
+
+def _planar_joints(body: Body) -> list[str]:
+    """Joints that keep a 2D body in the x-z plane: slide along x and z, turn about y."""
+    w, x, y, z = body.orientation
+    if abs(x) > 1e-12 or abs(z) > 1e-12:
+        raise Unsupported(f"2D body {body.name!r}: orientation {body.orientation} is not a "
+                          "rotation about y, so it cannot turn about y only")
+    return ["prismatic x", "prismatic z"] + (["revolute y"] if body.rotates else [])
+
+
+class PyBulletSimulation(Simulation):
+    def __init__(self, scene: Scene, settings: Settings):
+        self._client = p.connect(p.DIRECT)
+        try:
+            self._build(scene, settings)
+        except BaseException:
+            self.close()
+            raise
+
+    # --- building -----------------------------------------------------------------------
+
+    def _build(self, scene: Scene, settings: Settings) -> None:
+        c = self._client
+        self._maximal = "friction" not in scene.effects and scene.dimension == 3
+        engine = _solver_parameters(scene, settings, self._maximal)
+        p.setPhysicsEngineParameter(physicsClientId=c, **engine)
+        p.setGravity(*scene.gravity, physicsClientId=c)
+        self._threshold = _contact_processing_threshold(scene)
+        friction, restitution = _material_values(scene)
+
+        self.iterations = engine["numSolverIterations"]
+        self.knobs = {
+            "setPhysicsEngineParameter": engine,
+            "setGravity": list(scene.gravity),
+            "useMaximalCoordinates": self._maximal,
+            "bodies": {},
+        }
+        self._ids: dict[tuple[int, int], str] = {}  # (body unique id, link index) -> name
+        self._dynamic: list[tuple[str, int, int]] = []  # (name, body id, link index or -1)
+        for body in scene.bodies:
+            record = self._add_body(body, scene.dimension, friction[body.name], restitution[body.name])
+            self.knobs["bodies"][body.name] = record
+        self.effects = self._built_effects(scene, friction, restitution)
+
+    def _add_body(self, body: Body, dimension: int, mu: float, e: float) -> dict:
+        c = self._client
+        shape, shape_record = _collision_shape(body, c)
+        position, orientation = list(body.position), wxyz_to_xyzw(body.orientation)
+        if body.shape.kind == "plane":  # n.x = offset in the world frame: through offset*n
+            position = [body.shape.offset * n for n in body.shape.normal]
+            orientation = [0.0, 0.0, 0.0, 1.0]
+        record = {"createCollisionShape": shape_record}
+        if dimension == 2 and body.dynamic:
+            uid, link, record["createMultiBody"] = self._planar_body(body, shape)
+        else:
+            mass = 0.0 if body.static else body.mass
+            if self._maximal and body.dynamic and not body.rotates:
+                # btRigidBody caches its world inverse inertia from the creation mass and
+                # refreshes it only after the first step; created this heavy, that cache is
+                # ~1e-31 and the first step cannot spin a body whose rotation is locked
+                mass = LOCK_CREATION_MASS
+            uid = p.createMultiBody(mass, shape, basePosition=position, baseOrientation=orientation,
+                                    useMaximalCoordinates=self._maximal, physicsClientId=c)
+            link = -1
+            record["createMultiBody"] = {"baseMass": mass, "useMaximalCoordinates": self._maximal}
+            if body.dynamic:
+                omega = body.angular_velocity if body.rotates else (0.0, 0.0, 0.0)
+                p.resetBaseVelocity(uid, list(body.velocity), list(omega), physicsClientId=c)
+        record["changeDynamics"] = self._set_dynamics(body, uid, link, mu, e)
+        self._ids[(uid, link)] = body.name
+        if body.dynamic:
+            self._dynamic.append((body.name, uid, link))
+        return record
+
+    def _planar_body(self, body: Body, shape: int) -> tuple[int, int, dict]:
+        """A fixed, shapeless base at the start position and a chain of massless links
+        sliding along x and z and turning about y (if the body rotates); the last link is
+        the body. Joint axes are given in each link's own frame."""
+        c = self._client
+        joints = _planar_joints(body)
+        n = len(joints)
+        # the last link's frame is the body's; the others are world-aligned
+        R = np.reshape(p.getMatrixFromQuaternion(wxyz_to_xyzw(body.orientation)), (3, 3))
+        axes = [list(AXES[j[-1]]) for j in joints]
+        axes[-1] = list(R.T @ np.array(AXES[joints[-1][-1]]))
+        types = [p.JOINT_PRISMATIC if j.startswith("prismatic") else p.JOINT_REVOLUTE for j in joints]
+        masses = [0.0] * (n - 1) + [body.mass]
+        uid = p.createMultiBody(
+            0.0, -1, basePosition=list(body.position),
+            linkMasses=masses,
+            linkCollisionShapeIndices=[-1] * (n - 1) + [shape],
+            linkVisualShapeIndices=[-1] * n,
+            linkPositions=[[0.0, 0.0, 0.0]] * n,
+            linkOrientations=[[0.0, 0.0, 0.0, 1.0]] * (n - 1) + [wxyz_to_xyzw(body.orientation)],
+            linkInertialFramePositions=[[0.0, 0.0, 0.0]] * n,
+            linkInertialFrameOrientations=[[0.0, 0.0, 0.0, 1.0]] * n,
+            linkParentIndices=list(range(n)),
+            linkJointTypes=types, linkJointAxis=axes, physicsClientId=c)
+        start = {"prismatic x": body.velocity[0], "prismatic z": body.velocity[2],
+                 "revolute y": body.angular_velocity[1]}
+        for j, joint in enumerate(joints):
+            # createMultiBody gives every joint a velocity motor: release it
+            p.setJointMotorControl2(uid, j, p.VELOCITY_CONTROL, force=0.0, physicsClientId=c)
+            p.resetJointState(uid, j, 0.0, start[joint], physicsClientId=c)
+        record = {"baseMass": 0.0, "linkMasses": masses, "useMaximalCoordinates": False,
+                  "linkJointTypes": ["JOINT_PRISMATIC" if t == p.JOINT_PRISMATIC else "JOINT_REVOLUTE"
+                                     for t in types],
+                  "linkJointAxis": axes,
+                  "setJointMotorControl2": {"controlMode": "VELOCITY_CONTROL", "force": 0.0}}
+        return uid, n - 1, record
+
+    def _set_dynamics(self, body: Body, uid: int, link: int, mu: float, e: float) -> list[dict]:
+        """Two changeDynamics calls, recorded as made: the collider's own values, then the
+        whole body's. They must not share a call: given with a link's mass, the
+        body-wide ones also set the chain's fixed base to that mass and set it free."""
+        collider = dict(lateralFriction=mu, restitution=e, rollingFriction=0.0, spinningFriction=0.0,
+                        contactProcessingThreshold=self._threshold)
+        if not self._maximal:
+            collider["frictionAnchor"] = 1  # a box resting on an incline crept 0.1 mm/s; now 0
+        calls = [(link, collider)]
+        if body.dynamic:
+            # localInertiaDiagonal 0 is an infinite inertia (btRigidBody::setMassProps,
+            # btMultiBody::solveImatrix): the exact lock for a body that does not rotate.
+            # mass goes with it: pybullet's maximal path otherwise uses an unset mass.
+            inertia = list(body.principal_inertia) if body.rotates else [0.0, 0.0, 0.0]
+            collider.update(mass=body.mass, localInertiaDiagonal=inertia)
+            whole = dict(linearDamping=0.0, angularDamping=0.0,  # default 0.04 each
+                         activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING)
+            if not self._maximal:
+                whole["maxJointVelocity"] = NO_VELOCITY_CLAMP
+            calls.append((-1, whole))
+            calls += [(j, {"jointDamping": 0.0}) for j in range(link + 1)]
+        for index, kw in calls:
+            p.changeDynamics(uid, index, physicsClientId=self._client, **kw)
+        record = []
+        for index, kw in calls:
+            if "activationState" in kw:
+                kw = {**kw, "activationState": "ACTIVATION_STATE_DISABLE_SLEEPING"}
+            record.append({"linkIndex": index, **kw})
+        return record
+
+    def _built_effects(self, scene: Scene, friction: dict, restitution: dict) -> frozenset[str]:
+        """What the built world simulates, read from the values given to the engine."""
+        fx = set()
+        if any(g != 0.0 for g in scene.gravity):
+            fx.add("gravity")
+        pairs = scene.contact_pairs()
+        if pairs:
+            fx.add("contact")
+        if any(restitution[a.name] * restitution[b.name] > 0 for a, b in pairs):
+            fx.add("restitution")
+        if any(friction[a.name] * friction[b.name] > 0 for a, b in pairs):
+            fx.add("friction")
+        if any(b.rotates for b in scene.dynamic_bodies):
+            fx.add("rotation")
+        return frozenset(fx)
+
+    # --- running ------------------------------------------------------------------------
+
+    def step(self) -> None:
+        p.stepSimulation(physicsClientId=self._client)
+
+    def states(self) -> dict[str, np.ndarray]:
+        c = self._client
+        out = {}
+        for name, uid, link in self._dynamic:
+            if link < 0:
+                pos, quat = p.getBasePositionAndOrientation(uid, physicsClientId=c)
+                vel, omega = p.getBaseVelocity(uid, physicsClientId=c)  # both world frame
+            else:
+                s = p.getLinkState(uid, link, computeLinkVelocity=1, computeForwardKinematics=1,
+                                   physicsClientId=c)
+                pos, quat, vel, omega = s[0], s[1], s[6], s[7]  # centre of mass, world frame
+            out[name] = state_row(pos, xyzw_to_wxyz(quat), vel, omega)
+        return out
+
+    def contact_forces(self) -> dict[tuple[str, str], float]:
+        """Sum of normalForce over each pair's points that the solver processed (distance
+        <= contactProcessingThreshold); the others keep a stale impulse from an earlier
+        step. Points at a small positive distance do count on the speculative path: a
+        resting box there carries half its weight on a point 0.2 um above the plane."""
+        forces: dict[tuple[str, str], float] = {}
+        for point in p.getContactPoints(physicsClientId=self._client):
+            a = self._ids.get((point[1], point[3]))
+            b = self._ids.get((point[2], point[4]))
+            distance, normal_force = point[8], point[9]
+            if a is None or b is None or distance > self._threshold:
+                continue
+            key = pair_key(a, b)
+            forces[key] = forces.get(key, 0.0) + normal_force
+        return forces
+
+    def close(self) -> None:
+        if self._client is not None:
+            if p.isConnected(physicsClientId=self._client):
+                p.disconnect(physicsClientId=self._client)
+            self._client = None
