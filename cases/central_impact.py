@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from cases.family import CaseFamily, Check
-from cases.observables import first_impact, speed_at_height
+from cases.observables import arc_apex, first_impact
 from cases.scene import Body, Material, Scene, ball, ground
 
 R = 0.1        # sphere radius, m
@@ -98,10 +98,16 @@ def observe(traj, p) -> dict:
     z = traj.pos("ball")[:, 2] - R  # height of the ball's bottom
     vz = traj.vel("ball")[:, 2]
     k_in, k_out = first_impact(traj, "ball", (0, 0, -G))
-    v_in = speed_at_height(z[k_in], vz[k_in], 0.0, G)
-    v_out = 0.0 if k_out is None or vz[k_out] <= 0 else speed_at_height(z[k_out], vz[k_out], 0.0, G)
+    # Speeds at contact height from the free-flight arcs on either side of the impact:
+    # v = sqrt(2 g apex) of each fitted parabola (exact for Euler samples, see arc_apex).
+    before = slice(max(k_in - 5, 0), k_in + 1)
+    h_in = arc_apex(traj.t[before], z[before], G)
+    h_out = 0.0
+    if k_out is not None and vz[k_out] > 0:
+        after = slice(k_out, k_out + 6)
+        h_out = max(arc_apex(traj.t[after], z[after], G), 0.0)
     apex = float(np.max(z[k_in + 1:]))
-    return {"rebound_ratio": v_out / v_in, "first_apex": apex}
+    return {"rebound_ratio": math.sqrt(h_out / h_in), "first_apex": apex}
 
 
 # --- expectations ---------------------------------------------------------------------

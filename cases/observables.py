@@ -39,6 +39,17 @@ def speed_at_height(z: float, vz: float, z_contact: float, g: float) -> float:
     return math.sqrt(max(vz * vz + 2.0 * g * (z - z_contact), 0.0))
 
 
+def arc_apex(t: np.ndarray, z: np.ndarray, g: float) -> float:
+    """Apex height of the parabola z = a + b t - g t^2 / 2 fitted to free-flight samples.
+
+    Positions only: every explicit Euler integrator (velocity first or position first)
+    keeps the second difference of z at exactly -g dt^2 in free flight, so its samples lie
+    on such a parabola and the apex is exact in discrete time, while v^2/2 + g z of the
+    sampled velocity drifts by g dt v / 2 depending on the integrator."""
+    b, a = np.polyfit(t - t[0], z + 0.5 * g * (t - t[0]) ** 2, 1)
+    return float(a + b * b / (2.0 * g))
+
+
 def window_mean(traj: Trajectory, values: np.ndarray, t0: float) -> float:
     """Mean of per-sample values over the samples from t0 on."""
     return float(np.mean(values[traj.after(t0)]))
