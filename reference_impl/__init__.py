@@ -12,10 +12,13 @@ Imports numpy only; nothing from `cases`, `adapters` or `physval`. Settings live
 
 One step of `World.step(dt)` (note 001, "simulation loop"):
 
-1. collide: broad phase, narrow phase; each contact gets its rows (`contact.prepare`), its
-   approach velocity `vn0` measured now (before external forces), whether it `sticks`,
-   and, with `config.warm_start`, last step's impulses of the same contact (same bodies,
-   same feature id) in `Pn` / `Pt`;
+1. collide: broad phase, narrow phase (shapes up to `config.margin` apart, plus the half
+   step each body can travel); each contact gets its rows (`contact.prepare`), its
+   approach velocity `vn0` measured now (before external forces), its normal `target`
+   velocity (restitution, speculative gaps: `Contact.normal_target`; contacts that touch
+   only late in the step are left to the next one), whether it `sticks`, and, with
+   `config.warm_start`, last step's impulses of the same contact (same bodies, same
+   feature id) in `Pn` / `Pt`;
 2. gravity: v += g dt (skipped when gravity is zero);
 3. solve: the formulation named by `config.formulation` changes body velocities;
 4. integrate positions and orientations from v + vp, w + wp (pseudo-velocities, zero
@@ -52,6 +55,10 @@ Contact rows (`contact.Row`, see contact.py) give every formulation the same pie
 the row on both bodies, v += M^-1 J^T P), `row.mass` (1 / J M^-1 J^T) and
 `contact.coupling(row_i, row_j)` (the off-diagonal J_i M^-1 J_j^T, for matrix solvers).
 A contact has `normal` (Row) and `tangents` (tuple of 0, 1 (2D) or 2 Rows: none when
-the pair is frictionless), `e`, `mu_s`, `mu_k`, `depth` (> 0 overlapping), `bias`,
-`point`, `n` (unit, from body a to body b), `a`, `b`, `feature`.
+the pair is frictionless), `target` (the normal velocity to reach: row velocity >=
+target; use it rather than re-deriving restitution from `vn0`, it also holds the
+speculative -gap/dt of contacts not yet touching), `e`, `mu_s`, `mu_k`, `mu` (the one in
+force: mu_s while it `sticks`, else mu_k), `depth` (> 0 overlapping, < 0 a gap), `bias`
+(beta/dt (depth - slop)+), `point`, `n` (unit, from body a to body b), `a`, `b`,
+`feature`.
 """

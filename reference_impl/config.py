@@ -11,7 +11,7 @@ class Config:
     # velocity iterations: an upper bound; a sweep whose largest velocity change is below
     # `tolerance` ends the loop early (so a warm-started resting stack costs one sweep)
     iterations: int = 200
-    tolerance: float = 1e-12           # m/s
+    tolerance: float = 1e-10           # m/s
     # Baumgarte depenetration (note 001, "de-penetration bias velocity"):
     # v_bias = beta/dt * (delta - slop)+, applied to pseudo-velocities (split impulse)
     beta: float = 0.2
@@ -22,9 +22,10 @@ class Config:
     # the step is below this; above it slides (mu_k). Well above the solver's residual
     # (~1e-12 m/s) and below one step of the gentlest sliding we test (~1e-4 m/s).
     stick_speed: float = 1e-5          # m/s
-    # shapes this close (gap) already count as touching: scenes built "exactly touching"
-    # are so only to rounding (1e-12 m); far below anything a step resolves.
-    touch_tolerance: float = 1e-9      # m
+    # contacts are made for shapes up to this far apart (speculative contacts: the gap
+    # may close this step, no more). Keeps a contact whose corner lifts by a rounding-
+    # level tilt, so the contact set of a resting stack does not flicker.
+    margin: float = 1e-4               # m
     # formulation-specific settings (each formulation documents its keys)
     params: dict = field(default_factory=dict)
 
@@ -33,7 +34,7 @@ class Config:
             value = getattr(self, name)
             if not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} = {value!r}: must be a whole number >= 1")
-        for name in ("tolerance", "beta", "slop", "stick_speed", "touch_tolerance"):
+        for name in ("tolerance", "beta", "slop", "stick_speed", "margin"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and value >= 0):
                 raise ValueError(f"{name} = {value!r}: must be a number >= 0")

@@ -1,0 +1,160 @@
+"""The project's reference engine (`reference_impl/`) behind the engine contract.
+
+`ReferenceAdapter(formulation)` runs one formulation of reference_impl: "si" (sequential
+impulses, the default, registered as "reference") or any other module of reference_impl
+with a `solve` (registered as "reference-<formulation>"). The scene maps one to one: the
+engine has pair materials (e, mu_s, mu_k) and every shape of the vocabulary, so nothing
+is combined or approximated. It has no damping, sleeping or restitution threshold to
+switch off; the knobs record every setting of `reference_impl.config.Config` in force.
+
+2D scenes (x-z plane) run as planar bodies: positions stay at y = 0, rotation about y only.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict
+
+from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
+from adapters.frames import state_row
+from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
+from reference_impl import geometry
+from reference_impl.config import Config
+from reference_impl.rigid_body import RigidBody
+from reference_impl.world import Material, World, formulation as find_formulation
+
+DEFAULT = Config()  # the engine's stated defaults (iterations: DEFAULT.iterations)
+
+
+class ReferenceAdapter(Adapter):
+    package = "physval"
+    capabilities = Capabilities(
+        dimensions=frozenset({2, 3}),
+        shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
+        native_restitution=True,
+        static_kinetic=True,
+        contact_forces=True,
+        iterations=True,
+    )
+
+    def __init__(self, formulation: str = "si"):
+        find_formulation(formulation)  # an unknown name fails here, not mid-run
+        self.formulation = formulation
+        self.name = "reference" if formulation == "si" else f"reference-{formulation}"
+
+    def version(self) -> str:
+        from physval import __version__
+        return f"reference_impl {__version__} ({self.formulation})"
+
+    def build(self, scene: Scene, settings: Settings) -> Simulation:
+        reason = self.capabilities.cannot_run(scene)
+        if reason:
+            raise Unsupported(reason)
+        config = Config(formulation=self.formulation,
+                        iterations=settings.iterations or DEFAULT.iterations)
+        return ReferenceSimulation(scene, settings.dt, config)
+
+
+def _shape(body: Body):
+    s = body.shape
+    if isinstance(s, Sphere):
+        return geometry.Sphere(s.radius)
+    if isinstance(s, Box):
+        return geometry.Box(tuple(float(h) for h in s.half_extents))
+    if isinstance(s, Plane):
+        return geometry.Plane(tuple(float(c) for c in s.normal), float(s.offset))
+    if isinstance(s, Circle):
+        return geometry.Circle(s.radius)
+    if isinstance(s, Rect):
+        return geometry.Rect(tuple(float(h) for h in s.half_extents))
+    raise Unsupported(f"shape {s.kind}: not available in the reference engine")
+
+
+def _material(m) -> Material:
+    return Material(e=float(m.e), mu_s=float(m.mu_s), mu_k=float(m.mu_k_))
+
+
+class ReferenceSimulation(Simulation):
+    def __init__(self, scene: Scene, dt: float, config: Config):
+        self._dt = dt
+        self.iterations = config.iterations
+        planar = scene.dimension == 2
+        world = World(gravity=scene.gravity, material=_material(scene.material), config=config)
+        for b in scene.bodies:
+            if planar and (b.orientation[1] != 0.0 or b.orientation[3] != 0.0):
+                raise Unsupported(f"body {b.name!r}: orientation {b.orientation} of a 2D body is not "
+                                  "a rotation about y")
+            if b.static:
+                world.add(RigidBody(b.name, _shape(b), x=b.position, q=b.orientation, static=True,
+                                    planar=planar))
+            else:
+                world.add(RigidBody(b.name, _shape(b), b.mass, b.principal_inertia, x=b.position,
+                                    q=b.orientation, v=b.velocity, w=b.angular_velocity if b.rotates else (0, 0, 0),
+                                    can_rotate=b.rotates, planar=planar))
+        by_name = {body.name: body for body in world.bodies}
+        for a, b, m in scene.pairs:
+            world.set_material(by_name[a], by_name[b], _material(m))
+        reason = world.unsupported()
+        if reason:
+            raise Unsupported(f"formulation {config.formulation!r}: {reason}")
+        self._world = world
+        self._dynamic = [body for body in world.bodies if not body.static]
+        self._stages: set[tuple[str, ...]] = set()
+        self._knobs = {
+            "formulation": config.formulation,
+            "iterations": config.iterations,
+            "tolerance": config.tolerance,
+            "beta": config.beta,
+            "slop": config.slop,
+            "position_iterations": config.position_iterations,
+            "warm_start": config.warm_start,
+            "stick_speed": config.stick_speed,
+            "margin": config.margin,
+            "params": dict(config.params),
+            "friction_cone": "disc |Pt| <= mu Pn (isotropic)",
+            "restitution": "v_n+ = -e v_n at the start of the step (before gravity)",
+            "depenetration": "split impulse on pseudo-velocities",
+            "integrator": "symplectic Euler: velocity, then position",
+            "gravity": list(world.gravity),
+            "material": asdict(world.material),
+            "pair_materials": [{"pair": [a, b], **asdict(_material(m))} for a, b, m in scene.pairs],
+            "planar": planar,
+            "bodies": {body.name: {"static": body.static, "can_rotate": body.can_rotate}
+                       for body in world.bodies},
+        }
+        self.effects = self._built_effects(scene)
+
+    def _built_effects(self, scene: Scene) -> frozenset[str]:
+        """What the built world simulates: the world runs a stage only when needed."""
+        world = self._world
+        fx = set()
+        if any(g != 0.0 for g in world.gravity):
+            fx.add("gravity")
+        pairs = [(a, b) for i, a in enumerate(world.bodies) for b in world.bodies[i + 1:]
+                 if not (a.static and b.static)]
+        if pairs:
+            fx.add("contact")
+            mats = [world.material_of(a, b) for a, b in pairs]
+            if any(m.e > 0 for m in mats):
+                fx.add("restitution")
+            if any(m.mu_s > 0 for m in mats):
+                fx.add("friction")
+        if any(b.can_rotate for b in self._dynamic):
+            fx.add("rotation")
+        return frozenset(fx)
+
+    @property
+    def knobs(self) -> dict:
+        stages = sorted({s for run in self._stages for s in run})
+        return {**self._knobs, "stages_ran": stages}
+
+    def step(self) -> None:
+        self._world.step(self._dt)
+        self._stages.add(self._world.stages)
+
+    def states(self):
+        return {b.name: state_row(b.x, b.q, b.v, b.w) for b in self._dynamic}
+
+    def contact_forces(self):
+        return {pair_key(a, b): P / self._dt for (a, b), P in self._world.normal_impulses.items()}
+
+    def close(self) -> None:
+        """Nothing to free: the world is plain Python objects."""

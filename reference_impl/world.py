@@ -1,0 +1,144 @@
+"""The world: bodies, pair materials, gravity, and the time step (see __init__.py)."""
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+
+from reference_impl.broadphase import candidate_pairs
+from reference_impl.config import Config
+from reference_impl.contact import Contact
+from reference_impl.geometry import collide
+from reference_impl.rigid_body import RigidBody
+
+ALIASES = {"si": "sequential_impulses"}
+
+
+def formulation(name: str):
+    """The module that implements formulation `name` (it defines `solve`)."""
+    module = ALIASES.get(name, name)
+    try:
+        found = importlib.import_module(f"reference_impl.{module}")
+    except ModuleNotFoundError:
+        found = None
+    if found is None or not callable(getattr(found, "solve", None)):
+        raise ValueError(f"formulation {name!r}: no module reference_impl.{module} with a solve() "
+                         "(see the interface in reference_impl/__init__.py)")
+    return found
+
+
+@dataclass(frozen=True)
+class Material:
+    """What a pair does on contact: restitution e, static mu_s and kinetic mu_k friction."""
+    e: float = 0.0
+    mu_s: float = 0.0
+    mu_k: float = 0.0
+
+
+class World:
+    def __init__(self, gravity=(0.0, 0.0, -9.81), material: Material = Material(),
+                 config: Config = Config()):
+        self.gravity = tuple(float(g) for g in gravity)
+        self.material = material
+        self.config = config
+        self.solver = formulation(config.formulation)
+        self.bodies: list[RigidBody] = []
+        self.pair_materials: dict[tuple[int, int], Material] = {}
+        self.contacts: list[Contact] = []
+        self.stages: tuple[str, ...] = ()
+        self.normal_impulses: dict[tuple[str, str], float] = {}
+        self._previous: dict = {}  # (a index, b index, feature) -> (Pn, tangential impulse vector)
+
+    # --- building --------------------------------------------------------------------------
+
+    def add(self, body: RigidBody) -> RigidBody:
+        body.index = len(self.bodies)
+        self.bodies.append(body)
+        return body
+
+    def set_material(self, a: RigidBody, b: RigidBody, material: Material) -> None:
+        self.pair_materials[(min(a.index, b.index), max(a.index, b.index))] = material
+
+    def material_of(self, a: RigidBody, b: RigidBody) -> Material:
+        return self.pair_materials.get((min(a.index, b.index), max(a.index, b.index)), self.material)
+
+    def unsupported(self) -> str | None:
+        """Why the configured formulation cannot run this world faithfully, or None."""
+        check = getattr(self.solver, "unsupported", None)
+        return check(self) if check is not None else None
+
+    # --- stepping --------------------------------------------------------------------------
+
+    def step(self, dt: float) -> None:
+        stages = ["collide"]
+        dynamic = [b for b in self.bodies if not b.static]
+        for body in dynamic:  # velocities before external forces
+            body.v0[:] = body.v
+            body.w0[:] = body.w
+
+        # collide: broad phase, narrow phase, rows, warm-start impulses
+        self.contacts = self.collide(dt)
+
+        # integrate forces: gravity into the velocities
+        gx, gy, gz = self.gravity
+        if gx != 0.0 or gy != 0.0 or gz != 0.0:
+            stages.append("gravity")
+            for body in dynamic:
+                v = body.v
+                v[0] += gx * dt
+                v[1] += gy * dt
+                v[2] += gz * dt
+
+        # solve the contacts with the configured formulation
+        if self.contacts:
+            stages += [f"{self.config.formulation}:{s}" for s in
+                       self.solver.solve(self.contacts, self.bodies, dt, self.config)]
+
+        # integrate positions (and orientations of the bodies that rotate)
+        stages.append("positions")
+        if any(b.can_rotate for b in dynamic):
+            stages.append("rotations")
+        for body in dynamic:
+            body.integrate_position(dt)
+            body.clear_pseudo()
+
+        self._remember()
+        self.stages = tuple(stages)
+
+    def collide(self, dt: float) -> list[Contact]:
+        """Contacts up to config.margin apart, plus the half step each body may travel
+        (so an impact early in this step is seen now: Contact.normal_target)."""
+        margin = self.config.margin
+        reach = [0.0 if b.static else 0.5 * dt * b.speed_bound() for b in self.bodies]
+        contacts = []
+        previous = self._previous if self.config.warm_start else {}
+        for i, j in candidate_pairs(self.bodies, margin, reach):
+            a, b, points = collide(self.bodies[i], self.bodies[j], margin + reach[i] + reach[j])
+            if not points:
+                continue
+            mat = self.material_of(a, b)
+            planar = a.planar or b.planar
+            for point, n, depth, feature in points:
+                c = Contact(a, b, point, n, depth, feature, mat.e, mat.mu_s, mat.mu_k, planar)
+                c.prepare(dt, self.config)
+                if c.target is None:  # touches late in the step: the next step's contact
+                    continue
+                old = previous.get((a.index, b.index, feature))
+                if old is not None:
+                    c.Pn = old[0]
+                    c.Pt = [sum(P * d for P, d in zip(old[1], row.d)) for row in c.tangents]
+                contacts.append(c)
+        return contacts
+
+    def _remember(self) -> None:
+        """Keep this step's impulses for warm starting and report them per body pair."""
+        self._previous = {}
+        impulses = {}
+        for c in self.contacts:
+            Pt = [0.0, 0.0, 0.0]
+            for row, P in zip(c.tangents, c.Pt):
+                for k in range(3):
+                    Pt[k] += P * row.d[k]
+            self._previous[(c.a.index, c.b.index, c.feature)] = (c.Pn, Pt)
+            key = (c.a.name, c.b.name) if c.a.name <= c.b.name else (c.b.name, c.a.name)
+            impulses[key] = impulses.get(key, 0.0) + c.Pn
+        self.normal_impulses = impulses
