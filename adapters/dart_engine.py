@@ -1,0 +1,404 @@
+"""DART (dartpy) adapter.
+
+One skeleton per scene body. A dynamic body hangs on a FreeJoint when it rotates and on a
+TranslationalJoint when it does not; a 2D scene (x-z plane) uses a PlanarJoint (x, z and
+the angle about y) or a TranslationalJoint2D. Static bodies are welded to the world; a
+`Plane` becomes a large welded box whose top face is the plane (a `PlaneShape` under a box
+gives DART's detectors a single contact point: /work/shared/notes/engines.md, DART).
+
+Pair materials map onto DART's combination rule (ContactConstraint: friction min,
+restitution product) with adapters.combination.per_body_values; DART has no per-pair
+override. Every engine parameter set here is recorded in `Simulation.knobs`, together with
+the contact constants DART hard-codes (`ENGINE_CONSTANTS`).
+
+Those constants make known deviations (sizes measured in the adapter's report):
+- restitution, v_n+ = -e v_n (seeds/002, "particle vs fixed obstacle"), is applied to the
+  normal velocity after this step's gravity was added: a bounce off the ground leaves at
+  e (v + g dt) instead of e v;
+- no bounce when e v_n < 0.1 m/s (DART_BOUNCING_VELOCITY_THRESHOLD);
+- overlap is pushed out at ERP 0.01/dt but at most 1 mm/s, as a velocity: an e = 0
+  impact leaves millimetres of overlap for seconds and the bodies part at up to 1 mm/s;
+- a pair friction or restitution coefficient <= 1e-3 counts as zero: such scenes raise
+  Unsupported rather than run silently frictionless (or without bounce).
+
+DART's C++ code writes warnings to file descriptor 2 and messages to 1. Every engine call
+runs with those redirected into a temporary file; knobs["captured_output"] holds the
+number of lines and the first one.
+"""
+from __future__ import annotations
+
+import math
+import os
+import re
+import tempfile
+import weakref
+
+import numpy as np
+
+import dartpy as dart
+from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
+from adapters.combination import per_body_values
+from adapters.frames import state_row
+from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
+
+D = dart.dynamics
+
+# DART's own detector: exact depths for spheres and boxes and the steadiest five-box
+# stack of the four (FCL, Bullet, ODE: 40-60 % transient force errors there, at 30x
+# the step cost).
+DETECTOR = "dart"
+# Exact Coulomb cone (NsgsFrictionSolver, law Coulomb) instead of the default Dantzig
+# solver, whose box friction limit holds mu*sqrt(2) at 45 deg to the tangent basis
+# (measured: effective mu 0.707 for mu = 0.5). The solver's own 1e-5 m/s and 100 sweeps
+# leave a five-box stack rocking at 0.03 rad/s; 1e-6 m/s and 300 sweeps, at 5e-4 rad/s.
+# `Settings.iterations` sets maxSweeps.
+DEFAULT_SWEEPS = 300
+SOLVER_TOLERANCE = 1e-6       # m/s, per-contact violation of the Coulomb law
+# A Plane is a welded box this large: wider than any scene travels, thicker than any
+# body moves in one step.
+GROUND_HALF_WIDTH = 100.0     # m
+GROUND_HALF_THICKNESS = 1.0   # m
+# 2D shapes are extruded along y by this half-depth; the dynamics do not depend on it
+# (the inertia is the scene's and the joints keep bodies in the x-z plane).
+HALF_DEPTH_2D = 0.1           # m
+# Hard-coded in dart/constraint/ContactConstraint.cpp, not settable from dartpy.
+ENGINE_CONSTANTS = {
+    "DART_ERP": 0.01,
+    "DART_MAX_ERV": 1e-3,                       # m/s
+    "DART_CFM": 1e-5,
+    "DART_BOUNCING_VELOCITY_THRESHOLD": 0.1,    # m/s
+    "DART_MAX_BOUNCING_VELOCITY": 100.0,        # m/s
+    "DART_FRICTION_COEFF_THRESHOLD": 1e-3,
+    "DART_RESTITUTION_COEFF_THRESHOLD": 1e-3,
+}
+_ANSI = re.compile(r"\x1b\[[0-9;]*m")
+
+
+class _CapturedOutput:
+    """Points file descriptors 1 and/or 2 at one temporary file around engine calls, so
+    DART's C++ output never reaches the terminal; keeps it for inspection."""
+
+    def __init__(self):
+        self._file = tempfile.TemporaryFile()
+        self._fd = self._file.fileno()
+        self._saved = {1: os.dup(1), 2: os.dup(2)}  # where they pointed at build time
+        self._size = -1
+        self._summary = {"lines": 0, "first": ""}
+        # frees the descriptors if the simulation is dropped without close()
+        self._release = weakref.finalize(self, _release, self._file, list(self._saved.values()))
+
+    def begin(self, fds=(1, 2)) -> None:
+        for fd in fds:
+            os.dup2(self._fd, fd)
+
+    def end(self, fds=(1, 2)) -> None:
+        for fd in fds:
+            os.dup2(self._saved[fd], fd)
+
+    def summary(self) -> dict:
+        if self._file.closed:
+            return self._summary
+        size = os.fstat(self._fd).st_size
+        if size != self._size:
+            self._size = size
+            text = os.pread(self._fd, size, 0).decode("utf-8", "replace")
+            lines = [_ANSI.sub("", line).strip() for line in text.splitlines() if line.strip()]
+            self._summary = {"lines": len(lines), "first": lines[0] if lines else ""}
+        return self._summary
+
+    def close(self) -> None:
+        if not self._file.closed:
+            self.summary()
+            self._release()
+
+
+def _release(file, fds) -> None:
+    for fd in fds:
+        os.close(fd)
+    file.close()
+
+
+# --- geometry -----------------------------------------------------------------------------
+
+def _isometry(position=(0.0, 0.0, 0.0), rotation=np.eye(3)):
+    T = dart.math.Isometry3()
+    T.set_rotation(np.asarray(rotation, float))
+    T.set_translation(np.asarray(position, float))
+    return T
+
+
+def _rotation_z_to(n) -> np.ndarray:
+    """A rotation taking +z onto the unit vector n (Rodrigues' formula)."""
+    z = np.array([0.0, 0.0, 1.0])
+    axis = np.cross(z, n)
+    s, c = float(np.linalg.norm(axis)), float(z @ n)
+    if s < 1e-12:
+        return np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    kx, ky, kz = axis / s
+    K = np.array([[0.0, -kz, ky], [kz, 0.0, -kx], [-ky, kx, 0.0]])
+    return np.eye(3) + s * K + (1.0 - c) * K @ K
+
+
+def _frame(body: Body) -> tuple[np.ndarray, np.ndarray]:
+    """World position and rotation of the body frame; a plane's frame has z along its
+    normal and its origin on the plane."""
+    if isinstance(body.shape, Plane):
+        n = np.asarray(body.shape.normal, float)
+        return n * body.shape.offset, _rotation_z_to(n)
+    return (np.asarray(body.position, float),
+            dart.math.Quaternion(np.asarray(body.orientation, float)).to_rotation_matrix())
+
+
+def _shape(body: Body):
+    """The DART shape of a body and its pose in the body frame."""
+    s = body.shape
+    if isinstance(s, Sphere):
+        return D.SphereShape(s.radius), _isometry()
+    if isinstance(s, Box):
+        return D.BoxShape(2.0 * np.asarray(s.half_extents, float)), _isometry()
+    if isinstance(s, Circle):  # a cylinder; DART's axis is z, turned onto y
+        z_to_y = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+        return D.CylinderShape(s.radius, 2.0 * HALF_DEPTH_2D), _isometry(rotation=z_to_y)
+    if isinstance(s, Rect):
+        a, c = s.half_extents
+        return D.BoxShape([2.0 * a, 2.0 * HALF_DEPTH_2D, 2.0 * c]), _isometry()
+    if isinstance(s, Plane):  # the box lies below the frame's x-y plane
+        size = [2 * GROUND_HALF_WIDTH, 2 * GROUND_HALF_WIDTH, 2 * GROUND_HALF_THICKNESS]
+        return D.BoxShape(size), _isometry((0.0, 0.0, -GROUND_HALF_THICKNESS))
+    raise Unsupported(f"shape {s.kind} not available in the DART adapter")
+
+
+def _angle_about_y(body: Body) -> float:
+    w, x, y, z = body.orientation
+    if x != 0.0 or z != 0.0:
+        raise Unsupported(f"{body.name}.orientation = {body.orientation}: a 2D body may only be "
+                          "turned about y")
+    return 2.0 * math.atan2(y, w)
+
+
+def _mobile_joint(skeleton, body: Body, dimension: int, position, R) -> str:
+    """Hang a dynamic body on the joint that frees exactly its degrees of freedom; set its
+    pose and velocity. Where rotation is locked, the orientation sits on the child side of
+    the joint, so the joint coordinates are world translations."""
+    v = np.asarray(body.velocity, float)
+    w = np.asarray(body.angular_velocity, float)
+    if not body.rotates and np.any(w != 0.0):
+        raise Unsupported(f"{body.name}: rotates=False but angular_velocity = {body.angular_velocity}")
+    if dimension == 3 and body.rotates:
+        joint, _ = skeleton.createFreeJointAndBodyNodePair()
+        joint.setTransform(_isometry(position, R))
+        joint.setLinearVelocity(v)   # FreeJoint's default frames: world
+        joint.setAngularVelocity(w)
+        return "FreeJoint"
+    if dimension == 3:
+        joint, _ = skeleton.createTranslationalJointAndBodyNodePair()
+        joint.setTransformFromChildBodyNode(_isometry(rotation=R.T))
+        joint.setPositions(position)
+        joint.setVelocities(v)
+        return "TranslationalJoint"
+    theta = _angle_about_y(body)
+    if body.rotates:  # z-x plane: coordinates (z, x, angle about z cross x = y)
+        joint, _ = skeleton.createPlanarJointAndBodyNodePair()
+        joint.setZXPlane()
+        joint.setPositions(np.array([position[2], position[0], theta]))
+        joint.setVelocities(np.array([v[2], v[0], w[1]]))
+        return "PlanarJoint"
+    joint, _ = skeleton.createTranslationalJoint2DAndBodyNodePair()
+    joint.setZXPlane()
+    joint.setTransformFromChildBodyNode(_isometry(rotation=R.T))
+    joint.setPositions(np.array([position[2], position[0]]))
+    joint.setVelocities(np.array([v[2], v[0]]))
+    return "TranslationalJoint2D"
+
+
+# --- the simulation -----------------------------------------------------------------------
+
+class DartSimulation(Simulation):
+    def __init__(self, world, nodes, knobs, effects, iterations, output):
+        self._world = world
+        self._nodes = nodes          # dynamic body name -> BodyNode
+        self._knobs = knobs
+        self.effects = effects
+        self.iterations = iterations
+        self._output = output
+
+    @property
+    def knobs(self) -> dict:
+        self._knobs["captured_output"] = dict(self._output.summary())
+        return self._knobs
+
+    def step(self) -> None:
+        # Only fd 2 here: stepping warns through dtwarn/dterr (stderr). The two redirects
+        # cost 1-2 us per step, measured against a bare 2-4 us one-body world.step().
+        self._output.begin((2,))
+        try:
+            self._world.step()
+        finally:
+            self._output.end((2,))
+
+    def states(self) -> dict[str, np.ndarray]:
+        rows = {}
+        for name, node in self._nodes.items():
+            T = node.getWorldTransform()
+            rows[name] = state_row(T.translation(), T.quaternion().wxyz(),
+                                   node.getLinearVelocity(), node.getAngularVelocity())
+        return rows
+
+    def contact_forces(self) -> dict[tuple[str, str], float]:
+        # After a step, contact.force = normal * lambda / dt acts on collisionObject1 and
+        # the normal points into that body whatever the detector's sign, so
+        # force . normal = lambda / dt >= 0 is the normal force. Shape nodes carry the
+        # scene's body names.
+        forces: dict[tuple[str, str], float] = {}
+        for c in self._world.getLastCollisionResult().getContacts():
+            key = pair_key(c.collisionObject1.getShapeFrame().getName(),
+                           c.collisionObject2.getShapeFrame().getName())
+            forces[key] = forces.get(key, 0.0) + float(np.dot(c.force, c.normal))
+        return forces
+
+    def close(self) -> None:
+        if self._world is None:
+            return
+        self._output.begin()
+        try:
+            self._world.removeAllSkeletons()
+        finally:
+            self._output.end()
+        self._world = None
+        self._nodes = {}
+        self._output.close()
+
+
+class DartAdapter(Adapter):
+    name = "dart"
+    package = "dartpy"
+    capabilities = Capabilities(
+        dimensions=frozenset({2, 3}),
+        shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
+        native_restitution=True,
+        static_kinetic=False,
+        contact_forces=True,
+        iterations=True,
+    )
+
+    def version(self) -> str:
+        return dart.__version__
+
+    def build(self, scene: Scene, settings: Settings) -> Simulation:
+        why = self.capabilities.cannot_run(scene)
+        if why:
+            raise Unsupported(why)
+        for a, b in scene.contact_pairs():
+            mat = scene.material_of(a.name, b.name)
+            for what, value, limit in (("friction", mat.mu_s, "DART_FRICTION_COEFF_THRESHOLD"),
+                                       ("restitution", mat.e, "DART_RESTITUTION_COEFF_THRESHOLD")):
+                if 0.0 < value <= ENGINE_CONSTANTS[limit]:
+                    raise Unsupported(f"{what} {value} for {a.name}/{b.name}: DART treats a pair "
+                                      f"coefficient <= {ENGINE_CONSTANTS[limit]} as zero ({limit})")
+        mu = per_body_values(scene, lambda m: m.mu_s, "min", "friction")
+        e = per_body_values(scene, lambda m: m.e, "product", "restitution")
+        sweeps = DEFAULT_SWEEPS if settings.iterations is None else settings.iterations
+
+        output = _CapturedOutput()
+        output.begin()
+        try:
+            world, nodes, knobs = _build_world(scene, settings, mu, e, sweeps)
+        except BaseException:
+            output.end()
+            output.close()
+            raise
+        output.end()
+        return DartSimulation(world, nodes, knobs, _effects(scene, knobs), sweeps, output)
+
+
+def _effects(scene: Scene, knobs: dict) -> frozenset[str]:
+    """What the built world simulates (pairs at or below DART's thresholds were refused)."""
+    fx = set()
+    if any(g != 0.0 for g in scene.gravity):
+        fx.add("gravity")
+    pairs = scene.contact_pairs()
+    if pairs:
+        fx.add("contact")
+        mats = [scene.material_of(a.name, b.name) for a, b in pairs]
+        if any(m.e > 0.0 for m in mats):
+            fx.add("restitution")
+        if any(m.mu_s > 0.0 for m in mats):
+            fx.add("friction")
+    if any(j in ("FreeJoint", "PlanarJoint") for j in knobs["joints"].values()):
+        fx.add("rotation")
+    return frozenset(fx)
+
+
+def _build_world(scene: Scene, settings: Settings, mu: dict, e: dict, sweeps: int):
+    world = dart.simulation.World()
+    world.setTimeStep(settings.dt)
+    world.setGravity(np.asarray(scene.gravity, float))  # zero when the scene has none
+    world.setCollisionDetector(getattr(dart.simulation.CollisionDetectorType, DETECTOR.upper()))
+    world.setNumSimulationThreads(1)
+    sleeping = world.getDeactivationOptions()
+    sleeping.mEnabled = False
+    world.setDeactivationOptions(sleeping)
+
+    solver = world.getConstraintSolver()
+    options = dart.constraint.NsgsFrictionSolver.Options()
+    options.law = dart.constraint.NsgsFrictionSolver.Law.Coulomb
+    options.maxSweeps = sweeps
+    options.tolerance = SOLVER_TOLERANCE
+    solver.setBoxedLcpSolver(dart.constraint.NsgsFrictionSolver(options))
+    # No fallback: the default secondary (PGS) is box friction again; without one NSGS
+    # returns its best iterate.
+    solver.setSecondaryBoxedLcpSolver(None)
+    # Split impulse moves the push-out into a position pass (still 1 mm/s) but makes
+    # stack contact forces jump by several per cent at times; keep DART's default.
+    solver.setSplitImpulseEnabled(False)
+
+    knobs = {
+        "World.setTimeStep": settings.dt,
+        "World.setGravity": [float(g) for g in scene.gravity],
+        "World.setCollisionDetector": DETECTOR,
+        "World.setNumSimulationThreads": 1,
+        "DeactivationOptions.mEnabled": False,
+        "BoxedLcpConstraintSolver.setBoxedLcpSolver": "NsgsFrictionSolver",
+        "NsgsFrictionSolver.Options": {"law": "Coulomb", "maxSweeps": sweeps,
+                                       "tolerance": SOLVER_TOLERANCE,
+                                       "boxForAnisotropic": bool(options.boxForAnisotropic)},
+        "BoxedLcpConstraintSolver.setSecondaryBoxedLcpSolver": None,
+        "ConstraintSolver.setSplitImpulseEnabled": False,
+        "DynamicsAspect.setFrictionCoeff": {k: float(v) for k, v in mu.items()},
+        "DynamicsAspect.setRestitutionCoeff": {k: float(v) for k, v in e.items()},
+        "joints": {},
+        "Inertia": {},
+        "engine_constants (not settable)": dict(ENGINE_CONSTANTS),
+    }
+    nodes = {}
+    for body in scene.bodies:
+        skeleton = D.Skeleton(body.name)
+        position, R = _frame(body)
+        if body.static:
+            joint, node = skeleton.createWeldJointAndBodyNodePair()
+            joint.setTransformFromParentBodyNode(_isometry(position, R))
+            knobs["joints"][body.name] = "WeldJoint"
+        else:
+            knobs["joints"][body.name] = _mobile_joint(skeleton, body, scene.dimension, position, R)
+            node = skeleton.getBodyNode(0)
+            # the scene's inertia; DART's default is mass 1 and identity whatever the shape
+            node.setInertia(D.Inertia(body.mass, np.zeros(3), np.diag(body.principal_inertia)))
+            knobs["Inertia"][body.name] = {"mass": float(body.mass),
+                                           "moment": [float(i) for i in body.principal_inertia]}
+            nodes[body.name] = node
+        node.setName(body.name)
+        shape, pose = _shape(body)
+        shape_node = node.createShapeNode(shape)
+        shape_node.setName(body.name)
+        shape_node.setRelativeTransform(pose)
+        shape_node.createCollisionAspect()  # without these two aspects bodies pass through
+        aspect = shape_node.createDynamicsAspect()
+        aspect.setFrictionCoeff(mu[body.name])
+        aspect.setRestitutionCoeff(e[body.name])
+        if isinstance(body.shape, Plane):
+            knobs.setdefault("ground BoxShape half-extents", {})[body.name] = [
+                GROUND_HALF_WIDTH, GROUND_HALF_WIDTH, GROUND_HALF_THICKNESS]
+        world.addSkeleton(skeleton)
+    if scene.dimension == 2:
+        knobs["2D half-depth along y"] = HALF_DEPTH_2D
+    return world, nodes, knobs
