@@ -1,0 +1,184 @@
+"""Compliant contact: touching bodies overlap by xi and push apart with F = H xi^r
+(note 001, "Elastic Impact Details", "Hertz Constant", "Analyzing Newton's Cradle"):
+Hertz r = 1.5, Hooke r = 1. Both are elastic (e = 1 up to the integrator's error).
+
+Hertz constant. The note gives, for two spheres of one material and radius R,
+    H = 4/3 G / (1 - nu) sqrt(R / 2).
+The general form (Hertz 1882; Johnson, Contact Mechanics, eq. 4.23) is
+    H = 4/3 E* sqrt(R*),  1/E* = (1 - nu_1^2)/E_1 + (1 - nu_2^2)/E_2,  1/R* = 1/R_1 + 1/R_2.
+For equal spheres R* = R/2 and, with E = 2 G (1 + nu), E* = E / (2 (1 - nu^2)) = G / (1 - nu):
+the two agree. A plane is R = inf; a rigid body E = inf.
+
+The overlap is integrated with small steps (velocity Verlet: x += h v + h^2/2 a;
+v += h/2 (a + a')), which keeps the elastic energy to O(h^2) and so e = 1 to O(h^2);
+in the world the steps subdivide one outer step.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from reference_impl import lcp
+from reference_impl.lcp import Bodies, Contact, Rows, build_rows, inverse_mass_matrix, jacobian
+
+
+def hertz_constant_equal_spheres(G: float, nu: float, R: float) -> float:
+    """H = 4/3 G / (1 - nu) sqrt(R/2) (note 001, "Hertz Constant")."""
+    return 4.0 / 3.0 * G / (1.0 - nu) * math.sqrt(R / 2.0)
+
+
+def youngs_modulus(G: float, nu: float) -> float:
+    """E = 2 G (1 + nu) for an isotropic material."""
+    return 2.0 * G * (1.0 + nu)
+
+
+def effective_modulus(E_1: float, nu_1: float, E_2: float, nu_2: float) -> float:
+    """E* with 1/E* = (1 - nu_1^2)/E_1 + (1 - nu_2^2)/E_2 (E = inf: rigid)."""
+    return 1.0 / ((1.0 - nu_1**2) / E_1 + (1.0 - nu_2**2) / E_2)
+
+
+def effective_radius(R_1: float, R_2: float = math.inf) -> float:
+    """R* with 1/R* = 1/R_1 + 1/R_2 (R = inf: a plane)."""
+    return 1.0 / (1.0 / R_1 + 1.0 / R_2)
+
+
+def hertz_constant(E_star: float, R_star: float) -> float:
+    """H = 4/3 E* sqrt(R*)."""
+    return 4.0 / 3.0 * E_star * math.sqrt(R_star)
+
+
+@dataclass(frozen=True)
+class ForceLaw:
+    H: float          # N / m^r
+    r: float = 1.5    # 1.5 Hertz, 1.0 Hooke
+
+    def force(self, xi: float) -> float:
+        """Repulsive force at overlap xi; zero when apart (a contact cannot pull)."""
+        return self.H * xi**self.r if xi > 0.0 else 0.0
+
+
+@dataclass(frozen=True)
+class Substeps:
+    u: np.ndarray             # (N, 6) velocities at the end
+    displacement: np.ndarray  # (N, 6) integral of u over the steps (linear; small rotation)
+    xi: np.ndarray            # (C,) overlaps at the end
+    impulse: np.ndarray       # (C,) integral of each contact's force, N s
+
+
+def integrate(rows: Rows, bodies: Bodies, u: np.ndarray, a_ext: np.ndarray, xi: np.ndarray,
+              laws: list[ForceLaw], h: float, n: int) -> Substeps:
+    """n velocity-Verlet steps of h (kick, drift, kick) for frictionless normal rows
+    (lcp.py) pushing with laws[c].force(xi_c): u += h/2 (a_ext + M^-1 J^T F(xi));
+    xi -= h J u (J u > 0: separating); u += h/2 (a_ext + M^-1 J^T F(xi)). The contact
+    geometry (normal, arms) is held fixed over the n steps."""
+    def push(xi):
+        return np.array([law.force(x) for law, x in zip(laws, xi)])
+    J = jacobian(rows, len(bodies))               # dense: (C, 6N), few contacts
+    B = inverse_mass_matrix(bodies) @ J.T          # M^-1 J^T
+    U, A = u.ravel().copy(), a_ext.ravel()
+    xi = np.array(xi, dtype=float)
+    displacement, impulse = np.zeros_like(U), np.zeros(len(xi))
+    F = push(xi)
+    for _ in range(n):
+        U += 0.5 * h * (A + B @ F)
+        impulse += 0.5 * h * F
+        displacement += h * U
+        xi -= h * (J @ U)
+        F = push(xi)
+        U += 0.5 * h * (A + B @ F)
+        impulse += 0.5 * h * F
+    u, displacement = U.reshape(u.shape), displacement.reshape(u.shape)
+    return Substeps(u, displacement, xi, impulse)
+
+
+@dataclass(frozen=True)
+class CentralImpact:
+    v_1: float        # velocities after the bodies separate, m/s
+    v_2: float
+    xi_max: float     # largest overlap, m
+    duration: float   # time in contact, s
+
+
+def central_impact(m_1: float, m_2: float, v_1: float, v_2: float, law: ForceLaw,
+                   h: float, max_steps: int = 10_000_000) -> CentralImpact:
+    """Two bodies on a line (x) meeting at t = 0 with v_1 > v_2 (body 1 behind body 2),
+    the overlap starting at zero; integrated with `integrate` until they separate. The
+    contact's end is placed by linear interpolation of the overlap to zero."""
+    if not v_1 > v_2:
+        raise ValueError(f"v_1 = {v_1} <= v_2 = {v_2}: the bodies do not approach")
+    bodies = Bodies(np.array([1.0 / m_1, 1.0 / m_2]), np.zeros((2, 3, 3)))
+    x = np.array([1.0, 0.0, 0.0])
+    rows = build_rows([Contact(1, 0, np.zeros(3), np.zeros(3), x)], np.zeros((2, 6)))
+    u = np.zeros((2, 6))
+    u[:, 0] = v_1, v_2
+    xi, t, xi_max, no_force = np.zeros(1), 0.0, 0.0, np.zeros((2, 6))
+    for _ in range(max_steps):
+        step = integrate(rows, bodies, u, no_force, xi, [law], h, 1)
+        xi_max = max(xi_max, float(step.xi[0]))
+        if step.xi[0] <= 0.0:
+            end = t + h * xi[0] / (xi[0] - step.xi[0])
+            return CentralImpact(float(step.u[0, 0]), float(step.u[1, 0]), xi_max, end)
+        u, xi, t = step.u, step.xi, t + h
+    raise RuntimeError(f"still in contact after {max_steps} steps of {h} s")
+
+
+# --- world formulation "compliant" (interface: reference_impl/__init__.py) -----------------
+# Keys of config.params: "compliant_law" ("hertz", default, or "hooke"); for Hertz the
+# material of every body, "compliant_E" (Young's modulus, Pa, default steel 200e9) and
+# "compliant_nu" (Poisson's ratio, default 0.3); for Hooke "compliant_k" (N/m per contact
+# point, default 1e7); "compliant_substeps" (velocity-Verlet steps per outer step,
+# default 1000). Contacts must be found before they overlap: set config.margin to at
+# least the largest approach in one step (v dt), else a contact starts deep and the force
+# law launches the bodies apart.
+
+DEFAULTS = {"compliant_law": "hertz", "compliant_E": 200e9, "compliant_nu": 0.3,
+            "compliant_k": 1e7, "compliant_substeps": 1000}
+
+
+def _param(config, key):
+    return config.params.get(key, DEFAULTS[key])
+
+
+def _radius(body) -> float:
+    return body.shape.radius if body.shape.kind == "sphere" else math.inf
+
+
+def unsupported(world) -> str | None:
+    materials = (world.material, *world.pair_materials.values())
+    law = _param(world.config, "compliant_law")
+    if law not in ("hertz", "hooke"):
+        return f"compliant_law = {law!r}: 'hertz' or 'hooke'"
+    inelastic = sorted({m.e for m in materials if m.e != 1.0})
+    if inelastic:
+        return (f"restitution e = {', '.join(f'{e:g}' for e in inelastic)} asked: Hertz and Hooke "
+                "contact (note 001) are elastic, e = 1")
+    if any(m.mu_s > 0.0 for m in materials):
+        return "friction asked: the compliant formulation has a normal force law only"
+    if law == "hertz":
+        kinds = sorted({b.shape.kind for b in world.bodies} - {"sphere", "plane"})
+        if kinds:
+            return f"Hertz's law holds for spheres on spheres or planes, not {', '.join(kinds)}"
+    return None
+
+
+def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
+    rows, data, u = lcp.world_rows(contacts, bodies)
+    rows = lcp.normal_rows(rows)
+    if _param(config, "compliant_law") == "hertz":
+        E, nu = _param(config, "compliant_E"), _param(config, "compliant_nu")
+        E_star = effective_modulus(E, nu, E, nu)
+        laws = [ForceLaw(hertz_constant(E_star, effective_radius(_radius(c.a), _radius(c.b))), 1.5)
+                for c in contacts]
+    else:
+        laws = [ForceLaw(_param(config, "compliant_k"), 1.0)] * len(contacts)
+    n = int(_param(config, "compliant_substeps"))
+    W = np.array([[*body.v0, *body.w0] for body in bodies], dtype=float).reshape(-1, 6)
+    step = integrate(rows, data, W, (u - W) / dt, np.array([c.depth for c in contacts]), laws, dt / n, n)
+    lcp.apply_velocity_change(bodies, step.u - u)
+    # the world moves positions by dt (v + vp): make that the substeps' displacement
+    lcp.apply_velocity_change(bodies, step.displacement / dt - step.u, pseudo=True)
+    for c, P in zip(contacts, step.impulse):
+        c.Pn, c.Pt = float(P), [0.0] * len(c.tangents)
+    return ("substeps",)

@@ -1,0 +1,149 @@
+"""An exact pivoting solver for small contact LCPs: Lemke's complementary pivoting method,
+used as the check on pgs.py (note 000, "Solving the LCP system": PGS is "popular and
+simple", this is its exact counterpart; note 001, "Use spatial LCP solver").
+
+lemke(M, q) finds z with w = M z + q >= 0, z >= 0, z . w = 0. With a lexicographic ratio
+test it cannot cycle, and for the positive semi-definite M of frictionless contact it
+finds a solution whenever one exists. Cost: O(n^2) per pivot, a few n pivots typically.
+
+contact_lcp(A, b, rows) states lcp.py's boxed problem in that form. Friction set: the
+same pyramid as lcp.py, written as the standard friction-polyhedron LCP (Stewart and
+Trinkle 1996; Anitescu and Potra 1997): the tangent impulse is D beta, beta >= 0, with
+the four directions d = +-t1 +-t2 (the box's corners, so conv(mu gamma_n d) is exactly
+the box |gamma_t1|, |gamma_t2| <= mu gamma_n; +-t in a 2D scene), and a slack speed
+lambda per contact:
+
+    w_n = A_nn gamma_n + A_nt D beta - b_n                       >= 0  _|_  gamma_n >= 0
+    w_D = D^T A_tn gamma_n + D^T A_tt D beta - D^T b_t + E lambda >= 0  _|_  beta >= 0
+    w_l = mu gamma_n - E^T beta                                  >= 0  _|_  lambda >= 0
+
+At a solution lambda = |v_t1| + |v_t2| and beta rests on the corners that oppose the
+sliding velocity most: maximal dissipation over the box, which is what PGS's per-row
+clamps converge to.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from reference_impl import lcp
+from reference_impl.lcp import Rows
+
+
+class LemkeFailure(RuntimeError):
+    """Ray termination or the pivot budget ran out: no solution found."""
+
+
+def lemke(M: np.ndarray, q: np.ndarray, max_pivots: int | None = None) -> np.ndarray:
+    M, q = np.asarray(M, dtype=float), np.asarray(q, dtype=float)
+    n = len(q)
+    if n == 0 or np.all(q >= 0.0):
+        return np.zeros(n)
+    max_pivots = 50 * (n + 1) if max_pivots is None else max_pivots
+    # tableau of  I w - M z - e z0 = q ; columns: w (0..n-1), z (n..2n-1), z0 (2n), rhs
+    T = np.hstack([np.eye(n), -M, -np.ones((n, 1)), q[:, None]])
+    basis = list(range(n))  # basic variable of each row
+    z0 = 2 * n
+    scale = max(1.0, float(np.max(np.abs(M))), float(np.max(np.abs(q))))
+    tiny = 1e-12 * scale
+
+    def pivot(row: int, col: int) -> int:
+        T[row] /= T[row, col]
+        others = np.arange(n) != row
+        T[others] -= np.outer(T[others, col], T[row])
+        leaving = basis[row]
+        basis[row] = col
+        # the basic solution must stay >= 0; rounding leaves -1e-16-sized entries that
+        # would turn into negative ratios and steer the next pivots: set them to zero
+        rhs = T[:, -1]
+        rhs[(rhs < 0.0) & (rhs > -tiny)] = 0.0
+        return leaving
+
+    # z0 enters where q is most negative: afterwards every rhs is >= 0
+    leaving = pivot(int(np.argmin(T[:, -1])), z0)
+    for _ in range(max_pivots):
+        entering = leaving + n if leaving < n else leaving - n  # complement of what left
+        col = T[:, entering]
+        candidates = np.flatnonzero(col > tiny)
+        if candidates.size == 0:
+            raise LemkeFailure("ray termination: the LCP has no solution Lemke can reach")
+        leaving = pivot(_ratio_test(T, candidates, col, basis, z0, n), entering)
+        if leaving == z0:
+            z = np.zeros(2 * n + 1)
+            z[basis] = T[:, -1]
+            return np.maximum(z[n:2 * n], 0.0)
+    raise LemkeFailure(f"no solution after {max_pivots} pivots")
+
+
+def _ratio_test(T: np.ndarray, candidates: np.ndarray, col: np.ndarray, basis: list[int],
+                z0: int, n: int) -> int:
+    """The leaving row: minimum of rhs / col; ties broken lexicographically by the rows of
+    B^-1 / col (B^-1 sits in the w columns), which rules out cycling on degenerate
+    problems such as a box resting on four corners. z0 leaves whenever it may."""
+    ratio = T[candidates, -1] / col[candidates]
+    tied = candidates[ratio <= ratio.min() + 1e-12 * (1.0 + abs(ratio.min()))]
+    for r in tied:
+        if basis[r] == z0:
+            return int(r)
+    for j in range(n):
+        if tied.size == 1:
+            break
+        key = T[tied, j] / col[tied]
+        tied = tied[key <= key.min() + 1e-12 * (1.0 + abs(key.min()))]
+    return int(tied[0])
+
+
+# the corners d of the box |gamma_t,k| <= 1 in a contact's tangent plane (columns), by
+# the number of tangent rows: 1 in a 2D scene (a segment), 2 in 3D (a square)
+CORNERS = {1: np.array([[1.0, -1.0]]),
+           2: np.array([[1.0, 1.0, -1.0, -1.0], [1.0, -1.0, 1.0, -1.0]])}
+
+
+def contact_lcp(A: np.ndarray, b: np.ndarray, rows: Rows) -> np.ndarray:
+    """gamma solving lcp.py's boxed LCP A gamma - b exactly (friction pyramid)."""
+    normal_rows = np.flatnonzero(rows.is_normal)
+    tangents = [np.flatnonzero((rows.normal == c) & ~rows.is_normal) for c in normal_rows]
+    frictional = [(j, t) for j, t in enumerate(tangents) if t.size]
+    if not frictional:
+        return lemke(A, -b)
+    tangent_rows = np.concatenate([t for _, t in frictional])
+    nn, nf = len(normal_rows), len(frictional)
+    n_beta = sum(CORNERS[t.size].shape[1] for _, t in frictional)
+    D = np.zeros((len(tangent_rows), n_beta))  # gamma_t = D beta
+    E = np.zeros((n_beta, nf))                 # sums each contact's beta
+    U = np.zeros((nf, nn))                     # mu gamma_n of each frictional contact
+    row = col = 0
+    for c, (j, t) in enumerate(frictional):
+        corners = CORNERS[t.size]
+        D[row:row + t.size, col:col + corners.shape[1]] = corners
+        E[col:col + corners.shape[1], c] = 1.0
+        U[c, j] = rows.mu[t[0]]
+        row, col = row + t.size, col + corners.shape[1]
+    A_nn, A_nt = A[np.ix_(normal_rows, normal_rows)], A[np.ix_(normal_rows, tangent_rows)]
+    A_tn, A_tt = A[np.ix_(tangent_rows, normal_rows)], A[np.ix_(tangent_rows, tangent_rows)]
+    M = np.block([[A_nn, A_nt @ D, np.zeros((nn, nf))],
+                  [D.T @ A_tn, D.T @ A_tt @ D, E],
+                  [U, -E.T, np.zeros((nf, nf))]])
+    q = np.concatenate([-b[normal_rows], -D.T @ b[tangent_rows], np.zeros(nf)])
+    z = lemke(M, q)
+    gamma = np.zeros(len(rows))
+    gamma[normal_rows] = z[:nn]
+    gamma[tangent_rows] = D @ z[nn:nn + n_beta]
+    return gamma
+
+
+def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
+    """World formulation "lemke" (interface: reference_impl/__init__.py): the same LCP as
+    formulation "pgs" (see pgs.solve), solved exactly; the overlap repair on
+    pseudo-velocities is solved exactly too. Dense: meant for small systems."""
+    rows, data, u = lcp.world_rows(contacts, bodies)
+    gamma = contact_lcp(lcp.delassus(rows, data), lcp.world_rhs(contacts, rows, u), rows)
+    lcp.apply_velocity_change(bodies, lcp.velocity_change(rows, data, gamma))
+    lcp.store_impulses(contacts, gamma)
+    stages = ["velocity", "friction"] if np.any(~rows.is_normal) else ["velocity"]
+    bias = lcp.world_bias(contacts)
+    if np.any(bias > 0.0):
+        stages.append("position")
+        normal = lcp.normal_rows(rows)
+        P = lemke(lcp.delassus(normal, data), -bias)
+        lcp.apply_velocity_change(bodies, lcp.velocity_change(normal, data, P), pseudo=True)
+    return tuple(stages)

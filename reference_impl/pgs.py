@@ -1,0 +1,128 @@
+"""Projected Gauss-Seidel for the contact LCP of lcp.py (note 000, "Solving the LCP system",
+"PGS iteration applied to contact", "PGS for friction"; note 004, "SPOOK - iterations").
+
+Row i is solved assuming the others are right and clamped to its bounds:
+    gamma_i <- clamp(gamma_i - ((A + Sigma) gamma - b)_i / (A_ii + Sigma_ii), lo_i, hi_i)
+with lo, hi = 0, inf on normal rows and -+ mu gamma_n on tangent rows (the friction
+pyramid, see lcp.py). Sigma is SPOOK's regularisation (zero for the impact LCP).
+
+Per-body sums ("a nice trick for maintaining these sums efficiently per object", note 000):
+we keep du = M^-1 J^T gamma per body, so (A gamma)_i = J_i du reads only the two bodies
+of row i, and a change of gamma_i updates only their two entries. One sweep therefore
+costs O(rows), not O(rows^2), and A is never formed.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from reference_impl import lcp
+from reference_impl.lcp import Bodies, Rows, inverse_mass_times_rows, velocity_change
+
+
+@dataclass(frozen=True)
+class PGSSettings:
+    iterations: int = 1000     # sweeps at most
+    # stop after a sweep whose largest velocity correction (A_ii + Sigma_ii) |d gamma_i|
+    # is below this, in m/s; 1e-13 sits just above the rounding of O(1) velocities
+    tolerance: float = 1e-13
+
+    def __post_init__(self):
+        if not isinstance(self.iterations, int) or self.iterations < 1:
+            raise ValueError(f"iterations = {self.iterations!r}: must be a whole number >= 1")
+        if not self.tolerance >= 0:
+            raise ValueError(f"tolerance = {self.tolerance!r}: must be >= 0")
+
+
+@dataclass(frozen=True)
+class PGSResult:
+    gamma: np.ndarray   # (K,) row impulses
+    du: np.ndarray      # (N, 6) velocity change M^-1 J^T gamma per body
+    sweeps: int         # sweeps done
+    change: float       # largest velocity correction of the last sweep, m/s
+
+
+def projected_gauss_seidel(rows: Rows, bodies: Bodies, b: np.ndarray,
+                           settings: PGSSettings = PGSSettings(), sigma: np.ndarray | None = None, gamma0: np.ndarray | None = None) -> PGSResult:
+    """Projected Gauss-Seidel on (A + Sigma) gamma - b with the bounds of lcp.bounds,
+    starting from gamma0 (warm start) or zero. Rows are swept in their stored order."""
+    K, N = len(rows), len(bodies)
+    W_a, W_b = inverse_mass_times_rows(rows, bodies)
+    sig = np.zeros(K) if sigma is None else np.asarray(sigma, dtype=float)
+    diag = np.einsum("kj,kj->k", rows.J_a, W_a) + np.einsum("kj,kj->k", rows.J_b, W_b) + sig
+    gamma = np.zeros(K) if gamma0 is None else np.array(gamma0, dtype=float)
+    du = np.zeros((N + 1, 6))  # row N: the static world (index -1), never moves (its W is 0)
+    du[:N] = velocity_change(rows, bodies, gamma)
+
+    # plain Python lists: the sweep is scalar work, and list indexing is what makes it cheap
+    Ja, Jb, Wa, Wb = rows.J_a.tolist(), rows.J_b.tolist(), W_a.tolist(), W_b.tolist()
+    ia, ib, normal = rows.a.tolist(), rows.b.tolist(), rows.normal.tolist()
+    mu, rhs, sg = rows.mu.tolist(), np.asarray(b, dtype=float).tolist(), sig.tolist()
+    dg = diag.tolist()
+    inv_diag = [1.0 / d if d > 0.0 else 0.0 for d in dg]
+    g, v = gamma.tolist(), du.tolist()
+
+    sweeps, change = 0, np.inf
+    while sweeps < settings.iterations and change > settings.tolerance:
+        sweeps += 1
+        change = 0.0
+        for k in range(K):  # O(1) per row: two bodies' 6-vectors
+            ja, jb, da, db = Ja[k], Jb[k], v[ia[k]], v[ib[k]]
+            r = (ja[0] * da[0] + ja[1] * da[1] + ja[2] * da[2] + ja[3] * da[3] + ja[4] * da[4]
+                 + ja[5] * da[5] + jb[0] * db[0] + jb[1] * db[1] + jb[2] * db[2] + jb[3] * db[3]
+                 + jb[4] * db[4] + jb[5] * db[5] + sg[k] * g[k] - rhs[k])
+            new = g[k] - r * inv_diag[k]
+            nk = normal[k]
+            if nk == k:
+                if new < 0.0:
+                    new = 0.0
+            else:
+                limit = mu[k] * g[nk]
+                new = -limit if new < -limit else (limit if new > limit else new)
+            d = new - g[k]
+            if d != 0.0:
+                g[k] = new
+                wa, wb = Wa[k], Wb[k]
+                for j in range(6):
+                    da[j] += wa[j] * d
+                    db[j] += wb[j] * d
+                step = abs(d) * dg[k]
+                if step > change:
+                    change = step
+    du = np.array(v[:N]).reshape(N, 6)
+    return PGSResult(np.array(g), du, sweeps, float(change))
+
+
+def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
+    """World formulation "pgs" (interface: reference_impl/__init__.py). The velocity-level
+    LCP of lcp.py on the world's contacts (targets of lcp.world_rhs; friction pyramid on
+    the world's tangent rows, mu_s while a contact sticks, mu_k while it slides), by PGS
+    from last step's impulses (config.warm_start), at most config.iterations sweeps.
+    Then note 000's overlap repair ("bias target velocity in normal direction proportional
+    to overlap") as a frictionless PGS on pseudo-velocities (split impulse, as the default
+    formulation does, so the repair moves positions but adds no kinetic energy)."""
+    rows, data, u = lcp.world_rows(contacts, bodies)
+    warm = config.warm_start and any(c.Pn != 0.0 for c in contacts)
+    result = projected_gauss_seidel(rows, data, lcp.world_rhs(contacts, rows, u),
+                                    PGSSettings(config.iterations, config.tolerance),
+                                    gamma0=lcp.world_impulses(contacts) if warm else None)
+    lcp.apply_velocity_change(bodies, result.du)
+    lcp.store_impulses(contacts, result.gamma)
+    stages = ["warm_start"] if warm else []
+    stages += ["velocity", "friction"] if np.any(~rows.is_normal) else ["velocity"]
+    if repair_overlap(contacts, bodies, rows, data, config):
+        stages.append("position")
+    return tuple(stages)
+
+
+def repair_overlap(contacts, bodies, rows: Rows, data: Bodies, config) -> bool:
+    """Note 000's overlap repair on pseudo-velocities (targets: lcp.world_bias), by PGS on
+    the normal rows; sets the bodies' vp, wp. Returns whether there was overlap to repair."""
+    bias = lcp.world_bias(contacts)
+    if not np.any(bias > 0.0):
+        return False
+    pseudo = projected_gauss_seidel(lcp.normal_rows(rows), data, bias,
+                                    PGSSettings(config.position_iterations, config.tolerance))
+    lcp.apply_velocity_change(bodies, pseudo.du, pseudo=True)
+    return True

@@ -1,0 +1,156 @@
+"""One contact at a time: the impulse for a particle against a wall, for two particles,
+and for two rigid bodies (collision matrix K and the Newton-Coulomb impulse).
+
+Sign convention throughout (that of notes 000 and 004; note 001 is the same with its
+body 2 as our a): the impulse +p acts on body a and -p on body b; the normal n points
+from b towards a; u = u_a - u_b is the relative velocity of the contact points, so
+u . n < 0 means the bodies approach. A static body (wall, ground) has 1/m = 0 and a zero
+inverse inertia. Every function returns the impulse p on body a.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def _split(u: np.ndarray, n: np.ndarray) -> tuple[float, np.ndarray]:
+    """Normal speed u_n = u . n and tangential vector u_t = u - u_n n."""
+    u_n = float(u @ n)
+    return u_n, u - u_n * n
+
+
+# --- particles (note 002, "Particle-obstacle collision (friction)" and "Restitution and
+# friction in two-particle case") ---------------------------------------------------------
+
+def particle_pair_impulse(m_a: float, m_b: float, v_a, v_b, n, c_r: float, mu: float) -> np.ndarray:
+    """Impulse on particle a: normal gamma = -(1 + c_r) m_eff v_n with
+    m_eff = (1/m_a + 1/m_b)^-1, friction gamma_f = min(mu gamma, m_eff |v_t|) against the
+    tangential relative velocity (note 002). The note writes m v_t for two particles; the
+    impulse that zeroes the relative tangential velocity is m_eff v_t (re-derived).
+    m_b = math.inf makes b a fixed obstacle (m_eff = m_a)."""
+    v_a, v_b, n = (np.asarray(x, dtype=float) for x in (v_a, v_b, n))
+    v_n, v_t = _split(v_a - v_b, n)
+    if v_n >= 0.0:  # separating or resting: no collision
+        return np.zeros(3)
+    m_eff = 1.0 / (1.0 / m_a + 1.0 / m_b)
+    gamma = -(1.0 + c_r) * m_eff * v_n
+    speed_t = float(np.linalg.norm(v_t))
+    if speed_t == 0.0:
+        return gamma * n
+    gamma_f = min(mu * gamma, m_eff * speed_t)
+    return gamma * n - gamma_f * v_t / speed_t
+
+
+def particle_obstacle_impulse(m: float, v, n, c_r: float, mu: float) -> np.ndarray:
+    """Particle against a fixed obstacle (note 002): v_n+ = -c_r v_n, so
+    gamma = -(1 + c_r) m v_n (the slide's "gamma = -(1 + c_r) v_n" drops the mass), and
+    gamma_f = min(mu gamma, m v_t)."""
+    return particle_pair_impulse(m, math.inf, v, np.zeros(3), n, c_r, mu)
+
+
+# --- rigid bodies: the collision matrix (note 004, "The collision matrix"; note 001,
+# "Inverse Mass Matrix of Contact") -------------------------------------------------------
+
+def cross_matrix(r) -> np.ndarray:
+    """r* with r* x = r x x."""
+    x, y, z = (float(c) for c in r)
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def body_collision_matrix(m_inv: float, I_inv, r) -> np.ndarray:
+    """K_i = 1/M_i 1 - r_i* I_i^-1 r_i* (note 004; note 001 writes r*^T I^-1 r*, the same
+    matrix since r*^T = -r*): the change of the contact point's velocity per unit impulse."""
+    r_star = cross_matrix(r)
+    return m_inv * np.eye(3) - r_star @ np.asarray(I_inv, dtype=float) @ r_star
+
+
+def collision_matrix(m_inv_a: float, I_inv_a, r_a, m_inv_b: float, I_inv_b, r_b) -> np.ndarray:
+    """K = K_a + K_b: the change of the relative contact velocity u is K p (note 001)."""
+    return body_collision_matrix(m_inv_a, I_inv_a, r_a) + body_collision_matrix(m_inv_b, I_inv_b, r_b)
+
+
+def newton_coulomb_impulse(K, u, n, e: float, mu_s: float, mu_k: float) -> np.ndarray:
+    """The Newton-Coulomb impulse (note 004, "Newton Coulomb impulses for rigid bodies";
+    note 001, "Impact with Friction - Calculations").
+
+    Try sticking: u'_t = 0, u'_n = -e u_n, p = K^-1 (u' - u). Keep it if it lies in the
+    static cone |p_t| <= mu_s p_n. Otherwise slide along t = u_t / |u_t| with
+    p = j (n - mu_k t), j = -(1 + e) u_n / n^T K (n - mu_k t).
+
+    The model keeps one sliding direction for the whole impact. When K couples normal and
+    tangential directions strongly enough that the slip would reverse during the impact,
+    a single direction is not Coulomb friction any more and the impulse can add kinetic
+    energy (measured in tests/reference/test_ref_formulations_single_contact.py). With no
+    tangential velocity (u_t = 0) the note's t is undefined; we slide against the sticking
+    impulse's tangential part, t = -p_t / |p_t|, which is the note's t whenever both exist
+    and the slip does not reverse.
+    """
+    K, u, n = (np.asarray(x, dtype=float) for x in (K, u, n))
+    u_n, u_t = _split(u, n)
+    if u_n >= 0.0:  # separating or resting: no impact
+        return np.zeros(3)
+    u_target = -e * u_n * n
+    p = np.linalg.solve(K, u_target - u)
+    p_n, p_t = _split(p, n)
+    if np.linalg.norm(p_t) <= mu_s * p_n:
+        return p
+    speed_t = float(np.linalg.norm(u_t))
+    t = u_t / speed_t if speed_t > 0.0 else -p_t / float(np.linalg.norm(p_t))
+    denominator = float(n @ K @ (n - mu_k * t))
+    if denominator <= 0.0:
+        raise ValueError(f"n^T K (n - mu_k t) = {denominator:.3g} <= 0: no sliding impulse can "
+                         f"stop the approach (mu_k = {mu_k} too large for this contact's K)")
+    j = -(1.0 + e) * u_n / denominator
+    return j * (n - mu_k * t)
+
+
+def energy_change(p, u_minus, du) -> float:
+    """dE = dp . (v_rel- + dv_rel / 2) (note 001, "Change in Total Energy"): the change of
+    the two bodies' kinetic energy from the impulse p, given the relative contact velocity
+    before (u_minus) and its change du = K p."""
+    p, u_minus, du = (np.asarray(x, dtype=float) for x in (p, u_minus, du))
+    return float(p @ (u_minus + 0.5 * du))
+
+
+# --- world formulation "single_contact" (interface: reference_impl/__init__.py) -------------
+
+def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
+    """Note 004's pairwise loop ("loop through the collision set and solve collisions
+    pair-wise, and hope..."): sweep the contacts in the world's order; a contact whose
+    normal velocity is below its target (contact.target: -e vn0 when it approached at the
+    start of the step, else 0) by more than config.tolerance gets the Newton-Coulomb
+    impulse that lifts it to the target (e_eff = -target / u_n); until a sweep finds none,
+    at most config.iterations sweeps. Impulses only push and are never taken back (no
+    accumulation, unlike sequential impulses). Then the overlap repair of
+    pgs.repair_overlap."""
+    from reference_impl import lcp, pgs  # pgs/lcp import nothing from here
+    for c in contacts:
+        c.Pn, c.Pt = 0.0, [0.0] * len(c.tangents)
+    for _ in range(config.iterations):
+        worst = 0.0
+        for c in contacts:
+            u_n = c.normal.velocity()
+            if u_n >= c.target - config.tolerance:
+                continue
+            worst = max(worst, c.target - u_n)
+            a, b, n = c.a, c.b, np.asarray(c.n, dtype=float)
+            r_a, r_b = (np.subtract(c.point, body.x) for body in (a, b))
+            # our body a is the world's b (pushed along +n, see the module docstring)
+            K = collision_matrix(b.inv_mass, b.inv_I, r_b, a.inv_mass, a.inv_I, r_a)
+            u = (np.add(b.v, np.cross(b.w, r_b)) - np.add(a.v, np.cross(a.w, r_a)))
+            p = newton_coulomb_impulse(K, u, n, -c.target / u_n, c.mu_s, c.mu_k)
+            for body, r, sign in ((b, r_b, 1.0), (a, r_a, -1.0)):
+                dv = sign * body.inv_mass * p
+                dw = sign * np.asarray(body.inv_I) @ np.cross(r, p)
+                for k in range(3):
+                    body.v[k] += dv[k]
+                    body.w[k] += dw[k]
+            c.Pn += float(p @ n)
+            c.Pt = [P + float(p @ np.asarray(row.d)) for P, row in zip(c.Pt, c.tangents)]
+        if worst == 0.0:
+            break
+    stages = ["impulses"]
+    if pgs.repair_overlap(contacts, bodies, *lcp.world_rows(contacts, bodies)[:2], config):
+        stages.append("position")
+    return tuple(stages)

@@ -1,0 +1,109 @@
+"""SPOOK: contact as a stiff, critically damped constraint solved for impulses (note 004,
+"Contact stabilization - SPOOK scheme"):
+
+    (G M^-1 G^T + Sigma) lambda = -a q - b G W - h G M^-1 f
+    eps = 4 / (k h^2 (1 + 4d)),  a = 4 / (h (1 + 4d)),  b = 4d / (1 + 4d)
+    W' = W + M^-1 (G^T lambda + h f)
+
+with G the contact Jacobian (lcp.py's J), W the velocity at the start of the step, q the
+gap of each contact (negative when overlapping), f the external forces, k the contact's
+stiffness and d the number of steps over which an overlap is restored. Sigma = eps on
+normal rows. The slides print "-a/h q" (1D) and "-a G q" (general) with a = 4/(h(1+4d)):
+both are garbled; a q already has units of velocity, as lambda (an impulse) times
+1/m does. Re-derived from the regularised step [M, -G^T; G, Sigma] [W'; lambda] =
+[M W + h f; -a q + (1 - b) G W]. At rest (W' = W = 0) lambda = load h and
+-q = eps lambda / a = load / k: the overlap settles at the spring's own deflection.
+
+Friction rows (lcp.py's pyramid) have no position to restore: their rhs is
+-G_t W - h G_t M^-1 f (target: no tangential velocity after the step) and no
+regularisation. SPOOK has no restitution: contacts are inelastic.
+Solved by projected Gauss-Seidel (pgs.py) on the mixed LCP, as the note says.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from reference_impl import lcp, pgs
+from reference_impl.lcp import Bodies, Rows, row_velocity
+
+
+# world defaults: a stiff contact (1 kg resting on 4 corners sinks 0.25 um) restored over
+# 4 steps
+DEFAULT_K = 1e8   # N/m per contact point
+DEFAULT_D = 4.0   # steps
+
+
+@dataclass(frozen=True)
+class SpookSettings:
+    k: float                  # contact stiffness, N/m
+    d: float = 4.0            # relaxation time in steps (tau = d h)
+    pgs: pgs.PGSSettings = field(default_factory=pgs.PGSSettings)
+
+    def __post_init__(self):
+        if not self.k > 0:
+            raise ValueError(f"k = {self.k!r}: the contact stiffness must be > 0 (N/m)")
+        if not self.d >= 0:
+            raise ValueError(f"d = {self.d!r}: the relaxation (in steps) must be >= 0")
+
+
+@dataclass(frozen=True)
+class SpookStep:
+    u: np.ndarray       # (N, 6) velocities after the step
+    lam: np.ndarray     # (K,) row impulses over the step
+    sweeps: int
+
+
+def parameters(k: float, d: float, h: float) -> tuple[float, float, float]:
+    """(eps, a, b) of note 004."""
+    eps = 4.0 / (k * h * h * (1.0 + 4.0 * d))
+    a = 4.0 / (h * (1.0 + 4.0 * d))
+    b = 4.0 * d / (1.0 + 4.0 * d)
+    return eps, a, b
+
+
+def step_velocities(rows: Rows, bodies: Bodies, W: np.ndarray, a_ext: np.ndarray, q: np.ndarray,
+                    h: float, settings: SpookSettings, lam0: np.ndarray | None = None) -> SpookStep:
+    """One SPOOK velocity update. W (N, 6) is the velocity at the start of the step,
+    a_ext = M^-1 f (N, 6) the external acceleration (linear; angular), q the gap of each
+    contact, one per normal row in row order; lam0 warm-starts PGS."""
+    eps, a, b = parameters(settings.k, settings.d, h)
+    normal = rows.is_normal
+    GW = row_velocity(rows, W)
+    gap = np.zeros(len(rows))
+    gap[normal] = q
+    rhs = np.where(normal, -a * gap - b * GW, -GW) - h * row_velocity(rows, a_ext)
+    sigma = np.where(normal, eps, 0.0)
+    result = pgs.projected_gauss_seidel(rows, bodies, rhs, settings.pgs, sigma=sigma, gamma0=lam0)
+    return SpookStep(W + result.du + h * a_ext, result.gamma, result.sweeps)
+
+
+def unsupported(world) -> str | None:
+    """SPOOK is an inelastic contact model: it cannot give a pair restitution."""
+    bouncy = sorted({m.e for m in (world.material, *world.pair_materials.values()) if m.e > 0.0})
+    if bouncy:
+        return (f"restitution e = {', '.join(f'{e:g}' for e in bouncy)} asked: SPOOK (note 004) "
+                "models contact as a critically damped spring-constraint, which cannot bounce")
+    return None
+
+
+def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
+    """World formulation "spook" (interface: reference_impl/__init__.py). Keys of
+    config.params: "spook_k" (contact stiffness per contact point, N/m, default
+    DEFAULT_K) and "spook_d" (relaxation in steps, default DEFAULT_D). W is the velocity
+    before external forces (body.v0, body.w0), h M^-1 f what the world added since, q the
+    contacts' -depth. Warm started from last step's impulses (config.warm_start); at most
+    config.iterations PGS sweeps. No pseudo-velocities: SPOOK restores overlap itself."""
+    rows, data, u = lcp.world_rows(contacts, bodies)
+    W = np.array([[*body.v0, *body.w0] for body in bodies], dtype=float).reshape(-1, 6)
+    settings = SpookSettings(k=float(config.params.get("spook_k", DEFAULT_K)),
+                             d=float(config.params.get("spook_d", DEFAULT_D)),
+                             pgs=pgs.PGSSettings(config.iterations, config.tolerance))
+    warm = config.warm_start and any(c.Pn != 0.0 for c in contacts)
+    step = step_velocities(rows, data, W, (u - W) / dt, -np.array([c.depth for c in contacts]), dt,
+                           settings, lcp.world_impulses(contacts) if warm else None)
+    lcp.apply_velocity_change(bodies, step.u - u)
+    lcp.store_impulses(contacts, step.lam)
+    stages = ["warm_start"] if warm else []
+    return tuple(stages + (["velocity", "friction"] if np.any(~rows.is_normal) else ["velocity"]))
