@@ -12,7 +12,7 @@ Imports numpy only; nothing from `cases`, `adapters` or `physval`. Settings live
 
 One step of `World.step(dt)` (note 001, "simulation loop"):
 
-1. collide: broad phase, narrow phase (shapes up to `config.margin` apart, plus the half
+1. collide: broad phase, narrow phase (shapes up to `config.margin` apart, plus the
    step each body can travel); each contact gets its rows (`contact.prepare`), its
    approach velocity `vn0` measured now (before external forces), its normal `target`
    velocity (restitution, speculative gaps: `Contact.normal_target`; contacts that touch

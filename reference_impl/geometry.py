@@ -208,35 +208,23 @@ CLIP_TOLERANCE = 1e-6  # m, far below any lever arm that matters
 
 def _clip(polygon, centre, axis, half, tag):
     """Sutherland-Hodgman: keep the part of `polygon` [(point, feature)] with
-    |(x - centre) . axis| <= half + CLIP_TOLERANCE. Points made by a cut carry
-    (tag, side, f1, f2)."""
-    half = half + CLIP_TOLERANCE
+    |(x - centre) . axis| <= half. A corner at most CLIP_TOLERANCE outside is kept as it
+    is (it is the boundary point); an edge from inside to beyond that is cut at the side
+    plane itself, the new point carrying (tag, side, f1, f2)."""
     for side in (1.0, -1.0):
+        dist = [side * dot(_sub(p, centre), axis) - half for p, _ in polygon]
         out = []
         n = len(polygon)
-        if n == 2:  # a segment (2D): cut its outside end
-            (p1, f1), (p2, f2) = polygon
-            d1 = side * dot(_sub(p1, centre), axis) - half
-            d2 = side * dot(_sub(p2, centre), axis) - half
-            if d1 > 0 and d2 > 0:
-                return []
-            if d1 > 0:
-                p1, f1 = _add(p1, _sub(p2, p1), d1 / (d1 - d2)), (tag, side, f1, f2)
-            elif d2 > 0:
-                p2, f2 = _add(p1, _sub(p2, p1), d1 / (d1 - d2)), (tag, side, f2, f1)
-            polygon = [(p1, f1), (p2, f2)]
-            continue
-        for k in range(n):
-            p1, f1 = polygon[k - 1]
-            p2, f2 = polygon[k]
-            d1 = side * dot(_sub(p1, centre), axis) - half
-            d2 = side * dot(_sub(p2, centre), axis) - half
-            if d2 <= 0:
-                if d1 > 0:
-                    out.append((_add(p1, _sub(p2, p1), d1 / (d1 - d2)), (tag, side, f1, f2)))
+        for k in range(n if n > 2 else 1):  # a segment (2D) has one edge, a polygon n
+            (p1, f1), (p2, f2) = polygon[k - 1], polygon[k]
+            d1, d2 = dist[k - 1], dist[k]
+            if n == 2 and d1 <= CLIP_TOLERANCE:
+                out.append((p1, f1))
+            if d1 <= 0.0 < CLIP_TOLERANCE < d2 or d2 <= 0.0 < CLIP_TOLERANCE < d1:
+                cut = _add(p1, _sub(p2, p1), d1 / (d1 - d2))
+                out.append((cut, (tag, side, f1, f2) if d1 <= 0.0 else (tag, side, f2, f1)))
+            if d2 <= CLIP_TOLERANCE:
                 out.append((p2, f2))
-            elif d1 <= 0:
-                out.append((_add(p1, _sub(p2, p1), d1 / (d1 - d2)), (tag, side, f1, f2)))
         polygon = out
         if not polygon:
             break

@@ -105,10 +105,10 @@ class World:
         self.stages = tuple(stages)
 
     def collide(self, dt: float) -> list[Contact]:
-        """Contacts up to config.margin apart, plus the half step each body may travel
-        (so an impact early in this step is seen now: Contact.normal_target)."""
+        """Contacts up to config.margin apart, plus the step each body may travel (so a
+        contact this step will make is seen now: Contact.normal_target)."""
         margin = self.config.margin
-        reach = [0.0 if b.static else 0.5 * dt * b.speed_bound() for b in self.bodies]
+        reach = [0.0 if b.static else dt * b.speed_bound() for b in self.bodies]
         contacts = []
         previous = self._previous if self.config.warm_start else {}
         for i, j in candidate_pairs(self.bodies, margin, reach):
