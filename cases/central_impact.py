@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from cases.family import CaseFamily, Check
-from cases.observables import arc_apex, first_impact
+from cases.observables import arc_apex, first_impact, free_arc_start
 from cases.scene import Body, Material, Scene, ball, ground
 
 R = 0.1        # sphere radius, m
@@ -100,11 +100,13 @@ def observe(traj, p) -> dict:
     k_in, k_out = first_impact(traj, "ball", (0, 0, -G))
     # Speeds at contact height from the free-flight arcs on either side of the impact:
     # v = sqrt(2 g apex) of each fitted parabola (exact for Euler samples, see arc_apex).
+    # Height a depenetration push-out adds to the rebound arc counts against the engine.
     before = slice(max(k_in - 5, 0), k_in + 1)
     h_in = arc_apex(traj.t[before], z[before], G)
     h_out = 0.0
-    if k_out is not None and vz[k_out] > 0:
-        after = slice(k_out, k_out + 6)
+    j = None if k_out is None or vz[k_out] <= 0 else free_arc_start(z, k_out, G, traj.dt)
+    if j is not None and vz[j] > 0:
+        after = slice(j, j + 6)
         h_out = max(arc_apex(traj.t[after], z[after], G), 0.0)
     apex = float(np.max(z[k_in + 1:]))
     return {"rebound_ratio": math.sqrt(h_out / h_in), "first_apex": apex}

@@ -34,9 +34,17 @@ def first_impact(traj: Trajectory, name: str, gravity) -> tuple[int, int | None]
     return k_in, None
 
 
-def speed_at_height(z: float, vz: float, z_contact: float, g: float) -> float:
-    """|v| at height z_contact of the ballistic arc through (z, vz): energy conservation."""
-    return math.sqrt(max(vz * vz + 2.0 * g * (z - z_contact), 0.0))
+def free_arc_start(z: np.ndarray, k: int, g: float, dt: float, run: int = 6) -> int | None:
+    """First sample j >= k from which `run` samples of height z fly free: their second
+    differences are -g dt^2 (to 1e-3 of it). Velocities can be ballistic while positions
+    are still being pushed out of an overlap (position-only depenetration), so an arc
+    fitted to positions must start here."""
+    d2 = np.diff(z[k:], 2)
+    free = np.abs(d2 + g * dt * dt) <= 1e-3 * g * dt * dt
+    for j in range(len(free) - run + 3):
+        if free[j:j + run - 2].all():
+            return k + j
+    return None
 
 
 def arc_apex(t: np.ndarray, z: np.ndarray, g: float) -> float:

@@ -42,9 +42,13 @@ def judge_job(job):
     assert not broken, f"{broken[0]['status']}: {broken[0]['reason']}\n{repro}"
     failed = [r for r in rows if r["status"] == "fail"]
     assert not failed, "\n".join(_line(r) for r in failed) + "\n" + repro
-    stale = [r for r in rows if r["status"] == "pass" and r["known_deviation"]]
-    assert not stale, ("known deviation now passes (remove it from adapters/xfails/"
-                       f"{job.engine}.txt): " + ", ".join(r["metric"] for r in stale))
+    by_entry = {}
+    for r in rows:
+        if r["known_deviation"]:
+            by_entry.setdefault(r["known_deviation"], []).append(r)
+    stale = [e for e, rs in by_entry.items() if all(r["status"] == "pass" for r in rs)]
+    assert not stale, ("known deviation now passes everywhere in this run (strict: remove or narrow it in "
+                       f"adapters/xfails/{job.engine}.txt): " + "; ".join(stale))
     devs = [r for r in rows if r["status"] == "deviation"]
     if devs:
         pytest.xfail("; ".join(f"{r['metric']}: {r['reason']}" for r in devs))
