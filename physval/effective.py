@@ -21,7 +21,7 @@ from physval.runner import Unstable, simulate
 DT = 1e-3
 RESTITUTIONS = (0.2, 0.5, 0.8, 1.0)
 FRICTIONS = (0.2, 0.5, 0.8)
-BISECTIONS = 9  # 20 deg bracket / 2^9: the break-away angle to 0.04 deg
+BISECTIONS = 12  # 20 deg bracket / 2^12: the break-away angle to 0.005 deg, tan to ~1e-4
 # Sliding means accelerating: creep of a sticking box is a constant mm/s at worst, while
 # 0.04 deg above the threshold a box accelerates at about 0.007 m/s^2. (The case's own
 # verdict, 1 cm in 1 s, would put the threshold about 0.1 deg late: +0.002 in tan.)
