@@ -78,13 +78,14 @@ def newton_coulomb_impulse(K, u, n, e: float, mu_s: float, mu_k: float) -> np.nd
     static cone |p_t| <= mu_s p_n. Otherwise slide along t = u_t / |u_t| with
     p = j (n - mu_k t), j = -(1 + e) u_n / n^T K (n - mu_k t).
 
-    The model keeps one sliding direction for the whole impact. When K couples normal and
-    tangential directions strongly enough that the slip would reverse during the impact,
-    a single direction is not Coulomb friction any more and the impulse can add kinetic
-    energy (measured in tests/reference/test_ref_formulations_single_contact.py). With no
-    tangential velocity (u_t = 0) the note's t is undefined; we slide against the sticking
-    impulse's tangential part, t = -p_t / |p_t|, which is the note's t whenever both exist
-    and the slip does not reverse.
+    Energy: for spheres (K n parallel to n, K isotropic in the tangent plane) the impulse
+    never adds kinetic energy for e <= 1. When K couples normal and tangential directions
+    (an off-centre contact of a non-spherical body) it can: sticking then may need a
+    tangential impulse along the slip, and sliding keeps one direction t even when the
+    slip reverses during the impact (measured in
+    tests/reference/test_ref_formulations_single_contact.py). With no tangential velocity
+    (u_t = 0) the note's t is undefined; we slide against the sticking impulse's tangential
+    part, t = -p_t / |p_t|, which is the note's t for spheres.
     """
     K, u, n = (np.asarray(x, dtype=float) for x in (K, u, n))
     u_n, u_t = _split(u, n)
