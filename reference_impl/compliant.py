@@ -129,9 +129,11 @@ def central_impact(m_1: float, m_2: float, v_1: float, v_2: float, law: ForceLaw
 # material of every body, "compliant_E" (Young's modulus, Pa, default steel 200e9) and
 # "compliant_nu" (Poisson's ratio, default 0.3); for Hooke "compliant_k" (N/m per contact
 # point, default 1e7); "compliant_substeps" (velocity-Verlet steps per outer step,
-# default 1000). Contacts must be found before they overlap: set config.margin to at
-# least the largest approach in one step (v dt), else a contact starts deep and the force
-# law launches the bodies apart.
+# default 1000). Contacts must be seen before they overlap: the world's speculative reach
+# (a step's travel) finds them, but World.collide drops those whose normal_target is None
+# (e > 0 and the gap closes late in the step), so such a contact is first seen up to
+# |v| dt / 2 deep and the force law launches the bodies apart (see
+# tests/reference/test_ref_formulations_world.py: test_hertz_contact_from_a_gap).
 
 DEFAULTS = {"compliant_law": "hertz", "compliant_E": 200e9, "compliant_nu": 0.3,
             "compliant_k": 1e7, "compliant_substeps": 1000}

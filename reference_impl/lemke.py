@@ -20,6 +20,11 @@ lambda per contact:
 At a solution lambda = |v_t1| + |v_t2| and beta rests on the corners that oppose the
 sliding velocity most: maximal dissipation over the box, which is what PGS's per-row
 clamps converge to.
+
+Numerics: the dense tableau is pivoted in place (Gauss-Jordan). On degenerate contact
+sets (a box face on four corners: 12 rows of rank 6) a pivot can run through a
+near-singular basis and lose the solution; lemke() checks its result against the
+original problem and raises LemkeFailure rather than return a wrong one.
 """
 from __future__ import annotations
 
@@ -68,9 +73,16 @@ def lemke(M: np.ndarray, q: np.ndarray, max_pivots: int | None = None) -> np.nda
             raise LemkeFailure("ray termination: the LCP has no solution Lemke can reach")
         leaving = pivot(_ratio_test(T, candidates, col, basis, z0, n), entering)
         if leaving == z0:
-            z = np.zeros(2 * n + 1)
-            z[basis] = T[:, -1]
-            return np.maximum(z[n:2 * n], 0.0)
+            x = np.zeros(2 * n + 1)
+            x[basis] = T[:, -1]
+            z = np.maximum(x[n:2 * n], 0.0)
+            w = M @ z + q
+            # pivots on a near-singular basis (degenerate contact sets) can lose the
+            # solution: check it against the original problem, never return a wrong one
+            if w.min() < -1e-9 * scale or abs(z @ w) > 1e-9 * scale * (1.0 + z.sum()):
+                raise LemkeFailure(f"pivoting lost accuracy: min(Mz + q) = {w.min():.3g}, "
+                                   f"z.(Mz + q) = {z @ w:.3g}")
+            return z
     raise LemkeFailure(f"no solution after {max_pivots} pivots")
 
 
