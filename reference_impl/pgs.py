@@ -43,8 +43,8 @@ class PGSResult:
     change: float       # largest velocity correction of the last sweep, m/s
 
 
-def projected_gauss_seidel(rows: Rows, bodies: Bodies, b: np.ndarray,
-                           settings: PGSSettings = PGSSettings(), sigma: np.ndarray | None = None, gamma0: np.ndarray | None = None) -> PGSResult:
+def projected_gauss_seidel(rows: Rows, bodies: Bodies, b: np.ndarray, settings: PGSSettings = PGSSettings(),
+                           sigma: np.ndarray | None = None, gamma0: np.ndarray | None = None) -> PGSResult:
     """Projected Gauss-Seidel on (A + Sigma) gamma - b with the bounds of lcp.bounds,
     starting from gamma0 (warm start) or zero. Rows are swept in their stored order."""
     K, N = len(rows), len(bodies)
