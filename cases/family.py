@@ -70,6 +70,7 @@ class CaseFamily:
     expect: Callable[[dict, float], list[Check]]        # params, dt -> checks
     dt: float = 1e-3                                    # default time step, s
     needs: frozenset[str] | Callable[[dict], frozenset[str]] = frozenset()  # e.g. {"contact_forces"}, or per variant
+    sweep_variants: tuple[str, ...] = ()                # variant ids `physval sweep` varies dt on (default: the first)
     variant_id: Callable[[dict], str] = _default_id     # params -> readable id
 
     def needs_of(self, params: dict) -> frozenset[str]:
@@ -114,3 +115,6 @@ class CaseFamily:
             metrics = [c.metric for c in checks]
             if len(set(metrics)) != len(metrics):
                 raise CaseError(f"{where}: expect() names a metric twice: {metrics}")
+        unknown = set(self.sweep_variants) - ids
+        if unknown:
+            raise CaseError(f"{self.name}: sweep_variants names no variant: {sorted(unknown)}")

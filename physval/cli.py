@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import re
 import shlex
 import sys
@@ -87,6 +88,30 @@ def parser() -> argparse.ArgumentParser:
     run.add_argument("--no-effective", action="store_true",
                      help="skip measuring the restitution and friction each engine really produces")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    sw = sub.add_parser("sweep", help="error against cost as the time step and solver iterations vary",
+                        formatter_class=argparse.RawDescriptionHelpFormatter,
+                        description="For each case family (its sweep variants) and engine, vary dt over "
+                                    "1/60 .. 1e-4 s and solver iterations over 1 .. 50; record every check's "
+                                    "error and the wall time of stepping per simulated second. Writes sweep.csv "
+                                    "(streamed: re-running with the same arguments skips finished points), "
+                                    "sweep_points.csv, sweep_summary.csv, sweep_report.md and plots/ into --out.",
+                        epilog="examples:\n"
+                               "  physval sweep                                   core families, all engines, local processes\n"
+                               "  physval sweep --cases incline_threshold --engines reference,mujoco --workers 2\n"
+                               "  physval sweep --scheduler tcp://127.0.0.1:8786  on a running Dask cluster")
+    sw.add_argument("--cases", nargs="+", metavar="NAME",
+                    help="case families (default: the core three: central_impact, incline_threshold, resting_blocks)")
+    sw.add_argument("--engines", nargs="+", metavar="NAME", help="engines (default: all installed)")
+    sw.add_argument("--workers", type=_positive_int, default=os.cpu_count() or 1, metavar="N",
+                    help="local worker processes (default: one per core)")
+    sw.add_argument("--scheduler", metavar="ADDRESS", help="run on an existing Dask distributed cluster instead")
+    sw.add_argument("--full", action="store_true", help="the whole dt x iterations grid instead of two axes")
+    sw.add_argument("--repeats", type=_positive_int, default=3, metavar="N",
+                    help="timing repeats per point; the minimum counts (default 3)")
+    sw.add_argument("--out", default="reports/sweep", metavar="DIR", help="output folder (default: reports/sweep)")
+    sw.add_argument("--cases-dir", metavar="DIR", help="also load case families from *.py files in DIR")
+    sw.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
 
 
@@ -170,6 +195,42 @@ def cmd_run(args) -> int:
     return 0
 
 
+CORE_FAMILIES = ("central_impact", "incline_threshold", "resting_blocks")
+
+
+def cmd_sweep(args) -> int:
+    from adapters import registry
+    from physval.runner import families as all_families
+    from physval.sweep import Store, run_sweep, sweep_points
+    from physval.tradeoff import write_sweep_report
+    import pandas as pd
+
+    fams = all_families(args.cases_dir)
+    names = _names(args.cases) or [n for n in CORE_FAMILIES if n in fams]
+    for n in names:
+        if n not in fams:
+            raise UsageError(f"unknown case {n!r}: choose from {', '.join(fams)}")
+    engines = _names(args.engines) or [e for e in registry.engine_names() if registry.available(e)]
+    for e in engines:
+        if e not in registry.ENGINES:
+            raise UsageError(f"unknown engine {e!r}: choose from {', '.join(registry.ENGINES)}")
+    chosen = {n: fams[n] for n in names}
+    points = sweep_points(chosen, engines, full=args.full)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    store = Store(out / "sweep.csv", fams)
+    print(f"physval sweep: {len(points)} points ({len(chosen)} families x {len(engines)} engines), "
+          f"{len([p for p in points if p.key not in store.done])} to run -> {out}/", file=sys.stderr)
+    run_sweep(points, fams, store, workers=args.workers, scheduler=args.scheduler, cases_dir=args.cases_dir,
+              progress=not args.quiet and sys.stderr.isatty(), repeats=args.repeats)
+    df = pd.read_csv(out / "sweep.csv", keep_default_na=False, na_values=["nan", "NaN", ""])
+    df = df[df.point.isin({p.key for p in points})]
+    command = "physval " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    write_sweep_report(df, fams, out, command=command)
+    print(f"wrote {out / 'sweep.csv'}, {out / 'sweep_report.md'}, {out / 'plots'}/")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     from adapters.base import SettingsError
     from adapters.registry import EngineError
@@ -181,7 +242,7 @@ def main(argv: list[str] | None = None) -> int:
         p.print_help()
         return 0
     try:
-        return cmd_list(args) if args.command == "list" else cmd_run(args)
+        return {"list": cmd_list, "run": cmd_run, "sweep": cmd_sweep}[args.command](args)
     except (UsageError, CaseError, SceneError, SettingsError, EngineError) as exc:
         print(f"physval: error: {exc}", file=sys.stderr)
         return 2

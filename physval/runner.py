@@ -64,8 +64,9 @@ def speed_limit(scene: Scene, duration: float) -> float:
     return max(100.0, 10.0 * (v0 + np.linalg.norm(scene.gravity) * duration + 1.0))
 
 
-def simulate(sim: Simulation, scene: Scene, dt: float, duration: float) -> Run:
-    """Step a built simulation for `duration`, recording every step; time the steps only."""
+def simulate(sim: Simulation, scene: Scene, dt: float, duration: float, warmup: int = 0) -> Run:
+    """Step a built simulation for `duration`, recording every step; time the steps only,
+    leaving the first `warmup` steps out of the timing (`Run.wall_s` covers the rest)."""
     names = [b.name for b in scene.dynamic_bodies]
     n = max(1, int(round(duration / dt)))
     states = np.empty((len(names), n + 1, STATE_SIZE))
@@ -78,7 +79,8 @@ def simulate(sim: Simulation, scene: Scene, dt: float, duration: float) -> Run:
     for k in range(1, n + 1):
         t0 = time.perf_counter()
         sim.step()
-        wall += time.perf_counter() - t0
+        if k > warmup:
+            wall += time.perf_counter() - t0
         now = sim.states()
         for i, name in enumerate(names):
             states[i, k] = now[name]
@@ -108,8 +110,8 @@ def _row(job: Job, family: CaseFamily, check: Check, **fields) -> dict:
 
 
 def run_job(job: Job, family: CaseFamily, adapter: Adapter | None = None,
-            known: list[deviations.Deviation] | None = None) -> list[dict]:
-    """All verdict rows of one job. Never raises."""
+            known: list[deviations.Deviation] | None = None, warmup: int = 0) -> list[dict]:
+    """All verdict rows of one job. Never raises. `wall_s` leaves out `warmup` steps."""
     dt = job.dt or family.dt
     params = job.variant.params
     checks = family.expect(params, dt)
@@ -136,7 +138,7 @@ def run_job(job: Job, family: CaseFamily, adapter: Adapter | None = None,
         return rows_with("error", _describe(exc))
     try:
         with sim:
-            run = simulate(sim, scene, dt, family.duration(params))
+            run = simulate(sim, scene, dt, family.duration(params), warmup)
     except Unstable as exc:
         return rows_with("unstable", str(exc), knobs=json.dumps(getattr(sim, "knobs", {}), default=str))
     except Exception as exc:
