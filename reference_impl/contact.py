@@ -30,8 +30,10 @@ class Row:
 
     def __init__(self, a, b, ra, rb, d):
         self.a, self.b, self.d = a, b, d
-        self.ra_d = ra_d = cross(ra, d)                         # r_a x d
-        self.rb_d = rb_d = cross(rb, d)                         # r_b x d
+        self.ra_d = ra_d = (ra[1] * d[2] - ra[2] * d[1], ra[2] * d[0] - ra[0] * d[2],
+                            ra[0] * d[1] - ra[1] * d[0])        # r_a x d
+        self.rb_d = rb_d = (rb[1] * d[2] - rb[2] * d[1], rb[2] * d[0] - rb[0] * d[2],
+                            rb[0] * d[1] - rb[1] * d[0])        # r_b x d
         self.ia = ia = _inertia_times(a.inv_I, ra_d)           # I_a^-1 (r_a x d)
         self.ib = ib = _inertia_times(b.inv_I, rb_d)
         ma, mb = a.inv_mass, b.inv_mass
@@ -107,7 +109,7 @@ class Contact:
     """A contact point between bodies a and b with its rows and impulses."""
 
     __slots__ = ("a", "b", "point", "n", "depth", "feature", "planar", "e", "mu_s", "mu_k",
-                 "normal", "tangents", "vn0", "target", "sticks", "bias", "Pn", "Pt", "Pp")
+                 "normal", "tangents", "vn0", "target", "sticks", "mu", "bias", "Pn", "Pt", "Pp")
 
     def __init__(self, a, b, point, n, depth, feature, e, mu_s, mu_k, planar):
         self.a, self.b = a, b
@@ -141,11 +143,6 @@ class Contact:
             return -self.e * vn0 if 2.0 * gap <= closing else None
         return -gap / dt
 
-    @property
-    def mu(self) -> float:
-        """The friction coefficient in force this step: static while it sticks."""
-        return self.mu_s if self.sticks else self.mu_k
-
     def prepare(self, dt: float, config) -> None:
         """Rows, approach velocity vn0, stick/slide decision and bias, from the velocities
         at the start of the step (before external forces)."""
@@ -157,17 +154,17 @@ class Contact:
         self.target = self.normal_target(dt)
         # bias velocity beta/dt (delta - slop)+ (note 001, "de-penetration bias velocity")
         self.bias = config.beta / dt * max(self.depth - config.slop, 0.0)
-        self.sticks = True
+        self.sticks, self.mu = True, self.mu_s
         if self.mu_s == 0.0:
             self.tangents = ()
             return
         # relative velocity of the contact point; its tangential part is the slip
-        va = _point_velocity(a, ra)
-        vb = _point_velocity(b, rb)
-        vrel = (vb[0] - va[0], vb[1] - va[1], vb[2] - va[2])
-        slip = (vrel[0] - self.vn0 * n[0], vrel[1] - self.vn0 * n[1], vrel[2] - self.vn0 * n[2])
+        va, vb = _point_velocity(a, ra), _point_velocity(b, rb)
+        vn0 = self.vn0
+        slip = (vb[0] - va[0] - vn0 * n[0], vb[1] - va[1] - vn0 * n[1], vb[2] - va[2] - vn0 * n[2])
         speed = math.sqrt(dot(slip, slip))
         self.sticks = speed < config.stick_speed
+        self.mu = self.mu_s if self.sticks else self.mu_k  # the coefficient in force this step
         if self.sticks or self.planar:
             t1 = tangent_basis(n)
         else:  # sliding: the first tangent along the slip (note 001, t = normalize(v_rel,t))

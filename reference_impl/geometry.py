@@ -310,14 +310,15 @@ def box_box(A, B, margin, planar=False):
     t = [dot(d, a) for a in a_axes]
     best_a = best_b = None
     for i in used:
-        depth = ha[i] + sum(hb[j] * Ab[i][j] for j in used) - abs(t[i])
+        row = Ab[i]
+        depth = ha[i] + hb[0] * row[0] + hb[1] * row[1] + hb[2] * row[2] - abs(t[i])
         if depth < -margin:
             return []
         if best_a is None or depth < best_a[0]:
             best_a = (depth, i, 1.0 if t[i] >= 0 else -1.0)
     for j in used:
         s = t[0] * C[0][j] + t[1] * C[1][j] + t[2] * C[2][j]  # d . b_j
-        depth = hb[j] + sum(ha[i] * Ab[i][j] for i in used) - abs(s)
+        depth = hb[j] + ha[0] * Ab[0][j] + ha[1] * Ab[1][j] + ha[2] * Ab[2][j] - abs(s)
         if depth < -margin:
             return []
         if best_b is None or depth < best_b[0]:

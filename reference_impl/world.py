@@ -28,10 +28,17 @@ def formulation(name: str):
 
 @dataclass(frozen=True)
 class Material:
-    """What a pair does on contact: restitution e, static mu_s and kinetic mu_k friction."""
+    """What a pair does on contact: restitution e, static mu_s and kinetic mu_k friction
+    (mu_k None: the same as mu_s)."""
     e: float = 0.0
     mu_s: float = 0.0
-    mu_k: float = 0.0
+    mu_k: float | None = None
+
+    def __post_init__(self):
+        if self.mu_k is None:
+            object.__setattr__(self, "mu_k", self.mu_s)
+        if not (0.0 <= self.e <= 1.0 and 0.0 <= self.mu_k <= self.mu_s):
+            raise ValueError(f"{self}: needs 0 <= e <= 1 and 0 <= mu_k <= mu_s")
 
 
 class World:
