@@ -1,6 +1,7 @@
 """A compact, readable rigid-body contact engine: the project's reference implementation.
 
-Imports numpy only; nothing from `cases`, `adapters` or `physval`. Settings live in one
+Imports the standard library and numpy only; nothing from `cases`, `adapters` or
+`physval`. Settings live in one
 `config.Config`. Modules:
 
 - `rigid_body`  body state (x, q, v, w), mass, inertia, symplectic Euler integration

@@ -18,7 +18,9 @@ def formulation(name: str):
     module = ALIASES.get(name, name)
     try:
         found = importlib.import_module(f"reference_impl.{module}")
-    except ModuleNotFoundError:
+    except ModuleNotFoundError as exc:
+        if exc.name != f"reference_impl.{module}":
+            raise  # the module exists but needs something missing: say that, not "unknown"
         found = None
     if found is None or not callable(getattr(found, "solve", None)):
         raise ValueError(f"formulation {name!r}: no module reference_impl.{module} with a solve() "
@@ -42,6 +44,10 @@ class Material:
 
 
 class World:
+    """Bodies (`add`), pair materials (`set_material`; others get `material`), gravity and
+    a `Config`. After each `step(dt)`: `contacts` of the step, `stages` that ran and
+    `normal_impulses` per body-name pair (sorted names), N s over the step."""
+
     def __init__(self, gravity=(0.0, 0.0, -9.81), material: Material = Material(),
                  config: Config = Config()):
         self.gravity = tuple(float(g) for g in gravity)
