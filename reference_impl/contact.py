@@ -12,6 +12,12 @@ opposite on a. The row's effective mass is 1 / (J M^-1 J^T) = 1 / K_d with (note
 "inverse mass matrix of contact"; note 004, collision matrix)
 
     K_d = d^T K d = 1/m_a + 1/m_b + (r_a x d) . I_a^-1 (r_a x d) + (r_b x d) . I_b^-1 (r_b x d).
+
+Signs re-derived here, since the extracted slides garble them: with r* the cross-product
+matrix of r (r* p = r x p, r*^T = -r*), note 001's K_i = 1/M_i + r*^T I^-1 r* gives
+d^T r*^T I^-1 r* d = (r x d) . I^-1 (r x d) >= 0. The convention is note 001's: n points
+from body a (1) to body b (2) and v_rel = v_b - v_a, so v_n < 0 approaches (note 000
+writes v_a - v_b with the normal the other way round).
 """
 from __future__ import annotations
 

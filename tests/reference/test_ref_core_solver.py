@@ -179,3 +179,26 @@ def test_unknown_formulation_names_the_interface():
 def test_config_rejects_values_out_of_range(field, value):
     with pytest.raises(ValueError, match=field):
         Config(**{field: value})
+
+
+def test_rows_effective_mass_and_coupling_match_applied_impulses():
+    # J_i M^-1 J_j^T measured: apply a unit impulse on row j, read the change of row i
+    from reference_impl.contact import Row, coupling
+    a = RigidBody("a", Box((0.3, 0.2, 0.1)), 2.0, (0.01, 0.02, 0.03), x=(0.1, -0.2, 0.3), q=(0.9, 0.1, 0.3, 0.3))
+    b = RigidBody("b", Sphere(0.2), 3.0, (0.05, 0.05, 0.05), x=(0.4, 0.1, 0.2))
+    a.q = [c / math.sqrt(sum(x * x for x in a.q)) for c in a.q]
+    a.update_frame()
+    p = (0.25, 0.0, 0.3)
+    ra = tuple(p[k] - a.x[k] for k in range(3))
+    rb = tuple(p[k] - b.x[k] for k in range(3))
+    dirs = [(0.0, 0.0, 1.0), (0.6, 0.8, 0.0), (0.8, -0.6, 0.0)]
+    rows = [Row(a, b, ra, rb, d) for d in dirs]
+    for ri in rows:
+        for rj in rows:
+            before = ri.velocity()
+            rj.apply(1.0)
+            measured = ri.velocity() - before
+            rj.apply(-1.0)
+            assert coupling(ri, rj) == pytest.approx(measured, rel=1e-12, abs=1e-14)
+        assert coupling(ri, ri) == pytest.approx(ri.K, rel=1e-14)
+        assert ri.mass * ri.K == pytest.approx(1.0, rel=1e-15)
