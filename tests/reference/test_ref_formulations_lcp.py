@@ -118,11 +118,11 @@ def random_rotation(rng):
                      [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
-def random_problem(seed, friction=True, static=True, restitution=True, max_condition=100.0):
+def random_problem(seed, friction=True, static=True, restitution=True, max_condition=100.0, mu_max=1.0):
     """Bodies at random places with random inertia and velocity; contacts between random
-    pairs (or with the static world) at random points with random normals. Redrawn until
-    A = J M^-1 J^T has condition <= max_condition (well-conditioned: the solvers are
-    compared where the problem has one answer). Returns (bodies, x, contacts, u)."""
+    pairs (or with the static world) at random points with random normals, friction
+    mu in [0, mu_max]. Redrawn until A = J M^-1 J^T has condition <= max_condition.
+    Returns (bodies, x, contacts, u)."""
     rng = np.random.default_rng(seed)
     while True:
         N, C = int(rng.integers(1, 5)), int(rng.integers(1, 6))
@@ -130,7 +130,7 @@ def random_problem(seed, friction=True, static=True, restitution=True, max_condi
         I_inv = np.array([(R := random_rotation(rng)) @ np.diag(1 / rng.uniform(0.02, 0.2, 3)) @ R.T
                           for _ in range(N)])
         x = rng.normal(size=(N, 3))
-        mu = rng.uniform(0.0, 1.0) if friction else 0.0
+        mu = rng.uniform(0.0, mu_max) if friction else 0.0
         contacts = []
         for _ in range(C):
             a = int(rng.integers(N))
@@ -158,11 +158,36 @@ seeds = st.integers(0, 2**32 - 1)
 @settings(max_examples=60, deadline=None)
 @given(seed=seeds, friction=st.booleans())
 def test_pgs_and_lemke_agree_and_solve_the_lcp(seed, friction):
-    bodies, x, contacts, u = random_problem(seed, friction)
+    """Both solve the LCP to the residual bar; they agree where the answer is unique:
+    without friction (A positive definite) and with mu <= 0.2 (3000 seeds checked; see
+    the next test for why not for any mu)."""
+    bodies, x, contacts, u = random_problem(seed, friction, mu_max=0.2)
     rows, A, b, by_pgs, by_lemke = solve_both(contacts, bodies, u)
     assert lcp.residual(A, b, rows, by_pgs) <= RESIDUAL
     assert lcp.residual(A, b, rows, by_lemke) <= RESIDUAL
     assert by_pgs == pytest.approx(by_lemke, abs=1e-8)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=seeds)
+def test_both_solvers_solve_the_lcp_with_strong_friction(seed):
+    bodies, x, contacts, u = random_problem(seed, friction=True)
+    rows, A, b, by_pgs, by_lemke = solve_both(contacts, bodies, u)
+    assert lcp.residual(A, b, rows, by_pgs) <= RESIDUAL
+    assert lcp.residual(A, b, rows, by_lemke) <= RESIDUAL
+
+
+def test_known_deviation_strong_friction_makes_the_lcp_ambiguous():
+    """Finding: one contact between two turning bodies, separating at 0.54 m/s while
+    sliding at 4.2 m/s, mu = 0.97. gamma = 0 solves the LCP (PGS's answer, from zero); so
+    does a push of 0.68 N s whose friction, through the bodies' rotation, pulls the
+    contact shut (Lemke's answer). Painleve-like non-uniqueness of rigid contact with
+    friction: the two solvers may legitimately differ once mu is large."""
+    bodies, x, contacts, u = random_problem(57653)
+    rows, A, b, by_pgs, by_lemke = solve_both(contacts, bodies, u)
+    assert b[0] == pytest.approx(-0.536, abs=1e-3) and contacts[0].mu == pytest.approx(0.966, abs=1e-3)
+    assert np.all(by_pgs == 0.0) and by_lemke[0] == pytest.approx(0.676, abs=1e-3)
+    assert lcp.residual(A, b, rows, by_pgs) <= RESIDUAL and lcp.residual(A, b, rows, by_lemke) <= RESIDUAL
 
 
 @settings(max_examples=60, deadline=None)
@@ -322,16 +347,16 @@ def test_one_pgs_sweep_costs_order_contacts():
     """The per-body sums make a row's update read and write two bodies, whatever the
     number of contacts: one sweep over 4k contacts must cost about 4x one over k (O(k^2)
     would be 16x; the bound 8 leaves room for a noisy machine). Minimum of repeats."""
-    def sweep_time(k):
+    def sweep_time(k):  # CPU time of this process: other processes' load does not count
         bodies, contacts, u = chain(k)
         rows = lcp.build_rows(contacts, u)
         b = lcp.impact_rhs(rows, u)
         one = pgs.PGSSettings(iterations=1, tolerance=0.0)
         best = math.inf
-        for _ in range(7):
-            start = time.perf_counter()
+        for _ in range(9):
+            start = time.process_time()
             pgs.projected_gauss_seidel(rows, bodies, b, one)
-            best = min(best, time.perf_counter() - start)
+            best = min(best, time.process_time() - start)
         return best
     small, large = sweep_time(500), sweep_time(2000)
     assert large / small < 8.0, f"one sweep: {small * 1e3:.2f} ms at 500 contacts, {large * 1e3:.2f} ms at 2000"
