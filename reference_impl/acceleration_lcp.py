@@ -115,3 +115,11 @@ def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
     if pgs.repair_overlap(contacts, bodies, rows, data, config):
         stages.append("position")
     return tuple(stages)
+
+
+def knobs(config) -> dict:
+    """What this formulation does with the world's contacts, for the adapter's record."""
+    return {"impacts": "velocity-level LCP by Lemke on the velocities before external forces",
+            "resting": "acceleration-level LCP (Baraff, note 001) by Lemke",
+            "friction": "none (refused)", "depenetration": "split impulse: PGS on pseudo-velocities",
+            "tolerance": config.tolerance}

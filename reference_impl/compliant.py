@@ -184,3 +184,14 @@ def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
     for c, P in zip(contacts, step.impulse):
         c.Pn, c.Pt = float(P), [0.0] * len(c.tangents)
     return ("substeps",)
+
+
+def knobs(config) -> dict:
+    """What this formulation does with the world's contacts, for the adapter's record."""
+    law = _param(config, "compliant_law")
+    chosen = ["compliant_law", "compliant_substeps"] + (["compliant_E", "compliant_nu"] if law == "hertz"
+                                                        else ["compliant_k"])
+    return {**{key: _param(config, key) for key in chosen},
+            "integrator": "velocity Verlet substeps inside the outer step",
+            "restitution": "none beyond the force law's elasticity (e = 1 only)",
+            "friction": "none (refused)"}

@@ -159,3 +159,11 @@ def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
         P = lemke(lcp.delassus(normal, data), -bias)
         lcp.apply_velocity_change(bodies, lcp.velocity_change(normal, data, P), pseudo=True)
     return tuple(stages)
+
+
+def knobs(config) -> dict:
+    """What this formulation does with the world's contacts, for the adapter's record."""
+    return {"solver": "Lemke, lexicographic pivoting on a dense tableau; refuses a result that fails its check",
+            "friction_set": "pyramid as a friction-polyhedron LCP (corners +-t1 +-t2)",
+            "restitution": "v_n+ >= contact.normal_target (-e vn0, vn0 before external forces)",
+            "depenetration": "split impulse: Lemke on pseudo-velocities", "warm_start": False}

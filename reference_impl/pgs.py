@@ -126,3 +126,12 @@ def repair_overlap(contacts, bodies, rows: Rows, data: Bodies, config) -> bool:
                                     PGSSettings(config.position_iterations, config.tolerance))
     lcp.apply_velocity_change(bodies, pseudo.du, pseudo=True)
     return True
+
+
+def knobs(config) -> dict:
+    """What this formulation does with the world's contacts, for the adapter's record."""
+    return {"solver": "projected Gauss-Seidel with per-body velocity sums (note 000)",
+            "friction_set": "pyramid: |Pt_k| <= mu Pn on each tangent row (t1 along the slip when sliding)",
+            "restitution": "v_n+ >= contact.normal_target (-e vn0, vn0 before external forces)",
+            "depenetration": "split impulse: PGS on pseudo-velocities",
+            "iterations": config.iterations, "tolerance": config.tolerance, "warm_start": config.warm_start}

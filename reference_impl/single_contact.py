@@ -155,3 +155,12 @@ def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
     if pgs.repair_overlap(contacts, bodies, *lcp.world_rows(contacts, bodies)[:2], config):
         stages.append("position")
     return tuple(stages)
+
+
+def knobs(config) -> dict:
+    """What this formulation does with the world's contacts, for the adapter's record."""
+    return {"impulses": "pairwise Newton-Coulomb (note 004), swept until no contact approaches; never taken back",
+            "friction": "mu_s decides sticking, mu_k acts while sliding, one direction per impact",
+            "restitution": "lifts v_n to contact.normal_target (-e vn0)",
+            "depenetration": "split impulse: PGS on pseudo-velocities",
+            "iterations": config.iterations, "tolerance": config.tolerance}

@@ -111,3 +111,14 @@ def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
     lcp.store_impulses(contacts, step.lam)
     stages = ["warm_start"] if warm else []
     return tuple(stages + (["velocity", "friction"] if np.any(~rows.is_normal) else ["velocity"]))
+
+
+def knobs(config) -> dict:
+    """What this formulation does with the world's contacts, for the adapter's record."""
+    return {"solver": "SPOOK (note 004) by projected Gauss-Seidel",
+            "spook_k": float(config.params.get("spook_k", DEFAULT_K)),
+            "spook_d": float(config.params.get("spook_d", DEFAULT_D)),
+            "friction_set": "pyramid: |Pt_k| <= mu Pn on each tangent row, no regularisation",
+            "restitution": "none: inelastic (scenes with e > 0 are refused)",
+            "depenetration": "SPOOK's own -a q term (no pseudo-velocities)",
+            "iterations": config.iterations, "tolerance": config.tolerance, "warm_start": config.warm_start}

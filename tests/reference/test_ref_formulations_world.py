@@ -203,3 +203,15 @@ def test_three_resting_blocks_carry_the_weight_above(formulation):
 
 def test_acceleration_lcp_refuses_friction():
     assert "friction" in refused("acceleration_lcp", scene("resting_blocks", "n=3"))
+
+
+@pytest.mark.parametrize("formulation", RIGID + ["spook", "compliant"])
+def test_each_formulation_states_its_knobs_as_json(formulation):
+    """knobs(config): what the formulation does and the values in force, for the
+    adapter's record (the adapter's own entries describe sequential impulses only)."""
+    import importlib
+    import json
+
+    from reference_impl.config import Config
+    record = importlib.import_module(f"reference_impl.{formulation}").knobs(Config())
+    assert json.loads(json.dumps(record)) == record
