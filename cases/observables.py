@@ -61,3 +61,37 @@ def arc_apex(t: np.ndarray, z: np.ndarray, g: float) -> float:
 def window_mean(traj: Trajectory, values: np.ndarray, t0: float) -> float:
     """Mean of per-sample values over the samples from t0 on."""
     return float(np.mean(values[traj.after(t0)]))
+
+def arc_vertex(t: np.ndarray, z: np.ndarray, g: float) -> tuple[float, float]:
+    """(time, height) of the vertex of the parabola z = a + b t - g t^2 / 2 fitted to
+    free-flight samples: the fit of `arc_apex`, with the apex time as well. The arc meets
+    height 0 at time +- sqrt(2 height / g) from its vertex."""
+    tau = t - t[0]
+    b, a = np.polyfit(tau, z + 0.5 * g * tau**2, 1)
+    return float(t[0] + b / g), float(a + b * b / (2.0 * g))
+
+
+def rate(traj: Trajectory, values: np.ndarray, t0: float, t1: float = math.inf) -> float:
+    """Slope (per second) of the least-squares line through per-sample values over
+    [t0, t1]: an acceleration from velocities, a creep speed from positions."""
+    window = traj.after(t0) & (traj.t <= t1 + 1e-12)
+    return float(np.polyfit(traj.t[window], values[window], 1)[0])
+
+
+def settle_time(traj: Trajectory, values: np.ndarray, bound: float) -> float:
+    """Time of the first sample from which |values| stays <= bound to the end of the run.
+    If the last sample still exceeds it, the end of the run plus a step: a lower bound
+    (it settles later, if ever), so a case judges it as late rather than as not a number."""
+    above = np.flatnonzero(np.abs(values) > bound)
+    if above.size == 0:
+        return float(traj.t[0])
+    if above[-1] == len(values) - 1:
+        return float(traj.t[-1] + traj.dt)
+    return float(traj.t[above[-1] + 1])
+
+
+def point_velocity(traj: Trajectory, name: str, arm) -> np.ndarray:
+    """Velocity of the body's material point at `arm` (world-frame offset from its centre,
+    held fixed): v + omega x arm; with arm = -R n the slip of a ball on a plane of normal n."""
+    return traj.vel(name) + np.cross(traj.omega(name), np.asarray(arm, float))
+
