@@ -13,8 +13,9 @@ This is the long, sensitive version of incline_threshold's creep check (1 s, 0.1
 5 s, with the rate fitted to the downhill position after the first second (the contact's
 start-up), at angles given as fractions of the break-away angle atan(mu_s). The bound is
 1 um/s: a box creeping that fast moves 1 % of its size (2 mm) in half an hour of simulated
-time, which a resting scene must not; and at 1e-3 of a step's g dt it lies far above a
-sticking solver's residual (1e-6 m/s and below) and far below the 0.1 mm/s of the short check.
+time, which a resting scene must not; at 1e-4 of the g dt gravity adds in a step it lies far
+above a converged sticking solve's residual (the reference stops at 1e-10 m/s), and 100
+times below the 0.1 mm/s of the short check.
 
 The incline is built by tilting gravity: the plane stays z = 0 and gravity is
 g (sin theta, 0, -cos theta), so downhill is +x in every engine.
