@@ -35,10 +35,11 @@ class ReferenceAdapter(Adapter):
         iterations=True,
     )
 
-    def __init__(self, formulation: str = "si"):
+    def __init__(self, formulation: str = "si", name: str | None = None, params: dict | None = None):
         find_formulation(formulation)  # an unknown name fails here, not mid-run
         self.formulation = formulation
-        self.name = "reference" if formulation == "si" else f"reference-{formulation}"
+        self.params = dict(params or {})  # formulation settings (Config.params)
+        self.name = name or ("reference" if formulation == "si" else f"reference-{formulation}")
 
     def version(self) -> str:
         from physval import __version__
@@ -48,7 +49,7 @@ class ReferenceAdapter(Adapter):
         reason = self.capabilities.cannot_run(scene)
         if reason:
             raise Unsupported(reason)
-        config = Config(formulation=self.formulation,
+        config = Config(formulation=self.formulation, params=self.params,
                         iterations=settings.iterations or DEFAULT.iterations)
         return ReferenceSimulation(scene, settings.dt, config)
 

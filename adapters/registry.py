@@ -9,6 +9,19 @@ from adapters.base import Adapter
 # name -> (module, class, keyword arguments)
 ENGINES: dict[str, tuple[str, str, dict]] = {
     "reference": ("adapters.reference_engine", "ReferenceAdapter", {}),
+    # every formulation of the lecture notes as its own engine (reference_impl/<module>.py)
+    "reference-si": ("adapters.reference_engine", "ReferenceAdapter", {"formulation": "si", "name": "reference-si"}),
+    "reference-pgs": ("adapters.reference_engine", "ReferenceAdapter", {"formulation": "pgs"}),
+    "reference-lemke": ("adapters.reference_engine", "ReferenceAdapter", {"formulation": "lemke"}),
+    "reference-spook": ("adapters.reference_engine", "ReferenceAdapter", {"formulation": "spook"}),
+    "reference-force": ("adapters.reference_engine", "ReferenceAdapter",
+                        {"formulation": "acceleration_lcp", "name": "reference-force"}),
+    "reference-newton-coulomb": ("adapters.reference_engine", "ReferenceAdapter",
+                                 {"formulation": "single_contact", "name": "reference-newton-coulomb"}),
+    "reference-hertz": ("adapters.reference_engine", "ReferenceAdapter",
+                        {"formulation": "compliant", "name": "reference-hertz", "params": {"compliant_law": "hertz"}}),
+    "reference-hooke": ("adapters.reference_engine", "ReferenceAdapter",
+                        {"formulation": "compliant", "name": "reference-hooke", "params": {"compliant_law": "hooke"}}),
     "pybullet": ("adapters.pybullet_engine", "PyBulletAdapter", {}),
     "mujoco": ("adapters.mujoco_engine", "MuJoCoAdapter", {}),
     "pymunk": ("adapters.pymunk_engine", "PymunkAdapter", {}),
