@@ -112,6 +112,16 @@ def parser() -> argparse.ArgumentParser:
     sw.add_argument("--out", default="reports/sweep", metavar="DIR", help="output folder (default: reports/sweep)")
     sw.add_argument("--cases-dir", metavar="DIR", help="also load case families from *.py files in DIR")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    bn = sub.add_parser("bench", help="speed side by side in one run, as ratios (not a test)",
+                        description="Benchmarks measured side by side in one run: sweep throughput with 1 and "
+                                    "2 workers; step time of a 5-box stack and a 10-layer pyramid on every "
+                                    "engine against the reference; the reference PGS sweep cost against the "
+                                    "number of contacts. Writes bench.md and bench_*.csv into --out.")
+    bn.add_argument("what", nargs="*", choices=["sweep-workers", "step", "pgs"], metavar="WHAT",
+                    help="sweep-workers, step, pgs (default: all)")
+    bn.add_argument("--engines", nargs="+", metavar="NAME", help="engines (default: all installed)")
+    bn.add_argument("--out", default="reports/bench", metavar="DIR", help="output folder (default: reports/bench)")
     return p
 
 
@@ -231,6 +241,32 @@ def cmd_sweep(args) -> int:
     return 0
 
 
+def cmd_bench(args) -> int:
+    from adapters import registry
+    from physval import bench
+    engines = _names(args.engines) or [e for e in registry.engine_names() if registry.available(e)]
+    for e in engines:
+        if e not in registry.ENGINES:
+            raise UsageError(f"unknown engine {e!r}: choose from {', '.join(registry.ENGINES)}")
+    what = args.what or ["sweep-workers", "step", "pgs"]
+    sections, notes = {}, {}
+    if "sweep-workers" in what:
+        print("physval bench: the same sweep with 1 and with 2 workers", file=sys.stderr)
+        sections["sweep-workers"] = bench.sweep_workers([e for e in engines if e in ("reference", "pybullet", "mujoco")])
+        notes["sweep-workers"] = "central_impact's sweep points on reference, pybullet and mujoco; throughput relative to one worker."
+    if "step" in what:
+        print("physval bench: step time side by side", file=sys.stderr)
+        sections["step"] = bench.steps_side_by_side(engines)
+        notes["step"] = "Minimum over 3 repeats of the mean wall time per step over 100 steps at dt = 1e-3 (10 warm-up steps); `reference / X` is how many times slower the reference is."
+    if "pgs" in what:
+        print("physval bench: PGS sweep cost against contact count", file=sys.stderr)
+        sections["pgs"] = bench.pgs_scaling()
+        notes["pgs"] = bench.PGS_NOTE
+    bench.write(Path(args.out), sections, notes)
+    print(f"wrote {Path(args.out) / 'bench.md'}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     from adapters.base import SettingsError
     from adapters.registry import EngineError
@@ -242,7 +278,7 @@ def main(argv: list[str] | None = None) -> int:
         p.print_help()
         return 0
     try:
-        return {"list": cmd_list, "run": cmd_run, "sweep": cmd_sweep}[args.command](args)
+        return {"list": cmd_list, "run": cmd_run, "sweep": cmd_sweep, "bench": cmd_bench}[args.command](args)
     except (UsageError, CaseError, SceneError, SettingsError, EngineError) as exc:
         print(f"physval: error: {exc}", file=sys.stderr)
         return 2
