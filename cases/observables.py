@@ -62,6 +62,7 @@ def window_mean(traj: Trajectory, values: np.ndarray, t0: float) -> float:
     """Mean of per-sample values over the samples from t0 on."""
     return float(np.mean(values[traj.after(t0)]))
 
+
 def arc_vertex(t: np.ndarray, z: np.ndarray, g: float) -> tuple[float, float]:
     """(time, height) of the vertex of the parabola z = a + b t - g t^2 / 2 fitted to
     free-flight samples: the fit of `arc_apex`, with the apex time as well. The arc meets
@@ -95,3 +96,120 @@ def point_velocity(traj: Trajectory, name: str, arm) -> np.ndarray:
     held fixed): v + omega x arm; with arm = -R n the slip of a ball on a plane of normal n."""
     return traj.vel(name) + np.cross(traj.omega(name), np.asarray(arm, float))
 
+
+# --- robustness readings: energy, momentum, overlap, drift, collapse -----------------------
+
+def _rotations(q: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) body-to-world matrices of (n, 4) unit quaternions (w, x, y, z)."""
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
+        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1),
+    ], axis=-2)
+
+
+def mechanical_energy(traj: Trajectory, scene) -> np.ndarray:
+    """Kinetic plus gravitational potential energy of the dynamic bodies at every sample, J:
+    sum of m v.v / 2 + w_b . (I w_b) / 2 - m g . x, with w_b = R^T w the angular velocity in
+    the body frame, where the inertia is the principal diagonal I (note 001, rigid body)."""
+    g = np.asarray(scene.gravity, float)
+    total = np.zeros(len(traj.t))
+    for body in scene.dynamic_bodies:
+        v, w, x = traj.vel(body.name), traj.omega(body.name), traj.pos(body.name)
+        w_body = np.einsum("nji,nj->ni", _rotations(traj.quat(body.name)), w)
+        total += 0.5 * body.mass * np.sum(v * v, axis=1)
+        total += 0.5 * np.sum(np.asarray(body.principal_inertia) * w_body * w_body, axis=1)
+        total -= body.mass * (x @ g)
+    return total
+
+
+def energy_rise(traj: Trajectory, scene) -> float:
+    """Largest excess of the mechanical energy over its initial value, J (0 if it never
+    rises): what a solver injected where nothing does work."""
+    energy = mechanical_energy(traj, scene)
+    return float(max(np.max(energy) - energy[0], 0.0))
+
+
+def momentum(traj: Trajectory, scene) -> np.ndarray:
+    """(n, 3) total linear momentum of the dynamic bodies, kg m/s."""
+    return sum(body.mass * traj.vel(body.name) for body in scene.dynamic_bodies)
+
+
+def drift(traj: Trajectory, names, t0: float) -> float:
+    """Largest distance any of the named bodies moves from where it was at t0, m."""
+    later = traj.after(t0)
+    out = 0.0
+    for name in names:
+        x = traj.pos(name)[later]
+        out = max(out, float(np.max(np.linalg.norm(x - x[0], axis=1))))
+    return out
+
+
+def time_to_collapse(traj: Trajectory, names, sideways: float, down: float) -> float:
+    """Time at which the first of the named bodies is more than `sideways` (horizontally)
+    from where it started, or more than `down` below it; the end of the run if none ever
+    is (the structure stood throughout). Sinking less than `down` is judged as overlap."""
+    first = len(traj.t)
+    for name in names:
+        x = traj.pos(name)
+        moved = np.flatnonzero((np.linalg.norm(x[:, :2] - x[0, :2], axis=1) > sideways) | (x[0, 2] - x[:, 2] > down))
+        if moved.size:
+            first = min(first, int(moved[0]))
+    return float(traj.t[first]) if first < len(traj.t) else float(traj.t[-1])
+
+
+def _reach(shape) -> float:
+    """Radius of a sphere about the body's centre that holds its shape (inf for a plane)."""
+    if shape.kind in ("sphere", "circle"):
+        return shape.radius
+    if shape.kind in ("box", "rect"):
+        return float(np.linalg.norm(shape.half_extents))
+    return math.inf
+
+
+def deepest_overlap(traj: Trajectory, scene, t0: float, samples: int = 20) -> float:
+    """Largest depth (m) by which any two bodies overlap, at `samples` sample times spread
+    evenly from t0 to the end; exact per pair (cases.overlap: distances and separating
+    axes), pairs whose bounding spheres are apart skipped."""
+    from dataclasses import replace
+
+    from cases.overlap import penetration
+    from cases.trajectory import POS, QUAT
+    picks = np.flatnonzero(traj.after(t0))
+    picks = np.unique(picks[np.linspace(0, len(picks) - 1, min(samples, len(picks))).round().astype(int)])
+    pairs = scene.contact_pairs()
+    index = {b.name: i for i, b in enumerate(scene.bodies)}
+    ia = np.array([index[a.name] for a, _ in pairs], dtype=int)
+    ib = np.array([index[b.name] for _, b in pairs], dtype=int)
+    bound = np.array([_reach(a.shape) + _reach(b.shape) for a, b in pairs])
+    deepest = 0.0
+    for k in picks:
+        now = [b if b.static else replace(b, position=tuple(traj.states[b.name][k, POS]),
+                                          orientation=tuple(traj.states[b.name][k, QUAT]))
+               for b in scene.bodies]
+        x = np.array([b.position for b in now], dtype=float)
+        near = ~(np.linalg.norm(x[ia] - x[ib], axis=1) > bound)  # every pair with a plane is near
+        for i in np.flatnonzero(near):
+            deepest = max(deepest, penetration(now[ia[i]], now[ib[i]]))
+    return deepest
+
+
+def stack_readings(traj: Trajectory, names: list[str], half: float, settled: float) -> dict:
+    """What a resting stack of boxes (half-height `half`, `names` bottom to top, on the
+    ground z = 0) shows from time `settled` on: the mean normal force below each box
+    (`force_below_box<k>`), the deepest mean overlap of any interface (`penetration`) and
+    the farthest any box moved (`drift`)."""
+    below = ["ground"] + list(names)
+    out = {}
+    depth = []
+    for k, name in enumerate(names):
+        out[f"force_below_box{k}"] = window_mean(traj, traj.force(below[k], name), settled)
+        bottom = traj.pos(name)[:, 2] - half
+        top_below = np.zeros_like(bottom) if k == 0 else traj.pos(below[k])[:, 2] + half
+        depth.append(window_mean(traj, top_below - bottom, settled))
+    out["penetration"] = max(depth)
+    after = traj.after(settled)
+    out["drift"] = float(max(np.max(np.linalg.norm(traj.pos(nm)[after] - traj.pos(nm)[after][0], axis=1))
+                             for nm in names))
+    return out
