@@ -61,14 +61,17 @@ def sweep_points(fams: dict[str, CaseFamily], engines: list[str], full: bool = F
     dt; `full` takes the whole dt x iterations grid."""
     points = []
     for name, fam in fams.items():
-        variants = fam.sweep_variants or (fam.variants[0].id,)
+        variants = [v for v in fam.variants if v.id in (fam.sweep_variants or (fam.variants[0].id,))]
         for eng in engines:
             try:
-                has_iterations = registry.get(eng).capabilities.iterations
+                caps = registry.get(eng).capabilities
             except registry.EngineError:
-                has_iterations = False
-            its = list(iterations) if has_iterations else []
-            for vid in variants:
+                continue
+            its = list(iterations) if caps.iterations else []
+            for v in variants:
+                if caps.cannot_run(fam.scene(v.params), fam.needs_of(v.params)):
+                    continue  # e.g. a 3D variant on a 2D engine: not a point of this engine
+                vid = v.id
                 grid = set((dt, None) for dt in dts)
                 if full:
                     grid |= set((dt, it) for dt in dts for it in its)
