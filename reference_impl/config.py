@@ -17,7 +17,11 @@ class Config:
     beta: float = 0.2
     slop: float = 1e-5                 # m: penetration left alone (0.1 of the 1e-4 m budget)
     position_iterations: int = 200     # pseudo-velocity sweeps, same early exit
-    warm_start: bool = True            # start from the last step's impulses (note 001, persistence)
+    # start from the last step's impulses (note 001, "inter-timestep persistence"); when
+    # no contact has any (a scene starting at rest), from the least-squares impulses
+    # (sequential_impulses.py) if the system has at most `cold_start_rows` rows
+    warm_start: bool = True
+    cold_start_rows: int = 1000        # a dense solve of this size costs ~0.1 s, once
     # a contact sticks (mu_s bounds friction) while its tangential speed at the start of
     # the step is below this; above it slides (mu_k). Well above the solver's residual
     # (~1e-12 m/s) and below one step of the gentlest sliding we test (~1e-4 m/s).
@@ -30,10 +34,10 @@ class Config:
     params: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        for name in ("iterations", "position_iterations"):
+        for name, least in (("iterations", 1), ("position_iterations", 1), ("cold_start_rows", 0)):
             value = getattr(self, name)
-            if not isinstance(value, int) or value < 1:
-                raise ValueError(f"{name} = {value!r}: must be a whole number >= 1")
+            if not isinstance(value, int) or value < least:
+                raise ValueError(f"{name} = {value!r}: must be a whole number >= {least}")
         for name in ("tolerance", "beta", "slop", "stick_speed", "margin"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and value >= 0):

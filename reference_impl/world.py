@@ -137,6 +137,7 @@ class World:
                     continue
                 old = previous.get((a.index, b.index, feature))
                 if old is not None:
+                    c.warm = True
                     c.Pn = old[0]
                     c.Pt = [sum(P * d for P, d in zip(old[1], row.d)) for row in c.tangents]
                 contacts.append(c)
