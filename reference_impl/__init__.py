@@ -19,7 +19,7 @@ One step of `World.step(dt)` (note 001, "simulation loop"):
    velocity (restitution, speculative gaps: `Contact.normal_target`; contacts that touch
    only late in the step are left to the next one), whether it `sticks`, and, with
    `config.warm_start`, last step's impulses of the same contact (same bodies, same
-   feature id) in `Pn` / `Pt`;
+   feature id) in `Pn` / `Pt` (then `warm` is True);
 2. gravity: v += g dt (skipped when gravity is zero);
 3. solve: the formulation named by `config.formulation` changes body velocities;
 4. integrate positions and orientations from v + vp, w + wp (pseudo-velocities, zero
@@ -42,8 +42,8 @@ Formulation interface -- one module per formulation, one function:
   contact the impulses of this step: `Pn` (normal, N s, >= 0) and `Pt` (list, one per
   tangent row). The world reports `Pn / dt` summed per body pair as the contact force
   and keeps `Pn`, `Pt` for next step's warm start.
-- On entry `Pn`, `Pt` hold the warm-start values (0 if none or warm start is off);
-  whether to apply them is the formulation's choice.
+- On entry `Pn`, `Pt` hold the warm-start values (0 if none or warm start is off;
+  `contact.warm` says which); whether to apply them is the formulation's choice.
 - It may set pseudo-velocities `body.vp`, `body.wp` (position correction that moves
   positions this step but is not kept as velocity).
 - It returns the names of the stages it ran (e.g. ("warm_start", "velocity", "friction",
