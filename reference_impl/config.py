@@ -15,7 +15,9 @@ class Config:
     # Baumgarte depenetration (note 001, "de-penetration bias velocity"):
     # v_bias = beta/dt * (delta - slop)+, applied to pseudo-velocities (split impulse)
     beta: float = 0.2
-    slop: float = 1e-5                 # m: penetration left alone (0.1 of the 1e-4 m budget)
+    # m: a dead band on both sides of touching: overlaps up to it are not pushed out, gaps
+    # up to it count as touching (a tenth of the 1e-4 m penetration budget)
+    slop: float = 1e-5
     position_iterations: int = 200     # pseudo-velocity sweeps, same early exit
     # start from the last step's impulses (note 001, "inter-timestep persistence"); when
     # no contact has any (a scene starting at rest), from the least-squares impulses
@@ -23,8 +25,8 @@ class Config:
     warm_start: bool = True
     cold_start_rows: int = 1000        # a dense solve of this size costs ~0.1 s, once
     # a contact sticks (mu_s bounds friction) while its tangential speed at the start of
-    # the step is below this; above it slides (mu_k). Well above the solver's residual
-    # (~1e-12 m/s) and below one step of the gentlest sliding we test (~1e-4 m/s).
+    # the step is below this; above it slides (mu_k). Well above the solver's tolerance
+    # (1e-10 m/s) and below one step of the gentlest sliding we test (~1e-4 m/s).
     stick_speed: float = 1e-5          # m/s
     # contacts are made for shapes up to this far apart (speculative contacts: the gap
     # may close this step, no more). Keeps a contact whose corner lifts by a rounding-
