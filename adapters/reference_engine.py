@@ -1,8 +1,9 @@
 """The project's reference engine (`reference_impl/`) behind the engine contract.
 
-`ReferenceAdapter(formulation)` runs one formulation of reference_impl: "si" (sequential
-impulses, the default, registered as "reference") or any other module of reference_impl
-with a `solve` (registered as "reference-<formulation>"). The scene maps one to one: the
+`ReferenceAdapter(formulation, name, params)` runs one formulation of reference_impl: "si"
+(sequential impulses, the default, registered as "reference") or any other module of
+reference_impl with a `solve` (named "reference-<formulation>" unless `name` says
+otherwise), with `params` as its `Config.params`. The scene maps one to one: the
 engine has pair materials (e, mu_s, mu_k) and every shape of the vocabulary, so nothing
 is combined or approximated. It has no damping, sleeping or restitution threshold to
 switch off; the knobs record every setting of `reference_impl.config.Config` in force.
