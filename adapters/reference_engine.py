@@ -122,6 +122,9 @@ class ReferenceSimulation(Simulation):
             "bodies": {body.name: {"static": body.static, "can_rotate": body.can_rotate}
                        for body in world.bodies},
         }
+        own = getattr(world.solver, "knobs", None)  # what the formulation in force does
+        if own:
+            self._knobs.update(own(config))
         self.effects = self._built_effects(scene)
 
     def _built_effects(self, scene: Scene) -> frozenset[str]:

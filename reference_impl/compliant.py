@@ -186,6 +186,11 @@ def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
     return ("substeps",)
 
 
+# A force law must see a contact from the moment the shapes touch, not one step later
+# (the world's impulse formulations leave contacts that touch late in a step to the next).
+KEEP_LATE_CONTACTS = True
+
+
 def knobs(config) -> dict:
     """What this formulation does with the world's contacts, for the adapter's record."""
     law = _param(config, "compliant_law")

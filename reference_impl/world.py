@@ -133,8 +133,8 @@ class World:
             for point, n, depth, feature in points:
                 c = Contact(a, b, point, n, depth, feature, mat.e, mat.mu_s, mat.mu_k, planar)
                 c.prepare(dt, self.config)
-                if c.target is None:  # touches late in the step: the next step's contact
-                    continue
+                if c.target is None and not getattr(self.solver, "KEEP_LATE_CONTACTS", False):
+                    continue  # touches late in the step: the next step's contact (impulse formulations)
                 old = previous.get((a.index, b.index, feature))
                 if old is not None:
                     c.warm = True

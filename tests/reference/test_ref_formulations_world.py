@@ -95,10 +95,6 @@ def test_hertz_contact_bounces_elastically(m2):
     assert [states["a"][-1, 7], states["b"][-1, 7]] == pytest.approx(after_impact(1.0, m2, 1.0), abs=1e-5)
 
 
-@pytest.mark.xfail(strict=True, reason="needs a change in reference_impl/world.py: World.collide drops "
-                   "contacts whose normal_target is None (e > 0, gap closing late in the step), so a "
-                   "compliant contact is first seen up to |v| dt / 2 deep (1.5 mm here) and Hertz's law "
-                   "launches the spheres at ~20 m/s")
 def test_hertz_contact_from_a_gap():
     states, _ = run("compliant", scene("central_impact", "e=1.0,m=1:3"), 0.05)
     assert [states["a"][-1, 7], states["b"][-1, 7]] == pytest.approx(after_impact(1.0, 3.0, 1.0), abs=1e-5)
