@@ -136,12 +136,19 @@ def run_job(job: Job, family: CaseFamily, adapter: Adapter | None = None,
         return rows_with("unsupported", str(exc))
     except Exception as exc:  # an engine crash while building: recorded, the run goes on
         return rows_with("error", _describe(exc))
+    known = deviations.load(job.engine) if known is None else known
     try:
         with sim:
             run = simulate(sim, scene, dt, family.duration(params), warmup)
     except Unstable as exc:
         return rows_with("unstable", str(exc), knobs=json.dumps(getattr(sim, "knobs", {}), default=str))
     except Exception as exc:
+        # an exception every check of which is a known deviation (e.g. a solver that
+        # detects it cannot solve the scene) is that deviation; otherwise it is an error
+        entries = [deviations.find(known, family.name, job.variant.id, c.metric) for c in checks]
+        if all(entries):
+            return [_row(job, family, c, status="deviation", known_deviation=e.reason,
+                         reason=f"{e.reason} [{_describe(exc)}]", **base) for c, e in zip(checks, entries)]
         return rows_with("error", _describe(exc))
     timing = {"wall_s": run.wall_s, "sim_s": run.steps * dt, "steps": run.steps,
               "iterations": "" if run.iterations is None else run.iterations,
@@ -152,7 +159,6 @@ def run_job(job: Job, family: CaseFamily, adapter: Adapter | None = None,
     except Exception as exc:
         return rows_with("error", "observing the trajectory failed: " + _describe(exc),
                          **{k: v for k, v in timing.items() if k != "iterations"})
-    known = deviations.load(job.engine) if known is None else known
     done = {**base, **timing}
     rows = []
     for c in checks:

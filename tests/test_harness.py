@@ -100,6 +100,16 @@ def test_a_known_deviation_is_reported_with_its_measured_size():
     assert rows[0]["status"] == "pass" and rows[0]["known_deviation"] == ""
 
 
+def test_a_known_engine_failure_is_a_deviation_and_an_unknown_one_an_error():
+    known = [deviations.Deviation("fake", "free_fall", "offset=0.0", "*", "the solver gives up on this LCP", 1)]
+    rows = run_job(_job(0), FALL, FakeAdapter(crash_at=3), known=known)
+    assert {r["status"] for r in rows} == {"deviation"}
+    assert "gives up" in rows[0]["reason"] and "RuntimeError: engine crashed" in rows[0]["reason"]
+    partial = [deviations.Deviation("fake", "free_fall", "offset=0.0", "z_end", "only one metric", 1)]
+    rows = run_job(_job(0), FALL, FakeAdapter(crash_at=3), known=partial)
+    assert {r["status"] for r in rows} == {"error"}
+
+
 def test_nan_is_unstable_and_the_engine_is_closed():
     adapter = FakeAdapter(blow_up_at=10)
     rows = run_job(_job(0), FALL, adapter, known=[])
