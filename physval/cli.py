@@ -83,8 +83,9 @@ def parser() -> argparse.ArgumentParser:
     run.add_argument("--iterations", type=_positive_int, metavar="N", help="solver iterations (default: each adapter's stated default)")
     run.add_argument("--out", default="reports", metavar="DIR", help="output folder (default: reports)")
     run.add_argument("--cases-dir", metavar="DIR", help="also load case families from *.py files in DIR")
-    run.add_argument("--workers", type=_positive_int, default=1, metavar="N",
-                     help="parallel processes (default 1: keeps the timings in wall_s undisturbed)")
+    run.add_argument("--workers", type=_positive_int, default=os.cpu_count() or 1, metavar="N",
+                     help="parallel processes (default: one per core; use 1 for undisturbed wall_s timings, "
+                          "or better, physval sweep / physval bench for cost)")
     run.add_argument("--no-effective", action="store_true",
                      help="skip measuring the restitution and friction each engine really produces")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -175,7 +176,7 @@ def cmd_run(args) -> int:
     from adapters import registry
     from adapters.base import Settings
     from physval.report import write_report
-    from physval.runner import families as all_families, plan, run_jobs
+    from physval.runner import default_jobs, families as all_families, plan, run_jobs
 
     families = all_families(args.cases_dir)
     families, globs = select_cases(families, _names(args.cases))
@@ -185,8 +186,11 @@ def cmd_run(args) -> int:
             raise UsageError(f"unknown engine {e!r}: choose from {', '.join(registry.ENGINES)}")
     if args.dt is not None:
         Settings(dt=args.dt)  # validates the range once, with a message naming dt
-    jobs = [j for j in plan(families, engines, args.dt, args.iterations)
-            if j.family not in globs or any(fnmatchcase(j.variant.id, g) for g in globs[j.family])]
+    if args.cases:  # named cases run on every named engine
+        jobs = [j for j in plan(families, engines, args.dt, args.iterations)
+                if j.family not in globs or any(fnmatchcase(j.variant.id, g) for g in globs[j.family])]
+    else:
+        jobs = default_jobs(families, engines, args.dt, args.iterations)
     out = Path(args.out)
     print(f"physval: {len(jobs)} runs ({len(families)} families x {len(engines)} engines) -> {out}/", file=sys.stderr)
     rows = run_jobs(jobs, families, workers=args.workers, cases_dir=args.cases_dir,

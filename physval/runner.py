@@ -10,6 +10,7 @@ import json
 import math
 import time
 import traceback
+from fnmatch import fnmatchcase
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 
@@ -207,6 +208,33 @@ def plan(families: dict[str, CaseFamily], engines: list[str], dt: float | None =
          iterations: int | None = None) -> list[Job]:
     return [Job(name, v, eng, dt, iterations) for name, fam in families.items()
             for v in fam.variants for eng in engines]
+
+
+# The reference formulations other than the default run these families unless asked for
+# more (they are pure Python: the whole case library on eight formulations would take an hour).
+REFERENCE_VARIANT_FAMILIES = ("central_impact", "incline_threshold", "resting_blocks", "conformance")
+# Runs that take minutes each (pure-Python pairwise impulses over a stack's corner contacts):
+# left out of the default run and the default tests; name them to run them
+# (`physval run --engines reference-newton-coulomb --cases resting_blocks`, `pytest -m slow`).
+ON_DEMAND = (("reference-newton-coulomb", "resting_blocks", "n=[2-9]*"),)
+
+
+def on_demand(job: Job) -> bool:
+    return any(job.engine == e and job.family == f and fnmatchcase(job.variant.id, v) for e, f, v in ON_DEMAND)
+
+
+def default_jobs(families: dict[str, CaseFamily], engines: list[str], dt: float | None = None,
+                 iterations: int | None = None, include_on_demand: bool = False) -> list[Job]:
+    """The jobs of a run whose cases were not named: every family on the engines, the
+    reference formulations on REFERENCE_VARIANT_FAMILIES, on-demand runs only if asked."""
+    jobs = []
+    for job in plan(families, engines, dt, iterations):
+        if job.engine.startswith("reference-") and job.family not in REFERENCE_VARIANT_FAMILIES:
+            continue
+        if on_demand(job) and not include_on_demand:
+            continue
+        jobs.append(job)
+    return jobs
 
 
 def families(cases_dir=None) -> dict[str, CaseFamily]:

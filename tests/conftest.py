@@ -25,10 +25,15 @@ def selected_engines(config) -> list[str]:
 
 
 def pytest_generate_tests(metafunc):
+    """The jobs of the default run (reference formulations on the core families); the
+    on-demand ones (minutes each) are marked slow and run with `pytest -m slow`."""
+    import pytest
     from cases.registry import builtin_families
     from physval import conformance
-    from physval.runner import plan
+    from physval.runner import default_jobs, on_demand
     for name, fams in (("job", builtin_families), ("conformance_job", lambda: {"conformance": conformance.FAMILY})):
         if name in metafunc.fixturenames:
-            jobs = plan(fams(), selected_engines(metafunc.config))
-            metafunc.parametrize(name, jobs, ids=[j.test_id for j in jobs])
+            jobs = default_jobs(fams(), selected_engines(metafunc.config), include_on_demand=True)
+            params = [pytest.param(j, id=j.test_id, marks=[pytest.mark.slow] if on_demand(j) else [])
+                      for j in jobs]
+            metafunc.parametrize(name, params)
