@@ -97,7 +97,10 @@ def newton_coulomb_impulse(K, u, n, e: float, mu_s: float, mu_k: float) -> np.nd
     if np.linalg.norm(p_t) <= mu_s * p_n:
         return p
     speed_t = float(np.linalg.norm(u_t))
-    t = u_t / speed_t if speed_t > 0.0 else -p_t / float(np.linalg.norm(p_t))
+    # a slip at round-off level (1e-12 of |u|, e.g. a normal approach seen in a turned
+    # frame) has no direction of its own: treat it as no slip
+    no_slip = speed_t <= 1e-12 * float(np.linalg.norm(u))
+    t = -p_t / float(np.linalg.norm(p_t)) if no_slip else u_t / speed_t
     denominator = float(n @ K @ (n - mu_k * t))
     if denominator <= 0.0:
         raise ValueError(f"n^T K (n - mu_k t) = {denominator:.3g} <= 0: no sliding impulse can "
