@@ -1,0 +1,229 @@
+"""A free rigid body: a box thrown spinning near its intermediate axis (Dzhanibekov).
+
+No contact acts, so (note 001, "Multiple Contacts", equations of motion: dP/dt = F,
+dL/dt = T):
+- the centre of mass flies ballistically: v(t) = v_0 + g t, x(t) = x_0 + v_0 t + g t^2/2;
+- the angular momentum in the world frame L = R I_0 R^T w and the kinetic energy of
+  rotation E = w . L / 2 are constant.
+Rotation about the axis of intermediate inertia is unstable: the body flips over
+periodically. Torque-free Euler equations (I_1 < I_2 < I_3, body frame):
+    I_1 dw_1/dt = (I_2 - I_3) w_2 w_3  (and cyclic).
+With M^2 = |L|^2 and 2E, for M^2 > 2 E I_2 (Landau & Lifshitz, Mechanics, sec. 37;
+for M^2 < 2 E I_2 swap the labels 1 and 3):
+    w_2 = sqrt((2 E I_3 - M^2) / (I_2 (I_3 - I_2))) sn(tau, k),
+    tau = t sqrt((I_3 - I_2)(M^2 - 2 E I_1) / (I_1 I_2 I_3)),
+    k^2 = (I_2 - I_1)(2 E I_3 - M^2) / ((I_3 - I_2)(M^2 - 2 E I_1)).
+sn changes sign every 2 K(k) in tau, so the intermediate-axis component (the body's y
+axis projected on L) changes sign every
+    T_flip = 2 K(k) / sqrt((I_3 - I_2)(M^2 - 2 E I_1) / (I_1 I_2 I_3)),
+K the complete elliptic integral of the first kind (scipy.special.ellipk takes m = k^2).
+The body starts with no spin about the third axis, where w_2 = sn is at its extreme
+(tau = K), so the first flip comes after T_flip / 2. tests/test_closed_forms_impacts.py
+checks both against Euler's equations integrated numerically.
+
+Tolerances come from the integrator, not from the physics (which conserves exactly): an
+explicit Euler step of Euler's equations (the engines' symplectic Euler with explicit
+gyroscopic terms) changes E by exactly dt^2/2 w_dot . I w_dot per step (w . I w_dot = 0
+torque-free) and |L|^2 by dt^2 |L_dot|^2 (L . L_dot = 0), i.e. over the run by
+    dE ~ dt/2 int_0^T w_dot . I w_dot dt,   d|L| ~ dt/2 int_0^T |L_dot|^2 / |L| dt.
+Measured: PyBullet, MuJoCo and DART land within 3 % of these; the reference (which keeps
+L exact and rotates with the step's initial w) has the same leading term. The checks
+allow one dt of each rate (twice explicit Euler's constant). The flip time inherits these
+drifts through its dependence on E and M; near the separatrix M^2 = 2 E I_2 it is
+ill-conditioned (at dt = 1e-3 the tolerated drift moves it by 25-70 %), so this family
+steps at dt = 2e-4 and starts 20-30 deg off the intermediate axis.
+
+The 2D variant (a rect in the x-z plane, turning about y only) has no intermediate axis:
+its spin is constant and its centre ballistic.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.special import ellipk
+
+from cases.family import CaseFamily, Check
+from cases.overlap import rotation_matrix
+from cases.scene import Body, Box, Rect, Scene
+
+HALF = (0.05, 0.1, 0.2)    # box half-extents, m: I_x > I_y > I_z, y the intermediate axis
+MASS = 1.0                 # kg
+G = 9.81
+X0, V0 = (0.0, 0.0, 10.0), (1.0, 0.5, 3.0)  # thrown up and sideways (2D: no y)
+
+# Grid: 5 rad/s about the intermediate axis with a wobble of 2 and 3 rad/s about the axis
+# of least inertia (the smaller wobble flips later and is more sensitive to energy
+# errors); the 2D variant spins about y, its only axis.
+GRID = (
+    {"spin": 5.0, "wobble": 2.0, "dim": 3},
+    {"spin": 5.0, "wobble": 3.0, "dim": 3},
+    {"spin": 5.0, "wobble": 0.0, "dim": 2},
+)
+# Faster spins and wobbles nearer the separatrix (weaker flip checks: the tolerance grows
+# to 30-50 % of the flip time); run them with a smaller --dt for sharper ones.
+FULL_GRID = GRID + tuple({"spin": s, "wobble": w, "dim": 3} for s in (5.0, 10.0) for w in (0.2, 1.0))
+DT = 2e-4  # s: see the module docstring (the flip time's conditioning)
+
+
+def inertia(p) -> np.ndarray:
+    """Principal inertia of the box (3D) or the rect (2D)."""
+    shape = Box(HALF) if p["dim"] == 3 else Rect((HALF[0], HALF[2]))
+    return np.array(shape.inertia(MASS))
+
+
+def omega0(p) -> np.ndarray:
+    return np.array([0.0, p["spin"], p["wobble"]])
+
+
+# --- closed forms ---------------------------------------------------------------------------
+
+def invariants(I, w) -> tuple[float, float]:
+    """(2E, M^2) of a body with principal inertia I spinning at w (body frame)."""
+    I, w = np.asarray(I, float), np.asarray(w, float)
+    return float(I @ w**2), float((I * w) @ (I * w))
+
+
+def flip_interval(I, E2: float, M2: float) -> float:
+    """T_flip of a torque-free body with principal inertia I, 2E = E2 and M^2 = M2 (see the
+    module docstring): the time between sign changes of the intermediate component."""
+    I_1, I_2, I_3 = np.sort(np.asarray(I, float))
+    if M2 < E2 * I_2:
+        I_1, I_3 = I_3, I_1
+    lam = math.sqrt((I_3 - I_2) * (M2 - E2 * I_1) / (I_1 * I_2 * I_3))
+    k2 = (I_2 - I_1) * (E2 * I_3 - M2) / ((I_3 - I_2) * (M2 - E2 * I_1))
+    return 2.0 * float(ellipk(k2)) / lam
+
+
+def euler_rates(I, w) -> np.ndarray:
+    """dw/dt = I^-1 ((I w) x w), torque-free Euler equations in the body frame."""
+    return np.cross(I * w, w) / I
+
+
+def integrator_scales(I, w0, T: float) -> tuple[float, float]:
+    """(int_0^T w_dot . I w_dot dt, int_0^T |L_dot|^2 / |L| dt) along the exact motion: the
+    rates at which a first-order step changes E and |L| (module docstring)."""
+    I = np.asarray(I, float)
+
+    def rates(t, y):
+        w = y[:3]
+        wd = euler_rates(I, w)
+        Ld = I * wd
+        return np.concatenate([wd, [wd @ (I * wd), Ld @ Ld / np.linalg.norm(I * w)]])
+    sol = solve_ivp(rates, (0.0, T), np.concatenate([w0, np.zeros(2)]), rtol=1e-10, atol=1e-12)
+    return float(sol.y[3, -1]), float(sol.y[4, -1])
+
+
+def euler_positions(x0, v0, g, dt: float, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The two explicit Euler forms of free flight at steps n: velocity first,
+    x0 + v0 t + g dt^2 n(n+1)/2, and position first, x0 + v0 t + g dt^2 n(n-1)/2."""
+    t = (n * dt)[:, None]
+    base = np.asarray(x0, float) + np.asarray(v0, float) * t
+    g = np.asarray(g, float)
+    return (base + g * dt**2 * (n * (n + 1) / 2)[:, None], base + g * dt**2 * (n * (n - 1) / 2)[:, None])
+
+
+# --- scene ----------------------------------------------------------------------------------
+
+def _body(p) -> Body:
+    if p["dim"] == 2:
+        return Body("box", Rect((HALF[0], HALF[2])), mass=MASS, position=X0, velocity=(V0[0], 0.0, V0[2]),
+                    angular_velocity=(0.0, p["spin"], 0.0))
+    return Body("box", Box(HALF), mass=MASS, position=X0, velocity=V0, angular_velocity=tuple(omega0(p)))
+
+
+def scene(p) -> Scene:
+    return Scene(bodies=(_body(p),), gravity=(0.0, 0.0, -G), dimension=p["dim"])
+
+
+def duration(p) -> float:
+    if p["dim"] == 2:
+        return 0.2
+    # past the first flip, which comes after half an interval
+    return 0.75 * flip_interval(inertia(p), *invariants(inertia(p), omega0(p)))
+
+
+# --- observables ----------------------------------------------------------------------------
+
+def observe(traj, p) -> dict:
+    I = inertia(p)
+    Rs = np.array([rotation_matrix(q) for q in traj.quat("box")])
+    w = traj.omega("box")
+    L = np.einsum("nij,nj->ni", Rs, I * np.einsum("nji,nj->ni", Rs, w))  # R I_0 R^T w
+    E = 0.5 * np.einsum("ni,ni->n", w, L)
+    g = np.array([0.0, 0.0, -G])
+    v0 = np.array(_body(p).velocity)
+    n = np.arange(len(traj.t))
+    x = traj.pos("box")
+    out = {"momentum_drift": float(np.max(np.linalg.norm(L - L[0], axis=1)) / np.linalg.norm(L[0])),
+           "energy_drift": float(np.max(np.abs(E - E[0])) / E[0]),
+           "com_velocity_error": float(np.max(np.linalg.norm(traj.vel("box") - v0 - g * traj.t[:, None], axis=1))),
+           "com_position_error": min(float(np.max(np.linalg.norm(x - form, axis=1)))
+                                     for form in euler_positions(X0, v0, g, traj.dt, n))}
+    if p["dim"] == 3:
+        # the body's y axis on L (a world-fixed direction): changes sign at every flip
+        s = np.einsum("ni,ni->n", Rs[:, :, 1], L)
+        k = np.flatnonzero(np.sign(s[1:]) != np.sign(s[:-1]))
+        crossings = traj.t[k] + traj.dt * s[k] / (s[k] - s[k + 1])  # linear interpolation
+        out["flip_time"] = float(crossings[0]) if len(crossings) else math.inf
+    return out
+
+
+# --- expectations ---------------------------------------------------------------------------
+
+def expect(p, dt) -> list[Check]:
+    T = duration(p)
+    scale = float(np.linalg.norm(X0)) + float(np.linalg.norm(V0)) * T + G * T * T
+    checks = [
+        Check("com_velocity_error", "m/s", 0.0, 1e-9 * (float(np.linalg.norm(V0)) + G * T), "abs",
+              "v += g dt is exact in every Euler variant, to round-off"),
+        Check("com_position_error", "m", 0.0, 1e-9 * scale, "abs",
+              "free flight is one of the two explicit Euler forms (velocity or position first), to round-off"),
+    ]
+    if p["dim"] == 2:
+        exact = "a spin about a principal axis is constant: exact in any integrator, to round-off"
+        return checks + [Check("momentum_drift", "-", 0.0, 1e-9, "abs", exact),
+                         Check("energy_drift", "-", 0.0, 1e-9, "abs", exact)]
+    I, w0 = inertia(p), omega0(p)
+    E2, M2 = invariants(I, w0)
+    s_E, s_M = integrator_scales(I, w0, T)
+    # One dt of each rate: a first-order step's constant is 1/2 for explicit Euler (+) and
+    # implicit Euler (-) in the body frame; other first-order rotation updates differ.
+    tol_E = dt * s_E / (E2 / 2)
+    tol_M = dt * s_M / math.sqrt(M2)
+    # T_flip at the corners of those drifts: near the separatrix it is
+    # ill-conditioned in E and M (module docstring).
+    T_flip = flip_interval(I, E2, M2)
+    corners = [flip_interval(I, E2 * (1 + a * tol_E), M2 * (1 + b * tol_M) ** 2) for a in (-1, 1) for b in (-1, 1)]
+    tol_T = max(abs(c - T_flip) for c in corners) / 2.0 + dt
+    return checks + [
+        Check("momentum_drift", "-", 0.0, tol_M, "abs",
+              "first-order rotation step: |L| errs by dt^2/2 |L_dot|^2/|L| per step (explicit Euler); "
+              "one dt of that rate in all"),
+        Check("energy_drift", "-", 0.0, tol_E, "abs",
+              "first-order rotation step: E errs by dt^2/2 w_dot . I w_dot per step (explicit Euler); "
+              "one dt of that rate in all"),
+        Check("flip_time", "s", T_flip / 2.0, tol_T, "abs",
+              "T_flip(E, M) / 2 at the tolerated energy and momentum drifts, plus dt for the interpolated crossing"),
+    ]
+
+
+def variant_id(p) -> str:
+    if p["dim"] == 2:
+        return f"spin={p['spin']:g},2D"
+    return f"spin={p['spin']:g},wobble={p['wobble']:g}"
+
+
+FAMILY = CaseFamily(
+    name="free_rigid_body",
+    summary="a box thrown spinning near its intermediate axis: angular momentum and energy conserved, centre of mass ballistic, first flip at K(k)/lambda (elliptic integral)",
+    source="note 001 (CG3 II.5), rigid-body equations of motion; Euler's equations, Landau & Lifshitz Mechanics sec. 37 (Dzhanibekov flip)",
+    grid=GRID,
+    scene=scene,
+    duration=duration,
+    observe=observe,
+    expect=expect,
+    dt=DT,
+    variant_id=variant_id,
+)
