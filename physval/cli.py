@@ -103,7 +103,9 @@ def parser() -> argparse.ArgumentParser:
                                "  physval sweep --scheduler tcp://127.0.0.1:8786  on a running Dask cluster")
     sw.add_argument("--cases", nargs="+", metavar="NAME",
                     help="case families (default: the core three: central_impact, incline_threshold, resting_blocks)")
-    sw.add_argument("--engines", nargs="+", metavar="NAME", help="engines (default: all installed)")
+    sw.add_argument("--engines", nargs="+", metavar="NAME",
+                    help="engines (default: all installed, the reference with its default formulation; "
+                         "name reference-pgs, reference-spook, ... to sweep the other formulations)")
     sw.add_argument("--workers", type=_positive_int, default=os.cpu_count() or 1, metavar="N",
                     help="local worker processes (default: one per core)")
     sw.add_argument("--scheduler", metavar="ADDRESS", help="run on an existing Dask distributed cluster instead")
@@ -224,7 +226,10 @@ def cmd_sweep(args) -> int:
     for n in names:
         if n not in fams:
             raise UsageError(f"unknown case {n!r}: choose from {', '.join(fams)}")
-    engines = _names(args.engines) or [e for e in registry.engine_names() if registry.available(e)]
+    # default: every installed engine with the reference's default formulation; the other
+    # formulations (pure Python, up to seconds a step at dt = 1e-4) are swept when named
+    engines = _names(args.engines) or [e for e in registry.engine_names()
+                                       if not e.startswith("reference-") and registry.available(e)]
     for e in engines:
         if e not in registry.ENGINES:
             raise UsageError(f"unknown engine {e!r}: choose from {', '.join(registry.ENGINES)}")

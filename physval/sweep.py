@@ -24,7 +24,7 @@ from pathlib import Path
 from adapters import registry
 from adapters.base import Settings
 from cases.family import CaseFamily
-from physval.runner import COLUMNS, Job, families as all_families, run_job
+from physval.runner import COLUMNS, Job, families as all_families, on_demand, run_job
 
 # Time steps from 1/60 s (games) down to 1e-4 s (six values, about log-spaced).
 DTS = (1 / 60, 1 / 120, 1 / 240, 1e-3, 3e-4, 1e-4)
@@ -71,6 +71,8 @@ def sweep_points(fams: dict[str, CaseFamily], engines: list[str], full: bool = F
             for v in variants:
                 if caps.cannot_run(fam.scene(v.params), fam.needs_of(v.params)):
                     continue  # e.g. a 3D variant on a 2D engine: not a point of this engine
+                if on_demand(Job(name, v, eng)):
+                    continue  # minutes a run even at the family's dt (runner.ON_DEMAND)
                 vid = v.id
                 grid = set((dt, None) for dt in dts)
                 if full:
