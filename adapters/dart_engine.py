@@ -310,21 +310,22 @@ class DartAdapter(Adapter):
             output.close()
             raise
         output.end()
-        return DartSimulation(world, nodes, knobs, _effects(scene, knobs), sweeps, output)
+        return DartSimulation(world, nodes, knobs, _effects(scene, knobs, mu, e), sweeps, output)
 
 
-def _effects(scene: Scene, knobs: dict) -> frozenset[str]:
-    """What the built world simulates (pairs at or below DART's thresholds were refused)."""
+def _effects(scene: Scene, knobs: dict, mu: dict, e: dict) -> frozenset[str]:
+    """What the built world simulates, read from what was given to DART: the world's
+    gravity, the per-body coefficients under DART's rules (friction min, restitution
+    product) and the joints."""
     fx = set()
-    if any(g != 0.0 for g in scene.gravity):
+    if any(g != 0.0 for g in scene.gravity):  # world.setGravity(scene.gravity)
         fx.add("gravity")
     pairs = scene.contact_pairs()
     if pairs:
         fx.add("contact")
-        mats = [scene.material_of(a.name, b.name) for a, b in pairs]
-        if any(m.e > 0.0 for m in mats):
+        if any(e[a.name] * e[b.name] > 0.0 for a, b in pairs):
             fx.add("restitution")
-        if any(m.mu_s > 0.0 for m in mats):
+        if any(min(mu[a.name], mu[b.name]) > 0.0 for a, b in pairs):
             fx.add("friction")
     if any(j in ("FreeJoint", "PlanarJoint") for j in knobs["joints"].values()):
         fx.add("rotation")
