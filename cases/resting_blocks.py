@@ -9,10 +9,9 @@ indeterminate and is not checked. Bodies at rest do not penetrate and do not dri
 """
 from __future__ import annotations
 
-import numpy as np
 
 from cases.family import CaseFamily, Check
-from cases.observables import window_mean
+from cases.observables import stack_readings
 from cases.scene import Body, Material, Scene, cube, ground
 
 HALF = 0.1   # half-extent of each cube, m
@@ -54,20 +53,7 @@ def duration(p) -> float:
 # --- observables ----------------------------------------------------------------------
 
 def observe(traj, p) -> dict:
-    n = p["n"]
-    below = ["ground"] + names(n)
-    out = {}
-    depth = []
-    for k, name in enumerate(names(n)):
-        out[f"force_below_box{k}"] = window_mean(traj, traj.force(below[k], name), SETTLED)
-        bottom = traj.pos(name)[:, 2] - HALF
-        top_below = np.zeros_like(bottom) if k == 0 else traj.pos(below[k])[:, 2] + HALF
-        depth.append(window_mean(traj, top_below - bottom, SETTLED))
-    out["penetration"] = max(depth)
-    settled = traj.after(SETTLED)
-    drift = [np.max(np.linalg.norm(traj.pos(nm)[settled] - traj.pos(nm)[settled][0], axis=1)) for nm in names(n)]
-    out["drift"] = float(max(drift))
-    return out
+    return stack_readings(traj, names(p["n"]), HALF, SETTLED)
 
 
 # --- expectations ---------------------------------------------------------------------
