@@ -295,8 +295,11 @@ class MuJoCoSimulation(Simulation):
             hinge = joints[-1][0] == "hinge"
             self._bodies.append((body.name, qa, va, (np.asarray(body.position, float), q0, slides, hinge)))
         names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in range(model.ngeom)]
-        self._pair_of = {(g1, g2): pair_key(names[g1], names[g2])
-                         for g1, g2 in zip(model.pair_geom1.tolist(), model.pair_geom2.tolist())}
+        # MuJoCo may report a contact's geoms in either order (it orders some type pairs,
+        # e.g. sphere-box, its own way): key both
+        self._pair_of = {}
+        for g1, g2 in zip(model.pair_geom1.tolist(), model.pair_geom2.tolist()):
+            self._pair_of[g1, g2] = self._pair_of[g2, g1] = pair_key(names[g1], names[g2])
         self._f6 = np.zeros(6)
         mujoco.mj_forward(model, d)  # start-state quantities, so build cost stays out of step()
         self.effects = self._built_effects(knobs)
