@@ -116,6 +116,9 @@ def parser() -> argparse.ArgumentParser:
     sw.add_argument("--cases-dir", metavar="DIR", help="also load case families from *.py files in DIR")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
 
+    from physval import stress
+    stress.add_parser(sub)
+
     bn = sub.add_parser("bench", help="speed side by side in one run, as ratios (not a test)",
                         description="Benchmarks measured side by side in one run: sweep throughput with 1 and "
                                     "2 workers; step time of a 5-box stack and a 10-layer pyramid on every "
@@ -287,6 +290,9 @@ def main(argv: list[str] | None = None) -> int:
         p.print_help()
         return 0
     try:
+        if args.command == "stress":
+            from physval import stress
+            return stress.run(args)
         return {"list": cmd_list, "run": cmd_run, "sweep": cmd_sweep, "bench": cmd_bench}[args.command](args)
     except (UsageError, CaseError, SceneError, SettingsError, EngineError) as exc:
         print(f"physval: error: {exc}", file=sys.stderr)
