@@ -180,7 +180,8 @@ def plot_stability_map(df: pd.DataFrame, path: Path) -> None:
     summary = map_summary(df)
     engines = list(dict.fromkeys(summary.engine))
     top = max(int(df.n.max()), 1)
-    fig, axes = plt.subplots(1, len(engines), figsize=(3.2 * len(engines) + 1.2, 3.4), squeeze=False)
+    fig, axes = plt.subplots(1, len(engines), figsize=(2.6 * len(engines) + 1.6, 3.2), squeeze=False,
+                             layout="constrained")
     for ax, eng in zip(axes[0], engines):
         part = summary[summary.engine == eng]
         hz = sorted(part.hz.unique())
@@ -191,14 +192,15 @@ def plot_stability_map(df: pd.DataFrame, path: Path) -> None:
             grid[i, j] = r["tallest standing"]
             collapse = r["next: time to collapse (s)"]
             text = str(r["tallest standing"]) + (f"\n{collapse:.1f}s" if math.isfinite(collapse) else "")
-            ax.text(j, i, text, ha="center", va="center", fontsize=7, color="white")
+            ax.text(j, i, text, ha="center", va="center", fontsize=7,
+                    color="black" if r["tallest standing"] > 0.6 * top else "white")
         im = ax.imshow(grid, cmap="viridis", vmin=0, vmax=top, aspect="auto")
         ax.set_xticks(range(max(len(its), 1)), [str(int(i)) for i in its] or ["default"])
-        ax.set_yticks(range(len(hz)), [f"{h} Hz" for h in hz])
+        ax.set_yticks(range(len(hz)), [f"{h} Hz" for h in hz] if ax is axes[0][0] else [])
         ax.set_xlabel("iterations")
         ax.set_title(eng, fontsize=10)
     fig.colorbar(im, ax=axes[0].tolist(), label="tallest stack standing the whole run")
-    fig.suptitle("Stability map: tallest stack (and the next height's time to collapse)", fontsize=10)
+    fig.suptitle("Tallest stack standing (below it: the next height's time to collapse)", fontsize=10)
     _save(fig, path)
 
 
