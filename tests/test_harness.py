@@ -167,7 +167,8 @@ def test_every_deviation_entry_matches_a_check_of_a_builtin_case():
     """The deviation files cannot rot: each entry names a family, variant and metric that exist."""
     from adapters.registry import engine_names
     from physval.runner import families
-    fams = families()
+    from physval.stress import robustness_families
+    fams = {**families(), **robustness_families(long=True)}  # entries may name `physval stress --long` variants
     for eng in engine_names():
         for d in deviations.load(eng):
             assert d.family in fams, f"{eng}.txt:{d.line}: no family {d.family!r}"
