@@ -124,8 +124,7 @@ def parser() -> argparse.ArgumentParser:
                                     "2 workers; step time of a 5-box stack and a 10-layer pyramid on every "
                                     "engine against the reference; the reference PGS sweep cost against the "
                                     "number of contacts. Writes bench.md and bench_*.csv into --out.")
-    bn.add_argument("what", nargs="*", choices=["sweep-workers", "step", "pgs"], metavar="WHAT",
-                    help="sweep-workers, step, pgs (default: all)")
+    bn.add_argument("what", nargs="*", metavar="WHAT", help="sweep-workers, step, pgs (default: all)")
     bn.add_argument("--engines", nargs="+", metavar="NAME", help="engines (default: all installed)")
     bn.add_argument("--out", default="reports/bench", metavar="DIR", help="output folder (default: reports/bench)")
     return p
@@ -264,6 +263,9 @@ def cmd_bench(args) -> int:
         if e not in registry.ENGINES:
             raise UsageError(f"unknown engine {e!r}: choose from {', '.join(registry.ENGINES)}")
     what = args.what or ["sweep-workers", "step", "pgs"]
+    unknown = [w for w in what if w not in ("sweep-workers", "step", "pgs")]
+    if unknown:
+        raise UsageError(f"unknown benchmark {unknown[0]!r}: choose from sweep-workers, step, pgs")
     sections, notes = {}, {}
     if "sweep-workers" in what:
         print("physval bench: the same sweep with 1 and with 2 workers", file=sys.stderr)
