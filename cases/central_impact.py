@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Check, plane_label
 from cases.observables import arc_apex, first_impact, free_arc_start
 from cases.scene import Body, Material, Scene, ball, ground
 
@@ -147,7 +147,7 @@ def expect(p, dt) -> list[Check]:
 
 
 def variant_id(p) -> str:
-    plane = ",2D" if p.get("dim", 3) == 2 else ""
+    plane = plane_label(p)
     if p["setup"] == "spheres":
         return f"e={p['e']},m={p['m']}{plane}"
     return f"drop,e={p['e']}{plane}"

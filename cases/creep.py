@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Check, plane_label
 from cases.observables import rate
 from cases.scene import Body, Material, Scene, cube, ground, tilted_gravity
 
@@ -93,7 +93,7 @@ def expect(p, dt) -> list[Check]:
 
 
 def variant_id(p) -> str:
-    plane = ",2D" if p.get("dim", 3) == 2 else ""
+    plane = plane_label(p)
     return f"mu={p['mu']},theta={p['fraction']:g}atan(mu){plane}"
 
 

@@ -54,6 +54,16 @@ class Variant:
         return json.dumps(self.params, sort_keys=True)
 
 
+def friction_label(p: dict) -> str:
+    """'mu=0.5' when mu_s = mu_k, else 'mu_s=0.5,mu_k=0.3': for variant ids."""
+    return f"mu={p['mu_s']}" if p["mu_s"] == p["mu_k"] else f"mu_s={p['mu_s']},mu_k={p['mu_k']}"
+
+
+def plane_label(p: dict) -> str:
+    """',2D' for a 2D variant (params 'dim' = 2), else '': for variant ids."""
+    return ",2D" if p.get("dim", 3) == 2 else ""
+
+
 def _default_id(params: dict) -> str:
     return ",".join(f"{k}={v}" for k, v in params.items())
 

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Check, friction_label, plane_label
 from cases.observables import window_mean
 from cases.scene import Body, Material, Scene, cube, ground, tilted_gravity
 
@@ -102,8 +102,8 @@ def expect(p, dt) -> list[Check]:
 
 
 def variant_id(p) -> str:
-    mu = f"mu={p['mu_s']}" if p["mu_s"] == p["mu_k"] else f"mu_s={p['mu_s']},mu_k={p['mu_k']}"
-    plane = ",2D" if p.get("dim", 3) == 2 else ""
+    mu = friction_label(p)
+    plane = plane_label(p)
     return f"{mu},theta=atan(mu_s){p['offset_deg']:+g}deg{plane}"
 
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Check, friction_label, plane_label
 from cases.observables import rate
 from cases.scene import Body, Material, Scene, ball, ground, tilted_gravity
 
@@ -105,8 +105,8 @@ def expect(p, dt) -> list[Check]:
 
 
 def variant_id(p) -> str:
-    mu = f"mu={p['mu_s']}" if p["mu_s"] == p["mu_k"] else f"mu_s={p['mu_s']},mu_k={p['mu_k']}"
-    plane = ",2D" if p.get("dim", 3) == 2 else ""
+    mu = friction_label(p)
+    plane = plane_label(p)
     return f"theta={p['theta_deg']:g}deg,{mu}{plane}"
 
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Check, plane_label
 from cases.observables import point_velocity, settle_time
 from cases.scene import Body, Material, Scene, ball, ground
 
@@ -107,7 +107,7 @@ def expect(p, dt) -> list[Check]:
 
 
 def variant_id(p) -> str:
-    plane = ",2D" if p.get("dim", 3) == 2 else ""
+    plane = plane_label(p)
     return f"v0={p['v0']:g},w0={p['w0']:g},mu={p['mu']}{plane}"
 
 
