@@ -69,7 +69,7 @@ def pyramid(layers: int) -> Scene:
 SCENES = {"5-box stack": lambda: stack(5), "10-layer pyramid": lambda: pyramid(10)}
 
 
-def step_time(engine: str, scene: Scene, dt: float = 1e-3, steps: int = 100, repeats: int = 3) -> float:
+def step_time(engine: str, scene: Scene, dt: float = 1e-3, steps: int = 20, repeats: int = 2) -> float:
     """Minimum over repeats of the mean wall time per step (s), after 10 warm-up steps."""
     adapter = registry.get(engine)
     best = math.inf
@@ -84,7 +84,7 @@ def step_time(engine: str, scene: Scene, dt: float = 1e-3, steps: int = 100, rep
     return best
 
 
-def steps_side_by_side(engines: list[str], steps: int = 100) -> pd.DataFrame:
+def steps_side_by_side(engines: list[str], steps: int = 20) -> pd.DataFrame:
     out = []
     for label, make in SCENES.items():
         scene = make()

@@ -274,7 +274,7 @@ def cmd_bench(args) -> int:
     if "step" in what:
         print("physval bench: step time side by side", file=sys.stderr)
         sections["step"] = bench.steps_side_by_side(engines)
-        notes["step"] = "Minimum over 3 repeats of the mean wall time per step over 100 steps at dt = 1e-3 (10 warm-up steps); `reference / X` is how many times slower the reference is."
+        notes["step"] = "Minimum over 2 repeats of the mean wall time per step over 20 steps at dt = 1e-3 (10 warm-up steps; the 55-box pyramid costs up to 0.8 s a step); `reference / X` is how many times slower the reference is."
     if "pgs" in what:
         print("physval bench: PGS sweep cost against contact count", file=sys.stderr)
         sections["pgs"] = bench.pgs_scaling()
