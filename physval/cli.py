@@ -125,7 +125,8 @@ def parser() -> argparse.ArgumentParser:
                                     "engine against the reference; the reference PGS sweep cost against the "
                                     "number of contacts. Writes bench.md and bench_*.csv into --out.")
     bn.add_argument("what", nargs="*", metavar="WHAT", help="sweep-workers, step, pgs (default: all)")
-    bn.add_argument("--engines", nargs="+", metavar="NAME", help="engines (default: all installed)")
+    bn.add_argument("--engines", nargs="+", metavar="NAME",
+                    help="engines (default: all installed, the reference with its default formulation)")
     bn.add_argument("--out", default="reports/bench", metavar="DIR", help="output folder (default: reports/bench)")
     return p
 
@@ -258,7 +259,8 @@ def cmd_sweep(args) -> int:
 def cmd_bench(args) -> int:
     from adapters import registry
     from physval import bench
-    engines = _names(args.engines) or [e for e in registry.engine_names() if registry.available(e)]
+    engines = _names(args.engines) or [e for e in registry.engine_names()
+                                       if not e.startswith("reference-") and registry.available(e)]
     for e in engines:
         if e not in registry.ENGINES:
             raise UsageError(f"unknown engine {e!r}: choose from {', '.join(registry.ENGINES)}")
