@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from reference_impl import lcp
-from reference_impl.lcp import Bodies, Rows, inverse_mass_times_rows, velocity_change
+from reference_impl.lcp import Bodies, Rows, inverse_mass_times_rows
 
 
 @dataclass(frozen=True)
@@ -53,7 +53,10 @@ def projected_gauss_seidel(rows: Rows, bodies: Bodies, b: np.ndarray, settings: 
     diag = np.einsum("kj,kj->k", rows.J_a, W_a) + np.einsum("kj,kj->k", rows.J_b, W_b) + sig
     gamma = np.zeros(K) if gamma0 is None else np.array(gamma0, dtype=float)
     du = np.zeros((N + 1, 6))  # row N: the static world (index -1), never moves (its W is 0)
-    du[:N] = velocity_change(rows, bodies, gamma)
+    if gamma0 is not None:     # warm start: the sums of the starting impulses
+        np.add.at(du, rows.a, W_a * gamma[:, None])
+        np.add.at(du, rows.b, W_b * gamma[:, None])
+        du[N] = 0.0
 
     # plain Python lists: the sweep is scalar work, and list indexing is what makes it cheap
     Ja, Jb, Wa, Wb = rows.J_a.tolist(), rows.J_b.tolist(), W_a.tolist(), W_b.tolist()
