@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cases.scene import Scene
+from cases.trajectory import ContactPoint
 
 
 class Unsupported(Exception):
@@ -48,6 +49,7 @@ class Capabilities:
     static_kinetic: bool              # separate mu_s and mu_k
     contact_forces: bool              # normal forces can be read out
     iterations: bool                  # the solver has an iteration count to set
+    contact_points: bool = False      # Simulation.contact_points reports each point's forces
 
     def cannot_run(self, scene: Scene, needs: frozenset[str] = frozenset()) -> str | None:
         """Why this engine cannot represent `scene` (and a case's extra `needs`), or None."""
@@ -69,7 +71,8 @@ class Capabilities:
 
     def describe(self) -> str:
         dims = "+".join(f"{d}D" for d in sorted(self.dimensions))
-        flags = [f for f in ("native_restitution", "static_kinetic", "contact_forces", "iterations")
+        flags = [f for f in ("native_restitution", "static_kinetic", "contact_forces", "iterations",
+                             "contact_points")
                  if getattr(self, f)]
         return f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags)
 
@@ -93,6 +96,12 @@ class Simulation(ABC):
     @abstractmethod
     def contact_forces(self) -> dict[tuple[str, str], float]:
         """Normal force (N) per touching pair (cases.scene.pair_key) over the last step."""
+
+    def contact_points(self) -> list[ContactPoint]:
+        """Every contact point the solver acted on in the last step, with its normal and
+        friction force (cases.trajectory.ContactPoint). Engines with
+        `Capabilities.contact_points` implement it."""
+        raise NotImplementedError(f"{type(self).__name__} does not report contact points")
 
     def close(self) -> None:
         """Free the engine's resources; safe to call twice."""

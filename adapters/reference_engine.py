@@ -14,9 +14,12 @@ from __future__ import annotations
 
 from dataclasses import asdict
 
+import numpy as np
+
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.frames import state_row
 from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
+from cases.trajectory import ContactPoint
 from reference_impl import geometry
 from reference_impl.config import Config
 from reference_impl.rigid_body import RigidBody
@@ -34,6 +37,7 @@ class ReferenceAdapter(Adapter):
         static_kinetic=True,
         contact_forces=True,
         iterations=True,
+        contact_points=True,
     )
 
     def __init__(self, formulation: str = "si", name: str | None = None, params: dict | None = None):
@@ -160,6 +164,19 @@ class ReferenceSimulation(Simulation):
 
     def contact_forces(self):
         return {pair_key(a, b): P / self._dt for (a, b), P in self._world.normal_impulses.items()}
+
+    def contact_points(self):
+        """The world's contacts of the last step. A reference Contact pushes its body b
+        along n (contact.Row.apply: P d on b, -P d on a), so b is the contract's a."""
+        points = []
+        for c in self._world.contacts:
+            f_t = np.zeros(3)
+            for row, P in zip(c.tangents, c.Pt):
+                f_t += P * np.asarray(row.d)
+            points.append(ContactPoint(c.b.name, c.a.name, np.array(c.point, dtype=float),
+                                       np.array(c.n, dtype=float), c.Pn / self._dt, f_t / self._dt,
+                                       -float(c.depth)))
+        return points
 
     def close(self) -> None:
         """Nothing to free: the world is plain Python objects."""

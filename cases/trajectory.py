@@ -1,4 +1,5 @@
-"""What a simulation run hands to a case: body states and contact normal forces over time.
+"""What a simulation run hands to a case: body states and contact normal forces over time,
+and (`ContactPoint`) what an engine reports about each contact point after a step.
 
 Adapters produce the raw reads; the harness stacks them into a `Trajectory`; a case's
 observables read from it. State layout per row: position (3), orientation quaternion
@@ -14,6 +15,27 @@ from cases.scene import pair_key
 
 POS, QUAT, VEL, OMEGA = slice(0, 3), slice(3, 7), slice(7, 10), slice(10, 13)
 STATE_SIZE = 13
+
+
+@dataclass(frozen=True)
+class ContactPoint:
+    """One contact point after a step, in the world frame, as the engine solved it.
+
+    `n` is the unit normal pointing from body b into body a: the contact pushes a with
+    f_n n + f_t and b with the opposite. Forces are the step's impulses divided by dt.
+    `gap` is the signed distance the engine's collision detection gave the point
+    (negative: overlap). A static body is named like any other. Engines that report only
+    one resultant per touching pair give one point per pair (at the mean of its points,
+    the smallest gap); the adapter says so in its docstring. Velocities are not part of
+    the record: the harness takes them from the bodies' states, the same way for every engine.
+    """
+    a: str
+    b: str
+    x: np.ndarray      # (3,) point, m
+    n: np.ndarray      # (3,) unit normal, from b into a
+    f_n: float         # normal force on a along n, N
+    f_t: np.ndarray    # (3,) friction force on a, N (perpendicular to n)
+    gap: float         # signed distance, m
 
 
 @dataclass
