@@ -117,10 +117,15 @@ def write(out: Path, sections: dict[str, pd.DataFrame], notes: dict[str, str]) -
 
 # --- PGS sweep cost -----------------------------------------------------------------------
 
-PGS_NOTE = ("One projected Gauss-Seidel sweep (reference_impl/pgs.py) over a chain of k + 1 particles, each "
-            "touching the next, with friction (3 rows per contact): CPU time of this process, minimum of 9 "
-            "repeats. With per-body velocity sums (note 000) a sweep is O(contacts): `T(2k)/T(k)` should stay "
-            "at about 2 (O(contacts^2) would give 4).")
+PGS_NOTE = ("Projected Gauss-Seidel (reference_impl/pgs.py) on a chain of k + 1 particles, each touching the "
+            "next, with friction (3 rows per contact). `ms per sweep` is the cost of one sweep alone: "
+            "(T(1 + n sweeps) - T(1 sweep)) / n with n = 10; `setup ms` is the rest of one call (the rows' "
+            "M^-1 J^T and the conversion to the sweep's lists), once per solve. CPU time of this process, "
+            "sizes timed round-robin, least of 9 rounds, garbage collector paused while timing (as timeit does), so that a "
+            "collection of the Python heap is not billed to whichever size triggers it. With per-body velocity "
+            "sums (note 000) a sweep is O(contacts): `T(k) / T(k/2)` should stay at about 2 (O(contacts^2) "
+            "would give 4).")
+PGS_EXTRA_SWEEPS = 10
 
 
 def pgs_chain(k: int):
@@ -135,23 +140,40 @@ def pgs_chain(k: int):
     return bodies, contacts, u
 
 
-def pgs_sweep_time(k: int, repeats: int = 9) -> float:
-    from reference_impl import lcp, pgs
-    bodies, contacts, u = pgs_chain(k)
-    rows = lcp.build_rows(contacts, u)
-    b = lcp.impact_rhs(rows, u)
-    one = pgs.PGSSettings(iterations=1, tolerance=0.0)
-    best = math.inf
-    for _ in range(repeats):
+def pgs_call_time(problem, sweeps: int) -> float:
+    """CPU time of one projected_gauss_seidel call doing exactly `sweeps` sweeps on
+    `problem` (rows, bodies, b), garbage collector paused."""
+    import gc
+    from reference_impl import pgs
+    rows, bodies, b = problem
+    settings = pgs.PGSSettings(iterations=sweeps, tolerance=0.0)
+    gc.disable()
+    try:
         start = time.process_time()
-        pgs.projected_gauss_seidel(rows, bodies, b, one)
-        best = min(best, time.process_time() - start)
-    return best
+        pgs.projected_gauss_seidel(rows, bodies, b, settings)
+        return time.process_time() - start
+    finally:
+        gc.enable()
 
 
-def pgs_scaling(sizes=(250, 500, 1000, 2000, 4000)) -> pd.DataFrame:
-    times = {k: pgs_sweep_time(k) for k in sizes}
-    out = [{"contacts k": k, "rows": 3 * k, "ms per sweep": t * 1e3, "us per row": t * 1e6 / (3 * k),
-            "T(k) / T(k/2)": times[k] / times[k // 2] if k // 2 in times else math.nan}
-           for k, t in times.items()]
+def pgs_scaling(sizes=(250, 500, 1000, 2000, 4000, 8000), repeats: int = 9) -> pd.DataFrame:
+    """Sizes are timed round-robin, `repeats` rounds, least time per size: a burst of load
+    from other processes then slows every size of one round, not one size of all rounds."""
+    from reference_impl import lcp
+    problems = {}
+    for k in sizes:
+        bodies, contacts, u = pgs_chain(k)
+        rows = lcp.build_rows(contacts, u)
+        problems[k] = (rows, bodies, lcp.impact_rhs(rows, u))
+    one = dict.fromkeys(sizes, math.inf)
+    many = dict.fromkeys(sizes, math.inf)
+    for _ in range(repeats):
+        for k in sizes:
+            one[k] = min(one[k], pgs_call_time(problems[k], 1))
+            many[k] = min(many[k], pgs_call_time(problems[k], 1 + PGS_EXTRA_SWEEPS))
+    sweep = {k: (many[k] - one[k]) / PGS_EXTRA_SWEEPS for k in sizes}
+    out = [{"contacts k": k, "rows": 3 * k, "ms per sweep": sweep[k] * 1e3, "us per row": sweep[k] * 1e6 / (3 * k),
+            "T(k) / T(k/2)": sweep[k] / sweep[k // 2] if k // 2 in sweep else math.nan,
+            "setup ms": (one[k] - sweep[k]) * 1e3}
+           for k in sizes]
     return pd.DataFrame(out)
