@@ -88,6 +88,8 @@ def parser() -> argparse.ArgumentParser:
                           "or better, physval sweep / physval bench for cost)")
     run.add_argument("--no-effective", action="store_true",
                      help="skip measuring the restitution and friction each engine really produces")
+    run.add_argument("--no-laws", action="store_true",
+                     help="skip the physics-law residuals of each engine's contact forces (physval/laws.py)")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
 
     sw = sub.add_parser("sweep", help="error against cost as the time step and solver iterations vary",
@@ -209,8 +211,14 @@ def cmd_run(args) -> int:
         for eng in measured:
             print(f"physval: measuring the restitution and friction {eng} really produces", file=sys.stderr)
             effective += measure(eng)
+    law_rows = []
+    if not args.no_laws:
+        from physval import laws
+        for eng in [e for e in engines if args.engines or not e.startswith("reference-")]:
+            print(f"physval: physics-law residuals of {eng}'s contact forces", file=sys.stderr)
+            law_rows += laws.measure(eng, families)
     command = "physval " + " ".join(shlex.quote(a) for a in sys.argv[1:])
-    write_report(rows, out, command=command, effective=effective)
+    write_report(rows, out, command=command, effective=effective, laws=law_rows)
     counts = Counter(r["status"] for r in rows)
     print(f"{len(rows)} checks: " + ", ".join(f"{n} {s}" for s, n in counts.most_common()))
     print(f"wrote {out / 'results.csv'}, {out / 'report.md'}, {out / 'plots'}/")

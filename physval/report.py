@@ -250,10 +250,57 @@ def effective_section(eff: pd.DataFrame) -> list[str]:
     return lines
 
 
+def plot_laws(summary: pd.DataFrame, path: Path) -> None:
+    """Each engine's worst physics-law residual over the battery, one panel per law."""
+    from physval.laws import RESIDUALS
+    plt = _plt()
+    fig, axes = plt.subplots(1, len(RESIDUALS), figsize=(3.4 * len(RESIDUALS), 3.6), squeeze=False)
+    floor = 1e-16  # an exact zero is drawn at the floor of the log axis
+    for ax, key in zip(axes[0], RESIDUALS):
+        values = pd.to_numeric(summary[key], errors="coerce")
+        shown = values.where(values > floor, floor).fillna(floor)
+        ax.bar(summary.engine, shown, color=["tab:gray" if math.isnan(v) else "tab:blue" for v in values])
+        ax.set_yscale("log")
+        ax.set_title(key, fontsize=9)
+        ax.tick_params(axis="x", labelrotation=45, labelsize=8)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def laws_section(laws: pd.DataFrame, plot: Path) -> list[str]:
+    """The report's section on physics-law residuals (rows of physval.laws.measure); draws `plot`."""
+    from physval.laws import ACTIVE, MAX_SECONDS, SLIDING, summary
+    measured = laws[laws.point_steps.notna()] if "point_steps" in laws else laws.iloc[0:0]
+    worst = pd.DataFrame(summary(measured.to_dict("records")))
+    lines = ["## Physics-law residuals", "",
+             "Each engine's own contact forces (`Simulation.contact_points`) against the laws of rigid contact, "
+             "point by point and step by step over a battery of library scenes (`physval/laws.py`, each scene "
+             f"at dt = 1e-3 for at most {MAX_SECONDS:g} s): penetration; complementarity, the power "
+             "f_n max(v_n + e min(v_n-, 0), 0) of a normal force on a contact separating faster than restitution "
+             "asks; friction-cone excess |f_t| / (mu_s f_n) - 1; maximal-dissipation gap "
+             f"1 + f_t . v_t / (mu_k f_n |v_t|) on sliding points (|v_t| > {SLIDING:g} m/s; 0 is full Coulomb "
+             f"friction against the slip, 1 none). Points with f_n below {ACTIVE:g} of the scene's weight are "
+             "left out of cone and dissipation. No tolerance: these are readings, all in `laws.csv`.", ""]
+    if len(worst):
+        plot_laws(worst, plot)
+        from physval.laws import RESIDUALS
+        shown = pd.DataFrame({"engine": worst.engine, "scenes": worst.scenes})
+        for key in RESIDUALS:
+            shown[key] = [f"{_fmt(v)} ({where})" if where else "-"
+                          for v, where in zip(worst[key], worst[f"{key} worst in"])]
+        lines += ["Worst over the battery per engine (in brackets: the scene it occurs in):", "",
+                  _md_table(shown), "", "![physics-law residuals](plots/laws.png)", ""]
+    notes = laws[laws.note.fillna("") != ""]
+    if len(notes):
+        lines += ["Not measured:", ""] + [f"- {r.engine}{' ' + r.case if r.case else ''}: {r.note}"
+                                          for r in notes.itertuples()] + [""]
+    return lines
+
+
 def write_report(rows: list[dict], out: Path, title: str = "physval report", command: str = "",
-                 effective: list[dict] | None = None) -> pd.DataFrame:
-    """Write results.csv, report.md and plots into `out` (and effective_parameters.csv when
-    asked-vs-measured rows are given); return the results frame."""
+                 effective: list[dict] | None = None, laws: list[dict] | None = None) -> pd.DataFrame:
+    """Write results.csv, report.md and plots into `out` (and effective_parameters.csv,
+    laws.csv when asked-vs-measured or physics-law rows are given); return the results frame."""
     out = Path(out)
     df = frame(rows)
     write_csv(df, out / "results.csv")
@@ -262,6 +309,9 @@ def write_report(rows: list[dict], out: Path, title: str = "physval report", com
         write_atomic(out / "effective_parameters.csv", eff.to_csv(index=False))
         if eff.measured.notna().any():
             plot_effective(eff[eff.measured.notna()], out / "plots" / "effective_parameters.png")
+    law = pd.DataFrame(laws or [])
+    if len(law):
+        write_atomic(out / "laws.csv", law.to_csv(index=False))
     plots = out / "plots"
     plot_summary(df, plots / "summary.png")
     for fam in sorted(df.case.unique()):
@@ -307,6 +357,8 @@ def write_report(rows: list[dict], out: Path, title: str = "physval report", com
 
     if len(eff):
         lines += effective_section(eff)
+    if len(law):
+        lines += laws_section(law, plots / "laws.png")
 
     lines += ["## Families", ""]
     for fam in sorted(df.case.unique()):
