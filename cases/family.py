@@ -82,6 +82,7 @@ class CaseFamily:
     needs: frozenset[str] | Callable[[dict], frozenset[str]] = frozenset()  # e.g. {"contact_forces"}, or per variant
     sweep_variants: tuple[str, ...] = ()                # variant ids `physval sweep` varies dt on (default: the first)
     variant_id: Callable[[dict], str] = _default_id     # params -> readable id
+    cross_engine: bool = False                          # the report and tests also compare engines with each other
 
     def needs_of(self, params: dict) -> frozenset[str]:
         """Capabilities beyond the scene's that a variant needs (e.g. contact forces)."""

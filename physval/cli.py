@@ -218,7 +218,8 @@ def cmd_run(args) -> int:
             print(f"physval: physics-law residuals of {eng}'s contact forces", file=sys.stderr)
             law_rows += laws.measure(eng, families)
     command = "physval " + " ".join(shlex.quote(a) for a in sys.argv[1:])
-    write_report(rows, out, command=command, effective=effective, laws=law_rows)
+    write_report(rows, out, command=command, effective=effective, laws=law_rows,
+                 cross_engine={n for n, f in families.items() if f.cross_engine})
     counts = Counter(r["status"] for r in rows)
     print(f"{len(rows)} checks: " + ", ".join(f"{n} {s}" for s, n in counts.most_common()))
     print(f"wrote {out / 'results.csv'}, {out / 'report.md'}, {out / 'plots'}/")

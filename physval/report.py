@@ -297,10 +297,49 @@ def laws_section(laws: pd.DataFrame, plot: Path) -> list[str]:
     return lines
 
 
+def plot_agreement(agree: pd.DataFrame, engines: list[str], path: Path) -> None:
+    """Each engine's distance from the reference, in tolerances, per quantity."""
+    from physval.agreement import REFERENCE, distance
+    plt = _plt()
+    agree = agree[agree[REFERENCE].notna()] if REFERENCE in agree else agree.iloc[0:0]
+    if not len(agree):
+        return
+    fig, ax = plt.subplots(figsize=(max(6.0, 0.32 * len(agree)), 4.2))
+    x = np.arange(len(agree))
+    for i, eng in enumerate(e for e in engines if e != REFERENCE and e in agree):
+        signed = [(1 if v >= r else -1) * distance(k, v, r) / t if t > 0 else math.nan
+                  for v, r, t, k in zip(agree[eng], agree[REFERENCE], agree.tolerance, agree.kind)]
+        ax.scatter(x + 0.08 * (i - 1.5), signed, s=14, label=eng)
+    ax.axhspan(-1, 1, color="tab:green", alpha=0.12, label="within the check's tolerance")
+    ax.set_yscale("symlog", linthresh=1)
+    ax.set_xticks(x, [f"{c}[{v}]:{m}" for c, v, m in zip(agree.case, agree.variant, agree.metric)],
+                  rotation=90, fontsize=6)
+    ax.set_ylabel("(engine - reference) / tolerance")
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def agreement_section(agree: pd.DataFrame, engines: list[str], plot: Path) -> list[str]:
+    plot_agreement(agree, engines, plot)
+    shown = agree.drop(columns=["kind"]).copy()
+    for col in shown.columns:
+        if shown[col].dtype.kind == "f":
+            shown[col] = shown[col].map(_fmt)
+    return ["## Cross-engine agreement", "",
+            "Families without a full closed form, checked on their well-posed quantities (`cross_engine` "
+            "families; `physval/agreement.py`, also in `agreement.csv`): every engine's value side by side, "
+            "the spread across engines, and the engine farthest from the reference in units of the check's "
+            "tolerance (<= 1: it agrees with the reference).", "",
+            "![engines against the reference](plots/agreement.png)", "", _md_table(shown), ""]
+
+
 def write_report(rows: list[dict], out: Path, title: str = "physval report", command: str = "",
-                 effective: list[dict] | None = None, laws: list[dict] | None = None) -> pd.DataFrame:
+                 effective: list[dict] | None = None, laws: list[dict] | None = None,
+                 cross_engine: set[str] = frozenset()) -> pd.DataFrame:
     """Write results.csv, report.md and plots into `out` (and effective_parameters.csv,
-    laws.csv when asked-vs-measured or physics-law rows are given); return the results frame."""
+    laws.csv, agreement.csv when asked-vs-measured rows, physics-law rows or `cross_engine`
+    families are given); return the results frame."""
     out = Path(out)
     df = frame(rows)
     write_csv(df, out / "results.csv")
@@ -357,6 +396,11 @@ def write_report(rows: list[dict], out: Path, title: str = "physval report", com
 
     if len(eff):
         lines += effective_section(eff)
+    from physval.agreement import table as agreement_table
+    agree = agreement_table(df, set(cross_engine))
+    if len(agree):
+        write_atomic(out / "agreement.csv", agree.to_csv(index=False))
+        lines += agreement_section(agree, list(dict.fromkeys(df.engine)), plots / "agreement.png")
     if len(law):
         lines += laws_section(law, plots / "laws.png")
 
