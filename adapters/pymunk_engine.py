@@ -15,18 +15,33 @@ runs. Overlap beyond `collision_slop` is pushed out through a separate bias velo
 moves positions only (split impulse), at a rate set by `collision_bias`. The integrator
 order is Pymunk's, recorded here, not corrected: free fall follows
 z_n = z_0 - g dt^2 n(n-1)/2, above the continuous solution by g t dt / 2.
+
+Contact read-out. Pymunk reports one impulse per arbiter (a touching pair of shapes), summed
+over its points: `contact_points()` gives ONE point per touching pair, the pair's resultant,
+at the mean of its points (each the midpoint of point_a and point_b), with the smallest
+`distance` as its gap (the resultant form the contract allows, cases.trajectory.ContactPoint).
+`contact_forces()` is the same read-out's f_n per pair.
 """
 from __future__ import annotations
 
 import math
 import sys
 
+import numpy as np
 import pymunk
+# Chipmunk's C arbiter API, through the cffi binding Pymunk's own Arbiter properties call
+# (pymunk/arbiter.py: total_impulse, contact_point_set and friction are these functions on
+# `arbiter._arbiter`; the same names since Pymunk 5). Called directly in post_solve they cost
+# 0.5 us per pair where the Python properties cost 4-10 us (building Vec2d and ContactPointSet
+# objects), inside the timed step (measured on a five-box stack). Their struct results are
+# copies owned by Python: valid after the callback.
+from pymunk._chipmunk_cffi import lib as _chipmunk
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
 from adapters.frames import state_row
 from cases.scene import Body, Circle, Plane, Rect, Scene, pair_key, quat_about_y
+from cases.trajectory import ContactPoint
 
 DEFAULT_ITERATIONS = 10  # Pymunk's own default Space.iterations, stated here
 # Overlap the solver leaves alone (m). Pymunk's default 0.1 is pixel scale: bodies would rest
@@ -57,6 +72,7 @@ class PymunkAdapter(Adapter):
         static_kinetic=False,  # one friction coefficient per pair
         contact_forces=True,
         iterations=True,
+        contact_points=True,
     )
 
     def version(self) -> str:
@@ -143,13 +159,16 @@ class PymunkSimulation(Simulation):
             self.knobs["pre_solve"] = [{"pair": list(k), "restitution": m.e, "friction": m.mu_s}
                                        for k, m in self._pairs.items()]
 
-        # Contact forces: each pair's post_solve reads this step's impulse (2-4 us of Python per
-        # touching pair and step: the engine alone steps a five-box stack in 5-10 us).
-        self._forces: dict[tuple[str, str], float] = {}
+        # Contacts: each pair's post_solve copies this step's impulse and points (_post_solve).
+        # The handler for (a, b) makes the arbiter's shapes come in that order (Munk2D
+        # cpArbiterUpdate sets `swapped` from the handler's typeA; checked with the pair's
+        # collision types in both orders), so data=(a, b) names shapes[0] and shapes[1].
+        self._solved: list[tuple] = []  # (pair key, total_impulse, contact_point_set, frictionless)
         for a, b in self._pairs:
             space.on_collision(shapes[a].collision_type, shapes[b].collision_type,
                                pre_solve=pre_solve, post_solve=self._post_solve, data=(a, b))
-        self.knobs["contact_force"] = "post_solve: |total_impulse . normal| / dt"
+        self.knobs["contact_force"] = "post_solve: -total_impulse . normal / dt (the pair's resultant)"
+        self.knobs["contact_points"] = "one per touching pair: mean of its points, smallest distance"
         space.reindex_static()
 
         self.effects = self._built_effects()
@@ -213,13 +232,19 @@ class PymunkSimulation(Simulation):
         arbiter.restitution, arbiter.friction = m.e, m.mu_s
 
     def _post_solve(self, arbiter: pymunk.Arbiter, space, key) -> None:
-        # total_impulse sums this step's normal and friction impulses over the contact points
-        self._forces[key] = abs(arbiter.total_impulse.dot(arbiter.normal)) / self._dt
+        # Every arbiter the solver iterated on this step gets its post_solve (Munk2D
+        # cpSpaceStep: the loop over space->arbiters after the impulse sweeps), so these are
+        # the pairs the solver acted on, as contact_forces always reported. The arbiter is
+        # not valid after the callback: the C calls return copies (see the import).
+        arb = arbiter._arbiter
+        self._solved.append((key, _chipmunk.cpArbiterTotalImpulse(arb),
+                             _chipmunk.cpArbiterGetContactPointSet(arb),
+                             _chipmunk.cpArbiterGetFriction(arb) == 0.0))
 
     # --- the contract -------------------------------------------------------------------
 
     def step(self) -> None:
-        self._forces = {}
+        self._solved = []
         self._space.step(self._dt)
 
     def states(self):
@@ -232,7 +257,54 @@ class PymunkSimulation(Simulation):
         return out
 
     def contact_forces(self):
-        return dict(self._forces)
+        # the f_n of contact_points(), computed the same way (one resultant per pair)
+        dt = self._dt
+        out = {}
+        for key, j, cps, _ in self._solved:
+            n = cps.normal
+            out[key] = -(j.x * n.x + j.y * n.y) / dt
+        return out
+
+    def contact_points(self):
+        """One point per touching pair (Pymunk gives one impulse per arbiter, summed over its
+        points): at the mean of the arbiter's points, gap its smallest `distance`.
+
+        Conventions (Munk2D src/cpArbiter.c and chipmunk_private.h, read for 7.3.1, and
+        checked on a sliding box with the pair's shapes in both orders): inside the solver the
+        arbiter normal n points from its shape a to its shape b, apply_impulses pushes body b
+        with +j and body a with -j, j = n jnAcc + perp(n) jtAcc per point. The Python view
+        (`arbiter.normal`, `contact_point_set.normal`, `total_impulse`) undoes the solver's
+        `swapped`, so in handler order: the normal points from shapes[0] to shapes[1] and
+        total_impulse is the impulse ON shapes[0]. Here a = shapes[0] (the pair key's first
+        name), b = shapes[1]: the contract normal (b into a) is -normal, and the force on a is
+        total_impulse / dt, split along the normal and along perp(normal), the solver's one
+        friction direction. `distance` is (point_b - point_a) . normal, negative in overlap:
+        the contract's gap. A pair whose arbiter friction is 0 has friction exactly 0: the
+        solver clamps jtAcc to [-friction jnAcc, friction jnAcc] (cpArbiterApplyImpulse).
+        Pymunk's x-y plane is the scene's x-z plane: (x, y) -> (x, 0, y)."""
+        dt = self._dt
+        out = []
+        for (a, b), j, cps, frictionless in self._solved:
+            jx, jy = j.x, j.y
+            nx, ny = cps.normal.x, cps.normal.y  # from a to b
+            f_n = -(jx * nx + jy * ny) / dt  # along the contract normal -n
+            if frictionless:
+                f_t = np.zeros(3)
+            else:
+                tx, ty = -ny, nx  # perp(n): the solver's friction direction
+                s = (jx * tx + jy * ty) / dt
+                f_t = np.array([s * tx, 0.0, s * ty])
+            count = cps.count
+            px = py = 0.0
+            gap = math.inf
+            for p in cps.points[0:count]:
+                pa, pb = p.pointA, p.pointB
+                px += pa.x + pb.x
+                py += pa.y + pb.y
+                gap = min(gap, p.distance)
+            out.append(ContactPoint(a, b, np.array([px / (2 * count), 0.0, py / (2 * count)]),
+                                    np.array([-nx, 0.0, -ny]), f_n, f_t, gap))
+        return out
 
     def close(self) -> None:
         space, self._space = getattr(self, "_space", None), None
