@@ -22,6 +22,7 @@ import numpy as np
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
+from cases.trajectory import ContactPoint
 
 # Contact lasts about n = 16 steps: worst |rebound ratio - e| 0.03 (e = 0.5), peak
 # penetration ~ v n dt / pi (23 mm at 4.4 m/s, dt = 1e-3). Error falls as 1/n and depth
@@ -295,12 +296,18 @@ class MuJoCoSimulation(Simulation):
             hinge = joints[-1][0] == "hinge"
             self._bodies.append((body.name, qa, va, (np.asarray(body.position, float), q0, slides, hinge)))
         names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in range(model.ngeom)]
+        self._names = names  # geom id -> the scene body's name
+        self._planar = scene.dimension == 2
         # MuJoCo may report a contact's geoms in either order (it orders some type pairs,
         # e.g. sphere-box, its own way): key both
         self._pair_of = {}
         for g1, g2 in zip(model.pair_geom1.tolist(), model.pair_geom2.tolist()):
             self._pair_of[g1, g2] = self._pair_of[g2, g1] = pair_key(names[g1], names[g2])
-        self._f6 = np.zeros(6)
+        self._f6 = np.zeros(6)  # mj_contactForce's output (pyramidal cones only)
+        self._elliptic = model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
+        # contacts come from <pair>s only: which carry friction rows (condim 3)
+        rubs = model.pair_dim > 1
+        self._rubs = "all" if rubs.all() else "some" if rubs.any() else "none"
         mujoco.mj_forward(model, d)  # start-state quantities, so build cost stays out of step()
         self.effects = self._built_effects(knobs)
 
@@ -345,21 +352,93 @@ class MuJoCoSimulation(Simulation):
                 out[name] = row
         return out
 
-    def contact_forces(self) -> dict[tuple[str, str], float]:
-        # d.contact and efc_force belong to the step just taken: mj_step solves, then integrates
-        m, d = self._model, self._data
-        out: dict[tuple[str, str], float] = {}
-        if d.ncon == 0:
-            return out
+    # MuJoCo's contact conventions, read in its source (google-deepmind/mujoco,
+    # include/mujoco/mjdata.h, mjContact: "frame ... normal is in [0-2], points from
+    # geom[0] to geom[1]"; dist "neg: penetration"; pos the midpoint between the geoms) and
+    # src/engine/engine_core_util.c mj_contactForce: the force in the contact frame (rows
+    # normal, tangent1, tangent2) is efc_force at the contact's efc_address, copied as is
+    # for an elliptic cone (decoded for a pyramidal one), minus the contact's adhesion.
+    # Which body it acts on: src/engine/engine_core_smooth.c mj_rnePostConstraint maps
+    # frame^T f to the world and ADDS it to geom[1]'s body, subtracts it from geom[0]'s
+    # (the contact Jacobian is jac(geom2) - jac(geom1), engine_core_constraint.c). So
+    # frame^T f is the force geom1 exerts on geom2, and the contract's a is geom2, b is
+    # geom1, n = frame[0:3]. Checked here (mujoco 4.0.0): a box resting on the ground
+    # (geom1 = ground, the plane sorts first) gets f_n n summing to +m g z, and a box
+    # sliding along +x gets friction mu f_n along -x.
+
+    def _solved(self):
+        """The contacts the solver acted on in the last step (one rule for the pair forces
+        and the points: a constraint row, not excluded): a selector into d.contact's
+        arrays (a slice when all are, so the caller copies what it keeps) and (k, 3)
+        forces in each contact's frame (normal, tangent1, tangent2), as geom1 exerts them
+        on geom2. d.contact and efc_force belong to the step just taken: mj_step solves,
+        then integrates."""
+        d = self._data
         con = d.contact
-        for i, (g1, g2, row, excluded) in enumerate(zip(con.geom1.tolist(), con.geom2.tolist(),
-                                                        con.efc_address.tolist(), con.exclude.tolist())):
-            if row < 0 or excluded:
-                continue  # no constraint row (e.g. exactly touching, dist = 0): no force
-            mujoco.mj_contactForce(m, d, i, self._f6)
-            key = self._pair_of[g1, g2]
-            out[key] = out.get(key, 0.0) + float(self._f6[0])
+        addr = con.efc_address
+        # no constraint row (e.g. exactly touching, dist = 0) or excluded: no force
+        active = (addr >= 0) & (con.exclude == 0)
+        sel = slice(None) if active.all() else np.flatnonzero(active)
+        a = addr[sel]
+        f = np.zeros((len(a), 3))
+        if not len(a):
+            return sel, f
+        if self._elliptic:  # mj_contactForce's elliptic branch, all contacts at once
+            efc = d.efc_force
+            f[:, 0] = efc[a] - con.adhesion[sel]
+            if self._rubs == "all":  # condim 3 everywhere
+                f[:, 1] = efc[a + 1]
+                f[:, 2] = efc[a + 2]
+            elif self._rubs == "some":  # condim 1 pairs have no friction rows: zeros
+                rub = con.dim[sel] > 1
+                f[rub, 1] = efc[a[rub] + 1]
+                f[rub, 2] = efc[a[rub] + 2]
+        else:  # pyramidal: the engine decodes its edge forces
+            for j, i in enumerate(np.arange(d.ncon)[sel].tolist()):
+                mujoco.mj_contactForce(self._model, d, i, self._f6)
+                f[j] = self._f6[:3]
+        return sel, f
+
+    def contact_forces(self) -> dict[tuple[str, str], float]:
+        out: dict[tuple[str, str], float] = {}
+        if self._data.ncon == 0:
+            return out
+        sel, f = self._solved()
+        pair_of = self._pair_of
+        for (g1, g2), fn in zip(self._data.contact.geom[sel].tolist(), f[:, 0].tolist()):
+            key = pair_of[g1, g2]
+            out[key] = out.get(key, 0.0) + fn
         return out
+
+    def contact_points(self) -> list[ContactPoint]:
+        """One point per MuJoCo contact the solver acted on (see the conventions above):
+        a = geom2's body, b = geom1's, n = the frame's normal, f_t = the solved forces
+        along the frame's two tangents (exactly zero for frictionless, condim 1, pairs),
+        x = the contact's pos, gap = its dist.
+        2D scenes: a rect is a box as deep along y as it is wide, so MuJoCo reports its
+        contacts in pairs at y = +-depth; they are reported as they are, projected onto
+        the plane y = 0 (two points at the same x-z place that share the load)."""
+        d = self._data
+        if d.ncon == 0:
+            return []
+        sel, f = self._solved()
+        con = d.contact
+        frame = con.frame[sel]
+        n = frame[:, 0:3].copy()  # a copy: d.contact is overwritten by the next step
+        x = con.pos[sel].copy()
+        if self._rubs == "none":
+            f_t = np.zeros_like(n)
+        else:
+            f_t = f[:, 1:2] * frame[:, 3:6] + f[:, 2:3] * frame[:, 6:9]
+        if self._planar:  # no y dof: the y components act on nothing
+            x[:, 1] = 0.0
+            n[:, 1] = 0.0
+            n /= np.linalg.norm(n, axis=1)[:, None]
+            f_t[:, 1] = 0.0
+        names = self._names
+        geoms = con.geom[sel].tolist()
+        return list(map(ContactPoint, [names[g[1]] for g in geoms], [names[g[0]] for g in geoms],
+                        x, n, f[:, 0].tolist(), f_t, con.dist[sel].tolist()))
 
     def close(self) -> None:
         self._model = self._data = None
@@ -375,6 +454,7 @@ class MuJoCoAdapter(Adapter):
         static_kinetic=False,
         contact_forces=True,
         iterations=True,
+        contact_points=True,
     )
 
     def __init__(self, contact_steps: float = CONTACT_STEPS):
