@@ -22,6 +22,7 @@ import math
 import os
 import sys
 from importlib import metadata
+from itertools import chain
 
 import numpy as np
 
@@ -29,6 +30,7 @@ from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupport
 from adapters.combination import per_body_values
 from adapters.frames import state_row, wxyz_to_xyzw, xyzw_to_wxyz
 from cases.scene import Body, Scene, pair_key
+from cases.trajectory import ContactPoint
 
 
 def _import_pybullet():
@@ -72,6 +74,7 @@ class PyBulletAdapter(Adapter):
         static_kinetic=False,   # one lateralFriction per body
         contact_forces=True,
         iterations=True,
+        contact_points=True,
     )
 
     def version(self) -> str:
@@ -173,6 +176,7 @@ class PyBulletSimulation(Simulation):
     def _build(self, scene: Scene, settings: Settings) -> None:
         c = self._client
         self._maximal = "friction" not in scene.effects and scene.dimension == 3
+        self._planar = scene.dimension == 2
         engine = _solver_parameters(scene, settings, self._maximal)
         p.setPhysicsEngineParameter(physicsClientId=c, **engine)
         p.setGravity(*scene.gravity, physicsClientId=c)
@@ -325,21 +329,69 @@ class PyBulletSimulation(Simulation):
             out[name] = state_row(pos, xyzw_to_wxyz(quat), vel, omega)
         return out
 
+    def _solved_points(self):
+        """(a, b, row) for each getContactPoints row the solver processed this step: both
+        bodies are the scene's and distance <= contactProcessingThreshold. The others keep
+        a stale impulse from an earlier step (convertContact of btSequentialImpulse-
+        ConstraintSolver skips them untouched; btMultiBodyConstraintSolver::
+        convertMultiBodyContact zeroes their normal impulse, never the lateral ones).
+        Points at a small positive distance do count on the speculative path: a resting box
+        there carries half its weight on a point 0.2 um above the plane."""
+        for row in p.getContactPoints(physicsClientId=self._client):
+            a = self._ids.get((row[1], row[3]))
+            b = self._ids.get((row[2], row[4]))
+            if a is not None and b is not None and row[8] <= self._threshold:
+                yield a, b, row
+
     def contact_forces(self) -> dict[tuple[str, str], float]:
-        """Sum of normalForce over each pair's points that the solver processed (distance
-        <= contactProcessingThreshold); the others keep a stale impulse from an earlier
-        step. Points at a small positive distance do count on the speculative path: a
-        resting box there carries half its weight on a point 0.2 um above the plane."""
+        """Sum of normalForce over each pair's solved points (_solved_points)."""
         forces: dict[tuple[str, str], float] = {}
-        for point in p.getContactPoints(physicsClientId=self._client):
-            a = self._ids.get((point[1], point[3]))
-            b = self._ids.get((point[2], point[4]))
-            distance, normal_force = point[8], point[9]
-            if a is None or b is None or distance > self._threshold:
-                continue
+        for a, b, row in self._solved_points():
             key = pair_key(a, b)
-            forces[key] = forces.get(key, 0.0) + normal_force
+            forces[key] = forces.get(key, 0.0) + row[9]
         return forces
+
+    def contact_points(self) -> list[ContactPoint]:
+        """One ContactPoint per solved manifold point (_solved_points), Bullet's body A as a.
+
+        Conventions (bullet3 examples/SharedMemory/PhysicsServerCommandProcessor.cpp,
+        CONTACT_QUERY_MODE_REPORT_EXISTING_CONTACT_POINTS, no body filter so no swap): row 7
+        is the manifold point's m_normalWorldOnB, which points from B into A; row 9 is
+        getAppliedImpulse() / fixedTimeStep, rows 10/12 m_appliedImpulseLateral1/2 /
+        fixedTimeStep along rows 11/13, m_lateralFrictionDir1/2. Both solvers apply a
+        positive row impulse along its axis to A and against it to B
+        (btSequentialImpulseConstraintSolver: m_contactNormal1 = axis, m_contactNormal2 =
+        -axis; btMultiBodyConstraintSolver::setupMultiBodyContactConstraint: Jacobian of
+        link A along +axis, of link B along -axis), so the contract's n, f_n and f_t are
+        the engine's own, unchanged. Checked on a box sliding at 30 deg, mu 0.5, on both
+        body models: f_t sums to -0.5 f_n along the slip. (With a body-A filter that swaps
+        the pair, pybullet negates the normal but not the friction directions: this reads
+        unfiltered.) x is positionOnA, where the solver applies the impulse to A (its
+        Jacobian point; I dw/dt of a sliding box matches the torques about it to 1e-15 N m);
+        B takes it at positionOnB, which on a persistent point of a sliding pair lies up to
+        the contact breaking threshold away sideways (3.5 mm measured). gap is the distance
+        collision detection gave the solver. btMultiBodyDynamicsWorld turns on
+        SOLVER_USE_2_FRICTION_DIRECTIONS, so both lateral rows are this step's on both
+        paths. 2D scenes: the y components (the extruded shapes' depth, friction the
+        planar joints take up) are dropped."""
+        solved = list(self._solved_points())
+        if not solved:
+            return []
+        # one array for all points (numpy calls per point cost 14 us a point); columns:
+        # positionOnA 0:3, normal 3:6, friction directions 6:9 and 9:12, distance 12,
+        # normalForce 13, lateralFriction1 14, lateralFriction2 15
+        flat = chain.from_iterable(r[5] + r[7] + r[11] + r[13] + (r[8], r[9], r[10], r[12])
+                                   for _, _, r in solved)
+        rows = np.fromiter(flat, float, 16 * len(solved)).reshape(-1, 16)
+        x = rows[:, 0:3]
+        n = rows[:, 3:6]
+        f_t = rows[:, 14:15] * rows[:, 6:9] + rows[:, 15:16] * rows[:, 9:12]
+        if self._planar:
+            x[:, 1] = n[:, 1] = f_t[:, 1] = 0.0
+            n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        f_n, gap = rows[:, 13].tolist(), rows[:, 12].tolist()
+        return [ContactPoint(a, b, xi, ni, fni, fti, gi)
+                for (a, b, _), xi, ni, fni, fti, gi in zip(solved, list(x), list(n), f_n, list(f_t), gap)]
 
     def close(self) -> None:
         if self._client is not None:
