@@ -213,3 +213,27 @@ def stack_readings(traj: Trajectory, names: list[str], half: float, settled: flo
     out["drift"] = float(max(np.max(np.linalg.norm(traj.pos(nm)[after] - traj.pos(nm)[after][0], axis=1))
                              for nm in names))
     return out
+
+
+# --- agreement readings: orientation, impulse over a window, rest speed -------------------
+
+def rotations(traj: Trajectory, name: str) -> np.ndarray:
+    """(n, 3, 3) body-to-world rotation matrices of the body at every sample."""
+    return _rotations(traj.quat(name))
+
+
+def impulse(traj: Trajectory, a: str, b: str, t0: float = -math.inf, t1: float = math.inf) -> float:
+    """Normal impulse (N s) between a and b over the steps from sample time t0 to sample
+    time t1 (the whole run by default): sum of F_k dt over the steps k that start at or
+    after t0 and end at or before t1, where sample k's force is step k's (t_{k-1} -> t_k).
+    With t0, t1 on samples, momentum balance over [t0, t1] holds with exactly these steps."""
+    f = traj.force(a, b)
+    k = np.arange(len(traj.t))
+    steps = (k >= 1) & (traj.t[k - 1] >= t0 - 1e-12) & (traj.t <= t1 + 1e-12)
+    return float(np.sum(f[steps]) * traj.dt)
+
+
+def point_speed_bound(traj: Trajectory, name: str, reach: float) -> np.ndarray:
+    """|v| + reach |omega| at every sample: no material point of the body within `reach` of
+    its centre moves faster. 0 for a body at rest."""
+    return np.linalg.norm(traj.vel(name), axis=1) + reach * np.linalg.norm(traj.omega(name), axis=1)
