@@ -17,7 +17,7 @@ POS, QUAT, VEL, OMEGA = slice(0, 3), slice(3, 7), slice(7, 10), slice(10, 13)
 STATE_SIZE = 13
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)  # not frozen: engines build tens of these a step, and frozen costs 1 us each
 class ContactPoint:
     """One contact point after a step, in the world frame, as the engine solved it.
 
@@ -31,7 +31,8 @@ class ContactPoint:
     """
     a: str
     b: str
-    x: np.ndarray      # (3,) point, m
+    x: np.ndarray      # (3,) point where the force on a acts, m (an engine may push b at a point
+                       # a little apart while sliding: PyBullet's positionOnB, up to mm)
     n: np.ndarray      # (3,) unit normal, from b into a
     f_n: float         # normal force on a along n, N
     f_t: np.ndarray    # (3,) friction force on a, N (perpendicular to n)
