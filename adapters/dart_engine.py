@@ -21,6 +21,13 @@ Those constants make known deviations (sizes measured in the adapter's report):
 - a pair friction or restitution coefficient <= 1e-3 counts as zero: such scenes raise
   Unsupported rather than run silently frictionless (or without bounce).
 
+Contact read-out (`contact_forces`, `contact_points`) comes from the contacts of
+`World.getLastCollisionResult()`, which DART's solver fills in after the step; only the
+contacts it built an active constraint for count (`DartSimulation._solved_contacts`). A 2D
+scene's points are projected onto the x-z plane; the two points DART reports at the ends
+of an extruded corner (y = -+HALF_DEPTH_2D) project onto one and are reported as one point
+(forces summed, the smaller gap).
+
 DART's C++ code writes warnings to file descriptor 2 and messages to 1. Every engine call
 runs with those redirected into a temporary file; knobs["captured_output"] holds the
 number of lines and the first one.
@@ -40,6 +47,7 @@ from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupport
 from adapters.combination import per_body_values
 from adapters.frames import state_row
 from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
+from cases.trajectory import ContactPoint
 
 D = dart.dynamics
 
@@ -71,6 +79,11 @@ ENGINE_CONSTANTS = {
     "DART_FRICTION_COEFF_THRESHOLD": 1e-3,
     "DART_RESTITUTION_COEFF_THRESHOLD": 1e-3,
 }
+# collision::Contact::getNormalEpsilonSquared(): ConstraintSolver skips shorter normals.
+NORMAL_EPSILON_SQUARED = 1e-12
+# 2D: points of one pair closer than this in the x-z plane, with the same normal, are the
+# two ends of one extruded corner.
+MERGE_DISTANCE_2D = 1e-9      # m
 _ANSI = re.compile(r"\x1b\[[0-9;]*m")
 
 
@@ -216,13 +229,19 @@ def _mobile_joint(skeleton, body: Body, dimension: int, position, R) -> str:
 # --- the simulation -----------------------------------------------------------------------
 
 class DartSimulation(Simulation):
-    def __init__(self, world, nodes, knobs, effects, iterations, output):
+    def __init__(self, world, nodes, frames, knobs, effects, iterations, output, dimension, rough):
         self._world = world
         self._nodes = nodes          # dynamic body name -> BodyNode
+        # ShapeNode wrapper -> body name. Holding the wrappers makes pybind11 hand back these
+        # same objects from CollisionObject.getShapeFrame(), so a contact's bodies are found
+        # by identity: ShapeFrame.getName() costs 80 us a call (measured, dartpy 6.20).
+        self._frames = frames
         self._knobs = knobs
         self.effects = effects
         self.iterations = iterations
         self._output = output
+        self._dimension = dimension
+        self._rough = rough          # bodies whose friction coefficient DART does not treat as zero
 
     @property
     def knobs(self) -> dict:
@@ -246,17 +265,89 @@ class DartSimulation(Simulation):
                                    node.getLinearVelocity(), node.getAngularVelocity())
         return rows
 
-    def contact_forces(self) -> dict[tuple[str, str], float]:
-        # After a step, contact.force = normal * lambda / dt acts on collisionObject1 and
-        # the normal points into that body whatever the detector's sign, so
-        # force . normal = lambda / dt >= 0 is the normal force. Shape nodes carry the
-        # scene's body names.
-        forces: dict[tuple[str, str], float] = {}
+    # Conventions (dart/collision/Contact.hpp: "normal vector from bodyNode2 to bodyNode1",
+    # "force acting on bodyNode1"; dart/constraint/ContactConstraint.cpp, applyImpulse):
+    # after a step, contact.force = (normal lambda_0 + D_0 lambda_1 + D_1 lambda_2) / dt is
+    # the whole contact force on collisionObject1, normal AND friction part (D: the
+    # constraint's tangent basis, perpendicular to the normal; the frictionless branch
+    # stores normal lambda_0 / dt only), and the normal points from collisionObject2 into
+    # collisionObject1 whatever the detector. So collisionObject1 is the contract's a, the
+    # normal its n, force . n = lambda_0 / dt >= 0 its f_n and the rest its friction.
+    # Checked on dartpy 6.20 (box on the ground sliding at 30 deg, mu = 0.5): the ground is
+    # object 1, normal -z, and minus the summed forces on it is (m g along +z) plus
+    # mu m g against the slip. Shape nodes carry the scene's body names.
+
+    def _solved_contacts(self):
+        """(name 1, name 2, contact, normal) of each contact DART's solver acted on in the
+        last step. ConstraintSolver::updateConstraints skips contacts with a non-finite
+        point or normal, a zero normal (Contact::isZeroNormal) or a negative depth, and a
+        contact constraint is active only when one of its bodies is reactive
+        (ContactConstraint::update): the detector's contacts between two static bodies are
+        never solved (force stays 0) and are not reported."""
+        dynamic, frames = self._nodes, self._frames
         for c in self._world.getLastCollisionResult().getContacts():
-            key = pair_key(c.collisionObject1.getShapeFrame().getName(),
-                           c.collisionObject2.getShapeFrame().getName())
-            forces[key] = forces.get(key, 0.0) + float(np.dot(c.force, c.normal))
+            s1, s2 = c.collisionObject1.getShapeFrame(), c.collisionObject2.getShapeFrame()
+            a = frames.get(s1) or s1.getName()
+            b = frames.get(s2) or s2.getName()
+            if a not in dynamic and b not in dynamic:
+                continue
+            n = c.normal
+            if not (n @ n >= NORMAL_EPSILON_SQUARED and c.penetrationDepth >= 0.0):
+                continue   # also false for NaN
+            yield a, b, c, n
+
+    def contact_forces(self) -> dict[tuple[str, str], float]:
+        forces: dict[tuple[str, str], float] = {}
+        for a, b, c, n in self._solved_contacts():
+            key = pair_key(a, b)
+            forces[key] = forces.get(key, 0.0) + float(c.force @ n)
         return forces
+
+    def contact_points(self) -> list[ContactPoint]:
+        """Every contact point DART's solver acted on in the last step (see
+        `_solved_contacts`), a = collisionObject1, b = collisionObject2. Friction is the
+        tangential part of the engine's contact.force (its friction impulses along its
+        tangent basis, / dt); a pair DART solves frictionless (ContactConstraint: min of
+        the two coefficients <= DART_FRICTION_COEFF_THRESHOLD) has no tangential impulse
+        and reports f_t = 0 exactly. 2D scenes: vectors projected onto the x-z plane (a
+        y component of force acts along a direction the planar joints lock) and the two
+        ends of an extruded corner merged into one point."""
+        rough = self._rough
+        solved = list(self._solved_contacts())
+        if not solved:
+            return []
+        x = np.array([c.point for _, _, c, _ in solved], dtype=float)
+        f = np.array([c.force for _, _, c, _ in solved], dtype=float)
+        n = np.array([normal for _, _, _, normal in solved], dtype=float)
+        planar = self._dimension == 2
+        if planar:
+            x[:, 1] = f[:, 1] = n[:, 1] = 0.0
+        length = np.sqrt(np.einsum("ij,ij->i", n, n))
+        length[length * length < NORMAL_EPSILON_SQUARED] = np.nan  # 2D: a normal along y
+        n /= length[:, None]
+        f_n = np.einsum("ij,ij->i", f, n)
+        f_t = f - f_n[:, None] * n
+        for i, (a, b, _, _) in enumerate(solved):
+            if a not in rough or b not in rough:
+                f_t[i] = 0.0
+        points: list[ContactPoint] = []
+        for i, (a, b, c, _) in enumerate(solved):
+            if length[i] != length[i]:
+                continue   # NaN: 2D, the normal was along y, which no planar motion feels
+            gap = -float(c.penetrationDepth)
+            if planar:
+                same = next((k for k, p in enumerate(points)
+                             if p.a == a and p.b == b
+                             and abs(p.x[0] - x[i, 0]) <= MERGE_DISTANCE_2D
+                             and abs(p.x[2] - x[i, 2]) <= MERGE_DISTANCE_2D
+                             and float(p.n @ n[i]) >= 1.0 - 1e-12), None)
+                if same is not None:
+                    p = points[same]
+                    points[same] = ContactPoint(a, b, p.x, p.n, p.f_n + float(f_n[i]),
+                                                p.f_t + f_t[i], min(p.gap, gap))
+                    continue
+            points.append(ContactPoint(a, b, x[i], n[i], float(f_n[i]), f_t[i], gap))
+        return points
 
     def close(self) -> None:
         if self._world is None:
@@ -268,6 +359,7 @@ class DartSimulation(Simulation):
             self._output.end()
         self._world = None
         self._nodes = {}
+        self._frames = {}
         self._output.close()
 
 
@@ -281,6 +373,7 @@ class DartAdapter(Adapter):
         static_kinetic=False,
         contact_forces=True,
         iterations=True,
+        contact_points=True,
     )
 
     def version(self) -> str:
@@ -304,13 +397,16 @@ class DartAdapter(Adapter):
         output = _CapturedOutput()
         output.begin()
         try:
-            world, nodes, knobs = _build_world(scene, settings, mu, e, sweeps)
+            world, nodes, frames, knobs = _build_world(scene, settings, mu, e, sweeps)
         except BaseException:
             output.end()
             output.close()
             raise
         output.end()
-        return DartSimulation(world, nodes, knobs, _effects(scene, knobs, mu, e), sweeps, output)
+        rough = frozenset(name for name, m in mu.items()
+                          if m > ENGINE_CONSTANTS["DART_FRICTION_COEFF_THRESHOLD"])
+        return DartSimulation(world, nodes, frames, knobs, _effects(scene, knobs, mu, e), sweeps,
+                              output, scene.dimension, rough)
 
 
 def _effects(scene: Scene, knobs: dict, mu: dict, e: dict) -> frozenset[str]:
@@ -373,7 +469,7 @@ def _build_world(scene: Scene, settings: Settings, mu: dict, e: dict, sweeps: in
         "Inertia": {},
         "engine_constants (not settable)": dict(ENGINE_CONSTANTS),
     }
-    nodes = {}
+    nodes, frames = {}, {}
     for body in scene.bodies:
         skeleton = D.Skeleton(body.name)
         position, R = _frame(body)
@@ -393,6 +489,7 @@ def _build_world(scene: Scene, settings: Settings, mu: dict, e: dict, sweeps: in
         shape, pose = _shape(body)
         shape_node = node.createShapeNode(shape)
         shape_node.setName(body.name)
+        frames[shape_node] = body.name
         shape_node.setRelativeTransform(pose)
         shape_node.createCollisionAspect()  # without these two aspects bodies pass through
         aspect = shape_node.createDynamicsAspect()
@@ -404,4 +501,4 @@ def _build_world(scene: Scene, settings: Settings, mu: dict, e: dict, sweeps: in
         world.addSkeleton(skeleton)
     if scene.dimension == 2:
         knobs["2D half-depth along y"] = HALF_DEPTH_2D
-    return world, nodes, knobs
+    return world, nodes, frames, knobs
