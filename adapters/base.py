@@ -50,6 +50,7 @@ class Capabilities:
     contact_forces: bool              # normal forces can be read out
     iterations: bool                  # the solver has an iteration count to set
     contact_points: bool = False      # Simulation.contact_points reports each point's forces
+    contact_laws: frozenset[str] = frozenset()  # compliant laws of cases.scene.Compliance it models
 
     def cannot_run(self, scene: Scene, needs: frozenset[str] = frozenset()) -> str | None:
         """Why this engine cannot represent `scene` (and a case's extra `needs`), or None."""
@@ -65,6 +66,10 @@ class Capabilities:
                 if m.mu_k_ != m.mu_s:
                     return (f"mu_s = {m.mu_s} != mu_k = {m.mu_k_} for {a.name}/{b.name}: "
                             "the engine has one friction coefficient")
+        laws = scene.contact_laws - self.contact_laws
+        if laws:
+            return (f"compliant contact ({', '.join(sorted(laws))} law) asked for: the engine does not "
+                    "model that contact law")
         if "contact_forces" in needs and not self.contact_forces:
             return "the case reads contact forces, which this engine does not report"
         return None

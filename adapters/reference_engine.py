@@ -12,7 +12,7 @@ switch off; the knobs record every setting of `reference_impl.config.Config` in 
 """
 from __future__ import annotations
 
-from dataclasses import asdict
+from dataclasses import asdict, replace
 
 import numpy as np
 
@@ -45,6 +45,9 @@ class ReferenceAdapter(Adapter):
         self.formulation = formulation
         self.params = dict(params or {})  # formulation settings (Config.params)
         self.name = name or ("reference" if formulation == "si" else f"reference-{formulation}")
+        if formulation == "compliant":  # the one force law it is configured with
+            law = self.params.get("compliant_law", "hertz")
+            self.capabilities = replace(self.capabilities, contact_laws=frozenset({law}))
 
     def version(self) -> str:
         from physval import __version__
@@ -54,7 +57,7 @@ class ReferenceAdapter(Adapter):
         reason = self.capabilities.cannot_run(scene)
         if reason:
             raise Unsupported(reason)
-        config = Config(formulation=self.formulation, params=self.params,
+        config = Config(formulation=self.formulation, params={**self.params, **_compliance_params(scene)},
                         iterations=settings.iterations or DEFAULT.iterations)
         return ReferenceSimulation(scene, settings.dt, config)
 
@@ -72,6 +75,21 @@ def _shape(body: Body):
     if isinstance(s, Rect):
         return geometry.Rect(tuple(float(h) for h in s.half_extents))
     raise Unsupported(f"shape {s.kind}: not available in the reference engine")
+
+
+def _compliance_params(scene: Scene) -> dict:
+    """The compliant formulation's material from the scene's cases.scene.Compliance (it
+    takes one material for the whole world: every pair that may touch must ask for the same)."""
+    found = {scene.material_of(a.name, b.name).compliance for a, b in scene.contact_pairs()}
+    if found == {None}:
+        return {}
+    if len(found) > 1:
+        raise Unsupported("pairs ask for different contact laws or materials (or some for rigid contact): "
+                          "the compliant formulation takes one material for the whole world")
+    c = found.pop()
+    if c.law == "hertz":
+        return {"compliant_law": "hertz", "compliant_E": c.E, "compliant_nu": c.nu}
+    return {"compliant_law": "hooke", "compliant_k": c.k}
 
 
 def _material(m) -> Material:

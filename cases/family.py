@@ -78,11 +78,15 @@ class CaseFamily:
     duration: Callable[[dict], float]                   # params -> simulated seconds
     observe: Callable[[Trajectory, dict], dict]         # trajectory, params -> {metric: value}
     expect: Callable[[dict, float], list[Check]]        # params, dt -> checks
-    dt: float = 1e-3                                    # default time step, s
+    dt: float | Callable[[dict], float] = 1e-3          # default time step, s, or params -> one per variant
     needs: frozenset[str] | Callable[[dict], frozenset[str]] = frozenset()  # e.g. {"contact_forces"}, or per variant
     sweep_variants: tuple[str, ...] = ()                # variant ids `physval sweep` varies dt on (default: the first)
     variant_id: Callable[[dict], str] = _default_id     # params -> readable id
     cross_engine: bool = False                          # the report and tests also compare engines with each other
+
+    def dt_for(self, params: dict) -> float:
+        """A variant's default time step (e.g. fine enough to sample a 1 ms compliant contact)."""
+        return float(self.dt(params) if callable(self.dt) else self.dt)
 
     def needs_of(self, params: dict) -> frozenset[str]:
         """Capabilities beyond the scene's that a variant needs (e.g. contact forces)."""
@@ -99,8 +103,6 @@ class CaseFamily:
             raise CaseError(f"family name {self.name!r}: must be an identifier (letters, digits, _)")
         if not self.grid:
             raise CaseError(f"{self.name}: grid is empty: a family needs at least one variant")
-        if not (math.isfinite(self.dt) and self.dt > 0):
-            raise CaseError(f"{self.name}: dt = {self.dt!r}: must be > 0")
         ids = set()
         for v in self.variants:
             where = f"{self.name}[{v.id}]"
@@ -117,10 +119,13 @@ class CaseFamily:
                 raise CaseError(f"{where}: {exc}") from None
             if not isinstance(scene, Scene):
                 raise CaseError(f"{where}: scene() returned {type(scene).__name__}, not a Scene")
+            dt = self.dt_for(v.params)
+            if not (math.isfinite(dt) and dt > 0):
+                raise CaseError(f"{where}: dt = {dt!r}: must be > 0")
             T = self.duration(v.params)
             if not (math.isfinite(T) and T > 0):
                 raise CaseError(f"{where}: duration = {T!r}: must be > 0 s")
-            checks = self.expect(v.params, self.dt)
+            checks = self.expect(v.params, dt)
             if not checks:
                 raise CaseError(f"{where}: expect() returned no checks")
             metrics = [c.metric for c in checks]

@@ -23,18 +23,15 @@ Hooke's law F = k xi (note 001, "Analyzing Newton's Cradle", r = 1) makes the re
 motion half a period of a harmonic oscillator: xi_max = v sqrt(m*/k), F_max = k xi_max,
 t_c = pi sqrt(m*/k).
 
-The scene vocabulary has no elastic modulus or stiffness, so the material is in the
-params only (steel: E = 200 GPa, nu = 0.3, rho = 7850 kg/m^3, masses from the radii; a
-Hooke contact of k = 1e7 N/m). The compliant checks (contact duration, peak force,
-largest overlap) hold only for an engine that models that contact law with that
-material: they are the variants of `COMPLIANT_GRID`, meant for `reference-hertz` and
-`reference-hooke` (whose defaults are this steel and this k) and run on them by
-tests/test_closed_forms_impacts.py, at `compliant_dt(p)` so a contact spans 20-60
-samples. They are not in the default grid: a rigid engine would run them too (nothing
-in the engine contract marks a case as needing compliant contact) and fail for want of
-a modulus it was never given. The default grid keeps the rigid limit, which every
-engine can be judged on. No 2D variant: discs pressed together (cylinders in line
-contact) follow another law, and the rigid limit in 2D is central_impact's.
+The compliant variants (`COMPLIANT_GRID`, in the grid) give the pair's material a
+contact law (cases.scene.Compliance: steel, E = 200 GPa, nu = 0.3, rho = 7850 kg/m^3,
+masses from the radii; or a Hooke contact of k = 1e7 N/m). They add the compliant checks
+(contact duration, peak force, largest overlap), at `compliant_dt(p)` so a contact spans
+20-60 samples. Only an engine that models that law runs them (`reference-hertz`,
+`reference-hooke`); a rigid engine reports them unsupported. The rigid variants keep
+the rigid limit, which every engine can be judged on. No 2D variant: discs pressed
+together (cylinders in line contact) follow another law, and the rigid limit in 2D is
+central_impact's.
 """
 from __future__ import annotations
 
@@ -43,7 +40,7 @@ import math
 from scipy.special import beta
 
 from cases.family import CaseFamily, Check
-from cases.scene import Body, Material, Scene, Sphere
+from cases.scene import Body, Compliance, Material, Scene, Sphere
 
 E_STEEL, NU_STEEL, RHO_STEEL = 200e9, 0.3, 7850.0   # Pa, -, kg/m^3
 K_HOOKE = 1e7        # N/m
@@ -116,7 +113,16 @@ def scene(p) -> Scene:
     # touching at t = 0: the contact starts exactly at a sample
     return Scene(bodies=(Body("a", Sphere(r_1), mass=m_1, position=(-r_1, 0, 0), velocity=(V1, 0, 0), rotates=False),
                          Body("b", Sphere(r_2), mass=m_2, position=(r_2, 0, 0), velocity=(V2, 0, 0), rotates=False)),
-                 gravity=(0.0, 0.0, 0.0), material=Material(e=1.0))
+                 gravity=(0.0, 0.0, 0.0), material=Material(e=1.0, compliance=compliance(p)))
+
+
+def compliance(p) -> Compliance | None:
+    """The pair's contact law from a variant's params (None: rigid)."""
+    if "law" not in p:
+        return None
+    if p["law"] == "hertz":
+        return Compliance("hertz", E=p["E"], nu=p["nu"])
+    return Compliance("hooke", k=p["stiffness"])
 
 
 def duration(p) -> float:
@@ -175,11 +181,11 @@ FAMILY = CaseFamily(
     name="hertz_impact",
     summary="two steel spheres meet head-on, e = 1: elastic post-impact velocities (the compliant variants add Hertz's contact duration, peak force and overlap)",
     source="note 001 (CG3 II.5), elastic impact, Hertz's law F = H xi^1.5 and the Hertz constant; Johnson, Contact Mechanics, sec. 11.1",
-    grid=GRID,
+    grid=GRID + COMPLIANT_GRID,
     scene=scene,
     duration=duration,
     observe=observe,
     expect=expect,
-    dt=1e-3,
+    dt=lambda p: compliant_dt(p) if "law" in p else 1e-3,
     variant_id=variant_id,
 )

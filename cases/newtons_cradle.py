@@ -19,10 +19,9 @@ Compliant contact (note 001, Herrmann & Seitz): with balls touching and a force 
 F = H xi^r, a pulse travels down the row and disperses; dispersion falls as the exponent
 grows (Hooke r = 1 far from the cradle, Hertz r = 1.5 close to it). There is no closed
 form; the expected velocities come from the contact model's own equations of motion,
-integrated to 1e-11 (scipy). These variants (`COMPLIANT_GRID`) need an engine with that
-force law and the scene vocabulary cannot state it (no modulus or stiffness): they are
-run on the reference's compliant formulation by tests/test_closed_forms_impacts.py, not
-by the default run (see the module constant's comment).
+integrated to 1e-11 (scipy). These variants (`COMPLIANT_GRID`, in the grid) give the
+balls' material that law (cases.scene.Compliance); only an engine that models it runs
+them (`reference-hertz`, `reference-hooke`), a rigid engine reports them unsupported.
 """
 from __future__ import annotations
 
@@ -32,7 +31,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from cases.family import CaseFamily, Check
-from cases.scene import Body, Material, Scene, ball
+from cases.scene import Body, Compliance, Material, Scene, ball
 
 R = 0.1       # ball radius, m
 M = 7850.0 * 4.0 / 3.0 * math.pi * R**3  # kg: steel (32.9 kg), as the compliant variants' modulus
@@ -45,11 +44,7 @@ GAP = 0.01    # m between neighbours: 10 steps of travel at dt = 1e-3
 GRID = tuple({"k": k, "dim": 3} for k in (1, 2, 3)) + tuple({"k": k, "dim": 2} for k in (1, 3))
 
 # Compliant contact, balls touching, one ball released: the dispersion of note 001.
-# Materials as params only (the scene has no modulus): steel E = 200 GPa, nu = 0.3
-# (Hertz); k = 1e7 N/m (Hooke). These match reference_impl/compliant.py's defaults, the
-# engine these variants are meant for (`reference-hertz` / `reference-hooke` once
-# registered). Not in GRID: every rigid engine would run them and the harness has no
-# capability that marks a case as needing compliant contact.
+# Steel E = 200 GPa, nu = 0.3 (Hertz); k = 1e7 N/m (Hooke).
 COMPLIANT_GRID = (
     {"k": 1, "dim": 3, "law": "hertz", "E": 200e9, "nu": 0.3},
     {"k": 1, "dim": 3, "law": "hooke", "stiffness": 1e7},
@@ -132,7 +127,11 @@ def scene(p) -> Scene:
     v0 = [V] * p["k"] + [0.0] * (N - p["k"])
     balls = tuple(Body(name, ball(R, dim), mass=M, position=(step * i, 0.0, 0.0), velocity=(v, 0.0, 0.0),
                        rotates=False) for i, (name, v) in enumerate(zip(names(), v0)))
-    return Scene(bodies=balls, gravity=(0.0, 0.0, 0.0), material=Material(e=1.0), dimension=dim)
+    law = p.get("law")
+    compliance = (Compliance("hertz", E=p["E"], nu=p["nu"]) if law == "hertz"
+                  else Compliance("hooke", k=p["stiffness"]) if law == "hooke" else None)
+    return Scene(bodies=balls, gravity=(0.0, 0.0, 0.0), material=Material(e=1.0, compliance=compliance),
+                 dimension=dim)
 
 
 def duration(p) -> float:
@@ -185,7 +184,7 @@ FAMILY = CaseFamily(
     name="newtons_cradle",
     summary="k = 1, 2, 3 balls released into a row of equal balls with small gaps, e = 1: the same number leave the far end at the same speed",
     source="note 001 (CG3 II.5), Newton's cradle and dispersion; central impact of equal masses; collisions as a sequence of single impacts",
-    grid=GRID,
+    grid=GRID + COMPLIANT_GRID,
     scene=scene,
     duration=duration,
     observe=observe,

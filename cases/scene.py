@@ -134,11 +134,42 @@ Shape = Sphere | Box | Plane | Circle | Rect
 # --- materials and bodies -----------------------------------------------------------------
 
 @dataclass(frozen=True)
+class Compliance:
+    """A compliant contact law for a pair (note 001, "Elastic Impact Details", "Hertz
+    Constant", "Analyzing Newton's Cradle"): the bodies overlap by xi and push apart with
+    - "hertz": F = H xi^1.5, H from Young's modulus E (Pa) and Poisson's ratio nu of the
+      material both bodies are made of, and the radii of curvature at the contact;
+    - "hooke": F = k xi with the contact stiffness k (N/m).
+    Without it (Material.compliance = None) contact is rigid."""
+    law: str
+    E: float | None = None
+    nu: float | None = None
+    k: float | None = None
+
+    def validate(self, where: str) -> None:
+        if self.law == "hertz":
+            if self.E is None or self.nu is None or self.k is not None:
+                raise SceneError(f"{where}: a Hertz contact takes E and nu (and no k)")
+            _positive(self.E, f"{where}.E")
+            _finite(self.nu, f"{where}.nu")
+            if not 0.0 <= self.nu < 0.5:
+                raise SceneError(f"{where}.nu = {self.nu!r}: Poisson's ratio must lie in [0, 0.5)")
+        elif self.law == "hooke":
+            if self.k is None or self.E is not None or self.nu is not None:
+                raise SceneError(f"{where}: a Hooke contact takes k (and no E, nu)")
+            _positive(self.k, f"{where}.k")
+        else:
+            raise SceneError(f"{where}.law = {self.law!r}: must be 'hertz' or 'hooke'")
+
+
+@dataclass(frozen=True)
 class Material:
-    """What a pair of bodies does on contact: restitution e, static mu_s, kinetic mu_k."""
+    """What a pair of bodies does on contact: restitution e, static mu_s, kinetic mu_k,
+    and rigid contact unless a compliant law is given."""
     e: float = 0.0
     mu_s: float = 0.0
     mu_k: float | None = None  # None: equal to mu_s
+    compliance: Compliance | None = None
 
     @property
     def mu_k_(self) -> float:
@@ -157,6 +188,8 @@ class Material:
                 raise SceneError(f"{where}.mu_k = {self.mu_k!r}: friction coefficient must be >= 0")
             if self.mu_k > self.mu_s:
                 raise SceneError(f"{where}.mu_k = {self.mu_k!r}: must be <= mu_s = {self.mu_s!r}")
+        if self.compliance is not None:
+            self.compliance.validate(f"{where}.compliance")
 
     @property
     def frictional(self) -> bool:
@@ -245,6 +278,12 @@ class Scene:
             if pair_key(x, y) == key:
                 return mat
         return self.material
+
+    @property
+    def contact_laws(self) -> frozenset[str]:
+        """The compliant contact laws the touching pairs ask for (empty: all rigid)."""
+        mats = [self.material_of(a.name, b.name) for a, b in self.contact_pairs()]
+        return frozenset(m.compliance.law for m in mats if m.compliance is not None)
 
     @property
     def dynamic_bodies(self) -> tuple[Body, ...]:

@@ -171,7 +171,8 @@ def cmd_list(args) -> int:
             pass
     for fam in fams.values():
         print(f"{fam.name}: {fam.summary}")
-        print(f"  closed form: {fam.source}; default dt {fam.dt:g} s")
+        print(f"  closed form: {fam.source}; default dt {fam.dt:g} s" if not callable(fam.dt) else
+              f"  closed form: {fam.source}; dt per variant")
         for v in fam.variants:
             scene = fam.scene(v.params)
             can = [n for n, a in adapters.items() if a.capabilities.cannot_run(scene, fam.needs_of(v.params)) is None]

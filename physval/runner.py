@@ -113,7 +113,7 @@ def _row(job: Job, family: CaseFamily, check: Check, **fields) -> dict:
 def run_job(job: Job, family: CaseFamily, adapter: Adapter | None = None,
             known: list[deviations.Deviation] | None = None, warmup: int = 0) -> list[dict]:
     """All verdict rows of one job. Never raises. `wall_s` leaves out `warmup` steps."""
-    dt = job.dt or family.dt
+    dt = job.dt or family.dt_for(job.variant.params)
     params = job.variant.params
     checks = family.expect(params, dt)
     scene = family.scene(params)
@@ -226,11 +226,15 @@ def on_demand(job: Job) -> bool:
 def default_jobs(families: dict[str, CaseFamily], engines: list[str], dt: float | None = None,
                  iterations: int | None = None, include_on_demand: bool = False) -> list[Job]:
     """The jobs of a run whose cases were not named: every family on the engines, the
-    reference formulations on REFERENCE_VARIANT_FAMILIES, on-demand runs only if asked."""
+    reference formulations on REFERENCE_VARIANT_FAMILIES and on the compliant variants
+    whose contact law they model, on-demand runs only if asked."""
+    from adapters import registry
     jobs = []
     for job in plan(families, engines, dt, iterations):
         if job.engine.startswith("reference-") and job.family not in REFERENCE_VARIANT_FAMILIES:
-            continue
+            laws = families[job.family].scene(job.variant.params).contact_laws
+            if not (laws and laws <= registry.get(job.engine).capabilities.contact_laws):
+                continue
         if on_demand(job) and not include_on_demand:
             continue
         jobs.append(job)
@@ -289,8 +293,8 @@ def run_jobs(jobs: list[Job], families: dict[str, CaseFamily], workers: int = 1,
                         job = jobs[i]
                         fam = families[job.family]
                         results[i] = [_row(job, fam, c, status="error", reason="worker died: " + _describe(exc),
-                                           dt=job.dt or fam.dt)
-                                      for c in fam.expect(job.variant.params, job.dt or fam.dt)]
+                                           dt=job.dt or fam.dt_for(job.variant.params))
+                                      for c in fam.expect(job.variant.params, job.dt or fam.dt_for(job.variant.params))]
                     if on_rows:
                         on_rows(jobs[i], results[i])
                     bar.update()

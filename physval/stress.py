@@ -244,8 +244,8 @@ def final_state_hash(engine: str, family: CaseFamily, params: dict) -> str:
     """Build, run for the family's duration at its dt, hash the final states."""
     from physval.runner import simulate
     scene = family.scene(params)
-    with registry.get(engine).build(scene, Settings(dt=family.dt)) as sim:
-        run = simulate(sim, scene, family.dt, family.duration(params))
+    with registry.get(engine).build(scene, Settings(dt=family.dt_for(params))) as sim:
+        run = simulate(sim, scene, family.dt_for(params), family.duration(params))
     return state_hash({name: states[-1] for name, states in run.trajectory.states.items()})
 
 

@@ -78,7 +78,7 @@ def sweep_points(fams: dict[str, CaseFamily], engines: list[str], full: bool = F
                 if full:
                     grid |= set((dt, it) for dt in dts for it in its)
                 else:
-                    grid |= set((fam.dt, it) for it in its)
+                    grid |= set((fam.dt_for(v.params), it) for it in its)
                 for dt, it in sorted(grid, key=lambda g: (-g[0], g[1] or 0)):
                     points.append(Point(name, vid, eng, dt, it))
     return points

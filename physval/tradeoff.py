@@ -26,7 +26,7 @@ def point_table(df: pd.DataFrame, fams: dict[str, CaseFamily]) -> pd.DataFrame:
         first = grp.iloc[0]
         fam = fams[first.case]
         v = next(v for v in fam.variants if v.id == first.variant)
-        yard = {c.metric: c for c in fam.expect(v.params, fam.dt)}
+        yard = {c.metric: c for c in fam.expect(v.params, fam.dt_for(v.params))}
         ok = grp.status.isin(["pass", "fail", "deviation"])
         worst = math.nan
         if ok.all():

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from adapters.base import Settings, SettingsError
-from cases.scene import Body, Box, Material, Plane, Scene, SceneError, Sphere, ground
+from cases.scene import Body, Box, Compliance, Material, Plane, Scene, SceneError, Sphere, ground
 
 ROOT = Path(__file__).resolve().parent.parent
 BALL = dict(position=(0, 0, 1.0))
@@ -38,6 +38,11 @@ def test_body_fields(make, message):
     (Material(e=-0.1), r"material.e = -0.1: .*\[0, 1\]"),
     (Material(e=math.nan), r"material.e = nan: must be finite"),
     (Material(mu_s=-0.2), r"material.mu_s = -0.2: friction coefficient must be >= 0"),
+    (Material(compliance=Compliance("hertz", E=-1.0, nu=0.3)), r"material.compliance.E = -1.0: must be > 0"),
+    (Material(compliance=Compliance("hertz", E=2e11, nu=0.5)), r"compliance.nu = 0.5: Poisson's ratio must lie in \[0, 0.5\)"),
+    (Material(compliance=Compliance("hertz", E=2e11)), r"compliance: a Hertz contact takes E and nu"),
+    (Material(compliance=Compliance("hooke", k=math.nan)), r"compliance.k = nan: must be finite"),
+    (Material(compliance=Compliance("spring", k=1.0)), r"compliance.law = 'spring': must be 'hertz' or 'hooke'"),
     (Material(mu_s=0.3, mu_k=0.5), r"material.mu_k = 0.5: must be <= mu_s = 0.3"),
 ])
 def test_material_fields(material, message):

@@ -173,7 +173,7 @@ def test_every_deviation_entry_matches_a_check_of_a_builtin_case():
         for d in deviations.load(eng):
             assert d.family in fams, f"{eng}.txt:{d.line}: no family {d.family!r}"
             fam = fams[d.family]
-            hits = [(v.id, c.metric) for v in fam.variants for c in fam.expect(v.params, fam.dt)
+            hits = [(v.id, c.metric) for v in fam.variants for c in fam.expect(v.params, fam.dt_for(v.params))
                     if d.matches(fam.name, v.id, c.metric)]
             assert hits, f"adapters/xfails/{eng}.txt:{d.line}: {d.pattern} matches no check"
 
