@@ -280,7 +280,9 @@ def laws_section(laws: pd.DataFrame, plot: Path) -> list[str]:
              "asks; friction-cone excess |f_t| / (mu_s f_n) - 1; maximal-dissipation gap "
              f"1 + f_t . v_t / (mu_k f_n |v_t|) on sliding points (|v_t| > {SLIDING:g} m/s; 0 is full Coulomb "
              f"friction against the slip, 1 none). Points with f_n below {ACTIVE:g} of the scene's weight are "
-             "left out of cone and dissipation. No tolerance: these are readings, all in `laws.csv`.", ""]
+             "left out of cone and dissipation. An engine that reports one resultant per touching pair "
+             "(Pymunk) is read at the pair's mean point, so a pair that rocks or turns on two points reads as one "
+             "point's slip. No tolerance: these are readings, all in `laws.csv`.", ""]
     if len(worst):
         plot_laws(worst, plot)
         from physval.laws import RESIDUALS
