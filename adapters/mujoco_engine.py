@@ -11,6 +11,17 @@ nothing else (contype = conaffinity = 0). A `<pair>` states its own friction, co
 solref, so any pair table of the scene is reproduced exactly; MuJoCo's geom combination
 (friction max, solref averaged by solmix, condim max) cannot give two pairs that share a
 body different e at all. `adapters.combination` is therefore not needed here.
+
+Compliant contact: a pair whose material has the Hooke law (cases.scene.Compliance,
+F = k xi per contact point, elastic, no damping) is the same soft constraint with no
+damping and the impedance at MuJoCo's floor, see `hooke_row`: each contact row then
+pushes with k xi, exactly for a contact alone on its bodies and to O(1e-4) of the force
+where contacts share a body (9e-5 of the peak force in a touching cradle) or an
+external force acts (1e-4 of that force: a body resting under gravity is pushed with
+k xi + 1e-4 m g). The Hertz law (F ~ xi^1.5) has no counterpart: the reference acceleration is linear in the overlap,
+and a position-dependent impedance d(r) only multiplies a lone contact's force by
+(d(r)/dmax)^2, with d(r) - dmin ~ r^p, p >= 1 (solimp[4] is clamped to >= 1) over a
+finite width: xi^1.5 would need d ~ xi^0.25.
 """
 from __future__ import annotations
 
@@ -111,6 +122,49 @@ def contact_spring_damper(e: float, n: float, dt: float) -> tuple[float, float]:
     the value for e = 0 and the limit for very small e."""
     w = math.pi / (n * dt)
     return w * w, min(2.0 * damping_ratio_of_restitution(e) * w, 1.0 / dt)
+
+
+# --- Hooke's law onto the contact row -------------------------------------------------------
+# MuJoCo's soft contact (src/engine/engine_core_constraint.c, mj_makeImpedance and the
+# aref of mj_referenceConstraint; the Newton solver's optimality condition): a frictionless
+# contact row with direct solref (-K, -B) and constant impedance d = dmin = dmax takes the
+# force f solving, over all active rows at once,
+#     (A + R) f = aref - J a0,   R = (1 - d)/d D,   aref = -(K/d) r - (B/d) v,
+# with A = J M^-1 J^T, D its approximation from body_invweight0 (mj_diagApprox: the two
+# bodies' translational inverse weights), r = dist (< 0 in overlap), a0 the acceleration
+# without contact. Multiplied by d:  (D + d (A - D)) f = -K r - B v - d J a0.
+# With B = 0 and K = k D the row pushes with f = k xi (xi = -r), up to d (A - D) f and
+# d J a0: for a lone contact whose D is its A (spheres on slide or free joints) exactly,
+# at any d; where contacts share a body (A has off-diagonal terms) or A has lever arms
+# D ignores, and where external forces act (a0), by O(d). So d sits at MuJoCo's floor,
+# mjMINIMP = 1e-4 (getsolparam clamps solimp to it): the residual cannot go lower.
+# Larger d makes the rows prescribe accelerations instead of forces (d -> 1: A f = aref),
+# which couples touching contacts: d = 0.99 puts the cradle's balls 0.48 m/s off.
+HOOKE_IMPEDANCE = 1e-4  # = mjMINIMP
+HOOKE_SOLIMP = (HOOKE_IMPEDANCE, HOOKE_IMPEDANCE, 0.001, 0.5, 2.0)  # flat: width unused
+
+
+def hooke_row(k: float, invweight: float) -> dict:
+    """MJCF attributes of a frictionless contact row pushing with F = k xi: solref
+    (-k D, 0) (direct form, no damping), D = invweight the sum of the two bodies'
+    translational body_invweight0 (MuJoCo's D of the row), impedance at its floor."""
+    return {"solref": [-k * invweight, 0.0], "solimp": list(HOOKE_SOLIMP), "condim": 1,
+            "friction": [0, 0, 0, 0, 0]}
+
+
+def _hooke_unrepresentable(scene: Scene) -> str | None:
+    for a, b in scene.contact_pairs():
+        mat = scene.material_of(a.name, b.name)
+        c = mat.compliance
+        if c is None or c.law != "hooke":
+            continue
+        if mat.e != 1.0:
+            return (f"{a.name}/{b.name}: Hooke contact with e = {mat.e:g}: F = k xi is elastic (e = 1); "
+                    "a damped compliant contact is another law")
+        if mat.frictional:
+            return (f"{a.name}/{b.name}: Hooke contact with friction: MuJoCo's friction rows share the "
+                    "normal row's cone, and a sliding contact's normal force is then not k xi")
+    return None
 
 
 # --- MJCF ----------------------------------------------------------------------------------
@@ -223,10 +277,19 @@ def _body_xml(body: Body, dimension: int, knobs: dict) -> str:
     return _element("body", frame, joint_xml + _element("inertial", inertial) + _element("geom", geom))
 
 
-def _pair_xml(scene: Scene, n: float, dt: float, knobs: dict) -> str:
+def _pair_xml(scene: Scene, n: float, dt: float, knobs: dict, invweight: dict | None) -> str:
     out = []
     for a, b in scene.contact_pairs():
         mat = scene.material_of(a.name, b.name)
+        if mat.compliance is not None:  # Hooke (capabilities turn the others away)
+            # invweight None: the first compile, which only reads body_invweight0
+            w = 1.0 if invweight is None else invweight[a.name] + invweight[b.name]
+            pair = {"geom1": a.name, "geom2": b.name, **hooke_row(mat.compliance.k, w),
+                    "margin": 0, "gap": 0, "adhesion": 0}
+            knobs["pair"]["|".join(pair_key(a.name, b.name))] = {
+                **pair, "e": mat.e, "law": "hooke", "k": mat.compliance.k, "invweight": w}
+            out.append(_element("pair", pair))
+            continue
         k, damping = contact_spring_damper(mat.e, n, dt)
         pair = {"geom1": a.name, "geom2": b.name, "solref": [-k, -damping], "solimp": list(SOLIMP),
                 "margin": 0, "gap": 0, "adhesion": 0}
@@ -243,8 +306,12 @@ def _pair_xml(scene: Scene, n: float, dt: float, knobs: dict) -> str:
     return "".join(out)
 
 
-def scene_mjcf(scene: Scene, settings: Settings, iterations: int, n: float) -> tuple[str, dict]:
-    """The MJCF of `scene` and the knobs it sets, by MJCF element and attribute name."""
+def scene_mjcf(scene: Scene, settings: Settings, iterations: int, n: float,
+               invweight: dict | None = None) -> tuple[str, dict]:
+    """The MJCF of `scene` and the knobs it sets, by MJCF element and attribute name.
+    `invweight`: each body's translational body_invweight0 (0 for static ones), which
+    Hooke pairs need (`hooke_row`); None where no pair is Hooke (or to compile once and
+    read it)."""
     option = {"timestep": settings.dt, "gravity": list(scene.gravity), "integrator": "Euler",
               "solver": "Newton", "iterations": iterations, "tolerance": TOLERANCE,
               "ls_iterations": 50, "noslip_iterations": 0, "cone": CONE, "impratio": IMPRATIO,
@@ -259,9 +326,13 @@ def scene_mjcf(scene: Scene, settings: Settings, iterations: int, n: float) -> t
              "restitution_map": {"contact_steps_n": n, "w": math.pi / (n * settings.dt),
                                  "k": "w^2", "b": "2 zeta w, at most 1/dt"},
              "friction_slip_steps": n,
+             **({"hooke_map": {"impedance": HOOKE_IMPEDANCE, "solref": "(-k D, 0): no damping",
+                               "D": "sum of the two bodies' body_invweight0 (translational)",
+                               "force": "k xi per contact row (condim 1)"}}
+                if "hooke" in scene.contact_laws else {}),
              "joint": {}, "inertial": {}, "geom": {}, "pair": {}}
     bodies = "".join(_body_xml(b, scene.dimension, knobs) for b in scene.bodies)
-    pairs = _pair_xml(scene, n, settings.dt, knobs)
+    pairs = _pair_xml(scene, n, settings.dt, knobs, invweight)
     xml = ('<mujoco model="physval">' + _element("compiler", compiler)
            + _element("option", option, _element("flag", flag))
            + f"<worldbody>{bodies}</worldbody><contact>{pairs}</contact></mujoco>")
@@ -455,6 +526,7 @@ class MuJoCoAdapter(Adapter):
         contact_forces=True,
         iterations=True,
         contact_points=True,
+        contact_laws=frozenset({"hooke"}),  # F = k xi per contact (hooke_row)
     )
 
     def __init__(self, contact_steps: float = CONTACT_STEPS):
@@ -464,13 +536,25 @@ class MuJoCoAdapter(Adapter):
         return mujoco.__version__
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
-        reason = self.capabilities.cannot_run(scene) or _unrepresentable(scene)
+        reason = (self.capabilities.cannot_run(scene) or _unrepresentable(scene)
+                  or _hooke_unrepresentable(scene))
         if reason:
             raise Unsupported(reason)
         iterations = ITERATIONS if settings.iterations is None else settings.iterations
         xml, knobs = scene_mjcf(scene, settings, iterations, self.contact_steps)
+        model = self._compile(xml)
+        if "hooke" in scene.contact_laws:
+            # a Hooke row's stiffness is k times MuJoCo's D of the row, from the bodies'
+            # body_invweight0, which the compiler computes (masses and joints, not solref)
+            invweight = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g):
+                         float(model.body_invweight0[model.geom_bodyid[g], 0]) for g in range(model.ngeom)}
+            xml, knobs = scene_mjcf(scene, settings, iterations, self.contact_steps, invweight)
+            model = self._compile(xml)
+        return MuJoCoSimulation(scene, model, knobs, iterations)
+
+    @staticmethod
+    def _compile(xml: str) -> mujoco.MjModel:
         try:
-            model = mujoco.MjModel.from_xml_string(xml)
+            return mujoco.MjModel.from_xml_string(xml)
         except ValueError as exc:
             raise Unsupported(f"MuJoCo rejects the scene: {exc}") from None
-        return MuJoCoSimulation(scene, model, knobs, iterations)
