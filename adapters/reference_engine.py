@@ -81,7 +81,7 @@ def _compliance_params(scene: Scene) -> dict:
     """The compliant formulation's material from the scene's cases.scene.Compliance (it
     takes one material for the whole world: every pair that may touch must ask for the same)."""
     found = {scene.material_of(a.name, b.name).compliance for a, b in scene.contact_pairs()}
-    if found == {None}:
+    if found <= {None}:  # rigid (or nothing can touch)
         return {}
     if len(found) > 1:
         raise Unsupported("pairs ask for different contact laws or materials (or some for rigid contact): "
