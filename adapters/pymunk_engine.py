@@ -34,8 +34,12 @@ import pymunk
 # `arbiter._arbiter`; the same names since Pymunk 5). Called directly in post_solve they cost
 # 0.5 us per pair where the Python properties cost 4-10 us (building Vec2d and ContactPointSet
 # objects), inside the timed step (measured on a five-box stack). Their struct results are
-# copies owned by Python: valid after the callback.
-from pymunk._chipmunk_cffi import lib as _chipmunk
+# copies owned by Python: valid after the callback. A Pymunk without that binding falls back
+# on the public properties (same values, slower): _PointSet gives them the struct's names.
+try:
+    from pymunk._chipmunk_cffi import lib as _chipmunk
+except ImportError:  # pragma: no cover - depends on the installed Pymunk
+    _chipmunk = None
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
@@ -61,6 +65,22 @@ COLLISION_PERSISTENCE = 3  # steps a separated pair's impulses are kept for warm
 PLANE_HALF_LENGTH = 1e4  # m
 PLANE_DEPTH = 1.0  # m: far more than any overlap v*dt at the scenes' speeds
 
+
+
+class _PointSet:
+    """Pymunk's public ContactPointSet under the C struct's field names (the fallback of
+    the import above): normal, count, points[i].pointA / pointB / distance."""
+
+    class _Point:
+        __slots__ = ("pointA", "pointB", "distance")
+
+        def __init__(self, p):
+            self.pointA, self.pointB, self.distance = p.point_a, p.point_b, p.distance
+
+    def __init__(self, cps):
+        self.normal = cps.normal
+        self.points = [self._Point(p) for p in cps.points]
+        self.count = len(self.points)
 
 class PymunkAdapter(Adapter):
     name = "pymunk"
@@ -236,6 +256,10 @@ class PymunkSimulation(Simulation):
         # cpSpaceStep: the loop over space->arbiters after the impulse sweeps), so these are
         # the pairs the solver acted on, as contact_forces always reported. The arbiter is
         # not valid after the callback: the C calls return copies (see the import).
+        if _chipmunk is None:
+            self._solved.append((key, arbiter.total_impulse, _PointSet(arbiter.contact_point_set),
+                                 arbiter.friction == 0.0))
+            return
         arb = arbiter._arbiter
         self._solved.append((key, _chipmunk.cpArbiterTotalImpulse(arb),
                              _chipmunk.cpArbiterGetContactPointSet(arb),

@@ -105,3 +105,19 @@ def test_a_frictionless_scene_reports_no_friction(engine):
     points, _ = _run(engine, _scene(engine, mu=0.0, velocity=velocity), 0.1)
     assert points
     assert all(np.all(p.f_t == 0.0) for p in points)
+
+
+def test_pymunk_reads_the_same_through_its_public_properties(monkeypatch):
+    """The Pymunk adapter reads arbiters through Chipmunk's C API (fast, but a private
+    binding); without it, it falls back on Pymunk's public properties: same points."""
+    if not registry.available("pymunk"):
+        pytest.skip("pymunk is not installed")
+    from adapters import pymunk_engine
+    scene = _scene("pymunk", 0.5, (2.0, 0.0, 0.0))
+    fast, _ = _run("pymunk", scene, 0.1)
+    monkeypatch.setattr(pymunk_engine, "_chipmunk", None)
+    public, _ = _run("pymunk", scene, 0.1)
+    assert len(fast) == len(public) > 0
+    for p, q in zip(fast, public):
+        assert (p.a, p.b, p.f_n, p.gap) == (q.a, q.b, q.f_n, q.gap)
+        assert np.array_equal(p.x, q.x) and np.array_equal(p.n, q.n) and np.array_equal(p.f_t, q.f_t)
