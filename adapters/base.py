@@ -79,7 +79,8 @@ class Capabilities:
         flags = [f for f in ("native_restitution", "static_kinetic", "contact_forces", "iterations",
                              "contact_points")
                  if getattr(self, f)]
-        return f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags)
+        laws = f"; compliant contact: {','.join(sorted(self.contact_laws))}" if self.contact_laws else ""
+        return f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags) + laws
 
 
 class Simulation(ABC):
