@@ -43,9 +43,10 @@ from cases.robustness import COLLAPSE_FRACTION, collapse_time
 PREFIX = "robustness_"
 
 # The map (--long): 60, 120 and 240 Hz; 5 to 50 iterations; stacks of 2 to 20.
-MAP = {"heights": (2, 5, 10, 15, 20), "dts": (1 / 60, 1 / 120, 1 / 240), "iterations": (5, 10, 20, 50)}
-# Without --long: 60 Hz only, where stacks are hardest, up to 10 boxes.
-QUICK_MAP = {"heights": (2, 5, 10), "dts": (1 / 60,), "iterations": (5, 10, 20)}
+MAP = {"heights": (2, 5, 10, 15, 20), "dts": (1 / 60, 1 / 120, 1 / 240), "iterations": (None, 5, 10, 20, 50)}
+# Without --long: 60 Hz only, where stacks are hardest, up to 10 boxes. None: the
+# adapter's stated default (e.g. PyBullet 50, DART 300 sweeps), what a user gets untouched.
+QUICK_MAP = {"heights": (2, 5, 10), "dts": (1 / 60,), "iterations": (None, 5, 10, 20)}
 MAP_DURATION = 10.0  # s: "stands" means stands this long
 MAP_SETTLED = 1.0    # s: drift is measured from here on
 # Variants run twice for the determinism check: many simultaneous contacts, and a landing
@@ -101,7 +102,8 @@ def stack_trial(engine: str, n: int, dt: float, iterations: int | None, duration
     """One stack of n boxes on one engine (3D, or 2D for an engine that runs 2D scenes
     only): does it stand for `duration`? Never raises."""
     from physval.runner import Unstable, simulate
-    row = {"engine": engine, "dim": "", "dt": dt, "hz": round(1 / dt), "iterations": iterations, "n": n,
+    row = {"engine": engine, "dim": "", "dt": dt, "hz": round(1 / dt), "iterations": iterations,
+           "iterations_in_force": None, "n": n,
            "status": "", "standing_time": math.nan, "drift": math.nan, "us_per_step": math.nan, "reason": ""}
     try:
         adapter = registry.get(engine)
@@ -110,6 +112,7 @@ def stack_trial(engine: str, n: int, dt: float, iterations: int | None, duration
         scene = robustness_stacks.scene({"structure": "stack", "n": n, "dim": dim, "T": duration})
         names = [b.name for b in scene.dynamic_bodies]
         sim = adapter.build(scene, Settings(dt=dt, iterations=iterations))
+        row["iterations_in_force"] = sim.iterations
     except (Unsupported, registry.EngineError) as exc:
         return {**row, "status": "unsupported", "reason": str(exc)}
     except Exception as exc:  # an engine crash is a result
@@ -161,8 +164,11 @@ def map_summary(df: pd.DataFrame) -> pd.DataFrame:
         fell = grp[grp.status != "stands"]
         best = stood.iloc[-1] if len(stood) else None
         nxt = fell.iloc[0] if len(fell) else None
+        in_force = grp.iloc[0].get("iterations_in_force")
+        label = int(it) if it is not None and not (isinstance(it, float) and math.isnan(it)) else (
+            f"default ({int(in_force)})" if in_force is not None and not pd.isna(in_force) else "default")
         out.append({"engine": eng, "dim": f"{grp.iloc[0].dim}D" if grp.iloc[0].dim != "" else "", "hz": round(1 / dt),
-                    "iterations": it,
+                    "iterations": label,
                     "tallest standing": int(best.n) if best is not None else 0,
                     "its drift (m)": best.drift if best is not None else math.nan,
                     "next height": int(nxt.n) if nxt is not None else "",
@@ -185,17 +191,17 @@ def plot_stability_map(df: pd.DataFrame, path: Path) -> None:
     for ax, eng in zip(axes[0], engines):
         part = summary[summary.engine == eng]
         hz = sorted(part.hz.unique())
-        its = sorted(part.iterations.dropna().unique())
-        grid = np.full((len(hz), max(len(its), 1)), np.nan)
+        cols = list(dict.fromkeys(str(it) for it in part.iterations))  # "default (N)" first, then counts
+        grid = np.full((len(hz), len(cols)), np.nan)
         for _, r in part.iterrows():
-            i, j = hz.index(r["hz"]), its.index(r["iterations"]) if r["iterations"] in its else 0
+            i, j = hz.index(r["hz"]), cols.index(str(r["iterations"]))
             grid[i, j] = r["tallest standing"]
             collapse = r["next: time to collapse (s)"]
             text = str(r["tallest standing"]) + (f"\n{collapse:.1f}s" if math.isfinite(collapse) else "")
             ax.text(j, i, text, ha="center", va="center", fontsize=7,
                     color="black" if r["tallest standing"] > 0.6 * top else "white")
         im = ax.imshow(grid, cmap="viridis", vmin=0, vmax=top, aspect="auto")
-        ax.set_xticks(range(max(len(its), 1)), [str(int(i)) for i in its] or ["default"])
+        ax.set_xticks(range(len(cols)), [c.replace(" (", "\n(") for c in cols], fontsize=7)
         ax.set_yticks(range(len(hz)), [f"{h} Hz" for h in hz] if ax is axes[0][0] else [])
         ax.set_xlabel("iterations")
         ax.set_title(eng, fontsize=10)
@@ -221,7 +227,10 @@ def stability_section(df: pd.DataFrame, plot: str = "plots/stability_map.png") -
              "down), as the step rate and the "
              "solver iterations vary; heights are tried upwards and stop at the first that falls, whose time to "
              f"collapse is shown. Drift: the tallest standing stack's largest displacement after {MAP_SETTLED:g} s "
-             "(1 % of the box is 2 mm). Cost: wall time per step of the tallest standing stack (noisy machine).", "",
+             "(1 % of the box is 2 mm). Cost: wall time per step of the tallest standing stack (noisy machine). "
+             "Iterations are each engine's own solver count (DART: sweeps of the Coulomb-cone NSGS solver the "
+             "adapter selects; PyBullet: the multibody solver, which has no warm starting, for a scene with "
+             "friction); `default (N)` is the adapter's stated default, what a user gets untouched.", "",
              f"![stability map]({plot})", "", _md_table(shown), ""]
     bad = df[df.status.isin(["unstable", "error", "unsupported"])].drop_duplicates(["engine", "status", "reason"])
     if len(bad):
