@@ -14,15 +14,16 @@ import math
 
 import pandas as pd
 
+from physval.metrics import errors
+
 REFERENCE = "reference"
 
 
 def distance(check_kind: str, measured: float, reference: float) -> float:
-    """|measured - reference| in the check's own terms (absolute, or relative to the reference)."""
-    d = abs(measured - reference)
-    if check_kind == "rel":
-        return d / abs(reference) if reference != 0 else (0.0 if d == 0 else math.inf)
-    return d
+    """|measured - reference| in the check's own terms: absolute, or relative to the
+    reference (NaN for a relative check when the reference reads 0)."""
+    abs_err, rel_err = errors(reference, measured)
+    return abs_err if check_kind == "abs" else rel_err
 
 
 def table(df: pd.DataFrame, families: set[str]) -> pd.DataFrame:
