@@ -156,8 +156,9 @@ def battery(families: dict, adapter) -> list[tuple[str, object]]:
     return chosen
 
 
-def measure(engine: str, families: dict, dt: float = 1e-3) -> list[dict]:
-    """The residual rows of one engine over the battery; an engine that cannot report
+def measure(engine: str, families: dict, dt: float | None = None) -> list[dict]:
+    """The residual rows of one engine over the battery, each scene at `dt` (default: its
+    family's time step); an engine that cannot report
     contact points, or fails on a scene, gets a row saying so (nothing raises)."""
     from adapters import registry
     from adapters.base import Settings, Unsupported
@@ -169,12 +170,13 @@ def measure(engine: str, families: dict, dt: float = 1e-3) -> list[dict]:
     for name, variant in battery(families, adapter):
         fam = families[name]
         scene = fam.scene(variant.params)
-        row = {"engine": engine, "case": name, "variant": variant.id, "dt": dt, "note": ""}
+        step = dt or fam.dt_for(variant.params)
+        row = {"engine": engine, "case": name, "variant": variant.id, "dt": step, "note": ""}
         start = time.perf_counter()
         try:
-            with adapter.build(scene, Settings(dt=dt)) as sim:
+            with adapter.build(scene, Settings(dt=step)) as sim:
                 seconds = min(fam.duration(variant.params), MAX_SECONDS)
-                row.update(run_residuals(sim, scene, round(seconds / dt)))
+                row.update(run_residuals(sim, scene, round(seconds / step)))
         except Unsupported as exc:
             row["note"] = f"unsupported: {exc}"
         except Exception as exc:  # an engine failure is a finding, not a crash of the run

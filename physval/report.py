@@ -275,7 +275,7 @@ def laws_section(laws: pd.DataFrame, plot: Path) -> list[str]:
     lines = ["## Physics-law residuals", "",
              "Each engine's own contact forces (`Simulation.contact_points`) against the laws of rigid contact, "
              "point by point and step by step over a battery of library scenes (`physval/laws.py`, each scene "
-             f"at dt = 1e-3 for at most {MAX_SECONDS:g} s): penetration; complementarity, the power "
+             f"at its family's time step for at most {MAX_SECONDS:g} s): penetration; complementarity, the power "
              "f_n max(v_n + e min(v_n-, 0), 0) of a normal force on a contact separating faster than restitution "
              "asks; friction-cone excess |f_t| / (mu_s f_n) - 1; maximal-dissipation gap "
              f"1 + f_t . v_t / (mu_k f_n |v_t|) on sliding points (|v_t| > {SLIDING:g} m/s; 0 is full Coulomb "
