@@ -140,19 +140,24 @@ def run_residuals(sim, scene: Scene, steps: int) -> dict:
             "dissipation_gap_max": max(gaps) if gaps else math.nan}
 
 
-def battery(families: dict, adapter) -> list[tuple[str, object]]:
-    """(family name, variant) of each battery entry the engine can represent."""
+def _first_runnable(fam, glob: str, adapter):
+    """(variant, scene) of the first variant matching `glob` the engine can represent, or None."""
+    for v in fam.variants:
+        if fnmatchcase(v.id, glob):
+            scene = fam.scene(v.params)
+            if adapter.capabilities.cannot_run(scene, fam.needs_of(v.params)) is None:
+                return v, scene
+    return None
+
+
+def battery(families: dict, adapter) -> list[tuple[str, object, Scene]]:
+    """(family name, variant, its scene) of each battery entry the engine can represent."""
     chosen = []
     for name, globs in BATTERY:
-        fam = families.get(name)
-        if fam is None:
-            continue
-        for glob in globs:
-            match = next((v for v in fam.variants if fnmatchcase(v.id, glob)
-                          and adapter.capabilities.cannot_run(fam.scene(v.params)) is None), None)
-            if match is not None:
-                chosen.append((name, match))
-                break
+        if name in families:
+            found = next(filter(None, (_first_runnable(families[name], g, adapter) for g in globs)), None)
+            if found is not None:
+                chosen.append((name, *found))
     return chosen
 
 
@@ -167,9 +172,8 @@ def measure(engine: str, families: dict, dt: float | None = None) -> list[dict]:
         return [{"engine": engine, "case": "", "variant": "",
                  "note": "the engine does not report per-contact forces"}]
     rows = []
-    for name, variant in battery(families, adapter):
+    for name, variant, scene in battery(families, adapter):
         fam = families[name]
-        scene = fam.scene(variant.params)
         step = dt or fam.dt_for(variant.params)
         row = {"engine": engine, "case": name, "variant": variant.id, "dt": step, "note": ""}
         start = time.perf_counter()
