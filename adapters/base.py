@@ -11,12 +11,24 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Mapping
 
 import numpy as np
 
 from cases.scene import Scene
 from cases.trajectory import ContactPoint
+
+
+# "simultaneous": one impulse problem over all contacts of the step, restitution applied to
+#   each contact's own approach velocity (two touching balls dropped on the ground leave it
+#   together at e v);
+# "sequential": contacts resolved one after another as two-body impacts, so an impulse
+#   travels through a chain of touching bodies (Newton's cradle; the top ball of a dropped
+#   pair is launched faster than e v);
+# "compliant": contacts are springs (dampers) acting over several steps; the outcome
+#   depends on the stiffnesses and lies between the two.
+IMPACT_MODELS = ("simultaneous", "sequential", "compliant")
 
 
 class Unsupported(Exception):
@@ -31,6 +43,9 @@ class SettingsError(ValueError):
 class Settings:
     dt: float                      # time step, s
     iterations: int | None = None  # solver iterations; None: the adapter's stated default
+    # engine-specific contact parameters by name (Adapter.tunables), e.g. MuJoCo's
+    # contact time scale; empty: the adapter's stated defaults
+    options: Mapping[str, float] = field(default_factory=dict)
 
     def __post_init__(self):
         if not (isinstance(self.dt, (int, float)) and math.isfinite(self.dt) and self.dt > 0):
@@ -51,6 +66,9 @@ class Capabilities:
     iterations: bool                  # the solver has an iteration count to set
     contact_points: bool = False      # Simulation.contact_points reports each point's forces
     contact_laws: frozenset[str] = frozenset()  # compliant laws of cases.scene.Compliance it models
+    # How the engine resolves impacts at several contacts within one step (IMPACT_MODELS);
+    # None: not declared.
+    impact_model: str | None = None
 
     def cannot_run(self, scene: Scene, needs: frozenset[str] = frozenset()) -> str | None:
         """Why this engine cannot represent `scene` (and a case's extra `needs`), or None."""
@@ -119,10 +137,21 @@ class Simulation(ABC):
         self.close()
 
 
+@dataclass(frozen=True)
+class Tunable:
+    """An engine-specific contact parameter an adapter accepts in `Settings.options`
+    (for fitting engines to measured data): its range, default and meaning."""
+    low: float
+    high: float
+    default: float
+    meaning: str
+
+
 class Adapter(ABC):
     name: str
     capabilities: Capabilities
     package: str  # the PyPI distribution that provides the engine (for messages)
+    tunables: Mapping[str, Tunable] = {}  # Settings.options this adapter understands
 
     @abstractmethod
     def version(self) -> str:
