@@ -10,7 +10,9 @@ harness.
 from __future__ import annotations
 
 import math
+import sys
 from abc import ABC, abstractmethod
+from pathlib import Path
 from dataclasses import dataclass, field
 from typing import Mapping
 
@@ -90,6 +92,10 @@ class Capabilities:
                     "model that contact law")
         if "contact_forces" in needs and not self.contact_forces:
             return "the case reads contact forces, which this engine does not report"
+        for need in needs:
+            if need.startswith("impact_model:") and need.split(":", 1)[1] != self.impact_model:
+                return (f"the case's closed forms assume {need.split(':', 1)[1]} impacts; this engine's are "
+                        f"{self.impact_model or 'not declared'}")
         return None
 
     def describe(self) -> str:
@@ -116,6 +122,28 @@ class Simulation(ABC):
     @abstractmethod
     def states(self) -> dict[str, np.ndarray]:
         """Every dynamic body's state: 13 numbers, see cases.trajectory."""
+
+    # Bulk reads: the harness records a run by writing each step's raw state into one row of
+    # a preallocated array and decoding all rows at once after the run (or a block at a
+    # time), so recording costs a copy per step, not a dict of arrays. The defaults go
+    # through states(); an adapter whose engine keeps its state in arrays overrides them.
+
+    def body_order(self) -> list[str]:
+        """The dynamic bodies in the order decode_states() returns them."""
+        return list(self.states())
+
+    def state_size(self) -> int:
+        """Length of one raw state row (write_state)."""
+        return 13 * len(self.body_order())
+
+    def write_state(self, out: np.ndarray) -> None:
+        """Write the state after the last step into the 1D row `out` (state_size long)."""
+        for i, row in enumerate(self.states().values()):
+            out[13 * i:13 * i + 13] = row
+
+    def decode_states(self, raw: np.ndarray) -> np.ndarray:
+        """(samples, bodies, 13) state rows (cases.trajectory layout) from stacked raw rows."""
+        return raw.reshape(len(raw), -1, 13)
 
     @abstractmethod
     def contact_forces(self) -> dict[tuple[str, str], float]:
@@ -156,6 +184,23 @@ class Adapter(ABC):
     @abstractmethod
     def version(self) -> str:
         """The engine's version string."""
+
+    def deviations_file(self) -> Path | None:
+        """This engine's known-deviation file (physval/deviations.py): by default
+        `xfails/<name>.txt` beside the adapter's module, so a plug-in ships its own."""
+        module = sys.modules.get(type(self).__module__)
+        where = getattr(module, "__file__", None)
+        return Path(where).parent / "xfails" / f"{self.name}.txt" if where else None
+
+    # In a default run (no cases named), an engine runs every family unless it names the
+    # tags it runs (e.g. the slow pure-Python formulations: {"core", "conformance"}; they
+    # also run the variants whose compliant contact law they model).
+    default_tags: frozenset[str] | None = None
+
+    def on_demand(self, scene: Scene) -> str | None:
+        """Why a scene takes this engine too long for a default run (minutes), or None:
+        such runs happen only when the case or the engine is named."""
+        return None
 
     @abstractmethod
     def build(self, scene: Scene, settings: Settings) -> Simulation:

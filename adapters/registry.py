@@ -1,10 +1,26 @@
-"""Engines by name. Each entry is one adapter file; the engine's package is imported only
-when the engine is used, so a missing engine fails only the runs that need it."""
+"""Engines by name: the built-in adapters, plug-ins registered by installed packages under
+the entry-point group `physval.engines` (name = "module:Class"), and adapters named ad hoc
+with `--adapter module:Class` (or `path/to/file.py:Class`). An engine's package is
+imported only when the engine is used, so a missing engine fails only the runs that need it.
+
+A plug-in entry point or ad-hoc spec names an `Adapter` subclass (instantiated without
+arguments), an `Adapter` instance, or a function returning one. Its known deviations live
+in the file the adapter declares (`Adapter.deviations_file()`; by default
+`xfails/<name>.txt` beside the adapter's module), so a plug-in ships them with itself.
+"""
 from __future__ import annotations
 
+import functools
 import importlib
+import importlib.util
+import sys
+from dataclasses import dataclass, field
+from importlib.metadata import entry_points
+from pathlib import Path
 
 from adapters.base import Adapter
+
+ENTRY_POINT_GROUP = "physval.engines"
 
 # name -> (module, class, keyword arguments)
 ENGINES: dict[str, tuple[str, str, dict]] = {
@@ -27,31 +43,129 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "pymunk": ("adapters.pymunk_engine", "PymunkAdapter", {}),
     "dart": ("adapters.dart_engine", "DartAdapter", {}),
 }
+# The pip extra that installs each built-in engine's package (README, pyproject.toml).
+EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "pymunk": "pymunk", "dart": "dart"}
 
 
 class EngineError(ValueError):
     """An unknown or unavailable engine; the message says which and what to do."""
 
 
-def engine_names() -> list[str]:
-    return list(ENGINES)
+@dataclass(frozen=True)
+class EngineSpec:
+    """Where an engine comes from and how to make its adapter."""
+    name: str
+    origin: str                 # "built-in", "entry point (distribution)", "--adapter"
+    target: str                 # "module:Class" or "path/file.py:Class"
+    kwargs: dict = field(default_factory=dict)
 
 
-def get(name: str) -> Adapter:
-    if name not in ENGINES:
-        raise EngineError(f"unknown engine {name!r}: choose from {', '.join(ENGINES)}")
-    module, cls, kwargs = ENGINES[name]
+def _builtin() -> dict[str, EngineSpec]:
+    return {n: EngineSpec(n, "built-in", f"{m}:{c}", kw) for n, (m, c, kw) in ENGINES.items()}
+
+
+@functools.cache
+def _plugins() -> dict[str, EngineSpec]:
+    out = {}
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        dist = getattr(ep, "dist", None)
+        origin = f"entry point ({dist.name} {dist.version})" if dist is not None else "entry point"
+        out[ep.name] = EngineSpec(ep.name, origin, ep.value)
+    return out
+
+
+def _import_target(target: str):
+    """The object a 'module:attr' or 'path/to/file.py:attr' spec names."""
+    if ":" not in target:
+        raise EngineError(f"--adapter {target!r}: must read 'module:Class' or 'path/to/file.py:Class'")
+    where, attr = target.rsplit(":", 1)
     try:
-        mod = importlib.import_module(module)
+        if where.endswith(".py"):
+            path = Path(where).resolve()
+            name = f"physval_user_adapters.{path.stem}"
+            module = sys.modules.get(name)
+            if module is None or getattr(module, "__file__", None) != str(path):
+                spec = importlib.util.spec_from_file_location(name, path)
+                if spec is None or not path.exists():
+                    raise EngineError(f"--adapter {target!r}: no file {where}")
+                module = importlib.util.module_from_spec(spec)
+                sys.modules[name] = module
+                spec.loader.exec_module(module)
+        else:
+            module = importlib.import_module(where)
+    except EngineError:
+        raise
     except ImportError as exc:
-        raise EngineError(f"engine {name!r} is not installed ({exc.name or exc}): "
-                          f"pip install '.[{name}]'") from None
-    return getattr(mod, cls)(**kwargs)
-
-
-def available(name: str) -> bool:
+        raise EngineError(f"adapter {target!r} cannot be imported ({exc.name or exc})") from None
+    except Exception as exc:
+        raise EngineError(f"adapter {target!r} cannot be imported: {type(exc).__name__}: {exc}") from None
     try:
-        get(name)
+        return getattr(module, attr)
+    except AttributeError:
+        raise EngineError(f"adapter {target!r}: {where} has no {attr!r}") from None
+
+
+def _make(target: str, kwargs: dict) -> Adapter:
+    obj = _import_target(target)
+    if isinstance(obj, Adapter):
+        return obj
+    try:
+        made = obj(**kwargs)
+    except Exception as exc:
+        raise EngineError(f"adapter {target!r} cannot be made: {type(exc).__name__}: {exc}") from None
+    if not isinstance(made, Adapter):
+        raise EngineError(f"adapter {target!r} gives a {type(made).__name__}, not an adapters.base.Adapter")
+    return made
+
+
+@functools.cache
+def adhoc(target: str) -> EngineSpec:
+    """The spec of an `--adapter module:Class`, named by the adapter's own `name`."""
+    adapter = _make(target, {})
+    return EngineSpec(adapter.name, "--adapter", target)
+
+
+def specs(adapters: tuple[str, ...] = ()) -> dict[str, EngineSpec]:
+    """Every engine by name: built-ins, then installed plug-ins, then ad-hoc adapters; a
+    plug-in or ad-hoc adapter may not take a name already in use."""
+    out = _builtin()
+    for extra in list(_plugins().values()) + [adhoc(t) for t in adapters]:
+        if extra.name in out and out[extra.name].target != extra.target:
+            raise EngineError(f"engine name {extra.name!r} of {extra.origin} {extra.target} is taken by "
+                              f"{out[extra.name].origin} {out[extra.name].target}: rename it")
+        out[extra.name] = extra
+    return out
+
+
+def engine_names(adapters: tuple[str, ...] = ()) -> list[str]:
+    return list(specs(adapters))
+
+
+def get(name: str, adapters: tuple[str, ...] = ()) -> Adapter:
+    """The adapter of an engine; EngineError if unknown or not installed."""
+    known = specs(adapters)
+    if name not in known:
+        raise EngineError(f"unknown engine {name!r}: choose from {', '.join(known)}")
+    spec = known[name]
+    if spec.origin == "built-in":
+        module, cls = spec.target.split(":")
+        try:
+            mod = importlib.import_module(module)
+        except ImportError as exc:
+            extra = EXTRAS.get(name.split("-")[0], name.split("-")[0])
+            raise EngineError(f"engine {name!r} is not installed ({exc.name or exc}): "
+                              f"pip install '.[{extra}]'") from None
+        return getattr(mod, cls)(**spec.kwargs)
+    adapter = _make(spec.target, spec.kwargs)
+    if adapter.name != name:
+        raise EngineError(f"{spec.origin} {name!r} = {spec.target} makes an adapter named {adapter.name!r}: "
+                          "the names must agree")
+    return adapter
+
+
+def available(name: str, adapters: tuple[str, ...] = ()) -> bool:
+    try:
+        get(name, adapters)
         return True
     except EngineError:
         return False

@@ -165,4 +165,5 @@ FAMILY = CaseFamily(
     dt=1e-3,
     sweep_variants=("e=0.5,m=1:3", "drop,e=0.5", "drop,e=0.5,2D"),  # what `physval sweep` varies dt and iterations on
     variant_id=variant_id,
+    tags=frozenset({"core"}),
 )

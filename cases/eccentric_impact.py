@@ -224,4 +224,5 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=variant_id,
+    full_grid=FULL_GRID,
 )

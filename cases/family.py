@@ -1,6 +1,16 @@
 """The case format: a family is a scene builder, a parameter grid, observables, closed-form
 expectations and tolerances (each with a one-line reason). One file per family under
-`cases/`, exporting `FAMILY`; users add families the same way from `--cases-dir DIR`.
+`cases/`, exporting `FAMILY`; users add families the same way from `--cases-dir DIR`
+(docs/writing_cases.md walks through one).
+
+How physval uses a family, per variant (one `params` dict of the grid) and engine:
+
+    dt     = family.dt_for(params)              (or the run's --dt)
+    checks = family.expect(params, dt)          closed forms, tolerances, reasons
+    scene  = family.scene(params)               engine-neutral, validated when made
+    traj   = engine runs scene for family.duration(params) seconds, one sample a step
+    values = family.observe(traj, params)       {metric: number} for every check
+    verdict per check: pass / fail / deviation (a known, bounded shortfall)
 """
 from __future__ import annotations
 
@@ -17,12 +27,31 @@ class CaseError(ValueError):
     """A case family that cannot be used; the message names the family and the field."""
 
 
+# What a family may ask of an engine beyond representing its scene (CaseFamily.needs):
+# "contact_forces"  the observer reads Trajectory.force / impulse (normal force per pair);
+# "impact_model:M"  the closed forms assume the engine resolves simultaneous impacts by
+#                   model M (adapters.base.IMPACT_MODELS); other engines report unsupported.
+NEEDS = ("contact_forces",)
+NEEDS_PREFIXES = ("impact_model:",)
+
+# Labels a family carries (CaseFamily.tags); physval selects by them, it keeps no name lists:
+TAGS = {
+    "core": "the three core families: the default sweep, and run by every reference formulation by default",
+    "conformance": "the adapter conformance battery (what every adapter must do)",
+    "robustness": "hard scenes judged by invariants: `physval stress`",
+    "cross_engine": "no full closed form: well-posed quantities, also compared across engines",
+}
+
+MAX_DT = 0.1  # s: a family's time step above this leaves no contact worth judging (adapters.base.Settings)
+
+
 @dataclass(frozen=True)
 class Check:
     """One verdict: `metric` measured against a closed-form `expected` value.
 
     `kind` says which error the tolerance bounds: "abs" (|measured - expected|, in `unit`)
-    or "rel" (that divided by |expected|). `why` is the one-line reason for its size."""
+    or "rel" (that divided by |expected|). `why` is the one-line reason for its size: the
+    physics or numerics that allow it (time step, contact stiffness, solver convergence)."""
     metric: str
     unit: str
     expected: float
@@ -31,16 +60,23 @@ class Check:
     why: str
 
     def __post_init__(self):
+        if not isinstance(self.metric, str) or not self.metric:
+            raise CaseError(f"check metric = {self.metric!r}: must be a non-empty string")
         if self.kind not in ("abs", "rel"):
             raise CaseError(f"check {self.metric!r}: kind = {self.kind!r}: must be 'abs' or 'rel'")
-        if not (math.isfinite(self.tolerance) and self.tolerance >= 0):
+        for name in ("expected", "tolerance"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise CaseError(f"check {self.metric!r}: {name} = {value!r}: must be a finite number")
+        if self.tolerance < 0:
             raise CaseError(f"check {self.metric!r}: tolerance = {self.tolerance!r}: must be finite and >= 0")
-        if not self.why.strip():
+        if not isinstance(self.why, str) or not self.why.strip():
             raise CaseError(f"check {self.metric!r}: why is empty: every tolerance needs its reason")
 
 
 @dataclass(frozen=True)
 class Variant:
+    """One point of a family's grid: its readable id and its params."""
     family: str
     id: str
     params: dict
@@ -70,19 +106,41 @@ def _default_id(params: dict) -> str:
 
 @dataclass(frozen=True)
 class CaseFamily:
+    """A family of analytic cases: one scene builder over a grid of parameters, with the
+    closed form and tolerance of every check.
+
+    - `name`: an identifier, unique among families (the file's stem is a good choice).
+    - `summary`: one sentence for `physval list` and the report.
+    - `source`: where the closed form comes from (note and slide, book, derivation).
+    - `grid`: one params dict per variant (JSON-serialisable values); `full_grid`: more
+      variants that only `--full` runs (long or many-body scenes).
+    - `scene(params) -> Scene`; `duration(params) -> seconds`.
+    - `observe(trajectory, params) -> {metric: float}`: one finite number per check, under
+      any engine, even a wrong one (then the check fails with a size). Helpers that make
+      discrete-time readings exact are in `cases.observables`.
+    - `expect(params, dt) -> [Check]`: the closed forms; a tolerance may depend on dt.
+    - `dt`: the default time step in s (or params -> dt per variant), in (0, 0.1].
+    - `needs`: what the observer needs beyond the scene (NEEDS; e.g. "contact_forces"),
+      a frozenset or params -> frozenset.
+    - `sweep_variants`: variant ids `physval sweep` varies dt and iterations on (default:
+      the first variant).
+    - `variant_id(params) -> str`: the readable id in test ids, reports and selections.
+    - `tags`: labels from TAGS ("core", "robustness", "cross_engine", ...).
+    """
     name: str
-    summary: str                                        # one sentence for `physval list`
-    source: str                                         # where the closed form comes from
-    grid: tuple[dict, ...]                              # one params dict per variant
-    scene: Callable[[dict], Scene]                      # params -> Scene
-    duration: Callable[[dict], float]                   # params -> simulated seconds
-    observe: Callable[[Trajectory, dict], dict]         # trajectory, params -> {metric: value}
-    expect: Callable[[dict, float], list[Check]]        # params, dt -> checks
-    dt: float | Callable[[dict], float] = 1e-3          # default time step, s, or params -> one per variant
-    needs: frozenset[str] | Callable[[dict], frozenset[str]] = frozenset()  # e.g. {"contact_forces"}, or per variant
-    sweep_variants: tuple[str, ...] = ()                # variant ids `physval sweep` varies dt on (default: the first)
-    variant_id: Callable[[dict], str] = _default_id     # params -> readable id
-    cross_engine: bool = False                          # the report and tests also compare engines with each other
+    summary: str
+    source: str
+    grid: tuple[dict, ...]
+    scene: Callable[[dict], Scene]
+    duration: Callable[[dict], float]
+    observe: Callable[[Trajectory, dict], dict]
+    expect: Callable[[dict, float], list[Check]]
+    dt: float | Callable[[dict], float] = 1e-3
+    needs: frozenset[str] | Callable[[dict], frozenset[str]] = frozenset()
+    sweep_variants: tuple[str, ...] = ()
+    variant_id: Callable[[dict], str] = _default_id
+    tags: frozenset[str] = frozenset()
+    full_grid: tuple[dict, ...] = ()
 
     def dt_for(self, params: dict) -> float:
         """A variant's default time step (e.g. fine enough to sample a 1 ms compliant contact)."""
@@ -93,18 +151,42 @@ class CaseFamily:
         return frozenset(self.needs(params) if callable(self.needs) else self.needs)
 
     @property
+    def cross_engine(self) -> bool:
+        return "cross_engine" in self.tags
+
+    @property
     def variants(self) -> tuple[Variant, ...]:
         return tuple(Variant(self.name, self.variant_id(p), dict(p)) for p in self.grid)
 
-    def validate(self) -> None:
-        """Raise CaseError unless every variant builds a valid scene and its checks."""
+    @property
+    def all_variants(self) -> tuple[Variant, ...]:
+        """The grid and the full grid (variants of both counted once)."""
+        ids = {v.id for v in self.variants}
+        extra = tuple(Variant(self.name, self.variant_id(p), dict(p)) for p in self.full_grid)
+        return self.variants + tuple(v for v in extra if v.id not in ids)
+
+    @property
+    def module_file(self) -> str:
+        """The file that defines the family (for messages)."""
+        import inspect
+        try:
+            return inspect.getsourcefile(self.scene) or self.name
+        except TypeError:
+            return self.name
+
+    def validate(self, full: bool = False) -> None:
+        """Raise CaseError, naming the family, variant and field, unless every variant
+        builds a valid scene and its checks (`full`: the full grid too)."""
         from cases.scene import SceneError
-        if not self.name.isidentifier():
+        if not isinstance(self.name, str) or not self.name.isidentifier():
             raise CaseError(f"family name {self.name!r}: must be an identifier (letters, digits, _)")
+        unknown = set(self.tags) - set(TAGS)
+        if unknown:
+            raise CaseError(f"{self.name}: tags {sorted(unknown)}: unknown; choose from {', '.join(TAGS)}")
         if not self.grid:
             raise CaseError(f"{self.name}: grid is empty: a family needs at least one variant")
         ids = set()
-        for v in self.variants:
+        for v in self.all_variants if full else self.variants:
             where = f"{self.name}[{v.id}]"
             if v.id in ids:
                 raise CaseError(f"{where}: variant id repeats: make variant_id distinguish the grid")
@@ -115,22 +197,34 @@ class CaseFamily:
                 raise CaseError(f"{where}: params must be JSON-serialisable ({exc})") from None
             try:
                 scene = self.scene(v.params)
-            except SceneError as exc:
+            except (SceneError, CaseError) as exc:
                 raise CaseError(f"{where}: {exc}") from None
             if not isinstance(scene, Scene):
                 raise CaseError(f"{where}: scene() returned {type(scene).__name__}, not a Scene")
             dt = self.dt_for(v.params)
-            if not (math.isfinite(dt) and dt > 0):
-                raise CaseError(f"{where}: dt = {dt!r}: must be > 0")
+            if not (math.isfinite(dt) and 0 < dt <= MAX_DT):
+                raise CaseError(f"{where}: dt = {dt!r}: must lie in (0, {MAX_DT:g}] s")
             T = self.duration(v.params)
-            if not (math.isfinite(T) and T > 0):
+            if not (isinstance(T, (int, float)) and math.isfinite(T) and T > 0):
                 raise CaseError(f"{where}: duration = {T!r}: must be > 0 s")
-            checks = self.expect(v.params, dt)
+            if T / dt > 5e7:
+                raise CaseError(f"{where}: duration / dt = {T / dt:.3g} steps: more than 5e7")
+            needs = self.needs_of(v.params)
+            bad = [n for n in needs if n not in NEEDS and not n.startswith(NEEDS_PREFIXES)]
+            if bad:
+                raise CaseError(f"{where}: needs {sorted(bad)}: unknown; choose from {', '.join(NEEDS)} "
+                                f"or {', '.join(p + '...' for p in NEEDS_PREFIXES)}")
+            try:
+                checks = self.expect(v.params, dt)
+            except CaseError as exc:
+                raise CaseError(f"{where}: expect(): {exc}") from None
             if not checks:
                 raise CaseError(f"{where}: expect() returned no checks")
+            if not all(isinstance(c, Check) for c in checks):
+                raise CaseError(f"{where}: expect() must return a list of cases.family.Check")
             metrics = [c.metric for c in checks]
             if len(set(metrics)) != len(metrics):
                 raise CaseError(f"{where}: expect() names a metric twice: {metrics}")
-        unknown = set(self.sweep_variants) - ids
+        unknown = set(self.sweep_variants) - {v.id for v in self.all_variants}
         if unknown:
             raise CaseError(f"{self.name}: sweep_variants names no variant: {sorted(unknown)}")

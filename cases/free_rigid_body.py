@@ -226,4 +226,5 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=DT,
     variant_id=variant_id,
+    full_grid=FULL_GRID,
 )

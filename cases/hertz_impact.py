@@ -187,5 +187,6 @@ FAMILY = CaseFamily(
     observe=observe,
     expect=expect,
     dt=lambda p: compliant_dt(p) if "law" in p else 1e-3,
+    needs=lambda p: frozenset({"contact_forces"}) if "law" in p else frozenset(),  # contact duration, peak force
     variant_id=variant_id,
 )

@@ -119,4 +119,5 @@ FAMILY = CaseFamily(
     dt=1e-3,
     sweep_variants=("mu=0.5,theta=atan(mu_s)+1deg", "mu=0.5,theta=atan(mu_s)-1deg", "mu=0.5,theta=atan(mu_s)+1deg,2D"),  # what `physval sweep` varies dt and iterations on
     variant_id=variant_id,
+    tags=frozenset({"core"}),
 )

@@ -1,7 +1,12 @@
 """Finds case families: every module of this package that defines `FAMILY`, plus the
-modules of a user's `--cases-dir`."""
+modules of a user's `--cases-dir` folders. A user's file is checked when it is loaded:
+any error in it (an exception while importing, in `scene`, `duration` or `expect` of a
+variant, a name already taken) stops with a one-line `CaseError` naming the file, the
+family and the field.
+"""
 from __future__ import annotations
 
+import functools
 import importlib
 import importlib.util
 import pkgutil
@@ -11,26 +16,58 @@ from pathlib import Path
 import cases
 from cases.family import CaseError, CaseFamily
 
-_SKIP = {"scene", "overlap", "trajectory", "family", "registry", "closed_forms", "observables"}
+_SKIP = {"scene", "overlap", "trajectory", "family", "registry", "closed_forms", "observables", "robustness"}
 
 
-def _families_in(module) -> list[CaseFamily]:
+def _families_in(module, where: str) -> list[CaseFamily]:
     found = getattr(module, "FAMILY", None)
     if found is None:
         return []
     if not isinstance(found, CaseFamily):
-        raise CaseError(f"{module.__name__}.FAMILY is a {type(found).__name__}, not a CaseFamily")
+        raise CaseError(f"{where}: FAMILY is a {type(found).__name__}, not a CaseFamily")
     return [found]
 
 
+@functools.cache
 def builtin_families() -> dict[str, CaseFamily]:
+    """The families shipped in `cases/` (the conformance battery among them), by name."""
     out = {}
     for info in sorted(pkgutil.iter_modules(cases.__path__), key=lambda i: i.name):
         if info.name in _SKIP or info.name.startswith("_"):
             continue
-        for fam in _families_in(importlib.import_module(f"cases.{info.name}")):
+        module = importlib.import_module(f"cases.{info.name}")
+        for fam in _families_in(module, module.__name__):
             out[fam.name] = fam
-    return out
+    return dict(out)
+
+
+def _load_file(file: Path):
+    name = f"physval_user_cases.{file.parent.name}_{file.stem}"
+    spec = importlib.util.spec_from_file_location(name, file)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except CaseError as exc:
+        raise CaseError(f"{file}: {exc}") from None
+    except (Exception, SystemExit) as exc:  # a user file that does not import: say which and why
+        what = f"SystemExit({exc.code!r}) raised" if isinstance(exc, SystemExit) else \
+            f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+        raise CaseError(f"{file}: cannot be loaded: {what}") from None
+    return module
+
+
+def validate_family(fam: CaseFamily, where: str, full: bool = False) -> None:
+    """fam.validate(), with any exception the family's own code raises turned into a
+    one-line CaseError naming `where` (the file) and the family."""
+    try:
+        fam.validate(full=full)
+    except CaseError as exc:
+        raise CaseError(f"{where}: {exc}") from None
+    except (Exception, SystemExit) as exc:
+        raise CaseError(f"{where}: family {fam.name!r}: its code raised {type(exc).__name__}: "
+                        f"{str(exc).splitlines()[0] if str(exc) else ''} (while building a variant's scene, "
+                        "duration or checks)") from None
 
 
 def load_dir(path: str | Path) -> dict[str, CaseFamily]:
@@ -38,34 +75,33 @@ def load_dir(path: str | Path) -> dict[str, CaseFamily]:
     folder = Path(path)
     if not folder.is_dir():
         raise CaseError(f"--cases-dir {path}: not a folder")
-    out = {}
+    out, origin = {}, {}
     for file in sorted(folder.glob("*.py")):
         if file.name.startswith("_"):
             continue
-        name = f"physval_user_cases.{file.stem}"
-        spec = importlib.util.spec_from_file_location(name, file)
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module
-        try:
-            spec.loader.exec_module(module)
-        except CaseError:
-            raise
-        except Exception as exc:  # a user file that does not import: say which and why
-            raise CaseError(f"{file}: cannot be loaded: {type(exc).__name__}: {exc}") from None
-        fams = _families_in(module)
+        fams = _families_in(_load_file(file), str(file))
         if not fams:
             raise CaseError(f"{file}: defines no FAMILY (a cases.family.CaseFamily)")
         for fam in fams:
-            fam.validate()
-            out[fam.name] = fam
+            if fam.name in out:
+                raise CaseError(f"{file}: family {fam.name!r} is also defined in {origin[fam.name]}: "
+                                "family names must be unique")
+            validate_family(fam, str(file))
+            out[fam.name], origin[fam.name] = fam, file
     return out
 
 
-def all_families(cases_dir: str | Path | None = None) -> dict[str, CaseFamily]:
-    fams = builtin_families()
-    if cases_dir is not None:
-        for name, fam in load_dir(cases_dir).items():
+def all_families(cases_dirs=()) -> dict[str, CaseFamily]:
+    """The built-in families and those of the user folders `cases_dirs` (one path or several)."""
+    if isinstance(cases_dirs, (str, Path)):
+        cases_dirs = (cases_dirs,)
+    fams = dict(builtin_families())
+    where: dict[str, str] = {}
+    for folder in cases_dirs or ():
+        for name, fam in load_dir(folder).items():
             if name in fams:
-                raise CaseError(f"{cases_dir}: family {name!r} is already a built-in family: rename it")
+                other = where.get(name, "a built-in family")
+                raise CaseError(f"{fam.module_file}: family {name!r} is already {other}: rename it")
             fams[name] = fam
+            where[name] = f"defined in {fam.module_file}"
     return fams

@@ -85,4 +85,5 @@ FAMILY = CaseFamily(
     sweep_variants=("n=3", "n=3,2D"),  # what `physval sweep` varies dt and iterations on
     variant_id=lambda p: f"n={p['n']}" + (",2D" if p.get("dim", 3) == 2 else ""),
     needs=frozenset({"contact_forces"}),
+    tags=frozenset({"core"}),
 )

@@ -94,4 +94,6 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=lambda p: f"{'walls' if p['walls'] else 'free'},{p['dim']}D,T={p['T']:g}",
+    tags=frozenset({"robustness"}),
+    full_grid=FULL_GRID,
 )

@@ -84,4 +84,5 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=lambda p: f"{p['landing']}-on,{p['dim']}D",
+    tags=frozenset({"robustness"}),
 )

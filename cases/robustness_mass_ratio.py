@@ -94,4 +94,6 @@ FAMILY = CaseFamily(
     dt=1e-3,
     variant_id=lambda p: f"{p['order']},{p['ratio']}:1,{p['dim']}D",
     needs=frozenset({"contact_forces"}),
+    tags=frozenset({"robustness"}),
+    full_grid=FULL_GRID,
 )

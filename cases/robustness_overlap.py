@@ -90,4 +90,6 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=lambda p: f"{p['setup']},{p['dim']}D",
+    tags=frozenset({"robustness"}),
+    full_grid=FULL_GRID,
 )

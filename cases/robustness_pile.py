@@ -112,4 +112,6 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=lambda p: f"{p['k']}^{p['dim']} balls,{p['dim']}D,T={p['T']:g}",
+    tags=frozenset({"robustness"}),
+    full_grid=FULL_GRID,
 )

@@ -84,4 +84,6 @@ FAMILY = CaseFamily(
     dt=1e-3,
     variant_id=lambda p: f"{'mm boxes' if p['half'] < 0.01 else 'far'},{p['dim']}D",
     needs=frozenset({"contact_forces"}),
+    tags=frozenset({"robustness"}),
+    full_grid=FULL_GRID,
 )

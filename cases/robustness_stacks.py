@@ -118,4 +118,6 @@ FAMILY = CaseFamily(
     dt=1e-3,
     variant_id=variant_id,
     needs=frozenset({"contact_forces"}),
+    tags=frozenset({"robustness"}),
+    full_grid=FULL_GRID,
 )

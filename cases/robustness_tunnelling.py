@@ -76,4 +76,5 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=lambda p: f"v={p['v']:g},{p['dim']}D",
+    tags=frozenset({"robustness"}),
 )

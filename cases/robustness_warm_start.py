@@ -137,4 +137,6 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=lambda p: f"plank={p['ratio']}:1,{p['dim']}D",
+    tags=frozenset({"robustness"}),
+    full_grid=FULL_GRID,
 )

@@ -30,7 +30,11 @@ class SceneError(ValueError):
 
 
 def _finite(value, where: str, shape: tuple[int, ...] | None = None) -> np.ndarray:
-    array = np.asarray(value, dtype=float)
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        what = "a number" if shape is None else f"{shape[0]} numbers"
+        raise SceneError(f"{where} = {value!r}: must be {what}") from None
     if shape is not None and array.shape != shape:
         raise SceneError(f"{where} = {value!r}: must have {shape[0]} components")
     if not np.all(np.isfinite(array)):
@@ -220,8 +224,11 @@ class Body:
         return self.shape.inertia(self.mass)
 
     def validate(self, where: str) -> None:
-        if not self.name:
-            raise SceneError(f"{where}.name: must be a non-empty string")
+        if not isinstance(self.name, str) or not self.name:
+            raise SceneError(f"{where}.name = {self.name!r}: must be a non-empty string")
+        if not isinstance(self.shape, (Sphere, Box, Plane, Circle, Rect)):
+            raise SceneError(f"{where}.shape = {self.shape!r}: must be a shape of cases.scene "
+                             "(Sphere, Box, Plane, Circle, Rect)")
         self.shape.validate(f"{where}.shape")
         _finite(self.position, f"{where}.position", (3,))
         q = _finite(self.orientation, f"{where}.orientation", (4,))
@@ -231,6 +238,8 @@ class Body:
         _finite(self.angular_velocity, f"{where}.angular_velocity", (3,))
         if self.shape.kind == "plane" and not self.static:
             raise SceneError(f"{where}.static = False: a plane must be static")
+        if not isinstance(self.static, bool) or not isinstance(self.rotates, bool):
+            raise SceneError(f"{where}: static and rotates must be True or False")
         if self.static:
             return
         if self.mass is None:

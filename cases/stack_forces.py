@@ -114,4 +114,5 @@ FAMILY = CaseFamily(
     dt=1e-3,
     variant_id=variant_id,
     needs=frozenset({"contact_forces"}),
+    full_grid=FULL_GRID,
 )

@@ -39,28 +39,58 @@ class ContactPoint:
     gap: float         # signed distance, m
 
 
+class TrajectoryError(KeyError):
+    """A reading the trajectory cannot give: a body not in the scene, or contact forces of
+    a run that did not record them (the family must declare needs={"contact_forces"})."""
+
+    def __str__(self):
+        return self.args[0]
+
+
 @dataclass
 class Trajectory:
+    """What an engine did, one sample per step: sample k is the state after k steps
+    (sample 0 is the scene's start state), at time t[k] = k dt.
+
+    `states[name]` is an (n+1, 13) array per dynamic body (layout in this module's
+    docstring); `forces[pair]` the normal force between a pair at every sample (sample k:
+    step k's force, zero at sample 0), recorded only when the family declares
+    needs={"contact_forces"}. `bodies` names every body of the scene, static ones too.
+    """
     dt: float
     t: np.ndarray                      # (n+1,) simulated time of each sample
     states: dict[str, np.ndarray]      # body name -> (n+1, 13)
-    forces: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)  # pair -> (n+1,) normal force, N
+    forces: dict[tuple[str, str], np.ndarray] | None = field(default_factory=dict)  # None: not recorded
     effects: frozenset[str] = frozenset()  # what the engine says it simulated (Simulation.effects)
+    bodies: frozenset[str] = frozenset()   # every body of the scene (empty: not checked)
+
+    def _state(self, name: str) -> np.ndarray:
+        try:
+            return self.states[name]
+        except KeyError:
+            known = ", ".join(sorted(self.states))
+            raise TrajectoryError(f"no dynamic body {name!r} in this trajectory (dynamic bodies: {known})") from None
 
     def pos(self, name: str) -> np.ndarray:
-        return self.states[name][:, POS]
+        return self._state(name)[:, POS]
 
     def quat(self, name: str) -> np.ndarray:
-        return self.states[name][:, QUAT]
+        return self._state(name)[:, QUAT]
 
     def vel(self, name: str) -> np.ndarray:
-        return self.states[name][:, VEL]
+        return self._state(name)[:, VEL]
 
     def omega(self, name: str) -> np.ndarray:
-        return self.states[name][:, OMEGA]
+        return self._state(name)[:, OMEGA]
 
     def force(self, a: str, b: str) -> np.ndarray:
-        """Normal force between a and b at every sample (zeros if they never touched)."""
+        """Normal force between a and b at every sample (zeros where they did not touch)."""
+        if self.forces is None:
+            raise TrajectoryError("contact forces were not recorded: the family must declare "
+                                  "needs={'contact_forces'} to read them")
+        for n in (a, b):
+            if self.bodies and n not in self.bodies:
+                raise TrajectoryError(f"no body {n!r} in this scene (bodies: {', '.join(sorted(self.bodies))})")
         return self.forces.get(pair_key(a, b), np.zeros_like(self.t))
 
     def after(self, t0: float) -> np.ndarray:

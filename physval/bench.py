@@ -1,109 +1,173 @@
 """`physval bench`: speed measured side by side in one run, reported as ratios (this
 machine is noisy; absolute times are for orientation only). Never a pass/fail test.
 
-- `sweep-workers`: the same small sweep with 1 and with 2 local workers (throughput ratio);
+- `overhead`: per engine and scene (one body, two bodies, a 5-box stack), the time per
+  step of the core's full recorded step (physval.core.record.simulate: stepping, reading
+  the states, contact forces where the case reads them) against a bare loop of
+  `Simulation.step()`, as a ratio;
 - `step`: wall time per step of the same scenes on every engine, as ratios to the
-  reference (a 5-box stack and a 10-layer pyramid);
+  reference (a 5-box stack and a 55-box, 10-layer pyramid);
+- `sweep-workers`: the same small sweep with 1 and with 2 local workers (throughput ratio);
 - `pgs`: the reference's projected Gauss-Seidel, cost of one sweep against the number of
   contacts (doubling the contacts should at most about double the time).
+
+Every measurement runs as a job of the core (physval.core), one worker at a time, so
+engines are timed side by side in the same conditions.
 """
 from __future__ import annotations
 
 import math
+import sys
 import tempfile
 import time
 from pathlib import Path
 
 import pandas as pd
 
-from adapters import registry
-from adapters.base import Settings
-from cases.scene import Body, Material, Scene, cube, ground
-from physval.report import _md_table, write_atomic
+from cases.family import Variant
+from physval import cli
+from physval.core import Context, Job, Probe, run_jobs, simulate
+from physval.core.session import Execution
+from physval.reportkit import md_table, write_atomic
 
-G = 9.81
+WHAT = ("overhead", "step", "sweep-workers", "pgs")
+
+
+# --- overhead: the core's recorded step against a bare step ----------------------------------
+
+# (label, family, variant params per dimension): one body, two bodies, a 5-box stack.
+OVERHEAD_SCENES = (
+    ("one body (ball dropped on the ground)", "central_impact", {3: {"setup": "drop", "e": 0.5, "h": 1.0, "dim": 3},
+                                                                  2: {"setup": "drop", "e": 0.5, "h": 1.0, "dim": 2}}),
+    ("two bodies (head-on spheres)", "central_impact", {3: {"setup": "spheres", "e": 0.5, "m": "1:3", "dim": 3},
+                                                         2: {"setup": "spheres", "e": 0.5, "m": "1:3", "dim": 2}}),
+    ("5-box stack (contact forces read)", "resting_blocks", {3: {"n": 5, "dim": 3}, 2: {"n": 5, "dim": 2}}),
+)
+OVERHEAD_STEPS = 2000
+OVERHEAD_ROUNDS = 5
+
+
+class Overhead(Probe):
+    """Alternating rounds of a bare step loop and the core's recorded run of the same
+    scene (each freshly built), the minimum per step of each."""
+
+    def __init__(self, job: Job):
+        from physval.core.context import Context
+        self.family = Context().resolver().family(job.family)
+        self.params = job.variant.params
+        self.steps = int(dict(job.probe_args).get("steps", OVERHEAD_STEPS))
+
+    def after(self, run, sim, rebuild) -> dict:
+        scene = self.family.scene(self.params)
+        forces = "contact_forces" in self.family.needs_of(self.params)
+        bare = core = math.inf
+        for _ in range(OVERHEAD_ROUNDS):
+            with rebuild() as s:
+                step = s.step
+                t0 = time.perf_counter()
+                for _ in range(self.steps):
+                    step()
+                bare = min(bare, (time.perf_counter() - t0) / self.steps)
+            with rebuild() as s:
+                t0 = time.perf_counter()
+                simulate(s, scene, run.trajectory.dt, self.steps, forces=forces)
+                core = min(core, (time.perf_counter() - t0) / self.steps)
+        return {"bare_us": bare * 1e6, "core_us": core * 1e6}
+
+
+def overhead(engines: list[str], ctx: Context, execution: Execution) -> pd.DataFrame:
+    resolver = ctx.resolver()
+    jobs = []
+    for label, family, by_dim in OVERHEAD_SCENES:
+        fam = resolver.family(family)
+        for e in engines:
+            try:
+                dim = 3 if 3 in resolver.adapter(e).capabilities.dimensions else 2
+            except Exception:
+                continue
+            params = by_dim[dim]
+            v = Variant(fam.name, fam.variant_id(params), params)
+            jobs.append((label, dim, Job(family, v, e, probe=f"{__name__}:Overhead",
+                                         probe_args=(("steps", OVERHEAD_STEPS),))))
+    res = run_jobs([j for _, _, j in jobs], ctx, 1, execution.scheduler, execution.job_timeout,
+                   execution.start_method, progress=execution.progress, label="bench overhead")
+    out = []
+    for label, dim, job in jobs:
+        first = (res.rows.get(job.key) or [{}])[0]
+        bare, core = first.get("bare_us", math.nan), first.get("core_us", math.nan)
+        out.append({"engine": job.engine, "scene": f"{label}, {dim}D", "bare step us": bare,
+                    "recorded step us": core, "recorded / bare": core / bare if bare else math.nan,
+                    "note": "" if "bare_us" in first else f"{first.get('status', '')}: {first.get('reason', '')}"})
+    return pd.DataFrame(out)
+
+
+OVERHEAD_NOTE = (f"Minimum over {OVERHEAD_ROUNDS} alternating rounds of {OVERHEAD_STEPS} steps at the family's dt, each "
+                 "on a freshly built scene: `bare step` is a loop of `Simulation.step()` alone; `recorded step` is "
+                 "the core's `simulate()` per step: stepping, the raw state copied into the run's array (decoded in "
+                 "blocks of 256 steps, which is also when a blow-up is looked for), contact forces only where the "
+                 "case reads them (the stack). Targets: <= 1.5 on one body, <= 1.1 on the stack.")
+
+
+# --- step time side by side ----------------------------------------------------------------
+
+STEP_SCENES = (("5-box stack", {"structure": "stack", "n": 5}), ("10-layer pyramid (55 boxes)", {"structure": "pyramid", "n": 10}))
+
+
+def steps_side_by_side(engines: list[str], ctx: Context, execution: Execution, steps: int = 20) -> pd.DataFrame:
+    """Minimum over 2 repeats of the wall time per step over `steps` steps at dt = 1e-3
+    after 10 warm-up steps, on robustness_stacks' scenes; ratios to the reference."""
+    from physval.readings.sweep import Timing  # noqa: F401  (the probe the jobs name)
+    resolver = ctx.resolver()
+    fam = resolver.family("robustness_stacks")
+    jobs = {}
+    for label, p in STEP_SCENES:
+        for e in engines:
+            try:
+                dim = 3 if 3 in resolver.adapter(e).capabilities.dimensions else 2
+            except Exception:
+                continue
+            params = {**p, "dim": dim, "T": (steps + 10) * 1e-3}
+            v = Variant(fam.name, fam.variant_id(params), params)
+            jobs[(label, e)] = Job(fam.name, v, e, 1e-3, probe="physval.readings.sweep:Timing",
+                                   probe_args=(("repeats", 2),), warmup=10)
+    res = run_jobs(list(jobs.values()), ctx, 1, execution.scheduler, execution.job_timeout, execution.start_method,
+                   progress=execution.progress, label="bench step")
+    out = []
+    for label, _ in STEP_SCENES:
+        row = {"scene": label}
+        for e in engines:
+            job = jobs.get((label, e))
+            first = (res.rows.get(job.key) or [{}])[0] if job else {}
+            row[f"{e} us/step"] = float(first["wall_per_sim_s"]) * 1e-3 * 1e6 if first.get("wall_per_sim_s") \
+                not in (None, "") else math.nan
+        ref = row.get("reference us/step")
+        for e in engines:
+            if e != "reference" and ref and math.isfinite(ref):
+                row[f"reference / {e}"] = ref / row[f"{e} us/step"]
+        out.append(row)
+    return pd.DataFrame(out)
 
 
 # --- sweep throughput ---------------------------------------------------------------------
 
-def sweep_workers(engines: list[str], repeats: int = 1) -> pd.DataFrame:
+def sweep_workers(engines: list[str], ctx: Context) -> pd.DataFrame:
     """One small sweep (central_impact's sweep variants) run with 1 and then 2 workers,
-    each into a fresh folder, so neither reuses the other's points."""
-    from physval.runner import families
-    from physval.sweep import Store, run_sweep, sweep_points
-    fams = families()
-    points = sweep_points({"central_impact": fams["central_impact"]}, engines)
+    each into a fresh store, so neither reuses the other's points."""
+    from physval.readings.sweep import points, sweep_variants
+    resolver = ctx.resolver()
+    jobs = points(sweep_variants(resolver.families, ["central_impact"]), engines, resolver, repeats=1)
     out = []
     for workers in (1, 2):
-        with tempfile.TemporaryDirectory() as tmp:
-            store = Store(Path(tmp) / "sweep.csv", fams)
-            t0 = time.perf_counter()
-            run_sweep(points, fams, store, workers=workers, progress=False, repeats=repeats)
-            wall = time.perf_counter() - t0
-        out.append({"workers": workers, "points": len(points), "wall_s": wall, "points_per_s": len(points) / wall})
+        t0 = time.perf_counter()
+        run_jobs(jobs, ctx, workers, progress=False)
+        wall = time.perf_counter() - t0
+        out.append({"workers": workers, "points": len(jobs), "wall_s": wall, "points_per_s": len(jobs) / wall})
     df = pd.DataFrame(out)
     df["throughput_vs_1_worker"] = df.points_per_s / df.points_per_s.iloc[0]
     return df
 
 
-# --- step time side by side ---------------------------------------------------------------
-
-def stack(n: int) -> Scene:
-    """n unit cubes (half 0.1 m, 1 kg) stacked on the ground, touching."""
-    boxes = tuple(Body(f"box{k}", cube(0.1), mass=1.0, position=(0, 0, 0.1 + 0.2 * k)) for k in range(n))
-    return Scene(bodies=(ground(),) + boxes, gravity=(0, 0, -G), material=Material(e=0.0, mu_s=0.5))
-
-
-def pyramid(layers: int) -> Scene:
-    """A 2D-style pyramid in the x-z plane of 3D cubes: `layers` at the bottom, one on top,
-    each row offset by half a box (gaps of 1 mm between neighbours in a row)."""
-    bodies = [ground()]
-    for row in range(layers):
-        count = layers - row
-        for i in range(count):
-            x = (i - (count - 1) / 2) * 0.201
-            bodies.append(Body(f"b{row}_{i}", cube(0.1), mass=1.0, position=(x, 0, 0.1 + 0.2 * row)))
-    return Scene(bodies=tuple(bodies), gravity=(0, 0, -G), material=Material(e=0.0, mu_s=0.5))
-
-
-SCENES = {"5-box stack": lambda: stack(5), "10-layer pyramid": lambda: pyramid(10)}
-
-
-def step_time(engine: str, scene: Scene, dt: float = 1e-3, steps: int = 20, repeats: int = 2) -> float:
-    """Minimum over repeats of the mean wall time per step (s), after 10 warm-up steps."""
-    adapter = registry.get(engine)
-    best = math.inf
-    for _ in range(repeats):
-        with adapter.build(scene, Settings(dt)) as sim:
-            for _ in range(10):
-                sim.step()
-            t0 = time.perf_counter()
-            for _ in range(steps):
-                sim.step()
-            best = min(best, (time.perf_counter() - t0) / steps)
-    return best
-
-
-def steps_side_by_side(engines: list[str], steps: int = 20) -> pd.DataFrame:
-    out = []
-    for label, make in SCENES.items():
-        scene = make()
-        row = {"scene": label, "bodies": len(scene.dynamic_bodies)}
-        for eng in engines:
-            try:
-                row[f"{eng} us/step"] = step_time(eng, scene, steps=steps) * 1e6
-            except Exception as exc:  # an engine that cannot run it is recorded, the rest go on
-                row[f"{eng} us/step"] = math.nan
-                row[f"{eng} note"] = f"{type(exc).__name__}: {exc}"
-        ref = row.get("reference us/step")
-        for eng in engines:
-            if eng != "reference" and ref:
-                row[f"reference / {eng}"] = ref / row[f"{eng} us/step"]
-        out.append(row)
-    return pd.DataFrame(out)
-
-
-# --- report -------------------------------------------------------------------------------
+# --- report and command ---------------------------------------------------------------------
 
 def write(out: Path, sections: dict[str, pd.DataFrame], notes: dict[str, str]) -> None:
     out = Path(out)
@@ -111,8 +175,64 @@ def write(out: Path, sections: dict[str, pd.DataFrame], notes: dict[str, str]) -
              "Measured side by side in one run on this machine; read the ratios, not the absolute times.", ""]
     for name, df in sections.items():
         write_atomic(out / f"bench_{name}.csv", df.to_csv(index=False))
-        lines += [f"## {name}", "", notes.get(name, ""), "", _md_table(df.round(4)), ""]
+        lines += [f"## {name}", "", notes.get(name, ""), "", md_table(df.round(4)), ""]
     write_atomic(out / "bench.md", "\n".join(lines))
+
+
+def add_parser(sub) -> None:
+    bn = sub.add_parser("bench", help="speed side by side in one run, as ratios (not a test)",
+                        description=__doc__.split("\n\n", 1)[1].split("\n\nEvery")[0],
+                        formatter_class=cli.argparse.RawDescriptionHelpFormatter)
+    bn.add_argument("what", nargs="*", metavar="WHAT", help=f"{', '.join(WHAT)} (default: all)")
+    bn.add_argument("--engines", nargs="+", metavar="NAME",
+                    help="engines (default: all installed, the reference with its default formulation)")
+    bn.add_argument("--adapter", action="append", metavar="MODULE:CLASS", help="also this adapter")
+    bn.add_argument("--out", default="reports/bench", metavar="DIR", help="output folder (default: reports/bench)")
+    bn.add_argument("--scheduler", metavar="ADDRESS", help=cli.argparse.SUPPRESS)
+    bn.add_argument("--job-timeout", type=cli.seconds_or_off, default=1800.0, metavar="S",
+                    help="per-job time limit (default 1800 s; the 55-box pyramid is slow on pure-Python engines)")
+    bn.add_argument("--start-method", choices=("fork", "spawn", "forkserver"), help="how local workers start")
+    bn.add_argument("--quiet", action="store_true", help="no progress")
+    bn.set_defaults(func=cmd_bench)
+
+
+def cmd_bench(args) -> int:
+    from adapters import registry
+    ctx = cli.context_of(args)
+    resolver = ctx.resolver()
+    known = registry.engine_names(ctx.adapters)
+    default = [e for e in known if registry.available(e, ctx.adapters) and resolver.adapter(e).default_tags is None]
+    engines = cli.engines_of(args, ctx, default)
+    what = args.what or list(WHAT)
+    unknown = [w for w in what if w not in WHAT]
+    if unknown:
+        raise cli.UsageError(f"unknown benchmark {unknown[0]!r}: choose from {', '.join(WHAT)}")
+    out = cli.output_folder(args.out)
+    execution = Execution(1, None, args.job_timeout, args.start_method, not args.quiet)
+    sections, notes = {}, {}
+    say = (lambda t: None) if args.quiet else (lambda t: print(f"physval bench: {t}", file=sys.stderr))
+    if "overhead" in what:
+        say("the core's recorded step against a bare step")
+        sections["overhead"] = overhead(engines, ctx, execution)
+        notes["overhead"] = OVERHEAD_NOTE
+    if "step" in what:
+        say("step time side by side")
+        sections["step"] = steps_side_by_side(engines, ctx, execution)
+        notes["step"] = ("Minimum over 2 repeats of the mean wall time per step over 20 steps at dt = 1e-3 (10 "
+                         "warm-up steps; the 55-box pyramid costs up to 0.8 s a step on pure-Python engines); "
+                         "`reference / X` is how many times slower the reference is.")
+    if "sweep-workers" in what:
+        say("the same sweep with 1 and with 2 workers")
+        sections["sweep-workers"] = sweep_workers([e for e in engines if e in ("reference", "pybullet", "mujoco")], ctx)
+        notes["sweep-workers"] = ("central_impact's sweep points on reference, pybullet and mujoco, one timing repeat "
+                                  "each; throughput relative to one worker.")
+    if "pgs" in what:
+        say("PGS sweep cost against contact count")
+        sections["pgs"] = pgs_scaling()
+        notes["pgs"] = PGS_NOTE
+    write(out, sections, notes)
+    print(f"wrote {out / 'bench.md'}")
+    return 0
 
 
 # --- PGS sweep cost -----------------------------------------------------------------------

@@ -1,64 +1,182 @@
-"""Known engine deviations: `adapters/xfails/<engine>.txt`.
+"""Known deviations: measured engine shortfalls, each bounded by the band it was measured in.
 
-One entry per line, `family[variant-glob]:metric-glob  # reason (and upstream link)`, for
-example
+An engine's file (`adapters/xfails/<engine>.txt`, or the file a plug-in adapter ships
+beside itself) and a user's `--known FILE` share one format. An entry is a pattern line
+with its cause, written by a person, followed by indented band lines, written by
+`physval known` from a fresh run:
 
-    central_impact[e=0.5,*]:v1_after  # no restitution coefficient: e is mapped onto a spring-damper
+    central_impact[drop,e=0.5*]:rebound_ratio  # e mapped onto a spring-damper: ratio off by 0.015
+        mujoco [drop,e=0.5]:rebound_ratio = 0.51529 +- 0.00075
+        mujoco [drop,e=0.5,2D]:rebound_ratio = 0.51498 +- 0.00075
+    resting_blocks[n=[45]]:*  # rank-deficient corner LCP: Lemke's pivoting loses the solution
+        reference-lemke [n=4]:drift = raises LemkeFailure
 
-A failing check that matches an entry is a `deviation` (a known shortfall, reported with
-its measured size), not a `fail`. An entry whose check passes shows up as an unexpected
-pass; an entry that matches no check at all is reported as stale, so the file cannot rot.
+A failing check is a `deviation` only when an entry's pattern matches it AND a band line
+records it (engine, exact variant id, metric) AND its measured value lies in the band:
+a wildcard covers exactly the checks whose measurements it records. A measurement outside
+its band is `fail` ("known deviation changed: recorded 0.515 +- 0.00075, measured 0.60"),
+so a deviation can neither hide a regression nor an improvement. Bands hold at the
+family's default time step and the adapter's default iterations (the settings they were
+measured at); elsewhere a failing check is `fail`.
 """
 from __future__ import annotations
 
+import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
 from pathlib import Path
 
-XFAIL_DIR = Path(__file__).resolve().parent.parent / "adapters" / "xfails"
-_LINE = re.compile(r"^(?P<family>\w+)\[(?P<variant>.*)\]:(?P<metric>\S+)\s*#\s*(?P<reason>\S.*)$")
+_ENTRY = re.compile(r"^(?P<family>\w+)\[(?P<variant>.*)\]:(?P<metric>\S+)\s*#\s*(?P<reason>\S.*)$")
+_BAND = re.compile(r"^\s+(?P<engine>\S+)\s+\[(?P<variant>.*)\]:(?P<metric>\w+)\s*=\s*(?P<rest>\S.*?)\s*(?:#.*)?$")
+_VALUE = re.compile(r"^(?P<value>\S+)\s*\+-\s*(?P<width>\S+)$")
+_RAISES = re.compile(r"^raises\s+(?P<exc>[\w.]+)$")
+
+# The band `physval known` records around a measured deviation: 5 % of the deviation's
+# size (so a change of its size by more than 5 % shows) but at least a tenth of the check's
+# tolerance (a change below that is not a change the check can resolve).
+BAND_OF_DEVIATION = 0.05
+BAND_OF_TOLERANCE = 0.1
 
 
 class DeviationFileError(ValueError):
-    pass
+    """A line of a known-deviation file that does not parse; the message names file and line."""
+
+
+def band_width(expected: float, measured: float, tolerance: float) -> float:
+    return max(BAND_OF_DEVIATION * abs(measured - expected), BAND_OF_TOLERANCE * tolerance,
+               1e-12 * abs(measured))
+
+
+@dataclass(frozen=True)
+class Band:
+    """One check's recorded deviation: its measured value +- width, or the exception its
+    run raises."""
+    engine: str
+    variant: str
+    metric: str
+    value: float | None = None
+    width: float = 0.0
+    raises: str | None = None
+    line: int = 0
+
+    def holds(self, measured: float | None = None, exception: str | None = None) -> bool:
+        if self.raises is not None:
+            return exception == self.raises
+        return (exception is None and measured is not None and math.isfinite(measured)
+                and abs(measured - self.value) <= self.width)
+
+    def describe(self) -> str:
+        return f"raises {self.raises}" if self.raises else f"{self.value:.6g} +- {self.width:.2g}"
+
+    def text(self) -> str:
+        what = f"raises {self.raises}" if self.raises else f"{self.value!r} +- {self.width:.3g}"
+        return f"    {self.engine} [{self.variant}]:{self.metric} = {what}"
 
 
 @dataclass(frozen=True)
 class Deviation:
-    engine: str
+    """An entry: a pattern over checks, its cause, and the bands of the checks it covers."""
+    source: str   # the file it comes from
     family: str
     variant: str  # glob
     metric: str   # glob
     reason: str
     line: int
+    bands: tuple[Band, ...] = field(default=())
 
     def matches(self, family: str, variant: str, metric: str) -> bool:
         return family == self.family and fnmatchcase(variant, self.variant) and fnmatchcase(metric, self.metric)
+
+    def band(self, engine: str, variant: str, metric: str) -> Band | None:
+        for b in self.bands:
+            if b.engine == engine and b.variant == variant and b.metric == metric:
+                return b
+        return None
 
     @property
     def pattern(self) -> str:
         return f"{self.family}[{self.variant}]:{self.metric}"
 
+    @property
+    def where(self) -> str:
+        return f"{Path(self.source).name}:{self.line}"
 
-def load(engine: str, folder: Path = XFAIL_DIR) -> list[Deviation]:
-    path = folder / f"{engine}.txt"
-    if not path.exists():
-        return []
-    out = []
+
+def parse(path: Path | str) -> list[Deviation]:
+    """Every entry of one file, with its bands."""
+    path = Path(path)
+    out: list[Deviation] = []
     for i, raw in enumerate(path.read_text().splitlines(), start=1):
-        line = raw.strip()
-        if not line or line.startswith("#"):
+        line = raw.rstrip()
+        if not line.strip() or line.lstrip().startswith("#"):
             continue
-        m = _LINE.match(line)
+        if raw[:1].isspace():
+            m = _BAND.match(line)
+            if not m or not out:
+                raise DeviationFileError(f"{path}:{i}: a band line reads '    ENGINE [VARIANT]:METRIC = VALUE +- "
+                                         f"WIDTH' (or '= raises EXCEPTION') under an entry, got {raw!r}")
+            rest = m["rest"]
+            if (r := _RAISES.match(rest)) is not None:
+                band = Band(m["engine"], m["variant"], m["metric"], raises=r["exc"], line=i)
+            elif (v := _VALUE.match(rest)) is not None:
+                try:
+                    value, width = float(v["value"]), float(v["width"])
+                except ValueError:
+                    raise DeviationFileError(f"{path}:{i}: value and width must be numbers, got {rest!r}") from None
+                if not (math.isfinite(value) and math.isfinite(width) and width >= 0):
+                    raise DeviationFileError(f"{path}:{i}: value and width must be finite, width >= 0: {rest!r}")
+                band = Band(m["engine"], m["variant"], m["metric"], value, width, line=i)
+            else:
+                raise DeviationFileError(f"{path}:{i}: expected 'VALUE +- WIDTH' or 'raises EXCEPTION', got {rest!r}")
+            entry = out[-1]
+            if not entry.matches(entry.family, band.variant, band.metric):
+                raise DeviationFileError(f"{path}:{i}: [{band.variant}]:{band.metric} is not matched by its "
+                                         f"entry {entry.pattern}")
+            out[-1] = Deviation(entry.source, entry.family, entry.variant, entry.metric, entry.reason,
+                                entry.line, entry.bands + (band,))
+            continue
+        m = _ENTRY.match(line)
         if not m:
-            raise DeviationFileError(f"{path}:{i}: expected 'family[variant-glob]:metric-glob  # reason', got {raw!r}")
-        out.append(Deviation(engine, m["family"], m["variant"], m["metric"], m["reason"].strip(), i))
+            raise DeviationFileError(f"{path}:{i}: expected 'family[variant-glob]:metric-glob  # cause', got {raw!r}")
+        out.append(Deviation(str(path), m["family"], m["variant"], m["metric"], m["reason"].strip(), i))
+    return out
+
+
+def load(paths) -> list[Deviation]:
+    """The entries of several files (missing files have none), in order."""
+    out = []
+    for p in paths:
+        if p is not None and Path(p).exists():
+            out += parse(p)
     return out
 
 
 def find(deviations: list[Deviation], family: str, variant: str, metric: str) -> Deviation | None:
+    """The first entry whose pattern matches the check."""
     for d in deviations:
         if d.matches(family, variant, metric):
             return d
     return None
+
+
+# --- writing bands (physval known) ---------------------------------------------------------
+
+def rewrite(path: Path, bands_of: dict[int, list[Band]]) -> str:
+    """The text of `path` with each entry's band lines replaced by `bands_of[entry line]`
+    (entries not in `bands_of` keep theirs); comments and causes are kept as written."""
+    lines = Path(path).read_text().splitlines()
+    out: list[str] = []
+    current: int | None = None
+    for i, raw in enumerate(lines, start=1):
+        is_band = raw[:1].isspace() and raw.strip() and not raw.lstrip().startswith("#")
+        if is_band:
+            if current in bands_of:
+                continue  # replaced below the entry
+            out.append(raw)
+            continue
+        out.append(raw)
+        if raw.strip() and not raw.lstrip().startswith("#") and _ENTRY.match(raw.rstrip()):
+            current = i
+            out += [b.text() for b in bands_of.get(i, [])]
+    return "\n".join(out) + "\n"

@@ -63,3 +63,5 @@ force: mu_s while it `sticks`, else mu_k), `depth` (> 0 overlapping, < 0 a gap),
 (beta/dt (depth - slop)+), `point`, `n` (unit, from body a to body b), `a`, `b`,
 `feature`.
 """
+
+__version__ = "0.1.0"

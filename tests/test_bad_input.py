@@ -86,8 +86,20 @@ def test_settings(kwargs, message):
         Settings(**kwargs)
 
 
-def _physval(*args, cwd=ROOT):
-    return subprocess.run([sys.executable, "-m", "physval", *args], capture_output=True, text=True, cwd=cwd)
+def _physval(*args):
+    """physval's command line, in this process (as a subprocess would see it: exit code,
+    stdout, stderr)."""
+    import contextlib
+    import io
+    from types import SimpleNamespace
+    from physval.cli import main
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = main(list(args))
+        except SystemExit as exc:  # argparse's own errors
+            code = exc.code
+    return SimpleNamespace(returncode=code, stdout=out.getvalue(), stderr=err.getvalue())
 
 
 @pytest.mark.parametrize("args,message", [
@@ -99,12 +111,56 @@ def _physval(*args, cwd=ROOT):
     (["run", "--dt", "0.5"], "dt = 0.5: must be <= 0.1"),
     (["run", "--iterations", "0"], "must be >= 1"),
     (["run", "--cases-dir", "/no/such/folder"], "not a folder"),
+    (["run", "--cases", ""], "names no case"),
+    (["run", "--cases", ","], "names no case"),
+    (["run", "--engines", ""], "names no engine"),
+    (["run", "--engines", ","], "names no engine"),
+    (["run", "--readings", "everything"], "--readings 'everything': choose from"),
+    (["run", "--known", "/no/such/file"], "--known '/no/such/file': not a file"),
+    (["run", "--adapter", "no_such_module:Engine"], "cannot be imported"),
+    (["run", "--adapter", "json:JSONDecoder"], "gives a JSONDecoder, not an adapters.base.Adapter"),
+    (["run", "--job-timeout", "-1"], "must be a finite number of seconds >= 0"),
+    (["run", "--scheduler", "tcp://127.0.0.1:1"], "cannot reach a Dask scheduler"),
+    (["sweep", "--engines", "pymunk", "--cases", "resting_blocks[n=5]"], "has no sweep point"),
+    (["stress", "--cases", "robustness_nothing"], "unknown case 'robustness_nothing'"),
+    (["known", "no-such-engine"], "unknown engine 'no-such-engine'"),
 ])
 def test_cli_bad_input_is_one_line_and_exit_2(args, message, tmp_path):
-    out = _physval(*args, "--out", str(tmp_path))
+    out = _physval(*args, "--out", str(tmp_path / "out"))
     assert out.returncode == 2, out.stderr
     assert message in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1 and "Traceback" not in out.stderr
+    assert not (tmp_path / "out" / "results.csv").exists(), "bad input must stop before any job"
+
+
+def test_bad_output_folders_stop_before_any_work(tmp_path):
+    a_file = tmp_path / "file"
+    a_file.write_text("x")
+    for out, message in ((str(a_file), "exists and is not a folder"), (str(a_file / "sub"), "cannot write there"),
+                         ("", "must name a folder"), ("/proc/physval", "cannot write there")):
+        got = _physval("run", "--cases", "central_impact[drop,e=0.5]", "--engines", "reference", "--out", out)
+        assert got.returncode == 2 and message in got.stderr, (out, got.stderr)
+        assert len(got.stderr.strip().splitlines()) == 1
+    assert not list(tmp_path.rglob(".physval-write-test*"))
+
+
+def test_a_sweep_csv_that_is_not_ours_is_refused(tmp_path):
+    (tmp_path / "sweep.csv").write_text("a,b\n1,2\n")
+    got = _physval("sweep", "--cases", "central_impact[drop,e=0.5]", "--engines", "reference", "--out", str(tmp_path))
+    assert got.returncode == 2 and "not a file physval can resume" in got.stderr, got.stderr
+    assert (tmp_path / "sweep.csv").read_text() == "a,b\n1,2\n"
+
+
+def test_an_exact_variant_id_with_commas_selects_that_variant():
+    from cases.registry import builtin_families
+    from physval.core.selection import select_variants, split
+    fams = builtin_families()
+    assert split(["central_impact[e=0.5,m=1:3],incline_threshold[mu=0.5,theta=atan(mu_s)+1deg]"]) == \
+        ["central_impact[e=0.5,m=1:3]", "incline_threshold[mu=0.5,theta=atan(mu_s)+1deg]"]
+    every = [v.test_id for f in fams.values() for v in f.variants if "[" not in v.id]
+    for test_id in every:
+        chosen = select_variants(fams, [test_id])
+        assert [v.test_id for vs in chosen.values() for v in vs] == [test_id]
 
 
 USER_CASE_BAD_E = textwrap.dedent("""
@@ -119,16 +175,61 @@ USER_CASE_BAD_E = textwrap.dedent("""
 """)
 
 
-@pytest.mark.parametrize("source,message", [
-    (USER_CASE_BAD_E, r"my_bounce[e=1.5]: material.e = 1.5: coefficient of restitution must lie in [0, 1]"),
-    ("import nonexistent_module\n", "cannot be loaded: ModuleNotFoundError"),
-    ("x = 1\n", "defines no FAMILY"),
-    ("FAMILY = 3\n", "FAMILY is a int, not a CaseFamily"),
+def _user_case(name="my_bounce", grid='({"e": 0.5},)', scene=None, observe="lambda t, p: {'x': 0.0}",
+               expect='lambda p, dt: [Check("x", "m", 0.0, 0.1, "abs", "why")]', extra=""):
+    scene = scene or ('lambda p: Scene(bodies=(ground(), Body("ball", Sphere(0.1), mass=1.0, position=(0, 0, 1))), '
+                      'material=Material(e=p["e"]))')
+    return textwrap.dedent(f"""
+        import sys
+        from cases.family import CaseFamily, Check
+        from cases.scene import Body, Material, Scene, Sphere, ground
+        FAMILY = CaseFamily(name={name!r}, summary="", source="", grid={grid}, scene={scene},
+                            duration=lambda p: 0.1, observe={observe}, expect={expect}{extra})
+    """)
+
+
+@pytest.mark.parametrize("files,message", [
+    ({"mine.py": USER_CASE_BAD_E}, r"my_bounce[e=1.5]: material.e = 1.5: coefficient of restitution must lie in [0, 1]"),
+    ({"mine.py": "import nonexistent_module\n"}, "cannot be loaded: ModuleNotFoundError"),
+    ({"mine.py": "x = 1\n"}, "defines no FAMILY"),
+    ({"mine.py": "FAMILY = 3\n"}, "FAMILY is a int, not a CaseFamily"),
+    ({"mine.py": "import sys\nsys.exit(0)\n"}, "cannot be loaded: SystemExit(0) raised"),
+    ({"mine.py": _user_case(scene="lambda p: 1 / 0")}, "its code raised ZeroDivisionError"),
+    ({"mine.py": _user_case(expect="lambda p, dt: [][1]")}, "its code raised IndexError"),
+    ({"mine.py": _user_case(scene='lambda p: Scene(bodies=(ground(), Body("ball", None, mass=1.0)))')},
+     "shape = None: must be a shape of cases.scene"),
+    ({"a.py": _user_case(), "b.py": _user_case()}, "family 'my_bounce' is also defined in"),
+    ({"mine.py": _user_case(name="conformance")}, "family 'conformance' is already a built-in family"),
+    ({"mine.py": _user_case(extra=", dt=0.5")}, "dt = 0.5: must lie in (0, 0.1] s"),
+    ({"mine.py": _user_case(extra=', needs=frozenset({"contact_force"})')}, "needs ['contact_force']: unknown"),
+    ({"mine.py": _user_case(expect='lambda p, dt: [Check("x", "m", 0.0, -1, "abs", "why")]')},
+     "my_bounce[e=0.5]: expect(): check 'x': tolerance = -1"),
+    ({"mine.py": _user_case(observe="lambda t, p: t.pos('ball')[5, 2]")}, "observe() raised IndexError"),
+    ({"mine.py": _user_case(observe="lambda t, p: {}")}, "observe() gives no x"),
+    ({"mine.py": _user_case(observe="lambda t, p: {'x': t.force('ground', 'ball')[-1]}")},
+     "the family must declare needs={'contact_forces'}"),
 ])
-def test_cli_invalid_user_case(source, message, tmp_path):
+def test_cli_invalid_user_case(files, message, tmp_path):
     cases = tmp_path / "cases"
     cases.mkdir()
-    (cases / "mine.py").write_text(source)
-    out = _physval("run", "--cases-dir", str(cases), "--out", str(tmp_path / "out"))
+    for name, source in files.items():
+        (cases / name).write_text(source)
+    out = _physval("run", "--cases-dir", str(cases), "--out", str(tmp_path / "out"), "--engines", "reference")
     assert out.returncode == 2, out.stderr
     assert message in out.stderr and "Traceback" not in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1
+    assert str(cases) in out.stderr, "the message names the file"
+    assert not (tmp_path / "out" / "results.csv").exists()
+
+
+def test_an_observer_giving_no_number_is_an_error_row_naming_the_metric_and_file(tmp_path):
+    cases = tmp_path / "cases"
+    cases.mkdir()
+    (cases / "mine.py").write_text(_user_case(observe="lambda t, p: {'x': None if len(t.t) > 2 else 0.0}"))
+    out = _physval("run", "--cases-dir", str(cases), "--cases", "my_bounce", "--out", str(tmp_path / "out"),
+                   "--engines", "reference", "--workers", "1", "--quiet")
+    assert out.returncode == 0, out.stderr
+    import csv
+    (row,) = list(csv.DictReader(open(tmp_path / "out" / "results.csv")))
+    assert row["status"] == "error" and "x = None: not a finite number" in row["reason"]
+    assert str(cases / "mine.py") in row["reason"]

@@ -1,27 +1,16 @@
 """Every case x variant x engine, and the conformance battery on every engine, judged by
-their tolerances.
+their tolerances and the known deviations' recorded bands.
 
-A check listed in adapters/xfails/<engine>.txt that fails makes the test xfail with the
-entry's reason; one that passes fails the test (strict), so a fixed engine shows.
+A check whose measurement lies in the band its known-deviation entry records makes the
+test xfail with the entry's cause; a check that now passes although a band records it
+fails the test (strict: the deviation is gone, `physval known ENGINE --write`); a
+deviation that left its band is a `fail` and fails the test.
 """
 from __future__ import annotations
 
-import functools
-
 import pytest
 
-from adapters import registry
-from physval.runner import families, run_job
-
-
-@functools.cache
-def _families():
-    return families()
-
-
-@functools.cache
-def _adapter(name):
-    return registry.get(name)
+from physval.core import Context, execute
 
 
 def _line(r) -> str:
@@ -30,11 +19,12 @@ def _line(r) -> str:
 
 
 def judge_job(job):
+    resolver = Context().resolver()
     try:
-        adapter = _adapter(job.engine)
-    except registry.EngineError as exc:
+        resolver.adapter(job.engine)
+    except Exception as exc:
         pytest.skip(str(exc))
-    rows = run_job(job, _families()[job.family], adapter)
+    rows = execute(job, resolver).rows
     repro = f"reproduce: physval run --cases '{job.family}[{job.variant.id}]' --engines {job.engine}"
     if {r["status"] for r in rows} == {"unsupported"}:
         pytest.skip(f"unsupported: {rows[0]['reason']}")
@@ -42,13 +32,10 @@ def judge_job(job):
     assert not broken, f"{broken[0]['status']}: {broken[0]['reason']}\n{repro}"
     failed = [r for r in rows if r["status"] == "fail"]
     assert not failed, "\n".join(_line(r) for r in failed) + "\n" + repro
-    by_entry = {}
-    for r in rows:
-        if r["known_deviation"]:
-            by_entry.setdefault(r["known_deviation"], []).append(r)
-    stale = [e for e, rs in by_entry.items() if all(r["status"] == "pass" for r in rs)]
-    assert not stale, ("known deviation now passes everywhere in this run (strict: remove or narrow it in "
-                       f"adapters/xfails/{job.engine}.txt): " + "; ".join(stale))
+    passing_but_banded = [r for r in rows if r["status"] == "pass" and r["band"]]
+    assert not passing_but_banded, (
+        "a recorded known deviation now passes (strict: `physval known " + job.engine + " --write` updates the "
+        "bands, or remove the entry): " + "; ".join(f"{r['metric']} (band {r['band']})" for r in passing_but_banded))
     devs = [r for r in rows if r["status"] == "deviation"]
     if devs:
         pytest.xfail("; ".join(f"{r['metric']}: {r['reason']}" for r in devs))

@@ -19,7 +19,8 @@ from cases import tumbling_box as tb
 from cases.family import Variant
 from cases.observables import impulse, point_speed_bound
 from cases.trajectory import Trajectory
-from physval.runner import Job, run_job
+from physval.core import Job
+from tests.helpers import run_job
 
 A = tb.HALF
 

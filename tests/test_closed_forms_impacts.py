@@ -321,14 +321,16 @@ def test_compliant_impact_by_integrating_the_force_law(p):
 
 @pytest.mark.parametrize("module", [hi, nc], ids=["hertz_impact", "newtons_cradle"])
 def test_compliant_variants_run_only_where_their_law_is_modelled(module):
-    """tests/test_cases.py judges them on reference-hertz and reference-hooke (default_jobs
-    adds those formulations for the variants whose law they model); every rigid engine
+    """tests/test_cases.py judges them on reference-hertz and reference-hooke (the default
+    plan adds those formulations for the variants whose law they model); every rigid engine
     reports them unsupported, naming the law, instead of failing for want of a modulus."""
-    from physval.runner import default_jobs
+    from physval.core import Context
+    from physval.validation import plan
     family = module.FAMILY
     compliant = [v for v in family.variants if "law" in v.params]
     assert {v.params["law"] for v in compliant} == {"hertz", "hooke"}
-    jobs = default_jobs({family.name: family}, ["reference", "reference-pgs", "reference-hertz", "reference-hooke"])
+    jobs, _ = plan({family.name: list(family.variants)},
+                   ["reference", "reference-pgs", "reference-hertz", "reference-hooke"], Context().resolver(), False)
     for v in compliant:
         engines = {j.engine for j in jobs if j.variant.id == v.id}
         assert engines == {"reference", f"reference-{v.params['law']}"}

@@ -13,10 +13,10 @@ import pytest
 from cases.family import CaseError, CaseFamily, Check, Variant
 from cases.scene import Body, Circle, Material, Plane, Scene, Sphere
 from physval import deviations
-from physval.metrics import errors, within
-from physval.report import write_report
-from physval.runner import COLUMNS, Job, run_job
+from physval.core import COLUMNS, Job
+from physval.core.verdicts import errors, within
 from tests.fakes import FakeAdapter
+from tests.helpers import run_job
 
 ROOT = Path(__file__).resolve().parent.parent
 CHECK_RESULTS = ROOT.parent / "shared" / "tools" / "check_results.py"
@@ -91,22 +91,59 @@ def test_pass_and_fail_are_judged_per_check():
     assert rows[0]["abs_error"] == pytest.approx(0.5) and "> tolerance" in rows[0]["reason"]
 
 
-def test_a_known_deviation_is_reported_with_its_measured_size():
-    known = [deviations.Deviation("fake", "free_fall", "offset=0.5", "z_*", "the fake engine floats", 1)]
+def _entry(variant="offset=0.5", metric="z_*", bands=(), reason="the fake engine floats"):
+    return deviations.Deviation("fake.txt", "free_fall", variant, metric, reason, 1, tuple(bands))
+
+
+def _band(value, width=1e-3, variant="offset=0.5", metric="z_end", raises=None):
+    return deviations.Band("fake", variant, metric, value, width, raises)
+
+
+def test_a_known_deviation_is_reported_with_its_measured_size_inside_its_band():
+    expected_z = FALL.expect({"offset": 0.5}, DT)[0].expected
+    known = [_entry(bands=[_band(expected_z - 0.5)])]
     rows = run_job(_job(1), FALL, FakeAdapter(), known=known)
     assert rows[0]["status"] == "deviation"
     assert "the fake engine floats" in rows[0]["reason"] and "0.5" in rows[0]["reason"]
+    assert rows[0]["band"] and "recorded band" in rows[0]["reason"]
     rows = run_job(_job(0), FALL, FakeAdapter(), known=known)
     assert rows[0]["status"] == "pass" and rows[0]["known_deviation"] == ""
 
 
+def test_a_deviation_that_leaves_its_band_is_a_fail_with_both_sizes():
+    expected_z = FALL.expect({"offset": 0.5}, DT)[0].expected
+    known = [_entry(bands=[_band(expected_z - 0.4)])]  # recorded 0.4 off; the fake is 0.5 off
+    (row, _) = run_job(_job(1), FALL, FakeAdapter(), known=known)
+    assert row["status"] == "fail" and row["reason"].startswith("known deviation changed: recorded")
+    assert f"{expected_z - 0.4:.6g} +- 0.001" in row["reason"] and f"{expected_z - 0.5:.6g}" in row["reason"]
+
+
+def test_a_wildcard_covers_only_the_checks_whose_bands_it_records():
+    known = [_entry(bands=[])]  # the pattern matches, but no band: not covered
+    (row, _) = run_job(_job(1), FALL, FakeAdapter(), known=known)
+    assert row["status"] == "fail" and "no band is recorded for this check on fake" in row["reason"]
+
+
+def test_bands_hold_only_at_the_settings_they_were_recorded_at():
+    expected_z = FALL.expect({"offset": 0.5}, DT)[0].expected
+    known = [_entry(bands=[_band(expected_z - 0.5)])]
+    job = Job("free_fall", FALL.variants[1], "fake", dt=DT / 2)
+    (row, _) = run_job(job, FALL, FakeAdapter(), known=known)
+    assert row["status"] == "fail" and "recorded at the family's dt" in row["reason"]
+
+
 def test_a_known_engine_failure_is_a_deviation_and_an_unknown_one_an_error():
-    known = [deviations.Deviation("fake", "free_fall", "offset=0.0", "*", "the solver gives up on this LCP", 1)]
+    raises = [_band(None, variant="offset=0.0", metric=m, raises="RuntimeError") for m in ("z_end", "vz_end")]
+    known = [_entry("offset=0.0", "*", raises, "the solver gives up on this LCP")]
     rows = run_job(_job(0), FALL, FakeAdapter(crash_at=3), known=known)
     assert {r["status"] for r in rows} == {"deviation"}
     assert "gives up" in rows[0]["reason"] and "RuntimeError: engine crashed" in rows[0]["reason"]
-    partial = [deviations.Deviation("fake", "free_fall", "offset=0.0", "z_end", "only one metric", 1)]
+    partial = [_entry("offset=0.0", "*", raises[:1], "only one metric")]
     rows = run_job(_job(0), FALL, FakeAdapter(crash_at=3), known=partial)
+    assert {r["status"] for r in rows} == {"error"}
+    other = [_entry("offset=0.0", "*", [_band(None, variant="offset=0.0", metric=m, raises="ValueError")
+                                        for m in ("z_end", "vz_end")])]
+    rows = run_job(_job(0), FALL, FakeAdapter(crash_at=3), known=other)
     assert {r["status"] for r in rows} == {"error"}
 
 
@@ -141,7 +178,7 @@ def test_a_case_needing_contact_forces_is_unsupported_without_them():
 
 
 def test_unknown_engine_is_unsupported_in_a_row():
-    rows = run_job(_job(0, engine="no-such-engine"), FALL, known=[])
+    rows = run_job(_job(0, engine="no-such-engine"), FALL)
     assert rows[0]["status"] == "unsupported" and "unknown engine" in rows[0]["reason"]
 
 
@@ -154,28 +191,55 @@ def test_rows_record_effects_and_knobs():
 # --- known-deviation files ----------------------------------------------------------------
 
 def test_deviation_file_format(tmp_path):
-    (tmp_path / "eng.txt").write_text("# comment\n\ncentral_impact[e=0.5,*]:v*_after  # soft contact\n")
-    (d,) = deviations.load("eng", tmp_path)
+    (tmp_path / "eng.txt").write_text(
+        "# comment\n\ncentral_impact[e=0.5,*]:v*_after  # soft contact\n"
+        "    eng [e=0.5,m=1:3]:v1_after = 0.125 +- 0.002\n"
+        "    eng [e=0.5,m=1:3]:v2_after = raises LemkeFailure\n")
+    (d,) = deviations.parse(tmp_path / "eng.txt")
     assert d.matches("central_impact", "e=0.5,m=1:3", "v1_after")
     assert not d.matches("central_impact", "e=0.9,m=1:3", "v1_after")
-    (tmp_path / "bad.txt").write_text("central_impact v1_after no reason\n")
-    with pytest.raises(deviations.DeviationFileError, match="bad.txt:1"):
-        deviations.load("bad", tmp_path)
+    band = d.band("eng", "e=0.5,m=1:3", "v1_after")
+    assert band.holds(0.1265) and not band.holds(0.128) and not band.holds(None, "LemkeFailure")
+    assert d.band("eng", "e=0.5,m=1:3", "v2_after").holds(exception="LemkeFailure")
+    assert d.band("other", "e=0.5,m=1:3", "v1_after") is None
+    for bad, where in (("central_impact v1_after no reason\n", "bad.txt:1"),
+                       ("central_impact[*]:v  # x\n    eng [e=1]:v = 0.1\n", "bad.txt:2"),
+                       ("central_impact[e=0.5]:v  # x\n    eng [e=0.9]:v = 1 +- 0.1\n", "not matched by its entry")):
+        (tmp_path / "bad.txt").write_text(bad)
+        with pytest.raises(deviations.DeviationFileError, match=where):
+            deviations.parse(tmp_path / "bad.txt")
+
+
+def test_rewriting_bands_keeps_causes_and_comments(tmp_path):
+    path = tmp_path / "eng.txt"
+    path.write_text("# head\nfree_fall[*]:z_end  # cause one\n    eng [a]:z_end = 1 +- 0.1\n"
+                    "# between\nfree_fall[b*]:vz_end  # cause two\n")
+    entries = deviations.parse(path)
+    text = deviations.rewrite(path, {entries[0].line: [], entries[1].line: [
+        deviations.Band("eng", "b1", "vz_end", 2.5, 0.01)]})
+    assert text == ("# head\nfree_fall[*]:z_end  # cause one\n# between\nfree_fall[b*]:vz_end  # cause two\n"
+                    "    eng [b1]:vz_end = 2.5 +- 0.01\n")
 
 
 def test_every_deviation_entry_matches_a_check_of_a_builtin_case():
-    """The deviation files cannot rot: each entry names a family, variant and metric that exist."""
-    from adapters.registry import engine_names
-    from physval.runner import families
-    from physval.stress import robustness_families
-    fams = {**families(), **robustness_families(long=True)}  # entries may name `physval stress --long` variants
+    """The deviation files cannot rot: each entry names a family, variant and metric that
+    exist, and each band line a check its entry matches."""
+    from adapters.registry import engine_names, get, EngineError
+    from cases.registry import builtin_families
+    fams = builtin_families()
     for eng in engine_names():
-        for d in deviations.load(eng):
+        try:
+            path = get(eng).deviations_file()
+        except EngineError:
+            continue
+        for d in deviations.load([path]):
             assert d.family in fams, f"{eng}.txt:{d.line}: no family {d.family!r}"
             fam = fams[d.family]
-            hits = [(v.id, c.metric) for v in fam.variants for c in fam.expect(v.params, fam.dt_for(v.params))
-                    if d.matches(fam.name, v.id, c.metric)]
+            checks = {(v.id, c.metric) for v in fam.all_variants for c in fam.expect(v.params, fam.dt_for(v.params))}
+            hits = [k for k in checks if d.matches(fam.name, *k)]
             assert hits, f"adapters/xfails/{eng}.txt:{d.line}: {d.pattern} matches no check"
+            for b in d.bands:
+                assert (b.variant, b.metric) in checks, f"{eng}.txt:{b.line}: no check [{b.variant}]:{b.metric}"
 
 
 # --- the results table and the report -----------------------------------------------------
@@ -188,8 +252,15 @@ def _rows():
     return rows
 
 
+def _write_report(rows, out, **kw):
+    import pandas as pd
+    from physval.report import write_run_report
+    pd.DataFrame(rows, columns=COLUMNS).to_csv(out / "results.csv", index=False)
+    write_run_report(rows, out, {"free_fall": FALL}, **kw)
+
+
 def test_results_csv_meets_the_agreed_contract(tmp_path):
-    write_report(_rows(), tmp_path)
+    _write_report(_rows(), tmp_path)
     with open(tmp_path / "results.csv", newline="") as fh:
         reader = csv.DictReader(fh)
         assert reader.fieldnames == COLUMNS
@@ -203,18 +274,20 @@ def test_results_csv_meets_the_agreed_contract(tmp_path):
 
 
 def test_report_has_its_sections_and_no_temporary_files(tmp_path):
-    write_report(_rows(), tmp_path, command="physval run")
+    _write_report(_rows(), tmp_path, command="physval run")
     md = (tmp_path / "report.md").read_text()
-    for heading in ("## Summary", "## Known deviations", "## Failures, blow-ups and errors", "## Families",
-                    "## Engine settings", "## Environment", "### free_fall"):
+    for heading in ("## Contents", "## Summary", "## Known deviations", "## Failures, blow-ups and errors",
+                    "## Families", "## Engine settings", "## Environment", "### free_fall"):
         assert heading in md
+    assert "- [Families](#families)" in md and "Closed form: symplectic Euler." in md
+    assert "the discrete closed form of symplectic Euler: exact to round-off" in md  # each tolerance's reason
     assert (tmp_path / "plots" / "summary.png").stat().st_size > 1000
     assert (tmp_path / "plots" / "free_fall.png").exists()
     assert not [p for p in tmp_path.rglob(".*") if p.is_file()], "temporary files left behind"
 
 
 def test_an_interrupted_write_leaves_the_old_file_whole(tmp_path, monkeypatch):
-    from physval import report
+    from physval import reportkit as report
     target = tmp_path / "report.md"
     target.write_text("old and complete")
 

@@ -1,4 +1,4 @@
-"""physval/laws.py: the physics-law residuals, on hand-made contact points whose residuals
+"""physval/readings/laws.py: the physics-law residuals, on hand-made contact points whose residuals
 follow from the definitions, and on the reference engine, whose sequential impulses solve
 the laws to the solver's tolerance (so a residual there is a bug in the read-out or the
 formulas)."""
@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 
 from cases.trajectory import ContactPoint
-from physval import laws
-from physval.runner import families
+from cases.registry import builtin_families
+from physval.core import Context
+from physval.core.session import Execution
+from physval.readings import laws
 
 Z = np.array([0.0, 0.0, 1.0])
 
@@ -76,7 +78,7 @@ def test_the_reference_meets_the_laws_on_the_battery():
     """Sequential impulses solve each contact to their tolerance: the residuals are at the
     solver's convergence level (cone 1e-8 from stopping at a velocity change of 1e-13 m/s
     per row after up to `iterations` sweeps), not at the physics' scale."""
-    rows = laws.measure("reference", families())
+    rows = laws.measure(["reference"], Context(), builtin_families(), Execution(progress=False)).to_dict("records")
     assert len(rows) >= 6 and not any(r["note"] for r in rows)
     worst = laws.summary(rows)[0]
     assert worst["penetration_mm"] < 1e-6
@@ -90,6 +92,7 @@ def test_an_engine_without_contact_points_gets_a_row_saying_so(monkeypatch):
     adapter = registry.get("reference")
     monkeypatch.setattr(type(adapter), "capabilities",
                         type(adapter.capabilities)(**{**adapter.capabilities.__dict__, "contact_points": False}))
-    rows = laws.measure("reference", families())
+    ctx = Context(known_files=())  # a fresh resolver: it makes the patched adapter
+    rows = laws.measure(["reference"], ctx, builtin_families(), Execution(progress=False)).to_dict("records")
     assert rows == [{"engine": "reference", "case": "", "variant": "",
                      "note": "the engine does not report per-contact forces"}]

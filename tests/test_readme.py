@@ -19,8 +19,12 @@ def test_the_worked_example_loads_and_runs_on_the_reference(tmp_path):
     from adapters.registry import available
     if not available("reference"):
         return
-    from physval.runner import plan, run_jobs
-    rows = run_jobs(plan(fams, ["reference"]), fams, progress=False)
+    import csv
+    from physval.cli import main
+    out = tmp_path / "out"
+    assert main(["run", "--cases-dir", str(tmp_path), "--cases", "second_bounce", "--engines", "reference",
+                 "--quiet", "--workers", "1", "--out", str(out)]) == 0
+    rows = list(csv.DictReader(open(out / "results.csv")))
     assert {r["status"] for r in rows} == {"pass"}, [(r["variant"], r["measured"], r["reason"]) for r in rows]
 
 

@@ -16,7 +16,10 @@ from cases.observables import deepest_overlap, drift, energy_rise, mechanical_en
 from cases.registry import builtin_families
 from cases.scene import Body, Box, Material, Scene, Sphere, ground
 from cases.trajectory import Trajectory
-from physval import stress
+from physval.core import Context, execute
+from physval.core.session import Execution
+from physval.core.selection import SelectionError, select_variants
+from physval.readings import robustness as stress
 
 FAMILIES = {n: f for n, f in builtin_families().items() if n.startswith("robustness_")}
 
@@ -48,14 +51,14 @@ def test_every_full_grid_validates():  # 40 s: the 210-box pyramids' pairs are c
 
 
 def test_long_variants_run_only_in_the_stress_command():
-    short = stress.robustness_families(long=False)
-    long = stress.robustness_families(long=True)
-    assert {n: [v.id for v in f.variants] for n, f in short.items()} == \
+    short = select_variants(FAMILIES, None)
+    long = select_variants(FAMILIES, None, full=True)
+    assert {n: [v.id for v in vs] for n, vs in short.items()} == \
            {n: [v.id for v in f.variants] for n, f in FAMILIES.items()}
-    stacks = {v.id for v in long["robustness_stacks"].variants}
+    stacks = {v.id for v in long["robustness_stacks"]}
     assert "stack,n=20,3D,T=3" in stacks and "stack,n=3,3D,T=60" in stacks
-    assert not any(v.id.startswith("6^3") for v in short["robustness_pile"].variants)
-    assert any(v.id.startswith("6^3") for v in long["robustness_pile"].variants)
+    assert not any(v.id.startswith("6^3") for v in short["robustness_pile"])
+    assert any(v.id.startswith("6^3") for v in long["robustness_pile"])
     # the default grids stay small: no default variant runs a long scene
     for fam in FAMILIES.values():
         for v in fam.variants:
@@ -64,13 +67,14 @@ def test_long_variants_run_only_in_the_stress_command():
 
 
 def test_select_takes_families_and_variant_globs_and_refuses_what_matches_nothing():
-    fams = stress.robustness_families()
-    chosen, keep = stress.select(fams, ["robustness_tunnelling"])
-    assert list(chosen) == ["robustness_tunnelling"] and len(keep) == len(fams["robustness_tunnelling"].variants)
-    chosen, keep = stress.select(fams, ["robustness_overlap[box_in_*,2D]"])
-    assert keep == ["robustness_overlap[box_in_ground,2D]", "robustness_overlap[box_in_box,2D]"]
-    with pytest.raises(ValueError, match="matches no robustness scene"):
-        stress.select(fams, ["robustness_nothing*"])
+    chosen = select_variants(FAMILIES, ["robustness_tunnelling"])
+    assert list(chosen) == ["robustness_tunnelling"] and len(chosen["robustness_tunnelling"]) == \
+        len(FAMILIES["robustness_tunnelling"].variants)
+    chosen = select_variants(FAMILIES, ["robustness_overlap[box_in_*,2D]"])
+    assert [v.test_id for v in chosen["robustness_overlap"]] == \
+        ["robustness_overlap[box_in_ground,2D]", "robustness_overlap[box_in_box,2D]"]
+    with pytest.raises(SelectionError, match="unknown case 'robustness_nothing\\*'"):
+        select_variants(FAMILIES, ["robustness_nothing*"])
 
 
 # --- the readings --------------------------------------------------------------------------------
@@ -119,19 +123,26 @@ def test_deepest_overlap_measures_pairs_and_the_ground():
 
 # --- stability map -----------------------------------------------------------------------------
 
+def _trial(engine, n, dt, iterations, duration):
+    dim = 2 if engine == "pymunk" else 3
+    job = stress.stack_job(engine, dim, n, dt, iterations, duration)
+    return stress.trial_row(job, execute(job, Context().resolver()).rows)
+
+
 def test_a_short_stack_stands_and_a_two_d_engine_gets_the_two_d_stack():
-    row = stress.stack_trial("pymunk", 2, 1 / 60, 10, duration=1.0)
+    row = _trial("pymunk", 2, 1 / 60, 10, duration=1.0)
     assert row["status"] == "stands" and row["dim"] == 2 and row["standing_time"] == pytest.approx(1.0, abs=1e-9)
     assert row["drift"] < 1e-3 and row["us_per_step"] > 0
 
 
 def test_an_unknown_engine_is_a_row_not_an_exception():
-    row = stress.stack_trial("no-such-engine", 2, 1 / 60, 10, duration=1.0)
+    row = _trial("no-such-engine", 2, 1 / 60, 10, duration=1.0)
     assert row["status"] == "unsupported" and "unknown engine" in row["reason"]
 
 
 def test_map_summary_plot_and_section(tmp_path):
-    smap = stress.stability_map(["pymunk"], heights=(2, 40), dts=(1 / 60,), iterations=(2,), duration=1.0)
+    smap = stress.stability_map(["pymunk"], Context(), tmp_path, heights=(2, 40), dts=(1 / 60,), iterations=(2,),
+                                duration=1.0, execution=Execution(progress=False))
     assert list(smap.n) == [2, 40] and list(smap.status) == ["stands", "collapsed"]
     summary = stress.map_summary(smap)
     assert summary["tallest standing"].tolist() == [2] and summary["next height"].tolist() == [40]
@@ -152,49 +163,48 @@ def test_state_hash_is_stable_and_sensitive_to_the_last_bit():
     assert stress.state_hash(s) != stress.state_hash(t)
 
 
-def test_determinism_runs_twice_and_names_the_deterministic_engines():
-    df = stress.determinism(["pymunk"], variants=("robustness_degenerate[edge-on,2D]", "robustness_degenerate[edge-on,3D]"))
+def test_determinism_runs_twice_and_names_the_deterministic_engines(tmp_path):
+    df = stress.determinism(["pymunk"], Context(), tmp_path, execution=Execution(workers=2, progress=False),
+                            variants=("robustness_degenerate[edge-on,2D]", "robustness_degenerate[edge-on,3D]"))
     assert list(df.status) == ["deterministic", "unsupported"]
     assert stress.deterministic_engines(df) == ["pymunk"]
 
 
 # --- the command ---------------------------------------------------------------------------------
 
-def _parser():
-    p = argparse.ArgumentParser(prog="physval")
-    stress.add_parser(p.add_subparsers(dest="command"))
-    return p
+def _stress(*argv):
+    from physval.cli import main
+    return main(["stress", *argv])
 
 
 def test_stress_help_names_its_options(capsys):
     with pytest.raises(SystemExit):
-        _parser().parse_args(["stress", "--help"])
+        _stress("--help")
     text = capsys.readouterr().out
-    for option in ("--engines", "--cases", "--out", "--long", "--quiet", "reports/stress"):
+    for option in ("--engines", "--cases", "--out", "--long", "--quiet", "reports/stress", "--scheduler"):
         assert option in text
 
 
 def test_stress_writes_results_report_and_sections(tmp_path, capsys):
-    args = _parser().parse_args(["stress", "--engines", "pymunk", "--cases", "robustness_degenerate[edge-on,2D]",
-                                 "--no-map", "--quiet", "--out", str(tmp_path)])
-    assert stress.run(args) == 0
+    assert _stress("--engines", "pymunk", "--cases", "robustness_degenerate[edge-on,2D]", "--quiet",
+                   "--out", str(tmp_path), "--no-map") == 0
     import pandas as pd
-    from physval.runner import COLUMNS
+    from physval.core import COLUMNS
     df = pd.read_csv(tmp_path / "stress_results.csv")
     assert list(df.columns) == COLUMNS and set(df.status) == {"pass"}
     report = (tmp_path / "stress_report.md").read_text()
     for heading in ("## Summary", "## Cost per scene", "## Stability", "## Determinism"):
         assert heading in report
+    assert "no stability map in this run" in report
     assert "wrote" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("argv, message", [
     (["--engines", "nope"], "unknown engine 'nope'"),
-    (["--cases", "robustness_nothing"], "matches no robustness scene"),
+    (["--cases", "robustness_nothing"], "unknown case 'robustness_nothing'"),
 ])
 def test_stress_bad_input_is_one_line_and_exit_code_2(argv, message, tmp_path, capsys):
-    args = _parser().parse_args(["stress", "--quiet", "--out", str(tmp_path)] + argv)
-    assert stress.run(args) == 2
+    assert _stress("--quiet", "--out", str(tmp_path), *argv) == 2
     err = capsys.readouterr().err.strip()
     assert message in err and len(err.splitlines()) == 1
 
@@ -205,6 +215,6 @@ def test_stress_bad_input_is_one_line_and_exit_code_2(argv, message, tmp_path, c
 def test_reference_holds_a_ten_box_stack_for_ten_seconds_at_60_hz_with_ten_iterations():
     """The battery's done criterion (about 10 s CPU): warm-started sequential impulses keep
     a ten-box stack standing at 60 Hz with 10 iterations, drift under 1 % of a box."""
-    row = stress.stack_trial("reference", 10, 1 / 60, 10, duration=10.0)
+    row = _trial("reference", 10, 1 / 60, 10, duration=10.0)
     assert row["status"] == "stands", row
     assert row["drift"] < 0.01 * robustness_stacks.SIZE, row

@@ -1,6 +1,6 @@
-"""The sweep: points, batching, streaming and resuming without losing or redoing a point,
-a tiny sweep on a Dask LocalCluster, and the Pareto front and convergence order on data
-whose answer is known."""
+"""The sweep: points, batching for a cluster, streaming and resuming without losing or
+redoing a point, a tiny sweep on a Dask LocalCluster, and the Pareto front and
+convergence order on data whose answer is known."""
 from __future__ import annotations
 
 import math
@@ -9,20 +9,28 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from physval import sweep
-from physval.runner import families
-from physval.tradeoff import convergence_order, pareto_front, point_table, write_sweep_report
-from tests.test_harness import FALL
+from cases.family import Variant
+from physval.core import Context, Job, execute, run_jobs
+from physval.core.executor import MIN_BATCH_STEPS, DaskExecutor
+from physval.core.session import Execution, run_stored
+from physval.readings import sweep
+from physval.readings.sweep import SWEEP_COLUMNS, convergence_order, pareto_front, point_table, write_report
 
-FAMS = {**families(), "free_fall": FALL}
+RESOLVER = Context().resolver()
+FAMS = RESOLVER.families
+QUIET = Execution(progress=False)
 
 
-def _tiny_points(family="free_fall", variant="offset=0.0"):
-    return [sweep.Point(family, variant, "reference", dt, None) for dt in (1 / 60, 1 / 240, 1e-3)]
+def _tiny_points(family="central_impact", variant="e=0.5,m=1:3"):
+    fam = FAMS[family]
+    v = next(v for v in fam.variants if v.id == variant)
+    return [Job(family, v, "reference", dt, None, probe="physval.readings.sweep:Timing", probe_args=(("repeats", 2),),
+                warmup=10) for dt in (1 / 60, 1 / 240, 1e-3)]
 
 
 def test_default_points_cover_six_time_steps_and_five_iteration_counts():
-    pts = sweep.sweep_points({"resting_blocks": FAMS["resting_blocks"]}, ["reference"])
+    chosen = sweep.sweep_variants(FAMS, ["resting_blocks"])
+    pts = sweep.points(chosen, ["reference"], RESOLVER)
     dts = {p.dt for p in pts if p.iterations is None}
     its = {p.iterations for p in pts if p.iterations is not None}
     assert len(dts) >= 6 and max(dts) == pytest.approx(1 / 60) and min(dts) == pytest.approx(1e-4)
@@ -30,55 +38,63 @@ def test_default_points_cover_six_time_steps_and_five_iteration_counts():
     assert len({p.key for p in pts}) == len(pts)
 
 
-def test_tasks_hold_enough_steps_to_outweigh_scheduling():
-    pts = sweep.sweep_points({"central_impact": FAMS["central_impact"]}, ["reference"])
-    tasks = sweep.batches(pts, FAMS)
+def test_cluster_batches_hold_enough_steps_to_outweigh_scheduling():
+    pts = sweep.points(sweep.sweep_variants(FAMS, ["central_impact"]), ["reference"], RESOLVER)
+    ex = DaskExecutor.__new__(DaskExecutor)  # batching needs no connection
+    ex.ctx = Context()
+    tasks = ex.batches(pts)
     assert sum(len(t) for t in tasks) == len(pts)
+    from physval.core import steps_of
     for t in tasks[:-1]:
-        assert sum(p.steps(FAMS[p.family]) for p in t) * (sweep.REPEATS + 1) >= sweep.MIN_TASK_STEPS
+        assert sum(steps_of(p, FAMS[p.family]) * (1 + sweep.REPEATS) for p in t) >= MIN_BATCH_STEPS
 
 
 def test_a_point_records_errors_and_the_minimum_of_its_repeats():
-    from adapters.registry import get
     (p, *_) = _tiny_points()
-    rows = sweep.run_point(p, FALL, get("reference"), repeats=3)
-    walls = eval(rows[0]["repeat_wall_s"])
-    assert len(walls) == 3 and rows[0]["wall_per_sim_s"] == pytest.approx(
-        min(walls) / ((rows[0]["steps"] - rows[0]["warmup_steps"]) * p.dt))
-    assert {r["status"] for r in rows} == {"pass"} and rows[0]["iterations_asked"] == "default"
+    rows = execute(p, RESOLVER)
+    r = {**rows.rows[0], **rows.extra}
+    walls = eval(r["repeat_wall_s"])
+    assert len(walls) == 2 and r["wall_per_sim_s"] == pytest.approx(
+        min(walls) / ((r["steps"] - r["warmup_steps"]) * p.dt))
+    assert {x["status"] for x in rows.rows} == {"pass"} and r["iterations_asked"] == "default"
 
 
 def test_an_interrupted_sweep_resumes_without_losing_or_redoing_points(tmp_path, monkeypatch):
     path = tmp_path / "sweep.csv"
     points = _tiny_points()
-    store = sweep.Store(path, FAMS)
-    assert sweep.run_sweep(points[:2], FAMS, store, progress=False) == 2
+    res, _ = run_stored(points[:2], Context(), path, SWEEP_COLUMNS, QUIET)
+    assert res.ran == 2
     # a kill in the middle of writing the third point: half a line at the end of the file
     with open(path, "a") as fh:
-        fh.write("free_fall,offset=0.0,{},reference,0.0,0.001,")
-    ran = []
-    real = sweep.run_point
-    monkeypatch.setattr(sweep, "run_point", lambda p, *a, **k: ran.append(p.key) or real(p, *a, **k))
-    store = sweep.Store(path, FAMS)
-    assert store.done == {p.key for p in points[:2]}
-    assert sweep.run_sweep(points, FAMS, store, progress=False) == 1
-    assert ran == [points[2].key]
+        fh.write("central_impact,e=0.5,m=1:3,{},reference,0.0,0.001,")
+    res, store = run_stored(points, Context(), path, SWEEP_COLUMNS, QUIET)
+    assert (res.ran, res.reused) == (1, 2)
     df = pd.read_csv(path)
-    assert sorted(df.point.unique()) == sorted(p.key for p in points)
-    assert len(df) == 2 * len(points)  # two checks per point, each point once
-    assert sweep.run_sweep(points, FAMS, sweep.Store(path, FAMS), progress=False) == 0
+    assert sorted(df.job.unique()) == sorted(p.key for p in points)
+    assert len(df) == 4 * len(points)  # four checks per point, each point once
+    res, _ = run_stored(points, Context(), path, SWEEP_COLUMNS, QUIET)
+    assert (res.ran, res.reused) == (0, 3)
 
 
-def test_a_tiny_sweep_on_a_dask_local_cluster(tmp_path):
+def test_a_changed_code_fingerprint_recomputes_the_stored_points(tmp_path, monkeypatch):
+    path = tmp_path / "sweep.csv"
+    points = _tiny_points()[:1]
+    run_stored(points, Context(), path, SWEEP_COLUMNS, QUIET)
+    from physval.core import store
+    monkeypatch.setattr(store, "fingerprint", lambda extra=(): "0123456789abcdef")
+    res, _ = run_stored(points, Context(), path, SWEEP_COLUMNS, QUIET)
+    assert (res.ran, res.reused) == (1, 0)
+
+
+def test_a_tiny_sweep_on_a_dask_local_cluster():
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:
-        store = sweep.Store(tmp_path / "sweep.csv", FAMS)
-        points = _tiny_points("central_impact", "e=0.5,m=1:3")  # workers find built-in families by name
-        sweep.run_sweep(points, FAMS, store, scheduler=cluster.scheduler_address, progress=False)
-    df = pd.read_csv(tmp_path / "sweep.csv")
-    assert set(df.point) == {p.key for p in points}
-    assert set(df.status) == {"pass"}
+        points = _tiny_points()  # workers find built-in families by name
+        res = run_jobs(points, Context(), scheduler=cluster.scheduler_address, progress=False)
+    assert set(res.rows) == {p.key for p in points}
+    assert {r["status"] for rows in res.rows.values() for r in rows} == {"pass"}
+    assert all(rows[0]["wall_per_sim_s"] > 0 for rows in res.rows.values())
 
 
 def _synthetic(order: float) -> pd.DataFrame:
@@ -106,13 +122,10 @@ def test_pareto_front_keeps_only_the_cheapest_way_to_each_accuracy():
 
 
 def test_the_report_answers_in_a_sentence_per_case(tmp_path):
-    from adapters.registry import get
-    rows = []
-    for p in _tiny_points():
-        rows += sweep.run_point(p, FALL, get("reference"), repeats=1)
-    df = pd.DataFrame(rows)
-    write_sweep_report(df, FAMS, tmp_path)
+    res, store = run_stored(_tiny_points(), Context(), tmp_path / "sweep.csv", SWEEP_COLUMNS, QUIET)
+    rows = store.finalize([p.key for p in _tiny_points()])
+    write_report(rows, FAMS, tmp_path)
     md = (tmp_path / "sweep_report.md").read_text()
     assert "to reach the case's tolerances it needs dt <=" in md
-    assert (tmp_path / "plots" / "cost_free_fall_offset_0.0.png").exists()
-    assert len(point_table(df, FAMS)) == 3
+    assert (tmp_path / "plots" / "cost_central_impact_e_0.5_m_1_3.png").exists()
+    assert len(point_table(pd.DataFrame(rows), FAMS)) == 3

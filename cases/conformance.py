@@ -6,8 +6,8 @@ probe exists in 3D and in 2D; an engine runs the ones its declared capabilities 
 (the runner reports the rest `unsupported`). Every probe also checks the effect manifest:
 the engine simulates exactly the effects the scene calls for.
 
-The battery is exposed as the family `conformance`, so it flows through the same runner,
-known-deviation files (`conformance[free_fall,3D]:...`), table and report as the cases.
+The battery is the family `conformance` (tag "conformance"), so it flows through the same
+core, known-deviation files (`conformance[free_fall,3D]:...`), table and report as the cases.
 """
 from __future__ import annotations
 
@@ -195,4 +195,5 @@ FAMILY = CaseFamily(
     dt=1e-3,
     variant_id=lambda p: f"{p['check']},{p['dim']}D",
     needs=lambda p: _probe(p).needs,
+    tags=frozenset({"conformance"}),
 )

@@ -1,0 +1,123 @@
+"""`physval check-case FILE...`: try a family file before running it.
+
+It loads and validates the family (every variant's scene, duration, dt, needs and
+checks), runs every variant for one step on the reference and calls the observer on that
+one-step trajectory (it must give a value for every check, whatever an engine did), then
+prints each closed form with its tolerance and reason, and which engines would run each
+variant or skip it and why. Exit 0 when the file is usable, 2 with the first problem.
+
+The same dry run checks every user family (`--cases-dir`) before `physval run` starts.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from adapters import registry
+from adapters.base import Settings
+from cases.family import CaseError, CaseFamily
+from physval import cli
+from physval.core.jobs import describe
+from physval.core.record import simulate
+
+DRY_RUN_ENGINE = "reference"
+
+
+def dry_run(fam: CaseFamily, where: str, variants=None) -> list[tuple[str, dict]]:
+    """Run each variant one step on the reference and observe it: [(variant id, values)].
+    Raises CaseError naming `where`, the variant and what went wrong."""
+    adapter = registry.get(DRY_RUN_ENGINE)
+    out = []
+    for v in variants or fam.variants:
+        at = f"{where}: {fam.name}[{v.id}]"
+        scene = fam.scene(v.params)
+        dt = fam.dt_for(v.params)
+        checks = fam.expect(v.params, dt)
+        if adapter.capabilities.cannot_run(scene):
+            out.append((v.id, {}))
+            continue
+        try:
+            with adapter.build(scene, Settings(dt=dt)) as sim:
+                traj = simulate(sim, scene, dt, 1, forces="contact_forces" in fam.needs_of(v.params)).trajectory
+        except Exception as exc:
+            raise CaseError(f"{at}: one step on the reference failed: {describe(exc)}") from None
+        try:
+            values = fam.observe(traj, v.params)
+        except Exception as exc:
+            raise CaseError(f"{at}: observe() raised {describe(exc)} on a one-step run: an observer must give "
+                            "every check a value whatever the engine did (the check then fails with a size)") from None
+        if not hasattr(values, "get"):
+            raise CaseError(f"{at}: observe() returned {type(values).__name__}, not a dict of metrics")
+        missing = [c.metric for c in checks if c.metric not in values]
+        if missing:
+            raise CaseError(f"{at}: observe() gives no {', '.join(missing)} (expect() checks it)")
+        out.append((v.id, values))
+    return out
+
+
+def dry_run_user_families(ctx) -> None:
+    """The dry run of every family loaded from the run's --cases-dir folders."""
+    from cases.registry import builtin_families
+    builtin = builtin_families()
+    for name, fam in ctx.resolver().families.items():
+        if name not in builtin:
+            dry_run(fam, fam.module_file)
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("check-case", help="validate a case family file and dry-run it before a real run",
+                       formatter_class=cli.argparse.RawDescriptionHelpFormatter,
+                       description=__doc__.split("\n\n", 1)[1],
+                       epilog="example:\n  physval check-case my_cases/second_bounce.py")
+    p.add_argument("files", nargs="+", metavar="FILE", help="family files (*.py defining FAMILY)")
+    p.add_argument("--adapter", action="append", metavar="MODULE:CLASS", help="also show this engine")
+    p.set_defaults(func=cmd_check_case)
+
+
+def cmd_check_case(args) -> int:
+    from cases.registry import _families_in, _load_file, builtin_families, validate_family
+    for text in args.files:
+        file = Path(text)
+        if not file.is_file() or file.suffix != ".py":
+            raise cli.UsageError(f"{text}: not a .py file")
+        fams = _families_in(_load_file(file.resolve()), str(file))
+        if not fams:
+            raise CaseError(f"{file}: defines no FAMILY (a cases.family.CaseFamily)")
+        for fam in fams:
+            if fam.name in builtin_families():
+                raise CaseError(f"{file}: family {fam.name!r} is already a built-in family: rename it")
+            validate_family(fam, str(file), full=True)
+            observed = dict(dry_run(fam, str(file), fam.all_variants))
+            print(f"{file}: family {fam.name}: {len(fam.variants)} variants"
+                  + (f" (+{len(fam.all_variants) - len(fam.variants)} with --full)" if fam.full_grid else "")
+                  + f"; {fam.summary}")
+            print(f"  closed form: {fam.source}")
+            engines = {}
+            for name in registry.engine_names(tuple(args.adapter or ())):
+                try:
+                    engines[name] = registry.get(name, tuple(args.adapter or ()))
+                except registry.EngineError as exc:
+                    engines[name] = exc
+            for v in fam.all_variants:
+                dt = fam.dt_for(v.params)
+                scene = fam.scene(v.params)
+                print(f"  [{v.id}]  dt {dt:g} s, {fam.duration(v.params):g} s, effects "
+                      f"{','.join(sorted(scene.effects)) or 'none'}")
+                for c in fam.expect(v.params, dt):
+                    got = observed.get(v.id, {}).get(c.metric)
+                    shown = f"{got:.6g}" if isinstance(got, (int, float)) and math.isfinite(got) else repr(got)
+                    print(f"    {c.metric} = {c.expected:.6g} {c.unit} +- {c.tolerance:.3g} ({c.kind}): {c.why}"
+                          f"  [one reference step: {shown}]")
+                runs, skips = [], []
+                for name, a in engines.items():
+                    if isinstance(a, Exception):
+                        continue
+                    why = a.capabilities.cannot_run(scene, fam.needs_of(v.params)) or a.on_demand(scene)
+                    (skips.append(f"{name}: {why}") if why else runs.append(name))
+                print(f"    runs on: {', '.join(runs) or 'none'}")
+                for s in skips:
+                    print(f"    skips {s}")
+            missing = [n for n, a in engines.items() if isinstance(a, Exception)]
+            if missing:
+                print(f"  not installed: {', '.join(missing)}")
+    return 0

@@ -1,0 +1,91 @@
+"""What a process needs to turn names into things: the user's case folders, ad-hoc
+adapters and known-deviation files of a run. A `Context` is small and picklable, so every
+worker (a local process under any start method, or a Dask worker) rebuilds the same
+families, adapters and deviations from it; `Resolver` does that once per process.
+"""
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from pathlib import Path
+
+from adapters import registry
+from adapters.base import Adapter
+from cases.family import CaseFamily
+from physval import deviations
+
+
+@dataclass(frozen=True)
+class Context:
+    cases_dirs: tuple[str, ...] = ()   # --cases-dir folders
+    adapters: tuple[str, ...] = ()     # --adapter module:Class specs
+    known_files: tuple[str, ...] = ()  # --known files (deviations a user expects)
+
+    def resolver(self) -> "Resolver":
+        return _resolver(self)
+
+
+class Resolver:
+    """Families, adapters and known deviations of one Context, each made once per process."""
+
+    def __init__(self, ctx: Context):
+        self.ctx = ctx
+        self._families: dict[str, CaseFamily] | None = None
+        self._adapters: dict[str, Adapter | registry.EngineError] = {}
+        self._known: dict[str, list[deviations.Deviation]] = {}
+
+    @property
+    def families(self) -> dict[str, CaseFamily]:
+        if self._families is None:
+            from cases.registry import all_families
+            self._families = all_families(self.ctx.cases_dirs)
+        return self._families
+
+    def family(self, name: str) -> CaseFamily:
+        return self.families[name]
+
+    def provide(self, engine: str | None = None, adapter: Adapter | None = None,
+                known: list[deviations.Deviation] | None = None, family: CaseFamily | None = None) -> "Resolver":
+        """Use these objects in this process instead of resolving names (scripts, tests)."""
+        if family is not None:
+            self.families[family.name] = family
+        if adapter is not None:
+            self._adapters[engine] = adapter
+        if known is not None:
+            self._known[engine] = list(known)
+        return self
+
+    def adapter(self, name: str) -> Adapter:
+        """The engine's adapter; raises registry.EngineError (remembered) if unavailable."""
+        if name not in self._adapters:
+            try:
+                self._adapters[name] = registry.get(name, self.ctx.adapters)
+            except registry.EngineError as exc:
+                self._adapters[name] = exc
+        found = self._adapters[name]
+        if isinstance(found, Exception):
+            raise found
+        return found
+
+    def known(self, engine: str) -> list[deviations.Deviation]:
+        """The engine's own deviation file, then the user's --known files."""
+        if engine not in self._known:
+            own = None
+            try:
+                own = self.adapter(engine).deviations_file()
+            except registry.EngineError:
+                pass
+            self._known[engine] = deviations.load([own, *self.ctx.known_files])
+        return self._known[engine]
+
+    def deviation_files(self, engine: str) -> list[Path]:
+        try:
+            own = self.adapter(engine).deviations_file()
+        except registry.EngineError:
+            own = None
+        return [Path(p) for p in [own, *self.ctx.known_files] if p is not None]
+
+
+@functools.cache
+def _resolver(ctx: Context) -> Resolver:
+    return Resolver(ctx)

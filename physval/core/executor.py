@@ -1,0 +1,286 @@
+"""Where jobs run: worker processes on this machine (the default), or an existing Dask
+distributed cluster (`--scheduler ADDRESS`). Both yield each job's Outcome as it finishes.
+
+Local workers isolate crashes: every job runs in a worker process, with one worker as with
+many. A job whose worker dies (a segfault, an abort) or that exceeds the per-job time
+limit becomes `error` rows naming the signal or the limit; the worker is replaced and
+every other job runs. Workers ignore Ctrl-C (the main process stops them at once and
+keeps what finished) and exit on their own when the main process dies.
+
+On Dask, jobs travel in batches of at least about 100 ms of stepping. A batch whose
+worker dies is split and its jobs resubmitted one by one, so a crashing job costs only
+its own rows. The per-job time limit is not enforced on a cluster: a job that hangs holds
+its Dask worker (recycle workers with `dask worker --lifetime`).
+"""
+from __future__ import annotations
+
+import collections
+import multiprocessing as mp
+import multiprocessing.connection
+import os
+import signal
+import sys
+import threading
+import time
+
+from physval.core.context import Context
+from physval.core.jobs import Job, Outcome, execute, failed, steps_of
+
+DEFAULT_JOB_TIMEOUT = 900.0  # s: the longest default job takes about a minute; on-demand ones minutes
+MIN_BATCH_STEPS = 20_000     # Dask: ~100 ms of stepping at >= 5 us a step, so scheduling stays small
+START_METHODS = ("fork", "spawn", "forkserver")
+
+
+class ExecutorError(RuntimeError):
+    """The executor cannot start (e.g. an unreachable Dask scheduler): bad input."""
+
+
+def default_start_method() -> str:
+    """Linux: forkserver (Python's default from 3.14; workers start from a clean process);
+    elsewhere the platform's default (spawn)."""
+    return "forkserver" if sys.platform.startswith("linux") else mp.get_start_method()
+
+
+# --- the worker process --------------------------------------------------------------------
+
+def _die_with_parent() -> None:
+    """Exit when the process that started this one dies (the main process, or under
+    forkserver the fork server, which exits with the main process): at once on Linux (the
+    kernel's parent-death signal), and within half a second anywhere (a watchdog thread)."""
+    parent = os.getppid()
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+            libc = ctypes.CDLL("libc.so.6", use_errno=True)
+            libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+
+    def watch():
+        while True:
+            if os.getppid() != parent:
+                os._exit(1)
+            time.sleep(0.5)
+
+    threading.Thread(target=watch, daemon=True).start()
+
+
+def _worker(conn, ctx: Context) -> None:
+    _die_with_parent()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)   # the main process handles interrupts
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    resolver = ctx.resolver()
+    while True:
+        try:
+            job = conn.recv()
+        except (EOFError, OSError):
+            return
+        if job is None:
+            return
+        conn.send(execute(job, resolver))
+
+
+def _signal_name(exitcode: int | None) -> str:
+    if exitcode is None:
+        return "it stopped answering"
+    if exitcode < 0:
+        try:
+            return f"killed by signal {signal.Signals(-exitcode).name} ({-exitcode})"
+        except ValueError:
+            return f"killed by signal {-exitcode}"
+    return f"it exited with code {exitcode}"
+
+
+class _Slot:
+    """One worker process and the job it is running."""
+
+    def __init__(self, mpctx, ctx: Context):
+        self.conn, child = mpctx.Pipe()
+        self.process = mpctx.Process(target=_worker, args=(child, ctx), daemon=True)
+        self.process.start()
+        child.close()
+        self.job: Job | None = None
+        self.started = 0.0
+
+    def give(self, job: Job) -> None:
+        """Hand a job over (a worker that died meanwhile is found by its sentinel)."""
+        self.job, self.started = job, time.monotonic()
+        try:
+            self.conn.send(job)
+        except (BrokenPipeError, OSError):
+            pass
+
+    def kill(self) -> None:
+        if self.process.is_alive():
+            self.process.kill()
+        self.process.join(timeout=2)
+        self.conn.close()
+
+
+class LocalExecutor:
+    """Jobs on `workers` local processes, each job in a worker, crashes and time-outs
+    isolated. Use as a context manager; `run(jobs)` yields outcomes as jobs finish."""
+
+    def __init__(self, ctx: Context = Context(), workers: int = 1, job_timeout: float | None = DEFAULT_JOB_TIMEOUT,
+                 start_method: str | None = None):
+        self.ctx = ctx
+        self.workers = max(1, workers)
+        self.job_timeout = job_timeout or None
+        self.mpctx = mp.get_context(start_method or default_start_method())
+        if self.mpctx.get_start_method() == "forkserver":
+            self.mpctx.set_forkserver_preload(["physval.core.jobs"])
+        self._slots: list[_Slot] = []
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self) -> None:
+        """Stop every worker at once (what has finished is already with the caller)."""
+        for s in self._slots:
+            s.kill()
+        self._slots = []
+
+    def run(self, jobs) -> "collections.abc.Iterator[Outcome]":
+        resolver = self.ctx.resolver()
+        queue = collections.deque(jobs)
+        try:
+            while queue or any(s.job for s in self._slots):
+                while queue and len(self._slots) < self.workers:
+                    self._slots.append(_Slot(self.mpctx, self.ctx))
+                for s in self._slots:
+                    if s.job is None and queue:
+                        s.give(queue.popleft())
+                busy = [s for s in self._slots if s.job is not None]
+                waits = {s.conn: s for s in busy} | {s.process.sentinel: s for s in busy}
+                ready = mp.connection.wait(list(waits), timeout=self._next_deadline(busy))
+                done = set()
+                for r in ready:
+                    s = waits[r]
+                    if s in done:
+                        continue
+                    outcome = self._collect(s, resolver)
+                    if outcome is not None:
+                        done.add(s)
+                        yield outcome
+                for s in busy:
+                    if s in done or s.job is None or self.job_timeout is None:
+                        continue
+                    if time.monotonic() - s.started > self.job_timeout:
+                        job = s.job
+                        self._replace(s)
+                        yield failed(job, resolver, "error",
+                                     f"the job ran longer than the per-job time limit of {self.job_timeout:g} s "
+                                     "(--job-timeout) and was stopped")
+        finally:
+            self.close()
+
+    def _next_deadline(self, busy) -> float | None:
+        if self.job_timeout is None or not busy:
+            return None
+        left = min(s.started + self.job_timeout - time.monotonic() for s in busy)
+        return max(0.0, min(left, 1.0))
+
+    def _collect(self, s: _Slot, resolver) -> Outcome | None:
+        """The finished job's outcome, or the rows of a job whose worker died."""
+        try:
+            if s.conn.poll():
+                outcome = s.conn.recv()
+                s.job = None
+                return outcome
+        except (EOFError, OSError):
+            pass
+        if s.process.is_alive():
+            return None  # woken by the pipe without a whole message: wait again
+        s.process.join(timeout=1)
+        job, why = s.job, _signal_name(s.process.exitcode)
+        self._replace(s)
+        return failed(job, resolver, "error", f"the worker process running this job died: {why}")
+
+    def _replace(self, s: _Slot) -> None:
+        s.kill()
+        self._slots.remove(s)
+
+
+# --- Dask ----------------------------------------------------------------------------------
+
+def _run_batch(jobs: list[Job], ctx: Context) -> list[Outcome]:
+    resolver = ctx.resolver()
+    return [execute(j, resolver) for j in jobs]
+
+
+class DaskExecutor:
+    """Jobs in batches on an existing Dask distributed cluster."""
+
+    def __init__(self, address: str, ctx: Context = Context(), connect_timeout: float = 3.0):
+        try:
+            from distributed import Client
+        except ImportError:
+            raise ExecutorError("--scheduler needs dask's distributed package: pip install 'dask[distributed]'") from None
+        self.ctx = ctx
+        try:
+            self.client = Client(address, timeout=connect_timeout, set_as_default=False)
+        except (OSError, TimeoutError, ValueError, TypeError) as exc:
+            raise ExecutorError(f"--scheduler {address}: cannot reach a Dask scheduler there within "
+                                f"{connect_timeout:g} s ({type(exc).__name__}: {exc})") from None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self) -> None:
+        if getattr(self, "client", None) is not None:
+            self.client.close()
+            self.client = None
+
+    def batches(self, jobs: list[Job]) -> list[list[Job]]:
+        """Consecutive jobs grouped until each batch holds at least MIN_BATCH_STEPS steps."""
+        resolver = self.ctx.resolver()
+        out, current, steps = [], [], 0
+        for j in jobs:
+            current.append(j)
+            steps += steps_of(j, resolver.family(j.family)) * (1 + dict(j.probe_args).get("repeats", 0))
+            if steps >= MIN_BATCH_STEPS:
+                out.append(current)
+                current, steps = [], 0
+        if current:
+            out.append(current)
+        return out
+
+    def run(self, jobs):
+        from distributed import as_completed
+        resolver = self.ctx.resolver()
+        pending = {}
+        for batch in self.batches(list(jobs)):
+            pending[self.client.submit(_run_batch, batch, self.ctx, pure=False, retries=0)] = batch
+        seq = as_completed(list(pending), loop=self.client.loop)
+        try:
+            for fut in seq:
+                batch = pending.pop(fut)
+                try:
+                    outcomes = fut.result()
+                except Exception as exc:  # a worker that died under the batch (KilledWorker) or lost it
+                    if len(batch) > 1:  # split: each job alone, so only the guilty one is lost
+                        for j in batch:
+                            f = self.client.submit(_run_batch, [j], self.ctx, pure=False, retries=0)
+                            pending[f] = [j]
+                            seq.add(f)
+                        continue
+                    outcomes = [failed(batch[0], resolver, "error",
+                                       f"the Dask worker running this job failed: {type(exc).__name__}: {exc}")]
+                yield from outcomes
+        finally:
+            for fut in pending:
+                fut.cancel()
+
+
+def make_executor(ctx: Context, workers: int = 1, scheduler: str | None = None,
+                  job_timeout: float | None = DEFAULT_JOB_TIMEOUT, start_method: str | None = None):
+    """A Dask executor for `scheduler`, else local worker processes."""
+    if scheduler:
+        return DaskExecutor(scheduler, ctx)
+    return LocalExecutor(ctx, workers, job_timeout, start_method)

@@ -1,0 +1,250 @@
+"""One job: a case variant on an engine at given settings, built, stepped, recorded and
+judged by one function, `execute`. Every command (run, sweep, stress, bench, the
+engine-wide readings) is a selection of jobs run through it.
+
+`execute` never raises: an engine that cannot represent the scene, blows up or crashes
+gives rows with status `unsupported`, `unstable` or `error`, with the reason, and the
+caller goes on. A crash that kills the process (a segfault) is caught one level up, by
+the executor, which runs every job in a worker process.
+"""
+from __future__ import annotations
+
+import importlib
+import json
+import math
+import traceback
+from dataclasses import dataclass, field
+
+from adapters.base import Settings, SettingsError, Unsupported
+from cases.family import CaseFamily, Check, Variant
+from cases.trajectory import TrajectoryError
+from physval import deviations
+from physval.core.context import Resolver
+from physval.core.record import Run, Unstable, simulate
+from physval.core.verdicts import blank_row, judge
+
+
+@dataclass(frozen=True)
+class Job:
+    """What to run. `dt` None: the family's; `iterations` None: the adapter's default;
+    `options`: engine-specific settings (Settings.options) as sorted (name, value) pairs;
+    `probe`: "module:function" of a reading taken in the worker while the job runs
+    (function(job) -> Probe), with `probe_args` as sorted (name, value) pairs."""
+    family: str
+    variant: Variant
+    engine: str
+    dt: float | None = None
+    iterations: int | None = None
+    options: tuple = ()
+    probe: str | None = None
+    probe_args: tuple = ()
+    warmup: int = 0  # steps left out of the timing
+
+    @property
+    def test_id(self) -> str:
+        return f"{self.variant.test_id}-{self.engine}"
+
+    @property
+    def key(self) -> str:
+        """Unique per job: the case, engine and every setting that changes what is measured."""
+        parts = [f"dt={self.dt:.6g}" if self.dt else "dt=default",
+                 f"it={self.iterations}" if self.iterations else "it=default"]
+        parts += [f"{k}={v}" for k, v in self.options]
+        if self.probe:
+            parts.append(f"probe={self.probe.rsplit(':', 1)[-1]}" + "".join(f",{k}={v}" for k, v in self.probe_args))
+        if self.warmup:
+            parts.append(f"warmup={self.warmup}")
+        return f"{self.test_id}@{';'.join(parts)}"
+
+
+@dataclass
+class Outcome:
+    job: Job
+    rows: list[dict]
+    extra: dict = field(default_factory=dict)  # what the job's probe read
+    exception: str | None = None               # the exception type the engine raised, if any
+
+
+class Probe:
+    """A reading taken in the worker while a job runs (physics-law residuals, timing
+    repeats, a final-state hash, ...). `forces`: read contact forces every step."""
+    forces = False
+
+    def on_step(self, sim, k: int) -> None:
+        """At the start (k = 0) and after each step k (called only if a subclass defines it)."""
+
+    def after(self, run: Run, sim, rebuild) -> dict:
+        """Values to return once the run is done; `rebuild()` builds the same scene again."""
+        return {}
+
+
+# --- settings ------------------------------------------------------------------------------
+
+def time_step(job: Job, family: CaseFamily) -> float:
+    """The job's time step: its own, else the family's for the variant."""
+    return job.dt or family.dt_for(job.variant.params)
+
+
+def steps_of(job: Job, family: CaseFamily) -> int:
+    return max(1, int(round(family.duration(job.variant.params) / time_step(job, family))))
+
+
+def settings_of(job: Job, family: CaseFamily) -> Settings:
+    return Settings(dt=time_step(job, family), iterations=job.iterations, options=dict(job.options))
+
+
+def at_recorded_settings(job: Job, family: CaseFamily) -> bool:
+    """Known-deviation bands are recorded at the family's dt and default iterations."""
+    return (job.dt is None or job.dt == family.dt_for(job.variant.params)) and job.iterations is None \
+        and not job.options
+
+
+# --- rows ----------------------------------------------------------------------------------
+
+def describe(exc: BaseException) -> str:
+    """'Type: first line of the message (at file:line)'."""
+    where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
+    loc = f" (at {where.filename.rsplit('/', 1)[-1]}:{where.lineno})" if where else ""
+    text = str(exc).splitlines()[0] if str(exc) else ""
+    return f"{type(exc).__name__}: {text}{loc}"
+
+
+def checks_of(job: Job, family: CaseFamily) -> list[Check]:
+    return family.expect(job.variant.params, time_step(job, family))
+
+
+def job_rows(job: Job, family: CaseFamily, status: str, reason: str, checks=None, **fields) -> list[dict]:
+    """Rows of every check of a job that did not get as far as a measurement."""
+    dt = time_step(job, family)
+    base = {"dt": dt, "iterations": job.iterations or "", "status": status, "reason": reason}
+    return [blank_row(family.name, job.variant, job.engine, c, **{**base, **fields})
+            for c in (checks if checks is not None else checks_of(job, family))]
+
+
+def failed(job: Job, resolver: Resolver, status: str, reason: str) -> Outcome:
+    """The outcome of a job that produced nothing (e.g. its worker process died)."""
+    family = resolver.family(job.family)
+    try:
+        rows = job_rows(job, family, status, reason)
+    except Exception as exc:  # the family's own expect() fails: one row says so
+        rows = [{"case": job.family, "variant": job.variant.id, "engine": job.engine, "metric": "-",
+                 "status": "error", "reason": f"{reason}; and expect() raised {describe(exc)}"}]
+    return Outcome(job, rows)
+
+
+# --- executing one job ---------------------------------------------------------------------
+
+def execute(job: Job, resolver: Resolver) -> Outcome:
+    """Build, step, record and judge one job. Never raises."""
+    family = resolver.family(job.family)
+    params = job.variant.params
+    where = f"{family.module_file} ({family.name}[{job.variant.id}])"
+    try:
+        settings = settings_of(job, family)
+        checks = checks_of(job, family)
+        scene = family.scene(params)
+        needs = family.needs_of(params)
+    except SettingsError as exc:
+        return Outcome(job, job_rows(job, family, "error", str(exc)))
+    except Exception as exc:  # the case's own code
+        return failed(job, resolver, "error", f"the case's code raised {describe(exc)} in {where}")
+    base = {"effects": ",".join(sorted(scene.effects))}
+
+    def rows_with(status: str, reason: str, **extra) -> list[dict]:
+        return job_rows(job, family, status, reason, checks, **base, **extra)
+
+    try:
+        adapter = resolver.adapter(job.engine)
+    except Exception as exc:  # unknown or not installed
+        return Outcome(job, rows_with("unsupported", str(exc)))
+    try:
+        base["engine_version"] = adapter.version()
+    except Exception:
+        base["engine_version"] = "unknown"
+    why_not = adapter.capabilities.cannot_run(scene, needs)
+    if why_not:
+        return Outcome(job, rows_with("unsupported", why_not))
+    probe = _probe(job)
+    try:
+        sim = adapter.build(scene, settings)
+    except Unsupported as exc:
+        return Outcome(job, rows_with("unsupported", str(exc)))
+    except Exception as exc:  # an engine crash while building: recorded, the run goes on
+        return Outcome(job, rows_with("error", "the engine failed to build the scene: " + describe(exc)),
+                       exception=type(exc).__name__)
+    known = resolver.known(job.engine)
+    steps = steps_of(job, family)
+    extra: dict = {}
+    try:
+        with sim:
+            run = simulate(sim, scene, settings.dt, steps, forces="contact_forces" in needs or probe.forces,
+                           warmup=job.warmup, on_step=probe.on_step if type(probe).on_step is not Probe.on_step else None)
+            extra = probe.after(run, sim, lambda: adapter.build(scene, settings))
+    except Unstable as exc:
+        return Outcome(job, rows_with("unstable", str(exc), knobs=_knobs(getattr(sim, "knobs", {}))))
+    except Exception as exc:
+        return Outcome(job, _raised(job, family, checks, known, exc, base), exception=type(exc).__name__)
+    timing = {"wall_s": run.wall_s, "sim_s": run.steps * settings.dt, "steps": run.steps,
+              "iterations": "" if run.iterations is None else run.iterations,
+              "effects_simulated": ",".join(sorted(run.effects)), "knobs": _knobs(run.knobs)}
+    try:
+        measured = family.observe(run.trajectory, params)
+        if not hasattr(measured, "get"):
+            raise TypeError(f"observe() returned {type(measured).__name__}, not a dict of metrics")
+    except TrajectoryError as exc:
+        return Outcome(job, rows_with("error", f"observe() in {where}: {exc}", **timing), extra)
+    except Exception as exc:
+        return Outcome(job, rows_with("error", f"observe() in {where} raised {describe(exc)}", **timing), extra)
+    bands_apply = at_recorded_settings(job, family)
+    rows = []
+    for c in checks:
+        fields = {**base, **timing}
+        value = measured.get(c.metric)
+        if c.metric not in measured:
+            rows.append(blank_row(family.name, job.variant, job.engine, c, status="error", dt=settings.dt,
+                                  reason=f"observe() in {where} gave no {c.metric!r}", **fields))
+            continue
+        number = _number(value)
+        if number is None or not math.isfinite(number):
+            rows.append(blank_row(family.name, job.variant, job.engine, c, status="error", dt=settings.dt,
+                                  reason=f"observe() in {where} gave {c.metric} = {value!r}: not a finite number",
+                                  **fields))
+            continue
+        entry = deviations.find(known, family.name, job.variant.id, c.metric)
+        rows.append(blank_row(family.name, job.variant, job.engine, c, dt=settings.dt,
+                              **fields, **judge(c, number, job.engine, job.variant.id, entry, bands_apply)))
+    return Outcome(job, rows, extra)
+
+
+def _raised(job, family, checks, known, exc, base) -> list[dict]:
+    """Rows of a run the engine aborted with an exception: each check whose recorded band
+    says the run raises exactly this is that known deviation; otherwise all are errors."""
+    name = type(exc).__name__
+    entries = [deviations.find(known, family.name, job.variant.id, c.metric) for c in checks]
+    bands = [e.band(job.engine, job.variant.id, c.metric) if e else None for e, c in zip(entries, checks)]
+    if all(b is not None and b.holds(exception=name) for b in bands):
+        return [blank_row(family.name, job.variant, job.engine, c, status="deviation", dt=time_step(job, family),
+                          known_deviation=e.reason, band=b.describe(), iterations=job.iterations or "",
+                          reason=f"{e.reason} [{describe(exc)}]", **base)
+                for c, e, b in zip(checks, entries, bands)]
+    return job_rows(job, family, "error", "the engine raised " + describe(exc), checks, **base)
+
+
+def _number(value) -> float | None:
+    if isinstance(value, bool):
+        return None
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return None
+
+
+def _knobs(knobs: dict) -> str:
+    return json.dumps(knobs, sort_keys=True, default=str)
+
+
+def _probe(job: Job) -> Probe:
+    if not job.probe:
+        return Probe()
+    module, name = job.probe.split(":")
+    return getattr(importlib.import_module(module), name)(job)

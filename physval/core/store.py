@@ -1,0 +1,141 @@
+"""The streaming row store: a CSV file that rows are appended to as jobs finish (one write
+per job), so an interrupted command keeps every finished job, and the same command run
+again recomputes none of them.
+
+Each row carries its job's key, the number of rows the job wrote (so a job cut short by a
+kill is recognised and run again) and a cache key: the fingerprint of the code that
+produced it (every source file of physval, cases, adapters, reference_impl, the known
+deviations, and a user's case files, adapters and --known files) with the engine's
+version. A row whose cache key differs from the current one is stale and run again.
+"""
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import os
+from collections import defaultdict
+from pathlib import Path
+
+from physval.reportkit import write_atomic
+
+STORE_COLUMNS = ["job", "job_rows", "cache_key"]
+PACKAGES = ("physval", "cases", "adapters", "reference_impl")
+
+
+class StoreError(ValueError):
+    """The store's file is not one of ours (bad --out): the message names it."""
+
+
+def fingerprint(extra_files=()) -> str:
+    """SHA-256 (16 hex digits) of the project's source and deviation files and `extra_files`."""
+    root = Path(__file__).resolve().parents[2]
+    files = []
+    for pkg in PACKAGES:
+        files += sorted((root / pkg).rglob("*.py")) + sorted((root / pkg).rglob("xfails/*.txt"))
+    files += [Path(f) for f in extra_files]
+    h = hashlib.sha256()
+    for f in files:
+        if f.is_file():
+            h.update(str(f.relative_to(root) if f.is_relative_to(root) else f).encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()[:16]
+
+
+class RowStore:
+    """Rows of finished jobs in `path`, with `columns` (plus STORE_COLUMNS)."""
+
+    def __init__(self, path: Path, columns: list[str]):
+        self.path = Path(path)
+        self.columns = list(columns) + [c for c in STORE_COLUMNS if c not in columns]
+        self.rows: dict[str, list[dict]] = {}   # job key -> rows, complete jobs only
+        self._check()
+
+    def _check(self) -> None:
+        if self.path.exists() and not self.path.is_file():
+            raise StoreError(f"{self.path}: exists and is not a file")
+        if self.path.exists() and self.path.stat().st_size:
+            with open(self.path, newline="") as fh:
+                header = next(csv.reader(fh), [])
+            missing = [c for c in STORE_COLUMNS if c not in header]
+            if missing:
+                raise StoreError(f"{self.path}: not a file physval can resume (no {', '.join(missing)} column): "
+                                 "choose another --out folder or remove the file")
+
+    def load(self, cache_key_of) -> int:
+        """Read finished jobs whose cache key is `cache_key_of(job rows' first row)`;
+        return how many. The file is rewritten without cut-short or stale jobs."""
+        if not self.path.exists() or not self.path.stat().st_size:
+            return 0
+        text = self.path.read_text()
+        if not text.endswith("\n"):  # a write cut short by a kill: drop the tail
+            text = text[:text.rfind("\n") + 1]
+        by_job = defaultdict(list)
+        for r in csv.DictReader(io.StringIO(text)):
+            by_job[r["job"]].append(r)
+        for key, rows in by_job.items():
+            try:
+                whole = len(rows) == int(rows[0]["job_rows"])
+            except ValueError:
+                whole = False
+            if whole and rows[0]["cache_key"] == cache_key_of(rows[0]):
+                self.rows[key] = rows
+        self._write([r for rows in self.rows.values() for r in rows])
+        return len(self.rows)
+
+    def append(self, key: str, rows: list[dict], cache_key: str) -> None:
+        """Add one finished job's rows: one write, flushed to disk."""
+        stamped = [{**r, "job": key, "job_rows": len(rows), "cache_key": cache_key} for r in rows]
+        buf = io.StringIO()
+        writer = csv.DictWriter(buf, self.columns, extrasaction="ignore")
+        new = not self.path.exists() or not self.path.stat().st_size
+        if new:
+            writer.writeheader()
+        writer.writerows(stamped)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with open(self.path, "a", newline="") as fh:
+            fh.write(buf.getvalue())
+            fh.flush()
+            os.fsync(fh.fileno())
+        self.rows[key] = stamped
+
+    def finalize(self, keys: list[str]) -> list[dict]:
+        """Rewrite the file with the rows of `keys` only, in that order; return them."""
+        rows = [r for k in keys for r in self.rows.get(k, [])]
+        self._write(rows)
+        return rows
+
+    def _write(self, rows: list[dict]) -> None:
+        buf = io.StringIO()
+        writer = csv.DictWriter(buf, self.columns, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
+        write_atomic(self.path, buf.getvalue())
+
+
+def cache_keys(ctx, engines: list[str]) -> dict[str, str]:
+    """Per engine: the fingerprint of the code that measures (with a user's case files,
+    ad-hoc adapter files and --known files), and the engine's version."""
+    resolver = ctx.resolver()
+    files = [f for d in ctx.cases_dirs for f in sorted(Path(d).glob("*.py"))] + [Path(f) for f in ctx.known_files]
+    for spec in ctx.adapters:
+        where = spec.rsplit(":", 1)[0]
+        if where.endswith(".py"):
+            files.append(Path(where))
+    fp = fingerprint(files)
+    out = {}
+    for e in engines:
+        try:
+            out[e] = f"{fp}:{resolver.adapter(e).version()}"
+        except Exception:
+            out[e] = f"{fp}:not installed"
+    return out
+
+
+def cache_dir() -> Path:
+    """Where engine-wide readings are cached across runs: $PHYSVAL_CACHE_DIR, else
+    $XDG_CACHE_HOME/physval, else ~/.cache/physval."""
+    if os.environ.get("PHYSVAL_CACHE_DIR"):
+        return Path(os.environ["PHYSVAL_CACHE_DIR"])
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "physval"

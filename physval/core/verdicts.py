@@ -1,0 +1,94 @@
+"""Verdicts: how a measured value is judged against its closed form and the known
+deviations, and the rows that carry the verdicts (the columns of results.csv).
+
+Statuses:
+- pass         within the check's tolerance;
+- fail         outside it and not a recorded deviation (or a recorded one whose measured
+               value left its band: the deviation changed);
+- deviation    outside the tolerance, inside the band a known-deviation entry records
+               for exactly this check (physval/deviations.py);
+- unsupported  the engine cannot represent the scene (the reason says why);
+- unstable     the engine's own state became NaN or infinite, or blew up;
+- error        an exception: in the engine (a crash), or in the case's own code
+               (an observer that raised or returned no finite number), named in the reason.
+"""
+from __future__ import annotations
+
+import math
+
+from cases.family import Check
+from physval import deviations
+
+STATUSES = ("pass", "fail", "deviation", "unsupported", "unstable", "error")
+
+COLUMNS = ["case", "variant", "params", "engine", "engine_version", "dt", "iterations", "effects",
+           "effects_simulated", "metric", "unit", "expected", "measured", "abs_error", "rel_error",
+           "tolerance", "tolerance_kind", "tolerance_reason", "status", "reason", "known_deviation",
+           "band", "wall_s", "sim_s", "steps", "knobs"]
+
+
+def errors(expected: float, measured: float) -> tuple[float, float]:
+    """(absolute, relative) error; relative is NaN when the expected value is 0."""
+    if measured is None or not math.isfinite(measured):
+        return math.nan, math.nan
+    abs_err = abs(measured - expected)
+    rel_err = abs_err / abs(expected) if expected != 0 else math.nan
+    return abs_err, rel_err
+
+
+def within(check: Check, abs_err: float, rel_err: float) -> bool:
+    """True when the error the check's tolerance bounds is within it."""
+    err = abs_err if check.kind == "abs" else rel_err
+    return math.isfinite(err) and err <= check.tolerance
+
+
+def error_over_tolerance(check: Check, abs_err: float, rel_err: float) -> float:
+    """How many tolerances away the measurement is (1 = at the edge); for ranking."""
+    err = abs_err if check.kind == "abs" else rel_err
+    if not math.isfinite(err):
+        return math.inf
+    return err / check.tolerance if check.tolerance > 0 else (0.0 if err == 0 else math.inf)
+
+
+def judge(c: Check, value: float, engine: str, variant: str, entry: deviations.Deviation | None,
+          bands_apply: bool = True) -> dict:
+    """The verdict fields of one check measured at `value` (a finite number). `entry` is
+    the first known-deviation entry whose pattern matches the check; `bands_apply` is
+    False at settings other than those bands are recorded at (the family's dt, the
+    adapter's default iterations)."""
+    abs_err, rel_err = errors(c.expected, value)
+    size = abs_err if c.kind == "abs" else rel_err
+    band = entry.band(engine, variant, c.metric) if entry else None
+    fields = dict(measured=value, abs_error=abs_err, rel_error=rel_err,
+                  known_deviation=entry.reason if entry else "", band=band.describe() if band else "")
+    outside = f"{c.kind} error {size:.3g} > tolerance {c.tolerance:.3g}"
+    if within(c, abs_err, rel_err):
+        return dict(fields, status="pass")
+    if entry is None:
+        return dict(fields, status="fail", reason=outside)
+    where = f"known deviation {entry.pattern} ({entry.where})"
+    if band is None:
+        return dict(fields, status="fail", reason=(
+            f"{outside}; matches {where} but no band is recorded for this check on {engine}: "
+            f"`physval known {engine}` measures it"))
+    if not bands_apply:
+        return dict(fields, status="fail", reason=(
+            f"{outside}; {where} is recorded at the family's dt and the adapter's default iterations only"))
+    if band.holds(value):
+        return dict(fields, status="deviation", reason=(
+            f"{entry.reason} [measured {value:.6g} {c.unit} in the recorded band {band.describe()}; "
+            f"expected {c.expected:.6g}: {outside}]"))
+    return dict(fields, status="fail", reason=(
+        f"known deviation changed: recorded {band.describe()}, measured {value:.6g} {c.unit} "
+        f"({where}: {entry.reason})"))
+
+
+def blank_row(case: str, variant, engine: str, check: Check, **fields) -> dict:
+    """A row of one check with every column present (empty where not known)."""
+    row = {c: "" for c in COLUMNS}
+    row.update(case=case, variant=variant.id, params=variant.params_json, engine=engine,
+               metric=check.metric, unit=check.unit, expected=check.expected, tolerance=check.tolerance,
+               tolerance_kind=check.kind, tolerance_reason=check.why, measured=math.nan,
+               abs_error=math.nan, rel_error=math.nan)
+    row.update(fields)
+    return row

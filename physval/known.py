@@ -1,0 +1,158 @@
+"""`physval known ENGINE`: measure an engine's known deviations and write their bands.
+
+For every entry of the engine's deviation file (or of a `--file`), the command runs each
+variant the entry's pattern can match, at the family's dt and the adapter's default
+iterations, and records a band line for every matched check that misses its tolerance
+(or a `raises EXCEPTION` line for a run the engine aborts). The cause on the entry line
+stays as the person who measured it wrote it. Without `--write` it only says what would
+change. It also lists failing checks no entry covers (write an entry with its cause) and
+entries that no longer cover anything (remove or narrow them).
+"""
+from __future__ import annotations
+
+import math
+import sys
+from fnmatch import fnmatchcase
+from pathlib import Path
+
+import pandas as pd
+
+from physval import cli, deviations
+from physval.core import COLUMNS, Job
+from physval.core.session import Execution, run_stored
+from physval.core.store import cache_dir
+from physval.core.verdicts import errors
+from physval.reportkit import write_atomic
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "known", help="measure engines' known deviations and write their bands",
+        formatter_class=cli.argparse.RawDescriptionHelpFormatter,
+        description=__doc__.split("\n\n", 1)[1],
+        epilog="examples:\n  physval known mujoco                 what would change in adapters/xfails/mujoco.txt\n"
+               "  physval known mujoco --write         write the bands\n"
+               "  physval known 'drake-*' --write\n"
+               "  physval known mujoco --file my_known.txt --cases-dir my_cases --write")
+    p.add_argument("engines", nargs="+", metavar="ENGINE", help="engines (names or globs)")
+    p.add_argument("--file", metavar="FILE", help="a known-deviation file of your own instead of each engine's")
+    p.add_argument("--write", action="store_true", help="write the measured bands into the file")
+    p.add_argument("--full", action="store_true", help="also variants of the families' full grids")
+    p.add_argument("--cases-dir", action="append", metavar="DIR", help="also load case families from DIR")
+    p.add_argument("--adapter", action="append", metavar="MODULE:CLASS", help="also use this adapter")
+    cli.add_execution(p, str(cache_dir()))
+    p.set_defaults(func=cmd_known)
+
+
+def deviating(row: dict) -> bool:
+    """A judged check whose measurement misses its tolerance."""
+    try:
+        expected, measured, tol = float(row["expected"]), float(row["measured"]), float(row["tolerance"])
+    except (TypeError, ValueError):
+        return False
+    if not math.isfinite(measured):
+        return False
+    abs_err, rel_err = errors(expected, measured)
+    err = abs_err if row["tolerance_kind"] == "abs" else rel_err
+    return not (math.isfinite(err) and err <= tol)
+
+
+def measured_bands(engine: str, entries: list[deviations.Deviation], rows_by_job: dict, raised: dict) -> dict:
+    """Entry line -> the bands a fresh run measures for `engine` (first matching entry wins)."""
+    out: dict[int, list[deviations.Band]] = {e.line: [] for e in entries}
+    for key, rows in rows_by_job.items():
+        exc = raised.get(key)
+        for r in rows:
+            entry = deviations.find(entries, r["case"], r["variant"], r["metric"])
+            if entry is None:
+                continue
+            if exc and r["status"] in ("error", "deviation"):
+                out[entry.line].append(deviations.Band(engine, r["variant"], r["metric"], raises=exc))
+            elif r["status"] in ("pass", "fail", "deviation") and deviating(r):
+                e, m, t = float(r["expected"]), float(r["measured"]), float(r["tolerance"])
+                out[entry.line].append(deviations.Band(engine, r["variant"], r["metric"], m,
+                                                       deviations.band_width(e, m, t)))
+    return out
+
+
+def cmd_known(args) -> int:
+    ctx = cli.context_of(args)
+    resolver = ctx.resolver()
+    engines = cli.engines_of(args, ctx, default=[])
+    if args.file and not Path(args.file).is_file():
+        raise cli.UsageError(f"--file {args.file!r}: not a file")
+    cli.check_scheduler(args.scheduler)
+    families = resolver.families
+    changed = 0
+    for engine in engines:
+        path = Path(args.file) if args.file else resolver.adapter(engine).deviations_file()
+        if path is None or not path.exists():
+            print(f"{engine}: no known-deviation file ({path})")
+            continue
+        entries = deviations.parse(path)
+        jobs = []
+        for fam_name in dict.fromkeys(e.family for e in entries):
+            fam = families.get(fam_name)
+            if fam is None:
+                print(f"{engine}: {path.name}: no family {fam_name!r}", file=sys.stderr)
+                continue
+            mine = [e for e in entries if e.family == fam_name]
+            for v in fam.all_variants if args.full else fam.variants:
+                if any(fnmatchcase(v.id, e.variant) for e in mine):
+                    jobs.append(Job(fam_name, v, engine))
+        raised = {}
+        res, _ = run_stored(jobs, ctx, cache_dir() / "known.csv", COLUMNS, Execution.of(args), label=f"known {engine}",
+                            on_outcome=lambda o: o.exception and raised.__setitem__(o.job.key, o.exception))
+        if not res.complete:
+            return 130
+        rows_by_job = {j.key: res.rows[j.key] for j in jobs}
+        new = measured_bands(engine, entries, rows_by_job, raised)
+        bands_of = {e.line: [b for b in e.bands if b.engine != engine] + new[e.line] for e in entries}
+        print(f"{engine}: {path}")
+        for e in entries:
+            before = {(b.variant, b.metric): b for b in e.bands if b.engine == engine}
+            after = {(b.variant, b.metric): b for b in new[e.line]}
+            moved = [k for k in after if k in before and not before[k].holds(after[k].value, after[k].raises)]
+            if not after and any(k for k in before):
+                print(f"  line {e.line} {e.pattern}: no check deviates any more: remove or narrow the entry")
+            elif not after:
+                print(f"  line {e.line} {e.pattern}: matches no deviating check on {engine}")
+            if set(after) != set(before) or moved:
+                changed += 1
+                print(f"  line {e.line} {e.pattern}: {len(before)} -> {len(after)} bands"
+                      + (f", {len(moved)} moved out of their band" if moved else ""))
+        loose = [r for rows in rows_by_job.values() for r in rows
+                 if deviating(r) and deviations.find(entries, r["case"], r["variant"], r["metric"]) is None]
+        for r in loose:
+            print(f"  unrecorded: {r['case']}[{r['variant']}]:{r['metric']} measured {float(r['measured']):.6g}, "
+                  f"expected {float(r['expected']):.6g}: write an entry with its cause")
+        if args.write:
+            write_atomic(path, deviations.rewrite(path, bands_of))
+    if not args.write and changed:
+        print("(nothing written: add --write to record these bands)")
+    return 0
+
+
+def stale_entries(df: pd.DataFrame, resolver) -> list[str]:
+    """Entries whose recorded checks now pass, that have no band, or that match no check of
+    a family that ran (at the settings bands are recorded at)."""
+    notes = []
+    ran_families = set(df.case)
+    for engine in dict.fromkeys(df.engine):
+        mine = df[df.engine == engine]
+        judged = {(r.case, r.variant, r.metric): r.status for r in mine.itertuples()}
+        for e in resolver.known(engine):
+            if e.family not in ran_families:
+                continue
+            hits = [k for k in judged if e.matches(*k)]
+            if not hits:
+                notes.append(f"{engine}: `{e.pattern}` ({e.where}) matched no check in this run")
+                continue
+            bands = [b for b in e.bands if b.engine == engine]
+            if not bands:
+                notes.append(f"{engine}: `{e.pattern}` ({e.where}) records no band: `physval known {engine} --write`")
+            passing = [b for b in bands if judged.get((e.family, b.variant, b.metric)) == "pass"]
+            if passing:
+                notes.append(f"{engine}: `{e.pattern}` ({e.where}): {len(passing)} recorded checks now pass "
+                             f"(e.g. [{passing[0].variant}]:{passing[0].metric}): `physval known {engine} --write`")
+    return notes

@@ -1,0 +1,334 @@
+"""`physval sweep`: what accuracy costs in time.
+
+For each case family (its `sweep_variants`) and engine, vary the time step and, where the
+engine has one, the solver iteration count; at each point record every check's error
+exactly as in the case's verdicts and the honest cost: wall time of stepping only per
+simulated second, scene construction and a warm-up excluded, the minimum over repeats.
+
+Every point is a job of the core (physval.core), so it runs on local workers or a Dask
+cluster, a crashing point costs only its own rows, and rows stream to `sweep.csv`: the
+same command run again recomputes no finished point.
+
+Error against cost: a point's accuracy is its worst check in units of that check's
+tolerance *at the family's default dt*: one fixed yardstick across the sweep (some
+tolerances scale with dt, which would otherwise move the goalposts). "Reaching the
+tolerance" means that worst error <= 1.
+"""
+from __future__ import annotations
+
+import json
+import math
+import re
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from physval import cli
+from physval.core import COLUMNS, Job, Probe, steps_of
+from physval.core.session import Execution, run_stored
+from physval.core.selection import select_variants
+from physval.reportkit import md_table, pyplot, save_figure, write_atomic
+
+# Time steps from 1/60 s (games) down to 1e-4 s (six values, about log-spaced).
+DTS = (1 / 60, 1 / 120, 1 / 240, 1e-3, 3e-4, 1e-4)
+# Solver iterations from starved to generous; engines without the setting get one value.
+ITERATIONS = (1, 2, 5, 10, 50)
+REPEATS = 3
+FLOOR = 1e-12  # errors below this (in tolerances) are round-off: left out of slope fits
+SWEEP_COLUMNS = COLUMNS + ["iterations_asked", "warmup_steps", "repeat_wall_s", "wall_per_sim_s"]
+
+
+def warmup_steps(n: int) -> int:
+    """Steps left out of the timing: the first 5 %, at least 10 (caches, lazy set-up)."""
+    return min(n - 1, max(10, n // 20))
+
+
+class Timing(Probe):
+    """The minimum stepping time over `repeats` runs of the same point (the recorded run is
+    the first), per simulated second of the timed steps."""
+
+    def __init__(self, job: Job):
+        self.repeats = int(dict(job.probe_args).get("repeats", REPEATS))
+        self.warmup = job.warmup
+        self.asked = "default" if job.iterations is None else job.iterations
+
+    def after(self, run, sim, rebuild) -> dict:
+        walls = [run.wall_s]
+        for _ in range(self.repeats - 1):
+            with rebuild() as again:
+                for _ in range(self.warmup):
+                    again.step()
+                t0 = time.perf_counter()
+                for _ in range(run.steps - self.warmup):
+                    again.step()
+                walls.append(time.perf_counter() - t0)
+        timed = (run.steps - self.warmup) * run.trajectory.dt
+        return {"iterations_asked": self.asked, "warmup_steps": self.warmup, "repeat_wall_s": json.dumps([round(w, 9) for w in walls]),
+                "wall_per_sim_s": min(walls) / timed}
+
+
+def points(chosen: dict, engines: list[str], resolver, full: bool = False, dts=DTS, iterations=ITERATIONS,
+           repeats: int = REPEATS) -> list[Job]:
+    """Every point of the sweep as a job. By default two axes through each engine's
+    defaults: dt over `dts` at the default iterations, and iterations over `iterations` at
+    the family's dt; `full` takes the whole dt x iterations grid. Points an engine cannot
+    represent, or declares too slow for a default run, are left out."""
+    out = []
+    for name, variants in chosen.items():
+        fam = resolver.family(name)
+        for eng in engines:
+            try:
+                adapter = resolver.adapter(eng)
+            except Exception:
+                continue
+            its = list(iterations) if adapter.capabilities.iterations else []
+            for v in variants:
+                scene = fam.scene(v.params)
+                if adapter.capabilities.cannot_run(scene, fam.needs_of(v.params)) or adapter.on_demand(scene):
+                    continue
+                grid = {(dt, None) for dt in dts}
+                grid |= {(dt, it) for dt in dts for it in its} if full else {(fam.dt_for(v.params), it) for it in its}
+                for dt, it in sorted(grid, key=lambda g: (-g[0], g[1] or 0)):
+                    job = Job(name, v, eng, dt, it, probe=f"{__name__}:Timing", probe_args=(("repeats", repeats),))
+                    out.append(Job(name, v, eng, dt, it, probe=job.probe, probe_args=job.probe_args,
+                                   warmup=warmup_steps(steps_of(job, fam))))
+    return out
+
+
+def sweep_variants(families: dict, names: list[str]) -> dict:
+    return {n: [v for v in families[n].all_variants
+                if v.id in (families[n].sweep_variants or (families[n].variants[0].id,))] for n in names}
+
+
+# --- analysis -------------------------------------------------------------------------------
+
+def point_table(df: pd.DataFrame, fams: dict) -> pd.DataFrame:
+    """One row per sweep point: settings, cost and worst error in default-dt tolerances."""
+    out = []
+    for key, grp in df.groupby("job", sort=False):
+        first = grp.iloc[0]
+        fam = fams[first.case]
+        params = json.loads(first.params)
+        yard = {c.metric: c for c in fam.expect(params, fam.dt_for(params))}
+        ok = grp.status.isin(["pass", "fail", "deviation"])
+        worst = math.nan
+        if ok.all():
+            errs = []
+            for r in grp.itertuples():
+                c = yard[r.metric]
+                e = float(r.abs_error) if c.kind == "abs" else float(r.rel_error)
+                errs.append(e / c.tolerance if c.tolerance > 0 else (0.0 if e == 0 else math.inf))
+            worst = max(errs)
+        cost = pd.to_numeric(first.get("wall_per_sim_s", math.nan), errors="coerce")
+        out.append({"point": key, "case": first.case, "variant": first.variant, "engine": first.engine,
+                    "dt": float(first["dt"]), "iterations": str(first.iterations_asked),
+                    "iterations_in_force": str(first.iterations),
+                    "cost_us_per_sim_s": float(cost) * 1e6, "worst_over_tol": worst,
+                    "status": "ok" if ok.all() else grp.status.iloc[0],
+                    "reason": "" if ok.all() else grp.reason.iloc[0]})
+    return pd.DataFrame(out)
+
+
+def pareto_front(points: pd.DataFrame) -> pd.DataFrame:
+    """The points no cheaper point beats in accuracy: the cheapest way to each accuracy."""
+    good = points[np.isfinite(points.worst_over_tol) & np.isfinite(points.cost_us_per_sim_s)]
+    front, best = [], math.inf
+    for r in good.sort_values(["cost_us_per_sim_s", "worst_over_tol"]).itertuples():
+        if r.worst_over_tol < best:
+            front.append(r.Index)
+            best = r.worst_over_tol
+    return good.loc[front]
+
+
+def _default_iterations(pts: pd.DataFrame) -> pd.DataFrame:
+    return pts[pts.iterations == "default"]
+
+
+def convergence_order(pts: pd.DataFrame) -> float:
+    """Slope of log(worst error) against log(dt) over the dt axis (default iterations);
+    NaN when fewer than three points are above round-off."""
+    axis = _default_iterations(pts)
+    axis = axis[np.isfinite(axis.worst_over_tol) & (axis.worst_over_tol > FLOOR)]
+    if axis["dt"].nunique() < 3:
+        return math.nan
+    return float(np.polyfit(np.log(axis["dt"]), np.log(axis.worst_over_tol), 1)[0])
+
+
+def summary(points: pd.DataFrame) -> pd.DataFrame:
+    """Per case variant and engine: order, best accuracy, and the cheapest setting that
+    reaches the tolerance."""
+    out = []
+    for (case, variant, engine), pts in points.groupby(["case", "variant", "engine"], sort=False):
+        usable = pts[np.isfinite(pts.worst_over_tol)]
+        reach = usable[usable.worst_over_tol <= 1.0].sort_values("cost_us_per_sim_s")
+        row = {"case": case, "variant": variant, "engine": engine, "order": convergence_order(pts),
+               "best_over_tol": usable.worst_over_tol.min() if len(usable) else math.nan,
+               "points": len(pts), "failed_points": int((pts.status != "ok").sum())}
+        if len(reach):
+            r = reach.iloc[0]
+            row.update(reach_dt=r["dt"], reach_iterations=r.iterations, reach_cost_us_per_sim_s=r.cost_us_per_sim_s)
+        out.append(row)
+    return pd.DataFrame(out)
+
+
+def sentence(s) -> str:
+    what = f"`{s.case}[{s.variant}]` on **{s.engine}**"
+    if isinstance(s.get("reach_dt"), float) and math.isfinite(s.reach_dt):
+        its = "" if s.reach_iterations == "default" else f" with {s.reach_iterations} iterations"
+        return (f"- {what}: to reach the case's tolerances it needs dt <= {s.reach_dt:.3g} s{its}, "
+                f"at {s.reach_cost_us_per_sim_s:,.0f} us per simulated second.")
+    if math.isfinite(s.best_over_tol):
+        return f"- {what}: no setting reached the tolerances; the best came within {s.best_over_tol:.3g} tolerances."
+    return f"- {what}: no point completed."
+
+
+# --- plots and report ---------------------------------------------------------------------
+
+def plot_cost(points: pd.DataFrame, case: str, variant: str, path: Path) -> None:
+    """Error against cost, log-log, one line per engine along its dt axis; iteration points
+    as open markers; each engine's Pareto front dashed."""
+    plt = pyplot()
+    sub = points[(points.case == case) & (points.variant == variant)]
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
+    for i, (eng, pts) in enumerate(sub.groupby("engine", sort=False)):
+        colour = f"C{i % 10}"
+        axis = _default_iterations(pts).sort_values("dt", ascending=False)
+        ax.plot(axis.cost_us_per_sim_s, np.clip(axis.worst_over_tol, FLOOR, None), "o-", color=colour, label=eng, ms=4)
+        its = pts[~pts.index.isin(axis.index)]
+        ax.plot(its.cost_us_per_sim_s, np.clip(its.worst_over_tol, FLOOR, None), "s", mfc="none", color=colour, ms=5)
+        front = pareto_front(pts)
+        ax.plot(front.cost_us_per_sim_s, np.clip(front.worst_over_tol, FLOOR, None), "--", color=colour, lw=0.8)
+    ax.axhline(1.0, color="black", lw=0.8, ls=":")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("cost: wall us per simulated second (stepping only, min of repeats)")
+    ax.set_ylabel("worst error / tolerance")
+    ax.set_title(f"{case}[{variant}]: error against cost\n(circles: dt axis; squares: iterations; dashed: Pareto front)",
+                 fontsize=9)
+    ax.legend(fontsize=7)
+    save_figure(fig, path)
+
+
+def plot_convergence(points: pd.DataFrame, case: str, variant: str, path: Path) -> None:
+    """Error against dt, log-log, with each engine's fitted slope in the legend."""
+    plt = pyplot()
+    sub = points[(points.case == case) & (points.variant == variant)]
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
+    for i, (eng, pts) in enumerate(sub.groupby("engine", sort=False)):
+        axis = _default_iterations(pts).sort_values("dt")
+        order = convergence_order(pts)
+        label = f"{eng} (slope {order:.2f})" if math.isfinite(order) else f"{eng} (exact or too few points)"
+        ax.plot(axis["dt"], np.clip(axis.worst_over_tol, FLOOR, None), "o-", color=f"C{i % 10}", label=label, ms=4)
+    ax.axhline(1.0, color="black", lw=0.8, ls=":")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("time step dt (s)")
+    ax.set_ylabel("worst error / tolerance")
+    ax.set_title(f"{case}[{variant}]: error against time step (default iterations)", fontsize=9)
+    ax.legend(fontsize=7)
+    save_figure(fig, path)
+
+
+def write_report(rows: list[dict], fams: dict, out: Path, command: str = "", complete: bool = True) -> pd.DataFrame:
+    out = Path(out)
+    df = pd.DataFrame(rows)
+    pts = point_table(df, fams) if len(df) else pd.DataFrame(
+        columns=["point", "case", "variant", "engine", "dt", "iterations", "cost_us_per_sim_s", "worst_over_tol",
+                 "status", "reason"])
+    write_atomic(out / "sweep_points.csv", pts.to_csv(index=False))
+    summ = summary(pts) if len(pts) else pd.DataFrame()
+    write_atomic(out / "sweep_summary.csv", summ.to_csv(index=False))
+    lines = ["# physval sweep: what accuracy costs in time", ""]
+    if command:
+        lines += [f"Command: `{command}`", ""]
+    if not complete:
+        lines += ["**INCOMPLETE: the sweep was interrupted.** Run the same command again to finish it.", ""]
+    lines += [f"{len(pts)} points ({(pts.status == 'ok').sum()} completed) over "
+              f"{pts.groupby(['case', 'variant']).ngroups if len(pts) else 0} case variants and "
+              f"{pts.engine.nunique() if len(pts) else 0} engines. "
+              "Cost is wall time of stepping only per simulated second (construction and a warm-up excluded, "
+              "minimum over repeats). Error is each point's worst check in units of its tolerance at the "
+              "family's default dt; every check's own error is in `sweep.csv`.", "", "## Answers", ""]
+    lines += [sentence(s) for _, s in summ.iterrows()] + [""]
+    for (case, variant), _ in (pts.groupby(["case", "variant"], sort=False) if len(pts) and complete else []):
+        slug = re.sub(r"[^A-Za-z0-9._-]+", "_", f"{case}_{variant}").strip("_")
+        plot_cost(pts, case, variant, out / "plots" / f"cost_{slug}.png")
+        plot_convergence(pts, case, variant, out / "plots" / f"dt_{slug}.png")
+        part = summ[(summ.case == case) & (summ.variant == variant)]
+        shown = pd.DataFrame({
+            "engine": part.engine,
+            "order (slope of log error vs log dt)": part.order.map(lambda x: f"{x:.2f}" if math.isfinite(x) else "-"),
+            "best error/tol": part.best_over_tol.map(lambda x: f"{x:.3g}"),
+            "cheapest dt reaching tol": part.get("reach_dt", pd.Series(dtype=float)).map(
+                lambda x: f"{x:.3g}" if isinstance(x, float) and math.isfinite(x) else "-"),
+            "its cost (us/sim s)": part.get("reach_cost_us_per_sim_s", pd.Series(dtype=float)).map(
+                lambda x: f"{x:,.0f}" if isinstance(x, float) and math.isfinite(x) else "-")})
+        lines += [f"## {case}[{variant}]", "", f"![error against cost](plots/cost_{slug}.png)",
+                  f"![error against dt](plots/dt_{slug}.png)", "", md_table(shown), ""]
+    bad = pts[pts.status != "ok"] if len(pts) else pts
+    if len(bad):
+        lines += ["## Points that did not complete", "",
+                  md_table(bad[["engine", "case", "variant", "dt", "iterations", "status", "reason"]]), ""]
+    write_atomic(out / "sweep_report.md", "\n".join(lines))
+    return summ
+
+
+# --- the command --------------------------------------------------------------------------
+
+def add_parser(sub) -> None:
+    sw = sub.add_parser(
+        "sweep", help="error against cost as the time step and solver iterations vary",
+        formatter_class=cli.argparse.RawDescriptionHelpFormatter,
+        description="For each case family (its sweep variants) and engine, vary dt over 1/60 .. 1e-4 s and solver "
+                    "iterations over 1 .. 50; record every check's error and the wall time of stepping per simulated "
+                    "second. Writes sweep.csv (streamed: re-running with the same arguments skips finished points), "
+                    "sweep_points.csv, sweep_summary.csv, sweep_report.md and plots/ into --out.",
+        epilog="examples:\n"
+               "  physval sweep                                   core families, installed engines, local workers\n"
+               "  physval sweep --cases incline_threshold --engines reference,mujoco --workers 2\n"
+               "  physval sweep --scheduler tcp://127.0.0.1:8786  on a running Dask cluster")
+    cli.add_selection(sw, "case families or variants (default: the families tagged core)",
+                      "engines (default: every installed engine but the slow pure-Python formulations; name "
+                      "reference-pgs, reference-spook, ... to sweep those)")
+    sw.add_argument("--full", action="store_true", help="the whole dt x iterations grid instead of two axes")
+    sw.add_argument("--repeats", type=cli.positive_int, default=REPEATS, metavar="N",
+                    help=f"timing repeats per point; the minimum counts (default {REPEATS})")
+    cli.add_execution(sw, "reports/sweep")
+    sw.set_defaults(func=cmd_sweep)
+
+
+def cmd_sweep(args) -> int:
+    ctx = cli.context_of(args)
+    resolver = ctx.resolver()
+    fams = resolver.families
+    if args.cases is None:
+        chosen = sweep_variants(fams, [n for n, f in fams.items() if "core" in f.tags])
+    else:
+        chosen = select_variants(fams, args.cases)
+        chosen = {n: [v for v in vs if v.id in (fams[n].sweep_variants or (fams[n].variants[0].id,))] or vs
+                  for n, vs in chosen.items()}
+    from adapters import registry
+    known = registry.engine_names(ctx.adapters)
+    default = [e for e in known if registry.available(e, ctx.adapters) and resolver.adapter(e).default_tags is None]
+    engines = cli.engines_of(args, ctx, default)
+    out = cli.output_folder(args.out)
+    cli.check_scheduler(args.scheduler)
+    jobs = points(chosen, engines, resolver, full=args.full, repeats=args.repeats)
+    if not jobs:
+        raise cli.UsageError(f"the selection has no sweep point: no selected engine ({', '.join(engines)}) can run "
+                             f"the selected variants ({', '.join(chosen)})")
+    say = (lambda t: None) if args.quiet else (lambda t: print(f"physval sweep: {t}", file=sys.stderr))
+    say(f"{len(jobs)} points ({len(chosen)} families x {len(engines)} engines) -> {out}/")
+    res, store = run_stored(jobs, ctx, out / "sweep.csv", SWEEP_COLUMNS, Execution.of(args), label="sweep")
+    say(f"{res.ran} points run, {res.reused} finished before")
+    finished = [j for j in jobs if j.key in res.rows]
+    rows = store.finalize([j.key for j in finished])
+    write_report(rows, fams, out, command=cli.command_line(), complete=res.complete)
+    if not res.complete:
+        print(f"physval sweep: interrupted ({res.interrupted}); run the same command again to finish", file=sys.stderr)
+        return 130
+    print(f"wrote {out / 'sweep.csv'}, {out / 'sweep_report.md'}, {out / 'plots'}/")
+    return 0

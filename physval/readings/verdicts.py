@@ -1,0 +1,177 @@
+"""The verdicts of a run, as report sections: the summary (engines, then the reference
+formulations), known deviations with their recorded bands beside today's measurement,
+failures, unsupported runs, one section per family (what it checks, where its closed form
+comes from, every tolerance with its reason, a plot and a table of measured values),
+the engine settings and the stepping cost.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from physval.reportkit import (STATUS_MARK, deviation_summary, deviation_table, fmt, md_table, problems_section,
+                               pyplot, save_figure, summary_matrix, unsupported_section)
+
+FORMULATION_PREFIX = "reference-"  # the reference's other formulations, summarised apart from the engines
+
+
+def engine_groups(df: pd.DataFrame) -> list[tuple[str, list[str]]]:
+    engines = list(dict.fromkeys(df.engine))
+    plain = [e for e in engines if not e.startswith(FORMULATION_PREFIX)]
+    forms = [e for e in engines if e.startswith(FORMULATION_PREFIX)]
+    return [(t, g) for t, g in (("Engines", plain), ("Reference formulations", forms)) if g]
+
+
+def plot_summary(df: pd.DataFrame, engines: list[str], path: Path, title: str) -> None:
+    """Heat map of the worst error/tolerance per family and engine (log colour scale)."""
+    plt = pyplot()
+    fams = sorted(df[df.engine.isin(engines)].case.unique())
+    worst = np.full((len(fams), len(engines)), np.nan)
+    for i, f in enumerate(fams):
+        for j, e in enumerate(engines):
+            vals = df[(df.case == f) & (df.engine == e)].over_tol.dropna()
+            if len(vals):
+                worst[i, j] = max(vals.max(), 1e-6)
+    fig, ax = plt.subplots(figsize=(1.3 * len(engines) + 3.4, 0.42 * len(fams) + 1.8), layout="constrained")
+    im = ax.imshow(np.log10(np.clip(worst, 1e-3, 1e3)), cmap="RdYlGn_r", vmin=-3, vmax=3, aspect="auto")
+    ax.set_xticks(range(len(engines)), engines, rotation=30, ha="right")
+    ax.set_yticks(range(len(fams)), fams, fontsize=8)
+    for i in range(len(fams)):
+        for j in range(len(engines)):
+            text = "n/a" if np.isnan(worst[i, j]) else f"{worst[i, j]:.2g}"
+            ax.text(j, i, text, ha="center", va="center", fontsize=7)
+    fig.colorbar(im, ax=ax, label="log10(worst error / tolerance)")
+    ax.set_title(f"{title}: worst error in tolerances (<1: within tolerance)", fontsize=10)
+    save_figure(fig, path)
+
+
+def plot_family(df: pd.DataFrame, family: str, path: Path) -> None:
+    """One row per check (variant: metric), one column per engine, coloured by the error in
+    tolerances, each cell labelled with that number and the status."""
+    plt = pyplot()
+    sub = df[df.case == family]
+    engines = list(dict.fromkeys(sub.engine))
+    checks = list(dict.fromkeys(zip(sub.variant, sub.metric)))
+    grid = np.full((len(checks), len(engines)), np.nan)
+    label = [[""] * len(engines) for _ in checks]
+    index = {c: i for i, c in enumerate(checks)}
+    for r in sub.itertuples():
+        i, j = index[(r.variant, r.metric)], engines.index(r.engine)
+        if math.isfinite(r.over_tol):
+            grid[i, j] = max(r.over_tol, 1e-6)
+        elif r.status in ("fail", "deviation"):
+            grid[i, j] = 1e3
+        mark = STATUS_MARK[r.status]
+        label[i][j] = f"{r.over_tol:.2g} {mark}" if math.isfinite(r.over_tol) else mark
+    fig, ax = plt.subplots(figsize=(1.25 * len(engines) + 4.5, 0.24 * len(checks) + 1.6), layout="constrained")
+    ax.imshow(np.log10(np.clip(grid, 1e-3, 1e3)), cmap="RdYlGn_r", vmin=-3, vmax=3, aspect="auto")
+    ax.set_xticks(range(len(engines)), engines, rotation=30, ha="right", fontsize=8)
+    ax.set_yticks(range(len(checks)), [f"[{v}] {m}" for v, m in checks], fontsize=7)
+    for i in range(len(checks)):
+        for j in range(len(engines)):
+            ax.text(j, i, label[i][j], ha="center", va="center", fontsize=6)
+    ax.set_title(f"{family}: error / tolerance per check (green < 1 <= red; pass, dev = known deviation, FAIL)",
+                 fontsize=9)
+    save_figure(fig, path)
+
+
+def family_table(df: pd.DataFrame, family: str) -> pd.DataFrame:
+    sub = df[df.case == family]
+    engines = list(dict.fromkeys(df.engine))
+    out = []
+    for (variant, metric), grp in sub.groupby(["variant", "metric"], sort=False):
+        first = grp.iloc[0]
+        line = {"variant": variant, "metric": f"{metric} [{first.unit}]", "expected": fmt(first.expected),
+                "tolerance": f"{fmt(first.tolerance)} {first.tolerance_kind}"}
+        for eng in engines:
+            r = grp[grp.engine == eng]
+            if not len(r):
+                continue
+            r = r.iloc[0]
+            shown = fmt(r.measured) if r.status in ("pass", "fail", "deviation") else ""
+            line[eng] = f"{shown} {STATUS_MARK[r.status]}".strip()
+        out.append(line)
+    return pd.DataFrame(out)
+
+
+def tolerance_reasons(df: pd.DataFrame, family: str) -> pd.DataFrame:
+    """Each check's tolerance reason once (the size varies by variant, the reason is the same)."""
+    sub = df[df.case == family].drop_duplicates(["metric", "tolerance_reason"])
+    return pd.DataFrame({"metric": sub.metric, "tolerance": sub.tolerance_kind, "why this size": sub.tolerance_reason})
+
+
+def summary_sections(df: pd.DataFrame, plots: Path) -> list[str]:
+    lines = ["## Summary", "",
+             "Each cell: status counts and the worst error in units of tolerance (below 1: within tolerance). "
+             "Statuses: **pass** within the tolerance; **FAIL** outside it, or a known deviation whose measured "
+             "size left its recorded band; **dev** a known engine shortfall within its recorded band; **n/a** "
+             "the engine cannot represent the scene; **UNSTABLE** the engine's state blew up; **ERROR** an "
+             "exception, named in `results.csv`.", ""]
+    for title, engines in engine_groups(df):
+        slug = "summary" if title == "Engines" else "summary_formulations"
+        plot_summary(df, engines, plots / f"{slug}.png", title)
+        lines += [f"### {title}", "", md_table(summary_matrix(df[df.engine.isin(engines)], engines)), "",
+                  f"![{title}](plots/{slug}.png)", ""]
+    return lines
+
+
+def deviation_sections(df: pd.DataFrame, stale: list[str]) -> list[str]:
+    lines = ["## Known deviations", "",
+             "Each engine's known shortfalls (`adapters/xfails/<engine>.txt`, a plug-in's own file, or a "
+             "`--known` file): one row per engine and cause, then every check with the band its size was "
+             "recorded in and the value measured now. A measurement outside its band is a `FAIL` (the deviation "
+             "changed); `physval known ENGINE` measures the bands again.", ""]
+    if (df.status == "deviation").any():
+        lines += [md_table(deviation_summary(df)), "", "<details><summary>Every known deviation, band against "
+                  "measurement</summary>", "", md_table(deviation_table(df)), "", "</details>", ""]
+    else:
+        lines += ["_(none in this run)_", ""]
+    if stale:
+        lines += ["Entries that no longer deviate or match nothing:", ""] + [f"- {s}" for s in stale] + [""]
+    return lines
+
+
+def family_sections(df: pd.DataFrame, families: dict, plots: Path) -> list[str]:
+    lines = ["## Families", ""]
+    for name in sorted(df.case.unique()):
+        fam = families.get(name)
+        first = df[df.case == name].iloc[0]
+        plot_family(df, name, plots / f"{name}.png")
+        lines += [f"### {name}", ""]
+        if fam is not None:
+            lines += [f"{fam.summary[:1].upper() + fam.summary[1:]}." if fam.summary else "", "",
+                      f"Closed form: {fam.source}." if fam.source else "", ""]
+        lines += [f"Effects simulated: {first.effects or 'none'}.", "", "Tolerances:", "",
+                  md_table(tolerance_reasons(df, name)), "", f"![{name}](plots/{name}.png)", "",
+                  "<details><summary>Measured values</summary>", "", md_table(family_table(df, name)), "",
+                  "</details>", ""]
+    return lines
+
+
+def settings_section(df: pd.DataFrame) -> list[str]:
+    lines = ["## Engine settings", "",
+             "The knobs each adapter set (engine's own names), from one run per engine; every run's "
+             "record is in the `knobs` column of `results.csv`.", ""]
+    for eng, grp in df[df.knobs != ""].groupby("engine", sort=False):
+        lines += [f"<details><summary>{eng} (effects simulated in that run: {grp.iloc[0].effects_simulated})"
+                  "</summary>", "", "```", json.dumps(json.loads(grp.iloc[0].knobs), indent=1, sort_keys=True),
+                  "```", "", "</details>", ""]
+    return lines
+
+
+def cost_section(df: pd.DataFrame) -> list[str]:
+    timing = df.drop_duplicates(["case", "variant", "engine"])
+    steps = pd.to_numeric(timing.steps, errors="coerce")
+    timing = timing[steps > 0].assign(steps=steps[steps > 0])
+    if not len(timing):
+        return []
+    t = timing.groupby("engine", sort=False).apply(
+        lambda g: pd.Series({"runs": len(g), "steps": int(g.steps.sum()),
+                             "us per step (median over runs)": float(np.median(g.wall_s / g.steps) * 1e6)}),
+        include_groups=False).reset_index()
+    return ["## Cost", "", "Wall time of stepping only (scene construction excluded), all families "
+            "together; see `physval sweep` for error against cost.", "", md_table(t), ""]
