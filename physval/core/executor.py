@@ -70,6 +70,8 @@ def _worker(conn, ctx: Context) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)   # the main process handles interrupts
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     resolver = ctx.resolver()
+    resolver.families  # loaded before the first job's clock starts
+    conn.send("ready")
     while True:
         try:
             job = conn.recv()
@@ -101,6 +103,7 @@ class _Slot:
         child.close()
         self.job: Job | None = None
         self.started = 0.0
+        self.ready = False  # the worker has loaded the families and waits for jobs
 
     def give(self, job: Job) -> None:
         """Hand a job over (a worker that died meanwhile is found by its sentinel)."""
@@ -128,7 +131,7 @@ class LocalExecutor:
         self.job_timeout = job_timeout or None
         self.mpctx = mp.get_context(start_method or default_start_method())
         if self.mpctx.get_start_method() == "forkserver":
-            self.mpctx.set_forkserver_preload(["physval.core.jobs"])
+            self.mpctx.set_forkserver_preload(["physval.core.preload"])
         self._slots: list[_Slot] = []
 
     def __enter__(self):
@@ -146,26 +149,40 @@ class LocalExecutor:
     def run(self, jobs) -> "collections.abc.Iterator[Outcome]":
         resolver = self.ctx.resolver()
         queue = collections.deque(jobs)
+        failed_starts = 0
         try:
             while queue or any(s.job for s in self._slots):
                 while queue and len(self._slots) < self.workers:
                     self._slots.append(_Slot(self.mpctx, self.ctx))
                 for s in self._slots:
-                    if s.job is None and queue:
+                    if s.ready and s.job is None and queue:
                         s.give(queue.popleft())
-                busy = [s for s in self._slots if s.job is not None]
-                waits = {s.conn: s for s in busy} | {s.process.sentinel: s for s in busy}
-                ready = mp.connection.wait(list(waits), timeout=self._next_deadline(busy))
+                watched = [s for s in self._slots if s.job is not None or not s.ready]
+                waits = {s.conn: s for s in watched} | {s.process.sentinel: s for s in watched}
+                ready = mp.connection.wait(list(waits), timeout=self._next_deadline(watched))
                 done = set()
                 for r in ready:
                     s = waits[r]
                     if s in done:
                         continue
+                    if not s.ready:  # a starting worker: its greeting, or its death
+                        if self._greeted(s):
+                            failed_starts = 0
+                        elif not s.process.is_alive():
+                            done.add(s)
+                            self._replace(s)
+                            failed_starts += 1
+                            if failed_starts > 3 * self.workers:
+                                why = _signal_name(s.process.exitcode)
+                                while queue:
+                                    yield failed(queue.popleft(), resolver, "error",
+                                                 f"worker processes die as they start ({why})")
+                        continue
                     outcome = self._collect(s, resolver)
                     if outcome is not None:
                         done.add(s)
                         yield outcome
-                for s in busy:
+                for s in watched:
                     if s in done or s.job is None or self.job_timeout is None:
                         continue
                     if time.monotonic() - s.started > self.job_timeout:
@@ -177,7 +194,17 @@ class LocalExecutor:
         finally:
             self.close()
 
-    def _next_deadline(self, busy) -> float | None:
+    @staticmethod
+    def _greeted(s: _Slot) -> bool:
+        try:
+            if s.conn.poll() and s.conn.recv() == "ready":
+                s.ready = True
+        except (EOFError, OSError):
+            pass
+        return s.ready
+
+    def _next_deadline(self, watched) -> float | None:
+        busy = [s for s in watched if s.job is not None]
         if self.job_timeout is None or not busy:
             return None
         left = min(s.started + self.job_timeout - time.monotonic() for s in busy)

@@ -1,0 +1,206 @@
+"""The execution core under faults: a job that segfaults, aborts or hangs costs only its own
+rows (with one worker and with two); an interrupted run stops promptly, keeps every
+finished row on disk, leaves no process behind and resumes without recomputing; workers
+exit when their parent dies; every start method runs the same jobs."""
+from __future__ import annotations
+
+import csv
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+from physval.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+
+# A user family of six variants, k = 0..5: a ball falls for 0.2 s; its observer sleeps
+# `nap` seconds after a real run (not the one-step dry run), and variant `crash` makes the
+# worker die the way a crashing engine would (a segfault, or an abort). The faults are
+# read from faults.json beside the file when the observer runs (a worker's environment is
+# its fork server's, not the test's).
+FAMILY = textwrap.dedent("""
+    import ctypes, json, os, pathlib, time
+    from cases.family import CaseFamily, Check
+    from cases.scene import Body, Scene, Sphere
+
+    def observe(traj, p):
+        if len(traj.t) > 2:
+            faults = json.loads((pathlib.Path(__file__).parent / "faults.json").read_text())
+            NAP, CRASH, HOW, HANG = (faults.get(k, d) for k, d in (("nap", 0), ("crash", -1), ("how", "segfault"),
+                                                                    ("hang", -1)))
+            time.sleep(NAP)
+            if p["k"] == CRASH:
+                if HOW == "segfault":
+                    ctypes.string_at(0)            # reads address 0: SIGSEGV
+                os.abort()                          # SIGABRT
+            if p["k"] == HANG:
+                time.sleep(3600)
+        return {"vz": float(traj.vel("ball")[-1, 2])}
+
+    FAMILY = CaseFamily(
+        name="faulty_fall", summary="a ball falls", source="symplectic Euler",
+        grid=tuple({"k": k} for k in range(6)),
+        scene=lambda p: Scene(bodies=(Body("ball", Sphere(0.1), mass=1.0, position=(0, 0, 10), rotates=False),)),
+        duration=lambda p: 0.2, observe=observe,
+        expect=lambda p, dt: [Check("vz", "m/s", -9.81 * round(0.2 / dt) * dt, 1e-9, "abs", "v_n = -g n dt exactly")],
+        variant_id=lambda p: f"k={p['k']}")
+""")
+
+
+@pytest.fixture
+def cases_dir(tmp_path):
+    folder = tmp_path / "cases"
+    folder.mkdir()
+    (folder / "faulty_fall.py").write_text(FAMILY)
+    (folder / "faults.json").write_text("{}")
+    return folder
+
+
+def _faults(folder: Path, **faults) -> None:
+    import json
+    (folder / "faults.json").write_text(json.dumps(faults))
+
+
+def _rows(out: Path) -> dict[str, list[dict]]:
+    by = {}
+    for r in csv.DictReader(open(out / "results.csv")):
+        by.setdefault(r["variant"], []).append(r)
+    return by
+
+
+@pytest.mark.parametrize("how", ["segfault", "abort"])
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_crashing_job_costs_only_its_own_rows(cases_dir, tmp_path, workers, how):
+    _faults(cases_dir, crash=2, how=how)
+    out = tmp_path / "out"
+    code = main(["run", "--cases-dir", str(cases_dir), "--cases", "faulty_fall", "--engines", "reference",
+                 "--workers", str(workers), "--quiet", "--out", str(out)])
+    assert code == 0
+    rows = _rows(out)
+    assert sorted(rows) == [f"k={k}" for k in range(6)]
+    (crashed,) = rows["k=2"]
+    signame = "SIGSEGV" if how == "segfault" else "SIGABRT"
+    assert crashed["status"] == "error" and "worker process running this job died" in crashed["reason"]
+    assert signame in crashed["reason"]
+    assert all(r["status"] == "pass" for k, rs in rows.items() if k != "k=2" for r in rs)
+
+
+def test_a_job_over_the_time_limit_is_stopped_and_the_others_run(cases_dir, tmp_path):
+    _faults(cases_dir, hang=4)
+    out = tmp_path / "out"
+    t0 = time.monotonic()
+    assert main(["run", "--cases-dir", str(cases_dir), "--cases", "faulty_fall", "--engines", "reference",
+                 "--workers", "2", "--job-timeout", "2", "--quiet", "--out", str(out)]) == 0
+    assert time.monotonic() - t0 < 30
+    rows = _rows(out)
+    assert rows["k=4"][0]["status"] == "error" and "per-job time limit of 2 s" in rows["k=4"][0]["reason"]
+    assert all(r["status"] == "pass" for k, rs in rows.items() if k != "k=4" for r in rs)
+
+
+def _descendants(pid: int) -> set[int]:
+    """Every process below `pid` (from /proc)."""
+    children: dict[int, list[int]] = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                ppid = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue
+            children.setdefault(ppid, []).append(int(entry.name))
+    out, todo = set(), [pid]
+    while todo:
+        for c in children.get(todo.pop(), []):
+            out.add(c)
+            todo.append(c)
+    return out
+
+
+def _alive(pids: set[int]) -> set[int]:
+    alive = set()
+    for p in pids:
+        try:
+            state = Path(f"/proc/{p}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        except OSError:
+            continue
+        if state != "Z":
+            alive.add(p)
+    return alive
+
+
+def _start(cases_dir: Path, out: Path, nap: float, workers: int = 2) -> subprocess.Popen:
+    _faults(cases_dir, nap=nap)
+    return subprocess.Popen([sys.executable, "-m", "physval", "run", "--cases-dir", str(cases_dir), "--cases",
+                             "faulty_fall", "--engines", "reference", "--workers", str(workers), "--out", str(out)],
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _wait_for_rows(out: Path, n: int, proc: subprocess.Popen, limit: float = 60.0) -> None:
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < limit:
+        path = out / "results.csv"
+        if path.exists() and sum(1 for _ in open(path)) - 1 >= n:
+            return
+        assert proc.poll() is None, proc.communicate()
+        time.sleep(0.05)
+    raise AssertionError("no rows appeared")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_an_interrupted_run_keeps_its_rows_leaves_no_process_and_resumes(cases_dir, tmp_path, sig):
+    out = tmp_path / "out"
+    proc = _start(cases_dir, out, nap=1.5)
+    _wait_for_rows(out, 2, proc)
+    family = _descendants(proc.pid)
+    assert family, "the run has worker processes"
+    t0 = time.monotonic()
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=10)
+    assert time.monotonic() - t0 < 2.0, "stops within 2 s"
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "run the same command again" in err
+    time.sleep(0.5)
+    assert not _alive(family), "no worker survives the interrupt"
+    kept = _rows(out)
+    assert 2 <= len(kept) < 6 and all(r["status"] == "pass" for rs in kept.values() for r in rs)
+    assert "INCOMPLETE" in (out / "report.md").read_text()
+    assert not [p for p in out.rglob(".*") if p.is_file()], "no temporary file is left"
+    # the same command again: the finished jobs are not recomputed
+    again = _start(cases_dir, out, nap=0.0)
+    _, err = again.communicate(timeout=120)
+    assert again.returncode == 0, err
+    assert f"{6 - len(kept)} to run, {len(kept)} finished before" in err
+    assert sorted(_rows(out)) == [f"k={k}" for k in range(6)]
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_workers_exit_when_their_parent_is_killed(cases_dir, tmp_path):
+    proc = _start(cases_dir, tmp_path / "out", nap=3.0)
+    t0 = time.monotonic()
+    while not _descendants(proc.pid) and time.monotonic() - t0 < 30:
+        time.sleep(0.05)
+    time.sleep(1.0)  # workers busy in a job
+    family = _descendants(proc.pid)
+    assert family
+    proc.kill()  # SIGKILL: no cleanup in the parent at all
+    proc.communicate()
+    t0 = time.monotonic()
+    while _alive(family) and time.monotonic() - t0 < 5:
+        time.sleep(0.1)
+    assert not _alive(family), "workers outlived their parent"
+
+
+@pytest.mark.parametrize("method", ["fork", "spawn", "forkserver"])
+def test_every_start_method_runs_the_same_jobs(cases_dir, tmp_path, method):
+    out = tmp_path / method
+    assert main(["run", "--cases-dir", str(cases_dir), "--cases", "faulty_fall[k=1],faulty_fall[k=3]",
+                 "--engines", "reference", "--workers", "2", "--start-method", method, "--quiet",
+                 "--out", str(out)]) == 0
+    rows = _rows(out)
+    assert sorted(rows) == ["k=1", "k=3"] and all(r["status"] == "pass" for rs in rows.values() for r in rs)
