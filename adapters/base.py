@@ -145,6 +145,11 @@ class Simulation(ABC):
         """(samples, bodies, 13) state rows (cases.trajectory layout) from stacked raw rows."""
         return raw.reshape(len(raw), -1, 13)
 
+    # An engine that can step many times in one call may implement run(): the harness then
+    # uses it where nothing is read between steps (no contact forces, no per-step reading).
+    # The result must be bit for bit that of step() and write_state() in turn.
+    run = None  # run(steps: int, out: np.ndarray) -> None: out[k] is the raw state after step k + 1
+
     @abstractmethod
     def contact_forces(self) -> dict[tuple[str, str], float]:
         """Normal force (N) per touching pair (cases.scene.pair_key) over the last step."""

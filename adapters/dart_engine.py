@@ -257,6 +257,58 @@ class DartSimulation(Simulation):
         finally:
             self._output.end((2,))
 
+    # Bulk reads (adapters.base): per body its skeleton's joint positions then velocities
+    # (two calls), decoded by joint type. Read off dartpy 6.20 and checked against states()
+    # (tests/test_bulk_reads.py): a FreeJoint's positions are the rotation vector then the
+    # world translation, its velocities the world angular then linear velocity; a PlanarJoint
+    # in the z-x plane has (z, x, angle about +y); translational joints keep the start
+    # orientation (carried on the child side) and have world coordinates.
+    _DOFS = {"FreeJoint": 6, "TranslationalJoint": 3, "PlanarJoint": 3, "TranslationalJoint2D": 2}
+
+    def _reader(self):
+        if not hasattr(self, "_read"):
+            self._read = []
+            for name, node in self._nodes.items():
+                kind = self._knobs["joints"][name]
+                q0 = np.asarray(node.getWorldTransform().quaternion().wxyz(), float)
+                self._read.append((name, node.getSkeleton(), kind, self._DOFS[kind], q0))
+        return self._read
+
+    def body_order(self) -> list[str]:
+        return [r[0] for r in self._reader()]
+
+    def state_size(self) -> int:
+        return sum(2 * r[3] for r in self._reader())
+
+    def write_state(self, out: np.ndarray) -> None:
+        i = 0
+        for _, skeleton, _, n, _ in self._reader():
+            out[i:i + n] = skeleton.getPositions()
+            out[i + n:i + 2 * n] = skeleton.getVelocities()
+            i += 2 * n
+
+    def decode_states(self, raw: np.ndarray) -> np.ndarray:
+        out = np.zeros((len(raw), len(self._reader()), 13))
+        i = 0
+        for b, (_, _, kind, n, q0) in enumerate(self._reader()):
+            q, dq, row = raw[:, i:i + n], raw[:, i + n:i + 2 * n], out[:, b]
+            i += 2 * n
+            if kind == "FreeJoint":
+                rv = q[:, 0:3]
+                angle = np.linalg.norm(rv, axis=1)
+                scale = np.where(angle > 1e-12, np.sin(angle / 2) / np.where(angle > 1e-12, angle, 1.0), 0.5)
+                row[:, 3], row[:, 4:7] = np.cos(angle / 2), rv * scale[:, None]
+                row[:, 0:3], row[:, 10:13], row[:, 7:10] = q[:, 3:6], dq[:, 0:3], dq[:, 3:6]
+            elif kind == "TranslationalJoint":
+                row[:, 0:3], row[:, 3:7], row[:, 7:10] = q, q0, dq
+            elif kind == "PlanarJoint":  # (z, x, angle about +y)
+                row[:, 0], row[:, 2], row[:, 7], row[:, 9] = q[:, 1], q[:, 0], dq[:, 1], dq[:, 0]
+                row[:, 3], row[:, 5], row[:, 11] = np.cos(q[:, 2] / 2), np.sin(q[:, 2] / 2), dq[:, 2]
+            else:  # TranslationalJoint2D, (z, x)
+                row[:, 0], row[:, 2], row[:, 7], row[:, 9] = q[:, 1], q[:, 0], dq[:, 1], dq[:, 0]
+                row[:, 3:7] = q0
+        return out
+
     def states(self) -> dict[str, np.ndarray]:
         rows = {}
         for name, node in self._nodes.items():

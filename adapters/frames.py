@@ -18,3 +18,28 @@ def state_row(pos, quat_wxyz, vel, omega_world) -> np.ndarray:
     """The 13-number state row of cases.trajectory."""
     return np.concatenate([np.asarray(pos, float), np.asarray(quat_wxyz, float),
                            np.asarray(vel, float), np.asarray(omega_world, float)])
+
+
+# --- many samples at once (Simulation.decode_states) -------------------------------------
+
+def rotate_many(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Vectors v (n, 3) turned by unit quaternions q (n, 4, w-x-y-z):
+    v + w t + u x t with t = 2 u x v."""
+    w, u = q[:, :1], q[:, 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def multiply_many(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Quaternion products a b, each (n, 4) w-x-y-z (b may be one quaternion (4,))."""
+    b = np.broadcast_to(b, a.shape)
+    aw, ax, ay, az = a.T
+    bw, bx, by, bz = b.T
+    return np.stack([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw], axis=1)
+
+
+def about_y_many(angle: np.ndarray) -> np.ndarray:
+    """Rotations by `angle` (n,) about +y as (n, 4) quaternions."""
+    z = np.zeros_like(angle)
+    return np.stack([np.cos(angle / 2), z, np.sin(angle / 2), z], axis=1)

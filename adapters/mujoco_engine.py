@@ -30,8 +30,10 @@ from xml.sax.saxutils import quoteattr
 
 import mujoco
 import numpy as np
+from mujoco import rollout as _rollout
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
+from adapters.frames import about_y_many, multiply_many, rotate_many
 from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
 
@@ -379,6 +381,8 @@ class MuJoCoSimulation(Simulation):
         # contacts come from <pair>s only: which carry friction rows (condim 3)
         rubs = model.pair_dim > 1
         self._rubs = "all" if rubs.all() else "some" if rubs.any() else "none"
+        self._nq, self._qpos, self._qvel = model.nq, d.qpos, d.qvel  # views into MjData, for write_state
+        self._state = self._buffer = self._warm = None  # run()'s buffers
         mujoco.mj_forward(model, d)  # start-state quantities, so build cost stays out of step()
         self.effects = self._built_effects(knobs)
 
@@ -421,6 +425,63 @@ class MuJoCoSimulation(Simulation):
                 else:
                     row[3:7] = q0
                 out[name] = row
+        return out
+
+    # Bulk reads (adapters.base): the raw state is qpos then qvel, two copies a step.
+    def body_order(self) -> list[str]:
+        return [b[0] for b in self._bodies]
+
+    def state_size(self) -> int:
+        return self._model.nq + self._model.nv
+
+    def write_state(self, out: np.ndarray) -> None:
+        out[:self._nq] = self._qpos
+        out[self._nq:] = self._qvel
+
+    def run(self, steps: int, out: np.ndarray) -> None:
+        """`steps` mj_steps in one call of MuJoCo's rollout (its C loop, which records each
+        step's state), continued from the current state and warm start: bit for bit the
+        same as mj_step in turn (tests/test_bulk_reads.py)."""
+        m, d = self._model, self._data
+        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+        if self._state is None or self._buffer.shape[1] < steps:
+            self._state = np.empty((1, mujoco.mj_stateSize(m, spec)))
+            self._buffer = np.empty((1, steps, self._state.shape[1]))
+            self._warm = np.empty((1, m.nv))
+        mujoco.mj_getState(m, d, self._state[0], spec)
+        self._warm[0] = d.qacc_warmstart
+        full = self._buffer[:, :steps]
+        if not full.flags.c_contiguous:
+            full = np.empty((1, steps, self._state.shape[1]))
+        _rollout.rollout([m], [d], self._state, nstep=steps, initial_warmstart=self._warm, state=full,
+                         skip_checks=True)
+        full = full[0]
+        out[:, :self._nq] = full[:, 1:1 + self._nq]
+        out[:, self._nq:] = full[:, 1 + self._nq:1 + self._nq + m.nv]
+        warm = d.qacc_warmstart.copy()
+        mujoco.mj_setState(m, d, full[-1], spec)  # continue from the last step, as mj_step leaves it
+        d.qacc_warmstart[:] = warm
+
+    def decode_states(self, raw: np.ndarray) -> np.ndarray:
+        nq = self._nq
+        qpos, qvel = raw[:, :nq], raw[:, nq:]
+        out = np.zeros((len(raw), len(self._bodies), 13))
+        for i, (name, qa, va, held) in enumerate(self._bodies):
+            row = out[:, i]
+            if held is None:  # free joint: world position, quat, world velocity, BODY-frame omega
+                row[:, 0:7] = qpos[:, qa:qa + 7]
+                row[:, 7:10] = qvel[:, va:va + 3]
+                row[:, 10:13] = rotate_many(row[:, 3:7], qvel[:, va + 3:va + 6])
+                continue
+            p0, q0, slides, hinge = held
+            ns = len(slides)
+            row[:, 0:3] = p0 + qpos[:, qa:qa + ns] @ slides
+            row[:, 7:10] = qvel[:, va:va + ns] @ slides
+            if hinge:  # turns the start orientation about world y
+                row[:, 3:7] = multiply_many(about_y_many(qpos[:, qa + ns]), q0)
+                row[:, 11] = qvel[:, va + ns]
+            else:
+                row[:, 3:7] = q0
         return out
 
     # MuJoCo's contact conventions, read in its source (google-deepmind/mujoco,

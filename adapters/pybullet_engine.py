@@ -392,6 +392,28 @@ class PyBulletSimulation(Simulation):
             out[name] = state_row(pos, xyzw_to_wxyz(quat), vel, omega)
         return out
 
+    # Bulk reads (adapters.base): per body Bullet's own position, quaternion x-y-z-w,
+    # velocity and world angular velocity, copied as they come; reordered when decoded.
+    def body_order(self) -> list[str]:
+        return [name for name, _, _ in self._dynamic]
+
+    def write_state(self, out: np.ndarray) -> None:
+        c, i = self._client, 0
+        for name, uid, link in self._dynamic:
+            if link < 0:
+                pos, quat = p.getBasePositionAndOrientation(uid, physicsClientId=c)
+                vel, omega = p.getBaseVelocity(uid, physicsClientId=c)
+                out[i:i + 13] = pos + quat + vel + omega
+            else:
+                s = p.getLinkState(uid, link, computeLinkVelocity=1, computeForwardKinematics=1, physicsClientId=c)
+                out[i:i + 13] = s[0] + s[1] + s[6] + s[7]
+            i += 13
+
+    def decode_states(self, raw: np.ndarray) -> np.ndarray:
+        out = raw.reshape(len(raw), -1, 13).copy()
+        out[:, :, 3:7] = out[:, :, [6, 3, 4, 5]]  # x-y-z-w -> w-x-y-z
+        return out
+
     def _solved_points(self):
         """(a, b, row) for each getContactPoints row the solver processed this step: both
         bodies are the scene's and distance <= contactProcessingThreshold. The others keep

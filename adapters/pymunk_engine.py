@@ -158,6 +158,7 @@ class PymunkSimulation(Simulation):
             shapes[body.name].collision_type = kind  # one per body: handlers are per pair
             if body.dynamic:
                 self._bodies[body.name] = shapes[body.name].body
+        self._c_bodies = [pb._body for pb in self._bodies.values()]  # Chipmunk's cpBody*, for write_state
 
         # Pair materials. Pymunk multiplies the two shapes' elasticity and friction. Where
         # per-body values reproduce every pair under that product, the shapes carry them and
@@ -281,6 +282,41 @@ class PymunkSimulation(Simulation):
             vx, vz = pb.velocity
             out[name] = state_row((x, 0.0, z), quat_about_y(-pb.angle), (vx, 0.0, vz),
                                   (0.0, -pb.angular_velocity, 0.0))
+        return out
+
+    # Bulk reads (adapters.base): per body x, z, angle, vx, vz, w in Pymunk's plane (its y is
+    # the scene's z), through Chipmunk's C getters (the calls Pymunk's properties make,
+    # without building Vec2d objects); decoded as states() maps them.
+    def body_order(self) -> list[str]:
+        return list(self._bodies)
+
+    def state_size(self) -> int:
+        return 6 * len(self._bodies)
+
+    def write_state(self, out: np.ndarray) -> None:
+        if _chipmunk is None:
+            i = 0
+            for pb in self._bodies.values():
+                out[i:i + 6] = (*pb.position, pb.angle, *pb.velocity, pb.angular_velocity)
+                i += 6
+            return
+        get_p, get_v = _chipmunk.cpBodyGetPosition, _chipmunk.cpBodyGetVelocity
+        get_a, get_w = _chipmunk.cpBodyGetAngle, _chipmunk.cpBodyGetAngularVelocity
+        i = 0
+        for cb in self._c_bodies:
+            x, v = get_p(cb), get_v(cb)
+            out[i:i + 6] = (x.x, x.y, get_a(cb), v.x, v.y, get_w(cb))
+            i += 6
+
+    def decode_states(self, raw: np.ndarray) -> np.ndarray:
+        n, b = len(raw), len(self._bodies)
+        r = raw.reshape(n, b, 6)
+        out = np.zeros((n, b, 13))
+        out[:, :, 0], out[:, :, 2] = r[:, :, 0], r[:, :, 1]
+        half = -r[:, :, 2] / 2  # quat_about_y(-angle)
+        out[:, :, 3], out[:, :, 5] = np.cos(half), np.sin(half)
+        out[:, :, 7], out[:, :, 9] = r[:, :, 3], r[:, :, 4]
+        out[:, :, 11] = -r[:, :, 5]
         return out
 
     def contact_forces(self):

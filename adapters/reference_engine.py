@@ -195,6 +195,15 @@ class ReferenceSimulation(Simulation):
     def states(self):
         return {b.name: state_row(b.x, b.q, b.v, b.w) for b in self._dynamic}
 
+    def body_order(self) -> list[str]:
+        return [b.name for b in self._dynamic]
+
+    def write_state(self, out: np.ndarray) -> None:
+        i = 0
+        for b in self._dynamic:
+            out[i:i + 3], out[i + 3:i + 7], out[i + 7:i + 10], out[i + 10:i + 13] = b.x, b.q, b.v, b.w
+            i += 13
+
     def contact_forces(self):
         return {pair_key(a, b): P / self._dt for (a, b), P in self._world.normal_impulses.items()}
 
