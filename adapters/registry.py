@@ -26,6 +26,7 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "mujoco": ("adapters.mujoco_engine", "MuJoCoAdapter", {}),
     "pymunk": ("adapters.pymunk_engine", "PymunkAdapter", {}),
     "dart": ("adapters.dart_engine", "DartAdapter", {}),
+    "box2d": ("adapters.box2d_engine", "Box2DAdapter", {}),
 }
 
 

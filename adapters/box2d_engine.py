@@ -1,0 +1,452 @@
+"""Box2D v3 (through the pyb2d3 bindings) behind the engine contract: 2D scenes only.
+
+Frames. A 2D scene lies in the x-z plane; Box2D's plane is x-y. Scene (x, z) maps to
+Box2D (x, y). A positive rotation phi about scene +y takes +z towards +x, while Box2D's
+positive angle takes +x towards +y (= scene +z), so the Box2D angle is -phi and its
+angular velocity is -omega_y (as for Pymunk). Box2D computes in float32: positions,
+velocities, masses and material values are rounded to 2^-24 relative (6e-8), so a body
+at 10 m is placed to 1e-6 m; checks tighter than that measure the float, not the physics.
+Angles are set and read through the rotation's cosine and sine (Box2D's own angle
+functions b2MakeRot / b2Rot_GetAngle are polynomial approximations, 1e-3 rad off).
+
+What one `world.step(dt, n)` does (Box2D v3.1.1 src/solver.c, b2SolverStep): contacts are
+found for the whole step, with speculative points up to 4 linear slops (2 cm) apart; then
+n sub-steps of h = dt/n, each: velocities get gravity (v += g h), warm start, one
+relaxed-Gauss-Seidel sweep of the soft contact constraint with a bias that pushes overlap
+out, positions move (x += v h), one relax sweep without the bias (so the push-out leaves
+no velocity behind: the "soft step" solver); after the sub-steps, restitution: each
+contact point that took an impulse and approached faster than `restitution_threshold`
+before the step gets v_n+ = -e v_n- with v_n- its normal velocity before the step, before
+gravity (src/contact_solver.c, b2ApplyRestitution). There is no iteration count apart from
+the sub-steps: `Settings.iterations` is n.
+
+Soft contact (b2MakeSoft): the push-out is a spring-damper of natural frequency
+`contact_hertz` and damping ratio `contact_damping_ratio` (twice the frequency against
+static bodies), capped at `contact_push_speed`, and Box2D clamps the frequency to 1/8 of
+the sub-step rate. A rigid contact has no compliance, so the adapter asks for that cap:
+a resting body then sits g / (2 pi f)^2 deep (1.6 um on the ground at dt = 1e-3, n = 4)
+where Box2D's default 30 Hz lets a five-box stack sink 6.9 mm (measured).
+
+Pair materials. Box2D keeps friction and restitution per shape and mixes a pair as
+sqrt(mu_a mu_b) and max(e_a, e_b); pyb2d3 0.11.1 exposes no mixing callback. Per-shape
+values that reproduce every pair of the scene are found with adapters.combination
+(friction: the product rule on mu^2); a scene that has none is `unsupported`.
+
+Contact forces. pyb2d3 0.11.1 exposes no per-step contact data (b2Body_GetContactData is
+not bound; its manifolds come only with the begin-touch events, before they are solved).
+The forces are therefore read from what the contacts did: every velocity change of a
+dynamic body in a step other than gravity is a contact impulse (damping is 0, no other
+force acts), so body i took J_i = m_i (v_i' - v_i) - m_i g dt from its contacts, exactly
+to float32 round-off. The pairs in contact are the engine's own (begin/end-touch events:
+the contacts the solver had in the step). Each pair's impulse P_ab (on a, -P_ab on b)
+solves sum_pairs(i) +-P = J_i; where the contact graph (all static bodies one node) is a
+forest, as in stacks, chains and single contacts, that split is unique and is the
+engine's. Where it has a cycle (a box touching two others that touch each other) only
+sums are determined (what a body takes from all its contacts, what all static bodies
+give): the least-norm split is returned and `knobs` says so. The normal force of a pair
+is P_ab . n / dt with n the pair's contact normal from b into a before the step (the
+geometry Box2D found its contacts from): the plane's normal, the line of centres, or the
+separating axis of least penetration (as b2CollidePolygons chooses it). No contact points
+(`Capabilities.contact_points` is False): their positions and per-point impulses are not
+exposed.
+"""
+from __future__ import annotations
+
+import math
+from importlib import metadata
+
+import numpy as np
+import pyb2d3 as b2
+
+from adapters.base import Adapter, Capabilities, Settings, SettingsError, Simulation, Tunable, Unsupported
+from adapters.combination import per_body_values
+from adapters.frames import state_row
+from cases.scene import Body, Circle, Plane, Rect, Scene, pair_key, quat_about_y
+
+DEFAULT_SUBSTEPS = 4  # Box2D's recommended sub-step count (b2World_Step documentation)
+# The fraction of the sub-step rate Box2D clamps contact_hertz to (src/world.c, b2World_Step:
+# contactHertz = min(contactHertz, 0.125 inv_h)); the adapter asks for this cap.
+HERTZ_CAP_PER_SUBSTEP_RATE = 0.125
+# Box2D's default damping ratio (b2DefaultWorldDef): overdamped, so the push-out never
+# rings; a ratio of 1 changed resting depths by < 1 % (measured, 5-box stack).
+CONTACT_DAMPING_RATIO = 10.0
+# Cap on the push-out speed, m/s (Box2D's default maxContactPushSpeed is 3). Overlap is a
+# numerical error: what an impact leaves (v dt, 3 mm at 3 m/s and dt = 1e-3) goes within a
+# few steps at 1 m/s, and a faster push-out only throws deeply overlapped bodies: a 1 kg
+# box sunk 5 cm ends 0.46 J above rest at 3 m/s, 3.8 J at 10 m/s, < 0.02 J at 1 m/s
+# (robustness_overlap; measured, nothing else in the battery changed between 0.3 and 3).
+CONTACT_PUSH_SPEED = 1.0
+# A speed cap that never acts (Box2D's default is 400 m/s, b2DefaultWorldDef; the harness
+# calls anything faster than 100 m/s a blow-up).
+MAXIMUM_LINEAR_SPEED = 1e4
+# The static ground: a box whose top edge is the plane, PLANE_HALF_LENGTH either side of the
+# point of the plane below the dynamic bodies' mean position, and PLANE_DEPTH deep. Box2D
+# clips polygon contacts relative to a vertex of one polygon (b2CollidePolygons), so contact
+# points on the ground are placed to the float32 spacing at PLANE_HALF_LENGTH from the
+# bodies (7.6e-6 m): long enough for every motion of the scenes, short enough for that.
+PLANE_HALF_LENGTH = 100.0  # m
+PLANE_DEPTH = 1.0  # m: deeper than any overlap the scenes make
+# Box2D's contacts include speculative ones, up to 2 cm apart. Where such a pair would close
+# a cycle of the contact graph (a millimetre box's ground contact, the box resting on
+# another), a gap after the step above this marks it as having taken no impulse: resting
+# contacts sit at gaps of -1e-5..0 m (soft contact) and float32 places bodies at 1 km to
+# 6e-5 m; a millimetre box one box up is 1e-3 m from the ground.
+ACTING_GAP = 1e-4  # m
+
+
+class Box2DAdapter(Adapter):
+    name = "box2d"
+    package = "pyb2d3"
+    capabilities = Capabilities(
+        dimensions=frozenset({2}),
+        shapes=frozenset({"circle", "rect", "plane"}),
+        native_restitution=True,
+        static_kinetic=False,  # one friction coefficient per shape
+        contact_forces=True,   # from the bodies' momenta, see the module notes
+        iterations=True,       # the sub-step count
+        contact_points=False,
+        impact_model="simultaneous",
+    )
+    tunables = {
+        "contact_hertz": Tunable(1.0, math.inf, math.inf,
+                                 "push-out stiffness, Hz (default: Box2D's cap, 1/8 of the sub-step rate)"),
+        "contact_damping_ratio": Tunable(0.0, 100.0, CONTACT_DAMPING_RATIO, "push-out damping ratio"),
+        "contact_push_speed": Tunable(0.0, 100.0, CONTACT_PUSH_SPEED, "largest push-out speed, m/s"),
+    }
+
+    def version(self) -> str:
+        return f"pyb2d3 {metadata.version('pyb2d3')} (Box2D v3.1.1)"
+
+    def build(self, scene: Scene, settings: Settings) -> Simulation:
+        reason = self.capabilities.cannot_run(scene)
+        if reason:
+            raise Unsupported(reason)
+        return Box2DSimulation(scene, settings, _options(settings.options, self.tunables))
+
+
+def _options(options, tunables) -> dict[str, float]:
+    """The contact tuning in force: the defaults overridden by Settings.options."""
+    unknown = set(options) - set(tunables)
+    if unknown:
+        raise SettingsError(f"options {sorted(unknown)}: box2d understands {sorted(tunables)}")
+    out = {name: t.default for name, t in tunables.items()}
+    for name, value in options.items():
+        t = tunables[name]
+        if not t.low <= value <= t.high:
+            raise SettingsError(f"options[{name!r}] = {value!r}: must lie in [{t.low}, {t.high}]")
+        out[name] = float(value)
+    return out
+
+
+def _rot(angle: float):
+    """Box2D rotation of `angle` from the exact cosine and sine (b2MakeRot approximates)."""
+    q = b2.Rot()
+    q.c, q.s = math.cos(angle), math.sin(angle)
+    return q
+
+
+def _angle(body: Body) -> float:
+    """Box2D angle of a 2D body: minus its rotation about scene +y (see module docstring)."""
+    w, x, y, z = body.orientation
+    if abs(x) > 1e-12 or abs(z) > 1e-12:
+        raise Unsupported(f"body {body.name!r}: orientation {body.orientation} is not a rotation "
+                          "about y, which a 2D engine cannot represent")
+    return -2.0 * math.atan2(y, w)
+
+
+def _materials(scene: Scene) -> tuple[dict[str, float], dict[str, float]]:
+    """Per-shape friction and restitution that Box2D's mixing, sqrt(mu_a mu_b) and
+    max(e_a, e_b), turns into each pair's values (Unsupported if none exist): the
+    shapes' frictions multiply to the pair's mu^2."""
+    mu = per_body_values(scene, lambda m: m.mu_s**2, "product", "friction")
+    e = per_body_values(scene, lambda m: m.e, "max", "restitution")
+    return mu, e
+
+
+# --- contact geometry: gap and normal of a pair, from the poses ------------------------------
+
+def _polygon(center: np.ndarray, c: float, s: float, half) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices and outward face normals of a rectangle in Box2D's plane."""
+    a, b = half
+    local = np.array([[-a, -b], [a, -b], [a, b], [-a, b]])
+    rot = np.array([[c, -s], [s, c]])
+    normals = np.array([[0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]]) @ rot.T
+    return local @ rot.T + center, normals
+
+
+def _max_separation(va, na, vb) -> tuple[float, np.ndarray]:
+    """The face of polygon a farthest from polygon b: its separation (negative: overlap)
+    and outward normal (the separating axis test)."""
+    seps = [float(np.min((vb - v) @ n)) for v, n in zip(va, na)]
+    k = int(np.argmax(seps))
+    return seps[k], na[k]
+
+
+def _polygon_point(va, na, p) -> tuple[float, np.ndarray]:
+    """Signed distance from a polygon to a point and the direction from the polygon to it."""
+    seps = [float((p - v) @ n) for v, n in zip(va, na)]
+    k = int(np.argmax(seps))
+    if seps[k] <= 0.0:
+        return seps[k], na[k]  # inside: the face of least penetration
+    best, direction = math.inf, na[k]
+    for i in range(len(va)):  # outside: from the closest point of the boundary
+        e0, d = va[i], va[(i + 1) % len(va)] - va[i]
+        q = e0 + min(max(float((p - e0) @ d) / float(d @ d), 0.0), 1.0) * d
+        dist = float(np.linalg.norm(p - q))
+        if 0.0 < dist < best:
+            best, direction = dist, (p - q) / dist
+    return best, direction
+
+
+# --- the simulation ------------------------------------------------------------------------
+
+class Box2DSimulation(Simulation):
+    def __init__(self, scene: Scene, settings: Settings, tuning: dict[str, float]):
+        self._dt = settings.dt
+        self.iterations = DEFAULT_SUBSTEPS if settings.iterations is None else settings.iterations
+        hertz_cap = HERTZ_CAP_PER_SUBSTEP_RATE * self.iterations / self._dt
+        hertz = min(tuning["contact_hertz"], hertz_cap)
+        gx, gz = float(scene.gravity[0]), float(scene.gravity[2])
+        self._gravity = np.array([gx, gz])
+        world = b2.World(gravity=(gx, gz), restitution_threshold=0.0,
+                         maximum_linear_speed=MAXIMUM_LINEAR_SPEED)
+        world.sleeping_enabled = False
+        world.continuous_enabled = False
+        world.set_contact_tuning(hertz, tuning["contact_damping_ratio"], tuning["contact_push_speed"])
+        self._world = world
+        self.knobs = {
+            "sub_step_count": self.iterations,
+            "gravity": [gx, gz],
+            "restitution_threshold": 0.0,     # default 1 m/s: slower impacts lose all bounce
+            "maximum_linear_speed": MAXIMUM_LINEAR_SPEED,  # default 400 m/s
+            "enable_sleep": False,            # default True
+            "enable_continuous": False,       # default True: time-of-impact clamping of fast bodies
+            "contact_hertz": hertz,           # default 30 Hz (clamped by Box2D to 0.125 inv_h)
+            "contact_hertz_cap": hertz_cap,   # 0.125 * sub-steps / dt
+            "static_contact_hertz": 2.0 * hertz,  # Box2D doubles it against static bodies
+            "contact_damping_ratio": tuning["contact_damping_ratio"],  # default 10
+            "contact_push_speed": tuning["contact_push_speed"],        # Box2D default 3 m/s
+            "linear_slop": 0.005,             # B2_LINEAR_SLOP (b2_lengthUnitsPerMeter = 1), not settable per world
+            "speculative_distance": 0.02,     # 4 linear slops: contacts found this far apart
+            "warm_starting": True,            # Box2D's default; pyb2d3 does not expose the switch
+            "contact_force": "momentum: J_i = m (v' - v) - m g dt per body, split over the touching pairs",
+            "bodies": {},
+        }
+
+        friction, restitution = _materials(scene)
+        self._pairs = {pair_key(a.name, b.name): scene.material_of(a.name, b.name)
+                       for a, b in scene.contact_pairs()}
+        self._bodies: dict[str, object] = {}   # dynamic bodies by name
+        self._mass: dict[str, float] = {}      # their masses as Box2D holds them (float32)
+        self._shape_of: dict[int, str] = {}    # shape id -> body name
+        self._geometry: dict[str, Body] = {}
+        self._centre = np.mean([(b.position[0], b.position[2]) for b in scene.dynamic_bodies], axis=0)
+        for body in scene.bodies:
+            self._add(body, friction[body.name], restitution[body.name])
+        self._names = list(self._bodies)
+        self._index = {n: i for i, n in enumerate(self._names)}
+        self._touching: set[tuple[str, str]] = set()
+        self._forces: dict[tuple[str, str], float] = {}
+        self.knobs["pair_split"] = "unique (forest)"
+        self.effects = self._built_effects(friction, restitution)
+
+    def _add(self, body: Body, mu: float, e: float) -> None:
+        shape_def = b2.shape_def(enable_contact_events=True, density=1.0)
+        shape_def.material = b2.surface_material(friction=mu, restitution=e, rolling_resistance=0.0,
+                                                 tangent_speed=0.0)
+        record = {"friction": mu, "restitution": e, "rolling_resistance": 0.0, "tangent_speed": 0.0}
+        self._geometry[body.name] = body
+        if isinstance(body.shape, Plane):
+            nx, ny, nz = body.shape.normal
+            if ny != 0.0:
+                raise Unsupported(f"plane normal {body.shape.normal}: not in the x-z plane of a 2D scene")
+            # the box's top edge on the plane: the body at the plane's point below the
+            # dynamic bodies' mean position, turned so that its +y is the normal
+            n = np.array([nx, nz])
+            origin = tuple(float(c) for c in self._centre - (self._centre @ n - body.shape.offset) * n)
+            angle = math.atan2(-nx, nz)
+            pb = self._world.create_static_body(position=origin, rotation=_rot(angle))
+            shape = pb.create_polygon_shape(shape_def, b2.box(PLANE_HALF_LENGTH, PLANE_DEPTH / 2,
+                                                               center=(0.0, -PLANE_DEPTH / 2)))
+            record.update(static=True, polygon={"half_extents": [PLANE_HALF_LENGTH, PLANE_DEPTH / 2],
+                                                "top_edge_through": list(origin), "angle": angle})
+        else:
+            angle = _angle(body)
+            kw = dict(position=(body.position[0], body.position[2]), rotation=_rot(angle))
+            if body.static:
+                pb = self._world.create_static_body(**kw)
+                record["static"] = True
+            else:
+                omega = -body.angular_velocity[1] if body.rotates else 0.0
+                pb = self._world.create_dynamic_body(
+                    **kw, linear_velocity=(body.velocity[0], body.velocity[2]), angular_velocity=omega,
+                    linear_damping=0.0, angular_damping=0.0, enable_sleep=False,
+                    fixed_rotation=not body.rotates, gravity_scale=1.0)
+            if isinstance(body.shape, Circle):
+                shape = pb.create_circle_shape(shape_def, b2.circle(radius=body.shape.radius))
+                record["circle"] = {"radius": body.shape.radius}
+            else:
+                a, c = body.shape.half_extents
+                shape = pb.create_polygon_shape(shape_def, b2.box(a, c))
+                record["polygon"] = {"half_extents": [a, c], "radius": 0.0}
+            if body.dynamic:
+                # mass and inertia exactly as the scene states them; 0 inertia is Box2D's
+                # lock on rotation (b2Body_SetMassData: invInertia = 0)
+                mass = b2.MassData()
+                mass.mass, mass.center = body.mass, (0.0, 0.0)
+                mass.rotational_inertia = body.principal_inertia[1] if body.rotates else 0.0
+                pb.mass_data = mass
+                self._bodies[body.name] = pb
+                self._mass[body.name] = pb.mass
+                record.update(mass=pb.mass, rotational_inertia=pb.mass_data.rotational_inertia,
+                              fixed_rotation=not body.rotates, linear_damping=0.0, angular_damping=0.0,
+                              enable_sleep=False)
+        self._shape_of[shape.id] = body.name
+        self.knobs["bodies"][body.name] = record
+
+    def _built_effects(self, friction: dict, restitution: dict) -> frozenset[str]:
+        fx = set()
+        if np.any(self._gravity != 0.0):
+            fx.add("gravity")
+        if self._pairs:
+            fx.add("contact")
+            # Box2D's mixing of the values given to it, pair by pair
+            if any(max(restitution[a], restitution[b]) > 0 for a, b in self._pairs):
+                fx.add("restitution")
+            if any(friction[a] * friction[b] > 0 for a, b in self._pairs):
+                fx.add("friction")
+        if any(b.mass_data.rotational_inertia > 0 for b in self._bodies.values()):
+            fx.add("rotation")
+        return frozenset(fx)
+
+    # --- stepping -----------------------------------------------------------------------
+
+    def _velocities(self) -> np.ndarray:
+        return np.array([tuple(self._bodies[n].linear_velocity) for n in self._names]).reshape(-1, 2)
+
+    def step(self) -> None:
+        v0 = self._velocities()
+        normals = {key: self._gap(*key)[1] for key in self._touching}
+        self._world.step(self._dt, self.iterations)
+        self._update_touching()
+        gaps = {}
+        for key in self._touching:
+            gaps[key], n = self._gap(*key)
+            normals.setdefault(key, n)  # a pair that began touching in the step
+        self._forces = self._pair_forces(self._acting(gaps), self._velocities() - v0, normals)
+
+    def _acting(self, gaps: dict) -> list[tuple[str, str]]:
+        """The touching pairs that take part in the impulse split: every pair of the
+        contact graph's spanning forest grown from the smallest gaps (all static bodies one
+        node), and each pair that would close a cycle unless it is more than ACTING_GAP
+        apart after the step (a speculative contact that took nothing)."""
+        root = {name: name for name in self._geometry}
+        static = "<static>"
+        root[static] = static
+
+        def find(x):
+            x = static if x not in self._bodies else x
+            while root[x] != x:
+                root[x] = root[root[x]]
+                x = root[x]
+            return x
+
+        acting = []
+        for key in sorted(gaps, key=gaps.get):
+            ra, rb = find(key[0]), find(key[1])
+            if ra != rb:
+                root[ra] = rb
+                acting.append(key)
+            elif gaps[key] <= ACTING_GAP:
+                acting.append(key)
+        return sorted(acting)
+
+    def _update_touching(self) -> None:
+        """The pairs the solver had in the step just taken (begin/end-touch events)."""
+        events = self._world.get_contact_events()
+        for e in events.begin_events():
+            self._touching.add(pair_key(self._shape_of[e.shape_a.id], self._shape_of[e.shape_b.id]))
+        for e in events.end_events():
+            self._touching.discard(pair_key(self._shape_of[e.shape_a.id], self._shape_of[e.shape_b.id]))
+
+    def _pair_forces(self, pairs: list, dv: np.ndarray, normals: dict) -> dict[tuple[str, str], float]:
+        """Normal force of each acting pair from the bodies' contact impulses (module notes)."""
+        if not pairs:
+            return {}
+        m = np.array([self._mass[n] for n in self._names])
+        J = m[:, None] * (dv - self._gravity * self._dt)  # contact impulse on each body
+        A = np.zeros((len(self._names), len(pairs)))       # P_ab acts on a, -P_ab on b
+        for k, (a, b) in enumerate(pairs):
+            if a in self._index:
+                A[self._index[a], k] = 1.0
+            if b in self._index:
+                A[self._index[b], k] = -1.0
+        P, _, rank, _ = np.linalg.lstsq(A, J, rcond=None)
+        if rank < len(pairs):
+            self.knobs["pair_split"] = "least-norm where the contact graph has a cycle"
+        return {key: float(P[k] @ normals[key]) / self._dt for k, key in enumerate(pairs)}
+
+    def _pose(self, name: str):
+        """Centre, cos and sin of a body's rotation in Box2D's plane, as Box2D holds them."""
+        if name in self._bodies:
+            pb = self._bodies[name]
+            q = pb.rotation
+            return np.array(tuple(pb.position)), q.c, q.s
+        body = self._geometry[name]
+        angle = _angle(body)
+        return np.array([body.position[0], body.position[2]]), math.cos(angle), math.sin(angle)
+
+    def _gap(self, a: str, b: str) -> tuple[float, np.ndarray]:
+        """Signed distance of a pair (negative: overlap) and the unit contact normal from
+        b into a, in Box2D's plane: a plane's normal, the line of centres, or the axis of
+        least penetration (as b2CollidePolygons chooses it)."""
+        A, B = self._geometry[a], self._geometry[b]
+        if isinstance(A.shape, Plane):
+            gap, n = self._gap(b, a)
+            return gap, -n
+        pa, ca, sa = self._pose(a)
+        if isinstance(B.shape, Plane):
+            n = np.array([B.shape.normal[0], B.shape.normal[2]])
+            if isinstance(A.shape, Circle):
+                low = float(pa @ n) - A.shape.radius
+            else:
+                low = float(np.min(_polygon(pa, ca, sa, A.shape.half_extents)[0] @ n))
+            return low - B.shape.offset, n
+        pb, cb, sb = self._pose(b)
+        if isinstance(A.shape, Circle) and isinstance(B.shape, Circle):
+            d = pa - pb
+            r = float(np.linalg.norm(d))
+            return r - A.shape.radius - B.shape.radius, d / r
+        if isinstance(A.shape, Circle):
+            gap, n = _polygon_point(*_polygon(pb, cb, sb, B.shape.half_extents), pa)
+            return gap - A.shape.radius, n
+        va, na = _polygon(pa, ca, sa, A.shape.half_extents)
+        if isinstance(B.shape, Circle):
+            gap, n = _polygon_point(va, na, pb)
+            return gap - B.shape.radius, -n
+        vb, nb = _polygon(pb, cb, sb, B.shape.half_extents)
+        s_a, n_a = _max_separation(va, na, vb)
+        s_b, n_b = _max_separation(vb, nb, va)
+        return (s_a, -n_a) if s_a > s_b else (s_b, n_b)
+
+    # --- the contract -------------------------------------------------------------------
+
+    def states(self):
+        out = {}
+        for name, pb in self._bodies.items():
+            x, z = pb.position
+            vx, vz = pb.linear_velocity
+            q = pb.rotation
+            phi = -math.atan2(q.s, q.c)
+            out[name] = state_row((x, 0.0, z), quat_about_y(phi), (vx, 0.0, vz),
+                                  (0.0, -pb.angular_velocity, 0.0))
+        return out
+
+    def contact_forces(self):
+        return dict(self._forces)
+
+    def close(self) -> None:
+        world, self._world = getattr(self, "_world", None), None
+        if world is not None:
+            world.destroy()
+        self._bodies = {}
