@@ -27,6 +27,7 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "pymunk": ("adapters.pymunk_engine", "PymunkAdapter", {}),
     "dart": ("adapters.dart_engine", "DartAdapter", {}),
     "box2d": ("adapters.box2d_engine", "Box2DAdapter", {}),
+    "rapier": ("adapters.rapier_engine", "RapierAdapter", {}),
 }
 
 
