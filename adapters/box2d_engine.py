@@ -163,39 +163,149 @@ def _materials(scene: Scene) -> tuple[dict[str, float], dict[str, float]]:
     return mu, e
 
 
-# --- contact geometry: gap and normal of a pair, from the poses ------------------------------
+# --- contact geometry: gap and normal of a pair from the bodies' poses ----------------------
+# A pose is (x, y, c, s): centre and the cosine and sine of the rotation, in Box2D's plane.
+# Plain floats: these run for every touching pair and step.
 
-def _polygon(center: np.ndarray, c: float, s: float, half) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices and outward face normals of a rectangle in Box2D's plane."""
+FACE_NORMALS = ((0.0, -1.0), (1.0, 0.0), (0.0, 1.0), (-1.0, 0.0))  # of a rectangle, body frame
+
+
+def _rectangle(pose, half) -> tuple[list, list]:
+    """Vertices and outward face normals of a rectangle (counter-clockwise)."""
+    x, y, c, s = pose
     a, b = half
-    local = np.array([[-a, -b], [a, -b], [a, b], [-a, b]])
-    rot = np.array([[c, -s], [s, c]])
-    normals = np.array([[0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]]) @ rot.T
-    return local @ rot.T + center, normals
+    vertices = [(x + c * u - s * v, y + s * u + c * v) for u, v in ((-a, -b), (a, -b), (a, b), (-a, b))]
+    normals = [(c * u - s * v, s * u + c * v) for u, v in FACE_NORMALS]
+    return vertices, normals
 
 
-def _max_separation(va, na, vb) -> tuple[float, np.ndarray]:
+def _max_separation(va, na, vb) -> tuple[float, tuple]:
     """The face of polygon a farthest from polygon b: its separation (negative: overlap)
     and outward normal (the separating axis test)."""
-    seps = [float(np.min((vb - v) @ n)) for v, n in zip(va, na)]
-    k = int(np.argmax(seps))
-    return seps[k], na[k]
+    best, normal = -math.inf, na[0]
+    for (px, py), (nx, ny) in zip(va, na):
+        sep = min((qx - px) * nx + (qy - py) * ny for qx, qy in vb)
+        if sep > best:
+            best, normal = sep, (nx, ny)
+    return best, normal
 
 
-def _polygon_point(va, na, p) -> tuple[float, np.ndarray]:
-    """Signed distance from a polygon to a point and the direction from the polygon to it."""
-    seps = [float((p - v) @ n) for v, n in zip(va, na)]
-    k = int(np.argmax(seps))
+def _polygon_point(va, na, point) -> tuple[float, tuple]:
+    """Signed distance from a polygon to a point and the unit direction from it to the point."""
+    qx, qy = point
+    seps = [(qx - px) * nx + (qy - py) * ny for (px, py), (nx, ny) in zip(va, na)]
+    k = max(range(len(seps)), key=seps.__getitem__)
     if seps[k] <= 0.0:
         return seps[k], na[k]  # inside: the face of least penetration
     best, direction = math.inf, na[k]
-    for i in range(len(va)):  # outside: from the closest point of the boundary
-        e0, d = va[i], va[(i + 1) % len(va)] - va[i]
-        q = e0 + min(max(float((p - e0) @ d) / float(d @ d), 0.0), 1.0) * d
-        dist = float(np.linalg.norm(p - q))
+    for i, (ex, ey) in enumerate(va):  # outside: from the closest point of the boundary
+        dx, dy = va[(i + 1) % len(va)][0] - ex, va[(i + 1) % len(va)][1] - ey
+        t = min(max(((qx - ex) * dx + (qy - ey) * dy) / (dx * dx + dy * dy), 0.0), 1.0)
+        rx, ry = qx - ex - t * dx, qy - ey - t * dy
+        dist = math.hypot(rx, ry)
         if 0.0 < dist < best:
-            best, direction = dist, (p - q) / dist
+            best, direction = dist, (rx / dist, ry / dist)
     return best, direction
+
+
+def contact_gap(A: Body, pose_a, B: Body, pose_b) -> tuple[float, tuple]:
+    """Signed distance of two bodies (negative: overlap) and the unit contact normal from
+    B into A, in Box2D's plane: a plane's normal, the line of centres, or the axis of
+    least penetration (as b2CollidePolygons chooses it)."""
+    if isinstance(A.shape, Plane):
+        gap, (nx, ny) = contact_gap(B, pose_b, A, pose_a)
+        return gap, (-nx, -ny)
+    if isinstance(B.shape, Plane):
+        n = (B.shape.normal[0], B.shape.normal[2])
+        if isinstance(A.shape, Circle):
+            low = pose_a[0] * n[0] + pose_a[1] * n[1] - A.shape.radius
+        else:
+            low = min(x * n[0] + y * n[1] for x, y in _rectangle(pose_a, A.shape.half_extents)[0])
+        return low - B.shape.offset, n
+    if isinstance(A.shape, Circle) and isinstance(B.shape, Circle):
+        dx, dy = pose_a[0] - pose_b[0], pose_a[1] - pose_b[1]
+        r = math.hypot(dx, dy)
+        return r - A.shape.radius - B.shape.radius, (dx / r, dy / r)
+    if isinstance(A.shape, Circle):
+        gap, n = _polygon_point(*_rectangle(pose_b, B.shape.half_extents), pose_a[:2])
+        return gap - A.shape.radius, n
+    va, na = _rectangle(pose_a, A.shape.half_extents)
+    if isinstance(B.shape, Circle):
+        gap, (nx, ny) = _polygon_point(va, na, pose_b[:2])
+        return gap - B.shape.radius, (-nx, -ny)
+    vb, nb = _rectangle(pose_b, B.shape.half_extents)
+    s_a, (nx, ny) = _max_separation(va, na, vb)
+    s_b, n_b = _max_separation(vb, nb, va)
+    return (s_a, (-nx, -ny)) if s_a > s_b else (s_b, n_b)
+
+
+def acting_pairs(gaps: dict, dynamic) -> list[tuple[str, str]]:
+    """The touching pairs that take part in the impulse split: every pair of the contact
+    graph's spanning forest grown from the smallest gaps (all static bodies one node), and
+    each pair that would close a cycle unless it is more than ACTING_GAP apart after the
+    step (a speculative contact that took nothing)."""
+    root: dict[str, str] = {}
+
+    def find(x):
+        x = x if x in dynamic else "<static>"
+        while root.setdefault(x, x) != x:
+            root[x] = root[root[x]]
+            x = root[x]
+        return x
+
+    acting = []
+    for key in sorted(gaps, key=gaps.get):
+        ra, rb = find(key[0]), find(key[1])
+        if ra != rb:
+            root[ra] = rb
+            acting.append(key)
+        elif gaps[key] <= ACTING_GAP:
+            acting.append(key)
+    return acting
+
+
+def split_impulses(J: dict, pairs: list) -> tuple[dict, bool]:
+    """Impulses P_ab (on a; -P_ab on b) of the pairs with sum_pairs(i) +-P = J_i for every
+    dynamic body i (J: body -> 2-vector). Leaves of the contact graph first: a body with
+    one pair left gives that pair its remaining impulse. What a cycle leaves is split by
+    least squares (least norm); the flag says whether that happened."""
+    J = {name: list(j) for name, j in J.items()}
+    pairs_of: dict[str, set] = {n: set() for n in J}
+    for pair in pairs:
+        for n in pair:
+            if n in J:
+                pairs_of[n].add(pair)
+    P: dict[tuple[str, str], tuple] = {}
+    leaves = [n for n, ps in pairs_of.items() if len(ps) == 1]
+    while leaves:
+        n = leaves.pop()
+        if len(pairs_of[n]) != 1:
+            continue
+        (pair,) = pairs_of[n]
+        sign = 1.0 if pair[0] == n else -1.0  # P_ab acts on a with +, on b with -
+        p = (sign * J[n][0], sign * J[n][1])
+        P[pair] = p
+        for m, s in ((pair[0], 1.0), (pair[1], -1.0)):
+            if m in J:
+                J[m][0] -= s * p[0]
+                J[m][1] -= s * p[1]
+                pairs_of[m].discard(pair)
+                if len(pairs_of[m]) == 1:
+                    leaves.append(m)
+    left = [pair for pair in pairs if pair not in P]
+    if not left:
+        return P, False
+    names = sorted({n for pair in left for n in pair if n in J})
+    index = {n: i for i, n in enumerate(names)}
+    A = np.zeros((len(names), len(left)))
+    for k, (a, b) in enumerate(left):
+        if a in index:
+            A[index[a], k] = 1.0
+        if b in index:
+            A[index[b], k] = -1.0
+    solution = np.linalg.lstsq(A, np.array([J[n] for n in names]), rcond=None)[0]
+    P.update({pair: tuple(solution[k]) for k, pair in enumerate(left)})
+    return P, True
 
 
 # --- the simulation ------------------------------------------------------------------------
@@ -243,10 +353,14 @@ class Box2DSimulation(Simulation):
         self._centre = np.mean([(b.position[0], b.position[2]) for b in scene.dynamic_bodies], axis=0)
         for body in scene.bodies:
             self._add(body, friction[body.name], restitution[body.name])
-        self._names = list(self._bodies)
-        self._index = {n: i for i, n in enumerate(self._names)}
+        self._static_pose = {}  # a plane's pose is its normal and offset (contact_gap)
+        for body in scene.bodies:
+            if body.static:
+                angle = 0.0 if isinstance(body.shape, Plane) else _angle(body)
+                self._static_pose[body.name] = (body.position[0], body.position[2], math.cos(angle), math.sin(angle))
         self._touching: set[tuple[str, str]] = set()
-        self._forces: dict[tuple[str, str], float] = {}
+        self._pending = None
+        self._forces: dict[tuple[str, str], float] | None = {}
         self.knobs["pair_split"] = "unique (forest)"
         self.effects = self._built_effects(friction, restitution)
 
@@ -319,130 +433,73 @@ class Box2DSimulation(Simulation):
             fx.add("rotation")
         return frozenset(fx)
 
-    # --- stepping -----------------------------------------------------------------------
+    # --- stepping and the contact read-out --------------------------------------------
 
-    def _velocities(self) -> np.ndarray:
-        return np.array([tuple(self._bodies[n].linear_velocity) for n in self._names]).reshape(-1, 2)
+    def _snapshot(self) -> dict[str, tuple]:
+        """Pose (x, y, c, s) and velocity (vx, vy) of every dynamic body, as Box2D holds them."""
+        out = {}
+        for name, pb in self._bodies.items():
+            p, q, v = pb.position, pb.rotation, pb.linear_velocity  # attributes: unpacking costs 15 us
+            out[name] = (p.x, p.y, q.c, q.s, v.x, v.y)
+        return out
 
     def step(self) -> None:
-        v0 = self._velocities()
-        normals = {key: self._gap(*key)[1] for key in self._touching}
+        before = self._snapshot()
         self._world.step(self._dt, self.iterations)
-        self._update_touching()
-        gaps = {}
-        for key in self._touching:
-            gaps[key], n = self._gap(*key)
-            normals.setdefault(key, n)  # a pair that began touching in the step
-        self._forces = self._pair_forces(self._acting(gaps), self._velocities() - v0, normals)
-
-    def _acting(self, gaps: dict) -> list[tuple[str, str]]:
-        """The touching pairs that take part in the impulse split: every pair of the
-        contact graph's spanning forest grown from the smallest gaps (all static bodies one
-        node), and each pair that would close a cycle unless it is more than ACTING_GAP
-        apart after the step (a speculative contact that took nothing)."""
-        root = {name: name for name in self._geometry}
-        static = "<static>"
-        root[static] = static
-
-        def find(x):
-            x = static if x not in self._bodies else x
-            while root[x] != x:
-                root[x] = root[root[x]]
-                x = root[x]
-            return x
-
-        acting = []
-        for key in sorted(gaps, key=gaps.get):
-            ra, rb = find(key[0]), find(key[1])
-            if ra != rb:
-                root[ra] = rb
-                acting.append(key)
-            elif gaps[key] <= ACTING_GAP:
-                acting.append(key)
-        return sorted(acting)
-
-    def _update_touching(self) -> None:
-        """The pairs the solver had in the step just taken (begin/end-touch events)."""
         events = self._world.get_contact_events()
-        for e in events.begin_events():
-            self._touching.add(pair_key(self._shape_of[e.shape_a.id], self._shape_of[e.shape_b.id]))
-        for e in events.end_events():
-            self._touching.discard(pair_key(self._shape_of[e.shape_a.id], self._shape_of[e.shape_b.id]))
+        touching_before = frozenset(self._touching)
+        if events.begin_count:
+            self._touching.update(pair_key(self._shape_of[e.shape_a.id], self._shape_of[e.shape_b.id])
+                                  for e in events.begin_events())
+        if events.end_count:
+            self._touching.difference_update(pair_key(self._shape_of[e.shape_a.id], self._shape_of[e.shape_b.id])
+                                             for e in events.end_events())
+        # the forces are worked out when asked for (contact_forces), not inside the step
+        self._pending = (before, self._snapshot(), touching_before)
+        self._forces = None
 
-    def _pair_forces(self, pairs: list, dv: np.ndarray, normals: dict) -> dict[tuple[str, str], float]:
-        """Normal force of each acting pair from the bodies' contact impulses (module notes)."""
+    def _pose(self, name: str, snapshot: dict) -> tuple:
+        return snapshot[name][:4] if name in snapshot else self._static_pose[name]
+
+    def _gap(self, a: str, b: str, snapshot: dict | None = None) -> tuple[float, tuple]:
+        snapshot = self._snapshot() if snapshot is None else snapshot
+        return contact_gap(self._geometry[a], self._pose(a, snapshot), self._geometry[b], self._pose(b, snapshot))
+
+    def _read_forces(self) -> dict[tuple[str, str], float]:
+        """Normal force of each acting pair from the bodies' contact impulses (module notes).
+        The normal is the pair's before the step (Box2D found its contacts from those
+        poses), or after it for a pair that began touching in the step."""
+        before, after, touching_before = self._pending
+        gaps, normals = {}, {}
+        for key in self._touching:
+            gaps[key], normals[key] = self._gap(*key, after)
+            if key in touching_before:
+                normals[key] = self._gap(*key, before)[1]
+        pairs = acting_pairs(gaps, self._bodies)
         if not pairs:
             return {}
-        m = np.array([self._mass[n] for n in self._names])
-        J = m[:, None] * (dv - self._gravity * self._dt)  # contact impulse on each body
-        A = np.zeros((len(self._names), len(pairs)))       # P_ab acts on a, -P_ab on b
-        for k, (a, b) in enumerate(pairs):
-            if a in self._index:
-                A[self._index[a], k] = 1.0
-            if b in self._index:
-                A[self._index[b], k] = -1.0
-        P, _, rank, _ = np.linalg.lstsq(A, J, rcond=None)
-        if rank < len(pairs):
+        gx, gy = self._gravity * self._dt
+        J = {n: (self._mass[n] * (after[n][4] - before[n][4] - gx), self._mass[n] * (after[n][5] - before[n][5] - gy))
+             for n in self._bodies}
+        P, ambiguous = split_impulses(J, pairs)
+        if ambiguous:
             self.knobs["pair_split"] = "least-norm where the contact graph has a cycle"
-        return {key: float(P[k] @ normals[key]) / self._dt for k, key in enumerate(pairs)}
-
-    def _pose(self, name: str):
-        """Centre, cos and sin of a body's rotation in Box2D's plane, as Box2D holds them."""
-        if name in self._bodies:
-            pb = self._bodies[name]
-            q = pb.rotation
-            return np.array(tuple(pb.position)), q.c, q.s
-        body = self._geometry[name]
-        angle = _angle(body)
-        return np.array([body.position[0], body.position[2]]), math.cos(angle), math.sin(angle)
-
-    def _gap(self, a: str, b: str) -> tuple[float, np.ndarray]:
-        """Signed distance of a pair (negative: overlap) and the unit contact normal from
-        b into a, in Box2D's plane: a plane's normal, the line of centres, or the axis of
-        least penetration (as b2CollidePolygons chooses it)."""
-        A, B = self._geometry[a], self._geometry[b]
-        if isinstance(A.shape, Plane):
-            gap, n = self._gap(b, a)
-            return gap, -n
-        pa, ca, sa = self._pose(a)
-        if isinstance(B.shape, Plane):
-            n = np.array([B.shape.normal[0], B.shape.normal[2]])
-            if isinstance(A.shape, Circle):
-                low = float(pa @ n) - A.shape.radius
-            else:
-                low = float(np.min(_polygon(pa, ca, sa, A.shape.half_extents)[0] @ n))
-            return low - B.shape.offset, n
-        pb, cb, sb = self._pose(b)
-        if isinstance(A.shape, Circle) and isinstance(B.shape, Circle):
-            d = pa - pb
-            r = float(np.linalg.norm(d))
-            return r - A.shape.radius - B.shape.radius, d / r
-        if isinstance(A.shape, Circle):
-            gap, n = _polygon_point(*_polygon(pb, cb, sb, B.shape.half_extents), pa)
-            return gap - A.shape.radius, n
-        va, na = _polygon(pa, ca, sa, A.shape.half_extents)
-        if isinstance(B.shape, Circle):
-            gap, n = _polygon_point(va, na, pb)
-            return gap - B.shape.radius, -n
-        vb, nb = _polygon(pb, cb, sb, B.shape.half_extents)
-        s_a, n_a = _max_separation(va, na, vb)
-        s_b, n_b = _max_separation(vb, nb, va)
-        return (s_a, -n_a) if s_a > s_b else (s_b, n_b)
+        return {key: (p[0] * normals[key][0] + p[1] * normals[key][1]) / self._dt for key, p in P.items()}
 
     # --- the contract -------------------------------------------------------------------
 
     def states(self):
         out = {}
         for name, pb in self._bodies.items():
-            x, z = pb.position
-            vx, vz = pb.linear_velocity
-            q = pb.rotation
+            p, q, v = pb.position, pb.rotation, pb.linear_velocity
             phi = -math.atan2(q.s, q.c)
-            out[name] = state_row((x, 0.0, z), quat_about_y(phi), (vx, 0.0, vz),
+            out[name] = state_row((p.x, 0.0, p.y), quat_about_y(phi), (v.x, 0.0, v.y),
                                   (0.0, -pb.angular_velocity, 0.0))
         return out
 
     def contact_forces(self):
+        if self._forces is None:
+            self._forces = self._read_forces() if self._pending else {}
         return dict(self._forces)
 
     def close(self) -> None:
