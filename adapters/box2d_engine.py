@@ -20,6 +20,15 @@ before the step gets v_n+ = -e v_n- with v_n- its normal velocity before the ste
 gravity (src/contact_solver.c, b2ApplyRestitution). There is no iteration count apart from
 the sub-steps: `Settings.iterations` is n.
 
+Impacts (`Capabilities.impact_model` "simultaneous"): all contacts of a step are solved
+together, and restitution targets each contact's own approach speed before the step.
+Measured at dt = 1e-3, e = 1: two touching discs dropped on the ground leave it together
+(0.997 and 0.984 of the impact speed 5 steps later, as the reference's simultaneous model,
+0.984 both); a striker at 1 m/s into three touching discs rebounds at -0.125 m/s and the
+row leaves at 0.28, 0.28, 0.56 m/s (sequential impacts would stop the striker and send
+the last disc on at 1 m/s). The one restitution sweep is not iterated to convergence, so
+at e = 0.5 the dropped pair leaves at 0.19 and 0.34 of the impact speed, not both at 0.5.
+
 Soft contact (b2MakeSoft): the push-out is a spring-damper of natural frequency
 `contact_hertz` and damping ratio `contact_damping_ratio` (twice the frequency against
 static bodies), capped at `contact_push_speed`, and Box2D clamps the frequency to 1/8 of

@@ -32,6 +32,13 @@ where the point took no impulse in the step before (a "new" contact), except at 
 (src/geometry/contact_pair.rs, is_bouncy): a contact that persists is resting. So
 `Settings.iterations` is the sub-step count n.
 
+Impacts (`Capabilities.impact_model` "simultaneous"): all contacts of a step are solved
+together and restitution targets each contact's own approach speed. Measured at dt = 1e-3,
+e = 1: two touching balls dropped on the ground leave it together (0.997 and 0.984 of the
+impact speed 5 steps later; the reference's simultaneous model: 0.984 both); a striker at
+1 m/s into three touching balls rebounds at -0.125 m/s (sequential impacts would stop it).
+At e = 0.5 the dropped pair does not leave together at 0.5 (0 and 0.34 of the impact speed).
+
 Soft contact. Rapier's defaults (30 Hz, zeta = 10; 60 Hz against fixed bodies) let a
 resting box sit g / (2 pi f)^2 deep and a five-box stack sink mm. A rigid contact has no
 compliance, so the adapter asks for the stiffness Box2D caps its own soft contact at
