@@ -50,9 +50,14 @@ to float32 round-off. The pairs in contact are the engine's own (begin/end-touch
 the contacts the solver had in the step). Each pair's impulse P_ab (on a, -P_ab on b)
 solves sum_pairs(i) +-P = J_i; where the contact graph (all static bodies one node) is a
 forest, as in stacks, chains and single contacts, that split is unique and is the
-engine's. Where it has a cycle (a box touching two others that touch each other) only
-sums are determined (what a body takes from all its contacts, what all static bodies
-give): the least-norm split is returned and `knobs` says so. The normal force of a pair
+engine's. Box2D's contacts include speculative ones up to 2 cm apart; one that would
+close a cycle and is more than ACTING_GAP apart after the step took nothing and is left
+out (a millimetre box's ground contact when it rests on another box). Where a cycle
+remains (a box touching two others that touch each other) only sums are determined (what
+a body takes from all its contacts, what all static bodies give): the least-norm split is
+returned and `knobs` says so. The split is worked out when `contact_forces` is asked, from
+a snapshot the step keeps, so the timed step holds only the engine's work and the
+snapshot. The normal force of a pair
 is P_ab . n / dt with n the pair's contact normal from b into a before the step (the
 geometry Box2D found its contacts from): the plane's normal, the line of centres, or the
 separating axis of least penetration (as b2CollidePolygons chooses it). No contact points
@@ -67,10 +72,10 @@ from importlib import metadata
 import numpy as np
 import pyb2d3 as b2
 
-from adapters.base import Adapter, Capabilities, Settings, SettingsError, Simulation, Tunable, Unsupported
+from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.combination import per_body_values
 from adapters.frames import state_row
-from cases.scene import Body, Circle, Plane, Rect, Scene, pair_key, quat_about_y
+from cases.scene import Body, Circle, Plane, Scene, pair_key, quat_about_y
 
 DEFAULT_SUBSTEPS = 4  # Box2D's recommended sub-step count (b2World_Step documentation)
 # The fraction of the sub-step rate Box2D clamps contact_hertz to (src/world.c, b2World_Step:
@@ -124,27 +129,13 @@ class Box2DAdapter(Adapter):
     }
 
     def version(self) -> str:
-        return f"pyb2d3 {metadata.version('pyb2d3')} (Box2D v3.1.1)"
+        return f"pyb2d3 {metadata.version('pyb2d3')}"  # 0.11.1 bundles Box2D v3.1.1
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
         reason = self.capabilities.cannot_run(scene)
         if reason:
             raise Unsupported(reason)
-        return Box2DSimulation(scene, settings, _options(settings.options, self.tunables))
-
-
-def _options(options, tunables) -> dict[str, float]:
-    """The contact tuning in force: the defaults overridden by Settings.options."""
-    unknown = set(options) - set(tunables)
-    if unknown:
-        raise SettingsError(f"options {sorted(unknown)}: box2d understands {sorted(tunables)}")
-    out = {name: t.default for name, t in tunables.items()}
-    for name, value in options.items():
-        t = tunables[name]
-        if not t.low <= value <= t.high:
-            raise SettingsError(f"options[{name!r}] = {value!r}: must lie in [{t.low}, {t.high}]")
-        out[name] = float(value)
-    return out
+        return Box2DSimulation(scene, settings, self.options_in_force(settings))
 
 
 def _rot(angle: float):

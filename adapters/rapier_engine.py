@@ -61,10 +61,9 @@ from __future__ import annotations
 import math
 from importlib import metadata
 
-import numpy as np
 import rapier3d as r
 
-from adapters.base import Adapter, Capabilities, Settings, SettingsError, Simulation, Tunable, Unsupported
+from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.combination import RULES as COMBINE, per_body_values
 from adapters.frames import state_row
 from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
@@ -112,21 +111,7 @@ class RapierAdapter(Adapter):
         reason = self.capabilities.cannot_run(scene)
         if reason:
             raise Unsupported(reason)
-        return RapierSimulation(scene, settings, _options(settings.options, self.tunables))
-
-
-def _options(options, tunables) -> dict[str, float]:
-    """The contact tuning in force: the defaults overridden by Settings.options."""
-    unknown = set(options) - set(tunables)
-    if unknown:
-        raise SettingsError(f"options {sorted(unknown)}: rapier understands {sorted(tunables)}")
-    out = {name: t.default for name, t in tunables.items()}
-    for name, value in options.items():
-        t = tunables[name]
-        if not t.low <= value <= t.high:
-            raise SettingsError(f"options[{name!r}] = {value!r}: must lie in [{t.low}, {t.high}]")
-        out[name] = float(value)
-    return out
+        return RapierSimulation(scene, settings, self.options_in_force(settings))
 
 
 def combine_rule(scene: Scene, value_of, what: str) -> tuple[str, dict[str, float]]:
