@@ -207,6 +207,20 @@ class Adapter(ABC):
         such runs happen only when the case or the engine is named."""
         return None
 
+    def options_in_force(self, settings: Settings) -> dict[str, float]:
+        """Every tunable's value for this build: its default unless `settings.options`
+        sets it (SettingsError for an unknown name or a value outside its range)."""
+        unknown = set(settings.options) - set(self.tunables)
+        if unknown:
+            raise SettingsError(f"options {sorted(unknown)}: {self.name} understands {sorted(self.tunables) or 'none'}")
+        out = {name: t.default for name, t in self.tunables.items()}
+        for name, value in settings.options.items():
+            t = self.tunables[name]
+            if not t.low <= value <= t.high:
+                raise SettingsError(f"options[{name!r}] = {value!r}: must lie in [{t.low}, {t.high}]")
+            out[name] = float(value)
+        return out
+
     @abstractmethod
     def build(self, scene: Scene, settings: Settings) -> Simulation:
         """Build the scene; raise Unsupported if it cannot be represented faithfully."""

@@ -42,9 +42,12 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "mujoco": ("adapters.mujoco_engine", "MuJoCoAdapter", {}),
     "pymunk": ("adapters.pymunk_engine", "PymunkAdapter", {}),
     "dart": ("adapters.dart_engine", "DartAdapter", {}),
+    "box2d": ("adapters.box2d_engine", "Box2DAdapter", {}),
+    "rapier": ("adapters.rapier_engine", "RapierAdapter", {}),
 }
 # The pip extra that installs each built-in engine's package (README, pyproject.toml).
-EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "pymunk": "pymunk", "dart": "dart"}
+EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "pymunk": "pymunk", "dart": "dart", "box2d": "box2d",
+          "rapier": "rapier", "drake": "drake"}
 
 
 class EngineError(ValueError):

@@ -1,0 +1,509 @@
+"""Box2D v3 (through the pyb2d3 bindings) behind the engine contract: 2D scenes only.
+
+Frames. A 2D scene lies in the x-z plane; Box2D's plane is x-y. Scene (x, z) maps to
+Box2D (x, y). A positive rotation phi about scene +y takes +z towards +x, while Box2D's
+positive angle takes +x towards +y (= scene +z), so the Box2D angle is -phi and its
+angular velocity is -omega_y (as for Pymunk). Box2D computes in float32: positions,
+velocities, masses and material values are rounded to 2^-24 relative (6e-8), so a body
+at 10 m is placed to 1e-6 m; checks tighter than that measure the float, not the physics.
+Angles are set and read through the rotation's cosine and sine (Box2D's own angle
+functions b2MakeRot / b2Rot_GetAngle are polynomial approximations, 1e-3 rad off).
+
+What one `world.step(dt, n)` does (Box2D v3.1.1 src/solver.c, b2SolverStep): contacts are
+found for the whole step, with speculative points up to 4 linear slops (2 cm) apart; then
+n sub-steps of h = dt/n, each: velocities get gravity (v += g h), warm start, one
+relaxed-Gauss-Seidel sweep of the soft contact constraint with a bias that pushes overlap
+out, positions move (x += v h), one relax sweep without the bias (so the push-out leaves
+no velocity behind: the "soft step" solver); after the sub-steps, restitution: each
+contact point that took an impulse and approached faster than `restitution_threshold`
+before the step gets v_n+ = -e v_n- with v_n- its normal velocity before the step, before
+gravity (src/contact_solver.c, b2ApplyRestitution). There is no iteration count apart from
+the sub-steps: `Settings.iterations` is n.
+
+Impacts (`Capabilities.impact_model` "simultaneous"): all contacts of a step are solved
+together, and restitution targets each contact's own approach speed before the step.
+Measured at dt = 1e-3, e = 1: two touching discs dropped on the ground leave it together
+(0.997 and 0.984 of the impact speed 5 steps later, as the reference's simultaneous model,
+0.984 both); a striker at 1 m/s into three touching discs rebounds at -0.125 m/s and the
+row leaves at 0.28, 0.28, 0.56 m/s (sequential impacts would stop the striker and send
+the last disc on at 1 m/s). The one restitution sweep is not iterated to convergence, so
+at e = 0.5 the dropped pair leaves at 0.19 and 0.34 of the impact speed, not both at 0.5.
+
+Soft contact (b2MakeSoft): the push-out is a spring-damper of natural frequency
+`contact_hertz` and damping ratio `contact_damping_ratio` (twice the frequency against
+static bodies), capped at `contact_push_speed`, and Box2D clamps the frequency to 1/8 of
+the sub-step rate. A rigid contact has no compliance, so the adapter asks for that cap:
+a resting body then sits g / (2 pi f)^2 deep (1.6 um on the ground at dt = 1e-3, n = 4)
+where Box2D's default 30 Hz lets a five-box stack sink 6.9 mm (measured).
+
+Pair materials. Box2D keeps friction and restitution per shape and mixes a pair as
+sqrt(mu_a mu_b) and max(e_a, e_b); pyb2d3 0.11.1 exposes no mixing callback. Per-shape
+values that reproduce every pair of the scene are found with adapters.combination
+(friction: the product rule on mu^2); a scene that has none is `unsupported`.
+
+Contact forces. pyb2d3 0.11.1 exposes no per-step contact data (b2Body_GetContactData is
+not bound; its manifolds come only with the begin-touch events, before they are solved).
+The forces are therefore read from what the contacts did: every velocity change of a
+dynamic body in a step other than gravity is a contact impulse (damping is 0, no other
+force acts), so body i took J_i = m_i (v_i' - v_i) - m_i g dt from its contacts, exactly
+to float32 round-off. The pairs in contact are the engine's own (begin/end-touch events:
+the contacts the solver had in the step). Each pair's impulse P_ab (on a, -P_ab on b)
+solves sum_pairs(i) +-P = J_i; where the contact graph (all static bodies one node) is a
+forest, as in stacks, chains and single contacts, that split is unique and is the
+engine's. Box2D's contacts include speculative ones up to 2 cm apart; one that would
+close a cycle and is more than ACTING_GAP apart after the step took nothing and is left
+out (a millimetre box's ground contact when it rests on another box). Where a cycle
+remains (a box touching two others that touch each other) only sums are determined (what
+a body takes from all its contacts, what all static bodies give): the least-norm split is
+returned and `knobs` says so. The split is worked out when `contact_forces` is asked, from
+a snapshot the step keeps, so the timed step holds only the engine's work and the
+snapshot. The normal force of a pair
+is P_ab . n / dt with n the pair's contact normal from b into a before the step (the
+geometry Box2D found its contacts from): the plane's normal, the line of centres, or the
+separating axis of least penetration (as b2CollidePolygons chooses it). No contact points
+(`Capabilities.contact_points` is False): their positions and per-point impulses are not
+exposed.
+"""
+from __future__ import annotations
+
+import math
+from importlib import metadata
+
+import numpy as np
+import pyb2d3 as b2
+
+from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
+from adapters.combination import per_body_values
+from adapters.frames import state_row
+from cases.scene import Body, Circle, Plane, Scene, pair_key, quat_about_y
+
+DEFAULT_SUBSTEPS = 4  # Box2D's recommended sub-step count (b2World_Step documentation)
+# The fraction of the sub-step rate Box2D clamps contact_hertz to (src/world.c, b2World_Step:
+# contactHertz = min(contactHertz, 0.125 inv_h)); the adapter asks for this cap.
+HERTZ_CAP_PER_SUBSTEP_RATE = 0.125
+# Box2D's default damping ratio (b2DefaultWorldDef): overdamped, so the push-out never
+# rings; a ratio of 1 changed resting depths by < 1 % (measured, 5-box stack).
+CONTACT_DAMPING_RATIO = 10.0
+# Cap on the push-out speed, m/s (Box2D's default maxContactPushSpeed is 3). Overlap is a
+# numerical error: what an impact leaves (v dt, 3 mm at 3 m/s and dt = 1e-3) goes within a
+# few steps at 1 m/s, and a faster push-out only throws deeply overlapped bodies: a 1 kg
+# box sunk 5 cm ends 0.46 J above rest at 3 m/s, 3.8 J at 10 m/s, < 0.02 J at 1 m/s
+# (robustness_overlap; measured, nothing else in the battery changed between 0.3 and 3).
+CONTACT_PUSH_SPEED = 1.0
+# A speed cap that never acts (Box2D's default is 400 m/s, b2DefaultWorldDef; the harness
+# calls anything faster than 100 m/s a blow-up).
+MAXIMUM_LINEAR_SPEED = 1e4
+# The static ground: a box whose top edge is the plane, PLANE_HALF_LENGTH either side of the
+# point of the plane below the dynamic bodies' mean position, and PLANE_DEPTH deep. Box2D
+# clips polygon contacts relative to a vertex of one polygon (b2CollidePolygons), so contact
+# points on the ground are placed to the float32 spacing at PLANE_HALF_LENGTH from the
+# bodies (7.6e-6 m): long enough for every motion of the scenes, short enough for that.
+PLANE_HALF_LENGTH = 100.0  # m
+PLANE_DEPTH = 1.0  # m: deeper than any overlap the scenes make
+# Box2D's contacts include speculative ones, up to 2 cm apart. Where such a pair would close
+# a cycle of the contact graph (a millimetre box's ground contact, the box resting on
+# another), a gap after the step above this marks it as having taken no impulse: resting
+# contacts sit at gaps of -1e-5..0 m (soft contact) and float32 places bodies at 1 km to
+# 6e-5 m; a millimetre box one box up is 1e-3 m from the ground.
+ACTING_GAP = 1e-4  # m
+
+
+class Box2DAdapter(Adapter):
+    name = "box2d"
+    package = "pyb2d3"
+    capabilities = Capabilities(
+        dimensions=frozenset({2}),
+        shapes=frozenset({"circle", "rect", "plane"}),
+        native_restitution=True,
+        static_kinetic=False,  # one friction coefficient per shape
+        contact_forces=True,   # from the bodies' momenta, see the module notes
+        iterations=True,       # the sub-step count
+        contact_points=False,
+        impact_model="simultaneous",
+    )
+    tunables = {
+        "contact_hertz": Tunable(1.0, math.inf, math.inf,
+                                 "push-out stiffness, Hz (default: Box2D's cap, 1/8 of the sub-step rate)"),
+        "contact_damping_ratio": Tunable(0.0, 100.0, CONTACT_DAMPING_RATIO, "push-out damping ratio"),
+        "contact_push_speed": Tunable(0.0, 100.0, CONTACT_PUSH_SPEED, "largest push-out speed, m/s"),
+    }
+
+    def version(self) -> str:
+        return f"pyb2d3 {metadata.version('pyb2d3')}"  # 0.11.1 bundles Box2D v3.1.1
+
+    def build(self, scene: Scene, settings: Settings) -> Simulation:
+        reason = self.capabilities.cannot_run(scene)
+        if reason:
+            raise Unsupported(reason)
+        return Box2DSimulation(scene, settings, self.options_in_force(settings))
+
+
+def _rot(angle: float):
+    """Box2D rotation of `angle` from the exact cosine and sine (b2MakeRot approximates)."""
+    q = b2.Rot()
+    q.c, q.s = math.cos(angle), math.sin(angle)
+    return q
+
+
+def _angle(body: Body) -> float:
+    """Box2D angle of a 2D body: minus its rotation about scene +y (see module docstring)."""
+    w, x, y, z = body.orientation
+    if abs(x) > 1e-12 or abs(z) > 1e-12:
+        raise Unsupported(f"body {body.name!r}: orientation {body.orientation} is not a rotation "
+                          "about y, which a 2D engine cannot represent")
+    return -2.0 * math.atan2(y, w)
+
+
+def _materials(scene: Scene) -> tuple[dict[str, float], dict[str, float]]:
+    """Per-shape friction and restitution that Box2D's mixing, sqrt(mu_a mu_b) and
+    max(e_a, e_b), turns into each pair's values (Unsupported if none exist): the
+    shapes' frictions multiply to the pair's mu^2."""
+    mu = per_body_values(scene, lambda m: m.mu_s**2, "product", "friction")
+    e = per_body_values(scene, lambda m: m.e, "max", "restitution")
+    return mu, e
+
+
+# --- contact geometry: gap and normal of a pair from the bodies' poses ----------------------
+# A pose is (x, y, c, s): centre and the cosine and sine of the rotation, in Box2D's plane.
+# Plain floats: these run for every touching pair and step.
+
+FACE_NORMALS = ((0.0, -1.0), (1.0, 0.0), (0.0, 1.0), (-1.0, 0.0))  # of a rectangle, body frame
+
+
+def _rectangle(pose, half) -> tuple[list, list]:
+    """Vertices and outward face normals of a rectangle (counter-clockwise)."""
+    x, y, c, s = pose
+    a, b = half
+    vertices = [(x + c * u - s * v, y + s * u + c * v) for u, v in ((-a, -b), (a, -b), (a, b), (-a, b))]
+    normals = [(c * u - s * v, s * u + c * v) for u, v in FACE_NORMALS]
+    return vertices, normals
+
+
+def _max_separation(va, na, vb) -> tuple[float, tuple]:
+    """The face of polygon a farthest from polygon b: its separation (negative: overlap)
+    and outward normal (the separating axis test)."""
+    best, normal = -math.inf, na[0]
+    for (px, py), (nx, ny) in zip(va, na):
+        sep = min((qx - px) * nx + (qy - py) * ny for qx, qy in vb)
+        if sep > best:
+            best, normal = sep, (nx, ny)
+    return best, normal
+
+
+def _polygon_point(va, na, point) -> tuple[float, tuple]:
+    """Signed distance from a polygon to a point and the unit direction from it to the point."""
+    qx, qy = point
+    seps = [(qx - px) * nx + (qy - py) * ny for (px, py), (nx, ny) in zip(va, na)]
+    k = max(range(len(seps)), key=seps.__getitem__)
+    if seps[k] <= 0.0:
+        return seps[k], na[k]  # inside: the face of least penetration
+    best, direction = math.inf, na[k]
+    for i, (ex, ey) in enumerate(va):  # outside: from the closest point of the boundary
+        dx, dy = va[(i + 1) % len(va)][0] - ex, va[(i + 1) % len(va)][1] - ey
+        t = min(max(((qx - ex) * dx + (qy - ey) * dy) / (dx * dx + dy * dy), 0.0), 1.0)
+        rx, ry = qx - ex - t * dx, qy - ey - t * dy
+        dist = math.hypot(rx, ry)
+        if 0.0 < dist < best:
+            best, direction = dist, (rx / dist, ry / dist)
+    return best, direction
+
+
+def contact_gap(A: Body, pose_a, B: Body, pose_b) -> tuple[float, tuple]:
+    """Signed distance of two bodies (negative: overlap) and the unit contact normal from
+    B into A, in Box2D's plane: a plane's normal, the line of centres, or the axis of
+    least penetration (as b2CollidePolygons chooses it)."""
+    if isinstance(A.shape, Plane):
+        gap, (nx, ny) = contact_gap(B, pose_b, A, pose_a)
+        return gap, (-nx, -ny)
+    if isinstance(B.shape, Plane):
+        n = (B.shape.normal[0], B.shape.normal[2])
+        if isinstance(A.shape, Circle):
+            low = pose_a[0] * n[0] + pose_a[1] * n[1] - A.shape.radius
+        else:
+            low = min(x * n[0] + y * n[1] for x, y in _rectangle(pose_a, A.shape.half_extents)[0])
+        return low - B.shape.offset, n
+    if isinstance(A.shape, Circle) and isinstance(B.shape, Circle):
+        dx, dy = pose_a[0] - pose_b[0], pose_a[1] - pose_b[1]
+        r = math.hypot(dx, dy)
+        return r - A.shape.radius - B.shape.radius, (dx / r, dy / r)
+    if isinstance(A.shape, Circle):
+        gap, n = _polygon_point(*_rectangle(pose_b, B.shape.half_extents), pose_a[:2])
+        return gap - A.shape.radius, n
+    va, na = _rectangle(pose_a, A.shape.half_extents)
+    if isinstance(B.shape, Circle):
+        gap, (nx, ny) = _polygon_point(va, na, pose_b[:2])
+        return gap - B.shape.radius, (-nx, -ny)
+    vb, nb = _rectangle(pose_b, B.shape.half_extents)
+    s_a, (nx, ny) = _max_separation(va, na, vb)
+    s_b, n_b = _max_separation(vb, nb, va)
+    return (s_a, (-nx, -ny)) if s_a > s_b else (s_b, n_b)
+
+
+def acting_pairs(gaps: dict, dynamic) -> list[tuple[str, str]]:
+    """The touching pairs that take part in the impulse split: every pair of the contact
+    graph's spanning forest grown from the smallest gaps (all static bodies one node), and
+    each pair that would close a cycle unless it is more than ACTING_GAP apart after the
+    step (a speculative contact that took nothing)."""
+    root: dict[str, str] = {}
+
+    def find(x):
+        x = x if x in dynamic else "<static>"
+        while root.setdefault(x, x) != x:
+            root[x] = root[root[x]]
+            x = root[x]
+        return x
+
+    acting = []
+    for key in sorted(gaps, key=gaps.get):
+        ra, rb = find(key[0]), find(key[1])
+        if ra != rb:
+            root[ra] = rb
+            acting.append(key)
+        elif gaps[key] <= ACTING_GAP:
+            acting.append(key)
+    return acting
+
+
+def split_impulses(J: dict, pairs: list) -> tuple[dict, bool]:
+    """Impulses P_ab (on a; -P_ab on b) of the pairs with sum_pairs(i) +-P = J_i for every
+    dynamic body i (J: body -> 2-vector). Leaves of the contact graph first: a body with
+    one pair left gives that pair its remaining impulse. What a cycle leaves is split by
+    least squares (least norm); the flag says whether that happened."""
+    J = {name: list(j) for name, j in J.items()}
+    pairs_of: dict[str, set] = {n: set() for n in J}
+    for pair in pairs:
+        for n in pair:
+            if n in J:
+                pairs_of[n].add(pair)
+    P: dict[tuple[str, str], tuple] = {}
+    leaves = [n for n, ps in pairs_of.items() if len(ps) == 1]
+    while leaves:
+        n = leaves.pop()
+        if len(pairs_of[n]) != 1:
+            continue
+        (pair,) = pairs_of[n]
+        sign = 1.0 if pair[0] == n else -1.0  # P_ab acts on a with +, on b with -
+        p = (sign * J[n][0], sign * J[n][1])
+        P[pair] = p
+        for m, s in ((pair[0], 1.0), (pair[1], -1.0)):
+            if m in J:
+                J[m][0] -= s * p[0]
+                J[m][1] -= s * p[1]
+                pairs_of[m].discard(pair)
+                if len(pairs_of[m]) == 1:
+                    leaves.append(m)
+    left = [pair for pair in pairs if pair not in P]
+    if not left:
+        return P, False
+    names = sorted({n for pair in left for n in pair if n in J})
+    index = {n: i for i, n in enumerate(names)}
+    A = np.zeros((len(names), len(left)))
+    for k, (a, b) in enumerate(left):
+        if a in index:
+            A[index[a], k] = 1.0
+        if b in index:
+            A[index[b], k] = -1.0
+    solution = np.linalg.lstsq(A, np.array([J[n] for n in names]), rcond=None)[0]
+    P.update({pair: tuple(solution[k]) for k, pair in enumerate(left)})
+    return P, True
+
+
+# --- the simulation ------------------------------------------------------------------------
+
+class Box2DSimulation(Simulation):
+    def __init__(self, scene: Scene, settings: Settings, tuning: dict[str, float]):
+        self._dt = settings.dt
+        self.iterations = DEFAULT_SUBSTEPS if settings.iterations is None else settings.iterations
+        hertz_cap = HERTZ_CAP_PER_SUBSTEP_RATE * self.iterations / self._dt
+        hertz = min(tuning["contact_hertz"], hertz_cap)
+        gx, gz = float(scene.gravity[0]), float(scene.gravity[2])
+        self._gravity = np.array([gx, gz])
+        world = b2.World(gravity=(gx, gz), restitution_threshold=0.0,
+                         maximum_linear_speed=MAXIMUM_LINEAR_SPEED)
+        world.sleeping_enabled = False
+        world.continuous_enabled = False
+        world.set_contact_tuning(hertz, tuning["contact_damping_ratio"], tuning["contact_push_speed"])
+        self._world = world
+        self.knobs = {
+            "sub_step_count": self.iterations,
+            "gravity": [gx, gz],
+            "restitution_threshold": 0.0,     # default 1 m/s: slower impacts lose all bounce
+            "maximum_linear_speed": MAXIMUM_LINEAR_SPEED,  # default 400 m/s
+            "enable_sleep": False,            # default True
+            "enable_continuous": False,       # default True: time-of-impact clamping of fast bodies
+            "contact_hertz": hertz,           # default 30 Hz (clamped by Box2D to 0.125 inv_h)
+            "contact_hertz_cap": hertz_cap,   # 0.125 * sub-steps / dt
+            "static_contact_hertz": 2.0 * hertz,  # Box2D doubles it against static bodies
+            "contact_damping_ratio": tuning["contact_damping_ratio"],  # default 10
+            "contact_push_speed": tuning["contact_push_speed"],        # Box2D default 3 m/s
+            "linear_slop": 0.005,             # B2_LINEAR_SLOP (b2_lengthUnitsPerMeter = 1), not settable per world
+            "speculative_distance": 0.02,     # 4 linear slops: contacts found this far apart
+            "warm_starting": True,            # Box2D's default; pyb2d3 does not expose the switch
+            "contact_force": "momentum: J_i = m (v' - v) - m g dt per body, split over the touching pairs",
+            "bodies": {},
+        }
+
+        friction, restitution = _materials(scene)
+        self._pairs = {pair_key(a.name, b.name): scene.material_of(a.name, b.name)
+                       for a, b in scene.contact_pairs()}
+        self._bodies: dict[str, object] = {}   # dynamic bodies by name
+        self._mass: dict[str, float] = {}      # their masses as Box2D holds them (float32)
+        self._shape_of: dict[int, str] = {}    # shape id -> body name
+        self._geometry: dict[str, Body] = {}
+        self._centre = np.mean([(b.position[0], b.position[2]) for b in scene.dynamic_bodies], axis=0)
+        for body in scene.bodies:
+            self._add(body, friction[body.name], restitution[body.name])
+        self._static_pose = {}  # a plane's pose is its normal and offset (contact_gap)
+        for body in scene.bodies:
+            if body.static:
+                angle = 0.0 if isinstance(body.shape, Plane) else _angle(body)
+                self._static_pose[body.name] = (body.position[0], body.position[2], math.cos(angle), math.sin(angle))
+        self._touching: set[tuple[str, str]] = set()
+        self._pending = None
+        self._forces: dict[tuple[str, str], float] | None = {}
+        self.knobs["pair_split"] = "unique (forest)"
+        self.effects = self._built_effects(friction, restitution)
+
+    def _add(self, body: Body, mu: float, e: float) -> None:
+        shape_def = b2.shape_def(enable_contact_events=True, density=1.0)
+        shape_def.material = b2.surface_material(friction=mu, restitution=e, rolling_resistance=0.0,
+                                                 tangent_speed=0.0)
+        record = {"friction": mu, "restitution": e, "rolling_resistance": 0.0, "tangent_speed": 0.0}
+        self._geometry[body.name] = body
+        if isinstance(body.shape, Plane):
+            nx, ny, nz = body.shape.normal
+            if ny != 0.0:
+                raise Unsupported(f"plane normal {body.shape.normal}: not in the x-z plane of a 2D scene")
+            # the box's top edge on the plane: the body at the plane's point below the
+            # dynamic bodies' mean position, turned so that its +y is the normal
+            n = np.array([nx, nz])
+            origin = tuple(float(c) for c in self._centre - (self._centre @ n - body.shape.offset) * n)
+            angle = math.atan2(-nx, nz)
+            pb = self._world.create_static_body(position=origin, rotation=_rot(angle))
+            shape = pb.create_polygon_shape(shape_def, b2.box(PLANE_HALF_LENGTH, PLANE_DEPTH / 2,
+                                                               center=(0.0, -PLANE_DEPTH / 2)))
+            record.update(static=True, polygon={"half_extents": [PLANE_HALF_LENGTH, PLANE_DEPTH / 2],
+                                                "top_edge_through": list(origin), "angle": angle})
+        else:
+            angle = _angle(body)
+            kw = dict(position=(body.position[0], body.position[2]), rotation=_rot(angle))
+            if body.static:
+                pb = self._world.create_static_body(**kw)
+                record["static"] = True
+            else:
+                omega = -body.angular_velocity[1] if body.rotates else 0.0
+                pb = self._world.create_dynamic_body(
+                    **kw, linear_velocity=(body.velocity[0], body.velocity[2]), angular_velocity=omega,
+                    linear_damping=0.0, angular_damping=0.0, enable_sleep=False,
+                    fixed_rotation=not body.rotates, gravity_scale=1.0)
+            if isinstance(body.shape, Circle):
+                shape = pb.create_circle_shape(shape_def, b2.circle(radius=body.shape.radius))
+                record["circle"] = {"radius": body.shape.radius}
+            else:
+                a, c = body.shape.half_extents
+                shape = pb.create_polygon_shape(shape_def, b2.box(a, c))
+                record["polygon"] = {"half_extents": [a, c], "radius": 0.0}
+            if body.dynamic:
+                # mass and inertia exactly as the scene states them; 0 inertia is Box2D's
+                # lock on rotation (b2Body_SetMassData: invInertia = 0)
+                mass = b2.MassData()
+                mass.mass, mass.center = body.mass, (0.0, 0.0)
+                mass.rotational_inertia = body.principal_inertia[1] if body.rotates else 0.0
+                pb.mass_data = mass
+                self._bodies[body.name] = pb
+                self._mass[body.name] = pb.mass
+                record.update(mass=pb.mass, rotational_inertia=pb.mass_data.rotational_inertia,
+                              fixed_rotation=not body.rotates, linear_damping=0.0, angular_damping=0.0,
+                              enable_sleep=False)
+        self._shape_of[shape.id] = body.name
+        self.knobs["bodies"][body.name] = record
+
+    def _built_effects(self, friction: dict, restitution: dict) -> frozenset[str]:
+        fx = set()
+        if np.any(self._gravity != 0.0):
+            fx.add("gravity")
+        if self._pairs:
+            fx.add("contact")
+            # Box2D's mixing of the values given to it, pair by pair
+            if any(max(restitution[a], restitution[b]) > 0 for a, b in self._pairs):
+                fx.add("restitution")
+            if any(friction[a] * friction[b] > 0 for a, b in self._pairs):
+                fx.add("friction")
+        if any(b.mass_data.rotational_inertia > 0 for b in self._bodies.values()):
+            fx.add("rotation")
+        return frozenset(fx)
+
+    # --- stepping and the contact read-out --------------------------------------------
+
+    def _snapshot(self) -> dict[str, tuple]:
+        """Pose (x, y, c, s) and velocity (vx, vy) of every dynamic body, as Box2D holds them."""
+        out = {}
+        for name, pb in self._bodies.items():
+            p, q, v = pb.position, pb.rotation, pb.linear_velocity  # attributes: unpacking costs 15 us
+            out[name] = (p.x, p.y, q.c, q.s, v.x, v.y)
+        return out
+
+    def step(self) -> None:
+        before = self._snapshot()
+        self._world.step(self._dt, self.iterations)
+        events = self._world.get_contact_events()
+        touching_before = frozenset(self._touching)
+        if events.begin_count:
+            self._touching.update(pair_key(self._shape_of[e.shape_a.id], self._shape_of[e.shape_b.id])
+                                  for e in events.begin_events())
+        if events.end_count:
+            self._touching.difference_update(pair_key(self._shape_of[e.shape_a.id], self._shape_of[e.shape_b.id])
+                                             for e in events.end_events())
+        # the forces are worked out when asked for (contact_forces), not inside the step
+        self._pending = (before, self._snapshot(), touching_before)
+        self._forces = None
+
+    def _pose(self, name: str, snapshot: dict) -> tuple:
+        return snapshot[name][:4] if name in snapshot else self._static_pose[name]
+
+    def _gap(self, a: str, b: str, snapshot: dict | None = None) -> tuple[float, tuple]:
+        snapshot = self._snapshot() if snapshot is None else snapshot
+        return contact_gap(self._geometry[a], self._pose(a, snapshot), self._geometry[b], self._pose(b, snapshot))
+
+    def _read_forces(self) -> dict[tuple[str, str], float]:
+        """Normal force of each acting pair from the bodies' contact impulses (module notes).
+        The normal is the pair's before the step (Box2D found its contacts from those
+        poses), or after it for a pair that began touching in the step."""
+        before, after, touching_before = self._pending
+        gaps, normals = {}, {}
+        for key in self._touching:
+            gaps[key], normals[key] = self._gap(*key, after)
+            if key in touching_before:
+                normals[key] = self._gap(*key, before)[1]
+        pairs = acting_pairs(gaps, self._bodies)
+        if not pairs:
+            return {}
+        gx, gy = self._gravity * self._dt
+        J = {n: (self._mass[n] * (after[n][4] - before[n][4] - gx), self._mass[n] * (after[n][5] - before[n][5] - gy))
+             for n in self._bodies}
+        P, ambiguous = split_impulses(J, pairs)
+        if ambiguous:
+            self.knobs["pair_split"] = "least-norm where the contact graph has a cycle"
+        return {key: (p[0] * normals[key][0] + p[1] * normals[key][1]) / self._dt for key, p in P.items()}
+
+    # --- the contract -------------------------------------------------------------------
+
+    def states(self):
+        out = {}
+        for name, pb in self._bodies.items():
+            p, q, v = pb.position, pb.rotation, pb.linear_velocity
+            phi = -math.atan2(q.s, q.c)
+            out[name] = state_row((p.x, 0.0, p.y), quat_about_y(phi), (v.x, 0.0, v.y),
+                                  (0.0, -pb.angular_velocity, 0.0))
+        return out
+
+    def contact_forces(self):
+        if self._forces is None:
+            self._forces = self._read_forces() if self._pending else {}
+        return dict(self._forces)
+
+    def close(self) -> None:
+        world, self._world = getattr(self, "_world", None), None
+        if world is not None:
+            world.destroy()
+        self._bodies = {}

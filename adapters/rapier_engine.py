@@ -1,0 +1,293 @@
+"""Rapier (rapier3d Python bindings, 3D, float32) behind the engine contract.
+
+One `rapier3d.PhysicsWorld` per built scene. 2D scenes are embedded in the x-z plane as
+for the other 3D engines: every dynamic body has its rotations about x and z locked
+(`LockedAxes`), a disc is a cylinder along y, a rectangle a box as deep along y as its
+larger half-extent (the depth only spreads the contact points, symmetrically about y = 0).
+The y translation is locked only in frictionless scenes: with it and two rotations locked
+Rapier applies no friction at all (measured with 0.36.1: a box sliding at 1 m/s with
+mu = 0.5 keeps its speed whenever a translation and two rotations are locked; any one lock
+alone, or the rotations alone, decelerate it at mu g). Nothing in a 2D scene pushes along
+y, so a free y stays 0 up to the contact manifolds' float32 noise: below 4e-7 m in every
+frictional 2D scene of the library, but 1.9e-4 m in the frictionless cradle between walls
+(where the lock then costs nothing).
+
+Gyroscopic forces are switched on (omega x I omega, the free-body physics) except for
+bodies whose three principal moments are equal (spheres, and every 2D body, which turns
+about one principal axis only): for them the term is exactly zero, and Rapier's implicit
+gyroscopic step is not -- it spins a free ball up from 3 to 3.0017 rad/s in 2 s (measured).
+
+Float32. Rapier computes in single precision: positions, velocities, masses and material
+values are rounded to 2^-24 relative (6e-8); a body at 10 m is placed to 1e-6 m. Checks
+tighter than that measure the float, not the physics.
+
+What one `world.step()` does (rapier 0.35-0.36, src/dynamics/solver): contacts are found
+for the whole step, with speculative points up to `prediction_distance` apart; then
+`num_solver_iterations` sub-steps of h = dt / n, each: gravity, warm start, one Gauss-Seidel
+sweep of the soft contact constraint whose bias pushes overlap out (a spring of natural
+frequency f and damping ratio zeta, capped at `max_corrective_velocity`), positions move,
+one sweep without the bias; after the sub-steps, restitution once per contact point
+(target -e times the normal velocity when the constraint was built). Restitution acts only
+where the point took no impulse in the step before (a "new" contact), except at e >= 1
+(src/geometry/contact_pair.rs, is_bouncy): a contact that persists is resting. So
+`Settings.iterations` is the sub-step count n.
+
+Impacts (`Capabilities.impact_model` "simultaneous"): all contacts of a step are solved
+together and restitution targets each contact's own approach speed. Measured at dt = 1e-3,
+e = 1: two touching balls dropped on the ground leave it together (0.997 and 0.984 of the
+impact speed 5 steps later; the reference's simultaneous model: 0.984 both); a striker at
+1 m/s into three touching balls rebounds at -0.125 m/s (sequential impacts would stop it).
+At e = 0.5 the dropped pair does not leave together at 0.5 (0 and 0.34 of the impact speed).
+
+Soft contact. Rapier's defaults (30 Hz, zeta = 10; 60 Hz against fixed bodies) let a
+resting box sit g / (2 pi f)^2 deep and a five-box stack sink mm. A rigid contact has no
+compliance, so the adapter asks for the stiffness Box2D caps its own soft contact at
+(1/8 of the sub-step rate, twice that against fixed bodies): the same rigid limit on both
+soft-step engines. `Settings.options` may set it (`tunables`).
+
+Pair materials. Each collider carries a friction and a restitution and a combination rule
+for each; a pair takes the rule of higher priority (average < min < multiply < max). The
+adapter gives every collider the same rule, chosen per quantity as the first of max, min,
+multiply under which per-collider values reproduce every pair of the scene
+(adapters.combination); a scene with none is `unsupported`.
+
+Contact forces and points. Rapier reports per contact point its normal impulse over the
+step (the sum over the sub-steps and the restitution pass) and two tangent impulses in a
+basis the Python bindings do not expose: `contact_forces` sums the normal impulses of each
+pair / dt; contact points are not reported (`Capabilities.contact_points` is False).
+"""
+from __future__ import annotations
+
+import math
+from importlib import metadata
+
+import rapier3d as r
+
+from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
+from adapters.combination import RULES as COMBINE, per_body_values
+from adapters.frames import state_row
+from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
+
+DEFAULT_SUBSTEPS = 4  # Rapier's own default num_solver_iterations, stated
+# The contact stiffness asked for, as a fraction of the sub-step rate (dynamic pairs; twice
+# this against fixed bodies): Box2D's cap, see the module notes.
+HERTZ_PER_SUBSTEP_RATE = 0.125
+CONTACT_DAMPING_RATIO = 10.0  # Rapier's default: overdamped, the push-out never rings
+MAX_CORRECTIVE_VELOCITY = 1.0  # m/s; Rapier's default is 3 (see box2d_engine.CONTACT_PUSH_SPEED)
+# Rapier's default friction model (one friction constraint per contact manifold, plus a twist
+# constraint). Its per-point COULOMB model decelerates a box sliding at 1 m/s (mu = 0.5) at
+# 4.593 instead of 4.905 m/s^2 and turns it sideways; SIMPLIFIED gives 4.9049 (measured).
+FRICTION_MODEL = r.FrictionModel.SIMPLIFIED
+RULES = {"max": r.CoefficientCombineRule.MAX, "min": r.CoefficientCombineRule.MIN,
+         "product": r.CoefficientCombineRule.MULTIPLY}
+RULE_NAMES = {"max": "MAX", "min": "MIN", "product": "MULTIPLY"}
+
+
+class RapierAdapter(Adapter):
+    name = "rapier"
+    package = "rapier3d"
+    capabilities = Capabilities(
+        dimensions=frozenset({2, 3}),
+        shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
+        native_restitution=True,
+        static_kinetic=False,  # one friction coefficient per collider
+        contact_forces=True,
+        iterations=True,       # the sub-step count
+        contact_points=False,  # tangent impulses come in a basis the bindings do not expose
+        impact_model="simultaneous",
+    )
+    tunables = {
+        "contact_natural_frequency": Tunable(
+            1.0, math.inf, math.inf,
+            "push-out stiffness of dynamic pairs, Hz (twice this against fixed bodies; default 1/8 of the sub-step rate)"),
+        "contact_damping_ratio": Tunable(0.0, 100.0, CONTACT_DAMPING_RATIO, "push-out damping ratio"),
+        "max_corrective_velocity": Tunable(0.0, 100.0, MAX_CORRECTIVE_VELOCITY, "largest push-out speed, m/s"),
+    }
+
+    def version(self) -> str:
+        return metadata.version("rapier3d")
+
+    def build(self, scene: Scene, settings: Settings) -> Simulation:
+        reason = self.capabilities.cannot_run(scene)
+        if reason:
+            raise Unsupported(reason)
+        return RapierSimulation(scene, settings, self.options_in_force(settings))
+
+
+def combine_rule(scene: Scene, value_of, what: str) -> tuple[str, dict[str, float]]:
+    """The first rule (max, min, product) under which per-collider values give every pair
+    its value, and those values (Unsupported if no rule does)."""
+    for rule in ("max", "min", "product"):
+        try:
+            return rule, per_body_values(scene, value_of, rule, what)
+        except Unsupported:
+            continue
+    raise Unsupported(f"the scene's pair {what} values cannot be expressed as per-collider values under "
+                      "any of Rapier's combination rules (max, min, multiply)")
+
+
+def _collider(body: Body) -> tuple[r.ColliderBuilder, dict]:
+    """The collider of a body, in the body's frame, and the record of how it was made."""
+    s = body.shape
+    if isinstance(s, Sphere):
+        return r.Collider.ball(s.radius), {"ball": {"radius": s.radius}}
+    if isinstance(s, Box):
+        return r.Collider.cuboid(*s.half_extents), {"cuboid": list(s.half_extents)}
+    if isinstance(s, Circle):  # a cylinder along y (Rapier's cylinder axis)
+        return r.Collider.cylinder(s.radius, s.radius), {"cylinder": {"half_height": s.radius, "radius": s.radius}}
+    if isinstance(s, Rect):
+        a, c = s.half_extents
+        half = [a, max(a, c), c]
+        return r.Collider.cuboid(*half), {"cuboid": half}
+    # plane n . x = offset: the half-space through offset * n
+    return (r.Collider.halfspace(tuple(s.normal)).translation(tuple(s.offset * n for n in s.normal)),
+            {"halfspace": {"outward_normal": list(s.normal), "offset": s.offset}})
+
+
+def _planar_locks(body: Body, frictional: bool) -> r.LockedAxes:
+    """A 2D body turns about y only, and moves in the x-z plane unless the scene has
+    friction (which Rapier would then drop: module notes)."""
+    w, x, y, z = body.orientation
+    if abs(x) > 1e-12 or abs(z) > 1e-12:
+        raise Unsupported(f"2D body {body.name!r}: orientation {body.orientation} is not a rotation "
+                          "about y, so it cannot turn about y only")
+    locks = r.LockedAxes.ROTATION_LOCKED_X | r.LockedAxes.ROTATION_LOCKED_Z
+    return locks if frictional else locks | r.LockedAxes.TRANSLATION_LOCKED_Y
+
+
+class RapierSimulation(Simulation):
+    def __init__(self, scene: Scene, settings: Settings, tuning: dict[str, float]):
+        self._dt = settings.dt
+        self.iterations = DEFAULT_SUBSTEPS if settings.iterations is None else settings.iterations
+        world = r.PhysicsWorld(gravity=tuple(float(g) for g in scene.gravity))
+        hertz = min(tuning["contact_natural_frequency"], HERTZ_PER_SUBSTEP_RATE * self.iterations / self._dt)
+        zeta = tuning["contact_damping_ratio"]
+        p = world.integration_parameters  # a live view: set in place
+        p.dt = self._dt
+        p.num_solver_iterations = self.iterations
+        p.friction_model = FRICTION_MODEL
+        p.contact_softness = r.SpringCoefficients(hertz, zeta)
+        p.static_contact_softness = r.SpringCoefficients(2.0 * hertz, zeta)
+        p.normalized_max_corrective_velocity = tuning["max_corrective_velocity"]  # length_unit 1
+        self._world = world
+        self.knobs = {
+            "gravity": list(scene.gravity),
+            "dt": p.dt,
+            "num_solver_iterations": p.num_solver_iterations,
+            "num_internal_pgs_iterations": p.num_internal_pgs_iterations,  # default 1
+            "num_internal_stabilization_iterations": p.num_internal_stabilization_iterations,  # default 1
+            "friction_model": "SIMPLIFIED",  # Rapier's default: one friction constraint per manifold, plus twist
+            "contact_softness": {"natural_frequency": hertz, "damping_ratio": zeta},  # default 30 Hz, 10
+            "static_contact_softness": {"natural_frequency": 2.0 * hertz, "damping_ratio": zeta},  # default 60 Hz, 10
+            "normalized_max_corrective_velocity": p.normalized_max_corrective_velocity,  # default 3 m/s
+            "normalized_prediction_distance": p.normalized_prediction_distance,  # speculative contacts, m
+            "normalized_allowed_linear_error": p.normalized_allowed_linear_error,  # used by CCD only
+            "warmstart_coefficient": p.warmstart_coefficient,
+            "length_unit": p.length_unit,
+            "contact_force": "sum of the pair's normal impulses / dt",
+            "bodies": {},
+        }
+
+        rule_mu, mu = combine_rule(scene, lambda m: m.mu_s, "friction")
+        rule_e, e = combine_rule(scene, lambda m: m.e, "restitution")
+        self.knobs["friction_combine_rule"] = RULE_NAMES[rule_mu]
+        self.knobs["restitution_combine_rule"] = RULE_NAMES[rule_e]
+        self._pairs = {pair_key(a.name, b.name): scene.material_of(a.name, b.name)
+                       for a, b in scene.contact_pairs()}
+        self._handles: dict[str, r.RigidBodyHandle] = {}  # dynamic bodies
+        self._collider_of: dict[int, str] = {}  # collider index -> body name
+        self._frictional = "friction" in scene.effects
+        for body in scene.bodies:
+            self._add(body, scene.dimension, mu[body.name], e[body.name], RULES[rule_mu], RULES[rule_e])
+        self.effects = self._built_effects(scene, COMBINE[rule_mu], mu, COMBINE[rule_e], e)
+
+    def _add(self, body: Body, dimension: int, mu: float, e: float, rule_mu, rule_e) -> None:
+        w, x, y, z = body.orientation
+        if body.static:
+            builder = r.RigidBody.fixed()
+            record = {"type": "fixed"}
+        else:
+            inertia = body.principal_inertia
+            gyroscopic = dimension == 3 and max(inertia) > min(inertia)  # module notes
+            builder = (r.RigidBody.dynamic().linvel(tuple(body.velocity)).linear_damping(0.0)
+                       .angular_damping(0.0).can_sleep(False).ccd_enabled(False).soft_ccd_prediction(0.0)
+                       .gyroscopic_forces(gyroscopic).allow_fast_rotation(True))
+            record = {"type": "dynamic", "linear_damping": 0.0, "angular_damping": 0.0, "can_sleep": False,
+                      "ccd_enabled": False, "soft_ccd_prediction": 0.0, "gyroscopic_forces": gyroscopic,
+                      "allow_fast_rotation": True}  # default False: angular speed capped at ~45 deg/step
+            locks = r.LockedAxes.empty()
+            if dimension == 2:
+                locks = _planar_locks(body, self._frictional)
+            if not body.rotates:
+                locks = locks | r.LockedAxes.ROTATION_LOCKED
+            else:
+                builder = builder.angvel(tuple(body.angular_velocity))
+            builder = builder.locked_axes(locks)
+            record["locked_axes"] = locks.bits
+        if not isinstance(body.shape, Plane):
+            builder = builder.position(r.Isometry3(translation=tuple(body.position),
+                                                   rotation=r.Rotation3(w, x, y, z)))
+        collider, shape_record = _collider(body)
+        collider = (collider.friction(mu).restitution(e).friction_combine_rule(rule_mu)
+                    .restitution_combine_rule(rule_e).contact_skin(0.0))
+        if body.dynamic:
+            collider = collider.mass_properties(r.MassProperties(local_com=(0.0, 0.0, 0.0), mass=body.mass,
+                                                                 principal_inertia=inertia))
+            record.update(mass=body.mass, principal_inertia=list(inertia))
+        else:
+            collider = collider.density(0.0)
+        handle = self._world.add_body(builder)
+        ch = self._world.add_collider(collider, handle)
+        self._collider_of[ch.index] = body.name
+        if body.dynamic:
+            self._handles[body.name] = handle
+        record.update(collider=shape_record, friction=mu, restitution=e, contact_skin=0.0)
+        self.knobs["bodies"][body.name] = record
+
+    def _built_effects(self, scene: Scene, combine_mu, mu: dict, combine_e, e: dict) -> frozenset[str]:
+        """What the built world simulates, from the values given to the engine and its rules."""
+        fx = set()
+        if any(g != 0.0 for g in scene.gravity):
+            fx.add("gravity")
+        if self._pairs:
+            fx.add("contact")
+            if any(combine_e(e[a], e[b]) > 0 for a, b in self._pairs):
+                fx.add("restitution")
+            if any(combine_mu(mu[a], mu[b]) > 0 for a, b in self._pairs):
+                fx.add("friction")
+        bodies = self._world.rigid_bodies
+        if any(not bodies[h].locked_axes.contains(r.LockedAxes.ROTATION_LOCKED) for h in self._handles.values()):
+            fx.add("rotation")
+        return frozenset(fx)
+
+    # --- the contract -------------------------------------------------------------------
+
+    def step(self) -> None:
+        self._world.step()
+
+    def states(self):
+        bodies = self._world.rigid_bodies
+        out = {}
+        for name, h in self._handles.items():
+            b = bodies[h]
+            q = b.rotation
+            out[name] = state_row(b.translation.to_tuple(), (q.w, q.i, q.j, q.k), b.linvel.to_tuple(),
+                                  b.angvel.to_tuple())
+        return out
+
+    def contact_forces(self):
+        forces: dict[tuple[str, str], float] = {}
+        for pair in self._world.narrow_phase.contact_pairs():
+            if not pair.has_any_active_contact:
+                continue
+            j = sum(p.impulse for m in pair.manifolds for p in m.points)
+            a, b = self._collider_of[pair.collider1.index], self._collider_of[pair.collider2.index]
+            key = pair_key(a, b)
+            forces[key] = forces.get(key, 0.0) + j / self._dt
+        return forces
+
+    def close(self) -> None:
+        world, self._world = getattr(self, "_world", None), None
+        if world is not None:
+            world.clear()
+        self._handles = {}
