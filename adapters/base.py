@@ -29,6 +29,10 @@ from cases.trajectory import ContactPoint
 # "compliant": contacts are springs (dampers) acting over several steps; the outcome
 #   depends on the stiffnesses and lies between the two.
 IMPACT_MODELS = ("simultaneous", "sequential", "compliant")
+# A case that checks one model's closed form names it in its needs, e.g.
+# "impact_model:sequential"; an engine that declares another model (or none) reports the
+# variant unsupported (Capabilities.cannot_run).
+IMPACT_MODEL_NEED = "impact_model:"
 
 
 class Unsupported(Exception):
@@ -70,6 +74,10 @@ class Capabilities:
     # None: not declared.
     impact_model: str | None = None
 
+    def __post_init__(self):
+        if self.impact_model is not None and self.impact_model not in IMPACT_MODELS:
+            raise ValueError(f"impact_model = {self.impact_model!r}: must be one of {', '.join(IMPACT_MODELS)} or None")
+
     def cannot_run(self, scene: Scene, needs: frozenset[str] = frozenset()) -> str | None:
         """Why this engine cannot represent `scene` (and a case's extra `needs`), or None."""
         if scene.dimension not in self.dimensions:
@@ -90,6 +98,15 @@ class Capabilities:
                     "model that contact law")
         if "contact_forces" in needs and not self.contact_forces:
             return "the case reads contact forces, which this engine does not report"
+        for need in sorted(needs):
+            if need.startswith(IMPACT_MODEL_NEED):
+                model = need[len(IMPACT_MODEL_NEED):]
+                if model not in IMPACT_MODELS:
+                    raise ValueError(f"need {need!r}: the impact model must be one of {', '.join(IMPACT_MODELS)}")
+                if self.impact_model != model:
+                    declared = (f"the engine resolves impacts as {self.impact_model}" if self.impact_model
+                                else "the engine declares no impact model")
+                    return f"the case checks the {model} impact model's closed form; {declared}"
         return None
 
     def describe(self) -> str:
@@ -98,7 +115,8 @@ class Capabilities:
                              "contact_points")
                  if getattr(self, f)]
         laws = f"; compliant contact: {','.join(sorted(self.contact_laws))}" if self.contact_laws else ""
-        return f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags) + laws
+        impacts = f"; impacts: {self.impact_model}" if self.impact_model else ""
+        return f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags) + laws + impacts
 
 
 class Simulation(ABC):
