@@ -27,7 +27,7 @@ constructor argument recorded in `knobs`; the plain "pybullet" keeps the choices
 - `ground="box"` ("pybullet-boxground"): a scene's plane built as a large box whose top
   face is the plane instead of a GEOM_PLANE. Bullet's convex-plane algorithm adds one
   manifold point per step (the deepest vertex), so a box landing flat on a GEOM_PLANE is
-  struck at one corner first and flips (25 rad/s for a 0.2 m cube from 0.5 m, e = 0.5,
+  struck at one corner first and flips (19 rad/s for a 0.2 m cube from 0.3 m, e = 0.5,
   measured); the box-box detector gives all four corners in the first step.
 
 Compliant contact, Hooke's law F = k xi (cases.scene.Compliance "hooke"): changeDynamics

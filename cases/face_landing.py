@@ -12,8 +12,8 @@ every later bounce repeats this, and the cube comes to rest on the face it fell 
 compliant model gives the same by symmetry (four equal springs: no moment). A model that
 takes the corners one at a time (or a collision detector that reports one corner first)
 strikes one corner with the whole impulse: a lever of a sqrt 2 from the centre, which
-sends the cube spinning (PyBullet with its GEOM_PLANE ground: 25 rad/s at e = 0.5,
-measured) and can turn it onto another face.
+sends the cube spinning at 13 rad/s (e = 0) to 19 rad/s (e = 0.5) (PyBullet with its
+GEOM_PLANE ground: 19.3 rad/s at e = 0.5, measured) and can turn it onto another face.
 
 The ground shape. PyBullet's convex-plane collision adds one manifold point per step, the
 deepest vertex, so a cube landing flat on a GEOM_PLANE is struck at one corner first; its
@@ -120,7 +120,7 @@ def expect(p, dt) -> list[Check]:
               "impulse) carried through e^2 h, plus g dt^2 for where samples fall"),
         Check("max_spin", "rad/s", 0.0, G * dt / HALF, "abs",
               "a corner moving g dt relative to the centre: one step of gravity a contact has not yet cancelled; "
-              "a one-corner impact gives ~10 rad/s"),
+              "one corner struck alone gives 13 (e = 0) to 19 rad/s (e = 0.5)"),
         Check("down_face_alignment", "-", 1.0, 1 - math.cos(tilt), "abs",
               f"flat on the face it fell on to within {PENETRATION * 1e3:g} mm across it ({tilt:.2g} rad); "
               "any other face gives <= 0"),
