@@ -95,7 +95,10 @@ EVERY_POINT = 1e30       # contactProcessingThreshold that keeps speculative poi
 # own btContactSolverInfo default is 0.85); it acts on maximal-coordinate contacts only
 # (the multibody solver warm starts only when articulatedWarmStartingFactor is set).
 PYBULLET_WARM_STARTING_FACTOR = 0.1
-WARM_STARTING_FACTOR = 0.85  # the "rigid" variant: Bullet's library default
+# The "rigid" variant's factor: Bullet's library default. At 60 Hz a stack of 0.2 m boxes
+# stands 5 high with it (20 and 50 iterations; 10 boxes fall), 2 high at pybullet's 0.1;
+# its friction errors are the same at 0, 0.1 and 0.85 (measured).
+WARM_STARTING_FACTOR = 0.85
 # ground="box": a scene Plane becomes a static box this large, its top face on the plane
 GROUND_HALF_WIDTH = 100.0     # m: wider than any scene travels
 GROUND_HALF_THICKNESS = 1.0   # m: thicker than any body moves in one step

@@ -51,10 +51,11 @@ DEFAULT_ITERATIONS = 10  # Pymunk's own default Space.iterations, stated here
 # Overlap the solver leaves alone (m). Pymunk's default 0.1 is pixel scale: bodies would rest
 # up to 0.1 m deep. 0.1 mm is far below the scenes' sizes and above rounding; 1e-5 m with
 # beta = 0.2 lets a five-box stack at dt = 5e-3 walk sideways 1.5 mm/s (measured). The cost
-# shows at 60 Hz: a 5-box stack falls within 0.3 s at 5-10 iterations (4.7 s at 20), where
-# slop 1e-3 holds 5 (resting 1 mm deep, the library's penetration bound): the stability map
-# of `physval stress` reports this trade-off, which is kept for accurate resting contact;
-# the engine variant "pymunk-slop1mm" (adapters/registry.py) runs the other side of it.
+# shows at 60 Hz: a 5-box stack falls at 20 iterations (after 4.7 s), where slop 1e-3 holds
+# it (resting 1 mm deep, the library's penetration bound); at 5-10 iterations both drop it
+# within 0.3 s, at 50 both hold 5 and drop 10 (measured). The stability map of `physval
+# stress` reports this trade-off, which is kept for accurate resting contact; the engine
+# variant "pymunk-slop1mm" (adapters/registry.py) runs the other side of it.
 COLLISION_SLOP = 1e-4
 # Depenetration: v_bias = beta/dt (delta - delta_slop)_+ on pseudo-velocities (note 001,
 # "Sequential Impulses": beta in [0.1, 0.3]); beta = 0.2 as in reference_impl, so the two
