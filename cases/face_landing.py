@@ -18,9 +18,13 @@ GEOM_PLANE ground: 19.3 rad/s at e = 0.5, measured) and can turn it onto another
 The ground shape. PyBullet's convex-plane collision adds one manifold point per step, the
 deepest vertex, so a cube landing flat on a GEOM_PLANE is struck at one corner first; its
 box-box detector gives all four corners in the first step. The ground is an adapter
-choice, recorded in every engine's knobs ("ground"); the plain "pybullet" keeps the
-GEOM_PLANE (what its users load), and the engine variant "pybullet-boxground" builds the
-plane as a large box: run both to see the difference. MuJoCo's plane and box give the
+choice, recorded in every engine's knobs ("ground"). The plain "pybullet" keeps the
+GEOM_PLANE, and the engine variant "pybullet-boxground" builds the plane as a large box:
+run both to see the difference. Neither is faithful everywhere (measured over the
+library): the box lands faces and edges right, but on it the friction anchors no longer
+hold a box near the friction limit (it creeps 0.16-0.45 mm/s where the plane holds it
+still) and a disc meets it unseen until 4 mm deep; so the plane stays the default and
+the box is a named variant with its own deviations. MuJoCo's plane and box give the
 same landing (measured, so no variant); DART's adapter always uses a box (its PlaneShape
 gives one contact point); the reference's plane is the exact half-space (every corner
 within its margin is a contact); Pymunk's is a thick segment (two points for a square).
