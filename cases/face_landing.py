@@ -116,12 +116,16 @@ def observe(traj, p) -> dict:
 
 def expect(p, dt) -> list[Check]:
     e = p["e"]
-    r = G * dt / impact_speed()
+    # The rebound speed e v_in is known to (1 + e) g dt: the contact is found at a step
+    # boundary within a step of the touch (the approach speed within g dt of v_in), and the
+    # impact step's gravity acts before or after the impulse (g dt). As a ratio of v_in:
+    r = (1 + e) * G * dt / impact_speed()
     tilt = PENETRATION / (2 * HALF)  # rad: one edge of the face a penetration depth lower than the other
     return [
         Check("rebound_height", "m", rebound_height(e), (2 * e * r + r * r) * H + G * dt**2, "abs",
-              f"g dt / v_in = {r:.2g} on the rebound speed (gravity of the impact step before or after the "
-              "impulse) carried through e^2 h, plus g dt^2 for where samples fall"),
+              f"(1 + e) g dt / v_in = {r:.2g} on the rebound ratio (the contact found within a step of the touch, "
+              "the impact step's gravity before or after the impulse) carried through e^2 h, plus g dt^2 for "
+              "where samples fall"),
         Check("max_spin", "rad/s", 0.0, G * dt / HALF, "abs",
               "a corner moving g dt relative to the centre: one step of gravity a contact has not yet cancelled; "
               "one corner struck alone gives 13 (e = 0) to 19 rad/s (e = 0.5)"),
