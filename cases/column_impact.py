@@ -7,15 +7,17 @@ Two setups, frictionless balls, no gravity:
 - `strike`: a ball (1 kg) moving at V strikes a row of two pressed balls of 1 kg.
 Pressed means the touching pairs start OVERLAP into each other, so that every engine's
 collision detection sees their contact in the step of the impact. Exactly touching is a
-rounding coin flip: measured, PyBullet and DART see a horizontal row placed at distance
-0.0 but not a vertical pair at 2.8e-17 m, and Pymunk sees no contact between discs that do
-not overlap, so an impact through them is taken one pair per step (the sequential outcome
-below, to 1e-4). Gravity is off: the closed forms hold exactly, and a falling column's
-internal contact would carry no force for the engines to see.
+rounding coin flip: measured, PyBullet and DART take a row placed at distance 0.0 into the
+impact's solve, but not a moving pair whose distance is zero only to rounding; Pymunk sees
+no contact between discs that do not overlap. Such a contact joins a step later and the
+impact passes one pair per step: Pymunk then gives the sequential outcome below to 1e-4
+(a struck row of three at e = 1 ends at 0, 0, V), PyBullet and DART a mixture. Gravity is off:
+the closed forms hold exactly, and a falling column's internal contact would carry no
+force for the engines to see.
 
 Simultaneous model (note 000, "Resolving systems of collisions": the matrix form
 J M^-1 J^T gamma = -(1 + c_r) J v- as an LCP, gamma >= 0, each contact's restitution on
-its own approach velocity; note 001, "Multiple Contact Collisions"): contacts approaching
+its own approach velocity; note 001, "Multiple Contacts"): contacts approaching
 at v_n- < 0 must leave at v_n+ >= -e v_n-, the pressed ones (v_n- = 0) at v_n+ >= 0, with
 complementary impulses. Every contact ends active (its impulse is positive, see
 `simultaneous_velocities`), so the pressed bodies leave as one rigid body and the impact
