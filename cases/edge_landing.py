@@ -106,8 +106,8 @@ def margin(p) -> float:
 
 
 def slide_direction(p) -> np.ndarray:
-    """Unit horizontal direction of the lever: the direction the cube's centre is pushed
-    along the ground by friction (and the plane of the motion with e_z)."""
+    """Unit horizontal direction from the centre towards the contact point; with e_z it
+    spans the plane of the motion. Friction pushes the centre the other way (v_slide < 0)."""
     r = lever(p)
     s = np.array([r[0], r[1], 0.0])
     return s / np.linalg.norm(s)
