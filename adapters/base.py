@@ -18,19 +18,10 @@ from typing import Mapping
 
 import numpy as np
 
-from cases.scene import Scene
+from cases.scene import IMPACT_MODEL_NEED, IMPACT_MODELS, Scene  # noqa: F401 (re-exported)
 from cases.trajectory import ContactPoint
 
 
-# "simultaneous": one impulse problem over all contacts of the step, restitution applied to
-#   each contact's own approach velocity (two touching balls dropped on the ground leave it
-#   together at e v);
-# "sequential": contacts resolved one after another as two-body impacts, so an impulse
-#   travels through a chain of touching bodies (Newton's cradle; the top ball of a dropped
-#   pair is launched faster than e v);
-# "compliant": contacts are springs (dampers) acting over several steps; the outcome
-#   depends on the stiffnesses and lies between the two.
-IMPACT_MODELS = ("simultaneous", "sequential", "compliant")
 
 
 class Unsupported(Exception):
@@ -72,6 +63,10 @@ class Capabilities:
     # None: not declared.
     impact_model: str | None = None
 
+    def __post_init__(self):
+        if self.impact_model is not None and self.impact_model not in IMPACT_MODELS:
+            raise ValueError(f"impact_model = {self.impact_model!r}: must be one of {', '.join(IMPACT_MODELS)} or None")
+
     def cannot_run(self, scene: Scene, needs: frozenset[str] = frozenset()) -> str | None:
         """Why this engine cannot represent `scene` (and a case's extra `needs`), or None."""
         if scene.dimension not in self.dimensions:
@@ -92,10 +87,15 @@ class Capabilities:
                     "model that contact law")
         if "contact_forces" in needs and not self.contact_forces:
             return "the case reads contact forces, which this engine does not report"
-        for need in needs:
-            if need.startswith("impact_model:") and need.split(":", 1)[1] != self.impact_model:
-                return (f"the case's closed forms assume {need.split(':', 1)[1]} impacts; this engine's are "
-                        f"{self.impact_model or 'not declared'}")
+        for need in sorted(needs):
+            if need.startswith(IMPACT_MODEL_NEED):
+                model = need[len(IMPACT_MODEL_NEED):]
+                if model not in IMPACT_MODELS:
+                    raise ValueError(f"need {need!r}: the impact model must be one of {', '.join(IMPACT_MODELS)}")
+                if self.impact_model != model:
+                    declared = (f"the engine resolves impacts as {self.impact_model}" if self.impact_model
+                                else "the engine declares no impact model")
+                    return f"the case checks the {model} impact model's closed form; {declared}"
         return None
 
     def describe(self) -> str:
@@ -104,7 +104,8 @@ class Capabilities:
                              "contact_points")
                  if getattr(self, f)]
         laws = f"; compliant contact: {','.join(sorted(self.contact_laws))}" if self.contact_laws else ""
-        return f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags) + laws
+        impacts = f"; impacts: {self.impact_model}" if self.impact_model else ""
+        return f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags) + laws + impacts
 
 
 class Simulation(ABC):

@@ -187,7 +187,13 @@ def _rotate(quat, v) -> tuple[float, float, float]:
     return (vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz, vz + w * tz + x * ty - y * tx)
 
 
-def _geom(body: Body, quat) -> dict:
+# ground="box": a scene Plane becomes a static box this large, its top face on the plane
+GROUND_HALF_WIDTH = 100.0     # m: wider than any scene travels
+GROUND_HALF_THICKNESS = 1.0   # m: thicker than any body moves in one step
+GROUNDS = ("plane", "box")
+
+
+def _geom(body: Body, quat, ground: str = "plane") -> dict:
     """MJCF attributes of a body's collision geom. 2D shapes become solids in the plane
     y = 0: a circle a sphere (every contact a planar scene makes lies in y = 0, where the
     sphere's section is the disc, and sphere collisions are analytic; MuJoCo's cylinder
@@ -198,6 +204,9 @@ def _geom(body: Body, quat) -> dict:
         # MuJoCo's plane is z = 0 of its frame, solid below it: put that frame on the
         # scene's plane n . x = offset (a plane is its normal and offset, as in cases.overlap)
         n = np.asarray(s.normal, float)
+        if ground == "box":  # its frame GROUND_HALF_THICKNESS below the plane, z along n
+            return {"type": "box", "size": [GROUND_HALF_WIDTH, GROUND_HALF_WIDTH, GROUND_HALF_THICKNESS],
+                    "pos": list((s.offset - GROUND_HALF_THICKNESS) * n), "zaxis": list(n)}
         return {"type": "plane", "size": [0, 0, 1], "pos": list(s.offset * n), "zaxis": list(n)}
     if isinstance(s, (Sphere, Circle)):
         return {"type": "sphere", "size": [s.radius]}
@@ -243,11 +252,11 @@ def _unrepresentable(scene: Scene) -> str | None:
     return None
 
 
-def _body_xml(body: Body, dimension: int, knobs: dict) -> str:
+def _body_xml(body: Body, dimension: int, knobs: dict, ground: str = "plane") -> str:
     q0 = list(body.orientation)
     no_collide = {"contype": 0, "conaffinity": 0}  # collisions come from <pair> only
     if body.static:
-        geom = _geom(body, q0)
+        geom = _geom(body, q0, ground)
         if not isinstance(body.shape, Plane):
             geom["pos"] = list(body.position)
         geom = {"name": body.name, **geom, **no_collide}
@@ -309,11 +318,11 @@ def _pair_xml(scene: Scene, n: float, dt: float, knobs: dict, invweight: dict | 
 
 
 def scene_mjcf(scene: Scene, settings: Settings, iterations: int, n: float,
-               invweight: dict | None = None) -> tuple[str, dict]:
+               invweight: dict | None = None, ground: str = "plane") -> tuple[str, dict]:
     """The MJCF of `scene` and the knobs it sets, by MJCF element and attribute name.
     `invweight`: each body's translational body_invweight0 (0 for static ones), which
     Hooke pairs need (`hooke_row`); None where no pair is Hooke (or to compile once and
-    read it)."""
+    read it). `ground`: a scene Plane as a MuJoCo plane or a large box (`GROUNDS`)."""
     option = {"timestep": settings.dt, "gravity": list(scene.gravity), "integrator": "Euler",
               "solver": "Newton", "iterations": iterations, "tolerance": TOLERANCE,
               "ls_iterations": 50, "noslip_iterations": 0, "cone": CONE, "impratio": IMPRATIO,
@@ -332,8 +341,8 @@ def scene_mjcf(scene: Scene, settings: Settings, iterations: int, n: float,
                                "D": "sum of the two bodies' body_invweight0 (translational)",
                                "force": "k xi per contact row (condim 1)"}}
                 if "hooke" in scene.contact_laws else {}),
-             "joint": {}, "inertial": {}, "geom": {}, "pair": {}}
-    bodies = "".join(_body_xml(b, scene.dimension, knobs) for b in scene.bodies)
+             "ground": ground, "joint": {}, "inertial": {}, "geom": {}, "pair": {}}
+    bodies = "".join(_body_xml(b, scene.dimension, knobs, ground) for b in scene.bodies)
     pairs = _pair_xml(scene, n, settings.dt, knobs, invweight)
     xml = ('<mujoco model="physval">' + _element("compiler", compiler)
            + _element("option", option, _element("flag", flag))
@@ -588,10 +597,20 @@ class MuJoCoAdapter(Adapter):
         iterations=True,
         contact_points=True,
         contact_laws=frozenset({"hooke"}),  # F = k xi per contact (hooke_row)
+        # every contact a spring-damper lasting ~CONTACT_STEPS steps: an impulse through
+        # touching bodies spreads over them (cases/column_impact.py: a struck row of two
+        # leaves at 0.66 and 0.68 m/s where rigid simultaneous contact gives 2/3 each)
+        impact_model="compliant",
     )
 
-    def __init__(self, contact_steps: float = CONTACT_STEPS):
+    def __init__(self, contact_steps: float = CONTACT_STEPS, ground: str = "plane"):
+        """contact_steps: n, the contact's duration in steps (the accuracy knob); ground:
+        a scene Plane as a MuJoCo plane (the default; its box collisions give every
+        corner at once) or a large box (`GROUNDS`)."""
+        if ground not in GROUNDS:
+            raise ValueError(f"ground = {ground!r}: must be one of {', '.join(GROUNDS)}")
         self.contact_steps = contact_steps
+        self.ground = ground
 
     def version(self) -> str:
         return mujoco.__version__
@@ -602,14 +621,14 @@ class MuJoCoAdapter(Adapter):
         if reason:
             raise Unsupported(reason)
         iterations = ITERATIONS if settings.iterations is None else settings.iterations
-        xml, knobs = scene_mjcf(scene, settings, iterations, self.contact_steps)
+        xml, knobs = scene_mjcf(scene, settings, iterations, self.contact_steps, ground=self.ground)
         model = self._compile(xml)
         if "hooke" in scene.contact_laws:
             # a Hooke row's stiffness is k times MuJoCo's D of the row, from the bodies'
             # body_invweight0, which the compiler computes (masses and joints, not solref)
             invweight = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g):
                          float(model.body_invweight0[model.geom_bodyid[g], 0]) for g in range(model.ngeom)}
-            xml, knobs = scene_mjcf(scene, settings, iterations, self.contact_steps, invweight)
+            xml, knobs = scene_mjcf(scene, settings, iterations, self.contact_steps, invweight, self.ground)
             model = self._compile(xml)
         return MuJoCoSimulation(scene, model, knobs, iterations)
 

@@ -16,6 +16,23 @@ So frictionless 3D scenes use maximal coordinates and the others reduced coordin
 2D scenes need joints to stay in the x-z plane, which only reduced coordinates have.
 Every parameter set is recorded in `knobs` under pybullet's own name.
 
+Configurations users run are named engine variants (adapters/registry.py), each a
+constructor argument recorded in `knobs`; the plain "pybullet" keeps the choices above:
+- `bodies="rigid"` ("pybullet-rigid"): maximal coordinates for every scene, friction
+  included, with warm starting (WARM_STARTING_FACTOR, Bullet's own library default):
+  what a scene of free rigid bodies gets in PyBullet, at the price of the friction
+  errors above; 3D only (no planar joints without reduced coordinates);
+- `friction_anchor=False` ("pybullet-noanchor"): no friction anchors, the other side of
+  their trade-off (creep instead of spring-back);
+- `ground="box"` ("pybullet-boxground"): a scene's plane built as a large box whose top
+  face is the plane instead of a GEOM_PLANE. Bullet's convex-plane algorithm adds one
+  manifold point per step (the deepest vertex), so a box landing flat on a GEOM_PLANE is
+  struck at one corner first and flips (19 rad/s for a 0.2 m cube from 0.3 m, e = 0.5,
+  measured); the box-box detector gives all four corners in the first step. But on the
+  box the friction anchors no longer hold a box near the friction limit (creep 0.16-0.45
+  mm/s, 0 on the plane) and a disc is found only once 4 mm inside it (no speculative
+  point), so the plane stays the default.
+
 Compliant contact, Hooke's law F = k xi (cases.scene.Compliance "hooke"): changeDynamics
 contactStiffness and contactDamping set btCollisionObject::setContactStiffnessAndDamping;
 a contact point takes the series stiffness 1/(1/k_A + 1/k_B) and the summed damping
@@ -43,6 +60,7 @@ import math
 import os
 import sys
 from importlib import metadata
+from dataclasses import replace
 from itertools import chain
 
 import numpy as np
@@ -76,6 +94,17 @@ CONTACT_ERP = 0.08       # the engine's default contactERP, stated: it is the pu
 FRICTION_ERP = 0.2       # the engine's default frictionERP: the friction anchors' spring
 RESIDUAL = 1e-7          # the engine's default solverResidualThreshold: iterations stop below it
 EVERY_POINT = 1e30       # contactProcessingThreshold that keeps speculative points (BT_LARGE_FLOAT)
+# pybullet sets warmStartingFactor 0.1 at connect (PhysicsServerCommandProcessor; Bullet's
+# own btContactSolverInfo default is 0.85); it acts on maximal-coordinate contacts only
+# (the multibody solver warm starts only when articulatedWarmStartingFactor is set).
+PYBULLET_WARM_STARTING_FACTOR = 0.1
+# The "rigid" variant's factor: Bullet's library default. At 60 Hz a stack of 0.2 m boxes
+# stands 5 high with it (20 and 50 iterations; 10 boxes fall), 2 high at pybullet's 0.1;
+# its friction errors are the same at 0, 0.1 and 0.85 (measured).
+WARM_STARTING_FACTOR = 0.85
+# ground="box": a scene Plane becomes a static box this large, its top face on the plane
+GROUND_HALF_WIDTH = 100.0     # m: wider than any scene travels
+GROUND_HALF_THICKNESS = 1.0   # m: thicker than any body moves in one step
 NO_VELOCITY_CLAMP = 1e30  # maxJointVelocity: btMultiBody clamps every dof to 100 by default
 LOCK_CREATION_MASS = 1e30  # see _add_body: a non-rotating maximal body is created this heavy
 # Rotation about +x by -90 deg (x, y, z, w): takes the cylinder's z axis onto y.
@@ -83,6 +112,10 @@ Z_TO_Y = [-math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5)]
 AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 GEOM_NAMES = {p.GEOM_SPHERE: "GEOM_SPHERE", p.GEOM_BOX: "GEOM_BOX", p.GEOM_PLANE: "GEOM_PLANE",
               p.GEOM_CYLINDER: "GEOM_CYLINDER"}
+
+
+BODY_MODELS = ("auto", "rigid")
+GROUNDS = ("plane", "box")
 
 
 class PyBulletAdapter(Adapter):
@@ -97,7 +130,26 @@ class PyBulletAdapter(Adapter):
         iterations=True,
         contact_points=True,
         contact_laws=frozenset({"hooke"}),  # see the module notes; "hertz" is not linear in xi
+        # one solve over all the step's contacts, restitution from each contact's own
+        # approach velocity (cases/column_impact.py: two pressed balls leave the ground
+        # together at e v, a struck row of two leaves as one body, both paths)
+        impact_model="simultaneous",
     )
+
+    def __init__(self, name: str = "pybullet", bodies: str = "auto", friction_anchor: bool = True,
+                 ground: str = "plane"):
+        """bodies: "auto" (maximal coordinates for frictionless 3D scenes, reduced
+        otherwise) or "rigid" (maximal coordinates with warm starting for every scene);
+        friction_anchor: frictionAnchor on every frictional contact; ground: a scene
+        Plane as a GEOM_PLANE ("plane") or a large box ("box"). See the module notes."""
+        if bodies not in BODY_MODELS:
+            raise ValueError(f"bodies = {bodies!r}: must be one of {', '.join(BODY_MODELS)}")
+        if ground not in GROUNDS:
+            raise ValueError(f"ground = {ground!r}: must be one of {', '.join(GROUNDS)}")
+        self.name = name
+        self.config = {"bodies": bodies, "friction_anchor": bool(friction_anchor), "ground": ground}
+        if bodies == "rigid":  # 2D bodies stay in their plane on joints, which need reduced coordinates
+            self.capabilities = replace(self.capabilities, dimensions=frozenset({3}))
 
     def version(self) -> str:
         return metadata.version("pybullet")
@@ -106,10 +158,11 @@ class PyBulletAdapter(Adapter):
         reason = self.capabilities.cannot_run(scene)
         if reason:
             raise Unsupported(reason)
-        return PyBulletSimulation(scene, settings)
+        return PyBulletSimulation(scene, settings, **self.config)
 
 
-def _solver_parameters(scene: Scene, settings: Settings, maximal: bool, hooke: bool) -> dict:
+def _solver_parameters(scene: Scene, settings: Settings, maximal: bool, hooke: bool,
+                       warm_starting_factor: float = PYBULLET_WARM_STARTING_FACTOR) -> dict:
     """setPhysicsEngineParameter arguments, by path (see the module notes)."""
     common = dict(
         fixedTimeStep=settings.dt,
@@ -119,6 +172,7 @@ def _solver_parameters(scene: Scene, settings: Settings, maximal: bool, hooke: b
         contactSlop=0.0,                    # default 1e-5 m of tolerated overlap
         frictionERP=FRICTION_ERP,
         solverResidualThreshold=RESIDUAL,  # so numSolverIterations is an upper bound
+        warmStartingFactor=warm_starting_factor,  # maximal-coordinate contacts only
     )
     if maximal and hooke:
         # split impulse would carry the spring's term (erp 1) as a position-only push-out
@@ -190,10 +244,13 @@ def _material_values(scene: Scene) -> tuple[dict[str, float], dict[str, float]]:
     return friction, restitution
 
 
-def _collision_shape(body: Body, client: int) -> tuple[int, dict]:
+def _collision_shape(body: Body, client: int, ground: str = "plane") -> tuple[int, dict]:
     """The engine shape of a body and the record of how it was made."""
     s = body.shape
-    if s.kind == "sphere":
+    if s.kind == "plane" and ground == "box":
+        half, _, _ = _ground_box(s)
+        kw = dict(shapeType=p.GEOM_BOX, halfExtents=half)
+    elif s.kind == "sphere":
         kw = dict(shapeType=p.GEOM_SPHERE, radius=s.radius)
     elif s.kind == "box":
         kw = dict(shapeType=p.GEOM_BOX, halfExtents=list(s.half_extents))
@@ -218,9 +275,30 @@ def _planar_joints(body: Body) -> list[str]:
     return ["prismatic x", "prismatic z"] + (["revolute y"] if body.rotates else [])
 
 
+def _ground_box(plane) -> tuple[list, list, list]:
+    """(half extents, position, orientation xyzw) of the static box whose top face is the
+    plane n . x = offset: centred GROUND_HALF_THICKNESS below the plane's point nearest
+    the origin, its z axis along n."""
+    n = np.asarray(plane.normal, float)
+    centre = (plane.offset - GROUND_HALF_THICKNESS) * n
+    z = np.array([0.0, 0.0, 1.0])
+    axis = np.cross(z, n)
+    s, c = float(np.linalg.norm(axis)), float(z @ n)
+    if s < 1e-12:  # n along +z or -z
+        quat = [0.0, 0.0, 0.0, 1.0] if c > 0 else [1.0, 0.0, 0.0, 0.0]
+    else:
+        half = math.atan2(s, c) / 2.0
+        quat = list(axis / s * math.sin(half)) + [math.cos(half)]
+    return [GROUND_HALF_WIDTH, GROUND_HALF_WIDTH, GROUND_HALF_THICKNESS], list(centre), quat
+
+
 class PyBulletSimulation(Simulation):
-    def __init__(self, scene: Scene, settings: Settings):
+    def __init__(self, scene: Scene, settings: Settings, bodies: str = "auto", friction_anchor: bool = True,
+                 ground: str = "plane"):
         self._client = p.connect(p.DIRECT)
+        self._rigid = bodies == "rigid"
+        self._anchor = friction_anchor
+        self._ground = ground
         try:
             self._build(scene, settings)
         except BaseException:
@@ -231,20 +309,24 @@ class PyBulletSimulation(Simulation):
 
     def _build(self, scene: Scene, settings: Settings) -> None:
         c = self._client
-        self._maximal = "friction" not in scene.effects and scene.dimension == 3
+        self._maximal = self._rigid or ("friction" not in scene.effects and scene.dimension == 3)
         self._planar = scene.dimension == 2
         self._stiffness = _hooke_stiffness(scene)
-        engine = _solver_parameters(scene, settings, self._maximal, self._stiffness is not None)
+        warm = WARM_STARTING_FACTOR if self._rigid else PYBULLET_WARM_STARTING_FACTOR
+        engine = _solver_parameters(scene, settings, self._maximal, self._stiffness is not None, warm)
         p.setPhysicsEngineParameter(physicsClientId=c, **engine)
         p.setGravity(*scene.gravity, physicsClientId=c)
         self._threshold = _contact_processing_threshold(scene)
         friction, restitution = _material_values(scene)
+        self._frictional = "friction" in scene.effects
 
         self.iterations = engine["numSolverIterations"]
         self.knobs = {
             "setPhysicsEngineParameter": engine,
             "setGravity": list(scene.gravity),
             "useMaximalCoordinates": self._maximal,
+            "body_model": "rigid (maximal coordinates, every scene)" if self._rigid else "auto",
+            "ground": self._ground,
             "bodies": {},
         }
         self._ids: dict[tuple[int, int], str] = {}  # (body unique id, link index) -> name
@@ -256,9 +338,11 @@ class PyBulletSimulation(Simulation):
 
     def _add_body(self, body: Body, dimension: int, mu: float, e: float) -> dict:
         c = self._client
-        shape, shape_record = _collision_shape(body, c)
+        shape, shape_record = _collision_shape(body, c, self._ground)
         position, orientation = list(body.position), wxyz_to_xyzw(body.orientation)
-        if body.shape.kind == "plane":  # n.x = offset in the world frame: through offset*n
+        if body.shape.kind == "plane" and self._ground == "box":
+            _, position, orientation = _ground_box(body.shape)
+        elif body.shape.kind == "plane":  # n.x = offset in the world frame: through offset*n
             position = [body.shape.offset * n for n in body.shape.normal]
             orientation = [0.0, 0.0, 0.0, 1.0]
         record = {"createCollisionShape": shape_record}
@@ -327,8 +411,9 @@ class PyBulletSimulation(Simulation):
         body-wide ones also set the chain's fixed base to that mass and set it free."""
         collider = dict(lateralFriction=mu, restitution=e, rollingFriction=0.0, spinningFriction=0.0,
                         contactProcessingThreshold=self._threshold)
-        if not self._maximal:
-            collider["frictionAnchor"] = 1  # a box resting on an incline crept 0.1 mm/s; now 0
+        if self._frictional or not self._maximal:
+            # a box resting on an incline crept 0.1 mm/s; with the anchor, not at all
+            collider["frictionAnchor"] = int(self._anchor)
         if self._stiffness is not None:
             # the pair's spring (series rule); damping 0 here and on the partner, whose
             # default 0.1 would otherwise add (module notes)

@@ -51,9 +51,11 @@ DEFAULT_ITERATIONS = 10  # Pymunk's own default Space.iterations, stated here
 # Overlap the solver leaves alone (m). Pymunk's default 0.1 is pixel scale: bodies would rest
 # up to 0.1 m deep. 0.1 mm is far below the scenes' sizes and above rounding; 1e-5 m with
 # beta = 0.2 lets a five-box stack at dt = 5e-3 walk sideways 1.5 mm/s (measured). The cost
-# shows at 60 Hz: a 5-box stack falls within 0.3 s at 5-10 iterations (4.7 s at 20), where
-# slop 1e-3 holds 5 (resting 1 mm deep, the library's penetration bound): the stability map
-# of `physval stress` reports this trade-off, which is kept for accurate resting contact.
+# shows at 60 Hz: a 5-box stack falls at 20 iterations (after 4.7 s), where slop 1e-3 holds
+# it (resting 1 mm deep, the library's penetration bound); at 5-10 iterations both drop it
+# within 0.3 s, at 50 both hold 5 and drop 10 (measured). The stability map of `physval
+# stress` reports this trade-off, which is kept for accurate resting contact; the engine
+# variant "pymunk-slop1mm" (adapters/registry.py) runs the other side of it.
 COLLISION_SLOP = 1e-4
 # Depenetration: v_bias = beta/dt (delta - delta_slop)_+ on pseudo-velocities (note 001,
 # "Sequential Impulses": beta in [0.1, 0.3]); beta = 0.2 as in reference_impl, so the two
@@ -96,7 +98,22 @@ class PymunkAdapter(Adapter):
         contact_forces=True,
         iterations=True,
         contact_points=True,
+        # one sweep of sequential impulses over all the step's arbiters, converging to the
+        # simultaneous solution, restitution from each contact's approach velocity at the
+        # start of the step (cases/column_impact.py). Contacts exist only between shapes
+        # that overlap (discs exactly touching have none), so a row of discs placed exactly
+        # touching is struck one pair per step instead: the sequential outcome (measured:
+        # a Newton's cradle of three, e = 1, ends at 0, 0, 1).
+        impact_model="simultaneous",
     )
+
+    def __init__(self, name: str = "pymunk", collision_slop: float = COLLISION_SLOP):
+        """collision_slop: the overlap (m) the solver leaves alone (see COLLISION_SLOP);
+        the "pymunk-slop1mm" variant takes 1e-3."""
+        if not (math.isfinite(collision_slop) and collision_slop >= 0):
+            raise ValueError(f"collision_slop = {collision_slop!r}: must be a finite length >= 0 (m)")
+        self.name = name
+        self.collision_slop = float(collision_slop)
 
     def version(self) -> str:
         return f"{pymunk.version} (Munk2D {pymunk.chipmunk_version})"
@@ -105,7 +122,7 @@ class PymunkAdapter(Adapter):
         reason = self.capabilities.cannot_run(scene)
         if reason:
             raise Unsupported(reason)
-        return PymunkSimulation(scene, settings)
+        return PymunkSimulation(scene, settings, self.collision_slop)
 
 
 def _angle(body: Body) -> float:
@@ -123,12 +140,12 @@ def _json(value: float):
 
 
 class PymunkSimulation(Simulation):
-    def __init__(self, scene: Scene, settings: Settings):
+    def __init__(self, scene: Scene, settings: Settings, collision_slop: float = COLLISION_SLOP):
         self._dt = settings.dt
         self.iterations = DEFAULT_ITERATIONS if settings.iterations is None else settings.iterations
         space = pymunk.Space()
         space.iterations = self.iterations
-        space.collision_slop = COLLISION_SLOP
+        space.collision_slop = collision_slop
         # (1 - beta)**(1/dt) underflows below dt = 3e-4 s: floored at the smallest normal
         # float, where beta becomes 1 - exp(-708 dt) (recorded)
         collision_bias = max((1.0 - BIAS_FACTOR) ** (1.0 / self._dt), sys.float_info.min)
@@ -140,13 +157,14 @@ class PymunkSimulation(Simulation):
         space.gravity = (gx, gz)
         self.knobs = {
             "iterations": self.iterations,
-            "collision_slop": COLLISION_SLOP,
+            "collision_slop": collision_slop,
             "collision_bias": collision_bias,
             "bias_factor_per_step": 1.0 - collision_bias ** self._dt,  # beta in force
             "collision_persistence": COLLISION_PERSISTENCE,
             "damping": 1.0,
             "sleep_time_threshold": "inf",
             "gravity": [gx, gz],
+            "ground": "segment",  # a scene Plane: a thick static segment (a capsule), its flat top on the plane
             "bodies": {},
         }
 

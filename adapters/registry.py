@@ -39,8 +39,17 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "reference-hooke": ("adapters.reference_engine", "ReferenceAdapter",
                         {"formulation": "compliant", "name": "reference-hooke", "params": {"compliant_law": "hooke"}}),
     "pybullet": ("adapters.pybullet_engine", "PyBulletAdapter", {}),
+    # configurations users run, each its own engine with its own deviations (the module
+    # notes of adapters/pybullet_engine.py): rigid bodies with warm starting everywhere,
+    # no friction anchors, and a box for the ground plane
+    "pybullet-rigid": ("adapters.pybullet_engine", "PyBulletAdapter", {"name": "pybullet-rigid", "bodies": "rigid"}),
+    "pybullet-noanchor": ("adapters.pybullet_engine", "PyBulletAdapter",
+                          {"name": "pybullet-noanchor", "friction_anchor": False}),
+    "pybullet-boxground": ("adapters.pybullet_engine", "PyBulletAdapter", {"name": "pybullet-boxground", "ground": "box"}),
     "mujoco": ("adapters.mujoco_engine", "MuJoCoAdapter", {}),
     "pymunk": ("adapters.pymunk_engine", "PymunkAdapter", {}),
+    # a 1 mm collision slop: stacks stand at 60 Hz, bodies rest 1 mm deep (pymunk_engine.py)
+    "pymunk-slop1mm": ("adapters.pymunk_engine", "PymunkAdapter", {"name": "pymunk-slop1mm", "collision_slop": 1e-3}),
     "dart": ("adapters.dart_engine", "DartAdapter", {}),
     "box2d": ("adapters.box2d_engine", "Box2DAdapter", {}),
     "rapier": ("adapters.rapier_engine", "RapierAdapter", {}),

@@ -30,9 +30,9 @@ class CaseError(ValueError):
 # What a family may ask of an engine beyond representing its scene (CaseFamily.needs):
 # "contact_forces"  the observer reads Trajectory.force / impulse (normal force per pair);
 # "impact_model:M"  the closed forms assume the engine resolves simultaneous impacts by
-#                   model M (adapters.base.IMPACT_MODELS); other engines report unsupported.
+#                   model M (cases.scene.IMPACT_MODELS); other engines report unsupported.
 NEEDS = ("contact_forces",)
-NEEDS_PREFIXES = ("impact_model:",)
+NEEDS_PREFIXES = ("impact_model:",)  # followed by one of cases.scene.IMPACT_MODELS
 
 # Labels a family carries (CaseFamily.tags); physval selects by them, it keeps no name lists:
 TAGS = {
@@ -210,7 +210,9 @@ class CaseFamily:
             if T / dt > 5e7:
                 raise CaseError(f"{where}: duration / dt = {T / dt:.3g} steps: more than 5e7")
             needs = self.needs_of(v.params)
-            bad = [n for n in needs if n not in NEEDS and not n.startswith(NEEDS_PREFIXES)]
+            from cases.scene import IMPACT_MODEL_NEED, IMPACT_MODELS
+            bad = [n for n in needs if n not in NEEDS and not (n.startswith(IMPACT_MODEL_NEED)
+                                                               and n[len(IMPACT_MODEL_NEED):] in IMPACT_MODELS)]
             if bad:
                 raise CaseError(f"{where}: needs {sorted(bad)}: unknown; choose from {', '.join(NEEDS)} "
                                 f"or {', '.join(p + '...' for p in NEEDS_PREFIXES)}")

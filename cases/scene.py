@@ -20,6 +20,22 @@ import numpy as np
 
 EFFECTS = ("gravity", "contact", "restitution", "friction", "rotation")
 
+# How an engine resolves impacts at several contacts within one step (an adapter declares
+# its model in Capabilities.impact_model):
+# "simultaneous": one impulse problem over all contacts of the step, restitution applied to
+#   each contact's own approach velocity (two touching balls dropped on the ground leave it
+#   together at e v);
+# "sequential": contacts resolved one after another as two-body impacts, so an impulse
+#   travels through a chain of touching bodies (Newton's cradle; the top ball of a dropped
+#   pair is launched faster than e v);
+# "compliant": contacts are springs (dampers) acting over several steps; the outcome
+#   depends on the stiffnesses and lies between the two.
+IMPACT_MODELS = ("simultaneous", "sequential", "compliant")
+# A case that checks one model's closed form names it in its needs, e.g.
+# "impact_model:sequential"; an engine that declares another model (or none) reports the
+# variant unsupported (adapters.base.Capabilities.cannot_run).
+IMPACT_MODEL_NEED = "impact_model:"
+
 # Bodies may start this far inside each other: contact geometry built by hand is exact to
 # rounding (1e-12 m), and 1 um is far below any depth an engine resolves at dt = 1e-3.
 DEFAULT_ALLOWED_OVERLAP = 1e-6

@@ -1,0 +1,254 @@
+"""Edge landing: a cube dropped tilted lands on one edge (or one corner): a single-point
+impact with a lever arm, then it settles on the face that was lowest.
+
+The impact (note 004, "The collision matrix" and "Newton Coulomb impulses for rigid
+bodies"; note 001, "Inverse Mass Matrix of Contact", "Impact with Friction"). The cube
+(mass m, half-extent a, inertia I = 2/3 m a^2 about every axis through its centre) falls
+from rest with its lowest point h above the ground and meets it at v_in = sqrt(2 g h),
+without spin. Its contact point sits at r from the centre; an impulse p there changes the
+contact point's velocity by K p, with the collision matrix
+    K = 1/m 1 - r* I^-1 r*        (r* the cross-product matrix of r).
+With n = e_z and the approach u = -v_in n (no slip), Newton's law asks u'_n = e v_in.
+- Sticking: u' = e v_in n, p = K^-1 (u' - u); kept if |p_t| <= mu p_n.
+- Otherwise sliding: j = (1 + e) v_in / n^T K (n - mu t), p = j (n - mu t), with t =
+  -p_t / |p_t| of the sticking impulse (there is no initial slip to oppose). In the plane
+  of the motion this is Coulomb friction against the slip that results: along the line
+  u'_n = e v_in the slip grows with p_t (K's Schur complement is positive) and is zero at
+  the sticking impulse, so a friction impulse short of it leaves slip opposite to it.
+  Frictionless (mu = 0) is the same with t unused: j = (1 + e) v_in / n^T K n.
+Then v' = v + p / m, w' = I^-1 (r x p). For a cube without spin whose lowest feature is
+an edge (a tilt about y) or a corner (a tilt about the face diagonal (1, 1, 0)/sqrt 2),
+the pose is symmetric about the plane through the centre perpendicular to the tilt
+axis, so is the impulse (an edge's two corners share it equally: one impulse at the
+edge's midpoint), and the motion stays in that plane: spin about the tilt axis only.
+Checked: the centre's velocity along the lever's horizontal direction and vertical, the
+spin about the tilt axis, the contact point's rebound e v_in (Newton's law), and no spin
+about any other axis. The ratio |p_t| / p_n of the sticking impulse does not depend on e
+or v_in: 0.40 for the edge (tilt 15 deg), 0.65 for the corner (12 deg), so mu = 0.3
+slides and mu = 0.8 sticks.
+
+The face it ends on: the energy argument of cases/tumbling_box.py (the cube's energy never
+exceeds its release energy, which lies below that of the cube balanced on an edge), so it
+comes to rest flat on the face that was lowest.
+
+Reading the impact: the state at the first sample from which the cube flies free again
+after the first contact (cases.observables.first_impact; it does, e > 0 lifts the
+contact point at e v_in), with the vertical velocity taken back to the moment of touching
+(t = sqrt(2 h / g)) along the free fall: v_z + g (t_k - t). Spin and horizontal velocity
+are constant in free flight (a cube's inertia is isotropic, so a free cube keeps its
+angular velocity). A compliant contact acts over several steps while the cube turns;
+the reading then includes that, and the deviation it makes is the engine's.
+
+Sources: note 004 (Umea, Visual Interactive Simulation), collision matrix and the
+Newton-Coulomb impulse; note 001 (CG3 II.5), inverse mass matrix of contact, impact with
+friction; the energy barrier of cases/tumbling_box.py.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from cases.family import CaseFamily, Check, plane_label
+from cases.observables import first_impact, rotations
+from cases.scene import Body, Material, Scene, cube, ground, quat_about_y
+from cases.tumbling_box import barrier_height, corners, down_face, rotation
+
+HALF = 0.1      # half-extent of the cube, m
+M = 1.0         # kg
+I = 2.0 / 3.0 * M * HALF**2  # kg m^2, about every axis through the centre (cube and square alike)
+G = 9.81
+E = 0.5         # restitution: the contact point leaves at e v_in, so the cube flies free to be read
+H = 0.01        # height of the lowest point at release, m (v_in = 0.44 m/s)
+TILT = {"y": 15.0, "diag": 12.0}  # deg: an edge lowest, a corner lowest; both below the barrier (margin())
+T = 0.8         # simulated time, s
+PENETRATION = 1e-3  # m: the depth a solver may rest at (stack_forces: 0.5 % of the box)
+
+# Grid: frictionless, sliding (mu = 0.3) and sticking (mu = 0.8) impacts on an edge (3D: two
+# corners at once; 2D: one corner of the square), and a corner landing frictionless and
+# sticking.
+GRID = tuple({"tilt": "y", "mu": mu, "dim": dim} for dim in (3, 2) for mu in (0.0, 0.3, 0.8)) + \
+       tuple({"tilt": "diag", "mu": mu, "dim": 3} for mu in (0.0, 0.8))
+
+
+# --- geometry -------------------------------------------------------------------------------
+
+def axis(p) -> np.ndarray:
+    """The tilt axis, world frame."""
+    return np.array([0.0, 1.0, 0.0]) if p["tilt"] == "y" else np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0)
+
+
+def orientation(p) -> tuple[float, float, float, float]:
+    """TILT degrees about the tilt axis, as a (w, x, y, z) quaternion."""
+    angle = math.radians(TILT[p["tilt"]])
+    if p["tilt"] == "y":
+        return quat_about_y(angle)
+    u = axis(p) * math.sin(angle / 2)
+    return (math.cos(angle / 2), float(u[0]), float(u[1]), float(u[2]))
+
+
+def lever(p) -> np.ndarray:
+    """r: from the centre to the contact point at touching, world frame: the mean of the
+    lowest vertices (an edge's midpoint, or the one corner)."""
+    world = corners(HALF, p["dim"]) @ rotation(orientation(p)).T
+    z = world[:, 2]
+    return world[np.isclose(z, z.min(), atol=1e-12)].mean(axis=0)
+
+
+def release_height(p) -> float:
+    """Centre height at release: h above the touching height -r_z."""
+    return H - lever(p)[2]
+
+
+def margin(p) -> float:
+    """How far (m) the release height lies below the barrier of tipping over an edge."""
+    return barrier_height(HALF) - release_height(p)
+
+
+def slide_direction(p) -> np.ndarray:
+    """Unit horizontal direction from the centre towards the contact point; with e_z it
+    spans the plane of the motion. Friction pushes the centre the other way (v_slide < 0)."""
+    r = lever(p)
+    s = np.array([r[0], r[1], 0.0])
+    return s / np.linalg.norm(s)
+
+
+# --- closed forms ---------------------------------------------------------------------------
+
+def cross_matrix(r) -> np.ndarray:
+    """r* with r* x = r x x."""
+    return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+
+
+def collision_matrix(r) -> np.ndarray:
+    """K = 1/m 1 - r* I^-1 r* of the cube against the fixed ground (note 004)."""
+    r_star = cross_matrix(r)
+    return np.eye(3) / M - r_star @ r_star / I
+
+
+def impact_impulse(r, mu: float, e: float, v_in: float) -> np.ndarray:
+    """The Newton-Coulomb impulse p on the cube (note 004): sticking if it lies in the
+    cone, else sliding against the slip it leaves (module docstring)."""
+    K = collision_matrix(r)
+    n = np.array([0.0, 0.0, 1.0])
+    u = -v_in * n
+    p = np.linalg.solve(K, e * v_in * n - u)
+    p_n = float(p @ n)
+    p_t = p - p_n * n
+    if np.linalg.norm(p_t) <= mu * p_n:
+        return p
+    t = -p_t / np.linalg.norm(p_t)
+    j = (1.0 + e) * v_in / float(n @ K @ (n - mu * t))
+    return j * (n - mu * t)
+
+
+def impact_speed() -> float:
+    return math.sqrt(2.0 * G * H)
+
+
+def after_impact(p) -> dict[str, float]:
+    """The closed-form state right after the first impact: the centre's velocity along the
+    slide direction and vertical, the spin about the tilt axis, the contact point's normal
+    velocity, and the spin about the other axes."""
+    r = lever(p)
+    v_in = impact_speed()
+    P = impact_impulse(r, p["mu"], E, v_in)
+    v = np.array([0.0, 0.0, -v_in]) + P / M
+    w = np.cross(r, P) / I
+    return {"v_slide_after": float(v @ slide_direction(p)), "vz_after": float(v[2]),
+            "spin_after": float(w @ axis(p)), "contact_rebound": float((v + np.cross(w, r))[2]),
+            "off_axis_spin": float(np.linalg.norm(w - (w @ axis(p)) * axis(p)))}
+
+
+def sticks(p) -> bool:
+    """Whether the impact sticks: the sticking impulse inside the friction cone."""
+    P = impact_impulse(lever(p), math.inf, E, impact_speed())
+    return bool(np.linalg.norm(P[:2]) <= p["mu"] * P[2])
+
+
+# --- scene ----------------------------------------------------------------------------------
+
+def scene(p) -> Scene:
+    box = Body("box", cube(HALF, p["dim"]), mass=M, position=(0.0, 0.0, release_height(p)),
+               orientation=orientation(p))
+    return Scene(bodies=(ground(), box), gravity=(0.0, 0.0, -G), material=Material(e=E, mu_s=p["mu"]),
+                 dimension=p["dim"])
+
+
+def duration(p) -> float:
+    # measured on the reference at dt = 1e-3: every variant lies still on its face (every
+    # point slower than 1 mm/s) by 0.35 s; the run goes on to twice that
+    return T
+
+
+# --- observables ----------------------------------------------------------------------------
+
+def observe(traj, p) -> dict:
+    _, k = first_impact(traj, "box", (0.0, 0.0, -G))
+    if k is None:
+        raise ValueError("the cube never flew free after its first impact")
+    t_touch = math.sqrt(2.0 * H / G)
+    v = traj.vel("box")[k] + np.array([0.0, 0.0, G * (traj.t[k] - t_touch)])  # back to the touch, free fall
+    w = traj.omega("box")[k]
+    u = axis(p)
+    out = {"v_slide_after": float(v @ slide_direction(p)), "vz_after": float(v[2]), "spin_after": float(w @ u),
+           "contact_rebound": float((v + np.cross(w, lever(p)))[2])}
+    if p["dim"] == 3:
+        out["off_axis_spin"] = float(np.linalg.norm(w - (w @ u) * u))
+    f = down_face(orientation(p), p["dim"])
+    out["down_face_alignment"] = float(-(rotations(traj, "box")[-1] @ f)[2])
+    return out
+
+
+# --- expectations ---------------------------------------------------------------------------
+
+def expect(p, dt) -> list[Check]:
+    v_in = impact_speed()
+    # The state after the impact is linear in the approach speed the engine resolves. A
+    # contact found at the first step boundary after the touch (up to dt late) sees up to
+    # g dt more speed, and the impact step's gravity adds another g dt before (or is taken
+    # up with) the impulse: the speed is v_in to within 2 g dt. The state is read at the
+    # end of the impact step, up to 2 dt after the touch, and taken back along free fall:
+    # up to 2 g dt on the vertical velocities for the gravity the impact step absorbed.
+    rel = 2.0 * G * dt / v_in
+    floor = 1e-6 * v_in  # zero by symmetry: solver convergence (1e-6 of the impact speed)
+    why = (f"outcome linear in the approach speed, known to 2 g dt = {rel:.2g} of v_in (a contact found up to a "
+           "step late, the impact step's gravity)")
+    late = "; plus 2 g dt for reading it up to 2 steps after the touch"
+    cf = after_impact(p)
+    checks = [
+        Check("v_slide_after", "m/s", cf["v_slide_after"], rel * abs(cf["v_slide_after"]) + floor, "abs", why),
+        Check("vz_after", "m/s", cf["vz_after"], rel * abs(cf["vz_after"]) + 2 * G * dt, "abs", why + late),
+        Check("spin_after", "rad/s", cf["spin_after"], rel * abs(cf["spin_after"]) + floor / HALF, "abs", why),
+        Check("contact_rebound", "m/s", cf["contact_rebound"], rel * abs(cf["contact_rebound"]) + 2 * G * dt, "abs",
+              "Newton's law at the contact point, e v_in: " + why + late),
+    ]
+    if p["dim"] == 3:
+        checks.append(Check("off_axis_spin", "rad/s", cf["off_axis_spin"], G * dt / HALF, "abs",
+                            "a corner moving g dt relative to the centre: one step of gravity a contact has not yet "
+                            "cancelled; an edge struck at one corner gives ~1 rad/s"))
+    tilt = PENETRATION / (2 * HALF)
+    checks.append(Check("down_face_alignment", "-", 1.0, 1 - math.cos(tilt), "abs",
+                        f"flat on the lowest face to within {PENETRATION * 1e3:g} mm across it ({tilt:.2g} rad); "
+                        "any other face gives <= 0"))
+    return checks
+
+
+def variant_id(p) -> str:
+    return f"tilt={p['tilt']},mu={p['mu']}{plane_label(p)}"
+
+
+FAMILY = CaseFamily(
+    name="edge_landing",
+    summary="a cube dropped tilted lands on an edge or a corner: velocities and spin after the single-point impact "
+            "(collision matrix, Newton-Coulomb impulse), then at rest on the lowest face",
+    source="note 004 (collision matrix K, Newton-Coulomb impulse); note 001 (CG3 II.5), inverse mass matrix of "
+           "contact, impact with friction; the energy barrier of cases/tumbling_box.py",
+    grid=GRID,
+    scene=scene,
+    duration=duration,
+    observe=observe,
+    expect=expect,
+    dt=1e-3,
+    variant_id=variant_id,
+)
