@@ -4,7 +4,7 @@ One skeleton per scene body. A dynamic body hangs on a FreeJoint when it rotates
 TranslationalJoint when it does not; a 2D scene (x-z plane) uses a PlanarJoint (x, z and
 the angle about y) or a TranslationalJoint2D. Static bodies are welded to the world; a
 `Plane` becomes a large welded box whose top face is the plane (a `PlaneShape` under a box
-gives DART's detectors a single contact point: /work/shared/notes/engines.md, DART).
+gives DART's detectors a single contact point, measured: a box on it slides where it must stick).
 
 Pair materials map onto DART's combination rule (ContactConstraint: friction min,
 restitution product) with adapters.combination.per_body_values; DART has no per-pair

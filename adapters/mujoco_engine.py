@@ -43,7 +43,7 @@ from cases.trajectory import ContactPoint
 CONTACT_STEPS = 16
 
 # MuJoCo's own default cap; the Newton solver stops at `tolerance` long before it (a
-# five-box stack converges in 1 iteration, notes/engines.md).
+# five-box stack converges in 1 iteration, measured).
 ITERATIONS = 100
 TOLERANCE = 1e-8  # MuJoCo's default, stated
 
@@ -84,7 +84,7 @@ def restitution_of_damping_ratio(zeta: float) -> float:
     Overdamped (r1,2 = -zeta +- sqrt(zeta^2 - 1), so 1 + 2 zeta r = -r^2): release at
     r1^2 e^(r1 tau) = r2^2 e^(r2 tau), tau* = 2 ln(r2/r1) / (r1 - r2).
     Both branches give e^-2 at zeta = 1. The textbook log-decrement zeta (release at x = 0)
-    is another model: it overestimates e by ~0.05 at e = 0.5 (notes/engines.md, MuJoCo).
+    is another model: it overestimates e by ~0.05 at e = 0.5 (measured).
     """
     if zeta < 1.0:
         s = math.sqrt(1.0 - zeta * zeta)
