@@ -19,6 +19,7 @@ import pandas as pd
 
 from physval import cli, deviations
 from physval.core import COLUMNS, Job
+from physval.core.selection import select_variants
 from physval.core.session import Execution, run_stored
 from physval.core.store import cache_dir
 from physval.core.verdicts import errors
@@ -38,6 +39,7 @@ def add_parser(sub) -> None:
     p.add_argument("--file", metavar="FILE", help="a known-deviation file of your own instead of each engine's")
     p.add_argument("--write", action="store_true", help="write the measured bands into the file")
     p.add_argument("--full", action="store_true", help="also variants of the families' full grids")
+    p.add_argument("--cases", nargs="+", metavar="SPEC", help="only these families or variants (the --cases grammar)")
     p.add_argument("--cases-dir", action="append", metavar="DIR", help="also load case families from DIR")
     p.add_argument("--adapter", action="append", metavar="MODULE:CLASS", help="also use this adapter")
     cli.add_execution(p, str(cache_dir()))
@@ -91,13 +93,13 @@ def cmd_known(args) -> int:
             continue
         entries = deviations.parse(path)
         jobs = []
+        chosen = select_variants(families, args.cases, full=args.full)
         for fam_name in dict.fromkeys(e.family for e in entries):
-            fam = families.get(fam_name)
-            if fam is None:
+            if fam_name not in families:
                 print(f"{engine}: {path.name}: no family {fam_name!r}", file=sys.stderr)
                 continue
             mine = [e for e in entries if e.family == fam_name]
-            for v in fam.all_variants if args.full else fam.variants:
+            for v in chosen.get(fam_name, []):
                 if any(fnmatchcase(v.id, e.variant) for e in mine):
                     jobs.append(Job(fam_name, v, engine))
         raised = {}
@@ -107,13 +109,19 @@ def cmd_known(args) -> int:
             return 130
         rows_by_job = {j.key: res.rows[j.key] for j in jobs}
         new = measured_bands(engine, entries, rows_by_job, raised)
-        bands_of = {e.line: [b for b in e.bands if b.engine != engine] + new[e.line] for e in entries}
+        ran = {(j.family, j.variant.id) for j in jobs}
+        # bands of checks this run did not measure (other engines, unselected variants) stay
+        bands_of = {e.line: [b for b in e.bands if b.engine != engine or (e.family, b.variant) not in ran]
+                    + new[e.line] for e in entries}
         print(f"{engine}: {path}")
         for e in entries:
-            before = {(b.variant, b.metric): b for b in e.bands if b.engine == engine}
+            before = {(b.variant, b.metric): b for b in e.bands if b.engine == engine and (e.family, b.variant) in ran}
             after = {(b.variant, b.metric): b for b in new[e.line]}
             moved = [k for k in after if k in before and not before[k].holds(after[k].value, after[k].raises)]
-            if not after and any(k for k in before):
+            if not any(f == e.family and fnmatchcase(v, e.variant) for f, v in ran):
+                print(f"  line {e.line} {e.pattern}: none of its variants ran (a full-grid variant? --full)")
+                continue
+            if not after and before:
                 print(f"  line {e.line} {e.pattern}: no check deviates any more: remove or narrow the entry")
             elif not after:
                 print(f"  line {e.line} {e.pattern}: matches no deviating check on {engine}")

@@ -128,8 +128,10 @@ def cmd_run(args) -> int:
     say(f"{len(jobs)} runs ({len(chosen)} families x {len(engines)} engines), {todo} to run"
         + (f", {len(jobs) - todo} finished before" if reused and todo < len(jobs) else "")
         + (f"; {len(later)} on-demand runs left out (--on-demand)" if later else "") + f" -> {out}/")
+    t_jobs = time.monotonic()
     res = run_jobs(jobs, ctx, args.workers, args.scheduler, args.job_timeout, args.start_method, store=store,
                    cache_key=lambda e: keys[e], progress=not args.quiet, label="run")
+    t_jobs = time.monotonic() - t_jobs
     finished = [j for j in jobs if j.key in res.rows]
     rows = store.finalize([j.key for j in finished])
     from physval import report
@@ -140,7 +142,6 @@ def cmd_run(args) -> int:
               f"{out / 'results.csv'}; run the same command again to finish", file=sys.stderr)
         return 130
     engine_wide = {}
-    in_jobs = time.monotonic() - started
     from physval.core.session import Execution
     from physval.readings import effective, laws
     # the engines users run, with the reference at its default formulation; the slow
@@ -154,11 +155,11 @@ def cmd_run(args) -> int:
             return 130
         engine_wide[name] = part
     from physval.known import stale_entries
-    stale = stale_entries(frame(rows, COLUMNS), resolver)
-    report.write_run_report(rows, out, families, command=cli.command_line(), engine_wide=engine_wide, stale=stale)
     df = frame(rows, COLUMNS)
+    report.write_run_report(rows, out, families, command=cli.command_line(), engine_wide=engine_wide,
+                            stale=stale_entries(df, resolver))
     total = time.monotonic() - started
-    print(f"{len(df)} checks: {status_counts(df)} ({res.ran} runs now, {res.reused} reused; "
-          f"{total:.0f} s, {in_jobs / total:.0%} in the selected jobs)")
+    print(f"{len(df)} checks: {status_counts(df)} ({res.ran} runs now, {res.reused} reused; {total:.1f} s, "
+          f"of which {t_jobs:.1f} s ({t_jobs / total:.0%}) in the selected runs)")
     print(f"wrote {out / 'results.csv'}, {out / 'report.md'}, {out / 'plots'}/")
     return 0
