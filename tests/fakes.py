@@ -67,3 +67,64 @@ class FakeAdapter(Adapter):
         sim = Ballistic(scene, settings, self.blow_up_at, self.crash_at)
         self.built.append(sim)
         return sim
+
+
+# --- a time-stepped bouncing ball: the discrete impacts the rebound tolerances cover ------
+
+def stepped_ball(e: float, h: float, dt: float, duration: float, order: str = "velocity",
+                 gravity: str = "cancelled", detection: str = "late", radius: float = 0.1,
+                 g: float = 9.81):
+    """A ball dropped from rest with its bottom h above the ground z = 0, stepped as a rigid
+    engine steps it, without any physics package. Returns (trajectory, impacts): the
+    trajectory of body "ball" (centre at bottom + radius) and, for every impact step,
+    (sample index, depth d of the bottom below the ground there, kappa of the step).
+
+    order:     "velocity" (symplectic Euler: v then x) or "position" (x then v, then the
+               contact found at the new position, as Pymunk);
+    gravity:   where the impact step's gravity goes: "before" (restitution of the speed
+               after it), "cancelled" (restitution of the speed before it, the impulse
+               also cancelling the step's gravity), "after" (added after the impulse);
+    detection: when the impact is resolved (velocity order only; position order finds it
+               once overlapping): "late" (the first sample at or below the ground), "nearest"
+               (the step boundary nearest the moment of contact), "early" (the step in
+               which the gap would close).
+    A ball left not rising by its impulse rests: its velocity is zeroed, its depth kept (no
+    push-out: the rebound from that depth is what the tolerance must cover)."""
+    from adapters.frames import state_row
+    from cases.trajectory import Trajectory
+
+    n = int(round(duration / dt))
+    z, v = h, 0.0
+    zs, vs, impacts = [z], [v], []
+
+    def rebound(s: float) -> tuple[float, float]:
+        """(v+, c) of an impact at approach speed s (before this step's gravity)."""
+        c = {"before": e, "cancelled": 0.0, "after": -1.0}[gravity]
+        return e * s + c * g * dt, c
+
+    for k in range(n):
+        if order == "velocity":
+            s = -v
+            hits = s > 0.0 and {"late": z <= 0.0, "nearest": z <= s * dt / 2.0, "early": z <= s * dt}[detection]
+            if hits:
+                v_plus, c = rebound(s)
+                impacts.append((k, -z, c + (1.0 - e) / 2.0))
+                v = v_plus if v_plus > 0.0 else 0.0
+            else:
+                v -= g * dt
+            z += v * dt
+        else:
+            z += v * dt
+            if z <= 0.0 and v < 0.0:
+                s = -v
+                v_plus, c = rebound(s)
+                impacts.append((k + 1, -z, c + (1.0 - e) / 2.0))
+                v = v_plus if v_plus > 0.0 else 0.0
+            else:
+                v -= g * dt
+        zs.append(z)
+        vs.append(v)
+    t = np.arange(n + 1) * dt
+    rows = np.array([state_row((0.0, 0.0, zz + radius), (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, vv), (0.0, 0.0, 0.0))
+                     for zz, vv in zip(zs, vs)])
+    return Trajectory(dt=dt, t=t, states={"ball": rows}), impacts

@@ -12,6 +12,7 @@ from hypothesis import given, settings, strategies as st
 from scipy.integrate import solve_ivp
 
 from cases import bounce_series as bs
+from cases import central_impact as ci
 from cases import creep as cr
 from cases import friction_isotropy as fi
 from cases import rolling_incline as ri
@@ -19,6 +20,8 @@ from cases import slide_to_stop as ss
 from cases import slip_to_roll as sr
 from cases.observables import arc_vertex, point_velocity, rate, settle_time
 from cases.trajectory import Trajectory
+from tests.fakes import stepped_ball
+from tests.test_observables import RULES
 
 G = 9.81
 
@@ -150,8 +153,32 @@ def test_bounce_tolerances_grow_with_the_bounces_and_shrink_with_dt():
         tol = [bs.impact_time_tolerance(e, bs.H, n, 1e-3) for n in range(1, 6)]
         assert tol == sorted(tol)
         assert bs.apex_tolerance(e, bs.H, 3, 1e-4) < bs.apex_tolerance(e, bs.H, 3, 1e-3) / 5
-    # the launch speed bound after one impact is central_impact's g dt (e times g dt / v0 of v0)
-    assert bs.launch_speed_error(0.5, bs.H, 1, 1e-3) == pytest.approx(G * 1e-3)
+    # the launch speed bound after one impact is central_impact's rebound tolerance times v0
+    v0 = bs.impact_speed(0.5, bs.H, 1)
+    assert bs.launch_speed_error(0.5, bs.H, 1, 1e-3) == pytest.approx(v0 * ci.rebound_tolerance(0.5, v0, 1e-3))
+
+
+@pytest.mark.parametrize("phase", [0.0, 0.3, 0.7])
+@pytest.mark.parametrize("e", [0.5, 1.0])
+@pytest.mark.parametrize("rule", RULES, ids=lambda r: "-".join(r))
+def test_stepped_bounces_are_within_every_tolerance(rule, e, phase):
+    """The series stepped as rigid engines step it (tests/fakes.py: x or v first, each impact
+    found late, at the nearest boundary or early, its step's gravity before, inside or
+    after the impulse), from a drop height anywhere within one step's travel: every apex,
+    impact time and the rest time within the tolerances built from rebound_tolerance."""
+    dt = 1e-3
+    h = bs.H + phase * bs.impact_speed(e, bs.H, 1) * dt
+    traj, _ = stepped_ball(e, h, dt, bs.duration({"e": e}), *rule, radius=bs.R)
+    obs = bs.observe(traj, {"e": e})
+    for c in bs.expect({"e": e}, dt):
+        expected = c.expected  # closed forms at H; the phase moves them by far less than dt
+        if c.metric.startswith("apex"):
+            expected = bs.apex(e, h, int(c.metric[-1]))
+        elif c.metric.startswith("impact_time"):
+            expected = bs.impact_time(e, h, int(c.metric[-1]))
+        elif c.metric == "rest_time":
+            expected = bs.rest_time(e, h)
+        assert abs(obs[c.metric] - expected) <= c.tolerance, (c.metric, obs[c.metric], expected, c.tolerance)
 
 
 @pytest.mark.parametrize("order", ["velocity first", "position first"])
