@@ -20,7 +20,7 @@ from cases import slide_to_stop as ss
 from cases import slip_to_roll as sr
 from cases.observables import arc_vertex, point_velocity, rate, settle_time
 from cases.trajectory import Trajectory
-from tests.fakes import stepped_ball
+from tests.fakes import coulomb_on_plane, stepped_ball
 from tests.test_observables import RULES
 
 G = 9.81
@@ -263,12 +263,19 @@ def test_the_grid_ball_rolls_forward_with_positive_spin():
 
 # --- rolling_incline ----------------------------------------------------------------------
 
-@given(st.floats(0.01, 1.4), st.sampled_from([0.4, 0.5]))
-def test_rolling_acceleration_from_energy(theta, k):
-    # rolling: d/dt [m v^2 / 2 + k m R^2 (v/R)^2 / 2] = m g sin(theta) v, so (1 + k) a = g sin(theta)
-    a = G * math.sin(theta) / (1.0 + k)
-    if ri.rolls(theta, 10.0, k):
-        assert ri.acceleration(theta, 10.0, 10.0, k) == pytest.approx(a, rel=1e-12)
+@pytest.mark.parametrize("p", ri.GRID + ({"theta_deg": 34.0, "mu_s": 0.2, "mu_k": 0.2, "dim": 3},
+                                         {"theta_deg": 36.0, "mu_s": 0.2, "mu_k": 0.2, "dim": 3}), ids=ri.variant_id)
+def test_rolling_and_slipping_from_integrating_coulomb_friction(p):
+    """A second way: Newton-Euler for the ball integrated in time with Coulomb friction at
+    the contact point (tests/fakes.coulomb_on_plane, regularised, static up to mu_s): whether
+    it rolls or slips, and its accelerations, come out of the integration and match the
+    case's closed forms on every variant and on either side of the sphere's rolling limit
+    tan(theta) = 7/2 mu_s (34.99 deg at mu_s = 0.2)."""
+    th, k = math.radians(p["theta_deg"]), ri.inertia_ratio(p["dim"])
+    a, alpha = coulomb_on_plane(G * math.sin(th), G * math.cos(th), p["mu_s"], p["mu_k"], k, ri.R)
+    assert ri.acceleration(th, p["mu_s"], p["mu_k"], k) == pytest.approx(a, rel=1e-7)
+    assert ri.angular_acceleration(th, p["mu_s"], p["mu_k"], k) == pytest.approx(alpha, rel=1e-7)
+    assert ri.rolls(th, p["mu_s"], k) == (a == pytest.approx(ri.R * alpha, rel=1e-7))
 
 
 @given(st.floats(0.01, 1.4), st.floats(0.01, 1.0), st.sampled_from([0.4, 0.5]))
@@ -346,12 +353,21 @@ def test_isotropic_friction_passes_and_a_square_limit_fails():
 # --- creep --------------------------------------------------------------------------------
 
 @given(st.floats(0.05, 1.5), st.floats(0.0, 0.999))
-def test_cone_load_from_the_force_balance(mu, fraction):
+def test_cone_load_from_the_angle_of_the_holding_force(mu, fraction):
+    """A second way: in a world with vertical gravity the plane's normal is R_y(theta) e_z,
+    and the contact force holding the box is -m g, straight up. Its angle to the normal,
+    against the cone's half-angle atan(mu_s), is the load: tan(angle) / mu_s, the tangential
+    over mu_s times the normal part (vector geometry, not the case's tan(theta) / mu_s)."""
     th = fraction * math.atan(mu)
-    g = np.array(cr.tilted_gravity(th, G))
-    held = g[0]                 # friction needed along the slope, per unit mass
-    limit = mu * -g[2]          # the most the cone allows at this normal force
-    assert cr.cone_load(th, mu) == pytest.approx(held / limit, rel=1e-9, abs=1e-12)
+    c, s = math.cos(th), math.sin(th)
+    n = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]) @ np.array([0.0, 0.0, 1.0])
+    f = np.array([0.0, 0.0, 9.81])  # holds 1 kg against gravity
+    normal = f @ n
+    tangential = np.linalg.norm(f - normal * n)
+    angle = math.atan2(np.linalg.norm(np.cross(f, n)), normal)  # between the force and the normal
+    assert cr.cone_load(th, mu) == pytest.approx(tangential / (mu * normal), rel=1e-9, abs=1e-12)
+    assert cr.cone_load(th, mu) == pytest.approx(math.tan(angle) / mu, rel=1e-7, abs=1e-9)
+    assert (angle <= math.atan(mu)) == (cr.cone_load(th, mu) <= 1.0)
     assert cr.creep_rate(th, mu) == 0.0
 
 
