@@ -207,6 +207,14 @@ def expect(p, dt) -> list[Check]:
     return checks
 
 
+def strike_dt(p) -> float:
+    """The time step. An engine may resolve the impact a step late, after the ball slid
+    |v_t| dt along the face and sank V_X dt into it (see expect): with friction that moves
+    the outcome by 0.3-2.3 % at 1e-3 s, so the rough strikes run at 1e-4 s (0.03-0.23 %).
+    Frictionless, the contact's place does not matter: 1e-3 s."""
+    return 1e-4 if p["mu"] > 0 else 1e-3
+
+
 def variant_id(p) -> str:
     plane = ",2D" if p["dim"] == 2 else ""
     rough = f",mu={p['mu']},slip={-p['v_t']:g}" if p["mu"] > 0 else ""
@@ -222,7 +230,7 @@ FAMILY = CaseFamily(
     duration=duration,
     observe=observe,
     expect=expect,
-    dt=1e-3,
+    dt=strike_dt,
     variant_id=variant_id,
     full_grid=FULL_GRID,
 )

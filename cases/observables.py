@@ -8,22 +8,36 @@ import numpy as np
 from cases.trajectory import Trajectory
 
 
+def free_acceleration(traj: Trajectory, name: str, gravity, band: float = 0.25) -> np.ndarray:
+    """The acceleration the body really has in free flight, from its velocities: the median
+    of dv/dt over the steps within `band` (relative to |g|, at least 1 m/s^2) of the scene's
+    gravity; the scene's gravity if no step is. A free-flight reading must not assume the
+    answer it judges: an engine whose gravity (or time step) is off by a few per cent still
+    flies free, and its motion is read, then judged, rather than not found."""
+    g = np.asarray(gravity, float)
+    a = np.diff(traj.vel(name), axis=0) / traj.dt
+    near = np.linalg.norm(a - g, axis=1) <= band * max(np.linalg.norm(g), 1.0)
+    return np.median(a[near], axis=0) if near.any() else g
+
+
 def ballistic_steps(traj: Trajectory, name: str, gravity) -> np.ndarray:
-    """For each step k (sample k -> k+1): True when the velocity changed by exactly g dt,
+    """For each step k (sample k -> k+1): True when the velocity changed by exactly the free
+    flight's a dt (`free_acceleration`: the scene's gravity, as the engine realised it),
     i.e. no contact acted on the body in that step. Tolerance 1e-3 g dt: far above float
     round-off, far below any contact impulse."""
-    v = traj.vel(name)
-    dv = np.diff(v, axis=0) - np.asarray(gravity, float) * traj.dt
-    return np.linalg.norm(dv, axis=1) <= 1e-3 * max(np.linalg.norm(gravity), 1.0) * traj.dt
+    g = np.asarray(gravity, float)
+    dv = np.diff(traj.vel(name), axis=0) - free_acceleration(traj, name, g) * traj.dt
+    return np.linalg.norm(dv, axis=1) <= 1e-3 * max(np.linalg.norm(g), 1.0) * traj.dt
 
 
-def first_impact(traj: Trajectory, name: str, gravity) -> tuple[int, int | None]:
+def first_impact(traj: Trajectory, name: str, gravity) -> tuple[int | None, int | None]:
     """(k_in, k_out): the last free-flight sample before the first contact, and the first
-    sample after it from which the body flies free again (None if it never does)."""
+    sample after it from which the body flies free again (None if it never does); (None,
+    None) if it never touches anything."""
     free = ballistic_steps(traj, name, gravity)
     hit = np.flatnonzero(~free)
     if hit.size == 0:
-        raise ValueError(f"{name} never touched anything")
+        return None, None
     k_in = int(hit[0])
     after = np.flatnonzero(free[k_in:])
     # free again from the first step after which every step up to the apex is ballistic
@@ -34,11 +48,21 @@ def first_impact(traj: Trajectory, name: str, gravity) -> tuple[int, int | None]
     return k_in, None
 
 
+def fall_gravity(z: np.ndarray, g: float, dt: float, band: float = 0.25) -> float:
+    """The gravity a height z really falls with, from its positions: minus the median second
+    difference / dt^2 over the samples within `band` of -g dt^2; g if none is. (Positions
+    and velocities are read separately: an engine stepping a time other than dt shows its
+    gravity scaled by that ratio in the velocities and by its square in the positions.)"""
+    d2 = np.diff(z, 2) / (dt * dt)
+    near = np.abs(d2 + g) <= band * g
+    return float(-np.median(d2[near])) if near.any() else g
+
+
 def free_arc_start(z: np.ndarray, k: int, g: float, dt: float, run: int = 6) -> int | None:
     """First sample j >= k from which `run` samples of height z fly free: their second
-    differences are -g dt^2 (to 1e-3 of it). Velocities can be ballistic while positions
-    are still being pushed out of an overlap (position-only depenetration), so an arc
-    fitted to positions must start here."""
+    differences are -g dt^2 (to 1e-3 of it; g as the positions show it, `fall_gravity`).
+    Velocities can be ballistic while positions are still being pushed out of an overlap
+    (position-only depenetration), so an arc fitted to positions must start here."""
     d2 = np.diff(z[k:], 2)
     free = np.abs(d2 + g * dt * dt) <= 1e-3 * g * dt * dt
     for j in range(len(free) - run + 3):

@@ -57,7 +57,11 @@ H = 0.005       # height of the lowest point at release, m
 TILT = {"y": 15.0, "diag": 12.0}  # tilt angle, deg: below the barrier with room to spare (see margin())
 T = 0.8         # simulated time, s (see duration())
 REST = 0.2      # the last REST seconds must be at rest, s
-PENETRATION = 1e-3  # m: the depth a solver may rest at (stack_forces: 0.5 % of the box)
+# m: the depth a rigid solver may keep a resting contact at: a stabilising dead band (the
+# reference keeps 1e-5 m, Pymunk's collision slop is 1e-4 m), 0.05 % of the box. The
+# impact's own overlap (up to v dt, 1-3 mm) must be pushed out by the end of the run. (It was
+# 1e-3 m, which let the energy checks pass 3-7 % of the energy they judge.)
+PENETRATION = 1e-4
 
 # Grid: an edge landing first (tilt about y) and a corner landing first (tilt about the face
 # diagonal (1,1,0)/sqrt 2), plastic and with a bounce (e = 0, 0.3), slipping and gripping
@@ -190,9 +194,9 @@ def expect(p, dt) -> list[Check]:
         Check("down_face_alignment", "-", 1.0, 1 - math.cos(tilt), "abs",
               f"flat on the lowest face to within {PENETRATION * 1e3:g} mm across it ({tilt:.2g} rad); any other face gives <= 0"),
         Check("rest_height", "m", HALF, PENETRATION, "abs",
-              "resting on a face; 1 mm (0.5 % of the box) is a solver's stabilising depth"),
+              f"resting on a face; {PENETRATION * 1e3:g} mm (0.05 % of the box) is a solver's stabilising depth"),
         Check("energy_dissipated", "J", energy_dissipated(p), M * G * PENETRATION + 0.5 * M * (G * dt) ** 2, "abs",
-              "m g times the 1 mm rest-depth allowance, plus the kinetic energy of the g dt rest-speed allowance"),
+              f"m g times the {PENETRATION * 1e3:g} mm rest-depth allowance, plus the kinetic energy of the g dt rest-speed allowance"),
         Check("rest_speed", "m/s", 0.0, G * dt, "abs",
               f"fastest point over the last {REST:g} s; g dt: one step of gravity a contact has not yet cancelled"),
         Check("ground_impulse", "N s", ground_impulse(T_run), M * G * dt, "abs",

@@ -1,6 +1,8 @@
 """Stand-in engines for testing the harness itself: they need no physics package."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from adapters.base import Adapter, Capabilities, Simulation, Unsupported
@@ -67,3 +69,92 @@ class FakeAdapter(Adapter):
         sim = Ballistic(scene, settings, self.blow_up_at, self.crash_at)
         self.built.append(sim)
         return sim
+
+
+# --- a time-stepped bouncing ball: the discrete impacts the rebound tolerances cover ------
+
+def stepped_ball(e: float, h: float, dt: float, duration: float, order: str = "velocity",
+                 gravity: str = "cancelled", detection: str = "late", radius: float = 0.1,
+                 g: float = 9.81):
+    """A ball dropped from rest with its bottom h above the ground z = 0, stepped as a rigid
+    engine steps it, without any physics package. Returns (trajectory, impacts): the
+    trajectory of body "ball" (centre at bottom + radius) and, for every impact step,
+    (sample index, depth d of the bottom below the ground there, kappa of the step).
+
+    order:     "velocity" (symplectic Euler: v then x) or "position" (x then v, then the
+               contact found at the new position, as Pymunk);
+    gravity:   where the impact step's gravity goes: "before" (restitution of the speed
+               after it), "cancelled" (restitution of the speed before it, the impulse
+               also cancelling the step's gravity), "after" (added after the impulse);
+    detection: when the impact is resolved (velocity order only; position order finds it
+               once overlapping): "late" (the first sample at or below the ground), "nearest"
+               (the step boundary nearest the moment of contact), "early" (the step in
+               which the gap would close).
+    A ball left not rising by its impulse rests: its velocity is zeroed, its depth kept (no
+    push-out: the rebound from that depth is what the tolerance must cover)."""
+    from adapters.frames import state_row
+    from cases.trajectory import Trajectory
+
+    n = int(round(duration / dt))
+    z, v = h, 0.0
+    zs, vs, impacts = [z], [v], []
+
+    def rebound(s: float) -> tuple[float, float]:
+        """(v+, c) of an impact at approach speed s (before this step's gravity)."""
+        c = {"before": e, "cancelled": 0.0, "after": -1.0}[gravity]
+        return e * s + c * g * dt, c
+
+    for k in range(n):
+        if order == "velocity":
+            s = -v
+            hits = s > 0.0 and {"late": z <= 0.0, "nearest": z <= s * dt / 2.0, "early": z <= s * dt}[detection]
+            if hits:
+                v_plus, c = rebound(s)
+                impacts.append((k, -z, c + (1.0 - e) / 2.0))
+                v = v_plus if v_plus > 0.0 else 0.0
+            else:
+                v -= g * dt
+            z += v * dt
+        else:
+            z += v * dt
+            if z <= 0.0 and v < 0.0:
+                s = -v
+                v_plus, c = rebound(s)
+                impacts.append((k + 1, -z, c + (1.0 - e) / 2.0))
+                v = v_plus if v_plus > 0.0 else 0.0
+            else:
+                v -= g * dt
+        zs.append(z)
+        vs.append(v)
+    t = np.arange(n + 1) * dt
+    rows = np.array([state_row((0.0, 0.0, zz + radius), (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, vv), (0.0, 0.0, 0.0))
+                     for zz, vv in zip(zs, vs)])
+    return Trajectory(dt=dt, t=t, states={"ball": rows}), impacts
+
+
+# --- Coulomb friction integrated in time: a second way to the friction closed forms ------
+
+def coulomb_on_plane(g_t: float, g_n: float, mu_s: float, mu_k: float, k: float | None = None,
+                     radius: float = 0.1, duration: float = 1.0, stiffness: float = 1e6) -> tuple[float, float]:
+    """(a, alpha): the downhill acceleration of a body released at rest on a plane, and the
+    angular acceleration about the axis of forward roll, fitted over the second half of
+    `duration`, from integrating Newton-Euler in time (scipy Radau) with gravity g_t along
+    the plane, g_n into it, and Coulomb friction at the contact point against its slip s
+    (a regularised law: per unit mass, f = stiffness * s while that is within mu_s g_n, the
+    sticking branch; mu_k g_n otherwise). A box when k is None (it cannot turn); a ball
+    with I = k m R^2 otherwise (slip s = v - R w). No closed form enters: whether it sticks,
+    rolls or slips, and how fast, comes out of the integration."""
+    from scipy.integrate import solve_ivp
+
+    def rates(t, y):
+        v, w = y
+        s = v - radius * w if k is not None else v
+        f = stiffness * s
+        if abs(f) > mu_s * g_n:
+            f = math.copysign(mu_k * g_n, s)
+        return [g_t - f, f / (k * radius) if k is not None else 0.0]
+
+    t = np.linspace(0.0, duration, 201)
+    sol = solve_ivp(rates, (0.0, duration), [0.0, 0.0], method="Radau", t_eval=t, rtol=1e-10, atol=1e-12)
+    late = t >= duration / 2
+    return float(np.polyfit(t[late], sol.y[0][late], 1)[0]), float(np.polyfit(t[late], sol.y[1][late], 1)[0])

@@ -10,6 +10,7 @@ from hypothesis import given, settings, strategies as st
 
 from cases import central_impact as ci
 from cases.trajectory import Trajectory
+from tests.fakes import stepped_ball
 
 G, R = 9.81, ci.R
 
@@ -44,3 +45,62 @@ def test_a_rebound_that_is_too_weak_fails_the_check():
     obs = ci.observe(traj, {"setup": "drop", "e": 0.5, "h": 1.0})
     (ratio,) = [c for c in ci.expect({"setup": "drop", "e": 0.5, "h": 1.0}, 1e-3) if c.metric == "rebound_ratio"]
     assert abs(obs["rebound_ratio"] - ratio.expected) > ratio.tolerance
+
+
+# --- the discrete impact: rebound_tolerance against stepped impacts of every kind ------------
+
+RULES = [("velocity", gravity, detection) for gravity in ("before", "cancelled", "after")
+         for detection in ("late", "nearest", "early")] + \
+        [("position", gravity, "late") for gravity in ("before", "cancelled", "after")]
+
+
+def drop_params(e):
+    return {"setup": "drop", "e": e, "h": 1.0}
+
+
+@pytest.mark.parametrize("e", [0.0, 0.5, 0.9, 1.0])
+@pytest.mark.parametrize("rule", RULES, ids=lambda r: "-".join(r))
+def test_stepped_rebound_is_the_formula_and_within_the_tolerance(rule, e):
+    """A ball stepped as a rigid engine steps it (tests/fakes.py: x or v first, the impact
+    found late, at the nearest boundary or early, the step's gravity before, inside or
+    after the impulse), dropped at phases across one step: the observer reads exactly
+    `stepped_rebound_ratio` at the simulated depth and kappa, and within the tolerance."""
+    dt = 1e-3
+    order, gravity, detection = rule
+    v = math.sqrt(2 * G)
+    tol = ci.rebound_tolerance(e, v, dt)
+    worst = 0.0
+    for phase in np.linspace(0.0, v * dt, 11):
+        p = dict(drop_params(e), h=1.0 + phase)
+        traj, impacts = stepped_ball(e, p["h"], dt, ci.duration(p), order, gravity, detection, radius=R)
+        obs = ci.observe(traj, drop_params(e))
+        _, d, kappa = impacts[0]
+        z = traj.pos("ball")[:, 2] - R
+        k = impacts[0][0]
+        v_in = math.sqrt(2 * G * ci.arc_apex(traj.t[k - 5:k + 1], z[k - 5:k + 1], G))  # the incoming arc
+        assert obs["rebound_ratio"] == pytest.approx(ci.stepped_rebound_ratio(e, v_in, dt, kappa, d), abs=1e-9)
+        assert abs(d) <= v_in * dt and abs(kappa) <= (1 + e) / 2 + 1e-12  # inside the corners the bound takes
+        worst = max(worst, abs(obs["rebound_ratio"] - e))
+    assert worst <= tol
+
+
+def test_the_rebound_bound_is_reached_by_stepped_impacts():
+    """Not a loose bound: over the stepping rules and phases the reading comes within a few
+    per cent of it (e = 0.5: found late with gravity after the impulse, kappa = -3/4; e = 1:
+    restitution of the speed after the step's gravity, kappa = 1, DART's and Pymunk's order)."""
+    dt, v = 1e-3, math.sqrt(2 * G)
+    for e in (0.5, 1.0):
+        got = max(abs(ci.observe(stepped_ball(e, 1.0 + ph, dt, ci.duration(drop_params(e)), *rule, radius=R)[0],
+                                 drop_params(e))["rebound_ratio"] - e)
+                  for rule in RULES for ph in np.linspace(0.0, v * dt, 11))
+        assert 0.9 * ci.rebound_tolerance(e, v, dt) <= got <= ci.rebound_tolerance(e, v, dt)
+
+
+def test_rebound_tolerance_has_the_first_order_terms():
+    """To first order the ratio moves by kappa g dt / v - g d (1 - e^2) / (e v^2): with
+    |kappa| <= (1 + e)/2 and |d| <= v dt the bound is g dt / v ((1 + e)/2 + (1 - e^2)/e)."""
+    dt, v = 1e-5, 4.0
+    for e in (0.3, 0.5, 0.9, 1.0):
+        first = G * dt / v * ((1 + e) / 2 + (1 - e * e) / e)
+        assert ci.rebound_tolerance(e, v, dt) - 1e-6 == pytest.approx(first, rel=1e-3)  # less the solver floor
+    assert ci.rebound_tolerance(0.0, v, dt) == pytest.approx(1e-6)  # plastic: no rising arc at all
