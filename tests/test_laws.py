@@ -96,12 +96,14 @@ def test_the_reference_meets_the_laws_on_the_battery():
     assert worst["dissipation_gap_max"] < 1e-6
 
 
-def test_an_engine_without_contact_points_gets_a_row_saying_so(monkeypatch):
+def test_an_engine_without_contact_points_gets_a_row_saying_so():
+    import dataclasses
     from adapters import registry
+    from physval.core.context import Resolver
     adapter = registry.get("reference")
-    monkeypatch.setattr(type(adapter), "capabilities",
-                        type(adapter.capabilities)(**{**adapter.capabilities.__dict__, "contact_points": False}))
-    ctx = Context(known_files=())  # a fresh resolver: it makes the patched adapter
-    rows = laws.measure(["reference"], ctx, builtin_families(), Execution(progress=False)).to_dict("records")
+    adapter.capabilities = dataclasses.replace(adapter.capabilities, contact_points=False)
+    resolver = Resolver(Context()).provide("reference", adapter)
+    rows = laws.measure(["reference"], Context(), builtin_families(), Execution(progress=False),
+                        resolver=resolver).to_dict("records")
     assert rows == [{"engine": "reference", "case": "", "variant": "",
                      "note": "the engine does not report per-contact forces"}]

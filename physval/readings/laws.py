@@ -180,11 +180,12 @@ def battery(families: dict, adapter) -> list[tuple[str, object]]:
     return chosen
 
 
-def measure(engines: list[str], ctx, families: dict, execution: Execution = Execution(), **_) -> pd.DataFrame | None:
+def measure(engines: list[str], ctx, families: dict, execution: Execution = Execution(), resolver=None,
+            **_) -> pd.DataFrame | None:
     """The residual rows of the engines over the battery, each scene at its family's dt
     (None if interrupted); an engine that cannot report contact points, or fails on a
-    scene, gets a row saying so."""
-    resolver = ctx.resolver()
+    scene, gets a row saying so. `resolver`: the parent's (default: the context's)."""
+    resolver = resolver or ctx.resolver()
     rows, jobs = [], []
     for engine in engines:
         try:
