@@ -26,7 +26,6 @@ ENTRY_POINT_GROUP = "physval.engines"
 ENGINES: dict[str, tuple[str, str, dict]] = {
     "reference": ("adapters.reference_engine", "ReferenceAdapter", {}),
     # every formulation of the lecture notes as its own engine (reference_impl/<module>.py)
-    "reference-si": ("adapters.reference_engine", "ReferenceAdapter", {"formulation": "si", "name": "reference-si"}),
     "reference-pgs": ("adapters.reference_engine", "ReferenceAdapter", {"formulation": "pgs"}),
     "reference-lemke": ("adapters.reference_engine", "ReferenceAdapter", {"formulation": "lemke"}),
     "reference-spook": ("adapters.reference_engine", "ReferenceAdapter", {"formulation": "spook"}),
