@@ -28,7 +28,7 @@ from fnmatch import fnmatchcase
 from pathlib import Path
 
 _ENTRY = re.compile(r"^(?P<family>\w+)\[(?P<variant>.*)\]:(?P<metric>\S+)\s*#\s*(?P<reason>\S.*)$")
-_BAND = re.compile(r"^\s+(?P<engine>\S+)\s+\[(?P<variant>.*)\]:(?P<metric>\w+)\s*=\s*(?P<rest>\S.*?)\s*(?:#.*)?$")
+_BAND = re.compile(r"^\s+(?P<engine>\S+)\s+\[(?P<variant>.*)\]:(?P<metric>[^\s=]+)\s*=\s*(?P<rest>\S.*?)\s*(?:#.*)?$")
 _VALUE = re.compile(r"^(?P<value>\S+)\s*\+-\s*(?P<width>\S+)$")
 _RAISES = re.compile(r"^raises\s+(?P<exc>[\w.]+)$")
 
