@@ -142,6 +142,8 @@ def stepped_rebound_ratio(e: float, v: float, dt: float, kappa: float, d: float,
     u^2 from the sample where the overlap is found. An impulse that leaves the ball not
     rising (v+ <= 0) leaves no rebound arc: ratio 0, as the observer reads it.
     tests/test_observables.py checks this against stepped impacts of every kind."""
+    if v * v + 2.0 * g * d <= 0.0:  # a ball this slow never reaches depth d: no rebound arc
+        return 0.0
     S = math.sqrt(v * v + 2.0 * g * d)
     if e * (S - g * dt / 2.0) + (kappa - (1.0 - e) / 2.0) * g * dt <= 0.0:
         return 0.0
@@ -163,6 +165,8 @@ def rebound_tolerance(e: float, v: float, dt: float, g: float = G) -> float:
     vanishes and the second is g dt / v: restitution applied after the step's gravity
     (kappa = 1) gives exactly that, and a tolerance without the second-order part of
     this term would pass or fail such an engine by rounding."""
+    if v <= 0.0:  # no impact speed: the ratio is not defined, any reading lies within e of it
+        return e + 1e-6
     corners = [stepped_rebound_ratio(e, v, dt, kappa, d, g)
                for kappa in (-(1.0 + e) / 2.0, (1.0 + e) / 2.0) for d in (-v * dt, v * dt)]
     return max(abs(r - e) for r in corners) + 1e-6
