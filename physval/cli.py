@@ -182,7 +182,11 @@ def engines_of(args, ctx, default: list[str] | None = None) -> list[str]:
     known = registry.engine_names(ctx.adapters)
     if default is None:
         default = [e for e in known if registry.available(e, ctx.adapters)]
-    return select_engines(args.engines, known, default)
+    chosen = select_engines(args.engines, known, default)
+    resolver = ctx.resolver()
+    for e in chosen:
+        resolver.known(e)  # an engine's own known-deviation file that does not parse stops here
+    return chosen
 
 
 def command_line() -> str:

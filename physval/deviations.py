@@ -28,7 +28,7 @@ from fnmatch import fnmatchcase
 from pathlib import Path
 
 _ENTRY = re.compile(r"^(?P<family>\w+)\[(?P<variant>.*)\]:(?P<metric>\S+)\s*#\s*(?P<reason>\S.*)$")
-_BAND = re.compile(r"^\s+(?P<engine>\S+)\s+\[(?P<variant>.*)\]:(?P<metric>\w+)\s*=\s*(?P<rest>\S.*?)\s*(?:#.*)?$")
+_BAND = re.compile(r"^\s+(?P<engine>\S+)\s+\[(?P<variant>.*)\]:(?P<metric>[^\s=]+)\s*=\s*(?P<rest>\S.*?)\s*(?:#.*)?$")
 _VALUE = re.compile(r"^(?P<value>\S+)\s*\+-\s*(?P<width>\S+)$")
 _RAISES = re.compile(r"^raises\s+(?P<exc>[\w.]+)$")
 
@@ -84,6 +84,12 @@ class Deviation:
     reason: str
     line: int
     bands: tuple[Band, ...] = field(default=())
+    user: bool = False  # from a user's --known file: a difference the user expects, not an engine's own
+
+    @property
+    def cause(self) -> str:
+        """The cause as results and reports show it; a user's entry says it is the user's."""
+        return f"expected by the user (--known {Path(self.source).name}): {self.reason}" if self.user else self.reason
 
     def matches(self, family: str, variant: str, metric: str) -> bool:
         return family == self.family and fnmatchcase(variant, self.variant) and fnmatchcase(metric, self.metric)
