@@ -26,7 +26,13 @@ class UsageError(ValueError):
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with a one-line error: the message and where to find help."""
+    """argparse with a one-line error: the message and where to find help. Options must be
+    spelled out: with abbreviations, `physval known ENGINE --cases X` (known has no --cases)
+    was read as --cases-dir X."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message):
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
