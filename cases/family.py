@@ -47,7 +47,8 @@ MAX_DT = 0.1  # s: a family's time step above this leaves no contact worth judgi
 
 @dataclass(frozen=True)
 class Check:
-    """One verdict: `metric` measured against a closed-form `expected` value.
+    """One verdict: `metric` (the name observe() gives its value under) measured against a
+    closed-form `expected` value in `unit` (SI, e.g. "m/s"), within `tolerance`.
 
     `kind` says which error the tolerance bounds: "abs" (|measured - expected|, in `unit`)
     or "rel" (that divided by |expected|). `why` is the one-line reason for its size: the
@@ -76,7 +77,9 @@ class Check:
 
 @dataclass(frozen=True)
 class Variant:
-    """One point of a family's grid: its readable id and its params."""
+    """One point of a family's grid: the `family` name, its readable `id` (the family's
+    variant_id of the params: unique in the family, used in test ids, reports and
+    `--cases NAME[ID]` selections) and its `params` dict."""
     family: str
     id: str
     params: dict
@@ -120,8 +123,9 @@ class CaseFamily:
       discrete-time readings exact are in `cases.observables`.
     - `expect(params, dt) -> [Check]`: the closed forms; a tolerance may depend on dt.
     - `dt`: the default time step in s (or params -> dt per variant), in (0, 0.1].
-    - `needs`: what the observer needs beyond the scene (NEEDS; e.g. "contact_forces"),
-      a frozenset or params -> frozenset.
+    - `needs`: what the observer needs beyond the scene (NEEDS; e.g. "contact_forces", or
+      "impact_model:M" when the closed forms hold for impact model M only), a frozenset or
+      params -> frozenset; engines that lack it report the variant `unsupported`.
     - `sweep_variants`: variant ids `physval sweep` varies dt and iterations on (default:
       the first variant).
     - `variant_id(params) -> str`: the readable id in test ids, reports and selections.
@@ -152,10 +156,12 @@ class CaseFamily:
 
     @property
     def cross_engine(self) -> bool:
+        """Tagged "cross_engine": the report also compares the engines with each other."""
         return "cross_engine" in self.tags
 
     @property
     def variants(self) -> tuple[Variant, ...]:
+        """The grid's variants (what a run takes without --full)."""
         return tuple(Variant(self.name, self.variant_id(p), dict(p)) for p in self.grid)
 
     @property

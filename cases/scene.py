@@ -18,6 +18,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+# The physics a scene can call for (Scene.effects, derived from the scene; an adapter
+# simulates these and nothing more, and reports what it simulated in Simulation.effects):
+# "gravity" (non-zero gravity), "contact" (a pair that may touch), "restitution" (a pair
+# with e > 0), "friction" (a pair with mu_s > 0), "rotation" (a dynamic body that rotates).
 EFFECTS = ("gravity", "contact", "restitution", "friction", "rotation")
 
 # How an engine resolves impacts at several contacts within one step (an adapter declares
@@ -69,6 +73,8 @@ def _positive(value: float, where: str) -> float:
 
 @dataclass(frozen=True)
 class Sphere:
+    """A ball of `radius` m, centred on its body's position (3D scenes). Default inertia
+    of a solid ball: 2/5 m r^2 about every axis."""
     radius: float
     kind = "sphere"
     dimension = 3
@@ -83,6 +89,9 @@ class Sphere:
 
 @dataclass(frozen=True)
 class Box:
+    """A cuboid with `half_extents` (a, b, c) m along its body's x, y, z axes, centred on
+    the body's position (3D scenes). Default inertia of a solid box:
+    m (b^2 + c^2) / 3, m (a^2 + c^2) / 3, m (a^2 + b^2) / 3 (principal, body frame)."""
     half_extents: tuple[float, float, float]
     kind = "box"
     dimension = 3
@@ -99,7 +108,10 @@ class Box:
 
 @dataclass(frozen=True)
 class Plane:
-    """The static half-space below the plane n . x = offset (solid on the side opposite n)."""
+    """The static half-space below the plane n . x = offset (solid on the side opposite n):
+    `normal` a unit vector (default +z), `offset` in m. Only a static body may have it; in a
+    2D scene it is a line of the x-z plane (engines cannot represent a normal with a
+    y component there and report `unsupported`)."""
     normal: tuple[float, float, float] = (0.0, 0.0, 1.0)
     offset: float = 0.0
     kind = "plane"
@@ -117,7 +129,8 @@ class Plane:
 
 @dataclass(frozen=True)
 class Circle:
-    """A disc in a 2D scene (x-z plane); 3D engines embed it as a cylinder along y."""
+    """A disc of `radius` m in a 2D scene (x-z plane); 3D engines embed it as a cylinder
+    along y. Default inertia of a solid disc about y: m r^2 / 2."""
     radius: float
     kind = "circle"
     dimension = 2
@@ -132,7 +145,9 @@ class Circle:
 
 @dataclass(frozen=True)
 class Rect:
-    """A box in a 2D scene: half-extents along x and z."""
+    """A rectangle in a 2D scene (x-z plane): `half_extents` (a, c) m along the body's x
+    and z axes; 3D engines embed it as a box along y. Default inertia about y, the only
+    axis a 2D body turns about: m (a^2 + c^2) / 3."""
     half_extents: tuple[float, float]
     kind = "rect"
     dimension = 2
@@ -184,8 +199,15 @@ class Compliance:
 
 @dataclass(frozen=True)
 class Material:
-    """What a pair of bodies does on contact: restitution e, static mu_s, kinetic mu_k,
-    and rigid contact unless a compliant law is given."""
+    """What a pair of bodies does on contact (a scene's default, or one pair's in Scene.pairs).
+
+    - `e`: Newton's coefficient of restitution in [0, 1], the ratio of the normal
+      velocities after and before an impact (0: plastic, 1: elastic);
+    - `mu_s`: Coulomb's static friction coefficient (>= 0; 0: frictionless);
+    - `mu_k`: the kinetic coefficient, <= mu_s (None: equal to mu_s). Engines with one
+      coefficient report a pair with mu_k != mu_s `unsupported`;
+    - `compliance`: a compliant contact law (`Compliance`), or None for rigid contact.
+    """
     e: float = 0.0
     mu_s: float = 0.0
     mu_k: float | None = None  # None: equal to mu_s
@@ -193,6 +215,7 @@ class Material:
 
     @property
     def mu_k_(self) -> float:
+        """The kinetic coefficient in force (mu_s when mu_k is None)."""
         return self.mu_s if self.mu_k is None else self.mu_k
 
     def validate(self, where: str) -> None:
@@ -213,11 +236,25 @@ class Material:
 
     @property
     def frictional(self) -> bool:
+        """True when the pair has friction (mu_s > 0)."""
         return self.mu_s > 0
 
 
 @dataclass(frozen=True)
 class Body:
+    """A rigid body of the scene, in its start state.
+
+    - `name`: unique in the scene; trajectories, contact forces and pairs use it;
+    - `shape`: Sphere, Box, Plane (static only) in 3D; Circle, Rect, Plane in 2D;
+    - `mass`: kg, > 0 for a dynamic body, None for a static one;
+    - `inertia`: principal moments (kg m^2) in the body frame; None: the shape's solid
+      default (see each shape);
+    - `position` (m), `orientation` (unit quaternion w, x, y, z, body to world),
+      `velocity` (m/s), `angular_velocity` (rad/s, world frame): the start state;
+    - `static`: fixed in place, infinite mass (the ground, walls);
+    - `rotates`: False holds the orientation fixed (a sphere in a frictionless central
+      impact, a block that must only slide), so no engine spins it up from round-off.
+    """
     name: str
     shape: Shape
     mass: float | None = None  # None for a static body
@@ -231,10 +268,12 @@ class Body:
 
     @property
     def dynamic(self) -> bool:
+        """True for a body that moves (not static)."""
         return not self.static
 
     @property
     def principal_inertia(self) -> tuple[float, float, float]:
+        """The principal moments in force: `inertia`, else the shape's default for `mass`."""
         if self.inertia is not None:
             return tuple(float(i) for i in self.inertia)
         return self.shape.inertia(self.mass)
@@ -276,6 +315,19 @@ def pair_key(a: str, b: str) -> tuple[str, str]:
 
 @dataclass(frozen=True)
 class Scene:
+    """An engine-neutral scene, validated when made (SceneError names the bad field).
+
+    - `bodies`: at least one dynamic body; names unique;
+    - `gravity`: m/s^2, world frame (an incline tilts gravity: `tilted_gravity`);
+    - `material`: the Material of every pair not named in `pairs`;
+    - `pairs`: per-pair overrides (body a, body b, Material), unordered; an engine whose
+      per-body combination rule cannot express the pair table reports `unsupported`;
+    - `dimension`: 3, or 2 for a scene in the x-z plane (Circle, Rect, Plane; y, and
+      rotations about x and z, stay zero), which the 2D engines run too;
+    - `allowed_overlap`: m the bodies may start inside each other (default 1 um: contact
+      built by hand is exact to rounding); a scene that starts deeper on purpose says so;
+    - `effects`: derived, not given: the physics the scene calls for (EFFECTS).
+    """
     bodies: tuple[Body, ...]
     gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
     material: Material = Material()  # every pair not named in `pairs`
@@ -292,12 +344,14 @@ class Scene:
 
     # lookups
     def body(self, name: str) -> Body:
+        """The body called `name` (KeyError if none)."""
         for b in self.bodies:
             if b.name == name:
                 return b
         raise KeyError(name)
 
     def material_of(self, a: str, b: str) -> Material:
+        """The Material of the pair (a, b): its entry in `pairs`, else `material`."""
         key = pair_key(a, b)
         for x, y, mat in self.pairs:
             if pair_key(x, y) == key:
@@ -312,6 +366,7 @@ class Scene:
 
     @property
     def dynamic_bodies(self) -> tuple[Body, ...]:
+        """The bodies that move, in scene order."""
         return tuple(b for b in self.bodies if b.dynamic)
 
     def contact_pairs(self) -> list[tuple[Body, Body]]:

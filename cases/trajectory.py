@@ -13,6 +13,7 @@ import numpy as np
 
 from cases.scene import pair_key
 
+# Where each quantity lies in a state row (Trajectory.states[name][k, POS] ...).
 POS, QUAT, VEL, OMEGA = slice(0, 3), slice(3, 7), slice(7, 10), slice(10, 13)
 STATE_SIZE = 13
 
@@ -72,15 +73,19 @@ class Trajectory:
             raise TrajectoryError(f"no dynamic body {name!r} in this trajectory (dynamic bodies: {known})") from None
 
     def pos(self, name: str) -> np.ndarray:
+        """(n+1, 3) position of the body's centre of mass, m, world frame."""
         return self._state(name)[:, POS]
 
     def quat(self, name: str) -> np.ndarray:
+        """(n+1, 4) orientation, unit quaternion (w, x, y, z), body to world."""
         return self._state(name)[:, QUAT]
 
     def vel(self, name: str) -> np.ndarray:
+        """(n+1, 3) velocity of the centre of mass, m/s, world frame."""
         return self._state(name)[:, VEL]
 
     def omega(self, name: str) -> np.ndarray:
+        """(n+1, 3) angular velocity, rad/s, world frame."""
         return self._state(name)[:, OMEGA]
 
     def force(self, a: str, b: str) -> np.ndarray:

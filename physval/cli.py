@@ -26,7 +26,13 @@ class UsageError(ValueError):
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with a one-line error: the message and where to find help."""
+    """argparse with a one-line error: the message and where to find help. Options must be
+    spelled out: with abbreviations, `physval known ENGINE --cases X` (known has no --cases)
+    was read as --cases-dir X."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message):
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
@@ -182,7 +188,11 @@ def engines_of(args, ctx, default: list[str] | None = None) -> list[str]:
     known = registry.engine_names(ctx.adapters)
     if default is None:
         default = [e for e in known if registry.available(e, ctx.adapters)]
-    return select_engines(args.engines, known, default)
+    chosen = select_engines(args.engines, known, default)
+    resolver = ctx.resolver()
+    for e in chosen:
+        resolver.known(e)  # an engine's own known-deviation file that does not parse stops here
+    return chosen
 
 
 def command_line() -> str:

@@ -84,6 +84,12 @@ class Deviation:
     reason: str
     line: int
     bands: tuple[Band, ...] = field(default=())
+    user: bool = False  # from a user's --known file: a difference the user expects, not an engine's own
+
+    @property
+    def cause(self) -> str:
+        """The cause as results and reports show it; a user's entry says it is the user's."""
+        return f"expected by the user (--known {Path(self.source).name}): {self.reason}" if self.user else self.reason
 
     def matches(self, family: str, variant: str, metric: str) -> bool:
         return family == self.family and fnmatchcase(variant, self.variant) and fnmatchcase(metric, self.metric)

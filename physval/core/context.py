@@ -6,7 +6,7 @@ families, adapters and deviations from it; `Resolver` does that once per process
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from adapters import registry
@@ -75,7 +75,8 @@ class Resolver:
                 own = self.adapter(engine).deviations_file()
             except registry.EngineError:
                 pass
-            self._known[engine] = deviations.load([own, *self.ctx.known_files])
+            self._known[engine] = deviations.load([own]) + [replace(d, user=True)
+                                                             for d in deviations.load(self.ctx.known_files)]
         return self._known[engine]
 
     def deviation_files(self, engine: str) -> list[Path]:

@@ -172,7 +172,11 @@ def execute(job: Job, resolver: Resolver) -> Outcome:
     except Exception as exc:  # an engine crash while building: recorded, the run goes on
         return Outcome(job, rows_with("error", "the engine failed to build the scene: " + describe(exc)),
                        exception=type(exc).__name__)
-    known = resolver.known(job.engine)
+    try:
+        known = resolver.known(job.engine)
+    except deviations.DeviationFileError as exc:  # a worker must not die of a bad file: its rows say why
+        sim.close()
+        return Outcome(job, rows_with("error", f"the known-deviation file does not parse: {exc}"))
     steps = steps_of(job, family)
     extra: dict = {}
     try:
@@ -224,8 +228,8 @@ def _raised(job, family, checks, known, exc, base) -> list[dict]:
     bands = [e.band(job.engine, job.variant.id, c.metric) if e else None for e, c in zip(entries, checks)]
     if all(b is not None and b.holds(exception=name) for b in bands):
         return [blank_row(family.name, job.variant, job.engine, c, status="deviation", dt=time_step(job, family),
-                          known_deviation=e.reason, band=b.describe(), iterations=job.iterations or "",
-                          reason=f"{e.reason} [{describe(exc)}]", **base)
+                          known_deviation=e.cause, band=b.describe(), iterations=job.iterations or "",
+                          reason=f"{e.cause} [{describe(exc)}]", **base)
                 for c, e, b in zip(checks, entries, bands)]
     return job_rows(job, family, "error", "the engine raised " + describe(exc), checks, **base)
 

@@ -60,7 +60,7 @@ def judge(c: Check, value: float, engine: str, variant: str, entry: deviations.D
     size = abs_err if c.kind == "abs" else rel_err
     band = entry.band(engine, variant, c.metric) if entry else None
     fields = dict(measured=value, abs_error=abs_err, rel_error=rel_err,
-                  known_deviation=entry.reason if entry else "", band=band.describe() if band else "")
+                  known_deviation=entry.cause if entry else "", band=band.describe() if band else "")
     outside = f"{c.kind} error {size:.3g} > tolerance {c.tolerance:.3g}"
     if within(c, abs_err, rel_err):
         return dict(fields, status="pass")
@@ -76,11 +76,11 @@ def judge(c: Check, value: float, engine: str, variant: str, entry: deviations.D
             f"{outside}; {where} is recorded at the family's dt and the adapter's default iterations only"))
     if band.holds(value):
         return dict(fields, status="deviation", reason=(
-            f"{entry.reason} [measured {value:.6g} {c.unit} in the recorded band {band.describe()}; "
+            f"{entry.cause} [measured {value:.6g} {c.unit} in the recorded band {band.describe()}; "
             f"expected {c.expected:.6g}: {outside}]"))
     return dict(fields, status="fail", reason=(
         f"known deviation changed: recorded {band.describe()}, measured {value:.6g} {c.unit} "
-        f"({where}: {entry.reason})"))
+        f"({where}: {entry.cause})"))
 
 
 def blank_row(case: str, variant, engine: str, check: Check, **fields) -> dict:

@@ -1,0 +1,120 @@
+"""A case author's tools (issue #13 part 3): `physval check-case` prints every closed form
+of a usable family and which engines run or skip each variant and why, and stops a
+broken one with one line; `--save-trajectories` writes what each engine did, and
+`physval.trajectories.load` gives it back as the Trajectory the observer saw."""
+from __future__ import annotations
+
+import csv
+import math
+
+import numpy as np
+import pytest
+
+from adapters import registry
+from cases.registry import load_dir
+from physval.cli import main
+from physval.trajectories import file_name, load
+from tests.guide import write_example
+
+
+def test_check_case_prints_each_closed_form_and_who_runs_or_skips_each_variant(tmp_path, capsys):
+    path = write_example(tmp_path)
+    assert main(["check-case", str(path)]) == 0
+    out = capsys.readouterr().out
+    fam = load_dir(path.parent)["pair_drop"]
+    engines = registry.engine_names()
+    installed = {e: registry.get(e) for e in engines if registry.available(e)}
+    blocks = out.split("\n  [")[1:]
+    assert len(blocks) == len(fam.all_variants)  # the full grid too
+    for v, text in zip(fam.all_variants, blocks):
+        assert text.startswith(f"{v.id}]  dt 0.001 s, {fam.duration(v.params):g} s, effects contact,gravity,restitution")
+        for c in fam.expect(v.params, fam.dt_for(v.params)):
+            assert f"    {c.metric} = {c.expected:.6g} {c.unit} +- {c.tolerance:.3g} ({c.kind}): {c.why}" in text
+        (runs,) = [line for line in text.splitlines() if line.startswith("    runs on: ")]
+        running = runs[len("    runs on: "):].split(", ")
+        assert "reference" in running
+        scene = fam.scene(v.params)
+        for name, adapter in installed.items():
+            why = adapter.capabilities.cannot_run(scene) or adapter.on_demand(scene)
+            if why:
+                assert f"    skips {name}: {why}" in text and name not in running
+            else:
+                assert name in running
+        if v.params["dim"] == 3 and "pymunk" in installed:
+            assert "    skips pymunk: 3D scene: the engine runs 2D scenes only" in text
+    missing = [e for e in engines if e not in installed]
+    assert (f"  not installed: {', '.join(missing)}" in out) == bool(missing)
+
+
+_BROKEN = {
+    # the guide's observer without its guard: a run in which the ball never lands raises
+    "no_guard": (lambda s: s.replace("    try:\n        k_in, k_out = first_impact(traj, name, (0, 0, -G))\n"
+                                     "    except ValueError:  # never touched anything (e.g. the one-step dry run "
+                                     "of check-case)\n        k_out = None\n",
+                                     "    k_in, k_out = first_impact(traj, name, (0, 0, -G))\n"),
+                 "pair_drop[e=0.5]: observe() raised ValueError: bottom never touched anything"),
+    "no_reason": (lambda s: s.replace('Check("apex_top", "m", e * e * H, tol, "abs", why)',
+                                      'Check("apex_top", "m", e * e * H, tol, "abs", "")'),
+                  "why is empty: every tolerance needs its reason"),
+    "missing_metric": (lambda s: s.replace('return {"apex_bottom": rebound(traj, "bottom", R), ',
+                                           'return {'),
+                       "observe() gives no apex_bottom (expect() checks it)"),
+    "bad_scene": (lambda s: s.replace("mass=M_TOP", "mass=-M_TOP"), "pair_drop[e=0.5]: bodies[2](top).mass = -0.1: must be > 0"),
+    "no_family": (lambda s: s.replace("FAMILY = CaseFamily(", "NOT_A_FAMILY = CaseFamily("),
+                  "defines no FAMILY"),
+}
+
+
+@pytest.mark.parametrize("broken", sorted(_BROKEN))
+def test_check_case_stops_a_broken_family_with_one_line(tmp_path, capsys, broken):
+    path = write_example(tmp_path)
+    edit, message = _BROKEN[broken]
+    text = path.read_text()
+    assert edit(text) != text, "the edit must apply to the guide's example"
+    path.write_text(edit(text))
+    assert main(["check-case", str(path)]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0] and str(path) in lines[0], captured.err
+    assert "runs on" not in captured.out
+
+
+def test_check_case_of_a_file_that_is_not_python_is_one_line(tmp_path, capsys):
+    (tmp_path / "notes.txt").write_text("x")
+    assert main(["check-case", str(tmp_path / "notes.txt")]) == 2
+    assert capsys.readouterr().err.strip().count("\n") == 0
+
+
+def test_saved_trajectories_load_as_what_the_observer_saw(tmp_path):
+    """Every job's file holds the states and contact forces of the run; its observer gives
+    back exactly the values the run measured."""
+    path = write_example(tmp_path)
+    out, saved = tmp_path / "out", tmp_path / "traj"
+    assert main(["run", "--cases-dir", str(path.parent), "--cases", "pair_drop[e=0.5*]", "--engines", "reference",
+                 "--workers", "1", "--quiet", "--out", str(out), "--save-trajectories", str(saved)]) == 0
+    fam = load_dir(path.parent)["pair_drop"]
+    with open(out / "results.csv", newline="") as f:
+        measured = {(r["variant"], r["metric"]): float(r["measured"]) for r in csv.DictReader(f)}
+    variants = [v for v in fam.variants if v.id in ("e=0.5", "e=0.5,2D")]
+    assert {v for v, _ in measured} == {v.id for v in variants}
+    assert sorted(p.name for p in saved.iterdir()) == sorted(f"pair_drop[{v.id}]-reference.npz" for v in variants)
+    for v in variants:
+        traj, meta = load(saved / f"pair_drop[{v.id}]-reference.npz")
+        assert (meta["family"], meta["variant"], meta["engine"], meta["params"]) == ("pair_drop", v.id, "reference",
+                                                                                    v.params)
+        assert meta["dt"] == 1e-3 and meta["bodies"] == ["bottom", "ground", "top"] and meta["knobs"]
+        steps = round(fam.duration(v.params) / meta["dt"])
+        assert traj.t.shape == (steps + 1,) and traj.pos("top").shape == (steps + 1, 3)
+        assert np.allclose(traj.pos("bottom")[0], fam.scene(v.params).body("bottom").position)
+        landing = traj.force("ground", "bottom")
+        assert landing.shape == traj.t.shape and landing.max() > 0  # the forces of every pair are saved
+        again = fam.observe(traj, meta["params"])
+        for metric, value in again.items():
+            assert math.isclose(value, measured[v.id, metric], rel_tol=1e-12, abs_tol=0), (v.id, metric)
+
+
+def test_saved_file_names_read_like_test_ids():
+    from cases.family import Variant
+    from physval.core.jobs import Job
+    job = Job("central_impact", Variant("central_impact", "e=0.5,m=1:3", {}), "mujoco")
+    assert file_name(job) == "central_impact[e=0.5,m=1:3]-mujoco.npz"
