@@ -48,11 +48,9 @@ def test_check_case_prints_each_closed_form_and_who_runs_or_skips_each_variant(t
 
 _BROKEN = {
     # the guide's observer without its guard: a run in which the ball never lands raises
-    "no_guard": (lambda s: s.replace("    try:\n        k_in, k_out = first_impact(traj, name, (0, 0, -G))\n"
-                                     "    except ValueError:  # never touched anything (e.g. the one-step dry run "
-                                     "of check-case)\n        k_out = None\n",
-                                     "    k_in, k_out = first_impact(traj, name, (0, 0, -G))\n"),
-                 "pair_drop[e=0.5]: observe() raised ValueError: bottom never touched anything"),
+    "no_guard": (lambda s: s.replace("free_arc_start(z, k_out, G, traj.dt) if k_out is not None else None",
+                                     "free_arc_start(z, k_out, G, traj.dt) if z[k_in + 1] else None"),
+                 "pair_drop[e=0.5]: observe() raised TypeError"),
     "no_reason": (lambda s: s.replace('Check("apex_top", "m", e * e * H, tol, "abs", why)',
                                       'Check("apex_top", "m", e * e * H, tol, "abs", "")'),
                   "why is empty: every tolerance needs its reason"),
