@@ -26,6 +26,18 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "mujoco": ("adapters.mujoco_engine", "MuJoCoAdapter", {}),
     "pymunk": ("adapters.pymunk_engine", "PymunkAdapter", {}),
     "dart": ("adapters.dart_engine", "DartAdapter", {}),
+    # Drake's contact models and discrete approximations as variants (adapters/drake_engine.py).
+    # The plain name is Drake's own default configuration (MultibodyPlantConfig):
+    # hydroelastic contact, Lagged approximation; point contact gives one point per pair,
+    # so boxes rest on one corner at a time and stacks sink by centimetres
+    "drake": ("adapters.drake_engine", "DrakeAdapter",
+              {"approximation": "lagged", "contact_model": "hydroelastic", "name": "drake"}),
+    "drake-sap": ("adapters.drake_engine", "DrakeAdapter", {"approximation": "sap"}),
+    "drake-lagged": ("adapters.drake_engine", "DrakeAdapter", {"approximation": "lagged"}),
+    "drake-similar": ("adapters.drake_engine", "DrakeAdapter", {"approximation": "similar"}),
+    "drake-tamsi": ("adapters.drake_engine", "DrakeAdapter", {"approximation": "tamsi"}),
+    "drake-hydro": ("adapters.drake_engine", "DrakeAdapter",
+                    {"approximation": "sap", "contact_model": "hydroelastic"}),
 }
 
 
@@ -44,8 +56,9 @@ def get(name: str) -> Adapter:
     try:
         mod = importlib.import_module(module)
     except ImportError as exc:
+        extra = name.split("-")[0]  # an engine's variants share its extra (drake-sap: drake)
         raise EngineError(f"engine {name!r} is not installed ({exc.name or exc}): "
-                          f"pip install '.[{name}]'") from None
+                          f"pip install '.[{extra}]'") from None
     return getattr(mod, cls)(**kwargs)
 
 
