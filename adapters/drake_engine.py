@@ -43,7 +43,12 @@ Friction: discrete Drake resolves one (dynamic) coefficient and ignores the stat
 (contact_model_doxygen.h: discrete models "cannot differentiate between static and dynamic
 friction"): mu_s != mu_k is unsupported. Friction is regularised: SAP lets a sticking
 contact slip at about sigma dt g (sigma = 1e-3, hard-coded), the others at the stiction
-tolerance (`stiction_tolerance`, a tunable) or SAP's term if larger.
+tolerance (`stiction_tolerance`, a tunable) or SAP's term if larger. The convex
+approximations couple sliding to the normal force: SAP's cone projection pushes a sliding
+contact as if it were mu |v_t| (dt + tau) deeper (SapFrictionConeConstraint::ProjectImpulse),
+Similar evaluates the normal force at v_n - mu |v_t|; with the heavy dissipation e = 0 maps
+to, sliding bodies hop (known deviations). Lagged bounds friction by the previous step's
+normal impulse instead.
 
 Point contact gives ONE point per pair of geometries, the deepest ("Choosing the Right
 Collision Geometry"): a box on the ground rests on one corner at a time. Hydroelastic
@@ -89,13 +94,16 @@ from cases.trajectory import ContactPoint
 # stepping caps e at 0.750 there (module notes); more steps raise the cap and the depth.
 CONTACT_STEPS = 16
 IMPACT_SPEED = 1.0          # m/s: where a Hunt & Crossley d gives the asked e
-# Smaller than SAP's own term mu sigma dt g (5e-6 m/s at mu = 0.5, dt = 1e-3), which then
-# sets the regularisation of Similar and Lagged; TAMSI's Newton iteration converges
-# with it on the families (measured). Drake's default is 1e-4 m/s.
-STICTION_TOLERANCE = 1e-6   # m/s
+# Similar and Lagged: below SAP's own term mu sigma dt g (5e-6 m/s at mu = 0.5, dt = 1e-3),
+# which then sets their regularisation. TAMSI regularises friction with it alone and its
+# Newton iteration needs Drake's default 1e-4 m/s: at 1e-6 and 1e-5 a 4-box point-contact
+# stack stops it at 1.9-2.1 s ("failed to converge"); at 1e-4 the 4-box stack runs (the
+# 5-box one still fails, at 1.1 s). SAP has no such parameter (it regularises with sigma).
+STICTION_TOLERANCE = {"similar": 1e-6, "lagged": 1e-6, "tamsi": 1e-4}   # m/s
 # Drake's default near-rigid threshold beta (MultibodyPlantConfig): SAP clamps a contact
-# stiffer than its time step resolves (period beta dt). The mapped contacts last n >> 1
-# steps, so it never acts on them (h k (h + tau) <= 4 pi^2 m / beta^2, checked per pair).
+# stiffer than its time step resolves (period beta dt), i.e. where h k (h + tau) > 4 pi^2 m
+# / beta^2. With k = m w^2, w h = pi / n, that is (pi / n)^2 (1 + tau / h) > 4 pi^2: 21 < 39
+# for the most damped mapped contact (e = 0, n = 16), so it never acts on them.
 NEAR_RIGID_THRESHOLD = 1.0
 # A static body's point stiffness: the series rule then gives the partner's own k to
 # rounding (k (1 - k / 1e30)). Infinity is not usable: Drake weights the contact point by
@@ -104,7 +112,7 @@ RIGID_STIFFNESS = 1e30      # N/m
 # e = 0 needs infinite dissipation; the mapping stops where the rebound is this small.
 E_FLOOR = 1e-3
 # Onset phases averaged over by `rebound_ratio`: where in a step the contact begins
-# shifts the discrete rebound by up to 0.03 at n = 16 (less for more steps).
+# moves the discrete rebound by up to +-0.026 at n = 16 (SAP, e = 0.2; less for more steps).
 PHASES = 32
 # 2D and hydroelastic geometry
 HYDRO_RESOLUTION = 0.2      # resolution hint as a fraction of a sphere's radius
@@ -137,7 +145,8 @@ _CONTACT_MODELS = {"point": ContactModel.kPoint, "hydroelastic": ContactModel.kH
 # then X1 = X0 + a U' (positions move with the new velocity). The contact exists while
 # X0 > 0; the body starts it with X0 in (0, a] (the phase) and leaves when X <= 0.
 # As a -> 0, SAP is the spring-damper that cannot pull (damping ratio zeta = s / 2, the
-# MuJoCo adapter's law) and Hunt & Crossley its continuous law (`hunt_crossley_restitution`).
+# MuJoCo adapter's law) and Hunt & Crossley its continuous law, whose rebound depends on
+# delta alone: G(delta) = G(-delta e), G(y) = y - ln(1 + y), for any elastic force.
 
 def _sap_rate(X0: float, U: float, a: float, s: float) -> float:
     """SAP: linear in U' where the force is positive; else no force."""
@@ -270,7 +279,8 @@ class DrakeSimulation(Simulation):
         plant, _ = AddMultibodyPlantSceneGraph(builder, time_step=settings.dt)
         plant.set_discrete_contact_approximation(_APPROXIMATIONS[approximation])
         plant.set_contact_model(_CONTACT_MODELS[contact_model])
-        plant.set_stiction_tolerance(options["stiction_tolerance"])
+        if approximation != "sap":
+            plant.set_stiction_tolerance(options["stiction_tolerance"])
         plant.set_sap_near_rigid_threshold(NEAR_RIGID_THRESHOLD)
         # collisions between bodies joined by a joint (a planar body and the world, where
         # the ground lives) are filtered by default
@@ -281,14 +291,14 @@ class DrakeSimulation(Simulation):
                 "time_step": settings.dt,
                 "discrete_contact_approximation": f"k{approximation.capitalize()}",
                 "contact_model": f"k{'Hydroelastic' if self._hydro else 'Point'}",
-                "stiction_tolerance": options["stiction_tolerance"],
+                "stiction_tolerance": options.get("stiction_tolerance", "unused by SAP (it regularises with sigma)"),
                 "sap_near_rigid_threshold": NEAR_RIGID_THRESHOLD,
                 "adjacent_bodies_collision_filters": False,
                 "gravity": [float(g) for g in scene.gravity],
                 "penetration_allowance": "unused: every geometry has its own stiffness",
             },
             "engine_constants (not settable from pydrake)": dict(ENGINE_CONSTANTS),
-            "contact_map": {}, "geometry": {}, "joints": {}, "inertia": {},
+            "contact_map": {}, "joints": {}, "inertia": {},
         }
         material = _materials(scene, settings.dt, approximation, contact_model, options, self.knobs["contact_map"])
         self._geometry_name: dict[int, str] = {}
@@ -692,7 +702,7 @@ class DrakeAdapter(Adapter):
                                                "impact speed (m/s) at which a Hunt & Crossley d gives e, and "
                                                "a sphere's hydroelastic contact lasts n steps")
         if approximation != "sap":
-            tunables["stiction_tolerance"] = Tunable(1e-8, 1e-2, STICTION_TOLERANCE,
+            tunables["stiction_tolerance"] = Tunable(1e-8, 1e-2, STICTION_TOLERANCE[approximation],
                                                      "friction regularisation: slip speed (m/s) at full stiction")
         self.tunables = tunables
 
@@ -701,7 +711,6 @@ class DrakeAdapter(Adapter):
 
     def _options(self, settings: Settings) -> dict:
         options = {name: t.default for name, t in self.tunables.items()}
-        options.setdefault("stiction_tolerance", STICTION_TOLERANCE)
         for name, value in settings.options.items():
             t = self.tunables.get(name)
             if t is None:
