@@ -457,10 +457,12 @@ class DrakeSimulation(Simulation):
             surface = info.contact_surface()
             normals = np.array([surface.face_normal(f) for f in range(surface.num_faces())])
             areas = np.array([surface.area(f) for f in range(surface.num_faces())])
-            n = areas @ normals
-            n /= np.linalg.norm(n)
+            n = areas @ normals if len(areas) else np.zeros(3)
+            length = np.linalg.norm(n)
+            if length == 0.0:  # a surface of no area carries no pressure
+                continue
             yield (name[surface.id_M().get_value()], name[surface.id_N().get_value()], surface.centroid(),
-                   n, info.F_Ac_W().translational())
+                   n / length, info.F_Ac_W().translational())
 
     def contact_points(self) -> list[ContactPoint]:
         """One point per point pair Drake solved (point contact: one per touching pair of
