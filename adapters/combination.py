@@ -2,7 +2,7 @@
 
 Engines store friction and restitution per body and combine two bodies' values into the
 pair's (PyBullet and Pymunk: product; DART: min for friction, product for restitution;
-MuJoCo: max for friction). A scene states pair values; this module finds per-body values
+MuJoCo: max for friction; Drake: the harmonic mean 2 a b / (a + b) for friction). A scene states pair values; this module finds per-body values
 whose combination reproduces every pair of the scene exactly, or says it cannot.
 """
 from __future__ import annotations
@@ -17,8 +17,11 @@ RULES: dict[str, Callable[[float, float], float]] = {
     "product": lambda a, b: a * b,
     "min": min,
     "max": max,
+    # Drake's CalcContactFrictionFromSurfaceProperties, 0 / 0 taken as 0
+    "harmonic": lambda a, b: 2.0 * a * b / (a + b) if a + b > 0.0 else 0.0,
 }
-# A value that leaves the partner's value unchanged under each rule.
+# A value that leaves the partner's value unchanged under each rule (the harmonic mean
+# has none: only 2 a x / (a + x) -> 2 a as x grows).
 NEUTRAL = {"product": 1.0, "min": 1e6, "max": 0.0}
 
 
@@ -35,12 +38,13 @@ def per_body_values(scene: Scene, value_of: Callable[[Material], float], rule: s
 
     candidates = []
     # 1. static bodies neutral, each dynamic body carries its pair value
-    v = {b.name: NEUTRAL[rule] for b in scene.bodies if b.static}
-    for a, b, c in pairs:
-        for name in (a, b):
-            if name not in v:
-                v[name] = c
-    candidates.append(v)
+    if rule in NEUTRAL:
+        v = {b.name: NEUTRAL[rule] for b in scene.bodies if b.static}
+        for a, b, c in pairs:
+            for name in (a, b):
+                if name not in v:
+                    v[name] = c
+        candidates.append(v)
     # 2. one value for everyone
     values = {c for _, _, c in pairs}
     if len(values) == 1:
@@ -50,7 +54,7 @@ def per_body_values(scene: Scene, value_of: Callable[[Material], float], rule: s
     for v in candidates:
         if all(b.name in v for b in scene.bodies) and fits(v):
             return v
-        if fits({**{b.name: NEUTRAL[rule] for b in scene.bodies}, **v}):
+        if rule in NEUTRAL and fits({**{b.name: NEUTRAL[rule] for b in scene.bodies}, **v}):
             return {**{b.name: NEUTRAL[rule] for b in scene.bodies}, **v}
     raise Unsupported(f"the scene's pair {what} values cannot be expressed as per-body values "
                       f"under this engine's {rule} rule")

@@ -52,6 +52,18 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "dart": ("adapters.dart_engine", "DartAdapter", {}),
     "box2d": ("adapters.box2d_engine", "Box2DAdapter", {}),
     "rapier": ("adapters.rapier_engine", "RapierAdapter", {}),
+    # Drake's contact models and discrete approximations as variants (adapters/drake_engine.py).
+    # The plain name is Drake's own default configuration (MultibodyPlantConfig):
+    # hydroelastic contact, Lagged approximation; point contact gives one point per pair,
+    # so boxes rest on one corner at a time and stacks sink by centimetres
+    "drake": ("adapters.drake_engine", "DrakeAdapter",
+              {"approximation": "lagged", "contact_model": "hydroelastic", "name": "drake"}),
+    "drake-sap": ("adapters.drake_engine", "DrakeAdapter", {"approximation": "sap"}),
+    "drake-lagged": ("adapters.drake_engine", "DrakeAdapter", {"approximation": "lagged"}),
+    "drake-similar": ("adapters.drake_engine", "DrakeAdapter", {"approximation": "similar"}),
+    "drake-tamsi": ("adapters.drake_engine", "DrakeAdapter", {"approximation": "tamsi"}),
+    "drake-hydro": ("adapters.drake_engine", "DrakeAdapter",
+                    {"approximation": "sap", "contact_model": "hydroelastic"}),
 }
 # The pip extra that installs each built-in engine's package (README, pyproject.toml).
 EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "pymunk": "pymunk", "dart": "dart", "box2d": "box2d",
