@@ -8,6 +8,8 @@ whose combination reproduces every pair of the scene exactly, or says it cannot.
 from __future__ import annotations
 
 import math
+
+import numpy as np
 from typing import Callable
 
 from adapters.base import Unsupported
@@ -29,7 +31,8 @@ def per_body_values(scene: Scene, value_of: Callable[[Material], float], rule: s
                     what: str) -> dict[str, float]:
     """Per-body values v with rule(v[a], v[b]) == value_of(pair material) for every pair
     that may touch. Tries, in order: static bodies neutral and each dynamic body the value
-    of its pairs; every body the same value (sqrt of it for the product rule)."""
+    of its pairs; every body the same value (sqrt of it for the product rule); for the
+    product rule, the solution of the pairs' equations in logs."""
     combine = RULES[rule]
     pairs = [(a.name, b.name, value_of(scene.material_of(a.name, b.name))) for a, b in scene.contact_pairs()]
 
@@ -51,6 +54,20 @@ def per_body_values(scene: Scene, value_of: Callable[[Material], float], rule: s
         (c,) = values
         same = math.sqrt(c) if rule == "product" else c
         candidates.append({b.name: same for b in scene.bodies})
+    # 3. the product rule in logs: log v_a + log v_b = log c over every pair, a linear
+    # system; its least-squares solution reproduces the pairs when any solution does (e.g.
+    # ground at e, two balls at 1: ground-ball pairs e, ball-ball 1). Values kept in (0, 1].
+    if rule == "product" and pairs and all(c > 0.0 for _, _, c in pairs):
+        names = list(dict.fromkeys(n for a, b, _ in pairs for n in (a, b)))
+        index = {n: i for i, n in enumerate(names)}
+        A = np.zeros((len(pairs), len(names)))
+        for row, (a, b, _) in enumerate(pairs):
+            A[row, index[a]] += 1.0
+            A[row, index[b]] += 1.0
+        x = np.linalg.lstsq(A, np.log([c for _, _, c in pairs]), rcond=None)[0]
+        v = {n: float(np.exp(x[i])) for n, i in index.items()}
+        if all(0.0 < val <= 1.0 + 1e-12 for val in v.values()):
+            candidates.append({n: min(val, 1.0) for n, val in v.items()})
     for v in candidates:
         if all(b.name in v for b in scene.bodies) and fits(v):
             return v
