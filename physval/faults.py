@@ -131,7 +131,7 @@ class KineticFriction(_Friction):
     """Kinetic friction mu_k x 1.05 (MuJoCo, PyBullet: their one coefficient x 1.05).
 
     A sliding contact braked by 1.05 mu_k N: a box launched at 2 m/s with mu_k = 0.3 stops
-    3.3 cm short of its 68 cm."""
+    3.2 cm short of its 68 cm."""
     name = "kinetic friction"
     factor, which = 1.05, "mu_k"
 
@@ -278,14 +278,15 @@ class Damping(Fault):
 
     PyBullet: linearDamping = angularDamping = 0.04, its default, which the adapter
     switches off (Bullet scales velocities by (1 - c)^dt each step). MuJoCo: joint damping
-    0.04 N s/m (N m s/rad) on every degree of freedom, a default class a model inherits.
-    The reference: v *= (1 - c dt) and w *= (1 - c dt) after each step."""
+    on every degree of freedom, c times the dof's own mass or inertia (dof_M0), so each
+    decays at the same rate (a damping left in a model's default class). The reference:
+    v *= (1 - c dt) and w *= (1 - c dt) after each step."""
     name = "damping"
     c = 0.04  # 1/s
 
     def plant(self, sim, scene, kind):
         if kind == "mujoco":
-            return _mujoco_rebuilt(sim, scene, lambda m: m.dof_damping.__setitem__(slice(None), self.c))
+            return _mujoco_rebuilt(sim, scene, lambda m: m.dof_damping.__setitem__(slice(None), self.c * m.dof_M0))
         if kind == "pybullet":
             from adapters.pybullet_engine import p
             for _, uid, _ in sim._dynamic:

@@ -48,14 +48,13 @@ UNJUDGED = {
 
 # Findings: a fault leaves a check unmeasured (`error`) instead of failing it with a size.
 # The observers find free flight by second differences of exactly -g dt^2 (to 1e-3 of it),
-# with the case's g and dt: an engine whose g, dt or damping is off by 0.1 % or more never
-# flies "free", and the observer raises (edge_landing: "the cube never flew free";
+# with the case's g and dt: an engine whose g or dt is off by 0.1 % or more never flies
+# "free", and the observer raises (edge_landing: "the cube never flew free";
 # central_impact drop: a least-squares fit of no samples) or returns NaN (bounce_series
-# apexes). free_rigid_body's flip time is inf when a damped body never flips in the run.
+# apexes).
 UNMEASURED = {
     ("gravity", "central_impact"), ("gravity", "bounce_series"), ("gravity", "edge_landing"),
     ("time step", "central_impact"), ("time step", "bounce_series"), ("time step", "edge_landing"),
-    ("damping", "edge_landing"), ("damping", "free_rigid_body"),
 }
 
 # Findings: faults no two families flag (what would catch them is in the report).
