@@ -9,7 +9,10 @@ machine is noisy; absolute times are for orientation only). Never a pass/fail te
   reference (a 5-box stack and a 55-box, 10-layer pyramid);
 - `sweep-workers`: the same small sweep with 1 and with 2 local workers (throughput ratio);
 - `pgs`: the reference's projected Gauss-Seidel, cost of one sweep against the number of
-  contacts (doubling the contacts should at most about double the time).
+  contacts (doubling the contacts should at most about double the time);
+- `faults`: not a speed: the suite's own power. Each fault of physval/faults.py planted in
+  each engine it is written for, every family's default variants run on it, and the
+  detection matrix written: failing checks per fault and family.
 
 Every measurement runs as a job of the core (physval.core), one worker at a time, so
 engines are timed side by side in the same conditions.
@@ -30,7 +33,7 @@ from physval.core import Context, Job, Probe, run_jobs, simulate
 from physval.core.session import Execution
 from physval.reportkit import md_table, write_atomic
 
-WHAT = ("overhead", "step", "sweep-workers", "pgs")
+WHAT = ("overhead", "step", "sweep-workers", "pgs", "faults")
 
 
 # --- overhead: the core's recorded step against a bare step ----------------------------------
@@ -167,6 +170,56 @@ def sweep_workers(engines: list[str], ctx: Context) -> pd.DataFrame:
     return df
 
 
+# --- faults: the detection matrix ---------------------------------------------------------
+
+FAULTS_NOTE = ("Each fault of physval/faults.py, one thing changed in what the engine is given or reports (`none`: "
+               "the wrapper alone), planted in each engine and run on every family's default variants (the robustness "
+               "battery left out) at the family's dt, judged as the engine itself with its recorded known-deviation "
+               "bands. A cell counts the checks that `fail`; `families flagging` counts the families with at least "
+               "one; `not measured` names the families where checks came out `error` or `unstable` instead (an "
+               "observer that could not measure: a fault should give a sized fail). Engines: reference, mujoco and "
+               "pybullet unless --engines names others the faults are written for.")
+
+
+def faults_note() -> str:
+    from physval import faults
+    return FAULTS_NOTE + "\n\n" + "\n".join(f"- `{f.name}`: {f.summary}" for f in faults.FAULTS)
+
+
+def fault_matrix(engines: list[str], ctx: Context, progress: bool = True) -> pd.DataFrame:
+    """Fault x family detection counts for every engine of `engines` that faults are
+    written for. Jobs run in this process (physval.faults.verdicts), so the planted
+    wrapper takes the engine's name and bands without being registered as an engine."""
+    from physval import faults
+    resolver = ctx.resolver()
+    families = {n: f.variants for n, f in resolver.families.items() if "robustness" not in f.tags}
+    out = []
+    for engine in engines:
+        try:
+            faults.engine_kind(resolver.adapter(engine))
+        except Exception:
+            continue  # not installed, or no faults written for it
+        jobs = faults.jobs_of(families, engine)
+        for fault in (faults.NONE, *faults.FAULTS):
+            if progress:
+                print(f"physval bench: faults: {engine}, {fault.name}", file=sys.stderr)
+            rows = faults.verdicts(engine, fault, jobs)
+            row = {"engine": engine, "fault": fault.name}
+            broken = {}
+            for name in families:
+                mine = [r for r in rows if r["case"] == name]
+                row[name] = sum(r["status"] == "fail" for r in mine)
+                n = sum(r["status"] in ("error", "unstable") for r in mine)
+                if n:
+                    broken[name] = n
+            row["families flagging"] = sum(row[name] > 0 for name in families)
+            row["total fails"] = sum(row[name] for name in families)
+            row["checks"] = len(rows)
+            row["not measured (error/unstable)"] = ", ".join(f"{k}: {v}" for k, v in broken.items())
+            out.append(row)
+    return pd.DataFrame(out)
+
+
 # --- report and command ---------------------------------------------------------------------
 
 def write(out: Path, sections: dict[str, pd.DataFrame], notes: dict[str, str]) -> None:
@@ -230,6 +283,12 @@ def cmd_bench(args) -> int:
         say("PGS sweep cost against contact count")
         sections["pgs"] = pgs_scaling()
         notes["pgs"] = PGS_NOTE
+    if "faults" in what:
+        say("planted faults: the detection matrix")
+        from physval.faults import ENGINES
+        sections["faults"] = fault_matrix(engines if args.engines else [e for e in engines if e in ENGINES], ctx,
+                                          progress=not args.quiet)
+        notes["faults"] = faults_note()
     write(out, sections, notes)
     print(f"wrote {out / 'bench.md'}")
     return 0

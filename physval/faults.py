@@ -1,0 +1,430 @@
+"""Planted faults: the suite tests its own power (mutation testing of the engines, not of
+the code).
+
+A fault wraps an engine's adapter (`FaultyAdapter(inner, fault)`) and changes ONE thing in
+what the engine is given or reports: a material coefficient, gravity, the time step, an
+inertia, the friction cone, a damping, the force read-out. It never touches the harness,
+the cases or their closed forms: the wrapped engine carries the engine's own name, the
+engine's recorded known-deviation bands judge it, and every check the fault moves out of
+its tolerance (or out of its band) must come out `fail`. `tests/test_faults.py` asserts
+that every fault is flagged in at least two families and the unmodified wrapper (`NONE`)
+in none; `physval bench faults` writes the detection matrix (fault x family).
+
+Sizes are those of bugs that ship: a coefficient a few per cent off, 9.80 for 9.81, a time
+step 1 % off, an inertia tensor doubled, a square cone, the 0.04 damping PyBullet switches
+on by default, a force 5 % off. A fault planted in an engine's internals is written per
+engine: for the reference (its default formulation), MuJoCo and PyBullet (`ENGINES`);
+wrapping another engine raises `NotPlantable`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from adapters.base import Adapter, Settings, Simulation
+from cases.scene import Box, Rect, Scene
+
+ENGINES = ("reference", "mujoco", "pybullet")  # the engines faults are written for
+
+
+class NotPlantable(Exception):
+    """The fault has no meaning in (or no way into) this engine; the message says why."""
+
+
+def engine_kind(adapter: Adapter) -> str:
+    """Which engine an adapter drives ("reference", "mujoco", "pybullet"), by its class;
+    NotPlantable for any other (faults in engine internals are written per engine)."""
+    kind = {"ReferenceAdapter": "reference", "MuJoCoAdapter": "mujoco",
+            "PyBulletAdapter": "pybullet"}.get(type(adapter).__name__)
+    if kind is None:
+        raise NotPlantable(f"no faults are written for {type(adapter).__name__}")
+    if kind == "reference" and getattr(adapter, "formulation", "si") != "si":
+        raise NotPlantable("faults are written for the reference's default formulation (si) only")
+    return kind
+
+
+# --- the fault contract ---------------------------------------------------------------------
+
+class Fault:
+    """What a fault changes; every hook defaults to "nothing". `kind` is the engine."""
+    name = "none"
+
+    def scene(self, scene: Scene, kind: str) -> Scene:
+        """The scene the engine is given instead of the case's."""
+        return scene
+
+    def settings(self, settings: Settings) -> Settings:
+        """The settings the engine is built with instead of the harness's."""
+        return settings
+
+    def plant(self, sim: Simulation, scene: Scene, kind: str) -> Simulation:
+        """Edits to the built engine (returns the simulation to run: it or a new one)."""
+        return sim
+
+    def after_step(self, kind: str):
+        """A function (sim, dt) run after each of the engine's steps, or None (then the
+        engine may step in bulk)."""
+        return None
+
+    read_out = 1.0  # factor on every contact force the engine reports
+
+    @property
+    def summary(self) -> str:
+        return " ".join((self.__doc__ or "").split("\n\n")[0].split())
+
+
+class NoFault(Fault):
+    """Nothing changed: the wrapper alone, which must give exactly the engine's verdicts."""
+    name = "none"
+
+
+def _scale_materials(scene: Scene, change) -> Scene:
+    """The scene with every material (the default and each pair's) replaced by change(m)."""
+    return replace(scene, material=change(scene.material),
+                   pairs=tuple((a, b, change(m)) for a, b, m in scene.pairs))
+
+
+class Restitution(Fault):
+    """Restitution e x 1.1 (at most 1) in every material.
+
+    A combination rule or unit slip that hands the solver a slightly livelier material:
+    e = 0.5 becomes 0.55. e = 0 and e = 1 stay as they are (1.1 is not a restitution)."""
+    name = "restitution"
+    factor = 1.1
+
+    def scene(self, scene, kind):
+        return _scale_materials(scene, lambda m: replace(m, e=min(1.0, m.e * self.factor)))
+
+
+class _Friction(Fault):
+    """Shared by the static and kinetic friction faults. The reference has both
+    coefficients and takes the fault in the one named, through its own material table
+    (the case's scene vocabulary forbids mu_k > mu_s, a real engine's table does not);
+    MuJoCo and PyBullet have one coefficient, so there the fault scales it."""
+    factor = 1.0
+    which = ""  # "mu_s" or "mu_k"
+
+    def scene(self, scene, kind):
+        if kind == "reference":
+            return scene
+        f = self.factor
+        return _scale_materials(scene, lambda m: replace(m, mu_s=m.mu_s * f,
+                                                         mu_k=None if m.mu_k is None else m.mu_k * f))
+
+    def plant(self, sim, scene, kind):
+        if kind == "reference":
+            _reference_materials(sim, **{self.which: self.factor})
+        return sim
+
+
+class StaticFriction(_Friction):
+    """Static friction mu_s x 1.06 (MuJoCo, PyBullet: their one coefficient x 1.06).
+
+    An engine that holds 6 % more than mu_s N before letting go: the break-away angle of
+    a box on an incline moves from atan(0.5) = 26.6 deg to 27.9 deg."""
+    name = "static friction"
+    factor, which = 1.06, "mu_s"
+
+
+class KineticFriction(_Friction):
+    """Kinetic friction mu_k x 1.05 (MuJoCo, PyBullet: their one coefficient x 1.05).
+
+    A sliding contact braked by 1.05 mu_k N: a box launched at 2 m/s with mu_k = 0.3 stops
+    3.2 cm short of its 68 cm."""
+    name = "kinetic friction"
+    factor, which = 1.05, "mu_k"
+
+
+@dataclass(frozen=True)
+class _UncheckedMaterial:
+    """The reference world's material record without its mu_k <= mu_s check (the world
+    only reads these three numbers)."""
+    e: float
+    mu_s: float
+    mu_k: float
+
+
+def _reference_materials(sim, mu_s: float = 1.0, mu_k: float = 1.0) -> None:
+    """Scale the coefficients in the reference world's own material table."""
+    world = sim._world
+
+    def scaled(m):
+        return _UncheckedMaterial(m.e, m.mu_s * mu_s, m.mu_k * mu_k)
+    world.material = scaled(world.material)
+    world.pair_materials = {k: scaled(m) for k, m in world.pair_materials.items()}
+
+
+class Gravity(Fault):
+    """Gravity of 9.80 m/s^2 where the scene asks for 9.81 (the same direction).
+
+    A hard-coded g = 9.8: 0.1 % in every weight and every fall."""
+    name = "gravity"
+    g_used, g_asked = 9.80, 9.81
+
+    def scene(self, scene, kind):
+        return replace(scene, gravity=tuple(g * self.g_used / self.g_asked for g in scene.gravity))
+
+
+class TimeStep(Fault):
+    """The engine steps dt x 1.01 while the harness believes it steps dt.
+
+    A time step passed in other units or rounded on the way (1e-3 s taken as 1.01e-3 s,
+    e.g. a rate of 990 Hz): every simulated second lasts 1.01 s of the engine's physics."""
+    name = "time step"
+    factor = 1.01
+
+    def settings(self, settings):
+        return replace(settings, dt=settings.dt * self.factor)
+
+
+class Inertia(Fault):
+    """Principal inertia x 2 for every box (3D) and rect (2D); spheres and discs unchanged.
+
+    An inertia tensor computed from full extents where half extents were meant, or given
+    about the wrong point: lever-arm impacts then spin a box half as fast. A uniform factor
+    leaves torque-free rotation (Euler's equations) as it was."""
+    name = "inertia"
+    factor = 2.0
+
+    def scene(self, scene, kind):
+        def body(b):
+            if b.static or not isinstance(b.shape, (Box, Rect)):
+                return b
+            return replace(b, inertia=tuple(self.factor * i for i in b.principal_inertia))
+        return replace(scene, bodies=tuple(body(b) for b in scene.bodies))
+
+
+class FrictionCone(Fault):
+    """A square friction cone in a fixed tangent frame instead of the circle: each of the
+    two tangent directions bounded by mu f_n on its own, so friction reaches sqrt(2) mu f_n
+    at 45 deg to the frame's axes and does not oppose a slip at 22.5 deg.
+
+    MuJoCo: cone = "pyramidal" (MuJoCo's own default, which the adapter replaces by the
+    elliptic cone). PyBullet: enableConeFriction = 0 (Bullet's default pair of independent
+    friction rows). The reference: its sequential impulses clamp each tangent row to
+    [-mu Pn, mu Pn] instead of the disc, with both rows along the fixed tangent basis
+    (reference_impl.contact.tangent_basis) also while sliding."""
+    name = "friction cone"
+
+    def plant(self, sim, scene, kind):
+        if kind == "mujoco":
+            import mujoco
+            return _mujoco_rebuilt(sim, scene, lambda m: setattr(m.opt, "cone", mujoco.mjtCone.mjCONE_PYRAMIDAL))
+        if kind == "pybullet":
+            from adapters.pybullet_engine import p
+            p.setPhysicsEngineParameter(enableConeFriction=0, physicsClientId=sim._client)
+            return sim
+        sim._world.solver = _PyramidSolver(sim._world.solver)
+        return sim
+
+
+class _PyramidSolver:
+    """The reference's sequential impulses (reference_impl/sequential_impulses.py) with a
+    per-row friction clamp in the fixed tangent basis: the rest of the module as it is."""
+
+    def __init__(self, module):
+        self._module = module
+
+    def __getattr__(self, name):
+        return getattr(self._module, name)
+
+    def solve(self, contacts, bodies, dt, config):
+        from reference_impl import contact as rc
+        for c in contacts:
+            if len(c.tangents) != 2:
+                continue
+            P = sum(np.asarray(row.d) * Pt for row, Pt in zip(c.tangents, c.Pt))  # warm start, world frame
+            ra = tuple(c.point[i] - c.a.x[i] for i in range(3))
+            rb = tuple(c.point[i] - c.b.x[i] for i in range(3))
+            t1 = rc.tangent_basis(c.n)
+            c.tangents = (rc.Row(c.a, c.b, ra, rb, t1), rc.Row(c.a, c.b, ra, rb, rc.cross(c.n, t1)))
+            c.Pt = [float(P @ np.asarray(row.d)) for row in c.tangents]
+        module = self._module
+        disc = module._friction
+        module._friction = _square_friction
+        try:
+            return module.solve(contacts, bodies, dt, config)
+        finally:
+            module._friction = disc
+
+
+def _square_friction(c) -> float:
+    """Each tangent row of a contact clamped to [-mu Pn, mu Pn] on its own (the friction
+    pyramid); returns the largest velocity change made."""
+    limit, largest = c.mu * c.Pn, 0.0
+    for k, t in enumerate(c.tangents):
+        P = max(-limit, min(limit, c.Pt[k] - t.mass * t.velocity()))
+        dP = P - c.Pt[k]
+        if dP != 0.0:
+            c.Pt[k] = P
+            t.apply(dP)
+            largest = max(largest, abs(dP) * t.K)
+    return largest
+
+
+def _mujoco_rebuilt(sim, scene, edit):
+    """A MuJoCo simulation of the same compiled model after edit(model): a fresh MjData,
+    so every quantity the simulation derives from the model (e.g. how it decodes contact
+    forces for the cone in force) is that of the edited model."""
+    from adapters.mujoco_engine import MuJoCoSimulation
+    model = sim._model
+    edit(model)
+    return MuJoCoSimulation(scene, model, sim.knobs, sim.iterations)
+
+
+class Damping(Fault):
+    """A velocity decay of c = 0.04 per second on every body's linear and angular velocity.
+
+    PyBullet: linearDamping = angularDamping = 0.04, its default, which the adapter
+    switches off (Bullet scales velocities by (1 - c)^dt each step). MuJoCo: joint damping
+    on every degree of freedom, c times the dof's own mass or inertia (dof_M0), so each
+    decays at the same rate (a damping left in a model's default class). The reference:
+    v *= (1 - c dt) and w *= (1 - c dt) after each step."""
+    name = "damping"
+    c = 0.04  # 1/s
+
+    def plant(self, sim, scene, kind):
+        if kind == "mujoco":
+            return _mujoco_rebuilt(sim, scene, lambda m: m.dof_damping.__setitem__(slice(None), self.c * m.dof_M0))
+        if kind == "pybullet":
+            from adapters.pybullet_engine import p
+            for _, uid, _ in sim._dynamic:
+                p.changeDynamics(uid, -1, linearDamping=self.c, angularDamping=self.c, physicsClientId=sim._client)
+        return sim
+
+    def after_step(self, kind):
+        return self._decay if kind == "reference" else None
+
+    def _decay(self, sim, dt):
+        keep = 1.0 - self.c * dt
+        for b in sim._dynamic:
+            b.v[:] = [keep * c for c in b.v]
+            b.w[:] = [keep * c for c in b.w]
+
+
+class ForceReadout(Fault):
+    """Every contact force the engine reports (contact_forces, and contact_points' normal
+    and friction forces) x 1.05; the motion is untouched.
+
+    An impulse divided by a time step other than the one it was solved over, or summed
+    over one point too many: the dynamics are right and the reported forces are not."""
+    name = "force read-out"
+    read_out = 1.05
+
+
+FAULTS: tuple[Fault, ...] = (Restitution(), StaticFriction(), KineticFriction(), Gravity(), TimeStep(), Inertia(),
+                             FrictionCone(), Damping(), ForceReadout())
+NONE = NoFault()
+
+
+def by_name(name: str) -> Fault:
+    for f in (NONE, *FAULTS):
+        if f.name == name:
+            return f
+    raise KeyError(f"no fault {name!r}: choose from {', '.join(f.name for f in (NONE, *FAULTS))}")
+
+
+# --- the wrapper ----------------------------------------------------------------------------
+
+class FaultyAdapter(Adapter):
+    """An engine's adapter with one planted fault. It carries the engine's name, its
+    capabilities and its known-deviation file, so the harness judges it as that engine."""
+
+    def __init__(self, inner: Adapter, fault: Fault = NONE):
+        self.kind = engine_kind(inner)
+        self.inner, self.fault = inner, fault
+        self.name = inner.name
+        self.capabilities = inner.capabilities
+        self.package = inner.package
+        self.tunables = inner.tunables
+        self.default_tags = inner.default_tags
+
+    def version(self) -> str:
+        return f"{self.inner.version()} (planted fault: {self.fault.name})"
+
+    def deviations_file(self):
+        return self.inner.deviations_file()
+
+    def on_demand(self, scene):
+        return self.inner.on_demand(scene)
+
+    def options_in_force(self, settings):
+        return self.inner.options_in_force(settings)
+
+    def build(self, scene: Scene, settings: Settings) -> Simulation:
+        fault = self.fault
+        given = fault.scene(scene, self.kind)
+        sim = self.inner.build(given, fault.settings(settings))
+        try:
+            sim = fault.plant(sim, given, self.kind)
+        except BaseException:
+            sim.close()
+            raise
+        return FaultySimulation(sim, fault, settings.dt, fault.after_step(self.kind))
+
+
+class FaultySimulation(Simulation):
+    """The engine's simulation, passed through but for what the fault plants: a step
+    after the engine's own (then stepped one step at a time) and the force read-out."""
+
+    def __init__(self, inner: Simulation, fault: Fault, dt: float, after_step=None):
+        self.inner, self.fault, self._dt, self._after = inner, fault, dt, after_step
+        self.effects = inner.effects
+        self.iterations = inner.iterations
+        self.run = inner.run if after_step is None else None
+
+    @property
+    def knobs(self) -> dict:
+        return {**self.inner.knobs, "planted_fault": self.fault.name}
+
+    def step(self) -> None:
+        self.inner.step()
+        if self._after is not None:
+            self._after(self.inner, self._dt)
+
+    def states(self):
+        return self.inner.states()
+
+    def body_order(self):
+        return self.inner.body_order()
+
+    def state_size(self):
+        return self.inner.state_size()
+
+    def write_state(self, out):
+        self.inner.write_state(out)
+
+    def decode_states(self, raw):
+        return self.inner.decode_states(raw)
+
+    def contact_forces(self):
+        k = self.fault.read_out
+        return {pair: k * f for pair, f in self.inner.contact_forces().items()}
+
+    def contact_points(self):
+        k = self.fault.read_out
+        return [replace(c, f_n=k * c.f_n, f_t=k * np.asarray(c.f_t)) for c in self.inner.contact_points()]
+
+    def close(self) -> None:
+        self.inner.close()
+
+
+
+# --- running faulty engines -----------------------------------------------------------------
+
+def jobs_of(families: dict[str, list], engine: str) -> list:
+    """Jobs of the given variants (family name -> variants) on `engine`, at the family's
+    dt and the adapter's default iterations (where known-deviation bands hold)."""
+    from physval.core import Job
+    return [Job(name, v, engine) for name, variants in families.items() for v in variants]
+
+
+def verdicts(engine: str, fault: Fault, jobs: list) -> list[dict]:
+    """The verdict rows of `jobs` (all on `engine`) run in this process on the engine with
+    `fault` planted, judged by the harness as the engine itself (its name, its bands)."""
+    from physval.core import Context, execute
+    from physval.core.context import Resolver
+    resolver = Resolver(Context())
+    resolver.provide(engine, adapter=FaultyAdapter(resolver.adapter(engine), fault))
+    return [row for job in jobs for row in execute(job, resolver).rows]
