@@ -197,8 +197,6 @@ def _mobile_joint(skeleton, body: Body, dimension: int, position, R) -> str:
     the joint, so the joint coordinates are world translations."""
     v = np.asarray(body.velocity, float)
     w = np.asarray(body.angular_velocity, float)
-    if not body.rotates and np.any(w != 0.0):
-        raise Unsupported(f"{body.name}: rotates=False but angular_velocity = {body.angular_velocity}")
     if dimension == 3 and body.rotates:
         joint, _ = skeleton.createFreeJointAndBodyNodePair()
         joint.setTransform(_isometry(position, R))

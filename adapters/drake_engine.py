@@ -650,17 +650,6 @@ def _effects(scene: Scene, material: dict, plan: dict) -> frozenset[str]:
 
 
 def _unrepresentable(scene: Scene, contact_model: str) -> str | None:
-    for b in scene.dynamic_bodies:
-        if not b.rotates and any(w != 0.0 for w in b.angular_velocity):
-            return (f"body {b.name!r}: rotates=False with angular velocity {b.angular_velocity}: "
-                    "a body held from rotating cannot spin")
-    if scene.dimension == 2:
-        for b in scene.bodies:
-            if isinstance(b.shape, Plane):
-                if b.shape.normal[1] != 0.0:
-                    return f"plane {b.name!r}: normal {b.shape.normal} leaves the x-z plane of a 2D scene"
-            elif b.orientation[1] != 0.0 or b.orientation[3] != 0.0:
-                return f"body {b.name!r}: orientation {b.orientation} is not a rotation about y (2D scene)"
     for a, b in scene.contact_pairs():
         mat = scene.material_of(a.name, b.name)
         if mat.compliance is None:

@@ -237,21 +237,6 @@ def _joints(body: Body, dimension: int):
     return _SLIDES_2D + (_HINGE_Y if body.rotates else ())
 
 
-def _unrepresentable(scene: Scene) -> str | None:
-    for b in scene.dynamic_bodies:
-        if not b.rotates and any(w != 0.0 for w in b.angular_velocity):
-            return (f"body {b.name!r}: rotates=False with angular velocity {b.angular_velocity}: "
-                    "a body held from rotating cannot spin")
-    if scene.dimension == 2:
-        for b in scene.bodies:
-            if isinstance(b.shape, Plane):
-                if b.shape.normal[1] != 0.0:
-                    return f"plane {b.name!r}: normal {b.shape.normal} leaves the x-z plane of a 2D scene"
-            elif b.orientation[1] != 0.0 or b.orientation[3] != 0.0:
-                return f"body {b.name!r}: orientation {b.orientation} is not a rotation about y (2D scene)"
-    return None
-
-
 def _body_xml(body: Body, dimension: int, knobs: dict, ground: str = "plane") -> str:
     q0 = list(body.orientation)
     no_collide = {"contype": 0, "conaffinity": 0}  # collisions come from <pair> only
@@ -616,8 +601,9 @@ class MuJoCoAdapter(Adapter):
         return mujoco.__version__
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
-        reason = (self.capabilities.cannot_run(scene) or _unrepresentable(scene)
-                  or _hooke_unrepresentable(scene))
+        # (a body held from rotating does not spin, and a 2D scene lies in the x-z plane:
+        # cases.scene validates both)
+        reason = self.capabilities.cannot_run(scene) or _hooke_unrepresentable(scene)
         if reason:
             raise Unsupported(reason)
         iterations = ITERATIONS if settings.iterations is None else settings.iterations

@@ -138,9 +138,6 @@ class ReferenceSimulation(Simulation):
         planar = scene.dimension == 2
         world = World(gravity=scene.gravity, material=_material(scene.material), config=config)
         for b in scene.bodies:
-            if planar and (b.orientation[1] != 0.0 or b.orientation[3] != 0.0):
-                raise Unsupported(f"body {b.name!r}: orientation {b.orientation} of a 2D body is not "
-                                  "a rotation about y")
             if b.static:
                 world.add(RigidBody(b.name, _shape(b), x=b.position, q=b.orientation, static=True,
                                     planar=planar))

@@ -295,6 +295,9 @@ class Body:
             raise SceneError(f"{where}.static = False: a plane must be static")
         if not isinstance(self.static, bool) or not isinstance(self.rotates, bool):
             raise SceneError(f"{where}: static and rotates must be True or False")
+        if not self.rotates and any(w != 0.0 for w in self.angular_velocity):
+            raise SceneError(f"{where}.angular_velocity = {self.angular_velocity!r}: a body held from rotating "
+                             "(rotates=False) cannot spin")
         if self.static:
             return
         if self.mass is None:
@@ -442,6 +445,13 @@ class Scene:
             w = body.angular_velocity
             if w[0] != 0 or w[2] != 0:
                 raise SceneError(f"{where}.angular_velocity = {w!r}: a 2D body turns about y only")
+            if isinstance(body.shape, Plane):
+                if body.shape.normal[1] != 0:
+                    raise SceneError(f"{where}.shape.normal = {body.shape.normal!r}: a 2D scene's plane is a line "
+                                     "in the x-z plane: normal.y must be 0")
+            elif body.orientation[1] != 0 or body.orientation[3] != 0:
+                raise SceneError(f"{where}.orientation = {body.orientation!r}: a 2D body turns about y only "
+                                 "(quaternion x and z must be 0)")
         if self.gravity[1] != 0:
             raise SceneError(f"gravity = {self.gravity!r}: a 2D scene lies in the x-z plane: gravity.y must be 0")
 

@@ -27,6 +27,8 @@ BALL = dict(position=(0, 0, 1.0))
     (lambda: Body("b", Sphere(0.1), mass=1.0, position=(0, math.inf, 1)), r"position = .*must be finite"),
     (lambda: Body("b", Sphere(0.1), mass=1.0, orientation=(1, 1, 0, 0), **BALL), r"orientation.*unit quaternion"),
     (lambda: Body("b", Sphere(0.1), mass=1.0, inertia=(1, -1, 1), **BALL), r"inertia.y = -1: must be > 0"),
+    (lambda: Body("b", Sphere(0.1), mass=1.0, rotates=False, angular_velocity=(0, 0, 1), **BALL),
+     r"angular_velocity = \(0, 0, 1\): a body held from rotating \(rotates=False\) cannot spin"),
 ])
 def test_body_fields(make, message):
     with pytest.raises(SceneError, match=message):
@@ -48,6 +50,16 @@ def test_body_fields(make, message):
 def test_material_fields(material, message):
     with pytest.raises(SceneError, match=message):
         Scene(bodies=(ground(), Body("b", Sphere(0.1), mass=1.0, **BALL)), material=material)
+
+
+def test_a_2d_scene_lies_in_the_x_z_plane():
+    from cases.scene import Circle, Plane, Rect
+    with pytest.raises(SceneError, match=r"orientation = .*: a 2D body turns about y only"):
+        Scene(bodies=(ground(), Body("b", Rect((0.1, 0.1)), mass=1.0, position=(0, 0, 1),
+                                     orientation=(0.0, 0.0, 0.0, 1.0))), dimension=2)
+    with pytest.raises(SceneError, match=r"shape.normal = .*: a 2D scene's plane is a line in the x-z plane"):
+        Scene(bodies=(Body("wall", Plane((0.0, 1.0, 0.0)), static=True),
+                      Body("b", Circle(0.1), mass=1.0, position=(0, 0, 1))), dimension=2)
 
 
 def test_interpenetration_beyond_the_stated_tolerance():
