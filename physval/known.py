@@ -119,7 +119,7 @@ def cmd_known(args) -> int:
             after = {(b.variant, b.metric): b for b in new[e.line]}
             moved = [k for k in after if k in before and not before[k].holds(after[k].value, after[k].raises)]
             if not any(f == e.family and fnmatchcase(v, e.variant) for f, v in ran):
-                print(f"  line {e.line} {e.pattern}: none of its variants ran (a full-grid variant? --full)")
+                print(f"  line {e.line} {e.pattern}: none of its variants ran here (not selected, or in the full grid: --full)")
                 continue
             if not after and before:
                 print(f"  line {e.line} {e.pattern}: no check deviates any more: remove or narrow the entry")
