@@ -44,7 +44,7 @@ except ImportError:  # pragma: no cover - depends on the installed Pymunk
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
 from adapters.frames import state_row
-from cases.scene import Body, Circle, Plane, Rect, Scene, pair_key, quat_about_y
+from cases.scene import Body, Circle, Plane, Scene, pair_key, quat_about_y
 from cases.trajectory import ContactPoint
 
 DEFAULT_ITERATIONS = 10  # Pymunk's own default Space.iterations, stated here

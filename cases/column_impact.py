@@ -53,7 +53,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 
 from cases.family import CaseFamily, Check, plane_label
 from cases.scene import Body, Material, Scene, ball, ground

@@ -11,7 +11,6 @@ core, known-deviation files (`conformance[free_fall,3D]:...`), table and report 
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Callable
 

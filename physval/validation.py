@@ -7,13 +7,11 @@ code or of an engine's version makes its jobs run again.
 """
 from __future__ import annotations
 
-import os
 import sys
 import time
-from pathlib import Path
 
 from physval import cli
-from physval.core import COLUMNS, Context, Job, run_jobs
+from physval.core import COLUMNS, Job, run_jobs
 from physval.core.selection import select_variants
 from physval.core.store import RowStore, cache_keys
 from physval.reportkit import frame, status_counts

@@ -3,8 +3,6 @@ user cases, and on the command line (exit code 2)."""
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 import textwrap
 from pathlib import Path
 

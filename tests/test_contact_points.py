@@ -100,7 +100,6 @@ def test_the_forces_of_a_sliding_box_account_for_its_momentum(engine):
 
 @pytest.mark.parametrize("engine", _engines())
 def test_a_frictionless_scene_reports_no_friction(engine):
-    dim = 3 if 3 in registry.get(engine).capabilities.dimensions else 2
     velocity = (1.0, 0.0, 0.0)
     points, _ = _run(engine, _scene(engine, mu=0.0, velocity=velocity), 0.1)
     assert points

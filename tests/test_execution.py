@@ -5,7 +5,6 @@ exit when their parent dies; every start method runs the same jobs."""
 from __future__ import annotations
 
 import csv
-import os
 import signal
 import subprocess
 import sys

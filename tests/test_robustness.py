@@ -3,7 +3,6 @@ determinism check and the `stress` command. Fast (small engines, short runs); th
 ones are marked slow (pytest -m slow)."""
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import math
 import sys

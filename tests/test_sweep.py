@@ -9,7 +9,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from cases.family import Variant
 from physval.core import Context, Job, execute, run_jobs
 from physval.core.executor import MIN_BATCH_STEPS, DaskExecutor
 from physval.core.session import Execution, run_stored

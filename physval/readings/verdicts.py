@@ -13,8 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from physval.reportkit import (STATUS_MARK, deviation_summary, deviation_table, fmt, md_table, problems_section,
-                               pyplot, save_figure, summary_matrix, unsupported_section)
+from physval.reportkit import (STATUS_MARK, deviation_summary, deviation_table, fmt, md_table, pyplot, save_figure, summary_matrix)
 
 FORMULATION_PREFIX = "reference-"  # the reference's other formulations, summarised apart from the engines
 
