@@ -1,9 +1,10 @@
 """`physval known ENGINE`: measure an engine's known deviations and write their bands.
 
-For every entry of the engine's deviation file (or of a `--file`), the command runs each
-variant the entry's pattern can match, at the family's dt and the adapter's default
-iterations, and records a band line for every matched check that misses its tolerance
-(or a `raises EXCEPTION` line for a run the engine aborts). The cause on the entry line
+The command runs every variant the engine can represent (or the `--cases`; with a user's
+`--file`, the families it names), at the family's dt and the adapter's default iterations,
+and under each entry of the engine's deviation file (or of the `--file`) records a band
+line for every check the entry matches that misses its tolerance (or a `raises EXCEPTION`
+line for a run the engine aborts). The cause on the entry line
 stays as the person who measured it wrote it. Without `--write` it only says what would
 change. It also lists failing checks no entry covers (write an entry with its cause) and
 entries that no longer cover anything (remove or narrow them).
@@ -87,20 +88,26 @@ def cmd_known(args) -> int:
     families = resolver.families
     changed = 0
     for engine in engines:
-        path = Path(args.file) if args.file else resolver.adapter(engine).deviations_file()
+        adapter = resolver.adapter(engine)
+        path = Path(args.file) if args.file else adapter.deviations_file()
         if path is None or not path.exists():
             print(f"{engine}: no known-deviation file ({path})")
             continue
         entries = deviations.parse(path)
-        jobs = []
-        chosen = select_variants(families, args.cases, full=args.full)
         for fam_name in dict.fromkeys(e.family for e in entries):
             if fam_name not in families:
                 print(f"{engine}: {path.name}: no family {fam_name!r}", file=sys.stderr)
-                continue
-            mine = [e for e in entries if e.family == fam_name]
-            for v in chosen.get(fam_name, []):
-                if any(fnmatchcase(v.id, e.variant) for e in mine):
+        # every variant the engine can run (or the --cases), so that failing checks no
+        # entry covers show up too; with a user's file, only the families it names
+        chosen = select_variants(families, args.cases, full=args.full)
+        if args.file and args.cases is None:
+            chosen = {f: vs for f, vs in chosen.items() if any(e.family == f for e in entries)}
+        jobs = []
+        for fam_name, variants in chosen.items():
+            fam = families[fam_name]
+            for v in variants:
+                if adapter.capabilities.cannot_run(fam.scene(v.params), fam.needs_of(v.params)) is None \
+                        and not adapter.on_demand(fam.scene(v.params)):
                     jobs.append(Job(fam_name, v, engine))
         raised = {}
         res, _ = run_stored(jobs, ctx, cache_dir() / "known.csv", COLUMNS, Execution.of(args), label=f"known {engine}",
@@ -119,7 +126,8 @@ def cmd_known(args) -> int:
             after = {(b.variant, b.metric): b for b in new[e.line]}
             moved = [k for k in after if k in before and not before[k].holds(after[k].value, after[k].raises)]
             if not any(f == e.family and fnmatchcase(v, e.variant) for f, v in ran):
-                print(f"  line {e.line} {e.pattern}: none of its variants ran here (not selected, or in the full grid: --full)")
+                print(f"  line {e.line} {e.pattern}: none of its variants ran here (not selected, on demand, "
+                      "or in the full grid: --full)")
                 continue
             if not after and before:
                 print(f"  line {e.line} {e.pattern}: no check deviates any more: remove or narrow the entry")
