@@ -202,6 +202,10 @@ class Adapter(ABC):
     # tags it runs (e.g. the slow pure-Python formulations: {"core", "conformance"}; they
     # also run the variants whose compliant contact law they model).
     default_tags: frozenset[str] | None = None
+    # An engine that steps in pure Python (the reference's other formulations) is left out
+    # of the default sweep, stress battery, benchmarks and engine-wide readings: it runs
+    # there when named.
+    slow: bool = False
 
     def on_demand(self, scene: Scene) -> str | None:
         """Why a scene takes this engine too long for a default run (minutes), or None:

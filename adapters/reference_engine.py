@@ -68,6 +68,7 @@ class ReferenceAdapter(Adapter):
         # run they take the core families and the conformance battery (and the compliant
         # variants whose contact law they model); named, they run everything
         self.default_tags = None if formulation == "si" else frozenset({"core", "conformance"})
+        self.slow = formulation != "si"
         self.capabilities = replace(self.capabilities, impact_model=IMPACT_MODEL.get(formulation, "simultaneous"))
         if formulation == "compliant":  # the one force law it is configured with
             law = self.params.get("compliant_law", "hertz")

@@ -249,12 +249,8 @@ def add_parser(sub) -> None:
 
 
 def cmd_bench(args) -> int:
-    from adapters import registry
     ctx = cli.context_of(args)
-    resolver = ctx.resolver()
-    known = registry.engine_names(ctx.adapters)
-    default = [e for e in known if registry.available(e, ctx.adapters) and resolver.adapter(e).default_tags is None]
-    engines = cli.engines_of(args, ctx, default)
+    engines = cli.engines_of(args, ctx, cli.fast_engines(ctx))
     what = args.what or list(WHAT)
     unknown = [w for w in what if w not in WHAT]
     if unknown:

@@ -195,6 +195,15 @@ def engines_of(args, ctx, default: list[str] | None = None) -> list[str]:
     return chosen
 
 
+def fast_engines(ctx) -> list[str]:
+    """The installed engines that do not step in pure Python (Adapter.slow): what sweeps,
+    the stress battery, benchmarks and engine-wide readings take unless engines are named."""
+    from adapters import registry
+    resolver = ctx.resolver()
+    return [e for e in registry.engine_names(ctx.adapters)
+            if registry.available(e, ctx.adapters) and not resolver.adapter(e).slow]
+
+
 def command_line() -> str:
     return "physval " + " ".join(shlex.quote(a) for a in sys.argv[1:])
 

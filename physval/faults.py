@@ -339,6 +339,7 @@ class FaultyAdapter(Adapter):
         self.package = inner.package
         self.tunables = inner.tunables
         self.default_tags = inner.default_tags
+        self.slow = inner.slow
 
     def version(self) -> str:
         return f"{self.inner.version()} (planted fault: {self.fault.name})"

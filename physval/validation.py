@@ -77,13 +77,6 @@ def plan(chosen: dict, engines: list[str], resolver, engines_named: bool, dt=Non
     return jobs, later
 
 
-def _unscoped(resolver, engine: str) -> bool:
-    try:
-        return resolver.adapter(engine).default_tags is None
-    except Exception:
-        return False
-
-
 def readings_of(text: str, cases_named: bool) -> list[str]:
     names = [x.strip() for x in text.split(",") if x.strip()]
     if names == ["auto"]:
@@ -143,8 +136,8 @@ def cmd_run(args) -> int:
     from physval.core.session import Execution
     from physval.readings import effective, laws
     # the engines users run, with the reference at its default formulation; the slow
-    # pure-Python formulations (default_tags) are read when named
-    wide = [e for e in engines if args.engines is not None or _unscoped(resolver, e)]
+    # pure-Python formulations (Adapter.slow) are read when named
+    wide = engines if args.engines is not None else [e for e in engines if e in cli.fast_engines(ctx)]
     for name in readings:
         say(f"engine-wide reading: {name} (cached per engine version)")
         module = {"effective": effective, "laws": laws}[name]

@@ -75,8 +75,7 @@ def _why_not(rows: list[dict]) -> str:
 
 
 def measure(engines: list[str], ctx, families=None, execution: Execution = Execution(), **_) -> pd.DataFrame | None:
-    """Asked-vs-measured rows for each engine (None if interrupted). Engines with
-    `default_tags` (the slow pure-Python formulations) are measured only when named alone."""
+    """Asked-vs-measured rows for each engine (None if interrupted)."""
     resolver = ctx.resolver()
     dims = {}
     for e in engines:

@@ -344,10 +344,7 @@ def run(args) -> int:
     resolver = ctx.resolver()
     families = {n: f for n, f in resolver.families.items() if TAG in f.tags}
     chosen = select_variants(families, args.cases, full=args.long)
-    from adapters import registry
-    known = registry.engine_names(ctx.adapters)
-    default = [e for e in known if registry.available(e, ctx.adapters) and resolver.adapter(e).default_tags is None]
-    engines = cli.engines_of(args, ctx, default)
+    engines = cli.engines_of(args, ctx, cli.fast_engines(ctx))
     out = cli.output_folder(args.out)
     cli.check_scheduler(args.scheduler)
     execution = Execution.of(args)

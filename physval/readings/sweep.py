@@ -310,10 +310,7 @@ def cmd_sweep(args) -> int:
         chosen = select_variants(fams, args.cases)
         chosen = {n: [v for v in vs if v.id in (fams[n].sweep_variants or (fams[n].variants[0].id,))] or vs
                   for n, vs in chosen.items()}
-    from adapters import registry
-    known = registry.engine_names(ctx.adapters)
-    default = [e for e in known if registry.available(e, ctx.adapters) and resolver.adapter(e).default_tags is None]
-    engines = cli.engines_of(args, ctx, default)
+    engines = cli.engines_of(args, ctx, cli.fast_engines(ctx))
     out = cli.output_folder(args.out)
     cli.check_scheduler(args.scheduler)
     jobs = points(chosen, engines, resolver, full=args.full, repeats=args.repeats)
