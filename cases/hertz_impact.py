@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import math
 
-from scipy.special import beta
 
 from cases.family import CaseFamily, Check
 from cases.scene import Body, Compliance, Material, Scene, Sphere
@@ -91,7 +90,7 @@ def hertz_impact(m_eff: float, H: float, v: float) -> dict[str, float]:
     """Largest overlap, peak force and duration of a Hertz impact at closing speed v."""
     xi_max = (5.0 * m_eff * v * v / (4.0 * H)) ** 0.4
     return {"max_overlap": xi_max, "peak_force": H * xi_max**1.5,
-            "contact_duration": 0.8 * beta(0.4, 0.5) * xi_max / v}
+            "contact_duration": 0.8 * _beta(0.4, 0.5) * xi_max / v}
 
 
 def hooke_impact(m_eff: float, k: float, v: float) -> dict[str, float]:
@@ -132,6 +131,11 @@ def duration(p) -> float:
     if "law" in p:  # three contact times: the spheres part and fly apart for two more
         return 3.0 * compliant_closed_form(p)["contact_duration"]
     return 0.03  # the rigid impact is over at once (a soft contact in ~16 steps: 16 ms at dt = 1e-3)
+
+
+def _beta(a: float, b: float) -> float:
+    """Euler's beta function B(a, b) = Gamma(a) Gamma(b) / Gamma(a + b)."""
+    return math.gamma(a) * math.gamma(b) / math.gamma(a + b)
 
 
 # --- observables ----------------------------------------------------------------------------

@@ -28,7 +28,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from cases.family import CaseFamily, Check
 from cases.scene import Body, Compliance, Material, Scene, ball
@@ -110,6 +109,7 @@ def compliant_velocities(p) -> list[float]:
     # contact times are ~1e-4 s (Hertz, steel) to ~1e-3 s (Hooke, 1e7 N/m): integrate in
     # chunks until no pair overlaps or approaches
     for _ in range(1000):
+        from scipy.integrate import solve_ivp  # here: scipy.integrate costs 0.5 s to import
         sol = solve_ivp(rates, (0.0, 1e-3), y, method="DOP853", rtol=1e-11, atol=1e-14)
         y = sol.y[:, -1]
         gaps, closing = np.diff(y[:N]) - 2.0 * R, -np.diff(y[N:])

@@ -187,7 +187,7 @@ def engines_of(args, ctx, default: list[str] | None = None) -> list[str]:
     from physval.core.selection import select_engines
     known = registry.engine_names(ctx.adapters)
     if default is None:
-        default = [e for e in known if registry.available(e, ctx.adapters)]
+        default = [e for e in known if _installed(ctx, e)]
     chosen = select_engines(args.engines, known, default)
     resolver = ctx.resolver()
     for e in chosen:
@@ -195,13 +195,20 @@ def engines_of(args, ctx, default: list[str] | None = None) -> list[str]:
     return chosen
 
 
+def _installed(ctx, engine: str) -> bool:
+    """The engine's adapter can be made (made once per process: the resolver keeps it)."""
+    try:
+        ctx.resolver().adapter(engine)
+        return True
+    except Exception:
+        return False
+
+
 def fast_engines(ctx) -> list[str]:
     """The installed engines that do not step in pure Python (Adapter.slow): what sweeps,
     the stress battery, benchmarks and engine-wide readings take unless engines are named."""
     from adapters import registry
-    resolver = ctx.resolver()
-    return [e for e in registry.engine_names(ctx.adapters)
-            if registry.available(e, ctx.adapters) and not resolver.adapter(e).slow]
+    return [e for e in registry.engine_names(ctx.adapters) if _installed(ctx, e) and not ctx.resolver().adapter(e).slow]
 
 
 def command_line() -> str:

@@ -93,6 +93,9 @@ def readings_of(text: str, cases_named: bool) -> list[str]:
 
 def cmd_run(args) -> int:
     started = time.monotonic()
+    if not args.scheduler:
+        from physval.core.executor import start_fork_server
+        start_fork_server(args.start_method)  # loads in parallel with what follows
     ctx = cli.context_of(args)
     resolver = ctx.resolver()
     families = resolver.families

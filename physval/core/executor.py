@@ -41,6 +41,15 @@ def default_start_method() -> str:
     return "forkserver" if sys.platform.startswith("linux") else mp.get_start_method()
 
 
+def start_fork_server(start_method: str | None = None) -> None:
+    """Under forkserver, start the fork server now: it loads the harness and the families
+    (physval.core.preload) while the caller goes on, and every worker forks from it ready."""
+    if (start_method or default_start_method()) == "forkserver":
+        from multiprocessing import forkserver
+        mp.get_context("forkserver").set_forkserver_preload(["physval.core.preload"])
+        forkserver.ensure_running()
+
+
 # --- the worker process --------------------------------------------------------------------
 
 def _die_with_parent() -> None:
@@ -130,8 +139,7 @@ class LocalExecutor:
         self.workers = max(1, workers)
         self.job_timeout = job_timeout or None
         self.mpctx = mp.get_context(start_method or default_start_method())
-        if self.mpctx.get_start_method() == "forkserver":
-            self.mpctx.set_forkserver_preload(["physval.core.preload"])
+        start_fork_server(self.mpctx.get_start_method())
         self._slots: list[_Slot] = []
 
     def __enter__(self):

@@ -110,11 +110,13 @@ def summary_sections(df: pd.DataFrame, plots: Path) -> list[str]:
              "size left its recorded band; **dev** a known engine shortfall within its recorded band; **n/a** "
              "the engine cannot represent the scene; **UNSTABLE** the engine's state blew up; **ERROR** an "
              "exception, named in `results.csv`.", ""]
+    several = df.case.nunique() > 1  # one family: its own section's heat map says it all
     for title, engines in engine_groups(df):
         slug = "summary" if title == "Engines" else "summary_formulations"
-        plot_summary(df, engines, plots / f"{slug}.png", title)
-        lines += [f"### {title}", "", md_table(summary_matrix(df[df.engine.isin(engines)], engines)), "",
-                  f"![{title}](plots/{slug}.png)", ""]
+        lines += [f"### {title}", "", md_table(summary_matrix(df[df.engine.isin(engines)], engines)), ""]
+        if several:
+            plot_summary(df, engines, plots / f"{slug}.png", title)
+            lines += [f"![{title}](plots/{slug}.png)", ""]
     return lines
 
 
