@@ -185,11 +185,12 @@ def duration(p) -> float:
 
 def observe(traj, p) -> dict:
     _, k = first_impact(traj, "box", (0.0, 0.0, -G))
-    if k is None:
-        raise ValueError("the cube never flew free after its first impact")
     t_touch = math.sqrt(2.0 * H / G)
-    v = traj.vel("box")[k] + np.array([0.0, 0.0, G * (traj.t[k] - t_touch)])  # back to the touch, free fall
-    w = traj.omega("box")[k]
+    if k is None:  # it never flew free after its first impact (or never landed): it left the
+        v, w = traj.vel("box")[-1], traj.omega("box")[-1]  # ground with what it ends with
+    else:
+        v = traj.vel("box")[k] + np.array([0.0, 0.0, G * (traj.t[k] - t_touch)])  # back to the touch, free fall
+        w = traj.omega("box")[k]
     u = axis(p)
     out = {"v_slide_after": float(v @ slide_direction(p)), "vz_after": float(v[2]), "spin_after": float(w @ u),
            "contact_rebound": float((v + np.cross(w, lever(p)))[2])}
