@@ -31,7 +31,7 @@ from xml.sax.saxutils import quoteattr
 import mujoco
 import numpy as np
 
-from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
+from adapters.base import Adapter, Capabilities, Settings, SettingsError, Simulation, Tunable, Unsupported
 from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
 
@@ -528,6 +528,11 @@ class MuJoCoAdapter(Adapter):
         contact_points=True,
         contact_laws=frozenset({"hooke"}),  # F = k xi per contact (hooke_row)
     )
+    # Settings.options: the contact time scale n (the module notes), which with e sets the
+    # contact row's solref (k, b) and the friction rows' slip time n dt. From 2 steps (stiff:
+    # the rebound error ~ 1/n is large) to 50 (soft: depth ~ v n dt / pi, 15 mm at 1 m/s).
+    tunables = {"contact_steps": Tunable(2.0, 50.0, float(CONTACT_STEPS),
+                                         "contact duration in time steps (solref time scale n dt)")}
 
     def __init__(self, contact_steps: float = CONTACT_STEPS):
         self.contact_steps = contact_steps
@@ -541,14 +546,18 @@ class MuJoCoAdapter(Adapter):
         if reason:
             raise Unsupported(reason)
         iterations = ITERATIONS if settings.iterations is None else settings.iterations
-        xml, knobs = scene_mjcf(scene, settings, iterations, self.contact_steps)
+        unknown = sorted(set(settings.options) - set(self.tunables))
+        if unknown:
+            raise SettingsError(f"options {', '.join(unknown)}: MuJoCo's adapter takes {', '.join(self.tunables)}")
+        n = float(settings.options.get("contact_steps", self.contact_steps))
+        xml, knobs = scene_mjcf(scene, settings, iterations, n)
         model = self._compile(xml)
         if "hooke" in scene.contact_laws:
             # a Hooke row's stiffness is k times MuJoCo's D of the row, from the bodies'
             # body_invweight0, which the compiler computes (masses and joints, not solref)
             invweight = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g):
                          float(model.body_invweight0[model.geom_bodyid[g], 0]) for g in range(model.ngeom)}
-            xml, knobs = scene_mjcf(scene, settings, iterations, self.contact_steps, invweight)
+            xml, knobs = scene_mjcf(scene, settings, iterations, n, invweight)
             model = self._compile(xml)
         return MuJoCoSimulation(scene, model, knobs, iterations)
 
