@@ -1,0 +1,1018 @@
+"""`physval real`: engines against 400 measured cube tosses (the real-world tier).
+
+README paragraph (draft): see DRAFT_README below; it is printed by `--readme`.
+
+What it does, per engine (every registered 3D engine that is installed):
+1. Each toss of the test split (odd toss ids, `cases.cube_toss`) is built as an
+   engine-neutral scene from its start state (the free flight fitted up to the sample just
+   before first contact) and simulated to the toss's last sample at dt = 1/148/7 s (seven
+   steps per measured sample, so simulated states fall on the measured sample times).
+2. Each simulated sample is compared with the measured one: the centre distance in cube
+   widths, the geodesic angle between the orientations in degrees, and both together as
+   the root mean square distance between corresponding corners, in cube widths
+   (`cases.cube_toss.corner_error`). Errors are read at fixed horizons after the first
+   measured contact (HORIZONS), at the final sample (the rest pose), and as whether the
+   cube ends on the same face.
+3. The engine's contact parameters are fitted on the training split (even ids): the
+   neutral friction coefficient mu and restitution e (the scene's Material) and the
+   adapter's own `tunables` (MuJoCo: the contact time scale `contact_steps`), at most
+   three. The loss is the mean over tosses of each toss's mean corner error; the optimiser
+   is scipy's differential evolution (bounded, seeded, a small stated budget; the loss is
+   piecewise constant in the parameters at the rounding grid and discontinuous where a
+   contact sequence changes, so a gradient method would stall). Every evaluation of a
+   generation is one `map_fn(run_batch, batches)` call over batches of tosses, so the fit
+   runs on any executor (builtin map, a process pool, Dask: `client.map` + `gather`).
+   The parameters' uncertainty is a bootstrap over the training tosses: the training set
+   is resampled with replacement BOOTSTRAP times, and each resample picks its best among
+   the parameter sets the fit evaluated (their per-toss losses are kept), at no further
+   simulation cost. Engines whose one-toss cost would make the fit exceed `--fit-limit`
+   (the pure-Python reference formulations) are scored at the nominal parameters only.
+4. Both parameter sets (fitted, and the data set's nominal mu 0.18, e 0.125) are scored on
+   the test split; the noise floor (the measured trajectory against itself smoothed,
+   scored by the same code) goes beside them.
+
+Simulations are cached on disk (SimCache), keyed by engine, engine version, the toss's
+content, parameters, dt, horizon and CODE_VERSION, so a rerun costs only what changed.
+
+`add_parser(subparsers)` registers the command, `run(args)` runs it; `python -m
+physval.readings.real ...` works until the command is wired into physval's CLI.
+"""
+from __future__ import annotations
+
+import argparse
+import functools
+import hashlib
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterable
+
+import numpy as np
+import pandas as pd
+
+from adapters import registry
+from adapters.base import Settings, Tunable, Unsupported
+from cases import cube_toss as ct
+
+# Bump when a change alters what a cached simulation means (scene, start state, stepping).
+CODE_VERSION = "real-1"
+SUBSTEPS = 7                          # engine steps per measured sample
+DT = ct.SAMPLE_PERIOD / SUBSTEPS      # 0.966 ms: the step the engines' own docs use for contact (~1 ms)
+HORIZONS = (0.1, 0.5)                 # s after the first measured contact; plus the final sample
+# Loss of a toss whose simulation blew up or raised: ten cube widths, beyond any real miss
+# (the cubes travel at most ~5 widths), so a fit never prefers a failing parameter.
+FAIL_LOSS = 10.0
+# A simulated cube this far from the origin has left the scene (the tosses stay within 1 m).
+LOST = 100.0                          # m
+NEUTRAL = {
+    "mu": Tunable(0.02, 1.0, ct.MU_NOMINAL, "Coulomb friction coefficient (scene Material.mu_s)"),
+    "e": Tunable(0.0, 0.9, ct.E_NOMINAL, "coefficient of restitution (scene Material.e)"),
+}
+NEUTRAL_GRID = 0.005                  # mu and e are rounded to this grid (far below their spread)
+# The fit's budget: differential evolution with popsize * (number of parameters) members
+# over GENERATIONS + 1 generations (the initial one included).
+POPSIZE = 5
+GENERATIONS = 8
+BOOTSTRAP = 200                       # resamples of the training tosses for the parameters' spread
+BATCH = 8                             # tosses per task: ~0.1 s of stepping for the C++ engines
+FIT_LIMIT = 1800.0                    # s: an engine whose estimated fit takes longer is scored at nominal only
+DEFAULT_OUT = Path("reports/real")
+PARAM_SETS = ("fitted", "nominal")
+
+MapFn = Callable[[Callable, Iterable], Iterable]
+
+
+class RealError(ValueError):
+    """Bad input to `physval real`: one line, exit code 2."""
+
+
+# --- engines and their parameters ---------------------------------------------------------
+
+@functools.lru_cache(maxsize=None)
+def _adapter(engine: str):
+    return registry.get(engine)
+
+
+@functools.lru_cache(maxsize=None)
+def engine_version(engine: str) -> str:
+    return _adapter(engine).version()
+
+
+def parameter_space(engine: str) -> dict[str, Tunable]:
+    """The fitted parameters: mu, e and the adapter's tunables, by name."""
+    return {**NEUTRAL, **dict(getattr(_adapter(engine), "tunables", {}) or {})}
+
+
+def nominal(engine: str) -> dict[str, float]:
+    """The data set's mu and e, the adapter's defaults for the rest."""
+    return {name: t.default for name, t in parameter_space(engine).items()}
+
+
+def rounded(engine: str, params: dict) -> dict[str, float]:
+    """Parameters on the fit's grid (mu, e: NEUTRAL_GRID; tunables: 3 significant digits),
+    checked against the engine's parameter space."""
+    space = parameter_space(engine)
+    unknown = sorted(set(params) - set(space))
+    if unknown:
+        raise RealError(f"{engine}: unknown parameter(s) {', '.join(unknown)}; it takes {', '.join(space)}")
+    out = {}
+    for name, t in space.items():
+        v = float(params.get(name, t.default))
+        if not math.isfinite(v):
+            raise RealError(f"{engine}: parameter {name} = {v}: must be finite")
+        v = round(v / NEUTRAL_GRID) * NEUTRAL_GRID if name in NEUTRAL else float(f"{v:.3g}")
+        out[name] = round(v, 10)
+    return out
+
+
+def engines_3d(names: list[str] | None = None) -> tuple[list[str], dict[str, str]]:
+    """(engines to score, {engine: why skipped}). Default: every registered engine that is
+    installed and takes 3D boxes on a plane; an engine registered twice under two names
+    (the same adapter class with the same settings) is scored once."""
+    chosen = names or registry.engine_names()
+    unknown = [n for n in chosen if n not in registry.engine_names()]
+    if unknown:
+        raise RealError(f"unknown engine(s) {', '.join(unknown)}: choose from {', '.join(registry.engine_names())}")
+    out, skipped, seen = [], {}, {}
+    for name in chosen:
+        try:
+            adapter = _adapter(name)
+        except registry.EngineError as exc:
+            skipped[name] = str(exc)
+            continue
+        caps = adapter.capabilities
+        if 3 not in caps.dimensions or not {"box", "plane"} <= caps.shapes:
+            skipped[name] = "not a 3D engine with boxes and planes"
+            continue
+        same = (type(adapter), json.dumps({k: v for k, v in vars(adapter).items() if k != "name"},
+                                          sort_keys=True, default=str))
+        if same in seen and not names:
+            skipped[name] = f"the same engine as {seen[same]}"
+            continue
+        seen[same] = name
+        out.append(name)
+    return out, skipped
+
+
+# --- one toss ------------------------------------------------------------------------------
+
+@functools.lru_cache(maxsize=2048)
+def _flight(source: str | None, toss_id: int) -> tuple[ct.Toss, ct.FlightFit]:
+    tr = ct.toss(toss_id, source)
+    return tr, ct.fit_flight(tr)
+
+
+def _toss_digest(tr: ct.Toss) -> str:
+    h = hashlib.sha1()
+    for a in (tr.t, tr.pos, tr.quat):
+        h.update(np.ascontiguousarray(a, float).tobytes())
+    return h.hexdigest()
+
+
+class SimCache:
+    """Simulated trajectories on disk, one .npz per key (a hash of engine, engine version,
+    toss content, parameters, dt, horizon, CODE_VERSION). Writes go through a temporary
+    file and a rename, so concurrent workers never see half a file."""
+
+    def __init__(self, folder: str | Path):
+        self.folder = Path(folder)
+
+    @staticmethod
+    def key(engine: str, tr: ct.Toss, params: dict, dt: float, horizon: float | None) -> str:
+        text = json.dumps([CODE_VERSION, engine, engine_version(engine), _toss_digest(tr), tr.id,
+                           sorted(params.items()), repr(float(dt)), horizon], sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:40]
+
+    def get(self, key: str) -> dict | None:
+        path = self.folder / key[:2] / f"{key}.npz"
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                return {"pos": z["pos"], "quat": z["quat"], **json.loads(str(z["meta"]))}
+        except (OSError, KeyError, ValueError):
+            return None
+
+    def put(self, key: str, sim: dict) -> None:
+        folder = self.folder / key[:2]
+        folder.mkdir(parents=True, exist_ok=True)
+        meta = json.dumps({k: sim[k] for k in ("status", "message", "wall", "elapsed", "steps")})
+        fd, tmp = tempfile.mkstemp(dir=folder, suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as f:
+                np.savez(f, pos=sim["pos"], quat=sim["quat"], meta=np.array(meta))
+            os.replace(tmp, folder / f"{key}.npz")
+        except BaseException:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+            raise
+
+
+def _samples(tr: ct.Toss, fit: ct.FlightFit, horizon: float | None, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Measured sample indices from the start sample on (up to `horizon` s after the
+    start), and the engine step count at which each falls."""
+    k = np.arange(fit.k0, len(tr))
+    s = tr.t[k] - fit.t0
+    if horizon is not None:
+        k, s = k[s <= horizon + 1e-9], s[s <= horizon + 1e-9]
+    return k, np.rint(s / dt).astype(int)
+
+
+def _step(engine: str, scene, dt: float, options: dict, steps_at: np.ndarray) -> dict:
+    """Build and step one scene, reading the cube's pose at the given step counts."""
+    n = len(steps_at)
+    pos, quat = np.full((n, 3), np.nan), np.full((n, 4), np.nan)
+    out = {"status": "ok", "message": "", "wall": 0.0, "steps": 0}
+    start = time.perf_counter()
+    try:
+        sim = _adapter(engine).build(scene, Settings(dt=dt, options=options))
+    except Unsupported as exc:
+        return {**out, "status": "unsupported", "message": str(exc), "pos": pos, "quat": quat,
+                "elapsed": time.perf_counter() - start}
+    step = 0
+    try:
+        with sim:
+            for j, target in enumerate(steps_at.tolist()):
+                t0 = time.perf_counter()
+                while step < target:
+                    sim.step()
+                    step += 1
+                out["wall"] += time.perf_counter() - t0
+                row = sim.states()["cube"]
+                if not (np.all(np.isfinite(row[:7])) and np.linalg.norm(row[:3]) < LOST):
+                    out.update(status="unstable", message=f"state {row[:7].tolist()} at step {step}")
+                    break
+                pos[j], quat[j] = row[:3], row[3:7] / np.linalg.norm(row[3:7])
+    except Exception as exc:  # an engine failure is a result of this toss, not a crash
+        out.update(status="error", message=f"{type(exc).__name__}: {exc}"[:300])
+    out.update(steps=step, pos=pos, quat=quat, elapsed=time.perf_counter() - start)
+    return out
+
+
+def simulate_toss(engine: str, toss_id: int, params: dict, horizon: float | None = None, dt: float = DT,
+                  source: str | None = None, cache: str | None = None) -> dict:
+    """Simulate one toss from its start state; a pure function of picklable arguments.
+
+    Returns the simulated poses at the measured sample times from the start sample on
+    (`pos`, `quat`, NaN after a failure), `status` (ok, unstable, error, unsupported) and
+    `message`, the stepping `wall` time and `elapsed` time with the build, and the
+    per-sample errors against the measurement (`errors`)."""
+    tr, fit = _flight(source, int(toss_id))
+    params = rounded(engine, params)
+    k, steps_at = _samples(tr, fit, horizon, dt)
+    store = SimCache(cache) if cache else None
+    key = SimCache.key(engine, tr, params, dt, horizon) if store else None
+    sim = store.get(key) if store else None
+    if sim is None:
+        tunables = getattr(_adapter(engine), "tunables", {}) or {}
+        options = {n: v for n, v in params.items() if n in tunables}
+        sim = _step(engine, ct.scene(tr, params["mu"], params["e"], fit), dt, options, steps_at)
+        if store and sim["status"] != "unsupported":
+            store.put(key, sim)
+    return {"engine": engine, "toss": tr.id, "params": params, "t": tr.t[k] - fit.t0, **sim,
+            **errors(tr, k, sim["pos"], sim["quat"])}
+
+
+def errors(tr: ct.Toss, k: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> dict[str, np.ndarray]:
+    """Per-sample errors of poses against the measured samples k: centre distance
+    (`pos_err`, cube widths), geodesic angle (`rot_err`, degrees), corner RMS distance
+    (`corner_err`, cube widths)."""
+    return {"pos_err": np.linalg.norm(pos - tr.pos[k], axis=1) / ct.WIDTH,
+            "rot_err": np.degrees(ct.angle_between(quat, tr.quat[k])),
+            "corner_err": ct.corner_error(pos, quat, tr.pos[k], tr.quat[k]) if np.all(np.isfinite(quat))
+            else _corner_err_partial(pos, quat, tr.pos[k], tr.quat[k])}
+
+
+def _corner_err_partial(pos, quat, p_meas, q_meas) -> np.ndarray:
+    out = np.full(len(pos), np.nan)
+    ok = np.all(np.isfinite(quat), axis=1) & np.all(np.isfinite(pos), axis=1)
+    if ok.any():
+        out[ok] = ct.corner_error(pos[ok], quat[ok], p_meas[ok], q_meas[ok])
+    return out
+
+
+# --- scores -------------------------------------------------------------------------------
+
+def metric_names() -> list[str]:
+    names = []
+    for h in HORIZONS:
+        names += [f"pos_{h:g}s", f"rot_{h:g}s"]
+    return names + ["pos_final", "rot_final", "corner_mean"]
+
+
+def score(tr: ct.Toss, fit: ct.FlightFit, t: np.ndarray, pos: np.ndarray, quat: np.ndarray,
+          status: str = "ok") -> dict:
+    """One toss's scores from poses at the measured samples from fit.k0 on (len(t) of
+    them): errors at HORIZONS after the first measured contact (NaN where the toss or the
+    simulation ends earlier), at the final sample (the rest pose, NaN if the simulation
+    stopped short of it), whether the cube ends on the same face, and the fit's loss (the
+    mean corner error; FAIL_LOSS if the simulation failed)."""
+    k = np.arange(fit.k0, fit.k0 + len(t))
+    e = errors(tr, k, pos, quat)
+    t_contact = tr.t[fit.contact] - fit.t0
+    row = {}
+    for h in HORIZONS:
+        j = int(np.argmin(np.abs(t - (t_contact + h))))
+        near = abs(t[j] - (t_contact + h)) <= 0.5 * ct.SAMPLE_PERIOD + 1e-9
+        row[f"pos_{h:g}s"] = float(e["pos_err"][j]) if near else math.nan
+        row[f"rot_{h:g}s"] = float(e["rot_err"][j]) if near else math.nan
+    full = k[-1] == len(tr) - 1 and status == "ok"
+    row["pos_final"] = float(e["pos_err"][-1]) if full else math.nan
+    row["rot_final"] = float(e["rot_err"][-1]) if full else math.nan
+    row["same_face"] = (bool(ct.face_down(quat[-1:])[0] == ct.face_down(tr.quat[-1:])[0]) if full
+                        else (False if status != "ok" else None))
+    row["corner_mean"] = float(np.mean(e["corner_err"])) if status == "ok" else math.nan
+    row["loss"] = row["corner_mean"] if status == "ok" else FAIL_LOSS
+    return row
+
+
+# --- batches of tosses: the unit of work an executor runs ---------------------------------
+
+@dataclass(frozen=True)
+class Batch:
+    """Some tosses of one engine at one parameter set; picklable, so any executor can run
+    `run_batch` on it."""
+    engine: str
+    params: tuple[tuple[str, float], ...]
+    tosses: tuple[int, ...]
+    horizon: float | None = None
+    dt: float = DT
+    source: str | None = None
+    cache: str | None = None
+    keep: bool = False  # return the per-sample errors and poses too (reports), not only scores
+
+
+def run_batch(batch: Batch) -> list[dict]:
+    """Score every toss of a batch (module-level and pure: an executor's task)."""
+    rows = []
+    for toss_id in batch.tosses:
+        r = simulate_toss(batch.engine, toss_id, dict(batch.params), batch.horizon, batch.dt,
+                          batch.source, batch.cache)
+        tr, fit = _flight(batch.source, toss_id)
+        row = {"engine": batch.engine, "toss": toss_id, "status": r["status"], "message": r["message"],
+               "sim_time": float(r["t"][-1]) if len(r["t"]) else 0.0, "wall": r["wall"],
+               "elapsed": r["elapsed"], "steps": r["steps"], "params": json.dumps(r["params"], sort_keys=True)}
+        if r["status"] != "unsupported":
+            row.update(score(tr, fit, r["t"], r["pos"], r["quat"], r["status"]))
+        if batch.keep:
+            row["trajectory"] = {k: r[k] for k in ("t", "pos", "quat", "pos_err", "rot_err", "corner_err")}
+        rows.append(row)
+    return rows
+
+
+def _chunks(ids, size: int) -> list[tuple[int, ...]]:
+    ids = list(ids)
+    return [tuple(ids[i:i + size]) for i in range(0, len(ids), size)]
+
+
+def simulate_many(engine: str, params: dict, ids, *, map_fn: MapFn = map, batch: int = BATCH,
+                  keep: bool = False, **common) -> list[dict]:
+    """Score tosses `ids` of one engine at one parameter set through `map_fn`."""
+    key = tuple(sorted(rounded(engine, params).items()))
+    jobs = [Batch(engine, key, chunk, keep=keep, **common) for chunk in _chunks(ids, batch)]
+    return [row for rows in map_fn(run_batch, jobs) for row in rows]
+
+
+# --- the fit ------------------------------------------------------------------------------
+
+@dataclass
+class FitResult:
+    engine: str
+    names: tuple[str, ...]
+    params: dict[str, float]
+    loss: float                    # mean corner error over the fit's tosses, cube widths
+    nominal_loss: float
+    evaluations: int               # distinct parameter sets simulated
+    tosses: tuple[int, ...]
+    seconds: float
+    per_toss: dict[tuple, np.ndarray] = field(default_factory=dict)  # parameter set -> loss per toss
+
+    def bootstrap(self, resamples: int = BOOTSTRAP, seed: int = 0) -> list[dict[str, float]]:
+        """The best evaluated parameter set of each of `resamples` resamples (with
+        replacement) of the fit's tosses."""
+        keys = list(self.per_toss)
+        L = np.array([self.per_toss[k] for k in keys])                  # (sets, tosses)
+        picks = np.random.default_rng(seed).integers(0, L.shape[1], size=(resamples, L.shape[1]))
+        best = np.argmin(L[:, picks].mean(axis=2), axis=0)              # per resample
+        return [dict(keys[b]) for b in best.tolist()]
+
+
+def fit(engine: str, ids, *, map_fn: MapFn = map, popsize: int = POPSIZE, generations: int = GENERATIONS,
+        seed: int = 0, batch: int = BATCH, names: tuple[str, ...] | None = None,
+        fixed: dict | None = None, **common) -> FitResult:
+    """Fit an engine's contact parameters to tosses `ids` by differential evolution.
+
+    The loss of a parameter set is the mean over the tosses of each toss's mean corner
+    error (`score`). Each generation's members go to `map_fn(run_batch, batches)` at once
+    (DE's vectorised mode), batches of `batch` tosses per member. `names` restricts the
+    fitted parameters (the others stay at `fixed` or nominal). The nominal point is a
+    member of the first generation."""
+    from scipy.optimize import differential_evolution
+
+    start = time.perf_counter()
+    space = parameter_space(engine)
+    names = tuple(names or space)
+    base = {**nominal(engine), **(fixed or {})}
+    ids = tuple(sorted(int(i) for i in ids))
+    memo: dict[tuple, np.ndarray] = {}
+
+    def params_of(x) -> dict:
+        return rounded(engine, {**base, **dict(zip(names, np.asarray(x, float).tolist()))})
+
+    def losses(candidates: list[dict]) -> list[float]:
+        keys = [tuple(sorted(c.items())) for c in candidates]
+        todo = list(dict.fromkeys(k for k in keys if k not in memo))
+        jobs = [Batch(engine, k, chunk, **common) for k in todo for chunk in _chunks(ids, batch)]
+        per_key: dict[tuple, list[float]] = {k: [] for k in todo}
+        for job, rows in zip(jobs, map_fn(run_batch, jobs)):
+            per_key[job.params] += [r.get("loss", FAIL_LOSS) for r in rows]
+        for k, values in per_key.items():
+            memo[k] = np.array(values)
+        return [float(np.mean(memo[k])) for k in keys]
+
+    def objective(X: np.ndarray) -> np.ndarray:
+        X = np.asarray(X, float)
+        if X.ndim == 1:
+            X = X[:, None]
+        return np.array(losses([params_of(col) for col in X.T]))
+
+    bounds = [(space[n].low, space[n].high) for n in names]
+    x0 = np.clip([base[n] for n in names], [b[0] for b in bounds], [b[1] for b in bounds])
+    result = differential_evolution(objective, bounds, x0=x0, popsize=popsize, maxiter=generations, seed=seed,
+                                    polish=False, vectorized=True, updating="deferred", init="latinhypercube")
+    best = params_of(result.x)
+    nominal_loss = losses([rounded(engine, base)])[0]
+    return FitResult(engine, names, best, losses([best])[0], nominal_loss, len(memo), ids,
+                     time.perf_counter() - start, memo)
+
+
+# --- noise floor --------------------------------------------------------------------------
+
+def noise_rows(ids, source: str | None = None, horizon: float | None = None) -> list[dict]:
+    """The measured trajectory against itself smoothed (cases.cube_toss.smoothed), scored
+    exactly as a simulation (`score`), from the start sample on; plus the free-flight
+    fit's residuals."""
+    rows = []
+    for toss_id in ids:
+        tr, fit = _flight(source, toss_id)
+        p, q = ct.smoothed(tr)
+        k, _ = _samples(tr, fit, horizon, DT)
+        t = tr.t[k] - fit.t0
+        row = {"engine": "noise floor", "toss": toss_id, "status": "ok", "param_set": "data",
+               **score(tr, fit, t, p[k], q[k]),
+               "flight_pos_mm": float(np.sqrt(np.mean(fit.residual_pos ** 2)) * 1e3),
+               "flight_rot_deg": float(np.degrees(np.sqrt(np.mean(fit.residual_rot ** 2)))),
+               "t_contact": float(tr.t[fit.contact] - fit.t0),
+               "trajectory": {"t": t, **errors(tr, k, p[k], q[k])}}
+        rows.append(row)
+    return rows
+
+
+# --- summaries ----------------------------------------------------------------------------
+
+def summary(scores: pd.DataFrame) -> pd.DataFrame:
+    """Per engine and parameter set: tosses, failures, median / mean / 95th percentile of
+    every metric over the tosses that ran, the fraction ending on the right face (failures
+    count as wrong), and the speed (simulated seconds per wall second of stepping)."""
+    out = []
+    for (engine, pset), g in scores.groupby(["engine", "param_set"], sort=False):
+        ok = g[g.status == "ok"]
+        row = {"engine": engine, "param_set": pset, "tosses": len(g), "failed": int((g.status != "ok").sum())}
+        for m in metric_names():
+            v = ok[m].dropna().to_numpy(float)
+            row[f"{m}_median"] = float(np.median(v)) if len(v) else math.nan
+            row[f"{m}_mean"] = float(np.mean(v)) if len(v) else math.nan
+            row[f"{m}_p95"] = float(np.percentile(v, 95)) if len(v) else math.nan
+            row[f"{m}_n"] = len(v)
+        face = g["same_face"].dropna() if "same_face" in g else pd.Series([], dtype=object)
+        row["same_face"] = float(face.astype(bool).mean()) if len(face) else math.nan
+        wall = g["wall"].sum() if "wall" in g else 0.0
+        row["speed"] = float(g["sim_time"].sum() / wall) if "sim_time" in g and wall > 0 else math.nan
+        out.append(row)
+    return pd.DataFrame(out)
+
+
+# --- the report ---------------------------------------------------------------------------
+
+def _fmt(x, digits=3) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "-"
+    return f"{x:.{digits}g}"
+
+
+def _params_text(params: dict) -> str:
+    return ", ".join(f"{k} {_fmt(v)}" for k, v in params.items())
+
+
+def plot_horizons(trajectories: dict[tuple[str, str], list[dict]], noise: list[dict], path: Path) -> None:
+    """Median position and orientation error against time after the first measured
+    contact, one line per engine (fitted: solid, nominal: dashed), the noise floor in grey."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    colours = {}
+    for (engine, pset), rows in sorted(trajectories.items()):
+        if engine not in colours:
+            colours[engine] = f"C{len(colours) % 10}"
+        curve = _median_curve(rows)
+        if curve is None:
+            continue
+        t, pos, rot = curve
+        style = "-" if pset == "fitted" else "--"
+        axes[0].plot(t, pos, style, color=colours[engine], label=f"{engine} ({pset})")
+        axes[1].plot(t, rot, style, color=colours[engine])
+    curve = _median_curve(noise)
+    if curve is not None:
+        axes[0].plot(curve[0], curve[1], color="0.5", lw=2, label="noise floor")
+        axes[1].plot(curve[0], curve[2], color="0.5", lw=2)
+    axes[0].set(xlabel="time after first contact (s)", ylabel="median centre error (cube widths)", yscale="log")
+    axes[1].set(xlabel="time after first contact (s)", ylabel="median orientation error (deg)", yscale="log")
+    axes[0].legend(fontsize=7)
+    fig.suptitle("Test split: error against horizon")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _median_curve(rows: list[dict]):
+    """(t, median pos err, median rot err) on the sample grid after first contact, over
+    the rows (each with 'trajectory' and 't_contact') that reach each time; None if empty."""
+    by_offset: dict[int, list[tuple[float, float]]] = {}
+    for r in rows:
+        tr = r.get("trajectory")
+        if not tr or r["status"] != "ok":
+            continue
+        offset = np.rint((tr["t"] - r["t_contact"]) / ct.SAMPLE_PERIOD).astype(int)
+        for o, pe, re in zip(offset.tolist(), tr["pos_err"].tolist(), tr["rot_err"].tolist()):
+            if o >= 0:
+                by_offset.setdefault(o, []).append((pe, re))
+    if not by_offset:
+        return None
+    # a point is drawn where at least a quarter of the tosses still run
+    most = max(len(v) for v in by_offset.values())
+    keys = sorted(o for o, v in by_offset.items() if len(v) >= most / 4)
+    t = np.array(keys) * ct.SAMPLE_PERIOD
+    pos = np.array([np.median([p for p, _ in by_offset[o]]) for o in keys])
+    rot = np.array([np.median([r for _, r in by_offset[o]]) for o in keys])
+    return t, pos, rot
+
+
+def plot_overlays(engine: str, picks: dict[str, tuple[dict, dict | None]], source, path: Path) -> None:
+    """Measured and simulated height of the centre above the surface and rotation since
+    the start, against time, for the engine's typical and worst test tosses (fitted
+    parameters solid, nominal dashed)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, len(picks), figsize=(5.5 * len(picks), 6), squeeze=False)
+    for col, (label, (row, nominal_row)) in enumerate(picks.items()):
+        tr, fit = _flight(source, row["toss"])
+        t_meas = tr.t[fit.k0:] - fit.t0
+        q0 = tr.quat[fit.k0]
+        axes[0, col].plot(t_meas, (tr.pos[fit.k0:, 2] - ct.SURFACE_Z) / ct.WIDTH, "k.-", ms=3, label="measured")
+        axes[1, col].plot(t_meas, np.degrees(ct.angle_between(tr.quat[fit.k0:], np.broadcast_to(q0, (len(t_meas), 4)))),
+                          "k.-", ms=3)
+        for r, style, name in ((row, "-", "fitted"), (nominal_row, "--", "nominal")):
+            if r is None or not r.get("trajectory"):
+                continue
+            traj = r["trajectory"]
+            axes[0, col].plot(traj["t"], (traj["pos"][:, 2] - ct.SURFACE_Z) / ct.WIDTH, style, color="C0" if
+                              name == "fitted" else "C1", label=f"{engine} ({name})")
+            axes[1, col].plot(traj["t"], np.degrees(ct.angle_between(traj["quat"], np.broadcast_to(q0, traj["quat"].shape))),
+                              style, color="C0" if name == "fitted" else "C1")
+        axes[0, col].set(title=f"{label}: toss {row['toss']} (mean corner error {_fmt(row['corner_mean'], 2)} widths)",
+                         ylabel="centre height (cube widths)")
+        axes[1, col].set(xlabel="time after start (s)", ylabel="rotation since start (deg)")
+        axes[0, col].legend(fontsize=7)
+    fig.suptitle(f"{engine}: measured and simulated tosses (test split)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+DRAFT_README = """\
+`physval real` asks how far each engine is from the real world once its contact parameters
+are fitted as well as they can be. It replays 400 motion-captured tosses of one acrylic cube
+onto one surface (the ContactNets data set, BSD 3-Clause, shipped in
+`cases/data/cube_toss/`): every toss starts from its measured state just before the first
+impact, every 3D engine fits its friction, restitution and (MuJoCo) contact time scale on
+the even-numbered tosses, and the odd-numbered ones are scored, at the fitted and at the
+data set's nominal parameters (mu 0.18, e 0.125). Errors are the distance between the
+simulated and measured centre in cube widths and the angle between the orientations in
+degrees, 0.1 s and 0.5 s after the first impact and at the final rest pose, plus whether the
+cube ends on the same face; `reports/real/real_report.md` ranks the engines and sets the
+numbers against the noise floor of the data (the measurement against itself smoothed). Read
+them as a lower bound on the reality gap for this one cube on this one surface, not as a
+property of an engine: the tosses are chaotic (a small change before the first impact can
+change the face the cube ends on), the start state carries the capture's noise, and the
+fitted parameters absorb whatever the cube and surface do that no engine models (the
+surface's compliance, the cube's chipped edges). `physval real --tosses FILE --params
+reports/real/params.json` scores your own tosses (same columns) with the saved parameters;
+`--fit` fits them on your file instead."""
+
+
+def section(summ: pd.DataFrame, fits: dict[str, dict], skipped: dict[str, str], notes: dict) -> str:
+    """The report section in markdown: ranking, fitted parameters, distributions, the
+    noise floor, cost, skipped engines."""
+    lines = ["# Real-world tier: engines against measured cube tosses", ""]
+    lines += [notes.get("intro", ""), ""]
+    fitted = summ[summ.param_set == "fitted"].set_index("engine")
+    nom = summ[summ.param_set == "nominal"].set_index("engine")
+    floor = summ[summ.engine == "noise floor"]
+    engines = list(dict.fromkeys(summ[summ.engine != "noise floor"].engine))
+
+    def best_set(engine):
+        return fitted.loc[engine] if engine in fitted.index else nom.loc[engine]
+
+    order = sorted(engines, key=lambda e: (best_set(e)["corner_mean_median"]
+                                           if math.isfinite(best_set(e)["corner_mean_median"]) else math.inf))
+    h1, h2 = (f"{h:g}s" for h in HORIZONS)
+    lines += ["## Ranking (test split)", "",
+              "Ranked by the median over test tosses of each toss's mean corner error (cube widths) at "
+              "the engine's fitted parameters (nominal where it was not fitted). Position errors in cube "
+              f"widths ({ct.WIDTH * 100:.2f} cm), orientation errors in degrees, medians over the test tosses; "
+              "'right face': the fraction of tosses that end on the measured face (failed simulations count "
+              "as wrong).", "",
+              f"| rank | engine | parameters | mean corner err. | centre {h1} | angle {h1} | centre {h2} | "
+              f"angle {h2} | centre final | angle final | right face | nominal: corner err. | nominal: right face "
+              "| speed (sim s / wall s) |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for rank, engine in enumerate(order, 1):
+        s = best_set(engine)
+        which = "fitted" if engine in fitted.index else "nominal only"
+        params = fits.get(engine, {}).get("params") or notes.get("nominal", {}).get(engine, {})
+        n = nom.loc[engine] if engine in nom.index else None
+        lines.append(
+            f"| {rank} | {engine} | {which}: {_params_text(params)} | {_fmt(s['corner_mean_median'])} | "
+            f"{_fmt(s[f'pos_{h1}_median'])} | {_fmt(s[f'rot_{h1}_median'])} | {_fmt(s[f'pos_{h2}_median'])} | "
+            f"{_fmt(s[f'rot_{h2}_median'])} | {_fmt(s['pos_final_median'])} | {_fmt(s['rot_final_median'])} | "
+            f"{_fmt(100 * s['same_face'], 3)} % | {_fmt(n['corner_mean_median']) if n is not None else '-'} | "
+            f"{_fmt(100 * n['same_face'], 3) + ' %' if n is not None else '-'} | {_fmt(s['speed'])} |")
+    if len(floor):
+        f = floor.iloc[0]
+        lines.append(f"| - | noise floor (data vs smoothed) | - | {_fmt(f['corner_mean_median'])} | "
+                     f"{_fmt(f[f'pos_{h1}_median'])} | {_fmt(f[f'rot_{h1}_median'])} | {_fmt(f[f'pos_{h2}_median'])} | "
+                     f"{_fmt(f[f'rot_{h2}_median'])} | {_fmt(f['pos_final_median'])} | {_fmt(f['rot_final_median'])} "
+                     "| - | - | - | - |")
+    lines += ["", "![error against horizon](plots/horizons.png)", ""]
+
+    lines += ["## Fitted parameters", "",
+              notes.get("fit", ""), "",
+              "| engine | fitted parameters | bootstrap over training tosses (mean +- sd; 5-95 %) | train loss (fitted) | "
+              "train loss (nominal) | evaluations | fit time (s) |", "|---|---|---|---|---|---|---|"]
+    for engine in order:
+        f = fits.get(engine)
+        if not f:
+            lines.append(f"| {engine} | not fitted: {notes.get('not_fitted', {}).get(engine, 'parameters given')} "
+                         "| - | - | - | - | - |")
+            continue
+        spread = "; ".join(
+            f"{n} {_fmt(np.mean(v))} +- {_fmt(np.std(v))} ({_fmt(np.percentile(v, 5))}..{_fmt(np.percentile(v, 95))})"
+            for n, v in ((n, [fp[n] for fp in f.get("spread", [])]) for n in f["names"]) if v) or "-"
+        lines.append(f"| {engine} | {_params_text(f['params'])} | {spread} | {_fmt(f.get('loss'))} | "
+                     f"{_fmt(f.get('nominal_loss'))} | {f.get('evaluations', '-')} | {_fmt(f.get('seconds'), 3)} |")
+
+    lines += ["", "## Error distributions (test split)", "",
+              "Median / mean / 95th percentile over the test tosses that ran; n = tosses with that reading "
+              "(a horizon past a toss's end has none).", "",
+              "| engine | parameters | tosses | failed | " + " | ".join(metric_names()) + " |",
+              "|---|---|---|---|" + "---|" * len(metric_names())]
+    for engine in order + (["noise floor"] if len(floor) else []):
+        for _, s in summ[summ.engine == engine].iterrows():
+            cells = [f"{_fmt(s[f'{m}_median'])} / {_fmt(s[f'{m}_mean'])} / {_fmt(s[f'{m}_p95'])} (n={s[f'{m}_n']})"
+                     for m in metric_names()]
+            lines.append(f"| {engine} | {s['param_set']} | {s['tosses']} | {s['failed']} | " + " | ".join(cells) + " |")
+
+    lines += ["", "## Noise floor", "", notes.get("noise", ""), ""]
+    lines += ["## Typical and worst tosses", "",
+              "Per engine, the test toss with the median and the one with the largest mean corner error at "
+              "the fitted parameters: centre height above the surface and rotation since the start, measured "
+              "(black) and simulated (fitted solid, nominal dashed).", ""]
+    for engine in order:
+        lines.append(f"![{engine}](plots/overlay_{engine}.png)")
+    if skipped:
+        lines += ["", "## Engines not scored", ""] + [f"- {e}: {why}" for e, why in skipped.items()]
+    if notes.get("failures"):
+        lines += ["", "## Failed simulations", ""] + [f"- {t}" for t in notes["failures"]]
+    lines += ["", "## Run", "", notes.get("run", ""), ""]
+    return "\n".join(lines)
+
+
+def write_report(out: Path, scores: pd.DataFrame, noise: list[dict], trajectories: dict, fits: dict,
+                 skipped: dict, notes: dict, source) -> Path:
+    """real_report.md, real_scores.csv (one row per engine, parameter set and toss),
+    real_summary.csv, real_fits.csv, params.json and plots/ under `out`."""
+    (out / "plots").mkdir(parents=True, exist_ok=True)
+    noise_frame = pd.DataFrame([{k: v for k, v in r.items() if k != "trajectory"} for r in noise])
+    both = pd.concat([scores, noise_frame], ignore_index=True)
+    both.drop(columns=["trajectory"], errors="ignore").to_csv(out / "real_scores.csv", index=False)
+    summ = summary(both)
+    summ.to_csv(out / "real_summary.csv", index=False)
+    fit_rows = []
+    for engine, f in fits.items():
+        fit_rows.append({"engine": engine, "sample": "fit", **f["params"], "loss": f.get("loss"),
+                         "nominal_loss": f.get("nominal_loss"), "tosses": f.get("tosses"),
+                         "evaluations": f.get("evaluations"), "seconds": f.get("seconds")})
+        for j, fp in enumerate(f.get("spread", [])):
+            fit_rows.append({"engine": engine, "sample": f"bootstrap {j}", **fp})
+    pd.DataFrame(fit_rows).to_csv(out / "real_fits.csv", index=False)
+    (out / "params.json").write_text(json.dumps({e: f["params"] for e, f in fits.items()}, indent=2) + "\n")
+    plot_horizons(trajectories, noise, out / "plots" / "horizons.png")
+    for engine in dict.fromkeys(e for e, _ in trajectories):
+        pset = "fitted" if (engine, "fitted") in trajectories else "nominal"
+        rows = [r for r in trajectories[(engine, pset)] if r["status"] == "ok"]
+        if not rows:
+            continue
+        rows.sort(key=lambda r: r["corner_mean"])
+        nominal_by_toss = {r["toss"]: r for r in trajectories.get((engine, "nominal"), [])} if pset == "fitted" else {}
+        typical, worst = rows[len(rows) // 2], rows[-1]
+        picks = {"typical": (typical, nominal_by_toss.get(typical["toss"])),
+                 "worst": (worst, nominal_by_toss.get(worst["toss"]))}
+        plot_overlays(engine, picks, source, out / "plots" / f"overlay_{engine}.png")
+    path = out / "real_report.md"
+    path.write_text(section(summ, fits, skipped, notes))
+    return path
+
+
+# --- the command --------------------------------------------------------------------------
+
+EPILOG = """examples:
+  physval real                                   fit every 3D engine on the training split, score the test split
+  physval real --engines mujoco,pybullet --workers 2
+  physval real --tosses my_tosses.csv.gz --params reports/real/params.json
+  physval real --tosses my_tosses.csv.gz --fit --out /tmp/mine
+  physval real --limit 4 --horizon 0.3 --generations 1 --out /tmp/quick
+exit codes: 0 the run completed (poor agreement is a result); 2 bad input."""
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Register the `real` subcommand on an argparse subparsers object."""
+    p = subparsers.add_parser(
+        "real", help="engines against 400 measured cube tosses: fit, test, rank; writes reports/real/",
+        formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG,
+        description="Replay motion-captured cube tosses on every 3D engine from their measured start states; fit "
+                    "each engine's contact parameters on the training split (even toss ids) and score the test "
+                    "split (odd ids) at the fitted and the nominal parameters, against the data's own noise "
+                    "floor. Writes real_report.md, real_scores.csv, real_summary.csv, real_fits.csv, params.json "
+                    "and plots/ into --out.")
+    p.add_argument("--engines", nargs="+", metavar="NAME",
+                   help="engines (default: every installed 3D engine; comma-separated lists work too)")
+    p.add_argument("--tosses", metavar="FILE",
+                   help="a toss CSV (gzipped or not) with the packaged data's columns (default: the packaged data)")
+    how = p.add_mutually_exclusive_group()
+    how.add_argument("--params", metavar="FILE",
+                     help="parameters per engine as JSON {engine: {name: value}} (params.json of a run); no fit. "
+                          "With --tosses every toss of the file is scored")
+    how.add_argument("--fit", action="store_true", help="fit on the training split (the default without --params)")
+    how.add_argument("--nominal", action="store_true", help="score the nominal parameters only (no fit)")
+    p.add_argument("--out", default=str(DEFAULT_OUT), metavar="DIR", help=f"output folder (default: {DEFAULT_OUT})")
+    p.add_argument("--cache", metavar="DIR", help="simulation cache (default: $XDG_CACHE_HOME/physval/real or "
+                                                  "~/.cache/physval/real)")
+    p.add_argument("--no-cache", action="store_true", help="simulate everything again, cache nothing")
+    p.add_argument("--workers", type=int, default=1, metavar="N", help="parallel processes (default 1)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler to run the simulations on")
+    p.add_argument("--limit", type=int, metavar="N", help="only the first N tosses of each split (quick runs)")
+    p.add_argument("--horizon", type=float, metavar="S", help="simulate at most S seconds from the start (quick runs)")
+    p.add_argument("--popsize", type=int, default=POPSIZE, help=f"differential evolution popsize (default {POPSIZE})")
+    p.add_argument("--generations", type=int, default=GENERATIONS,
+                   help=f"differential evolution generations after the first (default {GENERATIONS})")
+    p.add_argument("--bootstrap", type=int, default=BOOTSTRAP, metavar="N",
+                   help=f"resamples of the training tosses for the parameters' spread (default {BOOTSTRAP})")
+    p.add_argument("--fit-limit", type=float, default=FIT_LIMIT, metavar="S",
+                   help=f"score at nominal only the engines whose fit would take longer than S seconds "
+                        f"(estimated from their cost per toss; default {FIT_LIMIT:g})")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    return p
+
+
+def default_cache() -> Path:
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "physval" / "real"
+
+
+@dataclass
+class Executor:
+    """map_fn over local processes or a Dask scheduler (the harness's executor replaces it)."""
+    workers: int = 1
+    scheduler: str | None = None
+
+    def __enter__(self) -> MapFn:
+        if self.scheduler:
+            from distributed import Client
+            self._client = Client(self.scheduler)
+            return lambda fn, xs: self._client.gather(self._client.map(fn, list(xs)))
+        if self.workers > 1:
+            from concurrent.futures import ProcessPoolExecutor
+            self._pool = ProcessPoolExecutor(self.workers)
+            return lambda fn, xs: list(self._pool.map(fn, list(xs)))
+        return lambda fn, xs: list(map(fn, xs))
+
+    def __exit__(self, *exc):
+        if getattr(self, "_client", None):
+            self._client.close()
+        if getattr(self, "_pool", None):
+            self._pool.shutdown()
+
+
+def _names(values) -> list[str]:
+    return [x.strip() for v in values or [] for x in v.split(",") if x.strip()]
+
+
+def _read_params(path: str, engines: list[str]) -> dict[str, dict]:
+    try:
+        given = json.loads(Path(path).read_text())
+    except (OSError, ValueError) as exc:
+        raise RealError(f"--params {path}: cannot read it as JSON ({exc})") from None
+    if not isinstance(given, dict) or not all(isinstance(v, dict) for v in given.values()):
+        raise RealError(f"--params {path}: must be a JSON object {{engine: {{parameter: value}}}}")
+    return {e: rounded(e, given[e]) for e in engines if e in given}
+
+
+def run(args) -> int:
+    """Fit and score; write the report. 0 when completed, 2 on bad input."""
+    try:
+        return _run(args)
+    except (RealError, ct.TossError) as exc:
+        print(f"physval real: error: {exc}", file=sys.stderr)
+        return 2
+
+
+def _run(args) -> int:
+    started = time.perf_counter()
+
+    def say(text: str) -> None:
+        if not args.quiet:
+            print(text, flush=True)
+
+    source = str(Path(args.tosses).resolve()) if args.tosses else None
+    tosses = ct.load(source)
+    engines, skipped = engines_3d(_names(args.engines) or None)
+    if not engines:
+        raise RealError("no engine to score: " + "; ".join(f"{e}: {w}" for e, w in skipped.items()))
+    given = _read_params(args.params, engines) if args.params else {}
+    do_fit = not args.params and not args.nominal
+    for what, v in (("--workers", args.workers), ("--popsize", args.popsize), ("--limit", args.limit or 1)):
+        if v < 1:
+            raise RealError(f"{what} = {v}: must be >= 1")
+    if args.generations < 0 or args.bootstrap < 1:
+        raise RealError("--generations must be >= 0 and --bootstrap >= 1")
+    if args.horizon is not None and not args.horizon > 0:
+        raise RealError(f"--horizon = {args.horizon}: must be > 0")
+
+    usable, unusable = [], {}
+    for i in tosses:
+        try:
+            _flight(source, i)
+            usable.append(i)
+        except ct.TossError as exc:
+            unusable[i] = str(exc)
+    train, test = ct.split(usable)
+    if source and args.params:
+        train, test = [], sorted(usable)  # a user's own tosses, scored with saved parameters
+    if not test:
+        raise RealError(f"no test tosses (odd ids) in {source or ct.DATA}")
+    if args.limit:
+        train, test = train[:args.limit], test[:args.limit]
+    cache = None if args.no_cache else str(Path(args.cache) if args.cache else default_cache())
+    common = {"horizon": args.horizon, "dt": DT, "source": source, "cache": cache}
+    out = Path(args.out)
+    say(f"physval real: {len(train)} training and {len(test)} test tosses from {source or 'the packaged data'}; "
+        f"engines {', '.join(engines)}" + (f" (skipped: {', '.join(skipped)})" if skipped else ""))
+
+    rows, trajectories, fits, not_fitted, failures = [], {}, {}, {}, []
+    with Executor(args.workers, args.scheduler) as map_fn:
+        for engine in engines:
+            t0 = time.perf_counter()
+            nom = simulate_many(engine, nominal(engine), test, map_fn=map_fn, keep=True, **common)
+            if all(r["status"] == "unsupported" for r in nom):
+                skipped[engine] = nom[0]["message"]
+                say(f"  {engine}: unsupported ({nom[0]['message']})")
+                continue
+            per_toss = float(np.median([r["elapsed"] for r in nom]))
+            evaluations = args.popsize * len(parameter_space(engine)) * (args.generations + 1)
+            estimate = per_toss * evaluations * len(train)
+            params = None
+            if engine in given:
+                params = given[engine]
+            elif do_fit and train and estimate > args.fit_limit:
+                not_fitted[engine] = (f"one toss costs {per_toss:.2g} s, so the fit ({evaluations} parameter sets x "
+                                      f"{len(train)} tosses) would take about "
+                                      f"{estimate / 3600:.2g} h (> --fit-limit {args.fit_limit:g} s)")
+                say(f"  {engine}: nominal only: {not_fitted[engine]}")
+            elif do_fit and train:
+                say(f"  {engine}: fitting {', '.join(parameter_space(engine))} on {len(train)} tosses "
+                    f"(about {estimate:.0f} s)")
+                f = fit(engine, train, map_fn=map_fn, popsize=args.popsize, generations=args.generations, **common)
+                fits[engine] = {"params": f.params, "names": list(f.names), "loss": f.loss,
+                                "nominal_loss": f.nominal_loss, "evaluations": f.evaluations,
+                                "tosses": len(f.tosses), "seconds": f.seconds,
+                                "spread": f.bootstrap(args.bootstrap)}
+                params = f.params
+            elif not do_fit:
+                not_fitted[engine] = "no parameters given for it" if args.params else "--nominal"
+            for r in nom:
+                r["param_set"] = "nominal"
+            sets = [("nominal", nom)]
+            if params is not None:
+                fitted_rows = simulate_many(engine, params, test, map_fn=map_fn, keep=True, **common)
+                for r in fitted_rows:
+                    r["param_set"] = "fitted"
+                sets.append(("fitted", fitted_rows))
+                if engine in given:
+                    fits[engine] = {"params": params, "names": list(params), "spread": []}
+            for pset, rs in sets:
+                for r in rs:
+                    tr, fl = _flight(source, r["toss"])
+                    r["t_contact"] = float(tr.t[fl.contact] - fl.t0)
+                    r["split"] = "test"
+                    if r["status"] not in ("ok",):
+                        failures.append(f"{engine} ({pset}) toss {r['toss']}: {r['status']}: {r['message']}")
+                trajectories[(engine, pset)] = rs
+                rows += rs
+            say(f"  {engine}: done in {time.perf_counter() - t0:.0f} s")
+
+    scores = pd.DataFrame([{k: v for k, v in r.items() if k != "trajectory"} for r in rows])
+    noise = noise_rows(test, source, args.horizon)
+    noise_table = _noise_text(pd.DataFrame(noise), len(test), ct.rest_tilt(tosses, test))
+    notes = {
+        "intro": _intro(source, train, test, unusable),
+        "fit": _fit_text(args, do_fit),
+        "not_fitted": not_fitted,
+        "nominal": {e: nominal(e) for e in engines},
+        "noise": noise_table,
+        "failures": failures,
+        "run": (f"Total run time {time.perf_counter() - started:.0f} s with {args.workers} worker(s)"
+                f"{' on ' + args.scheduler if args.scheduler else ''}; dt = {DT * 1e3:.4f} ms ({SUBSTEPS} steps per "
+                f"sample); cache {'off' if not cache else 'on'}; engine versions: "
+                + ", ".join(f"{e} {engine_version(e)}" for e in engines if e not in skipped) + "; command: "
+                + " ".join(["physval"] + sys.argv[1:])),
+    }
+    path = write_report(out, scores, noise, trajectories, fits, skipped, notes, source)
+    say(f"wrote {path} in {time.perf_counter() - started:.0f} s")
+    return 0
+
+
+def _intro(source, train, test, unusable) -> str:
+    data = (f"`{source}`" if source else
+            "the packaged ContactNets cube tosses (`cases/data/cube_toss/`: 400 motion-captured tosses of one "
+            "acrylic cube, 10.48 cm, 0.37 kg, onto one surface, sampled at 148 Hz; BSD 3-Clause)")
+    text = (f"Data: {data}. Each toss starts from its free flight fitted up to the sample just before first "
+            f"contact (a parabola for the centre, a constant world-frame spin for the orientation: exact for "
+            f"a free cube), with the ground {abs(ct.SURFACE_Z) * 1e3:.2f} mm below the data's z = 0 (the resting "
+            f"cubes' centres say so), and runs to the toss's last sample at dt = {DT * 1e3:.3f} ms. "
+            f"Split: even toss ids train ({len(train)} tosses), odd ids test ({len(test)}). Horizons count "
+            f"from the first measured sample in contact.")
+    if unusable:
+        text += f" Tosses left out ({len(unusable)}): " + "; ".join(f"{i}: {w}" for i, w in unusable.items())
+    return text
+
+
+def _fit_text(args, do_fit) -> str:
+    if not do_fit:
+        return "Parameters were given (--params) or not fitted (--nominal)."
+    spread = (f" Uncertainty: {args.bootstrap} bootstrap resamples of the training tosses, each taking the best of "
+              "the parameter sets the fit evaluated (their per-toss losses are kept; no further simulation).")
+    return (f"Differential evolution (scipy), popsize {args.popsize} per parameter, {args.generations} generations "
+            f"after the first, seed 0, the nominal point in the first generation; loss: the mean over training "
+            f"tosses of each toss's mean corner error (cube widths); mu and e on a {NEUTRAL_GRID} grid, bounds "
+            + ", ".join(f"{n} [{t.low:g}, {t.high:g}]" for n, t in NEUTRAL.items())
+            + "; engine-specific ones in their adapter's range (MuJoCo's contact_steps: the contact lasts about "
+            "that many steps; its solref follows from it and e)." + spread)
+
+
+def _noise_text(noise: pd.DataFrame, n: int, tilt: float) -> str:
+    if noise.empty:
+        return ""
+    def q(column):  # median and 95th percentile over the tosses that have the reading
+        v = noise[column].dropna()
+        return np.percentile(v, [50, 95]) if len(v) else (math.nan, math.nan)
+
+    return (f"The measured trajectory against itself smoothed (a quadratic least-squares fit over 5 samples, "
+            f"{4 * ct.SAMPLE_PERIOD * 1e3:.0f} ms: Savitzky-Golay), scored by the same code as the engines over the {n} test tosses: "
+            f"mean corner error median {q('corner_mean')[0]:.3g} widths (95th percentile {q('corner_mean')[1]:.3g}); "
+            f"centre {q('pos_final')[0]:.2g} widths and orientation {q('rot_final')[0]:.2g} deg at rest. "
+            f"The free flight before the first contact departs from its exact free-flight fit by "
+            f"{q('flight_pos_mm')[0]:.2g} mm and {q('flight_rot_deg')[0]:.2g} deg RMS (median over tosses; 95th "
+            f"percentile {q('flight_pos_mm')[1]:.2g} mm, {q('flight_rot_deg')[1]:.2g} deg): the start state is known "
+            f"to about that. Resting cubes read {abs(ct.SURFACE_Z) * 1e3:.2f} mm lower than the half-width (the "
+            f"surface offset every scene takes) and tilted by {math.degrees(tilt):.2g} deg (median of the final samples), "
+            f"so orientation errors at rest below about {math.degrees(tilt):.2g} deg and centre errors below about "
+            f"0.01 widths are within the data's precision.")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """`python -m physval.readings.real ...` until the command is wired into physval's CLI."""
+    parser = argparse.ArgumentParser(prog="physval")
+    sub = parser.add_subparsers(dest="command", required=True)
+    add_parser(sub)
+    return run(parser.parse_args(argv))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
