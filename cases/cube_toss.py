@@ -315,6 +315,9 @@ def fit_flight(tr: Toss, surface: float = SURFACE_Z) -> FlightFit:
         # orientation: rotation vectors of q_k q_k0^-1 are w s for a constant world spin;
         # fit w and a small correction c of q_k0 (q0 = Exp(c) q_k0) by linear least squares
         rel = (_to_scipy(q) * _to_scipy(q[k0]).inv()).as_rotvec()
+        if np.linalg.norm(rel, axis=1).max() > 0.9 * np.pi:  # rotation vectors wrap at pi
+            raise TossError(f"toss {tr.id}: the cube turns by more than 0.9 pi in its free flight, "
+                            "which this fit does not unwrap (the packaged tosses turn by at most 1.2 rad)")
         (c, w), *_ = np.linalg.lstsq(A, rel, rcond=None)
         q0 = _from_scipy(Rotation.from_rotvec(c) * _to_scipy(q[k0]))[0]
         fit = FlightFit(float(t[k0]), p0, v0, q0, w, k0, kc, np.zeros(0), np.zeros(0))

@@ -1,6 +1,24 @@
 """`physval real`: engines against 400 measured cube tosses (the real-world tier).
 
-README paragraph (draft): see DRAFT_README below; it is printed by `--readme`.
+README paragraph (draft, for the lead to merge):
+
+    `physval real` asks how far each engine is from the real world once its contact
+    parameters are fitted as well as they can be. It replays 400 motion-captured tosses of
+    one acrylic cube onto one surface (the ContactNets data set, BSD 3-Clause, shipped in
+    `cases/data/cube_toss/`): each toss starts from its measured state just before the first
+    impact; every 3D engine fits its friction, restitution and (MuJoCo) contact time scale
+    on the even-numbered tosses; the odd-numbered ones are scored at the fitted and at the
+    data set's nominal parameters (mu 0.18, e 0.125). The errors are the distance between
+    simulated and measured centre in cube widths and the angle between the orientations in
+    degrees, 0.1 s and 0.5 s after the first impact and at the final rest pose, and whether
+    the cube ends on the same face; `reports/real/real_report.md` ranks the engines and sets
+    them against the noise floor of the data (the measurement against itself smoothed).
+    Read them as the reality gap for this one cube on this one surface, not as a property
+    of an engine in general: the tosses are chaotic (a small change before an impact can
+    change the face the cube ends on), the start state carries the capture's noise, and the
+    fitted parameters absorb whatever the cube and the surface do that no engine models.
+    `physval real --tosses FILE --params reports/real/params.json` scores your own tosses
+    (same columns) with the saved parameters; `--fit` fits them on your file instead.
 
 What it does, per engine (every registered 3D engine that is installed):
 1. Each toss of the test split (odd toss ids, `cases.cube_toss`) is built as an
@@ -25,8 +43,11 @@ What it does, per engine (every registered 3D engine that is installed):
    The parameters' uncertainty is a bootstrap over the training tosses: the training set
    is resampled with replacement BOOTSTRAP times, and each resample picks its best among
    the parameter sets the fit evaluated (their per-toss losses are kept), at no further
-   simulation cost. Engines whose one-toss cost would make the fit exceed `--fit-limit`
-   (the pure-Python reference formulations) are scored at the nominal parameters only.
+   simulation cost. An engine whose fit over the whole training split would cost more
+   than `--fit-limit` CPU seconds (the pure-Python reference formulations, DART) fits on
+   an evenly spread subset of it; one that would need fewer than MIN_FIT_TOSSES tosses for
+   that, or fails on most tosses, is scored at the nominal parameters only. Likewise an
+   engine too slow for the whole test split (`--score-limit`) scores an even subset.
 4. Both parameter sets (fitted, and the data set's nominal mu 0.18, e 0.125) are scored on
    the test split; the noise floor (the measured trajectory against itself smoothed,
    scored by the same code) goes beside them.
@@ -60,7 +81,7 @@ from adapters.base import Settings, Tunable, Unsupported
 from cases import cube_toss as ct
 
 # Bump when a change alters what a cached simulation means (scene, start state, stepping).
-CODE_VERSION = "real-1"
+CODE_VERSION = "real-2"
 SUBSTEPS = 7                          # engine steps per measured sample
 DT = ct.SAMPLE_PERIOD / SUBSTEPS      # 0.966 ms: the step the engines' own docs use for contact (~1 ms)
 HORIZONS = (0.1, 0.5)                 # s after the first measured contact; plus the final sample
@@ -80,11 +101,13 @@ POPSIZE = 5
 GENERATIONS = 8
 BOOTSTRAP = 200                       # resamples of the training tosses for the parameters' spread
 BATCH = 8                             # tosses per task: ~0.1 s of stepping for the C++ engines
-# s: an engine whose estimated fit takes longer is scored at nominal only. Measured on a
-# shared 2-core machine: the C++ engines' fits take 300-2400 s, the pure-Python reference
-# formulations' would take 5600 s and more (0.3-35 s a toss).
-FIT_LIMIT = 3600.0
-SCORE_LIMIT = 300.0                   # s: an engine slower than this over the test split scores an even subset of it
+# CPU s per engine for its fit: an engine whose fit over the whole training split would cost
+# more fits on an evenly spread subset (`_fit_plan`). CPU per toss measured: MuJoCo 0.017 s,
+# PyBullet 0.034 s, DART 0.086 s, the reference (sequential impulses) 0.14 s, its PGS 0.23 s,
+# so MuJoCo and PyBullet fit on all 209 training tosses and the others on a half to a fifth.
+FIT_LIMIT = 900.0
+MIN_FIT_TOSSES = 16                   # fewer training tosses would fit the noise of a few chaotic tosses
+SCORE_LIMIT = 300.0                   # CPU s: an engine slower than this over the test split scores an even subset
 DEFAULT_OUT = Path("reports/real")
 PARAM_SETS = ("fitted", "nominal")
 
@@ -203,7 +226,7 @@ class SimCache:
     def put(self, key: str, sim: dict) -> None:
         folder = self.folder / key[:2]
         folder.mkdir(parents=True, exist_ok=True)
-        meta = json.dumps({k: sim[k] for k in ("status", "message", "wall", "elapsed", "steps")})
+        meta = json.dumps({k: sim[k] for k in ("status", "message", "wall", "cpu", "elapsed", "elapsed_cpu", "steps")})
         fd, tmp = tempfile.mkstemp(dir=folder, suffix=".tmp")
         try:
             with os.fdopen(fd, "wb") as f:
@@ -229,22 +252,23 @@ def _step(engine: str, scene, dt: float, options: dict, steps_at: np.ndarray) ->
     """Build and step one scene, reading the cube's pose at the given step counts."""
     n = len(steps_at)
     pos, quat = np.full((n, 3), np.nan), np.full((n, 4), np.nan)
-    out = {"status": "ok", "message": "", "wall": 0.0, "steps": 0}
-    start = time.perf_counter()
+    out = {"status": "ok", "message": "", "wall": 0.0, "cpu": 0.0, "steps": 0}
+    start, start_cpu = time.perf_counter(), time.thread_time()
     try:
         sim = _adapter(engine).build(scene, Settings(dt=dt, options=options))
     except Unsupported as exc:
         return {**out, "status": "unsupported", "message": str(exc), "pos": pos, "quat": quat,
-                "elapsed": time.perf_counter() - start}
+                "elapsed": time.perf_counter() - start, "elapsed_cpu": time.thread_time() - start_cpu}
     step = 0
     try:
         with sim:
             for j, target in enumerate(steps_at.tolist()):
-                t0 = time.perf_counter()
+                t0, c0 = time.perf_counter(), time.thread_time()
                 while step < target:
                     sim.step()
                     step += 1
                 out["wall"] += time.perf_counter() - t0
+                out["cpu"] += time.thread_time() - c0
                 row = sim.states()["cube"]
                 if not (np.all(np.isfinite(row[:7])) and np.linalg.norm(row[:3]) < LOST):
                     out.update(status="unstable", message=f"state {row[:7].tolist()} at step {step}")
@@ -252,7 +276,8 @@ def _step(engine: str, scene, dt: float, options: dict, steps_at: np.ndarray) ->
                 pos[j], quat[j] = row[:3], row[3:7] / np.linalg.norm(row[3:7])
     except Exception as exc:  # an engine failure is a result of this toss, not a crash
         out.update(status="error", message=f"{type(exc).__name__}: {exc}"[:300])
-    out.update(steps=step, pos=pos, quat=quat, elapsed=time.perf_counter() - start)
+    out.update(steps=step, pos=pos, quat=quat, elapsed=time.perf_counter() - start,
+               elapsed_cpu=time.thread_time() - start_cpu)
     return out
 
 
@@ -262,7 +287,9 @@ def simulate_toss(engine: str, toss_id: int, params: dict, horizon: float | None
 
     Returns the simulated poses at the measured sample times from the start sample on
     (`pos`, `quat`, NaN after a failure), `status` (ok, unstable, error, unsupported) and
-    `message`, the stepping `wall` time and `elapsed` time with the build, and the
+    `message`, the stepping time (`wall`, and `cpu`: this thread's CPU time, which a
+    shared machine's load does not inflate), the same with the build (`elapsed`,
+    `elapsed_cpu`), and the
     per-sample errors against the measurement (`errors`)."""
     tr, fit = _flight(source, int(toss_id))
     params = rounded(engine, params)
@@ -357,8 +384,9 @@ def run_batch(batch: Batch) -> list[dict]:
                           batch.source, batch.cache)
         tr, fit = _flight(batch.source, toss_id)
         row = {"engine": batch.engine, "toss": toss_id, "status": r["status"], "message": r["message"],
-               "sim_time": float(r["t"][-1]) if len(r["t"]) else 0.0, "wall": r["wall"],
-               "elapsed": r["elapsed"], "steps": r["steps"], "params": json.dumps(r["params"], sort_keys=True)}
+               "sim_time": float(r["t"][-1]) if len(r["t"]) else 0.0, "wall": r["wall"], "cpu": r["cpu"],
+               "elapsed": r["elapsed"], "elapsed_cpu": r["elapsed_cpu"], "steps": r["steps"],
+               "params": json.dumps(r["params"], sort_keys=True)}
         if r["status"] != "unsupported":
             row.update(score(tr, fit, r["t"], r["pos"], r["quat"], r["status"]))
         if batch.keep:
@@ -493,8 +521,9 @@ def summary(scores: pd.DataFrame) -> pd.DataFrame:
             row[f"{m}_n"] = len(v)
         face = g["same_face"].dropna() if "same_face" in g else pd.Series([], dtype=object)
         row["same_face"] = float(face.astype(bool).mean()) if len(face) else math.nan
-        wall = g["wall"].sum() if "wall" in g else 0.0
-        row["speed"] = float(g["sim_time"].sum() / wall) if "sim_time" in g and wall > 0 else math.nan
+        for name, column in (("speed", "wall"), ("speed_cpu", "cpu")):
+            spent = g[column].sum() if column in g else 0.0
+            row[name] = float(g["sim_time"].sum() / spent) if "sim_time" in g and spent > 0 else math.nan
         out.append(row)
     return pd.DataFrame(out)
 
@@ -600,27 +629,6 @@ def plot_overlays(engine: str, picks: dict[str, tuple[dict, dict | None]], sourc
     plt.close(fig)
 
 
-DRAFT_README = """\
-`physval real` asks how far each engine is from the real world once its contact parameters
-are fitted as well as they can be. It replays 400 motion-captured tosses of one acrylic cube
-onto one surface (the ContactNets data set, BSD 3-Clause, shipped in
-`cases/data/cube_toss/`): every toss starts from its measured state just before the first
-impact, every 3D engine fits its friction, restitution and (MuJoCo) contact time scale on
-the even-numbered tosses, and the odd-numbered ones are scored, at the fitted and at the
-data set's nominal parameters (mu 0.18, e 0.125). Errors are the distance between the
-simulated and measured centre in cube widths and the angle between the orientations in
-degrees, 0.1 s and 0.5 s after the first impact and at the final rest pose, plus whether the
-cube ends on the same face; `reports/real/real_report.md` ranks the engines and sets the
-numbers against the noise floor of the data (the measurement against itself smoothed). Read
-them as a lower bound on the reality gap for this one cube on this one surface, not as a
-property of an engine: the tosses are chaotic (a small change before the first impact can
-change the face the cube ends on), the start state carries the capture's noise, and the
-fitted parameters absorb whatever the cube and surface do that no engine models (the
-surface's compliance, the cube's chipped edges). `physval real --tosses FILE --params
-reports/real/params.json` scores your own tosses (same columns) with the saved parameters;
-`--fit` fits them on your file instead."""
-
-
 def section(summ: pd.DataFrame, fits: dict[str, dict], skipped: dict[str, str], notes: dict) -> str:
     """The report section in markdown: ranking, fitted parameters, distributions, the
     noise floor, cost, skipped engines."""
@@ -645,7 +653,7 @@ def section(summ: pd.DataFrame, fits: dict[str, dict], skipped: dict[str, str], 
               "as wrong).", "",
               f"| rank | engine | parameters | mean corner err. | centre {h1} | angle {h1} | centre {h2} | "
               f"angle {h2} | centre final | angle final | right face | nominal: corner err. | nominal: right face "
-              "| speed (sim s / wall s) |",
+              "| speed (sim s per wall s; per CPU s) |",
               "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for rank, engine in enumerate(order, 1):
         s = best_set(engine)
@@ -653,12 +661,14 @@ def section(summ: pd.DataFrame, fits: dict[str, dict], skipped: dict[str, str], 
                  "fitted" if fits.get(engine, {}).get("loss") is not None else "given")
         params = fits.get(engine, {}).get("params") or notes.get("nominal", {}).get(engine, {})
         n = nom.loc[engine] if engine in nom.index else None
+        label = f"{engine} ({int(s['tosses'])} tosses)" if engine in notes.get("subsets", {}) else engine
         lines.append(
-            f"| {rank} | {engine} | {which}: {_params_text(params)} | {_fmt(s['corner_mean_median'])} | "
+            f"| {rank} | {label} | {which}: {_params_text(params)} | {_fmt(s['corner_mean_median'])} | "
             f"{_fmt(s[f'pos_{h1}_median'])} | {_fmt(s[f'rot_{h1}_median'])} | {_fmt(s[f'pos_{h2}_median'])} | "
             f"{_fmt(s[f'rot_{h2}_median'])} | {_fmt(s['pos_final_median'])} | {_fmt(s['rot_final_median'])} | "
             f"{_fmt(100 * s['same_face'], 3)} % | {_fmt(n['corner_mean_median']) if n is not None else '-'} | "
-            f"{_fmt(100 * n['same_face'], 3) + ' %' if n is not None else '-'} | {_fmt(s['speed'])} |")
+            f"{_fmt(100 * n['same_face'], 3) + ' %' if n is not None else '-'} | {_fmt(s['speed'])}; "
+            f"{_fmt(s['speed_cpu'])} |")
     if len(floor):
         f = floor.iloc[0]
         lines.append(f"| - | noise floor (data vs smoothed) | - | {_fmt(f['corner_mean_median'])} | "
@@ -670,7 +680,7 @@ def section(summ: pd.DataFrame, fits: dict[str, dict], skipped: dict[str, str], 
     lines += ["## Fitted parameters", "",
               notes.get("fit", ""), "",
               "| engine | fitted parameters | bootstrap over training tosses (mean +- sd; 5-95 %) | train loss (fitted) | "
-              "train loss (nominal) | evaluations | fit time (s) |", "|---|---|---|---|---|---|---|"]
+              "train loss (nominal) | evaluations | fit wall time (s) |", "|---|---|---|---|---|---|---|"]
     for engine in order:
         f = fits.get(engine)
         if not f:
@@ -680,7 +690,8 @@ def section(summ: pd.DataFrame, fits: dict[str, dict], skipped: dict[str, str], 
         spread = "; ".join(
             f"{n} {_fmt(np.mean(v))} +- {_fmt(np.std(v))} ({_fmt(np.percentile(v, 5))}..{_fmt(np.percentile(v, 95))})"
             for n, v in ((n, [fp[n] for fp in f.get("spread", [])]) for n in f["names"]) if v) or "-"
-        lines.append(f"| {engine} | {_params_text(f['params'])} | {spread} | {_fmt(f.get('loss'))} | "
+        subset = f" (fitted on {f['subset']})" if f.get("subset") else ""
+        lines.append(f"| {engine} | {_params_text(f['params'])}{subset} | {spread} | {_fmt(f.get('loss'))} | "
                      f"{_fmt(f.get('nominal_loss'))} | {f.get('evaluations', '-')} | {_fmt(f.get('seconds'), 3)} |")
 
     lines += ["", "## Error distributions (test split)", "",
@@ -793,13 +804,38 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--bootstrap", type=int, default=BOOTSTRAP, metavar="N",
                    help=f"resamples of the training tosses for the parameters' spread (default {BOOTSTRAP})")
     p.add_argument("--fit-limit", type=float, default=FIT_LIMIT, metavar="S",
-                   help=f"score at nominal only the engines whose fit would take longer than S seconds "
-                        f"(estimated from their cost per toss; default {FIT_LIMIT:g})")
+                   help=f"CPU seconds per engine for its fit: slower engines fit on an evenly spread subset of the "
+                        f"training tosses (at least {MIN_FIT_TOSSES}; else nominal only); default {FIT_LIMIT:g}")
     p.add_argument("--score-limit", type=float, default=SCORE_LIMIT, metavar="S",
                    help=f"score an evenly spread subset of the test tosses on engines that would take longer than "
-                        f"S seconds per parameter set over all of them (default {SCORE_LIMIT:g})")
+                        f"S CPU seconds per parameter set over all of them (default {SCORE_LIMIT:g})")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     return p
+
+
+def _fit_plan(engine: str, nominal_rows: list[dict], train: list[int], args) -> tuple[str, list[int]]:
+    """(why not fit, or ""; the training tosses to fit on). An engine that fails on most
+    tosses at nominal parameters is not fitted (the fit would measure its failures); one
+    whose fit over the whole training split would cost more than --fit-limit CPU seconds
+    (estimated from its nominal tosses) fits on an evenly spread subset of it, if that
+    keeps at least MIN_FIT_TOSSES tosses."""
+    if not train:
+        return "no training tosses (even ids) to fit on", []
+    failed = sum(r["status"] != "ok" for r in nominal_rows)
+    if failed > len(nominal_rows) / 2:
+        return f"fails on {failed} of {len(nominal_rows)} test tosses at nominal parameters", []
+    per_toss = float(np.median([r["elapsed_cpu"] for r in nominal_rows]))
+    evaluations = args.popsize * len(parameter_space(engine)) * (args.generations + 1)
+    estimate = per_toss * evaluations * len(train)
+    if estimate <= args.fit_limit:
+        return "", list(train)
+    every = math.ceil(estimate / args.fit_limit)
+    part = list(train[::every])
+    if len(part) < MIN_FIT_TOSSES:
+        return (f"one toss costs {per_toss:.2g} CPU s, so even {MIN_FIT_TOSSES} training tosses x {evaluations} "
+                f"parameter sets would take {per_toss * evaluations * MIN_FIT_TOSSES / 3600:.2g} h "
+                f"(> --fit-limit {args.fit_limit:g} s)"), []
+    return "", part
 
 
 def default_cache() -> Path:
@@ -854,8 +890,15 @@ def run(args) -> int:
         return 2
 
 
+def _cpu_seconds() -> float:
+    """CPU time of this process and of its finished child processes (a process pool's)."""
+    import resource
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
 def _run(args) -> int:
-    started = time.perf_counter()
+    started, started_cpu = time.perf_counter(), _cpu_seconds()
 
     def say(text: str) -> None:
         if not args.quiet:
@@ -905,36 +948,36 @@ def _run(args) -> int:
                 skipped[engine] = nom[0]["message"]
                 say(f"  {engine}: unsupported ({nom[0]['message']})")
                 continue
-            per_toss = nom[0]["elapsed"]
+            per_toss = nom[0]["elapsed_cpu"]
             scored = test
             if per_toss * len(test) > args.score_limit:
                 every = math.ceil(per_toss * len(test) / args.score_limit)
                 scored = test[::every]
-                subsets[engine] = (f"one toss costs {per_toss:.2g} s: scored on every {every}-th test toss "
+                subsets[engine] = (f"one toss costs {per_toss:.2g} CPU s: scored on every {every}-th test toss "
                                    f"({len(scored)} of {len(test)}; --score-limit {args.score_limit:g} s)")
                 say(f"  {engine}: {subsets[engine]}")
             nom += simulate_many(engine, nominal(engine), scored[1:], map_fn=map_fn, keep=True, **common)
-            per_toss = float(np.median([r["elapsed"] for r in nom]))
-            evaluations = args.popsize * len(parameter_space(engine)) * (args.generations + 1)
-            estimate = per_toss * evaluations * len(train)
             params = None
             if engine in given:
                 params = given[engine]
-            elif do_fit and train and estimate > args.fit_limit:
-                not_fitted[engine] = (f"one toss costs {per_toss:.2g} s, so the fit ({evaluations} parameter sets x "
-                                      f"{len(train)} tosses) would take about "
-                                      f"{estimate / 3600:.2g} h (> --fit-limit {args.fit_limit:g} s)")
-                say(f"  {engine}: nominal only: {not_fitted[engine]}")
-            elif do_fit and train:
-                say(f"  {engine}: fitting {', '.join(parameter_space(engine))} on {len(train)} tosses "
-                    f"(about {estimate:.0f} s)")
-                f = fit(engine, train, map_fn=map_fn, popsize=args.popsize, generations=args.generations, **common)
-                fits[engine] = {"params": f.params, "names": list(f.names), "loss": f.loss,
-                                "nominal_loss": f.nominal_loss, "evaluations": f.evaluations,
-                                "tosses": len(f.tosses), "seconds": f.seconds,
-                                "spread": f.bootstrap(args.bootstrap)}
-                params = f.params
-            elif not do_fit:
+            elif do_fit:
+                why, part = _fit_plan(engine, nom, train, args)
+                if why:
+                    not_fitted[engine] = why
+                    say(f"  {engine}: nominal only: {why}")
+                else:
+                    say(f"  {engine}: fitting {', '.join(parameter_space(engine))} on {len(part)} tosses")
+                    f = fit(engine, part, map_fn=map_fn, popsize=args.popsize, generations=args.generations,
+                            **common)
+                    fits[engine] = {"params": f.params, "names": list(f.names), "loss": f.loss,
+                                    "nominal_loss": f.nominal_loss, "evaluations": f.evaluations,
+                                    "tosses": len(f.tosses), "seconds": f.seconds,
+                                    "spread": f.bootstrap(args.bootstrap),
+                                    "subset": (f"every {len(train) // len(part)}-th training toss ({len(part)} of "
+                                               f"{len(train)}: the whole split would cost more than --fit-limit)"
+                                               if len(part) < len(train) else "")}
+                    params = f.params
+            else:
                 not_fitted[engine] = "no parameters given for it" if args.params else "--nominal"
             for r in nom:
                 r["param_set"] = "nominal"
@@ -972,7 +1015,9 @@ def _run(args) -> int:
         "nominal": {e: nominal(e) for e in engines},
         "noise": noise_table,
         "failures": failures,
-        "run": (f"Total run time {time.perf_counter() - started:.0f} s with {args.workers} worker(s)"
+        "run": (f"Total run time {time.perf_counter() - started:.0f} s with {args.workers} worker(s) "
+                f"({_cpu_seconds() - started_cpu:.0f} CPU s in this process and its worker processes; "
+                f"machine load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores at the end)"
                 f"{' on ' + args.scheduler if args.scheduler else ''}; dt = {DT * 1e3:.4f} ms ({SUBSTEPS} steps per "
                 f"sample); cache {'off' if not cache else 'on'}; engine versions: "
                 + ", ".join(f"{e} {engine_version(e)}" for e in engines if e not in skipped) + "; command: "
@@ -1008,7 +1053,9 @@ def _fit_text(args, do_fit) -> str:
             f"tosses of each toss's mean corner error (cube widths); mu and e on a {NEUTRAL_GRID} grid, bounds "
             + ", ".join(f"{n} [{t.low:g}, {t.high:g}]" for n, t in NEUTRAL.items())
             + "; engine-specific ones in their adapter's range (MuJoCo's contact_steps: the contact lasts about "
-            "that many steps; its solref follows from it and e)." + spread)
+            "that many steps; its solref follows from it and e). An engine whose fit over the whole training split "
+            f"would cost more than {args.fit_limit:g} CPU s (estimated from its nominal tosses) fits on every k-th "
+            f"training toss, if that leaves at least {MIN_FIT_TOSSES}." + spread)
 
 
 def _noise_text(noise: pd.DataFrame, n: int, tilt: float) -> str:
