@@ -34,12 +34,15 @@ What this module decides, engine-neutrally:
   original file numbers in recording order, so both halves span the whole session.
 - **Noise floor**: how far the measured trajectory is from itself smoothed (a quadratic
   least-squares fit over 5 samples, 27 ms, on positions and on orientations: Savitzky-Golay),
-  and how far the free-flight samples are from their exact free-flight fit.
+  and how far the free-flight samples are from their exact free-flight fit. That fit's
+  residuals also give the start state's uncertainty (`FlightFit.perturbed`): a simulation
+  from a start state drawn from it shows how far the capture's noise alone, amplified by
+  the impacts, carries an engine's prediction.
 """
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -288,6 +291,9 @@ class FlightFit:
     contact: int         # first contact sample
     residual_pos: np.ndarray  # (k,) |p_meas - p_fit| over the flight samples, m
     residual_rot: np.ndarray  # (k,) angle between measured and fitted orientation, rad
+    # (A^T A)^-1 of the fit's design A = [1, s]: times a residual variance, the covariance
+    # of (value at t0, rate) along one axis (least squares)
+    cov_unit: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))
 
     def state(self, s: np.ndarray):
         """Fitted position and orientation at times s after t0 (flight only)."""
@@ -295,6 +301,25 @@ class FlightFit:
         p = self.p0 + np.outer(s, self.v0) - 0.5 * G * np.outer(s * s, [0.0, 0.0, 1.0])
         q = _from_scipy(Rotation.from_rotvec(np.outer(s, self.w)) * _to_scipy(self.q0))
         return p, q
+
+    def perturbed(self, seed: int, surface: float = SURFACE_Z) -> "FlightFit":
+        """The start state drawn once from its own uncertainty: (p0, v0) along each axis
+        from sigma_p^2 (A^T A)^-1 and (orientation, w) about each axis from
+        sigma_theta^2 (A^T A)^-1, with sigma the fit's RMS residual per axis (the
+        least-squares covariance, residuals taken as white noise). A draw that puts a
+        corner below the surface is lifted clear of it (by at most the draw's size)."""
+        rng = np.random.default_rng(seed)
+        L = np.linalg.cholesky(self.cov_unit)
+        sigma_p = np.sqrt(np.mean(self.residual_pos ** 2) / 3.0)
+        sigma_t = np.sqrt(np.mean(self.residual_rot ** 2) / 3.0)
+        dp = L @ rng.standard_normal((2, 3)) * sigma_p     # rows: delta p0, delta v0
+        dr = L @ rng.standard_normal((2, 3)) * sigma_t     # rows: delta rotation, delta w
+        p0 = self.p0 + dp[0]
+        q0 = _from_scipy(Rotation.from_rotvec(dr[0]) * _to_scipy(self.q0))[0]
+        clearance = lowest_corner(p0[None, :], q0[None, :])[0] - surface
+        if clearance <= 0.0:
+            p0 = p0 + [0.0, 0.0, 1e-6 - clearance]
+        return replace(self, p0=p0, v0=self.v0 + dp[1], q0=q0, w=self.w + dr[1])
 
 
 def fit_flight(tr: Toss, surface: float = SURFACE_Z) -> FlightFit:
@@ -327,7 +352,8 @@ def fit_flight(tr: Toss, surface: float = SURFACE_Z) -> FlightFit:
         k0 -= 1
     if lowest_corner(pf[k0:k0 + 1], qf[k0:k0 + 1])[0] <= surface:
         raise TossError(f"toss {tr.id}: the fitted flight reaches the surface before any sample")
-    return FlightFit(fit.t0, p0, v0, q0, w, k0, kc, np.linalg.norm(p - pf, axis=1), angle_between(q, qf))
+    return FlightFit(fit.t0, p0, v0, q0, w, k0, kc, np.linalg.norm(p - pf, axis=1), angle_between(q, qf),
+                     np.linalg.inv(A.T @ A))
 
 
 def scene(tr: Toss, mu: float = MU_NOMINAL, e: float = E_NOMINAL, fit: FlightFit | None = None) -> Scene:

@@ -138,6 +138,32 @@ def test_a_quarter_turn_about_a_horizontal_axis_changes_the_face(tosses):
     assert _score(tr, tr.pos, tipped)["same_face"] is False
 
 
+def test_a_start_state_drawn_from_its_uncertainty_is_near_and_clear_of_the_ground(tosses):
+    for toss_id in (0, 3, 75):
+        fit = ct.fit_flight(tosses[toss_id])
+        a, b = fit.perturbed(7), fit.perturbed(7)
+        np.testing.assert_array_equal(a.p0, b.p0)  # a seed gives one draw
+        # within five standard deviations of the fit's own least-squares uncertainty
+        sigma_p = np.sqrt(np.mean(fit.residual_pos ** 2) / 3 * fit.cov_unit[0, 0])
+        assert 0 < np.abs(a.p0 - fit.p0).max() < 5 * sigma_p + 1e-6  # + a lift clear of the ground
+        assert ct.lowest_corner(a.p0[None], a.q0[None])[0] > ct.SURFACE_Z
+
+
+def test_an_engine_against_itself_from_the_same_start_scores_zero():
+    rows = real.simulate_many("mujoco", real.nominal("mujoco"), [3, 5], keep=True, horizon=0.2)
+    for r in rows:
+        r["t_contact"] = 0.05
+    for row in real.sensitivity(rows, rows, None):
+        assert row["corner_mean"] == pytest.approx(0.0, abs=1e-12) and row["same_face"] is not False
+
+
+def test_paired_difference_is_the_median_of_per_toss_differences():
+    scores = pd.DataFrame({"engine": ["a"] * 5 + ["b"] * 5, "param_set": "fitted", "status": "ok",
+                           "toss": list(range(5)) * 2, "corner_mean": [1, 2, 3, 4, 5, 0, 0, 0, 0, 10]})
+    med, lo, hi, n = real.paired_difference(scores, ("a", "fitted"), ("b", "fitted"))
+    assert (med, n) == (2.0, 5) and lo <= med <= hi  # differences 1, 2, 3, 4, -5
+
+
 def test_the_noise_floor_is_small_but_not_zero(tosses):
     nf = ct.noise_floor(tosses[0])
     # the capture's noise: tens of micrometres and hundredths of a degree, not zero
@@ -232,7 +258,7 @@ def test_the_command_fits_scores_and_writes_the_report(tmp_path):
                  "plots/horizons.png", "plots/overlay_mujoco.png"):
         assert (out / name).is_file(), name
     scores = pd.read_csv(out / "real_scores.csv")
-    assert set(scores.param_set) == {"fitted", "nominal", "data"}
+    assert set(scores.param_set) == {"fitted", "nominal", "start noise", "data"}
     assert set(scores[scores.engine == "mujoco"].toss) == {3, 5}  # the first two test tosses (odd ids)
     report = (out / "real_report.md").read_text()
     assert "## Ranking (test split)" in report and "noise floor" in report
