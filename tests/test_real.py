@@ -36,6 +36,12 @@ def test_the_packaged_data_has_400_tosses_in_si_units(tosses):
     assert np.median(steps) == pytest.approx(ct.SAMPLE_PERIOD, rel=1e-3)
 
 
+def test_only_the_toss_a_hand_moved_after_rest_is_cut(tosses):
+    raw = pd.read_csv(ct.DATA).groupby("toss").size()
+    cut = {i: (len(tr), int(raw[i])) for i, tr in tosses.items() if len(tr) != raw[i]}
+    assert cut == {127: (308, 442)}  # rests from sample 111 (0.75 s), moved from sample 308 on
+
+
 def test_stored_angular_velocity_is_in_the_body_frame(tosses):
     """dq/dt = q (0, w) / 2 with body-frame w fits the quaternions' finite differences to the
     few per cent that finite-difference velocities carry; the world-frame reading of the same

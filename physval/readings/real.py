@@ -49,8 +49,11 @@ What it does, per engine (every registered 3D engine that is installed):
    that, or fails on most tosses, is scored at the nominal parameters only. Likewise an
    engine too slow for the whole test split (`--score-limit`) scores an even subset.
 4. Both parameter sets (fitted, and the data set's nominal mu 0.18, e 0.125) are scored on
-   the test split; the noise floor (the measured trajectory against itself smoothed,
-   scored by the same code) goes beside them.
+   the test split, with paired bootstrap intervals for the differences between them and
+   between engines. Two floors go beside them, scored by the same code: the data's noise
+   (the measured trajectory against itself smoothed), and each engine's sensitivity to
+   its start state (its simulation from the fitted start against one from a start drawn
+   from that fit's own uncertainty, `sensitivity`).
 
 Simulations are cached on disk (SimCache), keyed by engine, engine version, the toss's
 content, parameters, dt, horizon and CODE_VERSION, so a rerun costs only what changed.
@@ -743,7 +746,8 @@ def section(summ: pd.DataFrame, fits: dict[str, dict], skipped: dict[str, str], 
         label = f"{engine} ({int(s['tosses'])} tosses)" if engine in notes.get("subsets", {}) else engine
         versus = "-" if rank == 1 else _ci(paired_difference(scores, (engine, best(engine)),
                                                             (order[0], best(order[0]))))
-        noise = _fmt(shaken.loc[engine, "corner_mean_median"]) if engine in shaken.index else "-"
+        noise = (f"{_fmt(shaken.loc[engine, 'corner_mean_median'])} ({_fmt(100 * shaken.loc[engine, 'same_face'], 3)} "
+                 "% same face)" if engine in shaken.index else "-")
         lines.append(
             f"| {rank} | {label} | {which}: {_params_text(params)} | {_fmt(s['corner_mean_median'])} | {versus} | "
             f"{noise} | {_fmt(s[f'pos_{h1}_median'])} | {_fmt(s[f'rot_{h1}_median'])} | "
@@ -756,6 +760,11 @@ def section(summ: pd.DataFrame, fits: dict[str, dict], skipped: dict[str, str], 
                      f"{_fmt(f[f'pos_{h1}_median'])} | {_fmt(f[f'rot_{h1}_median'])} | {_fmt(f[f'pos_{h2}_median'])} | "
                      f"{_fmt(f[f'rot_{h2}_median'])} | {_fmt(f['pos_final_median'])} | {_fmt(f['rot_final_median'])} "
                      "| - | - |")
+    tied = [e for e in order[1:] if paired_difference(scores, (e, best(e)), (order[0], best(order[0])))[1] <= 0.0]
+    lines += ["", f"Within the 95 % interval of rank 1 ({order[0]}): {', '.join(tied) or 'no other engine'}. "
+              "'start noise' against 'mean corner err.' says how much of an engine's error the capture's noise "
+              "in the start state could explain; its '% same face' how often that noise alone changes the face "
+              "the cube ends on."] if order else []
     lines += ["", "![error against horizon](plots/horizons.png)", "",
               "![start noise against horizon](plots/start_noise.png)", ""]
 
