@@ -836,9 +836,9 @@ def write_report(out: Path, scores: pd.DataFrame, noise: list[dict], trajectorie
     (out / "plots").mkdir(parents=True, exist_ok=True)
     noise_frame = pd.DataFrame([{k: v for k, v in r.items() if k != "trajectory"} for r in noise])
     both = pd.concat([scores, noise_frame], ignore_index=True)
-    both.drop(columns=["trajectory"], errors="ignore").to_csv(out / "real_scores.csv", index=False)
+    both.drop(columns=["trajectory"], errors="ignore").to_csv(out / "real_scores.csv", index=False, float_format="%.6g")
     summ = summary(both)
-    summ.to_csv(out / "real_summary.csv", index=False)
+    summ.to_csv(out / "real_summary.csv", index=False, float_format="%.6g")
     fit_rows = []
     for engine, f in fits.items():
         fit_rows.append({"engine": engine, "sample": "fit", **f["params"], "loss": f.get("loss"),
@@ -846,7 +846,7 @@ def write_report(out: Path, scores: pd.DataFrame, noise: list[dict], trajectorie
                          "evaluations": f.get("evaluations"), "seconds": f.get("seconds")})
         for j, fp in enumerate(f.get("spread", [])):
             fit_rows.append({"engine": engine, "sample": f"bootstrap {j}", **fp})
-    pd.DataFrame(fit_rows).to_csv(out / "real_fits.csv", index=False)
+    pd.DataFrame(fit_rows).to_csv(out / "real_fits.csv", index=False, float_format="%.6g")
     (out / "params.json").write_text(json.dumps({e: f["params"] for e, f in fits.items()}, indent=2) + "\n")
     plot_horizons(trajectories, noise, out / "plots" / "horizons.png")
     plot_horizons(trajectories, noise, out / "plots" / "start_noise.png", psets=("start noise",),
