@@ -32,7 +32,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout as _rollout
 
-from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
+from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.frames import about_y_many, multiply_many, rotate_many
 from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
@@ -587,6 +587,11 @@ class MuJoCoAdapter(Adapter):
         # leaves at 0.66 and 0.68 m/s where rigid simultaneous contact gives 2/3 each)
         impact_model="compliant",
     )
+    # Settings.options: the contact time scale n (the module notes), which with e sets the
+    # contact row's solref (k, b) and the friction rows' slip time n dt. From 2 steps (stiff:
+    # the rebound error ~ 1/n is large) to 50 (soft: depth ~ v n dt / pi, 15 mm at 1 m/s).
+    tunables = {"contact_steps": Tunable(2.0, 50.0, float(CONTACT_STEPS),
+                                         "contact duration in time steps (solref time scale n dt)")}
 
     def __init__(self, contact_steps: float = CONTACT_STEPS, ground: str = "plane"):
         """contact_steps: n, the contact's duration in steps (the accuracy knob); ground:
@@ -607,14 +612,16 @@ class MuJoCoAdapter(Adapter):
         if reason:
             raise Unsupported(reason)
         iterations = ITERATIONS if settings.iterations is None else settings.iterations
-        xml, knobs = scene_mjcf(scene, settings, iterations, self.contact_steps, ground=self.ground)
+        self.options_in_force(settings)  # an unknown option or one out of its range: SettingsError
+        n = float(settings.options.get("contact_steps", self.contact_steps))
+        xml, knobs = scene_mjcf(scene, settings, iterations, n, ground=self.ground)
         model = self._compile(xml)
         if "hooke" in scene.contact_laws:
             # a Hooke row's stiffness is k times MuJoCo's D of the row, from the bodies'
             # body_invweight0, which the compiler computes (masses and joints, not solref)
             invweight = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g):
                          float(model.body_invweight0[model.geom_bodyid[g], 0]) for g in range(model.ngeom)}
-            xml, knobs = scene_mjcf(scene, settings, iterations, self.contact_steps, invweight, self.ground)
+            xml, knobs = scene_mjcf(scene, settings, iterations, n, invweight, self.ground)
             model = self._compile(xml)
         return MuJoCoSimulation(scene, model, knobs, iterations)
 

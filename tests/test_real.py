@@ -1,0 +1,295 @@
+"""The real-world tier (`physval real`, cases/cube_toss.py) on a small slice of the data: the
+data's conventions, the start state and its scene, the error metrics, the fitter against
+parameters it must recover, the fit on a Dask LocalCluster, and the command end to end.
+Every simulation here is a few tosses over short horizons."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.spatial.transform import Rotation
+
+from adapters import registry
+from adapters.base import Settings
+from cases import cube_toss as ct
+from physval.readings import real
+
+pytestmark = pytest.mark.skipif(not registry.available("mujoco"), reason="the slice runs on MuJoCo")
+
+
+@pytest.fixture(scope="module")
+def tosses():
+    return ct.load()
+
+
+# --- the data ----------------------------------------------------------------------------------
+
+def test_the_packaged_data_has_400_tosses_in_si_units(tosses):
+    assert len(tosses) == 400
+    # a cube resting on a face has its centre a half-width above the surface (SI: ~5 cm)
+    assert np.median([tr.pos[-1, 2] for tr in tosses.values()]) == pytest.approx(ct.HALF, abs=2e-3)
+    # samples every 1/148 s
+    steps = np.concatenate([np.diff(tr.t) for tr in tosses.values()])
+    assert np.median(steps) == pytest.approx(ct.SAMPLE_PERIOD, rel=1e-3)
+
+
+def test_only_the_toss_a_hand_moved_after_rest_is_cut(tosses):
+    raw = pd.read_csv(ct.DATA).groupby("toss").size()
+    cut = {i: (len(tr), int(raw[i])) for i, tr in tosses.items() if len(tr) != raw[i]}
+    assert cut == {127: (308, 442)}  # rests from sample 111 (0.75 s), moved from sample 308 on
+
+
+def test_stored_angular_velocity_is_in_the_body_frame(tosses):
+    """dq/dt = q (0, w) / 2 with body-frame w fits the quaternions' finite differences to the
+    few per cent that finite-difference velocities carry; the world-frame reading of the same
+    numbers, dq/dt = (0, w) q / 2, does not fit at all."""
+    for toss_id in (0, 3, 101, 301):
+        res = ct.omega_convention_residuals(tosses[toss_id])
+        assert res["body"] < 0.15, res  # finite differences over 1/148 s: a few per cent off
+        assert res["world"] > 5 * res["body"], res
+
+
+def test_the_surface_constant_is_the_training_splits_resting_height(tosses):
+    train, _ = ct.split(tosses)
+    assert ct.rest_height(tosses, train) == pytest.approx(ct.SURFACE_Z, abs=1e-5)  # the constant's 2 digits
+
+
+def test_the_split_is_fixed_by_parity_and_disjoint(tosses):
+    train, test = ct.split(tosses)
+    assert len(train) + len(test) == 400 and not set(train) & set(test)
+    assert all(i % 2 == 0 for i in train) and all(i % 2 == 1 for i in test)
+    assert (len(train), len(test)) == (209, 191)
+
+
+# --- the start state and its scene -----------------------------------------------------------
+
+@pytest.mark.parametrize("toss_id", [0, 3, 75])
+def test_the_flight_fit_starts_before_contact_and_matches_the_measurement(tosses, toss_id):
+    tr = tosses[toss_id]
+    fit = ct.fit_flight(tr)
+    assert fit.k0 < fit.contact
+    # the fitted start is the measured one to the capture's noise (sub-millimetre; < 1 deg)
+    assert np.linalg.norm(fit.p0 - tr.pos[fit.k0]) < 1e-3
+    assert math.degrees(ct.angle_between(fit.q0, tr.quat[fit.k0])) < 1.0
+    assert fit.residual_pos.max() < 2e-3  # a free flight: the worst toss departs 1.7 mm
+    # the fitted world-frame spin is the stored body-frame one turned into the world frame
+    w_world = ct.world_omega(tr)[:fit.contact - 1]
+    assert np.linalg.norm(np.median(w_world, axis=0) - fit.w) < 0.1 * np.linalg.norm(fit.w) + 0.1
+
+
+def test_the_scene_reproduces_the_start_state_in_an_engine(tosses):
+    tr = tosses[3]
+    fit = ct.fit_flight(tr)
+    scene = ct.scene(tr, mu=0.3, e=0.2, fit=fit)
+    cube = scene.body("cube")
+    assert scene.material.mu_s == 0.3 and scene.material.e == 0.2
+    assert cube.principal_inertia == (ct.INERTIA,) * 3 and cube.mass == ct.MASS
+    with registry.get("mujoco").build(scene, Settings(dt=real.DT)) as sim:
+        state = sim.states()["cube"]
+    np.testing.assert_allclose(state[0:3], fit.p0, atol=1e-12)
+    assert math.degrees(ct.angle_between(state[3:7], fit.q0)) < 1e-6
+    np.testing.assert_allclose(state[7:10], fit.v0, atol=1e-12)
+    np.testing.assert_allclose(state[10:13], fit.w, atol=1e-9)  # world-frame spin, read back
+
+
+def test_the_ground_lies_at_the_measured_surface(tosses):
+    scene = ct.scene(tosses[0])
+    assert scene.body("ground").shape.offset == ct.SURFACE_Z
+
+
+# --- metrics ------------------------------------------------------------------------------------
+
+def _score(tr, pos, quat):
+    fit = ct.fit_flight(tr)
+    k = np.arange(fit.k0, len(tr))
+    return real.score(tr, fit, tr.t[k] - fit.t0, pos[k], quat[k])
+
+
+def test_an_identical_trajectory_scores_zero(tosses):
+    tr = tosses[5]
+    s = _score(tr, tr.pos, tr.quat)
+    for m in real.metric_names():
+        assert s[m] == pytest.approx(0.0, abs=1e-12), m  # rounding only
+    assert s["same_face"] is True
+
+
+@pytest.mark.parametrize("angle", [5.0, 30.0, 90.0])
+def test_a_known_rotation_scores_its_angle(tosses, angle):
+    tr = tosses[5]
+    turn = Rotation.from_rotvec(np.radians(angle) * np.array([0.0, 0.0, 1.0]))  # about world z
+    q = Rotation.from_quat(tr.quat[:, [1, 2, 3, 0]])
+    turned = (turn * q).as_quat()[:, [3, 0, 1, 2]]
+    s = _score(tr, tr.pos, turned)
+    assert s["rot_final"] == pytest.approx(angle, abs=1e-6)
+    assert s["pos_final"] == 0.0
+    # corners of a cube turned by theta move by sqrt(2) sin(theta/2) widths, RMS
+    assert s["corner_mean"] == pytest.approx(math.sqrt(2) * math.sin(math.radians(angle) / 2), rel=1e-9)
+    assert s["same_face"] is True  # a turn about the vertical keeps the face down
+
+
+def test_a_translation_scores_its_distance_in_widths(tosses):
+    tr = tosses[5]
+    s = _score(tr, tr.pos + [0.03, -0.04, 0.0], tr.quat)
+    assert s["pos_final"] == pytest.approx(0.05 / ct.WIDTH, rel=1e-12)
+    assert s["corner_mean"] == pytest.approx(0.05 / ct.WIDTH, rel=1e-12)
+
+
+def test_a_quarter_turn_about_a_horizontal_axis_changes_the_face(tosses):
+    tr = tosses[5]
+    q = Rotation.from_quat(tr.quat[:, [1, 2, 3, 0]])
+    tipped = (Rotation.from_rotvec([math.pi / 2, 0.0, 0.0]) * q).as_quat()[:, [3, 0, 1, 2]]
+    assert _score(tr, tr.pos, tipped)["same_face"] is False
+
+
+def test_a_start_state_drawn_from_its_uncertainty_is_near_and_clear_of_the_ground(tosses):
+    for toss_id in (0, 3, 75):
+        fit = ct.fit_flight(tosses[toss_id])
+        a, b = fit.perturbed(7), fit.perturbed(7)
+        np.testing.assert_array_equal(a.p0, b.p0)  # a seed gives one draw
+        # within five standard deviations of the fit's own least-squares uncertainty
+        sigma_p = np.sqrt(np.mean(fit.residual_pos ** 2) / 3 * fit.cov_unit[0, 0])
+        assert 0 < np.abs(a.p0 - fit.p0).max() < 5 * sigma_p + 1e-6  # + a lift clear of the ground
+        assert ct.lowest_corner(a.p0[None], a.q0[None])[0] > ct.SURFACE_Z
+
+
+def test_an_engine_against_itself_from_the_same_start_scores_zero():
+    rows = real.simulate_many("mujoco", real.nominal("mujoco"), [3, 5], keep=True, horizon=0.2)
+    for r in rows:
+        r["t_contact"] = 0.05
+    for row in real.sensitivity(rows, rows, None):
+        assert row["corner_mean"] == pytest.approx(0.0, abs=1e-12) and row["same_face"] is not False
+
+
+def test_paired_difference_is_the_median_of_per_toss_differences():
+    scores = pd.DataFrame({"engine": ["a"] * 5 + ["b"] * 5, "param_set": "fitted", "status": "ok",
+                           "toss": list(range(5)) * 2, "corner_mean": [1, 2, 3, 4, 5, 0, 0, 0, 0, 10]})
+    med, lo, hi, n = real.paired_difference(scores, ("a", "fitted"), ("b", "fitted"))
+    assert (med, n) == (2.0, 5) and lo <= med <= hi  # differences 1, 2, 3, 4, -5
+
+
+def test_the_noise_floor_is_small_but_not_zero(tosses):
+    nf = ct.noise_floor(tosses[0])
+    # the capture's noise: tens of micrometres and hundredths of a degree, not zero
+    assert 0 < np.median(nf["pos_err"]) < 1e-2 and 0 < np.median(nf["rot_err"]) < 0.5
+
+
+# --- simulation, cache, fit ---------------------------------------------------------------------
+
+def test_simulate_toss_is_cached_and_the_cache_returns_the_same(tmp_path):
+    params = real.nominal("mujoco")
+    a = real.simulate_toss("mujoco", 3, params, horizon=0.1, cache=str(tmp_path))
+    assert a["status"] == "ok" and len(list(tmp_path.rglob("*.npz"))) == 1
+    b = real.simulate_toss("mujoco", 3, params, horizon=0.1, cache=str(tmp_path))
+    np.testing.assert_array_equal(a["pos"], b["pos"])
+    np.testing.assert_array_equal(a["corner_err"], b["corner_err"])
+    real.simulate_toss("mujoco", 3, {**params, "mu": 0.3}, horizon=0.1, cache=str(tmp_path))
+    assert len(list(tmp_path.rglob("*.npz"))) == 2  # other parameters, another entry
+
+
+def test_the_mujoco_tunable_reaches_the_engine():
+    p = real.nominal("mujoco")
+    soft = real.simulate_toss("mujoco", 3, {**p, "contact_steps": 40.0}, horizon=0.1)
+    stiff = real.simulate_toss("mujoco", 3, {**p, "contact_steps": 4.0}, horizon=0.1)
+    assert np.abs(soft["pos"] - stiff["pos"]).max() > 1e-3  # millimetres apart after an impact
+
+
+def test_unknown_parameters_are_refused():
+    with pytest.raises(real.RealError, match="unknown parameter"):
+        real.rounded("pybullet", {"mu": 0.2, "contact_steps": 3})
+
+
+SYNTH_IDS = (0, 2, 4, 10)
+SYNTH_HORIZON = 0.25  # s: past the first impacts, short of the chaotic tumbling that follows
+TRUTH = {"mu": 0.35, "e": 0.3}
+
+
+@pytest.fixture(scope="module")
+def synthetic_file(tmp_path_factory):
+    """Tosses 'measured' by MuJoCo at TRUTH: each toss's fitted free flight up to its start
+    sample (exactly a free flight, so the flight fit gives back the same start state), then
+    MuJoCo's poses at the sample times."""
+    out = []
+    params = {**real.nominal("mujoco"), **TRUTH}
+    for i in SYNTH_IDS:
+        tr = ct.toss(i)
+        fit = ct.fit_flight(tr)
+        r = real.simulate_toss("mujoco", i, params, SYNTH_HORIZON)
+        k = np.arange(fit.k0 + 1)
+        pf, qf = fit.state(tr.t[k] - fit.t0)
+        pos, quat = np.vstack([pf, r["pos"][1:]]), np.vstack([qf, r["quat"][1:]])
+        t = np.concatenate([tr.t[k], fit.t0 + r["t"][1:]])
+        out.append(ct.Toss(i, t, pos, quat, np.gradient(pos, t, axis=0), np.zeros((len(t), 3))))
+    path = tmp_path_factory.mktemp("synthetic") / "tosses.csv.gz"
+    ct.save(out, path)
+    return str(path)
+
+
+def test_the_fit_recovers_the_parameters_that_made_the_measurements(synthetic_file):
+    f = real.fit("mujoco", SYNTH_IDS, source=synthetic_file, names=("mu", "e"), popsize=8, generations=10)
+    # MuJoCo is deterministic and the start states are the generating ones, so the loss at
+    # TRUTH is 0 and rises by >= 0.015 widths per 0.01 of mu or e on these tosses: the best
+    # point DE finds must be within two steps of the 0.005 grid
+    assert f.params["mu"] == pytest.approx(TRUTH["mu"], abs=0.01)
+    assert f.params["e"] == pytest.approx(TRUTH["e"], abs=0.01)
+    assert f.loss < 0.01 < f.nominal_loss
+    spread = f.bootstrap(50)
+    assert len(spread) == 50 and all(abs(s["mu"] - TRUTH["mu"]) <= 0.01 for s in spread)
+
+
+def test_the_fit_runs_unchanged_on_a_dask_local_cluster():
+    distributed = pytest.importorskip("distributed")
+    kw = dict(names=("mu", "e"), popsize=2, generations=1, horizon=0.15, batch=1)
+    local = real.fit("mujoco", (0, 2), **kw)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        remote = real.fit("mujoco", (0, 2), map_fn=lambda fn, xs: client.gather(client.map(fn, list(xs))), **kw)
+    assert remote.params == local.params and remote.loss == local.loss
+    assert remote.evaluations == local.evaluations > 1
+
+
+# --- the command --------------------------------------------------------------------------------
+
+def _cli(*argv) -> int:
+    return real.main(["real", *argv, "--quiet"])
+
+
+def test_the_command_fits_scores_and_writes_the_report(tmp_path):
+    out = tmp_path / "real"
+    assert _cli("--engines", "mujoco", "--limit", "2", "--horizon", "0.15", "--generations", "0",
+                "--popsize", "2", "--bootstrap", "10", "--out", str(out), "--no-cache") == 0
+    for name in ("real_report.md", "real_scores.csv", "real_summary.csv", "real_fits.csv", "params.json",
+                 "plots/horizons.png", "plots/overlay_mujoco.png"):
+        assert (out / name).is_file(), name
+    scores = pd.read_csv(out / "real_scores.csv")
+    assert set(scores.param_set) == {"fitted", "nominal", "start noise", "data"}
+    assert set(scores[scores.engine == "mujoco"].toss) == {3, 5}  # the first two test tosses (odd ids)
+    report = (out / "real_report.md").read_text()
+    assert "## Ranking (test split)" in report and "noise floor" in report
+    params = json.loads((out / "params.json").read_text())
+    assert set(params["mujoco"]) == {"mu", "e", "contact_steps"}
+
+
+def test_any_toss_file_is_scored_with_saved_parameters(tmp_path, synthetic_file):
+    params = tmp_path / "params.json"
+    params.write_text(json.dumps({"mujoco": {**real.nominal("mujoco"), **TRUTH}}))
+    out = tmp_path / "mine"
+    assert _cli("--engines", "mujoco", "--tosses", synthetic_file, "--params", str(params),
+                "--out", str(out), "--no-cache") == 0
+    scores = pd.read_csv(out / "real_scores.csv")
+    fitted = scores[(scores.engine == "mujoco") & (scores.param_set == "fitted")]
+    assert sorted(fitted.toss) == list(SYNTH_IDS)  # every toss of a user's file is scored
+    # the parameters that made the file reproduce it exactly
+    assert fitted.corner_mean.max() == pytest.approx(0.0, abs=1e-9)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (("--engines", "nope"), "unknown engine"),
+    (("--tosses", "/nonexistent.csv"), "no such toss file"),
+    (("--params", "/nonexistent.json"), "cannot read"),
+])
+def test_bad_input_exits_with_2(argv, message, capsys, tmp_path):
+    assert _cli(*argv, "--out", str(tmp_path)) == 2
+    assert message in capsys.readouterr().err
