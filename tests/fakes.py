@@ -158,3 +158,13 @@ def coulomb_on_plane(g_t: float, g_n: float, mu_s: float, mu_k: float, k: float 
     sol = solve_ivp(rates, (0.0, duration), [0.0, 0.0], method="Radau", t_eval=t, rtol=1e-10, atol=1e-12)
     late = t >= duration / 2
     return float(np.polyfit(t[late], sol.y[0][late], 1)[0]), float(np.polyfit(t[late], sol.y[1][late], 1)[0])
+
+
+def square_or_crash(x):
+    """A plain call for map_calls: x**2, a raised error for x < 0, a dead process for x == 13."""
+    if x == 13:
+        import os
+        os.abort()
+    if x < 0:
+        raise ValueError(f"negative: {x}")
+    return x * x

@@ -203,3 +203,14 @@ def test_every_start_method_runs_the_same_jobs(cases_dir, tmp_path, method):
                  "--out", str(out)]) == 0
     rows = _rows(out)
     assert sorted(rows) == ["k=1", "k=3"] and all(r["status"] == "pass" for rs in rows.values() for r in rs)
+
+
+def test_plain_calls_run_on_the_executor_and_a_crash_costs_only_its_call():
+    """map_calls (the real-world tier's batches) shares the jobs' isolation: a call that
+    raises or whose process dies reads as an error, the others return their values in order."""
+    from physval.core.session import Execution, map_calls
+    from tests.fakes import square_or_crash
+    results = map_calls(square_or_crash, [1, 2, 13, -1, 4], execution=Execution(workers=2, progress=False))
+    assert [r.value for r in results] == [1, 4, None, None, 16]
+    assert "died" in results[2].error and "SIGABRT" in results[2].error
+    assert "ValueError" in results[3].error and "negative" in results[3].error

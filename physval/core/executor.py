@@ -24,7 +24,7 @@ import threading
 import time
 
 from physval.core.context import Context
-from physval.core.jobs import Job, Outcome, execute, failed, steps_of
+from physval.core.jobs import Job, Outcome, lost, perform, steps_of
 
 DEFAULT_JOB_TIMEOUT = 900.0  # s: the longest default job takes about a minute; on-demand ones minutes
 MIN_BATCH_STEPS = 20_000     # Dask: ~100 ms of stepping at >= 5 us a step, so scheduling stays small
@@ -83,12 +83,12 @@ def _worker(conn, ctx: Context) -> None:
     conn.send("ready")
     while True:
         try:
-            job = conn.recv()
+            task = conn.recv()
         except (EOFError, OSError):
             return
-        if job is None:
+        if task is None:
             return
-        conn.send(execute(job, resolver))
+        conn.send(perform(task, resolver))
 
 
 def _signal_name(exitcode: int | None) -> str:
@@ -183,8 +183,8 @@ class LocalExecutor:
                             if failed_starts > 3 * self.workers:
                                 why = _signal_name(s.process.exitcode)
                                 while queue:
-                                    yield failed(queue.popleft(), resolver, "error",
-                                                 f"worker processes die as they start ({why})")
+                                    yield lost(queue.popleft(), resolver,
+                                               f"worker processes die as they start ({why})")
                         continue
                     outcome = self._collect(s, resolver)
                     if outcome is not None:
@@ -196,9 +196,8 @@ class LocalExecutor:
                     if time.monotonic() - s.started > self.job_timeout:
                         job = s.job
                         self._replace(s)
-                        yield failed(job, resolver, "error",
-                                     f"the job ran longer than the per-job time limit of {self.job_timeout:g} s "
-                                     "(--job-timeout) and was stopped")
+                        yield lost(job, resolver, f"the job ran longer than the per-job time limit of "
+                                                  f"{self.job_timeout:g} s (--job-timeout) and was stopped")
         finally:
             self.close()
 
@@ -232,7 +231,7 @@ class LocalExecutor:
         s.process.join(timeout=1)
         job, why = s.job, _signal_name(s.process.exitcode)
         self._replace(s)
-        return failed(job, resolver, "error", f"the worker process running this job died: {why}")
+        return lost(job, resolver, f"the worker process running this job died: {why}")
 
     def _replace(self, s: _Slot) -> None:
         s.kill()
@@ -241,9 +240,9 @@ class LocalExecutor:
 
 # --- Dask ----------------------------------------------------------------------------------
 
-def _run_batch(jobs: list[Job], ctx: Context) -> list[Outcome]:
+def _run_batch(tasks: list, ctx: Context) -> list:
     resolver = ctx.resolver()
-    return [execute(j, resolver) for j in jobs]
+    return [perform(t, resolver) for t in tasks]
 
 
 class DaskExecutor:
@@ -278,6 +277,10 @@ class DaskExecutor:
         out, current, steps = [], [], 0
         for j in jobs:
             current.append(j)
+            if not isinstance(j, Job):  # a Call is a batch of its own
+                out.append(current)
+                current, steps = [], 0
+                continue
             steps += steps_of(j, resolver.family(j.family)) * (1 + dict(j.probe_args).get("repeats", 0))
             if steps >= MIN_BATCH_STEPS:
                 out.append(current)
@@ -305,8 +308,8 @@ class DaskExecutor:
                             pending[f] = [j]
                             seq.add(f)
                         continue
-                    outcomes = [failed(batch[0], resolver, "error",
-                                       f"the Dask worker running this job failed: {type(exc).__name__}: {exc}")]
+                    outcomes = [lost(batch[0], resolver,
+                                     f"the Dask worker running this job failed: {type(exc).__name__}: {exc}")]
                 yield from outcomes
         finally:
             for fut in pending:

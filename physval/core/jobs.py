@@ -14,6 +14,7 @@ import json
 import math
 import traceback
 from dataclasses import dataclass, field
+from typing import Callable
 
 from adapters.base import Settings, SettingsError, Unsupported
 from cases.family import CaseFamily, Check, Variant
@@ -55,6 +56,45 @@ class Job:
         if self.warmup:
             parts.append(f"warmup={self.warmup}")
         return f"{self.test_id}@{';'.join(parts)}"
+
+
+@dataclass(frozen=True)
+class Call:
+    """A plain call, fn(arg), run like a job: in a worker process (crashes and time-outs
+    isolated) or on a Dask cluster. fn must be importable by name (a module's function) and
+    arg picklable: what a reading that is not a case variant (e.g. a batch of measured
+    tosses) hands to an executor."""
+    fn: Callable
+    arg: object
+    tag: int = 0  # the caller's number for it (results come back as they finish)
+
+    @property
+    def test_id(self) -> str:
+        return getattr(self.fn, "__name__", "call")
+
+
+@dataclass
+class CallResult:
+    call: Call
+    value: object = None
+    error: str = ""  # why there is no value (the call raised, or its worker died)
+
+
+def perform(task, resolver: Resolver):
+    """Run a Job (-> Outcome) or a Call (-> CallResult) in this process; never raises."""
+    if isinstance(task, Job):
+        return execute(task, resolver)
+    try:
+        return CallResult(task, task.fn(task.arg))
+    except Exception as exc:
+        return CallResult(task, error=describe(exc))
+
+
+def lost(task, resolver: Resolver, reason: str):
+    """The result of a task that produced nothing (its worker died, or it timed out)."""
+    if isinstance(task, Job):
+        return failed(task, resolver, "error", reason)
+    return CallResult(task, error=reason)
 
 
 @dataclass

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 from physval.core.context import Context
 from physval.core.executor import DEFAULT_JOB_TIMEOUT, make_executor
-from physval.core.jobs import Job
+from physval.core.jobs import Call, CallResult, Job
 from physval.core.store import RowStore, cache_keys
 
 
@@ -153,3 +153,22 @@ def run_stored(jobs: list[Job], ctx: Context, path, columns: list[str], executio
                    store=store, cache_key=lambda e: keys[e], progress=execution.progress, label=label,
                    on_outcome=on_outcome)
     return res, store
+
+
+def map_calls(fn, args, ctx: Context = Context(), execution: Execution = Execution(),
+              label: str = "calls") -> list[CallResult]:
+    """fn(arg) for every arg, each a task of the executor (local workers, crash- and
+    time-out-isolated, or Dask), in the order of `args`. A call that raised or whose worker
+    died has no value and says why in `error`. Raises KeyboardInterrupt if interrupted."""
+    calls = [Call(fn, a, i) for i, a in enumerate(args)]
+    results: list[CallResult | None] = [None] * len(calls)
+    bar = Progress(len(calls), label, execution.progress)
+    try:
+        with sigterm_as_interrupt(), make_executor(ctx, execution.workers, execution.scheduler,
+                                                   execution.job_timeout, execution.start_method) as ex:
+            for result in ex.run(calls):
+                results[result.call.tag] = result
+                bar.update()
+    finally:
+        bar.close()
+    return results

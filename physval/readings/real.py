@@ -899,11 +899,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     how.add_argument("--fit", action="store_true", help="fit on the training split (the default without --params)")
     how.add_argument("--nominal", action="store_true", help="score the nominal parameters only (no fit)")
     p.add_argument("--out", default=str(DEFAULT_OUT), metavar="DIR", help=f"output folder (default: {DEFAULT_OUT})")
-    p.add_argument("--cache", metavar="DIR", help="simulation cache (default: $XDG_CACHE_HOME/physval/real or "
-                                                  "~/.cache/physval/real)")
+    p.add_argument("--cache", metavar="DIR", help="simulation cache (default: real/ in physval's cache folder, "
+                                                  "$PHYSVAL_CACHE_DIR or ~/.cache/physval)")
     p.add_argument("--no-cache", action="store_true", help="simulate everything again, cache nothing")
     p.add_argument("--workers", type=int, default=1, metavar="N", help="parallel processes (default 1)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="a Dask scheduler to run the simulations on")
+    p.add_argument("--job-timeout", type=float, default=None, metavar="S",
+                   help="stop a batch of tosses that runs longer (its tosses read as errors); local workers only")
+    p.add_argument("--start-method", choices=("fork", "spawn", "forkserver"), help="how local workers start")
     p.add_argument("--limit", type=int, metavar="N", help="only the first N tosses of each split (quick runs)")
     p.add_argument("--horizon", type=float, metavar="S", help="simulate at most S seconds from the start (quick runs)")
     p.add_argument("--popsize", type=int, default=POPSIZE, help=f"differential evolution popsize (default {POPSIZE})")
@@ -947,32 +950,38 @@ def _fit_plan(engine: str, nominal_rows: list[dict], train: list[int], args) -> 
 
 
 def default_cache() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "physval" / "real"
+    from physval.core.store import cache_dir
+    return cache_dir() / "real"
 
 
 @dataclass
 class Executor:
-    """map_fn over local processes or a Dask scheduler (the harness's executor replaces it)."""
+    """map_fn on the harness's executor (physval.core.session.map_calls): each batch of
+    tosses runs in a worker process (a crash or a time-out costs that batch only, its tosses
+    then read as errors) or on a Dask cluster, unchanged."""
     workers: int = 1
     scheduler: str | None = None
+    job_timeout: float | None = None
+    start_method: str | None = None
 
     def __enter__(self) -> MapFn:
-        if self.scheduler:
-            from distributed import Client
-            self._client = Client(self.scheduler)
-            return lambda fn, xs: self._client.gather(self._client.map(fn, list(xs)))
-        if self.workers > 1:
-            from concurrent.futures import ProcessPoolExecutor
-            self._pool = ProcessPoolExecutor(self.workers)
-            return lambda fn, xs: list(self._pool.map(fn, list(xs)))
-        return lambda fn, xs: list(map(fn, xs))
+        from physval.core.session import Execution, map_calls
+        execution = Execution(self.workers, self.scheduler, self.job_timeout, self.start_method, progress=False)
+
+        def map_fn(fn, xs):
+            xs = list(xs)
+            return [r.value if not r.error else _lost_batch(x, r.error)
+                    for x, r in zip(xs, map_calls(fn, xs, execution=execution))]
+        return map_fn
 
     def __exit__(self, *exc):
-        if getattr(self, "_client", None):
-            self._client.close()
-        if getattr(self, "_pool", None):
-            self._pool.shutdown()
+        return None
+
+
+def _lost_batch(batch: "Batch", why: str) -> list[dict]:
+    """The rows of a batch whose run produced nothing (it raised, or its worker died)."""
+    return [{"engine": batch.engine, "toss": t, "status": "error", "message": why, "loss": FAIL_LOSS,
+             "params": json.dumps(dict(batch.params), sort_keys=True)} for t in batch.tosses]
 
 
 def _names(values) -> list[str]:
@@ -1048,7 +1057,8 @@ def _run(args) -> int:
         f"engines {', '.join(engines)}" + (f" (skipped: {', '.join(skipped)})" if skipped else ""))
 
     rows, trajectories, fits, not_fitted, failures, subsets, cost = [], {}, {}, {}, [], {}, []
-    with Executor(args.workers, args.scheduler) as map_fn:
+    with Executor(args.workers, args.scheduler, getattr(args, "job_timeout", None),
+                  getattr(args, "start_method", None)) as map_fn:
         for engine in engines:
             t0 = time.perf_counter()
             nom = simulate_many(engine, nominal(engine), test[:1], map_fn=map_fn, keep=True, **common)
