@@ -4,9 +4,29 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from hypothesis import settings
+
 ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
+
+
+# Hypothesis profiles. "ci" (the default): derandomized, so every run draws the same
+# examples and a test fails only when the code changes; 60 examples a test unless the test
+# sets its own max_examples. "wide", on demand: a fresh random search with 2000 examples a
+# test (those without their own max_examples), failures printed with their reproduction
+# blob:  python -m pytest tests/reference -p no:cacheprovider --hypothesis-profile=wide
+# (hypothesis's own pytest option). Run it to look for new counter-examples; pin what it
+# finds as a documented test, never by loosening the property.
+settings.register_profile("ci", derandomize=True, max_examples=60, deadline=None, database=None)
+settings.register_profile("wide", derandomize=False, max_examples=2000, deadline=None, database=None,
+                          print_blob=True)
+
+
+def pytest_configure(config):
+    """Load --hypothesis-profile if given, else "ci"; before the test modules are imported,
+    so their @settings inherit it."""
+    settings.load_profile(config.getoption("--hypothesis-profile", default=None) or "ci")
 
 
 def pytest_addoption(parser):
