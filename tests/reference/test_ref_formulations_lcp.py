@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 
 from reference_impl import lcp, lemke, pgs
@@ -330,19 +330,27 @@ def test_known_deviation_simultaneous_restitution_gains_energy_with_a_separating
     assert u_literal[:, 0] == pytest.approx([-1.0, 3.0], abs=1e-12)
 
 
+@example(seed=9873, shift=(0.0, 0.0, 0.0), turn=0)  # PGS cycles: the wide profile's find
 @given(seed=seeds, shift=st.tuples(*[st.floats(-10, 10)] * 3), turn=st.integers(0, 2**32 - 1))
 def test_rigid_transform_of_the_whole_scene_changes_nothing(seed, shift, turn):
     """Rotate the scene by R and move it by `shift`: arms, normals, velocities and world
     inertias turn with it, so the impulses are the same and the velocity changes turn.
-    Friction too: the tangent basis follows each contact's slip (lcp.tangent_basis)."""
+    Friction too: the tangent basis follows each contact's slip (lcp.tangent_basis).
+    PGS only where it converges in both frames: on a problem it cycles on (see
+    test_known_deviation_pgs_cycles_on_one_strongly_coupled_sliding_contact) the sweep
+    budget ends at a phase of the cycle that rounding can shift (seed 9873, found by the
+    wide profile: one contact, mu = 0.98)."""
     bodies, x, contacts, u = random_problem(seed)
     R = random_rotation(np.random.default_rng(turn))
     moved = Bodies(bodies.m_inv, np.einsum("ij,njk,lk->nil", R, bodies.I_inv, R))
     moved_contacts = [Contact(c.a, c.b, R @ c.r_a, R @ c.r_b, R @ c.n, c.c_r, c.mu) for c in contacts]
     moved_u = np.hstack([u[:, :3] @ R.T, u[:, 3:] @ R.T])
     rows, A, b, *gammas = solve_both(contacts, bodies, u)
-    moved_rows, _, _, *moved_gammas = solve_both(moved_contacts, moved, moved_u)
-    for gamma, moved_gamma in zip(gammas, moved_gammas):
+    moved_rows, moved_A, moved_b, *moved_gammas = solve_both(moved_contacts, moved, moved_u)
+    converged = all(pgs.projected_gauss_seidel(r, m, rhs, CONVERGED).change <= CONVERGED.tolerance
+                    for r, m, rhs in ((rows, bodies, b), (moved_rows, moved, moved_b)))
+    pairs = list(zip(gammas, moved_gammas))
+    for gamma, moved_gamma in pairs if converged else pairs[1:]:
         assert moved_gamma == pytest.approx(gamma, abs=1e-8)
         du = lcp.velocity_change(rows, bodies, gamma)
         moved_du = lcp.velocity_change(moved_rows, moved, moved_gamma)
