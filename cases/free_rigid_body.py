@@ -21,16 +21,26 @@ The body starts with no spin about the third axis, where w_2 = sn is at its extr
 (tau = K), so the first flip comes after T_flip / 2. tests/test_closed_forms_impacts.py
 checks both against Euler's equations integrated numerically.
 
-Tolerances come from the integrator, not from the physics (which conserves exactly): an
-explicit Euler step of Euler's equations (the engines' symplectic Euler with explicit
-gyroscopic terms) changes E by exactly dt^2/2 w_dot . I w_dot per step (w . I w_dot = 0
-torque-free) and |L|^2 by dt^2 |L_dot|^2 (L . L_dot = 0), i.e. over the run by
-    dE ~ dt/2 int_0^T w_dot . I w_dot dt,   d|L| ~ dt/2 int_0^T |L_dot|^2 / |L| dt.
-Measured: PyBullet, MuJoCo and DART land within 3 % of these; the reference (which keeps
-L exact and rotates with the step's initial w) has the same leading term. The checks
-allow one dt of each rate (twice explicit Euler's constant). The flip time inherits these
-drifts through its dependence on E and M; near the separatrix M^2 = 2 E I_2 it is
-ill-conditioned (at dt = 1e-3 the tolerated drift moves it by 25-70 %), so this family
+Tolerances come from the integrator, not from the physics (which conserves exactly), at
+the bar of a second-order rotation step (the reference's implicit midpoint rule keeps E
+and L to round-off; a first-order step, such as explicit gyroscopic terms, drifts E by
+dt/2 int w_dot . I w_dot, a thousand of these tolerances at this family's dt). A
+second-order step errs per step by about dt^3 |y'''| / 6 (Runge-Kutta error constants
+are at most 1/6); summed over the run and projected on each observable:
+- E: w . I w''' = -3 w_dot . I w_ddot (differentiate w . I w_dot = 0 twice), so
+  dE <= dt^2/2 int |w_dot|_I |w_ddot|_I dt;
+- the world L = R L_b errs by R's error acting on L_b plus L_b's error:
+  |dL|/|L| <= dt^2/6 int (|R''' L_b| + |L_b'''|) / |L| dt, with
+  R''' = R (W^3 + 2 W W_dot + W_dot W + W_ddot), W the cross-product matrix of w;
+- the flip time: those drifts of E and M move T_flip(E, M) (ill-conditioned near the
+  separatrix M^2 = 2 E I_2: the larger part), and the step's phase error along the
+  orbit shifts the flip by dt^2/6 int |w'''| / |w_dot| dt. The crossing is
+  interpolated linearly; that errs by dt^2 |s''| / 8 |s'|, which vanishes to this order
+  because s = I_2 w_2 ~ sn has s'' = 0 where it crosses zero.
+tests/test_closed_forms_impacts.py checks that three second-order Runge-Kutta methods
+stay within these bounds and explicit Euler does not. (Before the reference became
+second order, the checks allowed one dt of explicit Euler's rates: 2.6-4.4 % of the
+flip time.) The flip time is still ill-conditioned near the separatrix, so this family
 steps at dt = 2e-4 and starts 20-30 deg off the intermediate axis.
 
 The 2D variant (a rect in the x-z plane, turning about y only) has no intermediate axis:
@@ -61,8 +71,9 @@ GRID = (
     {"spin": 5.0, "wobble": 3.0, "dim": 3},
     {"spin": 5.0, "wobble": 0.0, "dim": 2},
 )
-# Faster spins and wobbles nearer the separatrix (weaker flip checks: the tolerance grows
-# to 30-50 % of the flip time); run them with a smaller --dt for sharper ones.
+# Faster spins and wobbles nearer the separatrix (weaker flip checks: at dt = 2e-4 the
+# tolerance grows to 0.01-2.5 % of the flip time, against 0.002-0.003 % on GRID); run
+# them with a smaller --dt for sharper ones.
 FULL_GRID = GRID + tuple({"spin": s, "wobble": w, "dim": 3} for s in (5.0, 10.0) for w in (0.2, 1.0))
 DT = 2e-4  # s: see the module docstring (the flip time's conditioning)
 
@@ -101,18 +112,41 @@ def euler_rates(I, w) -> np.ndarray:
     return np.cross(I * w, w) / I
 
 
-def integrator_scales(I, w0, T: float) -> tuple[float, float]:
-    """(int_0^T w_dot . I w_dot dt, int_0^T |L_dot|^2 / |L| dt) along the exact motion: the
-    rates at which a first-order step changes E and |L| (module docstring)."""
+def euler_derivatives(I, w) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(w_dot, w_ddot, w''') of the torque-free Euler equations I w_dot = (I w) x w,
+    differentiated in the body frame."""
+    I = np.asarray(I, float)
+    wd = euler_rates(I, w)
+    wdd = (np.cross(I * wd, w) + np.cross(I * w, wd)) / I
+    wddd = (np.cross(I * wdd, w) + 2.0 * np.cross(I * wd, wd) + np.cross(I * w, wdd)) / I
+    return wd, wdd, wddd
+
+
+def second_order_rates(I, w) -> np.ndarray:
+    """The integrands of a second-order step's three drift bounds (module docstring):
+    energy |w_dot|_I |w_ddot|_I, world angular momentum (|R''' L_b| + |L_b'''|) / |L|,
+    phase |w'''| / |w_dot|."""
+    I = np.asarray(I, float)
+    wd, wdd, wddd = euler_derivatives(I, w)
+    L = I * w
+    R3_L = (np.cross(w, np.cross(w, np.cross(w, L))) + 2.0 * np.cross(w, np.cross(wd, L))
+            + np.cross(wd, np.cross(w, L)) + np.cross(wdd, L))  # R^T R''' L_b
+    return np.array([math.sqrt((wd @ (I * wd)) * (wdd @ (I * wdd))),
+                     (np.linalg.norm(R3_L) + np.linalg.norm(I * wddd)) / np.linalg.norm(L),
+                     np.linalg.norm(wddd) / np.linalg.norm(wd)])
+
+
+def integrator_scales(I, w0, T: float, T_phase: float) -> tuple[float, float, float]:
+    """(s_E, s_M, s_phase): second_order_rates integrated along the exact motion, the
+    first two over [0, T], the phase over [0, T_phase]. A second-order step's bounds are
+    dE <= dt^2/2 s_E, |dL|/|L| <= dt^2/6 s_M and a time shift <= dt^2/6 s_phase."""
     I = np.asarray(I, float)
 
     def rates(t, y):
-        w = y[:3]
-        wd = euler_rates(I, w)
-        Ld = I * wd
-        return np.concatenate([wd, [wd @ (I * wd), Ld @ Ld / np.linalg.norm(I * w)]])
-    sol = solve_ivp(rates, (0.0, T), np.concatenate([w0, np.zeros(2)]), rtol=1e-10, atol=1e-12)
-    return float(sol.y[3, -1]), float(sol.y[4, -1])
+        return np.concatenate([euler_rates(I, y[:3]), second_order_rates(I, y[:3])])
+    sol = solve_ivp(rates, (0.0, max(T, T_phase)), np.concatenate([w0, np.zeros(3)]), rtol=1e-10, atol=1e-12,
+                    dense_output=True)
+    return float(sol.sol(T)[3]), float(sol.sol(T)[4]), float(sol.sol(T_phase)[5])
 
 
 def euler_positions(x0, v0, g, dt: float, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -187,25 +221,24 @@ def expect(p, dt) -> list[Check]:
                          Check("energy_drift", "-", 0.0, 1e-9, "abs", exact)]
     I, w0 = inertia(p), omega0(p)
     E2, M2 = invariants(I, w0)
-    s_E, s_M = integrator_scales(I, w0, T)
-    # One dt of each rate: a first-order step's constant is 1/2 for explicit Euler (+) and
-    # implicit Euler (-) in the body frame; other first-order rotation updates differ.
-    tol_E = dt * s_E / (E2 / 2)
-    tol_M = dt * s_M / math.sqrt(M2)
-    # T_flip at the corners of those drifts: near the separatrix it is
-    # ill-conditioned in E and M (module docstring).
     T_flip = flip_interval(I, E2, M2)
+    s_E, s_M, s_phase = integrator_scales(I, w0, T, T_flip / 2.0)
+    tol_E = dt**2 / 2.0 * s_E / (E2 / 2.0)
+    tol_M = dt**2 / 6.0 * s_M
+    # T_flip at the corners of those drifts (ill-conditioned near the separatrix: module
+    # docstring), plus the phase a second-order step loses along the orbit up to the flip
     corners = [flip_interval(I, E2 * (1 + a * tol_E), M2 * (1 + b * tol_M) ** 2) for a in (-1, 1) for b in (-1, 1)]
-    tol_T = max(abs(c - T_flip) for c in corners) / 2.0 + dt
+    tol_T = max(abs(c - T_flip) for c in corners) / 2.0 + dt**2 / 6.0 * s_phase
     return checks + [
         Check("momentum_drift", "-", 0.0, tol_M, "abs",
-              "first-order rotation step: |L| errs by dt^2/2 |L_dot|^2/|L| per step (explicit Euler); "
-              "one dt of that rate in all"),
+              "second-order rotation step: L = R L_b errs by dt^3/6 (|R''' L_b| + |L_b'''|) per step, "
+              "summed over the run"),
         Check("energy_drift", "-", 0.0, tol_E, "abs",
-              "first-order rotation step: E errs by dt^2/2 w_dot . I w_dot per step (explicit Euler); "
-              "one dt of that rate in all"),
+              "second-order rotation step: E errs by dt^3/2 |w_dot|_I |w_ddot|_I per step "
+              "(w . I w''' = -3 w_dot . I w_ddot), summed over the run"),
         Check("flip_time", "s", T_flip / 2.0, tol_T, "abs",
-              "T_flip(E, M) / 2 at the tolerated energy and momentum drifts, plus dt for the interpolated crossing"),
+              "T_flip(E, M) / 2 at the tolerated energy and momentum drifts, plus a second-order step's "
+              "phase error dt^2/6 int |w'''| / |w_dot| up to the flip"),
     ]
 
 

@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given
 from hypothesis import strategies as st
 
 from reference_impl import lcp, lemke, pgs
@@ -155,7 +155,6 @@ def random_problem(seed, friction=True, static=True, restitution=True, max_condi
 seeds = st.integers(0, 2**32 - 1)
 
 
-@settings(max_examples=60, deadline=None)
 @given(seed=seeds, friction=st.booleans())
 def test_pgs_and_lemke_agree_and_solve_the_lcp(seed, friction):
     """Both solve the LCP to the residual bar; they agree where the answer is unique:
@@ -168,13 +167,74 @@ def test_pgs_and_lemke_agree_and_solve_the_lcp(seed, friction):
     assert by_pgs == pytest.approx(by_lemke, abs=1e-8)
 
 
-@settings(max_examples=60, deadline=None)
 @given(seed=seeds)
 def test_both_solvers_solve_the_lcp_with_strong_friction(seed):
+    """mu up to 1. Lemke solves every problem: the friction-polyhedron LCP is one Lemke's
+    method processes (Anitescu and Potra 1997). PGS is not guaranteed to converge here:
+    with bounds -+mu gamma_n that move with the solution it is no longer coordinate
+    descent on a convex quadratic, and it can cycle (next test; 0.14 % of these problems,
+    30 000 seeds checked). What it does guarantee is checked: after every sweep the
+    impulses lie in the friction pyramid (each contact's tangent rows are clamped right
+    after its normal row), and a sweep that changes nothing is a fixed point of the
+    projected map, so when PGS reports convergence its impulses solve the LCP."""
     bodies, x, contacts, u = random_problem(seed, friction=True)
+    rows = lcp.build_rows(contacts, u)
+    A, b = lcp.delassus(rows, bodies), lcp.impact_rhs(rows, u)
+    assert lcp.residual(A, b, rows, lemke.contact_lcp(A, b, rows)) <= RESIDUAL
+    for sweeps in (1, 2, 3):
+        assert in_pyramid(rows, pgs.projected_gauss_seidel(rows, bodies, b, pgs.PGSSettings(sweeps, 0.0)).gamma)
+    result = pgs.projected_gauss_seidel(rows, bodies, b, CONVERGED)
+    assert in_pyramid(rows, result.gamma)
+    if result.change <= CONVERGED.tolerance:
+        assert lcp.residual(A, b, rows, result.gamma) <= RESIDUAL
+    else:  # not converged: it says so, having used every sweep
+        assert result.sweeps == CONVERGED.iterations
+
+
+def in_pyramid(rows, gamma) -> bool:
+    tangent = ~rows.is_normal
+    return bool(np.all(gamma[rows.is_normal] >= 0.0)
+                and np.all(np.abs(gamma[tangent]) <= rows.mu[tangent] * gamma[rows.normal[tangent]] + 1e-12))
+
+
+def test_known_deviation_pgs_cycles_on_one_strongly_coupled_sliding_contact():
+    """Finding (seed 260): one contact, mu = 0.39, whose normal and first tangent row are
+    strongly coupled (A_nt1 / A_nn = -2.96: an off-centre contact of a turning body). The
+    LCP's solution slides along t1 at 0.80 m/s (Lemke, residual 4e-16). PGS overshoots it:
+    each normal update moves gamma_n by -A_nt1 d(gamma_t1) / A_nn, and the bound then moves
+    gamma_t1 by mu d(gamma_n), a loop gain mu |A_nt1| / A_nn = 1.16 > 1. With the t2 row,
+    one sweep linearised about the sliding solution has the eigenvalue -1.09: the solution
+    repels the iteration, which settles on a two-sweep cycle either side of it, residual
+    0.034 and 0.21, for ever."""
+    bodies, x, contacts, u = random_problem(260, friction=True)
+    rows = lcp.build_rows(contacts, u)
+    A, b = lcp.delassus(rows, bodies), lcp.impact_rhs(rows, u)
+    assert len(contacts) == 1 and contacts[0].mu == pytest.approx(0.391, abs=1e-3)
+    assert contacts[0].mu * abs(A[0, 1]) / A[0, 0] == pytest.approx(1.158, abs=1e-3)
+    exact = lemke.contact_lcp(A, b, rows)
+    assert lcp.residual(A, b, rows, exact) <= RESIDUAL
+    assert exact[1] == pytest.approx(-contacts[0].mu * exact[0], rel=1e-12)  # at the bound: sliding
+    assert (A @ exact - b)[1] == pytest.approx(0.799, abs=1e-3)
+    sweep = lambda g: pgs.projected_gauss_seidel(rows, bodies, b, pgs.PGSSettings(1, 0.0), gamma0=g).gamma
+    h = 1e-7 * np.eye(3)
+    jacobian = np.array([(sweep(exact + h[i]) - sweep(exact - h[i])) / 2e-7 for i in range(3)]).T
+    assert min(np.linalg.eigvals(jacobian).real) == pytest.approx(-1.091, abs=1e-3)
+    cycle = [pgs.projected_gauss_seidel(rows, bodies, b, pgs.PGSSettings(n, 0.0)).gamma for n in (1000, 1001, 1002)]
+    assert cycle[2] == pytest.approx(cycle[0], abs=1e-12)  # period two
+    assert [lcp.residual(A, b, rows, g) for g in cycle[:2]] == pytest.approx([0.0343, 0.2107], abs=1e-3)
+    assert min(cycle[0][0], cycle[1][0]) < exact[0] < max(cycle[0][0], cycle[1][0])
+    assert pgs.projected_gauss_seidel(rows, bodies, b, CONVERGED).change > 0.9  # and it reports it
+
+
+def test_lemke_accepts_a_basis_whose_artificial_variable_rounded_to_zero():
+    """Regression (seed 937891245, three contacts, mu = 0.25): the last pivot was a tie
+    z0 should have won; it stayed basic at 2e-14 and the next entering column was a ray.
+    The basis already solves the LCP (PGS agrees, residual 4e-15): lemke() now returns it,
+    checked, instead of raising LemkeFailure."""
+    bodies, x, contacts, u = random_problem(937891245, friction=True)
     rows, A, b, by_pgs, by_lemke = solve_both(contacts, bodies, u)
-    assert lcp.residual(A, b, rows, by_pgs) <= RESIDUAL
     assert lcp.residual(A, b, rows, by_lemke) <= RESIDUAL
+    assert by_lemke == pytest.approx(by_pgs, abs=1e-9)
 
 
 def test_known_deviation_strong_friction_makes_the_lcp_ambiguous():
@@ -190,7 +250,6 @@ def test_known_deviation_strong_friction_makes_the_lcp_ambiguous():
     assert lcp.residual(A, b, rows, by_pgs) <= RESIDUAL and lcp.residual(A, b, rows, by_lemke) <= RESIDUAL
 
 
-@settings(max_examples=60, deadline=None)
 @given(seed=seeds)
 def test_friction_impulses_stay_inside_the_pyramid(seed):
     bodies, x, contacts, u = random_problem(seed)
@@ -210,7 +269,6 @@ def momenta(bodies, x, u):
     return P, L
 
 
-@settings(max_examples=60, deadline=None)
 @given(seed=seeds)
 def test_impulses_between_free_bodies_conserve_momentum(seed):
     bodies, x, contacts, u = random_problem(seed, static=False)
@@ -226,7 +284,6 @@ def kinetic_energy(bodies, u):
                for i in range(len(bodies)))
 
 
-@settings(max_examples=60, deadline=None)
 @given(seed=seeds, friction=st.booleans())
 def test_perfectly_inelastic_contacts_never_gain_energy(seed, friction):
     """e = 0: dE = -1/2 du^T M du + gamma . (J v+), and gamma . J v+ <= 0 row by row
@@ -238,7 +295,6 @@ def test_perfectly_inelastic_contacts_never_gain_energy(seed, friction):
         assert kinetic_energy(bodies, after(rows, bodies, u, gamma)) <= kinetic_energy(bodies, u) + 1e-9
 
 
-@settings(max_examples=60, deadline=None)
 @given(seed=seeds)
 def test_frictionless_impacts_of_approaching_contacts_never_gain_energy(seed):
     """e <= 1, no friction, every contact approaching: dE = sum gamma_i (v_i- + v_i+) / 2,
@@ -274,20 +330,27 @@ def test_known_deviation_simultaneous_restitution_gains_energy_with_a_separating
     assert u_literal[:, 0] == pytest.approx([-1.0, 3.0], abs=1e-12)
 
 
-@settings(max_examples=40, deadline=None)
+@example(seed=9873, shift=(0.0, 0.0, 0.0), turn=0)  # PGS cycles: the wide profile's find
 @given(seed=seeds, shift=st.tuples(*[st.floats(-10, 10)] * 3), turn=st.integers(0, 2**32 - 1))
 def test_rigid_transform_of_the_whole_scene_changes_nothing(seed, shift, turn):
     """Rotate the scene by R and move it by `shift`: arms, normals, velocities and world
     inertias turn with it, so the impulses are the same and the velocity changes turn.
-    Friction too: the tangent basis follows each contact's slip (lcp.tangent_basis)."""
+    Friction too: the tangent basis follows each contact's slip (lcp.tangent_basis).
+    PGS only where it converges in both frames: on a problem it cycles on (see
+    test_known_deviation_pgs_cycles_on_one_strongly_coupled_sliding_contact) the sweep
+    budget ends at a phase of the cycle that rounding can shift (seed 9873, found by the
+    wide profile: one contact, mu = 0.98)."""
     bodies, x, contacts, u = random_problem(seed)
     R = random_rotation(np.random.default_rng(turn))
     moved = Bodies(bodies.m_inv, np.einsum("ij,njk,lk->nil", R, bodies.I_inv, R))
     moved_contacts = [Contact(c.a, c.b, R @ c.r_a, R @ c.r_b, R @ c.n, c.c_r, c.mu) for c in contacts]
     moved_u = np.hstack([u[:, :3] @ R.T, u[:, 3:] @ R.T])
     rows, A, b, *gammas = solve_both(contacts, bodies, u)
-    moved_rows, _, _, *moved_gammas = solve_both(moved_contacts, moved, moved_u)
-    for gamma, moved_gamma in zip(gammas, moved_gammas):
+    moved_rows, moved_A, moved_b, *moved_gammas = solve_both(moved_contacts, moved, moved_u)
+    converged = all(pgs.projected_gauss_seidel(r, m, rhs, CONVERGED).change <= CONVERGED.tolerance
+                    for r, m, rhs in ((rows, bodies, b), (moved_rows, moved, moved_b)))
+    pairs = list(zip(gammas, moved_gammas))
+    for gamma, moved_gamma in pairs if converged else pairs[1:]:
         assert moved_gamma == pytest.approx(gamma, abs=1e-8)
         du = lcp.velocity_change(rows, bodies, gamma)
         moved_du = lcp.velocity_change(moved_rows, moved, moved_gamma)

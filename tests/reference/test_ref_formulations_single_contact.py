@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from reference_impl.single_contact import (body_collision_matrix, collision_matrix, cross_matrix,
@@ -81,7 +81,6 @@ def test_two_particles_central_impact_closed_form(m2, e):
     assert (v2 * x - p / m2) == pytest.approx(expected_2 * x, abs=EXACT)
 
 
-@settings(max_examples=50, deadline=None)
 @given(m_a=mass, m_b=mass, v_a=vec3, v_b=vec3, n=unit, c_r=coefficient, mu=coefficient)
 def test_particle_pair_conserves_momentum_and_never_gains_energy(m_a, m_b, v_a, v_b, n, c_r, mu):
     p = particle_pair_impulse(m_a, m_b, v_a, v_b, n, c_r, mu)
@@ -100,7 +99,6 @@ def test_obstacle_is_a_particle_of_infinite_mass():
 
 # --- the collision matrix (notes 004, 001, 003) -------------------------------------------
 
-@settings(max_examples=50, deadline=None)
 @given(a=rigid_body(), b=rigid_body(), r_a=vec3, r_b=vec3, n=unit)
 def test_collision_matrix_normal_entry_is_note_003s_denominator(a, b, r_a, r_b, n):
     """n^T K n = 1/m_a + 1/m_b + (r_a x n)^T I_a^-1 (r_a x n) + (r_b x n)^T I_b^-1 (r_b x n)
@@ -114,7 +112,6 @@ def test_collision_matrix_normal_entry_is_note_003s_denominator(a, b, r_a, r_b, 
     assert np.all(np.linalg.eigvalsh(K) > 0.0)
 
 
-@settings(max_examples=50, deadline=None)
 @given(body=rigid_body(), r=vec3, p=vec3, v=vec3, w=vec3)
 def test_collision_matrix_maps_impulse_to_contact_point_velocity(body, r, p, v, w):
     """K_i p is the change of the contact point's velocity v + w x r when p acts at r."""
@@ -198,7 +195,6 @@ def _outcome(impact):
     return K, u, p, after
 
 
-@settings(max_examples=60, deadline=None)
 @given(impact=rigid_impact(free=True))
 def test_newton_coulomb_conserves_linear_and_angular_momentum(impact):
     """Two free bodies: total momentum and angular momentum about the origin are unchanged
@@ -216,7 +212,6 @@ def test_newton_coulomb_conserves_linear_and_angular_momentum(impact):
         assert y == pytest.approx(x, abs=1e-8 * (1.0 + np.max(np.abs(x))))
 
 
-@settings(max_examples=60, deadline=None)
 @given(impact=rigid_impact(free=True))
 def test_energy_change_formula_of_note_001_matches_the_kinetic_energies(impact):
     """dE = p . (u- + du/2), du = K p, equals the change of the summed kinetic energies."""
@@ -247,7 +242,6 @@ def sphere_impact(draw):
             draw(coefficient), mu_s, draw(st.floats(0.0, 1.0)) * mu_s)
 
 
-@settings(max_examples=100, deadline=None)
 @given(impact=sphere_impact())
 def test_sphere_impacts_never_gain_energy(impact):
     """Spheres: K n = k n and K is isotropic in the tangent plane, so the sticking impulse
@@ -293,7 +287,6 @@ def test_known_deviation_newton_coulomb_sliding_gains_energy_when_slip_reverses(
     assert after - before == pytest.approx(0.01173, abs=1e-5)
 
 
-@settings(max_examples=60, deadline=None)
 @given(impact=rigid_impact())
 def test_newton_coulomb_friction_stays_in_the_cone(impact):
     """Sticking: |p_t| <= mu_s p_n; sliding: |p_t| = mu_k p_n <= mu_s p_n."""
@@ -304,14 +297,39 @@ def test_newton_coulomb_friction_stays_in_the_cone(impact):
     assert np.linalg.norm(p - p_n * n) <= mu_s * p_n + 1e-9
 
 
-@settings(max_examples=60, deadline=None)
 @given(impact=rigid_impact(), axis=unit, angle=st.floats(0.0, math.pi))
 def test_newton_coulomb_impulse_turns_with_the_scene(impact, axis, angle):
     """Rotate the whole scene by R (arms, normal, velocities, world inertias): the impulse
-    is R p. (A translation changes nothing the impulse depends on: arms are differences.)"""
+    is R p. (A translation changes nothing the impulse depends on: arms are differences.)
+    To within the model's conditioning: the turn rounds u by ~eps |u|, which turns the
+    sliding direction t = u_t / |u_t| by ~eps |u| / |u_t| and a sliding impulse by mu_k p_n
+    times that (next test). Coulomb's direction of sliding is undefined at u_t = 0, so no
+    tolerance independent of |u_t| holds; 1e-14 |u| / |u_t| is 50 eps."""
     a, b, r_a, r_b, n, (v_a, w_a, v_b, w_b), e, mu_s, mu_k = impact
     K, u, p, after = _outcome(impact)
     R = _rotation(axis, angle)
     turn = lambda body: (body[0], R @ body[1] @ R.T)
     K_turned = collision_matrix(*turn(a), R @ r_a, *turn(b), R @ r_b)
-    assert newton_coulomb_impulse(K_turned, R @ u, R @ n, e, mu_s, mu_k) == pytest.approx(R @ p, abs=1e-9)
+    u_n = u @ n
+    slip = np.linalg.norm(u - u_n * n)
+    direction = mu_k * (p @ n) * 1e-14 * np.linalg.norm(u) / slip if slip > 0.0 else 0.0
+    assert newton_coulomb_impulse(K_turned, R @ u, R @ n, e, mu_s, mu_k) == pytest.approx(R @ p, abs=1e-9 + direction)
+
+
+def test_known_deviation_sliding_direction_is_ill_conditioned_at_vanishing_slip():
+    """Finding: the slender body of the tests above lands at 1 m/s sliding at 1e-11 m/s,
+    mu = 0.2: it slides (coupling), p = (-0.0377, 0, 0.189) N s. Turned by 1 rad about
+    (1, 1, 1), the rounding of R u (1e-16 m/s) turns the slip direction, and the impulse
+    differs from R p by 2.9e-8 N s, 29 times the 1e-9 bar (mu_k p_n eps |u| / |u_t| =
+    8e-7): the law's sliding direction is discontinuous at u_t = 0, and equivariance holds
+    only to eps |u| / |u_t|. (At a slip of 1e-12 m/s, the model's no-slip threshold, the
+    two frames fall either side of it and differ by 0.084 N s.) Hypothesis drew such slips
+    from velocities that nearly cancel; the property above now states that bound."""
+    K = body_collision_matrix(1.0, np.eye(3) / 0.01, np.array([-0.3, 0.0, -0.1]))
+    u = np.array([1e-11, 0.0, -1.0])
+    p = newton_coulomb_impulse(K, u, Z, 1.0, 0.2, 0.2)
+    assert p == pytest.approx([-0.2 * 0.18868, 0.0, 0.18868], abs=1e-5)
+    R = _rotation(np.ones(3) / math.sqrt(3.0), 1.0)
+    K_turned = body_collision_matrix(1.0, R @ (np.eye(3) / 0.01) @ R.T, R @ np.array([-0.3, 0.0, -0.1]))
+    error = np.linalg.norm(newton_coulomb_impulse(K_turned, R @ u, R @ Z, 1.0, 0.2, 0.2) - R @ p)
+    assert 1e-9 < error < 0.2 * p[2] * 1e-14 / 1e-11

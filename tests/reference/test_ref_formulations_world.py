@@ -70,6 +70,21 @@ def test_rigid_central_impact_is_exact(formulation, e, m2):
     assert got == pytest.approx(after_impact(1.0, m2, e), abs=1e-12)
 
 
+def test_pairwise_newton_coulomb_passes_the_pulse_down_a_touching_row():
+    """Note 004's pairwise impulses with e = 1 on a striker (1 m/s) and three touching
+    balls, all 1 kg, no gravity: each pair in turn exchanges velocities (Newton's law on
+    its approach when the loop reaches it), so the striker and the first two balls stop
+    and the last leaves at 1 m/s; momentum and kinetic energy are kept."""
+    r = 0.05
+    balls = [Body("striker", Sphere(r), mass=1.0, position=(-2 * r - 0.01, 0.0, 0.0), velocity=(1.0, 0.0, 0.0),
+                  rotates=False)]
+    balls += [Body(f"ball{i}", Sphere(r), mass=1.0, position=(2 * r * i, 0.0, 0.0), rotates=False) for i in range(3)]
+    states, _ = run("single_contact", Scene(bodies=tuple(balls), gravity=(0.0, 0.0, 0.0), material=Material(e=1.0)),
+                    0.05)
+    v = [states[b.name][-1, 7] for b in balls]
+    assert v == pytest.approx([0.0, 0.0, 0.0, 1.0], abs=1e-12)
+
+
 def test_spook_plastic_impact_is_exact_and_bounces_are_refused():
     """SPOOK has no restitution (note 004): e = 0 only. The world sees the contact a step
     ahead (speculative reach), where SPOOK's q term brakes the approach onto the surface."""
