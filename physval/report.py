@@ -6,7 +6,7 @@ from pathlib import Path
 
 from physval.core import COLUMNS
 from physval.readings import verdicts
-from physval.reportkit import (contents, engine_versions, environment, frame, md_table, problems_section, status_counts,
+from physval.reportkit import (contents, heading, engine_versions, environment, frame, md_table, problems_section, status_counts,
                                summary_matrix, unsupported_section, write_atomic)
 
 INTRO = ("physval runs analytic cases (closed-form answers with tolerances, each with its reason) on physics "
@@ -21,13 +21,9 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
     out = Path(out)
     df = frame(rows, COLUMNS)
     runs = df.groupby(["case", "variant", "engine"]).ngroups if len(df) else 0
-    head = ["# physval report", ""]
-    if command:
-        head += [f"Command: `{command}`", ""]
-    if not complete:
-        head += [f"**INCOMPLETE: the run was interrupted after {runs} of {planned} runs.** Run the same command "
-                 "again to finish it (finished runs are kept and not recomputed). Plots are drawn when it completes.",
-                 ""]
+    head = heading("physval report", command,
+                   "" if complete else f"the run was interrupted after {runs} of {planned} runs. Finished runs are "
+                                        "kept and not recomputed; plots are drawn when it completes.")
     head += [INTRO, "", f"{len(df)} checks from {runs} runs: {status_counts(df)}.", ""]
     if not complete:
         body = [md_table(summary_matrix(df)), ""] if len(df) else []

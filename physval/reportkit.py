@@ -50,6 +50,17 @@ def write_csv(df: pd.DataFrame, path: Path, columns: list[str] | None = None) ->
 
 # --- text ---------------------------------------------------------------------------------
 
+def heading(title: str, command: str = "", interrupted: str = "") -> list[str]:
+    """A report's first lines: its title, the command that made it, and, for a run that
+    was interrupted, a bold notice saying so (`interrupted` says what is missing)."""
+    lines = [f"# {title}", ""]
+    if command:
+        lines += [f"Command: `{command}`", ""]
+    if interrupted:
+        lines += [f"**INCOMPLETE: {interrupted}** Run the same command again to finish it.", ""]
+    return lines
+
+
 def md_table(df: pd.DataFrame) -> str:
     return df.to_markdown(index=False) if len(df) else "_(none)_"
 

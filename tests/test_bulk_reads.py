@@ -28,17 +28,25 @@ SCENES = {
 }
 
 
-@pytest.mark.parametrize("dim", ["3D", "2D"])
-@pytest.mark.parametrize("engine", ["reference", "pybullet", "mujoco", "pymunk", "dart", "drake", "box2d", "rapier"])
-def test_bulk_reads_equal_states(engine, dim):
+ENGINES = ["reference", "pybullet", "mujoco", "pymunk", "dart", "drake", "box2d", "rapier"]
+
+
+def adapter_for(engine: str, scene: Scene):
+    """The engine's adapter, or a skip if it is not installed or cannot run the scene."""
     try:
         adapter = registry.get(engine)
     except registry.EngineError as exc:
         pytest.skip(str(exc))
-    scene = SCENES[dim]
     if adapter.capabilities.cannot_run(scene):
         pytest.skip(adapter.capabilities.cannot_run(scene))
-    with adapter.build(scene, Settings(dt=1e-3)) as sim:
+    return adapter
+
+
+@pytest.mark.parametrize("dim", ["3D", "2D"])
+@pytest.mark.parametrize("engine", ENGINES)
+def test_bulk_reads_equal_states(engine, dim):
+    scene = SCENES[dim]
+    with adapter_for(engine, scene).build(scene, Settings(dt=1e-3)) as sim:
         names = sim.body_order()
         raw = np.empty((80, sim.state_size()))
         expected = []
@@ -55,16 +63,11 @@ def test_bulk_reads_equal_states(engine, dim):
 
 
 @pytest.mark.parametrize("dim", ["3D", "2D"])
-@pytest.mark.parametrize("engine", ["mujoco", "reference", "pybullet", "pymunk", "dart", "drake", "box2d", "rapier"])
+@pytest.mark.parametrize("engine", ENGINES)
 def test_stepping_in_blocks_is_bit_for_bit_stepping_in_turn(engine, dim):
     """An adapter's run() (many steps in one call) gives exactly step() and write_state() in turn."""
-    try:
-        adapter = registry.get(engine)
-    except registry.EngineError as exc:
-        pytest.skip(str(exc))
     scene = SCENES[dim]
-    if adapter.capabilities.cannot_run(scene):
-        pytest.skip(adapter.capabilities.cannot_run(scene))
+    adapter = adapter_for(engine, scene)
     with adapter.build(scene, Settings(dt=1e-3)) as sim:
         if sim.run is None:
             pytest.skip(f"{engine} steps one step at a time")

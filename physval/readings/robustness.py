@@ -30,7 +30,7 @@ from physval import cli
 from physval.core import COLUMNS, Job, Probe
 from physval.core.session import Execution, run_stored
 from physval.core.selection import select_variants
-from physval.reportkit import (deviation_summary, environment, engine_versions, fmt, frame, md_table,
+from physval.reportkit import (deviation_summary, heading, environment, engine_versions, fmt, frame, md_table,
                                problems_section, pyplot, save_figure, status_counts, summary_matrix,
                                unsupported_section, write_atomic)
 
@@ -266,11 +266,7 @@ def write_stress_report(rows: list[dict], smap, det, out: Path, command: str = "
     out = Path(out)
     df = frame(rows, COLUMNS)
     write_atomic(out / "stress_results.csv", df[COLUMNS].to_csv(index=False))
-    lines = ["# physval stress report", ""]
-    if command:
-        lines += [f"Command: `{command}`", ""]
-    if not complete:
-        lines += ["**INCOMPLETE: interrupted.** Run the same command again to finish it.", ""]
+    lines = heading("physval stress report", command, "" if complete else "interrupted.")
     lines += [f"{len(df)} checks from {df.groupby(['case', 'variant', 'engine']).ngroups if len(df) else 0} runs: "
               f"{status_counts(df)}.", "",
               "Robustness scenes are judged by invariants (cases/robustness.py): no NaN or blow-up (status "

@@ -30,7 +30,7 @@ from physval import cli
 from physval.core import COLUMNS, Job, Probe, steps_of
 from physval.core.session import Execution, run_stored
 from physval.core.selection import select_variants
-from physval.reportkit import md_table, pyplot, save_figure, write_atomic
+from physval.reportkit import heading, md_table, pyplot, save_figure, write_atomic
 
 # Time steps from 1/60 s (games) down to 1e-4 s (six values, about log-spaced).
 DTS = (1 / 60, 1 / 120, 1 / 240, 1e-3, 3e-4, 1e-4)
@@ -241,11 +241,8 @@ def write_report(rows: list[dict], fams: dict, out: Path, command: str = "", com
     write_atomic(out / "sweep_points.csv", pts.to_csv(index=False))
     summ = summary(pts) if len(pts) else pd.DataFrame()
     write_atomic(out / "sweep_summary.csv", summ.to_csv(index=False))
-    lines = ["# physval sweep: what accuracy costs in time", ""]
-    if command:
-        lines += [f"Command: `{command}`", ""]
-    if not complete:
-        lines += ["**INCOMPLETE: the sweep was interrupted.** Run the same command again to finish it.", ""]
+    lines = heading("physval sweep: what accuracy costs in time", command,
+                    "" if complete else "the sweep was interrupted.")
     lines += [f"{len(pts)} points ({(pts.status == 'ok').sum()} completed) over "
               f"{pts.groupby(['case', 'variant']).ngroups if len(pts) else 0} case variants and "
               f"{pts.engine.nunique() if len(pts) else 0} engines. "
