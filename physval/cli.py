@@ -186,9 +186,9 @@ def engines_of(args, ctx, default: list[str] | None = None) -> list[str]:
     from adapters import registry
     from physval.core.selection import select_engines
     known = registry.engine_names(ctx.adapters)
-    if default is None:
+    if default is None and args.engines is None:  # only then: importing every engine takes ~1 s
         default = [e for e in known if _installed(ctx, e)]
-    chosen = select_engines(args.engines, known, default)
+    chosen = select_engines(args.engines, known, default or [])
     resolver = ctx.resolver()
     for e in chosen:
         resolver.known(e)  # an engine's own known-deviation file that does not parse stops here
