@@ -1,7 +1,8 @@
 """`physval known ENGINE`: measure an engine's known deviations and write their bands.
 
-The command runs every variant the engine can represent (or the `--cases`; with a user's
-`--file`, the families it names), at the family's dt and the adapter's default iterations,
+The command runs every variant the engine can represent in a default run (`--full`: also
+the full grids; `--on-demand`: also the runs the engine declares too slow for one; or the
+`--cases`; with a user's `--file`, the families it names), at the family's dt and the adapter's default iterations,
 and under each entry of the engine's deviation file (or of the `--file`) records a band
 line for every check the entry matches that misses its tolerance (or a `raises EXCEPTION`
 line for a run the engine aborts). The cause on the entry line
@@ -40,6 +41,8 @@ def add_parser(sub) -> None:
     p.add_argument("--file", metavar="FILE", help="a known-deviation file of your own instead of each engine's")
     p.add_argument("--write", action="store_true", help="write the measured bands into the file")
     p.add_argument("--full", action="store_true", help="also variants of the families' full grids")
+    p.add_argument("--on-demand", action="store_true",
+                   help="also the runs the engine declares too slow for a default run (minutes each)")
     p.add_argument("--cases", nargs="+", metavar="SPEC", help="only these families or variants (the --cases grammar)")
     p.add_argument("--cases-dir", action="append", metavar="DIR", help="also load case families from DIR")
     p.add_argument("--adapter", action="append", metavar="MODULE:CLASS", help="also use this adapter")
@@ -107,10 +110,10 @@ def cmd_known(args) -> int:
             fam = families[fam_name]
             for v in variants:
                 if adapter.capabilities.cannot_run(fam.scene(v.params), fam.needs_of(v.params)) is None \
-                        and not adapter.on_demand(fam.scene(v.params)):
+                        and (args.on_demand or not adapter.on_demand(fam.scene(v.params))):
                     jobs.append(Job(fam_name, v, engine))
         raised = {}
-        res, _ = run_stored(jobs, ctx, cache_dir() / "known.csv", COLUMNS, Execution.of(args), label=f"known {engine}",
+        res, _ = run_stored(jobs, ctx, cache_dir() / f"known-{engine}.csv", COLUMNS, Execution.of(args), label=f"known {engine}",
                             on_outcome=lambda o: o.exception and raised.__setitem__(o.job.key, o.exception))
         if not res.complete:
             return 130
@@ -126,8 +129,8 @@ def cmd_known(args) -> int:
             after = {(b.variant, b.metric): b for b in new[e.line]}
             moved = [k for k in after if k in before and not before[k].holds(after[k].value, after[k].raises)]
             if not any(f == e.family and fnmatchcase(v, e.variant) for f, v in ran):
-                print(f"  line {e.line} {e.pattern}: none of its variants ran here (not selected, on demand, "
-                      "or in the full grid: --full)")
+                print(f"  line {e.line} {e.pattern}: none of its variants ran here (not selected; in the "
+                      "full grid: --full; on demand: --on-demand)")
                 continue
             if not after and before:
                 print(f"  line {e.line} {e.pattern}: no check deviates any more: remove or narrow the entry")
