@@ -16,7 +16,7 @@ it vanishes for resting contact, whose relative velocity is zero). We take the n
 as fixed in body b (vertex-face contact with the face on b): n' = w_b x n.
 
 Frictionless (the note's slides compute friction separately); solved exactly by
-lemke.py. A set of contacts whose forces are indeterminate (a box resting on four
+lemke.py (lemke_or_retry). A set of contacts whose forces are indeterminate (a box resting on four
 corners) has many solutions with the same accelerations: compare sums, not single forces.
 """
 from __future__ import annotations
@@ -28,7 +28,7 @@ import numpy as np
 
 from reference_impl import lcp, pgs
 from reference_impl.lcp import STATIC, Bodies, Contact, build_rows, contact_velocity, delassus
-from reference_impl.lemke import lemke
+from reference_impl.lemke import lemke_or_retry
 
 
 @dataclass(frozen=True)
@@ -70,7 +70,7 @@ def _side(acc: np.ndarray, w: np.ndarray, r) -> np.ndarray:
 def contact_forces(contacts: list[Contact], bodies: Bodies, u: np.ndarray, F: np.ndarray,
                    T: np.ndarray) -> ContactForces:
     A, b = lcp_terms(contacts, bodies, u, F, T)
-    f = lemke(A, b)
+    f = lemke_or_retry(A, b)
     return ContactForces(f, A @ f + b)
 
 
@@ -93,7 +93,7 @@ def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
     rows, data, u = lcp.world_rows(contacts, bodies)
     rows = lcp.normal_rows(rows)  # frictionless (see unsupported)
     W = np.array([[*body.v0, *body.w0] for body in bodies], dtype=float).reshape(-1, 6)
-    impulse = lemke(delassus(rows, data), -lcp.world_rhs(contacts, rows, W))
+    impulse = lemke_or_retry(delassus(rows, data), -lcp.world_rhs(contacts, rows, W))
     W_after = W + lcp.velocity_change(rows, data, impulse)
     resting = [j for j, (c, v) in enumerate(zip(contacts, lcp.row_velocity(rows, W_after)))
                if c.depth >= 0.0 and v <= config.tolerance]

@@ -954,28 +954,19 @@ def default_cache() -> Path:
     return cache_dir() / "real"
 
 
-@dataclass
-class Executor:
+def executor_map(workers: int = 1, scheduler: str | None = None, job_timeout: float | None = None,
+                 start_method: str | None = None) -> MapFn:
     """map_fn on the harness's executor (physval.core.session.map_calls): each batch of
     tosses runs in a worker process (a crash or a time-out costs that batch only, its tosses
     then read as errors) or on a Dask cluster, unchanged."""
-    workers: int = 1
-    scheduler: str | None = None
-    job_timeout: float | None = None
-    start_method: str | None = None
+    from physval.core.session import Execution, map_calls
+    execution = Execution(workers, scheduler, job_timeout, start_method, progress=False)
 
-    def __enter__(self) -> MapFn:
-        from physval.core.session import Execution, map_calls
-        execution = Execution(self.workers, self.scheduler, self.job_timeout, self.start_method, progress=False)
-
-        def map_fn(fn, xs):
-            xs = list(xs)
-            return [r.value if not r.error else _lost_batch(x, r.error)
-                    for x, r in zip(xs, map_calls(fn, xs, execution=execution))]
-        return map_fn
-
-    def __exit__(self, *exc):
-        return None
+    def map_fn(fn, xs):
+        xs = list(xs)
+        return [r.value if not r.error else _lost_batch(x, r.error)
+                for x, r in zip(xs, map_calls(fn, xs, execution=execution))]
+    return map_fn
 
 
 def _lost_batch(batch: "Batch", why: str) -> list[dict]:
@@ -1057,78 +1048,78 @@ def _run(args) -> int:
         f"engines {', '.join(engines)}" + (f" (skipped: {', '.join(skipped)})" if skipped else ""))
 
     rows, trajectories, fits, not_fitted, failures, subsets, cost = [], {}, {}, {}, [], {}, []
-    with Executor(args.workers, args.scheduler, getattr(args, "job_timeout", None),
-                  getattr(args, "start_method", None)) as map_fn:
-        for engine in engines:
-            t0 = time.perf_counter()
-            nom = simulate_many(engine, nominal(engine), test[:1], map_fn=map_fn, keep=True, **common)
-            if nom[0]["status"] == "unsupported":
-                skipped[engine] = nom[0]["message"]
-                say(f"  {engine}: unsupported ({nom[0]['message']})")
-                continue
-            per_toss = nom[0]["elapsed_cpu"]
-            scored = test
-            if per_toss * len(test) > args.score_limit:
-                every = math.ceil(per_toss * len(test) / args.score_limit)
-                scored = test[::every]
-                subsets[engine] = (f"one toss costs {per_toss:.2g} CPU s: scored on one test toss in {every} "
-                                   f"({len(scored)} of {len(test)}; --score-limit {args.score_limit:g} s)")
-                say(f"  {engine}: {subsets[engine]}")
-            nom += simulate_many(engine, nominal(engine), scored[1:], map_fn=map_fn, keep=True, **common)
-            params = None
-            if engine in given:
-                params = given[engine]
-            elif do_fit:
-                why, part, every = _fit_plan(engine, nom, train, args)
-                if why:
-                    not_fitted[engine] = why
-                    say(f"  {engine}: nominal only: {why}")
-                else:
-                    say(f"  {engine}: fitting {', '.join(parameter_space(engine))} on {len(part)} tosses")
-                    f = fit(engine, part, map_fn=map_fn, popsize=args.popsize, generations=args.generations,
-                            **common)
-                    fits[engine] = {"params": f.params, "names": list(f.names), "loss": f.loss,
-                                    "nominal_loss": f.nominal_loss, "evaluations": f.evaluations,
-                                    "tosses": len(f.tosses), "seconds": f.seconds,
-                                    "spread": f.bootstrap(args.bootstrap),
-                                    "subset": (f"one training toss in {every}, {len(part)} of {len(train)}: the "
-                                               f"whole split would cost more than --fit-limit" if every > 1 else "")}
-                    cost.append(f.cost)
-                    params = f.params
+    map_fn = executor_map(args.workers, args.scheduler, getattr(args, "job_timeout", None),
+                          getattr(args, "start_method", None))
+    for engine in engines:
+        t0 = time.perf_counter()
+        nom = simulate_many(engine, nominal(engine), test[:1], map_fn=map_fn, keep=True, **common)
+        if nom[0]["status"] == "unsupported":
+            skipped[engine] = nom[0]["message"]
+            say(f"  {engine}: unsupported ({nom[0]['message']})")
+            continue
+        per_toss = nom[0]["elapsed_cpu"]
+        scored = test
+        if per_toss * len(test) > args.score_limit:
+            every = math.ceil(per_toss * len(test) / args.score_limit)
+            scored = test[::every]
+            subsets[engine] = (f"one toss costs {per_toss:.2g} CPU s: scored on one test toss in {every} "
+                               f"({len(scored)} of {len(test)}; --score-limit {args.score_limit:g} s)")
+            say(f"  {engine}: {subsets[engine]}")
+        nom += simulate_many(engine, nominal(engine), scored[1:], map_fn=map_fn, keep=True, **common)
+        params = None
+        if engine in given:
+            params = given[engine]
+        elif do_fit:
+            why, part, every = _fit_plan(engine, nom, train, args)
+            if why:
+                not_fitted[engine] = why
+                say(f"  {engine}: nominal only: {why}")
             else:
-                not_fitted[engine] = "no parameters given for it" if args.params else "--nominal"
-            for r in nom:
-                r["param_set"] = "nominal"
-            sets = [("nominal", nom)]
-            if params is not None:
-                fitted_rows = simulate_many(engine, params, scored, map_fn=map_fn, keep=True, **common)
-                for r in fitted_rows:
-                    r["param_set"] = "fitted"
-                sets.append(("fitted", fitted_rows))
-                if engine in given:
-                    fits[engine] = {"params": params, "names": list(params), "spread": []}
-            for pset, rs in sets:
-                for r in rs:
-                    tr, fl = _flight(source, r["toss"])
-                    r["t_contact"] = float(tr.t[fl.contact] - fl.t0)
-                    r["split"] = "test"
-                bad = [r for r in rs if r["status"] != "ok"]
-                if bad:
-                    kinds = pd.Series([r["status"] for r in bad]).value_counts().to_dict()
-                    failures.append(f"{engine} ({pset}): {len(bad)} of {len(rs)} tosses "
-                                    f"({', '.join(f'{n} {k}' for k, n in kinds.items())}); first, toss "
-                                    f"{bad[0]['toss']}: {bad[0]['message'][:200]}")
-                trajectories[(engine, pset)] = rs
-                rows += rs
-            # how far the capture's noise in the start state alone carries this engine
-            best = sets[-1]
-            shaken = simulate_many(engine, params or nominal(engine), scored, map_fn=map_fn, keep=True,
-                                   perturb=True, **common)
-            floor = sensitivity(best[1], shaken, source)
-            trajectories[(engine, "start noise")] = floor
-            rows += floor
-            cost.append(_cost(nom + sum((rs for p, rs in sets[1:]), []) + shaken))
-            say(f"  {engine}: done in {time.perf_counter() - t0:.0f} s")
+                say(f"  {engine}: fitting {', '.join(parameter_space(engine))} on {len(part)} tosses")
+                f = fit(engine, part, map_fn=map_fn, popsize=args.popsize, generations=args.generations,
+                        **common)
+                fits[engine] = {"params": f.params, "names": list(f.names), "loss": f.loss,
+                                "nominal_loss": f.nominal_loss, "evaluations": f.evaluations,
+                                "tosses": len(f.tosses), "seconds": f.seconds,
+                                "spread": f.bootstrap(args.bootstrap),
+                                "subset": (f"one training toss in {every}, {len(part)} of {len(train)}: the "
+                                           f"whole split would cost more than --fit-limit" if every > 1 else "")}
+                cost.append(f.cost)
+                params = f.params
+        else:
+            not_fitted[engine] = "no parameters given for it" if args.params else "--nominal"
+        for r in nom:
+            r["param_set"] = "nominal"
+        sets = [("nominal", nom)]
+        if params is not None:
+            fitted_rows = simulate_many(engine, params, scored, map_fn=map_fn, keep=True, **common)
+            for r in fitted_rows:
+                r["param_set"] = "fitted"
+            sets.append(("fitted", fitted_rows))
+            if engine in given:
+                fits[engine] = {"params": params, "names": list(params), "spread": []}
+        for pset, rs in sets:
+            for r in rs:
+                tr, fl = _flight(source, r["toss"])
+                r["t_contact"] = float(tr.t[fl.contact] - fl.t0)
+                r["split"] = "test"
+            bad = [r for r in rs if r["status"] != "ok"]
+            if bad:
+                kinds = pd.Series([r["status"] for r in bad]).value_counts().to_dict()
+                failures.append(f"{engine} ({pset}): {len(bad)} of {len(rs)} tosses "
+                                f"({', '.join(f'{n} {k}' for k, n in kinds.items())}); first, toss "
+                                f"{bad[0]['toss']}: {bad[0]['message'][:200]}")
+            trajectories[(engine, pset)] = rs
+            rows += rs
+        # how far the capture's noise in the start state alone carries this engine
+        best = sets[-1]
+        shaken = simulate_many(engine, params or nominal(engine), scored, map_fn=map_fn, keep=True,
+                               perturb=True, **common)
+        floor = sensitivity(best[1], shaken, source)
+        trajectories[(engine, "start noise")] = floor
+        rows += floor
+        cost.append(_cost(nom + sum((rs for p, rs in sets[1:]), []) + shaken))
+        say(f"  {engine}: done in {time.perf_counter() - t0:.0f} s")
 
     scores = pd.DataFrame([{k: v for k, v in r.items() if k != "trajectory"} for r in rows])
     sims = {k: sum(c[k] for c in cost) for k in ("computed", "cached", "cpu")}
