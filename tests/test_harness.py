@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import csv
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -14,12 +12,11 @@ from cases.family import CaseError, CaseFamily, Check, Variant
 from cases.scene import Body, Circle, Material, Plane, Scene, Sphere
 from physval import deviations
 from physval.core import COLUMNS, Job
-from physval.core.verdicts import errors, within
+from physval.core.verdicts import contract_problems, errors, within
 from tests.fakes import FakeAdapter
 from tests.helpers import run_job
 
 ROOT = Path(__file__).resolve().parent.parent
-CHECK_RESULTS = ROOT.parent / "shared" / "tools" / "check_results.py"
 G, Z0, T, DT = 9.81, 10.0, 0.5, 1e-3
 
 
@@ -268,11 +265,27 @@ def test_results_csv_meets_the_agreed_contract(tmp_path):
         assert reader.fieldnames == COLUMNS
         rows = list(reader)
     assert {r["status"] for r in rows} == {"pass", "fail", "unstable", "unsupported"}
-    if not CHECK_RESULTS.exists():
-        pytest.skip(f"{CHECK_RESULTS} not found (shared/ is not beside the repository)")
-    out = subprocess.run([sys.executable, str(CHECK_RESULTS), str(tmp_path / "results.csv")],
-                         capture_output=True, text=True)
-    assert out.returncode == 0, out.stdout
+    assert contract_problems(tmp_path / "results.csv") == []
+
+
+def test_the_contract_check_finds_each_kind_of_breach(tmp_path):
+    _write_report(_rows(), tmp_path)
+    path = tmp_path / "results.csv"
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    passed = next(i for i, r in enumerate(rows) if r["status"] == "pass")
+    unstable = next(i for i, r in enumerate(rows) if r["status"] == "unstable")
+    rows[passed][f"{rows[passed]['tolerance_kind']}_error"] = str(10 * float(rows[passed]["tolerance"]) + 1)
+    rows[unstable]["reason"] = ""
+    rows[0]["params"] = "not json"
+    rows[-1]["status"] = "ok"
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, COLUMNS)
+        w.writeheader()
+        w.writerows(rows)
+    found = "\n".join(contract_problems(path))
+    for breach in ("pass with", "unstable without a reason", "is not a JSON object", "status 'ok'"):
+        assert breach in found
 
 
 def test_report_has_its_sections_and_no_temporary_files(tmp_path):

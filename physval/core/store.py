@@ -20,6 +20,9 @@ from pathlib import Path
 from physval.reportkit import write_atomic
 
 STORE_COLUMNS = ["job", "job_rows", "cache_key"]
+# a field is as long as it is (an engine's knobs, a traceback): the csv module's 128 KB
+# default limit would make a store this module wrote unreadable
+csv.field_size_limit(2**31 - 1)
 PACKAGES = ("physval", "cases", "adapters", "reference_impl")
 
 

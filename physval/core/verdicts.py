@@ -92,3 +92,47 @@ def blank_row(case: str, variant, engine: str, check: Check, **fields) -> dict:
                abs_error=math.nan, rel_error=math.nan)
     row.update(fields)
     return row
+
+
+def contract_problems(path) -> list[str]:
+    """What in a results.csv breaks the table contract, one line each (empty: it holds).
+    Form, not physics: the columns of COLUMNS first, in that order; a known status; a reason on
+    every row that is not a pass; params as a JSON object; numbers that parse; a pass
+    whose error, of its check's own kind, lies within the tolerance; a deviation that
+    names its entry and band."""
+    import csv
+    import json
+    found = []
+    with open(path, newline="") as fh:
+        reader = csv.DictReader(fh)
+        if (reader.fieldnames or [])[:len(COLUMNS)] != COLUMNS:  # the row store's own columns may follow
+            return [f"columns {reader.fieldnames} do not begin with {COLUMNS}"]
+        for line, row in enumerate(reader, start=2):
+            where = f"line {line} ({row['case']}[{row['variant']}] / {row['engine']} / {row['metric']})"
+            status = row["status"]
+            if status not in STATUSES:
+                found.append(f"{where}: status {status!r} is not one of {', '.join(STATUSES)}")
+            if status != "pass" and not row["reason"].strip():
+                found.append(f"{where}: status {status} without a reason")
+            try:
+                params = json.loads(row["params"] or "{}")
+                if not isinstance(params, dict):
+                    raise ValueError
+            except ValueError:
+                found.append(f"{where}: params {row['params']!r} is not a JSON object")
+            numbers = {}
+            for col in ("dt", "expected", "measured", "abs_error", "rel_error", "tolerance", "wall_s", "sim_s"):
+                try:
+                    numbers[col] = float(row[col]) if row[col] != "" else math.nan
+                except ValueError:
+                    found.append(f"{where}: {col} {row[col]!r} is not a number")
+            if status in ("pass", "fail", "deviation") and row["tolerance_kind"] not in ("abs", "rel"):
+                found.append(f"{where}: tolerance_kind {row['tolerance_kind']!r} is not abs or rel")
+            if status == "pass" and row["tolerance_kind"] in ("abs", "rel"):
+                err = numbers.get(f"{row['tolerance_kind']}_error", math.nan)
+                if not err <= numbers.get("tolerance", math.nan):
+                    found.append(f"{where}: pass with {row['tolerance_kind']} error {err} > tolerance "
+                                 f"{numbers.get('tolerance')}")
+            if status == "deviation" and not (row["known_deviation"].strip() and row["band"].strip()):
+                found.append(f"{where}: deviation without its entry and band")
+    return found
