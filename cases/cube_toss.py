@@ -47,12 +47,15 @@ from __future__ import annotations
 import functools
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
-from scipy.spatial.transform import Rotation
 
 from cases.scene import Body, Box, Material, Plane, Scene
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation
 
 DATA = Path(__file__).parent / "data" / "cube_toss" / "cube_tosses.csv.gz"
 COLUMNS = ("toss", "step", "t", "x", "y", "z", "qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz")
@@ -88,9 +91,17 @@ class TossError(ValueError):
 
 # --- quaternions (w, x, y, z), vectorised over rows ---------------------------------------
 
+@functools.cache
+def _rotation():
+    """scipy's Rotation, imported when first used: the import takes 0.16 s, which every
+    physval command (its parser names the `real` command) would otherwise pay."""
+    from scipy.spatial.transform import Rotation
+    return Rotation
+
+
 def _to_scipy(q: np.ndarray) -> Rotation:
     q = np.atleast_2d(q)
-    return Rotation.from_quat(q[:, [1, 2, 3, 0]])
+    return _rotation().from_quat(q[:, [1, 2, 3, 0]])
 
 
 def _from_scipy(r: Rotation) -> np.ndarray:
@@ -342,7 +353,7 @@ class FlightFit:
         """Fitted position and orientation at times s after t0 (flight only)."""
         s = np.atleast_1d(np.asarray(s, float))
         p = self.p0 + np.outer(s, self.v0) - 0.5 * G * np.outer(s * s, [0.0, 0.0, 1.0])
-        q = _from_scipy(Rotation.from_rotvec(np.outer(s, self.w)) * _to_scipy(self.q0))
+        q = _from_scipy(_rotation().from_rotvec(np.outer(s, self.w)) * _to_scipy(self.q0))
         return p, q
 
     def perturbed(self, seed: int, surface: float = SURFACE_Z) -> "FlightFit":
@@ -358,7 +369,7 @@ class FlightFit:
         dp = L @ rng.standard_normal((2, 3)) * sigma_p     # rows: delta p0, delta v0
         dr = L @ rng.standard_normal((2, 3)) * sigma_t     # rows: delta rotation, delta w
         p0 = self.p0 + dp[0]
-        q0 = _from_scipy(Rotation.from_rotvec(dr[0]) * _to_scipy(self.q0))[0]
+        q0 = _from_scipy(_rotation().from_rotvec(dr[0]) * _to_scipy(self.q0))[0]
         clearance = lowest_corner(p0[None, :], q0[None, :])[0] - surface
         if clearance <= 0.0:
             p0 = p0 + [0.0, 0.0, 1e-6 - clearance]
@@ -387,7 +398,7 @@ def fit_flight(tr: Toss, surface: float = SURFACE_Z) -> FlightFit:
             raise TossError(f"toss {tr.id}: the cube turns by more than 0.9 pi in its free flight, "
                             "which this fit does not unwrap (the packaged tosses turn by at most 1.2 rad)")
         (c, w), *_ = np.linalg.lstsq(A, rel, rcond=None)
-        q0 = _from_scipy(Rotation.from_rotvec(c) * _to_scipy(q[k0]))[0]
+        q0 = _from_scipy(_rotation().from_rotvec(c) * _to_scipy(q[k0]))[0]
         fit = FlightFit(float(t[k0]), p0, v0, q0, w, k0, kc, np.zeros(0), np.zeros(0))
         pf, qf = fit.state(s)
         if lowest_corner(pf[k0:k0 + 1], qf[k0:k0 + 1])[0] > surface or k0 == MIN_FLIGHT_SAMPLES - 1:
@@ -445,7 +456,7 @@ def smoothed(tr: Toss) -> tuple[np.ndarray, np.ndarray]:
     p = np.einsum("nw,nwi->ni", weights, tr.pos[window])
     base = _to_scipy(tr.quat[first + width // 2])
     rel = np.stack([(base.inv() * _to_scipy(tr.quat[window[:, w]])).as_rotvec() for w in range(width)], axis=1)
-    q = _from_scipy(base * Rotation.from_rotvec(np.einsum("nw,nwi->ni", weights, rel)))
+    q = _from_scipy(base * _rotation().from_rotvec(np.einsum("nw,nwi->ni", weights, rel)))
     return p, _continuous(q)
 
 

@@ -51,8 +51,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.special import ellipk
 
 from cases.family import CaseFamily, Check
 from cases.overlap import rotation_matrix
@@ -99,6 +97,7 @@ def invariants(I, w) -> tuple[float, float]:
 def flip_interval(I, E2: float, M2: float) -> float:
     """T_flip of a torque-free body with principal inertia I, 2E = E2 and M^2 = M2 (see the
     module docstring): the time between sign changes of the intermediate component."""
+    from scipy.special import ellipk  # imported here: scipy's import costs every command 0.5 s
     I_1, I_2, I_3 = np.sort(np.asarray(I, float))
     if M2 < E2 * I_2:
         I_1, I_3 = I_3, I_1
@@ -140,6 +139,7 @@ def integrator_scales(I, w0, T: float, T_phase: float) -> tuple[float, float, fl
     """(s_E, s_M, s_phase): second_order_rates integrated along the exact motion, the
     first two over [0, T], the phase over [0, T_phase]. A second-order step's bounds are
     dE <= dt^2/2 s_E, |dL|/|L| <= dt^2/6 s_M and a time shift <= dt^2/6 s_phase."""
+    from scipy.integrate import solve_ivp  # imported here, as ellipk above
     I = np.asarray(I, float)
 
     def rates(t, y):

@@ -122,6 +122,9 @@ def cmd_run(args) -> int:
     say(f"{len(jobs)} runs ({len(chosen)} families x {len(engines)} engines), {todo} to run"
         + (f", {len(jobs) - todo} finished before" if reused and todo < len(jobs) else "")
         + (f"; {len(later)} on-demand runs left out (--on-demand)" if later else "") + f" -> {out}/")
+    from physval.core.executor import default_start_method
+    from physval.reportkit import preload_pyplot
+    preload_pyplot(args.start_method or default_start_method())
     t_jobs = time.monotonic()
     res = run_jobs(jobs, ctx, args.workers, args.scheduler, args.job_timeout, args.start_method, store=store,
                    cache_key=lambda e: keys[e], progress=not args.quiet, label="run")
