@@ -123,15 +123,24 @@ def overhead(engines: list[str], ctx: Context, execution: Execution) -> pd.DataF
                     "step + API read us": read, "recorded step us": core,
                     "recorded / bare": core / bare if bare else math.nan,
                     "recorded / (step + API read)": core / read if read else math.nan,
-                    "note": "" if "bare_us" in first else f"{first.get('status', '')}: {first.get('reason', '')}"})
+                    "note": "" if "bare_us" in first else f"{first.get('status', '')}: {first.get('reason', '')[:120]}"})
     return pd.DataFrame(out)
 
 
-OVERHEAD_NOTE = (f"Minimum over {OVERHEAD_ROUNDS} alternating rounds of {OVERHEAD_STEPS} steps at the family's dt, each "
-                 "on a freshly built scene: `bare step` is a loop of `Simulation.step()` alone; `recorded step` is "
-                 "the core's `simulate()` per step: stepping, the raw state copied into the run's array (decoded in "
-                 "blocks of 256 steps, which is also when a blow-up is looked for), contact forces only where the "
-                 "case reads them (the stack). Targets: <= 1.5 on one body, <= 1.1 on the stack.")
+OVERHEAD_NOTE = (
+    f"Minimum over {OVERHEAD_ROUNDS} alternating rounds of {OVERHEAD_STEPS} steps at the family's dt, each on a "
+    "freshly built scene. `bare step`: a loop of `Simulation.step()` alone. `step + API read`: the least any "
+    "recorder must do through the engine's own API: step, copy the raw state into a preallocated row (or the "
+    "engine's own block recorder), and read the contact forces where the case uses them (the stack). `recorded "
+    "step`: the core's `simulate()`, which adds decoding in blocks of 256 steps and the blow-up check. Targets "
+    "of the execution-core issue: recorded / bare <= 1.5 on one body, <= 1.1 on the stack. They hold where the "
+    "engine hands its state over in bulk (MuJoCo, the reference). Elsewhere the engine's own read calls cost "
+    "more than its step (PyBullet: getBasePositionAndOrientation and getBaseVelocity per body against a 1.7 us "
+    "step; Pymunk: four attribute reads per body against a 0.8 us step; Rapier and MuJoCo: contacts read point "
+    "by point; Box2D: stack forces rebuilt by the adapter from the bodies' momentum changes, as pyb2d3 exposes "
+    "no per-step contact data), so "
+    "no recorder that keeps every step can meet them; what the core itself adds is the last column, "
+    "recorded / (step + API read).")
 
 
 # --- step time side by side ----------------------------------------------------------------
@@ -246,13 +255,29 @@ def fault_matrix(engines: list[str], ctx: Context, progress: bool = True) -> pd.
 # --- report and command ---------------------------------------------------------------------
 
 def write(out: Path, sections: dict[str, pd.DataFrame], notes: dict[str, str]) -> None:
+    """bench.md and one CSV per benchmark run now; a benchmark not run now whose CSV an
+    earlier run left in `out` keeps its section, marked as such."""
     out = Path(out)
     lines = ["# physval benchmarks", "",
-             "Measured side by side in one run on this machine; read the ratios, not the absolute times.", ""]
-    for name, df in sections.items():
-        write_atomic(out / f"bench_{name}.csv", df.to_csv(index=False))
-        lines += [f"## {name}", "", notes.get(name, ""), "", md_table(df.round(4)), ""]
+             "Each section is measured side by side in one run on this machine; read the ratios, not the "
+             "absolute times.", ""]
+    for name in WHAT:
+        path = out / f"bench_{name}.csv"
+        if name in sections:
+            df, note = sections[name], notes.get(name, "")
+            write_atomic(path, df.to_csv(index=False))
+        elif path.exists():
+            df = pd.read_csv(path, keep_default_na=False)
+            note = f"(From an earlier `physval bench {name}`, kept in {path.name}.) " + _note(name)
+        else:
+            continue
+        lines += [f"## {name}", "", note, "", md_table(df.round(4)), ""]
     write_atomic(out / "bench.md", "\n".join(lines))
+
+
+def _note(name: str) -> str:
+    return {"overhead": OVERHEAD_NOTE, "step": STEP_NOTE, "sweep-workers": SWEEP_WORKERS_NOTE,
+            "pgs": PGS_NOTE}.get(name) or faults_note()
 
 
 def add_parser(sub) -> None:
@@ -270,6 +295,13 @@ def add_parser(sub) -> None:
     bn.add_argument("--start-method", choices=("fork", "spawn", "forkserver"), help="how local workers start")
     bn.add_argument("--quiet", action="store_true", help="no progress")
     bn.set_defaults(func=cmd_bench)
+
+
+STEP_NOTE = ("Minimum over 2 repeats of the mean wall time per step over 20 steps at dt = 1e-3 (10 warm-up "
+             "steps; the 55-box pyramid costs up to 0.8 s a step on pure-Python engines); `reference / X` is how "
+             "many times slower the reference is.")
+SWEEP_WORKERS_NOTE = ("central_impact's sweep points on reference, pybullet and mujoco, one timing repeat each; "
+                      "throughput relative to one worker.")
 
 
 def cmd_bench(args) -> int:
@@ -290,14 +322,11 @@ def cmd_bench(args) -> int:
     if "step" in what:
         say("step time side by side")
         sections["step"] = steps_side_by_side(engines, ctx, execution)
-        notes["step"] = ("Minimum over 2 repeats of the mean wall time per step over 20 steps at dt = 1e-3 (10 "
-                         "warm-up steps; the 55-box pyramid costs up to 0.8 s a step on pure-Python engines); "
-                         "`reference / X` is how many times slower the reference is.")
+        notes["step"] = STEP_NOTE
     if "sweep-workers" in what:
         say("the same sweep with 1 and with 2 workers")
         sections["sweep-workers"] = sweep_workers([e for e in engines if e in ("reference", "pybullet", "mujoco")], ctx)
-        notes["sweep-workers"] = ("central_impact's sweep points on reference, pybullet and mujoco, one timing repeat "
-                                  "each; throughput relative to one worker.")
+        notes["sweep-workers"] = SWEEP_WORKERS_NOTE
     if "pgs" in what:
         say("PGS sweep cost against contact count")
         sections["pgs"] = pgs_scaling()

@@ -338,3 +338,13 @@ def test_2d_scene_rejects_3d_shapes():
         Scene(bodies=(Body("b", Sphere(0.1), mass=1.0),), dimension=2)
     Scene(bodies=(Body("g", Plane(), static=True), Body("c", Circle(0.1), mass=1.0, position=(0, 0, 0.1))),
           dimension=2, material=Material(e=0.5))
+
+
+def test_a_partial_bench_run_keeps_the_other_sections_and_says_so(tmp_path):
+    import pandas as pd
+    from physval import bench
+    bench.write(tmp_path, {"pgs": pd.DataFrame({"contacts": [1, 2], "ms per sweep": [0.1, 0.2]})}, {"pgs": "note"})
+    bench.write(tmp_path, {"overhead": pd.DataFrame({"engine": ["x"], "recorded / bare": [1.2]})}, {"overhead": "n"})
+    md = (tmp_path / "bench.md").read_text()
+    assert "## overhead" in md and "## pgs" in md
+    assert "From an earlier `physval bench pgs`" in md and "From an earlier `physval bench overhead`" not in md
