@@ -360,6 +360,7 @@ class Box2DSimulation(Simulation):
                 self._static_pose[body.name] = (body.position[0], body.position[2], math.cos(angle), math.sin(angle))
         self._touching: set[tuple[str, str]] = set()
         self._pending = None
+        self._gaps_after: dict = {}  # pair -> (poses, contact_gap) after the last step read
         self._forces: dict[tuple[str, str], float] | None = {}
         self.knobs["pair_split"] = "unique (forest)"
         self.effects = self._built_effects(friction, restitution)
@@ -465,16 +466,27 @@ class Box2DSimulation(Simulation):
         snapshot = self._snapshot() if snapshot is None else snapshot
         return contact_gap(self._geometry[a], self._pose(a, snapshot), self._geometry[b], self._pose(b, snapshot))
 
+    def _poses(self, key: tuple[str, str], snapshot: dict) -> tuple[tuple, tuple]:
+        return self._pose(key[0], snapshot), self._pose(key[1], snapshot)
+
     def _read_forces(self) -> dict[tuple[str, str], float]:
         """Normal force of each acting pair from the bodies' contact impulses (module notes).
         The normal is the pair's before the step (Box2D found its contacts from those
         poses), or after it for a pair that began touching in the step."""
         before, after, touching_before = self._pending
+        # a pair's geometry before this step is its geometry after the last one (the same
+        # poses): kept from the last read, it halves the pure-Python gap computations
+        last, self._gaps_after = self._gaps_after, {}
         gaps, normals = {}, {}
         for key in self._touching:
-            gaps[key], normals[key] = self._gap(*key, after)
+            poses = self._poses(key, after)
+            self._gaps_after[key] = (poses, contact_gap(self._geometry[key[0]], poses[0], self._geometry[key[1]], poses[1]))
+            gaps[key], normals[key] = self._gaps_after[key][1]
             if key in touching_before:
-                normals[key] = self._gap(*key, before)[1]
+                poses = self._poses(key, before)
+                hit = last.get(key)
+                normals[key] = (hit[1] if hit is not None and hit[0] == poses else
+                                contact_gap(self._geometry[key[0]], poses[0], self._geometry[key[1]], poses[1]))[1]
         pairs = acting_pairs(gaps, self._bodies)
         if not pairs:
             return {}
