@@ -214,3 +214,28 @@ def test_plain_calls_run_on_the_executor_and_a_crash_costs_only_its_call():
     assert [r.value for r in results] == [1, 4, None, None, 16]
     assert "died" in results[2].error and "SIGABRT" in results[2].error
     assert "ValueError" in results[3].error and "negative" in results[3].error
+
+
+def test_an_interrupt_during_the_disk_write_keeps_the_job_that_was_being_written(tmp_path, monkeypatch):
+    """The row store holds a job's rows in memory before it writes them: a SIGINT that
+    lands in the write (a test that signals as soon as a row shows on disk lands there
+    often: the row is visible before fsync returns) must not leave a row on disk that
+    the run then drops."""
+    from physval.core import Context, Job, run_jobs
+    from physval.core import store as store_module
+    from physval.core.store import RowStore
+    from physval.core.verdicts import COLUMNS
+    ctx = Context()
+    fam = ctx.resolver().family("central_impact")
+    jobs = [Job(fam.name, v, "reference") for v in fam.variants[:2]]
+
+    def interrupted_fsync(fd):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(store_module.os, "fsync", interrupted_fsync)
+    store = RowStore(tmp_path / "results.csv", COLUMNS)
+    res = run_jobs(jobs, ctx, 1, store=store, cache_key=lambda e: "k", progress=False)
+    assert res.interrupted == "SIGINT" and list(res.rows) == [jobs[0].key]
+    kept = store.finalize(list(res.rows))
+    assert kept and {r["job"] for r in kept} == {jobs[0].key}
+    with open(tmp_path / "results.csv", newline="") as fh:
+        assert len(list(csv.DictReader(fh))) == len(kept)

@@ -149,7 +149,11 @@ class LocalExecutor:
         self.close()
 
     def close(self) -> None:
-        """Stop every worker at once (what has finished is already with the caller)."""
+        """Stop every worker at once (what has finished is already with the caller): all
+        are sent SIGKILL before any is waited for, so the waits overlap."""
+        for s in self._slots:
+            if s.process.is_alive():
+                s.process.kill()
         for s in self._slots:
             s.kill()
         self._slots = []

@@ -109,10 +109,12 @@ def run_jobs(jobs: list[Job], ctx: Context = Context(), workers: int = 1, schedu
         with sigterm_as_interrupt(), make_executor(ctx, workers, scheduler, job_timeout, start_method) as ex:
             for outcome in ex.run(todo):
                 rows = [{**r, **outcome.extra} for r in outcome.rows]
-                if store is not None:
-                    store.append(outcome.job.key, rows, cache_key(outcome.job.engine))
+                # in memory first: an interrupt during the disk write must not leave a row
+                # on disk that the run does not count as finished (its finalize would drop it)
                 res.rows[outcome.job.key] = rows
                 res.ran += 1
+                if store is not None:
+                    store.append(outcome.job.key, rows, cache_key(outcome.job.engine))
                 if on_outcome is not None:
                     on_outcome(outcome)
                 bar.update(outcome.job.test_id)

@@ -87,8 +87,10 @@ class RowStore:
         return len(self.rows)
 
     def append(self, key: str, rows: list[dict], cache_key: str) -> None:
-        """Add one finished job's rows: one write, flushed to disk."""
+        """Add one finished job's rows: held in memory first, then one write, flushed to
+        disk (an interrupt in the write leaves them in memory, and finalize writes them)."""
         stamped = [{**r, "job": key, "job_rows": len(rows), "cache_key": cache_key} for r in rows]
+        self.rows[key] = stamped
         buf = io.StringIO()
         writer = csv.DictWriter(buf, self.columns, extrasaction="ignore")
         new = not self.path.exists() or not self.path.stat().st_size
@@ -100,7 +102,6 @@ class RowStore:
             fh.write(buf.getvalue())
             fh.flush()
             os.fsync(fh.fileno())
-        self.rows[key] = stamped
 
     def finalize(self, keys: list[str]) -> list[dict]:
         """Rewrite the file with the rows of `keys` only, in that order; return them."""
