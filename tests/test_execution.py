@@ -132,11 +132,20 @@ def _alive(pids: set[int]) -> set[int]:
     return alive
 
 
+def _as_from_a_terminal() -> None:
+    """In the child before exec: SIGINT at its default, as a shell starts a command. An
+    ignored SIGINT is inherited through exec, and pytest-xdist's workers can ignore it
+    (measured: SigIgn 0x1001006 in a worker late in the full suite), so the run would
+    never see the Ctrl-C this test sends."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start(cases_dir: Path, out: Path, nap: float, workers: int = 2) -> subprocess.Popen:
     _faults(cases_dir, nap=nap)
     return subprocess.Popen([sys.executable, "-m", "physval", "run", "--cases-dir", str(cases_dir), "--cases",
                              "faulty_fall", "--engines", "reference", "--workers", str(workers), "--out", str(out)],
-                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_as_from_a_terminal)
 
 
 def _wait_for_rows(out: Path, n: int, proc: subprocess.Popen, limit: float = 60.0) -> None:
