@@ -463,11 +463,15 @@ class Box2DSimulation(Simulation):
         return snapshot[name][:4] if name in snapshot else self._static_pose[name]
 
     def _gap(self, a: str, b: str, snapshot: dict | None = None) -> tuple[float, tuple]:
-        snapshot = self._snapshot() if snapshot is None else snapshot
-        return contact_gap(self._geometry[a], self._pose(a, snapshot), self._geometry[b], self._pose(b, snapshot))
+        return self._pair_gap((a, b), self._snapshot() if snapshot is None else snapshot)[1]
 
-    def _poses(self, key: tuple[str, str], snapshot: dict) -> tuple[tuple, tuple]:
-        return self._pose(key[0], snapshot), self._pose(key[1], snapshot)
+    def _pair_gap(self, key: tuple[str, str], snapshot: dict, known: tuple | None = None) -> tuple:
+        """(poses, contact_gap) of a pair at `snapshot`; `known`, an earlier such result,
+        is returned as it is when it was worked out at the same poses."""
+        poses = (self._pose(key[0], snapshot), self._pose(key[1], snapshot))
+        if known is not None and known[0] == poses:
+            return known
+        return poses, contact_gap(self._geometry[key[0]], poses[0], self._geometry[key[1]], poses[1])
 
     def _read_forces(self) -> dict[tuple[str, str], float]:
         """Normal force of each acting pair from the bodies' contact impulses (module notes).
@@ -479,14 +483,10 @@ class Box2DSimulation(Simulation):
         last, self._gaps_after = self._gaps_after, {}
         gaps, normals = {}, {}
         for key in self._touching:
-            poses = self._poses(key, after)
-            self._gaps_after[key] = (poses, contact_gap(self._geometry[key[0]], poses[0], self._geometry[key[1]], poses[1]))
+            self._gaps_after[key] = self._pair_gap(key, after)
             gaps[key], normals[key] = self._gaps_after[key][1]
             if key in touching_before:
-                poses = self._poses(key, before)
-                hit = last.get(key)
-                normals[key] = (hit[1] if hit is not None and hit[0] == poses else
-                                contact_gap(self._geometry[key[0]], poses[0], self._geometry[key[1]], poses[1]))[1]
+                normals[key] = self._pair_gap(key, before, last.get(key))[1][1]
         pairs = acting_pairs(gaps, self._bodies)
         if not pairs:
             return {}

@@ -254,7 +254,7 @@ def fault_matrix(engines: list[str], ctx: Context, progress: bool = True) -> pd.
 
 # --- report and command ---------------------------------------------------------------------
 
-def write(out: Path, sections: dict[str, pd.DataFrame], notes: dict[str, str]) -> None:
+def write(out: Path, sections: dict[str, pd.DataFrame]) -> None:
     """bench.md and one CSV per benchmark run now; a benchmark not run now whose CSV an
     earlier run left in `out` keeps its section, marked as such."""
     out = Path(out)
@@ -264,7 +264,7 @@ def write(out: Path, sections: dict[str, pd.DataFrame], notes: dict[str, str]) -
     for name in WHAT:
         path = out / f"bench_{name}.csv"
         if name in sections:
-            df, note = sections[name], notes.get(name, "")
+            df, note = sections[name], _note(name)
             write_atomic(path, df.to_csv(index=False))
         elif path.exists():
             df = pd.read_csv(path, keep_default_na=False)
@@ -276,8 +276,9 @@ def write(out: Path, sections: dict[str, pd.DataFrame], notes: dict[str, str]) -
 
 
 def _note(name: str) -> str:
-    return {"overhead": OVERHEAD_NOTE, "step": STEP_NOTE, "sweep-workers": SWEEP_WORKERS_NOTE,
-            "pgs": PGS_NOTE}.get(name) or faults_note()
+    if name == "faults":
+        return faults_note()
+    return {"overhead": OVERHEAD_NOTE, "step": STEP_NOTE, "sweep-workers": SWEEP_WORKERS_NOTE, "pgs": PGS_NOTE}[name]
 
 
 def add_parser(sub) -> None:
@@ -313,31 +314,26 @@ def cmd_bench(args) -> int:
         raise cli.UsageError(f"unknown benchmark {unknown[0]!r}: choose from {', '.join(WHAT)}")
     out = cli.output_folder(args.out)
     execution = Execution(1, None, args.job_timeout, args.start_method, not args.quiet)
-    sections, notes = {}, {}
+    sections = {}
     say = (lambda t: None) if args.quiet else (lambda t: print(f"physval bench: {t}", file=sys.stderr))
     if "overhead" in what:
         say("the core's recorded step against a bare step")
         sections["overhead"] = overhead(engines, ctx, execution)
-        notes["overhead"] = OVERHEAD_NOTE
     if "step" in what:
         say("step time side by side")
         sections["step"] = steps_side_by_side(engines, ctx, execution)
-        notes["step"] = STEP_NOTE
     if "sweep-workers" in what:
         say("the same sweep with 1 and with 2 workers")
         sections["sweep-workers"] = sweep_workers([e for e in engines if e in ("reference", "pybullet", "mujoco")], ctx)
-        notes["sweep-workers"] = SWEEP_WORKERS_NOTE
     if "pgs" in what:
         say("PGS sweep cost against contact count")
         sections["pgs"] = pgs_scaling()
-        notes["pgs"] = PGS_NOTE
     if "faults" in what:
         say("planted faults: the detection matrix")
         from physval.faults import ENGINES
         sections["faults"] = fault_matrix(engines if args.engines else [e for e in engines if e in ENGINES], ctx,
                                           progress=not args.quiet)
-        notes["faults"] = faults_note()
-    write(out, sections, notes)
+    write(out, sections)
     print(f"wrote {out / 'bench.md'}")
     return 0
 

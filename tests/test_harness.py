@@ -343,8 +343,8 @@ def test_2d_scene_rejects_3d_shapes():
 def test_a_partial_bench_run_keeps_the_other_sections_and_says_so(tmp_path):
     import pandas as pd
     from physval import bench
-    bench.write(tmp_path, {"pgs": pd.DataFrame({"contacts": [1, 2], "ms per sweep": [0.1, 0.2]})}, {"pgs": "note"})
-    bench.write(tmp_path, {"overhead": pd.DataFrame({"engine": ["x"], "recorded / bare": [1.2]})}, {"overhead": "n"})
+    bench.write(tmp_path, {"pgs": pd.DataFrame({"contacts": [1, 2], "ms per sweep": [0.1, 0.2]})})
+    bench.write(tmp_path, {"overhead": pd.DataFrame({"engine": ["x"], "recorded / bare": [1.2]})})
     md = (tmp_path / "bench.md").read_text()
     assert "## overhead" in md and "## pgs" in md
     assert "From an earlier `physval bench pgs`" in md and "From an earlier `physval bench overhead`" not in md

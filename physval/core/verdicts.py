@@ -14,6 +14,8 @@ Statuses:
 """
 from __future__ import annotations
 
+import csv
+import json
 import math
 
 from cases.family import Check
@@ -100,8 +102,6 @@ def contract_problems(path) -> list[str]:
     every row that is not a pass; params as a JSON object; numbers that parse; a pass
     whose error, of its check's own kind, lies within the tolerance; a deviation that
     names its entry and band."""
-    import csv
-    import json
     found = []
     with open(path, newline="") as fh:
         reader = csv.DictReader(fh)

@@ -99,8 +99,9 @@ def family_table(df: pd.DataFrame, family: str) -> pd.DataFrame:
         if r.engine not in line:
             shown = fmt(r.measured) if r.status in ("pass", "fail", "deviation") else ""
             line[r.engine] = f"{shown} {STATUS_MARK[r.status]}".strip()
-    return pd.DataFrame([{**{k: v for k, v in line.items() if k not in engines},
-                          **{e: line[e] for e in engines if e in line}} for line in lines.values()])
+    out = pd.DataFrame(list(lines.values()))
+    return out[["variant", "metric", "expected", "tolerance"] + [e for e in engines if e in out.columns]] \
+        if len(out) else out
 
 
 def tolerance_reasons(df: pd.DataFrame, family: str) -> pd.DataFrame:
