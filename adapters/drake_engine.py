@@ -68,26 +68,23 @@ import functools
 import logging
 import math
 from importlib import metadata
+from typing import TYPE_CHECKING
 
 import numpy as np
-
-from pydrake.common.eigen_geometry import Quaternion
-from pydrake.geometry import (AddCompliantHydroelasticProperties, AddRigidHydroelasticProperties,
-                              Box as DrakeBox, HalfSpace, ProximityProperties,
-                              Sphere as DrakeSphere)
-from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.multibody.plant import (AddMultibodyPlantSceneGraph, ContactModel, CoulombFriction,
-                                     DiscreteContactApproximation)
-from pydrake.multibody.tree import (FixedOffsetFrame, PlanarJoint, PrismaticJoint, RotationalInertia,
-                                    SpatialInertia)
-from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import DiagramBuilder
 
 from adapters.base import Adapter, Capabilities, Settings, SettingsError, Simulation, Tunable, Unsupported
 from adapters.combination import per_body_values
 from adapters.frames import state_row
+from adapters.lazy import require
 from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
+
+# pydrake (0.15-0.2 s to import) is imported by the functions that build a scene: planning a
+# run reads only the adapter's capabilities, and workers import their engines themselves.
+require("pydrake")  # not installed: ImportError now, so the registry reports it
+if TYPE_CHECKING:
+    from pydrake.geometry import ProximityProperties
+    from pydrake.math import RotationMatrix
 
 # Contact lasts about n = 16 steps (w = pi / (n dt)), as in the MuJoCo adapter, so the two
 # compliant engines penetrate alike (~ v n dt / pi: 23 mm at 4.4 m/s, dt = 1e-3). Implicit
@@ -130,9 +127,8 @@ ENGINE_CONSTANTS = {
     "point contact margin": "none: Drake's margin applies to hydroelastic contact only",
 }
 
-_APPROXIMATIONS = {"sap": DiscreteContactApproximation.kSap, "similar": DiscreteContactApproximation.kSimilar,
-                   "lagged": DiscreteContactApproximation.kLagged, "tamsi": DiscreteContactApproximation.kTamsi}
-_CONTACT_MODELS = {"point": ContactModel.kPoint, "hydroelastic": ContactModel.kHydroelastic}
+_APPROXIMATIONS = ("lagged", "sap", "similar", "tamsi")  # DiscreteContactApproximation.k<Name>
+_CONTACT_MODELS = ("hydroelastic", "point")              # ContactModel.k<Name>
 
 
 # --- e onto Drake's discrete contact law ----------------------------------------------------
@@ -259,12 +255,14 @@ def _quat_mul(p, q) -> np.ndarray:
 
 
 def _rotation(q) -> RotationMatrix:
+    from pydrake.common.eigen_geometry import Quaternion
+    from pydrake.math import RotationMatrix
     return RotationMatrix(Quaternion(np.asarray(q, float) / np.linalg.norm(q)))
 
 
 # The PlanarJoint's frame F: x_F = world z, y_F = world x, so z_F = world y and the joint's
 # coordinates are (z, x, angle about +y).
-_R_WF_PLANAR = RotationMatrix(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]))
+_R_WF_PLANAR = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
 _AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 
 
@@ -275,10 +273,13 @@ class DrakeSimulation(Simulation):
         self._planar = scene.dimension == 2
         self._hydro = contact_model == "hydroelastic"
         self._simulator = None
+        from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, ContactModel, DiscreteContactApproximation
+        from pydrake.systems.analysis import Simulator
+        from pydrake.systems.framework import DiagramBuilder
         builder = DiagramBuilder()
         plant, _ = AddMultibodyPlantSceneGraph(builder, time_step=settings.dt)
-        plant.set_discrete_contact_approximation(_APPROXIMATIONS[approximation])
-        plant.set_contact_model(_CONTACT_MODELS[contact_model])
+        plant.set_discrete_contact_approximation(getattr(DiscreteContactApproximation, f"k{approximation.capitalize()}"))
+        plant.set_contact_model(getattr(ContactModel, f"k{contact_model.capitalize()}"))
         if approximation != "sap":
             plant.set_stiction_tolerance(options["stiction_tolerance"])
         plant.set_sap_near_rigid_threshold(NEAR_RIGID_THRESHOLD)
@@ -323,6 +324,9 @@ class DrakeSimulation(Simulation):
         """Register the body's geometry (on the world body if static) and its joints;
         returns how its state is read ("static", ("free", body), ("planar", joint), or
         ("slides", [(joint, axis)]))."""
+        from pydrake.math import RigidTransform, RotationMatrix
+        from pydrake.multibody.tree import (FixedOffsetFrame, PlanarJoint, PrismaticJoint, RotationalInertia,
+                                            SpatialInertia)
         shape, X_BG = _drake_shape(body)
         props = material["props"][body.name]
         if body.static:
@@ -344,9 +348,10 @@ class DrakeSimulation(Simulation):
             return ("free", rigid)
         R_B0 = _rotation(body.orientation)
         if dimension == 2 and body.rotates:
-            F = plant.AddFrame(FixedOffsetFrame(f"{body.name}:F", plant.world_frame(), RigidTransform(_R_WF_PLANAR)))
+            F = plant.AddFrame(FixedOffsetFrame(f"{body.name}:F", plant.world_frame(),
+                                                RigidTransform(RotationMatrix(_R_WF_PLANAR))))
             M = plant.AddFrame(FixedOffsetFrame(f"{body.name}:M", rigid.body_frame(),
-                                                RigidTransform(R_B0.transpose().multiply(_R_WF_PLANAR))))
+                                                RigidTransform(R_B0.transpose().multiply(RotationMatrix(_R_WF_PLANAR)))))
             joint = plant.AddJoint(PlanarJoint(f"{body.name}:planar", F, M, np.zeros(3)))
             self.knobs["joints"][body.name] = {"PlanarJoint": "(z, x, angle about +y)", "damping": [0, 0, 0]}
             return ("planar", joint)
@@ -493,6 +498,8 @@ class DrakeSimulation(Simulation):
 
 def _drake_shape(body: Body):
     """Drake shape and its pose in the body frame (a plane: in the world)."""
+    from pydrake.geometry import Box as DrakeBox, HalfSpace, Sphere as DrakeSphere
+    from pydrake.math import RigidTransform
     s = body.shape
     if isinstance(s, (Sphere, Circle)):
         return DrakeSphere(s.radius), RigidTransform()
@@ -527,6 +534,8 @@ def _materials(scene: Scene, dt: float, approximation: str, contact_model: str, 
                record: dict) -> dict:
     """ProximityProperties per body, from each pair's e, mu and compliance (module notes),
     and the record of the mapping."""
+    from pydrake.geometry import ProximityProperties
+    from pydrake.multibody.plant import CoulombFriction
     names = [b.name for b in scene.bodies]
     n = options["contact_steps"]
     w = math.pi / (n * dt)
@@ -620,6 +629,7 @@ def _hydroelastic(body: Body, props: ProximityProperties, modulus: float) -> dic
     """Static bodies rigid, dynamic ones compliant with modulus E; spheres tessellated
     at HYDRO_RESOLUTION of their radius (boxes and half-spaces are not tessellated by a
     hint). No margin (Drake's speculative contact, hydroelastic only)."""
+    from pydrake.geometry import AddCompliantHydroelasticProperties, AddRigidHydroelasticProperties
     s = body.shape
     hint = HYDRO_RESOLUTION * s.radius if isinstance(s, (Sphere, Circle)) else 1.0
     if body.static:

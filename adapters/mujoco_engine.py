@@ -26,16 +26,27 @@ finite width: xi^1.5 would need d ~ xi^0.25.
 from __future__ import annotations
 
 import math
+from importlib import metadata
 from xml.sax.saxutils import quoteattr
 
-import mujoco
 import numpy as np
-from mujoco import rollout as _rollout
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
+from adapters.lazy import require
 from adapters.frames import about_y_many, multiply_many, rotate_many
 from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
+
+# mujoco (~0.15 s to import) is imported when a scene is first built (adapters/lazy.py)
+require("mujoco")  # not installed: ImportError now, so the registry reports it
+mujoco = None      # the module, bound by _import_mujoco()
+
+
+def _import_mujoco() -> None:
+    global mujoco
+    if mujoco is None:
+        import mujoco as module
+        mujoco = module
 
 # Contact lasts about n = 16 steps: worst |rebound ratio - e| 0.03 (e = 0.5), peak
 # penetration ~ v n dt / pi (23 mm at 4.4 m/s, dt = 1e-3). Error falls as 1/n and depth
@@ -436,6 +447,7 @@ class MuJoCoSimulation(Simulation):
         """`steps` mj_steps in one call of MuJoCo's rollout (its C loop, which records each
         step's state), continued from the current state and warm start: bit for bit the
         same as mj_step in turn (tests/test_bulk_reads.py)."""
+        from mujoco import rollout as _rollout
         m, d = self._model, self._data
         spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
         if self._state is None or self._buffer.shape[1] < steps:
@@ -603,7 +615,7 @@ class MuJoCoAdapter(Adapter):
         self.ground = ground
 
     def version(self) -> str:
-        return mujoco.__version__
+        return metadata.version("mujoco")
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
         # (a body held from rotating does not spin, and a 2D scene lies in the x-z plane:
@@ -613,6 +625,7 @@ class MuJoCoAdapter(Adapter):
             raise Unsupported(reason)
         iterations = ITERATIONS if settings.iterations is None else settings.iterations
         self.options_in_force(settings)  # an unknown option or one out of its range: SettingsError
+        _import_mujoco()
         n = float(settings.options.get("contact_steps", self.contact_steps))
         xml, knobs = scene_mjcf(scene, settings, iterations, n, ground=self.ground)
         model = self._compile(xml)
