@@ -50,7 +50,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from cases.scene import Body, Box, Material, Plane, Scene
 
@@ -203,6 +202,7 @@ def _cut(tr: Toss) -> Toss:
 
 
 def _read(path: Path) -> dict[int, Toss]:
+    import pandas as pd  # here, not at the top: every process that loads the families imports this module
     try:
         frame = pd.read_csv(path)
     except (OSError, ValueError) as exc:
@@ -243,6 +243,7 @@ def load(path: str | Path | None = None) -> dict[int, Toss]:
 
 def save(tosses, path: str | Path) -> None:
     """Write Toss objects as a toss CSV with COLUMNS (gzipped if the name ends in .gz)."""
+    import pandas as pd
     frames = []
     for tr in tosses:
         cols = {"toss": tr.id, "step": np.arange(len(tr)), "t": tr.t}

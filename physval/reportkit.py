@@ -21,6 +21,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from physval.files import write_atomic  # noqa: F401 (part of the kit)
+
 STATUS_MARK = {"pass": "pass", "fail": "FAIL", "deviation": "dev", "unsupported": "n/a",
                "unstable": "UNSTABLE", "error": "ERROR"}
 STATUSES = tuple(STATUS_MARK)
@@ -28,21 +30,6 @@ NUMERIC = ("expected", "measured", "abs_error", "rel_error", "tolerance", "wall_
 
 
 # --- files --------------------------------------------------------------------------------
-
-def write_atomic(path: Path, data: str | bytes) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data.encode() if isinstance(data, str) else data)
-        os.chmod(tmp, 0o644)  # mkstemp makes it private; a report is for reading
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
 
 def write_csv(df: pd.DataFrame, path: Path, columns: list[str] | None = None) -> None:
     write_atomic(path, (df[columns] if columns else df).to_csv(index=False))
@@ -98,15 +85,6 @@ def pyplot():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt
-
-
-def preload_pyplot(start_method: str) -> None:
-    """Import matplotlib in a thread while the caller waits on its jobs (0.4 s a report
-    would otherwise spend after them). Not under the fork start method: a worker forked
-    while the thread holds an import lock would inherit the lock held."""
-    if start_method != "fork":
-        import threading
-        threading.Thread(target=pyplot, name="import matplotlib", daemon=True).start()
 
 
 def save_figure(fig, path: Path) -> None:

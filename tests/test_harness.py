@@ -302,16 +302,16 @@ def test_report_has_its_sections_and_no_temporary_files(tmp_path):
 
 
 def test_an_interrupted_write_leaves_the_old_file_whole(tmp_path, monkeypatch):
-    from physval import reportkit as report
+    from physval import files
     target = tmp_path / "report.md"
     target.write_text("old and complete")
 
     def broken_replace(src, dst):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(report.os, "replace", broken_replace)
+    monkeypatch.setattr(files.os, "replace", broken_replace)
     with pytest.raises(KeyboardInterrupt):
-        report.write_atomic(target, "new")
+        files.write_atomic(target, "new")
     assert target.read_text() == "old and complete"
     assert list(tmp_path.iterdir()) == [target]
 

@@ -17,7 +17,7 @@ import os
 from collections import defaultdict
 from pathlib import Path
 
-from physval.reportkit import write_atomic
+from physval.files import write_atomic
 
 STORE_COLUMNS = ["job", "job_rows", "cache_key"]
 # a field is as long as it is (an engine's knobs, a traceback): the csv module's 128 KB
