@@ -74,7 +74,7 @@ import pyb2d3 as b2
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.combination import per_body_values
-from adapters.frames import state_row
+from adapters.frames import planar_states, state_row
 from cases.scene import Body, Circle, Plane, Scene, pair_key, quat_about_y
 
 DEFAULT_SUBSTEPS = 4  # Box2D's recommended sub-step count (b2World_Step documentation)
@@ -508,6 +508,26 @@ class Box2DSimulation(Simulation):
             out[name] = state_row((p.x, 0.0, p.y), quat_about_y(phi), (v.x, 0.0, v.y),
                                   (0.0, -pb.angular_velocity, 0.0))
         return out
+
+    # Bulk reads (adapters.base): per body x, z (Box2D's y), the rotation's cosine and sine,
+    # vx, vz and w in Box2D's plane, one list assignment a step; decoded as states() maps them.
+    def body_order(self) -> list[str]:
+        return list(self._bodies)
+
+    def state_size(self) -> int:
+        return 7 * len(self._bodies)
+
+    def write_state(self, out: np.ndarray) -> None:
+        values = []
+        for pb in self._bodies.values():
+            p, q, v = pb.position, pb.rotation, pb.linear_velocity
+            values += (p.x, p.y, q.c, q.s, v.x, v.y, pb.angular_velocity)
+        out[:] = values
+
+    def decode_states(self, raw: np.ndarray) -> np.ndarray:
+        r = raw.reshape(len(raw), len(self._bodies), 7)
+        x, z, c, s, vx, vz, w = np.moveaxis(r, 2, 0)
+        return planar_states(x, z, -np.arctan2(s, c), vx, vz, -w)
 
     def contact_forces(self):
         if self._forces is None:

@@ -74,7 +74,7 @@ import numpy as np
 
 from adapters.base import Adapter, Capabilities, Settings, SettingsError, Simulation, Tunable, Unsupported
 from adapters.combination import per_body_values
-from adapters.frames import state_row
+from adapters.frames import about_y_many, multiply_many, state_row
 from adapters.lazy import require
 from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
@@ -424,6 +424,35 @@ class DrakeSimulation(Simulation):
             else:
                 qi, vi = [r[0] for r in a], [r[1] for r in a]
                 out[name] = state_row(q[qi] @ b, q0, v[vi] @ b, np.zeros(3))
+        return out
+
+    # Bulk reads (adapters.base): the plant's q and v in one call (GetPositionsAndVelocities),
+    # decoded per body as states() maps them.
+    def body_order(self) -> list[str]:
+        return [r[0] for r in self._readers]
+
+    def state_size(self) -> int:
+        return self._plant.num_positions() + self._plant.num_velocities()
+
+    def write_state(self, out: np.ndarray) -> None:
+        out[:] = self._plant.GetPositionsAndVelocities(self._context)
+
+    def decode_states(self, raw: np.ndarray) -> np.ndarray:
+        nq = self._plant.num_positions()
+        q, v = raw[:, :nq], raw[:, nq:]
+        out = np.zeros((len(raw), len(self._readers), 13))
+        for i, (_, kind, a, b, q0) in enumerate(self._readers):
+            row = out[:, i]
+            if kind == "free":
+                row[:, 0:3], row[:, 3:7] = q[:, a + 4:a + 7], q[:, a:a + 4]
+                row[:, 7:10], row[:, 10:13] = v[:, b + 3:b + 6], v[:, b:b + 3]
+            elif kind == "planar":
+                row[:, 0], row[:, 2] = q[:, a + 1], q[:, a]
+                row[:, 3:7] = multiply_many(about_y_many(q[:, a + 2]), q0)
+                row[:, 7], row[:, 9], row[:, 11] = v[:, b + 1], v[:, b], v[:, b + 2]
+            else:
+                qi, vi = [r[0] for r in a], [r[1] for r in a]
+                row[:, 0:3], row[:, 3:7], row[:, 7:10] = q[:, qi] @ b, q0, v[:, vi] @ b
         return out
 
     # Drake's conventions (multibody/plant/contact_results.h, point_pair_contact_info.h,

@@ -39,6 +39,18 @@ def multiply_many(a: np.ndarray, b: np.ndarray) -> np.ndarray:
                      aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw], axis=1)
 
 
+def planar_states(x, z, turn, vx, vz, spin) -> np.ndarray:
+    """State rows (cases.trajectory layout) of bodies moving in the x-z plane, each argument
+    an array of one shape (samples, bodies): position (x, 0, z), the rotation by `turn`
+    about +y, velocity (vx, 0, vz), angular velocity (0, spin, 0)."""
+    out = np.zeros(np.shape(x) + (13,))
+    out[..., 0], out[..., 2] = x, z
+    out[..., 3], out[..., 5] = np.cos(turn / 2), np.sin(turn / 2)  # cases.scene.quat_about_y
+    out[..., 7], out[..., 9] = vx, vz
+    out[..., 11] = spin
+    return out
+
+
 def about_y_many(angle: np.ndarray) -> np.ndarray:
     """Rotations by `angle` (n,) about +y as (n, 4) quaternions."""
     z = np.zeros_like(angle)

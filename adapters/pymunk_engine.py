@@ -43,7 +43,7 @@ except ImportError:  # pragma: no cover - depends on the installed Pymunk
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
-from adapters.frames import state_row
+from adapters.frames import planar_states, state_row
 from cases.scene import Body, Circle, Plane, Scene, pair_key, quat_about_y
 from cases.trajectory import ContactPoint
 
@@ -327,15 +327,9 @@ class PymunkSimulation(Simulation):
             i += 6
 
     def decode_states(self, raw: np.ndarray) -> np.ndarray:
-        n, b = len(raw), len(self._bodies)
-        r = raw.reshape(n, b, 6)
-        out = np.zeros((n, b, 13))
-        out[:, :, 0], out[:, :, 2] = r[:, :, 0], r[:, :, 1]
-        half = -r[:, :, 2] / 2  # quat_about_y(-angle)
-        out[:, :, 3], out[:, :, 5] = np.cos(half), np.sin(half)
-        out[:, :, 7], out[:, :, 9] = r[:, :, 3], r[:, :, 4]
-        out[:, :, 11] = -r[:, :, 5]
-        return out
+        r = raw.reshape(len(raw), len(self._bodies), 6)
+        x, z, angle, vx, vz, w = np.moveaxis(r, 2, 0)
+        return planar_states(x, z, -angle, vx, vz, -w)
 
     def contact_forces(self):
         # the f_n of contact_points(), computed the same way (one resultant per pair)

