@@ -87,6 +87,22 @@ def pyplot():
     return plt
 
 
+MARKERS = ("o", "^", "v", "D", "P", "X", "*", "h")
+
+
+def engine_styles(engines) -> dict[str, dict]:
+    """A colour and a marker per engine for line plots: one colour per engine family (the
+    name before its first '-': pybullet, pybullet-rigid, ...) and one marker per member,
+    so a plot of 17 engines does not repeat tab10's ten colours."""
+    colour, seen, out = {}, {}, {}
+    for e in engines:
+        family = e.split("-")[0]
+        colour.setdefault(family, f"C{len(colour) % 10}")
+        k = seen[family] = seen.get(family, -1) + 1
+        out[e] = {"color": colour[family], "marker": MARKERS[k % len(MARKERS)]}
+    return out
+
+
 def save_figure(fig, path: Path) -> None:
     plt = pyplot()
     path = Path(path)

@@ -30,7 +30,7 @@ from physval import cli
 from physval.core import COLUMNS, Job, Probe, steps_of
 from physval.core.session import Execution, run_stored
 from physval.core.selection import select_variants
-from physval.reportkit import heading, md_table, pyplot, save_figure, write_atomic
+from physval.reportkit import engine_styles, heading, md_table, pyplot, save_figure, write_atomic
 
 # Time steps from 1/60 s (games) down to 1e-4 s (six values, about log-spaced).
 DTS = (1 / 60, 1 / 120, 1 / 240, 1e-3, 3e-4, 1e-4)
@@ -192,11 +192,13 @@ def plot_cost(points: pd.DataFrame, case: str, variant: str, path: Path) -> None
     as open markers; each engine's Pareto front dashed."""
     plt = pyplot()
     sub = points[(points.case == case) & (points.variant == variant)]
-    fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
-    for i, (eng, pts) in enumerate(sub.groupby("engine", sort=False)):
-        colour = f"C{i % 10}"
+    fig, ax = plt.subplots(figsize=(8.2, 4.6), layout="constrained")
+    styles = engine_styles(sub.engine.unique())
+    for eng, pts in sub.groupby("engine", sort=False):
+        colour = styles[eng]["color"]
         axis = _default_iterations(pts).sort_values("dt", ascending=False)
-        ax.plot(axis.cost_us_per_sim_s, np.clip(axis.worst_over_tol, FLOOR, None), "o-", color=colour, label=eng, ms=4)
+        ax.plot(axis.cost_us_per_sim_s, np.clip(axis.worst_over_tol, FLOOR, None), "-", label=eng, ms=4,
+                **styles[eng])
         its = pts[~pts.index.isin(axis.index)]
         ax.plot(its.cost_us_per_sim_s, np.clip(its.worst_over_tol, FLOOR, None), "s", mfc="none", color=colour, ms=5)
         front = pareto_front(pts)
@@ -206,9 +208,9 @@ def plot_cost(points: pd.DataFrame, case: str, variant: str, path: Path) -> None
     ax.set_yscale("log")
     ax.set_xlabel("cost: wall us per simulated second (stepping only, min of repeats)")
     ax.set_ylabel("worst error / tolerance")
-    ax.set_title(f"{case}[{variant}]: error against cost\n(circles: dt axis; squares: iterations; dashed: Pareto front)",
+    ax.set_title(f"{case}[{variant}]: error against cost\n(filled: dt axis; open squares: iterations; dashed: Pareto front)",
                  fontsize=9)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))  # beside: up to ~20 engines
     save_figure(fig, path)
 
 
@@ -216,19 +218,20 @@ def plot_convergence(points: pd.DataFrame, case: str, variant: str, path: Path) 
     """Error against dt, log-log, with each engine's fitted slope in the legend."""
     plt = pyplot()
     sub = points[(points.case == case) & (points.variant == variant)]
-    fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
-    for i, (eng, pts) in enumerate(sub.groupby("engine", sort=False)):
+    fig, ax = plt.subplots(figsize=(8.2, 4.6), layout="constrained")
+    styles = engine_styles(sub.engine.unique())
+    for eng, pts in sub.groupby("engine", sort=False):
         axis = _default_iterations(pts).sort_values("dt")
         order = convergence_order(pts)
         label = f"{eng} (slope {order:.2f})" if math.isfinite(order) else f"{eng} (exact or too few points)"
-        ax.plot(axis["dt"], np.clip(axis.worst_over_tol, FLOOR, None), "o-", color=f"C{i % 10}", label=label, ms=4)
+        ax.plot(axis["dt"], np.clip(axis.worst_over_tol, FLOOR, None), "-", label=label, ms=4, **styles[eng])
     ax.axhline(1.0, color="black", lw=0.8, ls=":")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("time step dt (s)")
     ax.set_ylabel("worst error / tolerance")
     ax.set_title(f"{case}[{variant}]: error against time step (default iterations)", fontsize=9)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))  # beside: up to ~20 engines
     save_figure(fig, path)
 
 
