@@ -510,7 +510,7 @@ class Box2DSimulation(Simulation):
         return out
 
     # Bulk reads (adapters.base): per body x, z (Box2D's y), the rotation's cosine and sine,
-    # vx, vz and w in Box2D's plane, one list assignment a step; decoded as states() maps them.
+    # vx, vz and w in Box2D's plane, one tuple assignment a body; decoded as states() maps them.
     def body_order(self) -> list[str]:
         return list(self._bodies)
 
@@ -518,11 +518,11 @@ class Box2DSimulation(Simulation):
         return 7 * len(self._bodies)
 
     def write_state(self, out: np.ndarray) -> None:
-        values = []
+        i = 0
         for pb in self._bodies.values():
             p, q, v = pb.position, pb.rotation, pb.linear_velocity
-            values += (p.x, p.y, q.c, q.s, v.x, v.y, pb.angular_velocity)
-        out[:] = values
+            out[i:i + 7] = (p.x, p.y, q.c, q.s, v.x, v.y, pb.angular_velocity)
+            i += 7
 
     def decode_states(self, raw: np.ndarray) -> np.ndarray:
         r = raw.reshape(len(raw), len(self._bodies), 7)

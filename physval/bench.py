@@ -133,14 +133,15 @@ OVERHEAD_NOTE = (
     "recorder must do through the engine's own API: step, copy the raw state into a preallocated row (or the "
     "engine's own block recorder), and read the contact forces where the case uses them (the stack). `recorded "
     "step`: the core's `simulate()`, which adds decoding in blocks of 256 steps and the blow-up check. Targets "
-    "of the execution-core issue: recorded / bare <= 1.5 on one body, <= 1.1 on the stack. They hold where the "
-    "engine hands its state over in bulk (MuJoCo, the reference). Elsewhere the engine's own read calls cost "
-    "more than its step (PyBullet: getBasePositionAndOrientation and getBaseVelocity per body against a 1.7 us "
-    "step; Pymunk: four attribute reads per body against a 0.8 us step; Rapier and MuJoCo: contacts read point "
-    "by point; Box2D: stack forces rebuilt by the adapter from the bodies' momentum changes, as pyb2d3 exposes "
-    "no per-step contact data), so "
-    "no recorder that keeps every step can meet them; what the core itself adds is the last column, "
-    "recorded / (step + API read).")
+    "of the execution-core issue: recorded / bare <= 1.5 on one body, <= 1.1 on the stack. On one body they "
+    "hold where the engine hands its state over in one call (MuJoCo's rollout, Drake's "
+    "GetPositionsAndVelocities, the reference). Elsewhere the engine's own per-body read calls cost more than "
+    "half its step (PyBullet: getBasePositionAndOrientation and getBaseVelocity; Pymunk: four Chipmunk getters; "
+    "DART: getPositions and getVelocities per skeleton; Rapier and Box2D: four property reads per body), so no "
+    "recorder that keeps every step can meet the target there. On the stack every engine but the reference "
+    "reads its contact forces contact by contact in Python (Box2D: rebuilt by the adapter from the bodies' "
+    "momentum changes, as pyb2d3 exposes no per-step contact data). What the core itself adds is the last "
+    "column, recorded / (step + API read).")
 
 
 # --- step time side by side ----------------------------------------------------------------
