@@ -48,6 +48,8 @@ def _import_mujoco() -> None:
         import mujoco as module
         mujoco = module
 
+_ROWS = np.arange(3)  # an elliptic contact's efc rows: normal, tangent 1, tangent 2
+
 # Contact lasts about n = 16 steps: worst |rebound ratio - e| 0.03 (e = 0.5), peak
 # penetration ~ v n dt / pi (23 mm at 4.4 m/s, dt = 1e-3). Error falls as 1/n and depth
 # grows as n: this is the speed/accuracy axis (measured, see the adapter's report).
@@ -378,9 +380,14 @@ class MuJoCoSimulation(Simulation):
         self._planar = scene.dimension == 2
         # MuJoCo may report a contact's geoms in either order (it orders some type pairs,
         # e.g. sphere-box, its own way): key both
-        self._pair_of = {}
+        # each geom pair's body pair, as an index into _pair_keys (contact_forces sums by it)
+        self._pair_keys: list[tuple[str, str]] = []
+        self._pair_index = np.full((model.ngeom, model.ngeom), -1)
         for g1, g2 in zip(model.pair_geom1.tolist(), model.pair_geom2.tolist()):
-            self._pair_of[g1, g2] = self._pair_of[g2, g1] = pair_key(names[g1], names[g2])
+            key = pair_key(names[g1], names[g2])
+            if key not in self._pair_keys:
+                self._pair_keys.append(key)
+            self._pair_index[g1, g2] = self._pair_index[g2, g1] = self._pair_keys.index(key)
         self._f6 = np.zeros(6)  # mj_contactForce's output (pyramidal cones only)
         self._elliptic = model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
         # contacts come from <pair>s only: which carry friction rows (condim 3)
@@ -515,19 +522,22 @@ class MuJoCoSimulation(Simulation):
         con = d.contact
         addr = con.efc_address
         # no constraint row (e.g. exactly touching, dist = 0) or excluded: no force
-        active = (addr >= 0) & (con.exclude == 0)
-        sel = slice(None) if active.all() else np.flatnonzero(active)
+        if addr.min() >= 0 and not con.exclude.any():  # the usual case, in two reductions
+            sel = slice(None)
+        else:
+            sel = np.flatnonzero((addr >= 0) & (con.exclude == 0))
         a = addr[sel]
-        f = np.zeros((len(a), 3))
         if not len(a):
+            return sel, np.zeros((0, 3))
+        if self._elliptic and self._rubs == "all":  # condim 3 everywhere: three rows a contact
+            f = d.efc_force[a[:, None] + _ROWS]
+            f[:, 0] -= con.adhesion[sel]
             return sel, f
+        f = np.zeros((len(a), 3))
         if self._elliptic:  # mj_contactForce's elliptic branch, all contacts at once
             efc = d.efc_force
             f[:, 0] = efc[a] - con.adhesion[sel]
-            if self._rubs == "all":  # condim 3 everywhere
-                f[:, 1] = efc[a + 1]
-                f[:, 2] = efc[a + 2]
-            elif self._rubs == "some":  # condim 1 pairs have no friction rows: zeros
+            if self._rubs == "some":  # condim 1 pairs have no friction rows: zeros
                 rub = con.dim[sel] > 1
                 f[rub, 1] = efc[a[rub] + 1]
                 f[rub, 2] = efc[a[rub] + 2]
@@ -538,15 +548,15 @@ class MuJoCoSimulation(Simulation):
         return sel, f
 
     def contact_forces(self) -> dict[tuple[str, str], float]:
-        out: dict[tuple[str, str], float] = {}
         if self._data.ncon == 0:
-            return out
+            return {}
         sel, f = self._solved()
-        pair_of = self._pair_of
-        for (g1, g2), fn in zip(self._data.contact.geom[sel].tolist(), f[:, 0].tolist()):
-            key = pair_of[g1, g2]
-            out[key] = out.get(key, 0.0) + fn
-        return out
+        geom = self._data.contact.geom[sel]
+        ids = self._pair_index[geom[:, 0], geom[:, 1]]
+        n = len(self._pair_keys)
+        total = np.bincount(ids, weights=f[:, 0], minlength=n).tolist()  # summed in contact order
+        keys = self._pair_keys
+        return {keys[i]: total[i] for i in np.flatnonzero(np.bincount(ids, minlength=n)).tolist()}
 
     def contact_points(self) -> list[ContactPoint]:
         """One point per MuJoCo contact the solver acted on (see the conventions above):
