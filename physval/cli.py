@@ -21,7 +21,8 @@ EPILOG = """examples:
   physval list --engines                        engines, where each comes from, capabilities
   physval check-case my_cases/second_bounce.py  validate a family file before running it
 exit codes: 0 the command completed (failing physics is a result, not a crash); 2 bad input;
-130 interrupted (finished jobs are kept; the same command resumes)."""
+130 interrupted (finished jobs are kept; the same command resumes); 141 the reader of the
+output went away (e.g. `physval list | head`), as a shell reports SIGPIPE."""
 
 
 class UsageError(ValueError):
@@ -275,3 +276,6 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("physval: interrupted; files already written are complete", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # stdout's reader is gone: say nothing more there (Python's own advice)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141

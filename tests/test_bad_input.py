@@ -154,6 +154,18 @@ def test_bad_output_folders_stop_before_any_work(tmp_path):
     assert not list(tmp_path.rglob(".physval-write-test*"))
 
 
+def test_a_reader_that_closes_the_output_early_gets_no_traceback():
+    """`physval list | head -1`: the output has nowhere to go; exit 141 as a shell reports
+    SIGPIPE, and say nothing on stderr."""
+    import subprocess
+    import sys
+    proc = subprocess.Popen([sys.executable, "-m", "physval", "list"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, cwd=ROOT)
+    proc.stdout.close()  # the reader goes away (before physval, still starting, writes anything)
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=60) == 141 and "Traceback" not in err, err
+
+
 def test_a_sweep_csv_that_is_not_ours_is_refused(tmp_path):
     (tmp_path / "sweep.csv").write_text("a,b\n1,2\n")
     got = _physval("sweep", "--cases", "central_impact[drop,e=0.5]", "--engines", "reference", "--out", str(tmp_path))
