@@ -15,10 +15,12 @@ from cases.observables import deepest_overlap, drift, energy_rise, mechanical_en
 from cases.registry import builtin_families
 from cases.scene import Body, Box, Material, Scene, Sphere, ground
 from cases.trajectory import Trajectory
-from physval.core import Context, execute
+from physval.core import Context, Job, execute
+from physval.core.context import Resolver
 from physval.core.session import Execution
 from physval.core.selection import SelectionError, select_variants
 from physval.readings import robustness as stress
+from tests.fakes import FakeAdapter
 
 FAMILIES = {n: f for n, f in builtin_families().items() if n.startswith("robustness_")}
 
@@ -167,6 +169,28 @@ def test_determinism_runs_twice_and_names_the_deterministic_engines(tmp_path):
                             variants=("robustness_degenerate[edge-on,2D]", "robustness_degenerate[edge-on,3D]"))
     assert list(df.status) == ["deterministic", "unsupported"]
     assert stress.deterministic_engines(df) == ["pymunk"]
+
+
+class _AlternatingAdapter(FakeAdapter):
+    """Every other scene it builds starts 1e-12 m off: a result that depends on what the
+    process built before (as DART's does on the heap addresses it reuses)."""
+
+    def build(self, scene, settings):
+        sim = super().build(scene, settings)
+        if len(self.built) % 2 == 0:
+            sim.x = {n: x + 1e-12 for n, x in sim.x.items()}
+        return sim
+
+
+@pytest.mark.parametrize("adapter, distinct", [(FakeAdapter("steady"), 1), (_AlternatingAdapter("alternating"), 2)])
+def test_the_determinism_probe_runs_its_scene_again_in_its_own_process(adapter, distinct):
+    fam = Context().resolver().family("robustness_degenerate")
+    variant = next(v for v in fam.all_variants if v.id == "edge-on,2D")
+    job = Job(fam.name, variant, adapter.name, probe="physval.readings.robustness:FinalHash")
+    out = execute(job, Resolver(Context()).provide(adapter.name, adapter))
+    hashes = out.extra["state_hash"].split()
+    assert len(hashes) == 3 and len(set(hashes)) == distinct
+    assert len(adapter.built) == 3
 
 
 # --- the command ---------------------------------------------------------------------------------
