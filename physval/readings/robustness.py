@@ -202,9 +202,10 @@ class FinalHash(Probe):
     """The final state's hash of the job's run, then of the same scene built and run twice
     more in the same process, one after the other ("HASH HASH HASH"): a result that depends
     on the process's history (heap addresses reused from the last world, global state)
-    differs within one job, whichever worker runs it. (DART alternates between two results
-    when each world is built where the last one was freed; a world built while another is
-    alive behaves as the first.)"""
+    differs within one job, whichever worker runs it. (Measured: DART's results alternate
+    between two when each world is built after the last one was closed, and a world built
+    while another is still open gives the first one's; ordering by heap address would
+    explain it.)"""
 
     def __init__(self, job: Job):
         from physval.core.context import Context
