@@ -381,13 +381,12 @@ class MuJoCoSimulation(Simulation):
         # MuJoCo may report a contact's geoms in either order (it orders some type pairs,
         # e.g. sphere-box, its own way): key both
         # each geom pair's body pair, as an index into _pair_keys (contact_forces sums by it)
-        self._pair_keys: list[tuple[str, str]] = []
+        index: dict[tuple[str, str], int] = {}
         self._pair_index = np.full((model.ngeom, model.ngeom), -1)
         for g1, g2 in zip(model.pair_geom1.tolist(), model.pair_geom2.tolist()):
-            key = pair_key(names[g1], names[g2])
-            if key not in self._pair_keys:
-                self._pair_keys.append(key)
-            self._pair_index[g1, g2] = self._pair_index[g2, g1] = self._pair_keys.index(key)
+            i = index.setdefault(pair_key(names[g1], names[g2]), len(index))
+            self._pair_index[g1, g2] = self._pair_index[g2, g1] = i
+        self._pair_keys = list(index)
         self._f6 = np.zeros(6)  # mj_contactForce's output (pyramidal cones only)
         self._elliptic = model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
         # contacts come from <pair>s only: which carry friction rows (condim 3)

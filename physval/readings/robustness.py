@@ -41,8 +41,8 @@ MAP = {"heights": (2, 5, 10, 15, 20), "dts": (1 / 60, 1 / 120, 1 / 240), "iterat
 # adapter's stated default (e.g. PyBullet 50, DART 300 sweeps), what a user gets untouched.
 QUICK_MAP = {"heights": (2, 5, 10), "dts": (1 / 60,), "iterations": (None, 5, 10, 20)}
 MAP_DURATION = 10.0  # s: "stands" means stands this long
-# Variants run twice for the determinism check: many simultaneous contacts, a landing on a
-# tie of contact features, and a box sliding off the axes (DART's result depends on what
+# The determinism check's scenes: many simultaneous contacts, a landing on a tie of contact
+# features, and a box sliding off the axes (DART's result depends on what
 # its process ran before: 2.95e-9 or 3.42e-9 m off line, measured).
 DETERMINISM_VARIANTS = ("robustness_pile[2^2 balls,2D,T=0.6]", "robustness_degenerate[vertex-on,3D]",
                         "robustness_degenerate[edge-on,2D]", "slide_to_stop[mu=0.5,v0=2,heading=22.5deg]")
@@ -241,8 +241,8 @@ def determinism(engines: list[str], ctx, out: Path, variants=DETERMINISM_VARIANT
             row = {"engine": e, "scene": test_id, "runs": 3 * repeats, "status": "", "hash": "", "reason": ""}
             hashes = [f.get("state_hash", "") for f in firsts]
             if all(hashes):
-                same = len({h for pair in hashes for h in pair.split()}) == 1
-                within = any(len(set(pair.split())) > 1 for pair in hashes)
+                same = len({h for job_runs in hashes for h in job_runs.split()}) == 1
+                within = any(len(set(job_runs.split())) > 1 for job_runs in hashes)
                 why = "" if same else ("the scene run again in the same process ends elsewhere" if within
                                        else "jobs in different processes end in different states")
                 out_rows.append({**row, "status": "deterministic" if same else "differs", "hash": hashes[0][:16],
@@ -264,7 +264,8 @@ def determinism_section(df: pd.DataFrame) -> str:
     return "\n".join(["## Determinism", "",
                       "Each scene run six times with the same settings: in two jobs (possibly in different worker "
                       "processes), each building and running it three times in its process; deterministic when the "
-                      "SHA-256 of every body's final state (float64 bytes) is identical in all six.", "", f"Deterministic engines: {', '.join(deterministic_engines(df)) or 'none'}.",
+                      "SHA-256 of every body's final state (float64 bytes) is identical in all six.", "",
+                      f"Deterministic engines: {', '.join(deterministic_engines(df)) or 'none'}.",
                       "", md_table(df), ""])
 
 
