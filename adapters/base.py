@@ -192,7 +192,7 @@ class Adapter(ABC):
         """The engine's version string."""
 
     def deviations_file(self) -> Path | None:
-        """This engine's known-deviation file (physval/deviations.py): by default
+        """This engine's known-deviation file (physval/core/deviations.py): by default
         `xfails/<name>.txt` beside the adapter's module, so a plug-in ships its own."""
         module = sys.modules.get(type(self).__module__)
         where = getattr(module, "__file__", None)

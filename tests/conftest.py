@@ -58,7 +58,7 @@ def pytest_generate_tests(metafunc):
     on-demand ones (minutes each) are marked slow and run with `pytest -m slow`."""
     import pytest
     from physval.core import Context
-    from physval.validation import plan
+    from physval.core.plan import plan
     for name, conformance in (("job", False), ("conformance_job", True)):
         if name not in metafunc.fixturenames:
             continue

@@ -1,7 +1,7 @@
 """A case author's tools (issue #13 part 3): `physval check-case` prints every closed form
 of a usable family and which engines run or skip each variant and why, and stops a
 broken one with one line; `--save-trajectories` writes what each engine did, and
-`physval.trajectories.load` gives it back as the Trajectory the observer saw."""
+`physval.core.trajectories.load` gives it back as the Trajectory the observer saw."""
 from __future__ import annotations
 
 import csv
@@ -13,7 +13,7 @@ import pytest
 from adapters import registry
 from cases.registry import load_dir
 from physval.cli import main
-from physval.trajectories import file_name, load
+from physval.core.trajectories import file_name, load
 from tests.guide import write_example
 
 

@@ -8,7 +8,7 @@ import csv
 
 import pytest
 
-from physval import deviations
+from physval.core import deviations
 from physval.cli import main
 from tests.guide import write_example, write_known
 

@@ -10,7 +10,7 @@ import pytest
 
 from cases.family import CaseError, CaseFamily, Check, Variant
 from cases.scene import Body, Circle, Material, Plane, Scene, Sphere
-from physval import deviations
+from physval.core import deviations
 from physval.core import COLUMNS, Job
 from physval.core.verdicts import contract_problems, errors, within
 from tests.fakes import FakeAdapter
@@ -253,7 +253,7 @@ def _rows():
 
 def _write_report(rows, out, **kw):
     import pandas as pd
-    from physval.report import write_run_report
+    from physval.readings.results import write_run_report
     pd.DataFrame(rows, columns=COLUMNS).to_csv(out / "results.csv", index=False)
     write_run_report(rows, out, {"free_fall": FALL}, **kw)
 
@@ -342,7 +342,7 @@ def test_2d_scene_rejects_3d_shapes():
 
 def test_a_partial_bench_run_keeps_the_other_sections_and_says_so(tmp_path):
     import pandas as pd
-    from physval import bench
+    from physval.readings import bench
     bench.write(tmp_path, {"pgs": pd.DataFrame({"contacts": [1, 2], "ms per sweep": [0.1, 0.2]})})
     bench.write(tmp_path, {"overhead": pd.DataFrame({"engine": ["x"], "recorded / bare": [1.2]})})
     md = (tmp_path / "bench.md").read_text()

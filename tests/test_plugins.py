@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from physval import deviations
+from physval.core import deviations
 from physval.core.executor import START_METHODS
 
 pytest.importorskip("mujoco", reason="the example plug-in wraps MuJoCo")

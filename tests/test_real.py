@@ -15,6 +15,7 @@ from scipy.spatial.transform import Rotation
 from adapters import registry
 from adapters.base import Settings
 from cases import cube_toss as ct
+from physval.cli import main
 from physval.readings import real
 
 pytestmark = pytest.mark.skipif(not registry.available("mujoco"), reason="the slice runs on MuJoCo")
@@ -196,9 +197,21 @@ def test_the_mujoco_tunable_reaches_the_engine():
     assert np.abs(soft["pos"] - stiff["pos"]).max() > 1e-3  # millimetres apart after an impact
 
 
-def test_unknown_parameters_are_refused():
-    with pytest.raises(real.RealError, match="unknown parameter"):
-        real.rounded("pybullet", {"mu": 0.2, "contact_steps": 3})
+@pytest.mark.parametrize("params, message", [
+    ({"pybullet": {"mu": 0.2, "contact_steps": 3}}, "not a parameter of pybullet"),
+    ({"pybullet": {"mu": -0.1}}, "must be a number in"),
+    ({"pybullet": {"e": 1.5}}, "must be a number in"),
+    ({"pybullet": {"mu": "0.2"}}, "must be a number in"),
+    ({"nope": {"mu": 0.2}}, "'nope' is not an engine"),
+])
+def test_bad_parameter_files_stop_before_any_work(params, message, tmp_path, capsys):
+    """Each bad value gives one line naming engine, parameter and the allowed range, exit 2."""
+    path = tmp_path / "params.json"
+    path.write_text(json.dumps(params))
+    assert _cli("--engines", "pybullet", "--params", str(path), "--out", str(tmp_path / "out")) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "out" / "real_report.md").exists()
 
 
 SYNTH_IDS = (0, 2, 4, 10)
@@ -253,7 +266,8 @@ def test_the_fit_runs_unchanged_on_a_dask_local_cluster():
 # --- the command --------------------------------------------------------------------------------
 
 def _cli(*argv) -> int:
-    return real.main(["real", *argv, "--quiet"])
+    """The command as a user types it: through the one dispatcher."""
+    return main(["real", *argv, "--quiet"])
 
 
 def test_the_command_fits_scores_and_writes_the_report(tmp_path):
@@ -289,6 +303,8 @@ def test_any_toss_file_is_scored_with_saved_parameters(tmp_path, synthetic_file)
     (("--engines", "nope"), "unknown engine"),
     (("--tosses", "/nonexistent.csv"), "no such toss file"),
     (("--params", "/nonexistent.json"), "cannot read"),
+    (("--limit", "0"), "must be >= 1"),
+    (("--horizon", "-1"), "must be a finite number > 0"),
 ])
 def test_bad_input_exits_with_2(argv, message, capsys, tmp_path):
     assert _cli(*argv, "--out", str(tmp_path)) == 2

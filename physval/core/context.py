@@ -12,7 +12,7 @@ from pathlib import Path
 from adapters import registry
 from adapters.base import Adapter
 from cases.family import CaseFamily
-from physval import deviations
+from physval.core import deviations
 
 
 @dataclass(frozen=True)

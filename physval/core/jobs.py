@@ -19,7 +19,7 @@ from typing import Callable
 from adapters.base import Settings, SettingsError, Unsupported
 from cases.family import CaseFamily, Check, Variant
 from cases.trajectory import TrajectoryError
-from physval import deviations
+from physval.core import deviations
 from physval.core.context import Resolver
 from physval.core.record import Run, Unstable, simulate
 from physval.core.verdicts import blank_row, judge

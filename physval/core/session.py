@@ -129,7 +129,7 @@ def run_jobs(jobs: list[Job], ctx: Context = Context(), workers: int = 1, schedu
 
 @dataclass(frozen=True)
 class Execution:
-    """How to run jobs: the options every command shares (physval.cli.add_execution)."""
+    """How to run jobs: the options every command shares (physval.commands.options.add_execution)."""
     workers: int = 1
     scheduler: str | None = None
     job_timeout: float | None = DEFAULT_JOB_TIMEOUT

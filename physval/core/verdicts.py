@@ -6,7 +6,7 @@ Statuses:
 - fail         outside it and not a recorded deviation (or a recorded one whose measured
                value left its band: the deviation changed);
 - deviation    outside the tolerance, inside the band a known-deviation entry records
-               for exactly this check (physval/deviations.py);
+               for exactly this check (physval/core/deviations.py);
 - unsupported  the engine cannot represent the scene (the reason says why);
 - unstable     the engine's own state became NaN or infinite, or blew up;
 - error        an exception: in the engine (a crash), or in the case's own code
@@ -18,8 +18,12 @@ import csv
 import json
 import math
 
+from typing import TYPE_CHECKING
+
 from cases.family import Check
-from physval import deviations
+
+if TYPE_CHECKING:
+    from physval.core import deviations
 
 STATUSES = ("pass", "fail", "deviation", "unsupported", "unstable", "error")
 

@@ -16,8 +16,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +24,6 @@ import pandas as pd
 from cases import robustness_stacks
 from cases.family import Variant
 from cases.robustness import COLLAPSE_FRACTION
-from physval import cli
 from physval.core import COLUMNS, Job, Probe, simulate
 from physval.core.session import Execution, run_stored
 from physval.core.selection import select_variants
@@ -315,77 +312,3 @@ def write_stress_report(rows: list[dict], smap, det, out: Path, command: str = "
     lines += ["## Environment", "", md_table(environment(engine_versions(df) if len(df) else {})), ""]
     write_atomic(out / "stress_report.md", "\n".join(lines))
     return df
-
-
-# --- command line ----------------------------------------------------------------------------
-
-EPILOG = """examples:
-  physval stress                                    default grids, a 60 Hz stability map, determinism
-  physval stress --long                             every robustness scene (minutes to hours) and the full map
-  physval stress --engines mujoco,pybullet --cases 'robustness_stacks*'
-  physval stress --cases 'robustness_pile[6^3*]' --long --out /tmp/pile
-exit codes: 0 the battery completed (failing physics is a result); 2 bad input; 130 interrupted."""
-
-
-def add_parser(subparsers):
-    p = subparsers.add_parser(
-        "stress", help="robustness battery, stability maps and determinism; writes stress_results.csv and stress_report.md",
-        formatter_class=cli.argparse.RawDescriptionHelpFormatter, epilog=EPILOG,
-        description="Run the robustness scenes (tall stacks, pyramids, mass ratios, warm starting, overlap "
-                    "recovery, tunnelling, piles, Newton's cradle, tiny and far bodies, degenerate landings) on "
-                    "engines, judged by invariants; map the tallest stack each engine keeps standing as the step "
-                    "rate and solver iterations vary; check that each engine repeats a run exactly. Writes "
-                    "stress_results.csv (the columns of results.csv), stress_report.md (with a Stability "
-                    "section), stability_map.csv, determinism.csv and plots/ into --out.")
-    cli.add_selection(p, "robustness scenes: families or FAMILY[VARIANT] (globs allowed), e.g. "
-                         "'robustness_stacks' or 'robustness_pile[6^3*]' (default: every robustness family)",
-                      "engines (default: every installed engine but the slow pure-Python formulations, "
-                      "which run when named)")
-    p.add_argument("--long", action="store_true",
-                   help="also run the long variants (the full grids: 60 s rest, 20-box stacks, 210-box pyramids, "
-                        "the 216-ball pile, 20 s cradle) and the full stability map (60-240 Hz, 5-50 iterations, "
-                        "stacks up to 20); minutes to hours")
-    p.add_argument("--no-map", action="store_true", help="skip the stability map")
-    cli.add_execution(p, "reports/stress", workers=1)
-    p.set_defaults(func=run)
-    return p
-
-
-def run(args) -> int:
-    """Run the battery, the stability map and the determinism check; write the report."""
-    def say(text: str) -> None:
-        if not args.quiet:
-            print(f"physval stress: {text}", file=sys.stderr)
-
-    ctx = cli.context_of(args)
-    resolver = ctx.resolver()
-    families = {n: f for n, f in resolver.families.items() if TAG in f.tags}
-    chosen = select_variants(families, args.cases, full=args.long)
-    engines = cli.engines_of(args, ctx, cli.fast_engines(ctx))
-    out = cli.output_folder(args.out)
-    cli.check_scheduler(args.scheduler)
-    execution = Execution.of(args)
-    jobs = [Job(f, v, e) for f, vs in chosen.items() for v in vs for e in engines]
-    say(f"{len(jobs)} runs ({len(chosen)} families x {len(engines)} engines) -> {out}/")
-    t0 = time.perf_counter()
-    res, store = run_stored(jobs, ctx, out / "stress_runs.csv", COLUMNS, execution, label="stress")
-    rows = [r for j in jobs for r in res.rows.get(j.key, [])]
-    smap = det = None
-    if res.complete:
-        say(f"battery done in {time.perf_counter() - t0:.0f} s")
-        if not args.no_map:
-            grid = MAP if args.long else QUICK_MAP
-            say(f"stability map: stacks of {grid['heights']} at {[round(1 / d) for d in grid['dts']]} Hz, "
-                f"iterations {grid['iterations']}")
-            smap = stability_map(engines, ctx, out, **grid, execution=execution)
-        if smap is not None or args.no_map:
-            say("determinism")
-            det = determinism(engines, ctx, out, execution=execution)
-    complete = res.complete and (smap is not None or args.no_map) and det is not None
-    df = write_stress_report(rows, smap, det, out, command=cli.command_line(), complete=complete)
-    if not complete:
-        print("physval stress: interrupted; run the same command again to finish", file=sys.stderr)
-        return 130
-    print(f"{len(df)} checks: {status_counts(df)}")
-    print(f"wrote {out / 'stress_results.csv'}, {out / 'stress_report.md'}")
-    return 0

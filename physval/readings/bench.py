@@ -28,7 +28,6 @@ import numpy as np
 import pandas as pd
 
 from cases.family import Variant
-from physval import cli
 from physval.core import Context, Job, Probe, run_jobs, simulate
 from physval.core.session import Execution
 from physval.reportkit import md_table, write_atomic
@@ -282,61 +281,11 @@ def _note(name: str) -> str:
     return {"overhead": OVERHEAD_NOTE, "step": STEP_NOTE, "sweep-workers": SWEEP_WORKERS_NOTE, "pgs": PGS_NOTE}[name]
 
 
-def add_parser(sub) -> None:
-    bn = sub.add_parser("bench", help="speed side by side in one run, as ratios (not a test)",
-                        description=__doc__.split("\n\n", 1)[1].split("\n\nEvery")[0],
-                        formatter_class=cli.argparse.RawDescriptionHelpFormatter)
-    bn.add_argument("what", nargs="*", metavar="WHAT", help=f"{', '.join(WHAT)} (default: all)")
-    bn.add_argument("--engines", nargs="+", metavar="NAME",
-                    help="engines (default: all installed, the reference with its default formulation)")
-    bn.add_argument("--adapter", action="append", metavar="MODULE:CLASS", help="also this adapter")
-    bn.add_argument("--out", default="reports/bench", metavar="DIR", help="output folder (default: reports/bench)")
-    bn.add_argument("--scheduler", metavar="ADDRESS", help=cli.argparse.SUPPRESS)
-    bn.add_argument("--job-timeout", type=cli.seconds_or_off, default=1800.0, metavar="S",
-                    help="per-job time limit (default 1800 s; the 55-box pyramid is slow on pure-Python engines)")
-    bn.add_argument("--start-method", choices=("fork", "spawn", "forkserver"), help="how local workers start")
-    bn.add_argument("--quiet", action="store_true", help="no progress")
-    bn.set_defaults(func=cmd_bench)
-
-
 STEP_NOTE = ("Minimum over 2 repeats of the mean wall time per step over 20 steps at dt = 1e-3 (10 warm-up "
              "steps; the 55-box pyramid costs up to 0.8 s a step on pure-Python engines); `reference / X` is how "
              "many times slower the reference is.")
 SWEEP_WORKERS_NOTE = ("central_impact's sweep points on reference, pybullet and mujoco, one timing repeat each; "
                       "throughput relative to one worker.")
-
-
-def cmd_bench(args) -> int:
-    ctx = cli.context_of(args)
-    engines = cli.engines_of(args, ctx, cli.fast_engines(ctx))
-    what = args.what or list(WHAT)
-    unknown = [w for w in what if w not in WHAT]
-    if unknown:
-        raise cli.UsageError(f"unknown benchmark {unknown[0]!r}: choose from {', '.join(WHAT)}")
-    out = cli.output_folder(args.out)
-    execution = Execution(1, None, args.job_timeout, args.start_method, not args.quiet)
-    sections = {}
-    say = (lambda t: None) if args.quiet else (lambda t: print(f"physval bench: {t}", file=sys.stderr))
-    if "overhead" in what:
-        say("the core's recorded step against a bare step")
-        sections["overhead"] = overhead(engines, ctx, execution)
-    if "step" in what:
-        say("step time side by side")
-        sections["step"] = steps_side_by_side(engines, ctx, execution)
-    if "sweep-workers" in what:
-        say("the same sweep with 1 and with 2 workers")
-        sections["sweep-workers"] = sweep_workers([e for e in engines if e in ("reference", "pybullet", "mujoco")], ctx)
-    if "pgs" in what:
-        say("PGS sweep cost against contact count")
-        sections["pgs"] = pgs_scaling()
-    if "faults" in what:
-        say("planted faults: the detection matrix")
-        from physval.faults import ENGINES
-        sections["faults"] = fault_matrix(engines if args.engines else [e for e in engines if e in ENGINES], ctx,
-                                          progress=not args.quiet)
-    write(out, sections)
-    print(f"wrote {out / 'bench.md'}")
-    return 0
 
 
 # --- PGS sweep cost -----------------------------------------------------------------------

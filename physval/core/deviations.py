@@ -27,6 +27,8 @@ from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
 from pathlib import Path
 
+from physval.core.verdicts import errors
+
 _ENTRY = re.compile(r"^(?P<family>\w+)\[(?P<variant>.*)\]:(?P<metric>\S+)\s*#\s*(?P<reason>\S.*)$")
 _BAND = re.compile(r"^\s+(?P<engine>\S+)\s+\[(?P<variant>.*)\]:(?P<metric>[^\s=]+)\s*=\s*(?P<rest>\S.*?)\s*(?:#.*)?$")
 _VALUE = re.compile(r"^(?P<value>\S+)\s*\+-\s*(?P<width>\S+)$")
@@ -186,3 +188,61 @@ def rewrite(path: Path, bands_of: dict[int, list[Band]]) -> str:
             current = i
             out += [b.text() for b in bands_of.get(i, [])]
     return "\n".join(out) + "\n"
+
+
+# --- measuring bands, and entries that went stale ----------------------------------------
+
+def deviating(row: dict) -> bool:
+    """A judged check whose measurement misses its tolerance."""
+    try:
+        expected, measured, tol = float(row["expected"]), float(row["measured"]), float(row["tolerance"])
+    except (TypeError, ValueError):
+        return False
+    if not math.isfinite(measured):
+        return False
+    abs_err, rel_err = errors(expected, measured)
+    err = abs_err if row["tolerance_kind"] == "abs" else rel_err
+    return not (math.isfinite(err) and err <= tol)
+
+
+def measured_bands(engine: str, entries: list[Deviation], rows_by_job: dict, raised: dict) -> dict:
+    """Entry line -> the bands a fresh run measures for `engine` (first matching entry wins)."""
+    out: dict[int, list[Band]] = {e.line: [] for e in entries}
+    for key, rows in rows_by_job.items():
+        exc = raised.get(key)
+        for r in rows:
+            entry = find(entries, r["case"], r["variant"], r["metric"])
+            if entry is None:
+                continue
+            if exc and r["status"] in ("error", "deviation"):
+                out[entry.line].append(Band(engine, r["variant"], r["metric"], raises=exc))
+            elif r["status"] in ("pass", "fail", "deviation") and deviating(r):
+                e, m, t = float(r["expected"]), float(r["measured"]), float(r["tolerance"])
+                out[entry.line].append(Band(engine, r["variant"], r["metric"], m,
+                                                       band_width(e, m, t)))
+    return out
+
+
+def stale_entries(df, resolver) -> list[str]:
+    """Entries whose recorded checks now pass, that have no band, or that match no check of
+    a family that ran (at the settings bands are recorded at)."""
+    notes = []
+    ran_families = set(df.case)
+    for engine in dict.fromkeys(df.engine):
+        mine = df[df.engine == engine]
+        judged = {(r.case, r.variant, r.metric): r.status for r in mine.itertuples()}
+        for e in resolver.known(engine):
+            if e.family not in ran_families:
+                continue
+            hits = [k for k in judged if e.matches(*k)]
+            if not hits:
+                notes.append(f"{engine}: `{e.pattern}` ({e.where}) matched no check in this run")
+                continue
+            bands = [b for b in e.bands if b.engine == engine]
+            if not bands:
+                notes.append(f"{engine}: `{e.pattern}` ({e.where}) records no band: `physval known {engine} --write`")
+            passing = [b for b in bands if judged.get((e.family, b.variant, b.metric)) == "pass"]
+            if passing:
+                notes.append(f"{engine}: `{e.pattern}` ({e.where}): {len(passing)} recorded checks now pass "
+                             f"(e.g. [{passing[0].variant}]:{passing[0].metric}): `physval known {engine} --write`")
+    return notes

@@ -2,7 +2,7 @@
 one `.npz` file per job (states of every dynamic body, contact normal forces per pair,
 and what the run was), so a user can plot it or try an observer on it:
 
-    from physval.trajectories import load
+    from physval.core.trajectories import load
     traj, meta = load("DIR/central_impact[drop,e=0.5]-mujoco.npz")
     z = traj.pos("ball")[:, 2]; meta["engine"], meta["dt"]
     FAMILY.observe(traj, meta["params"])          # the family's own observer, on this run

@@ -7,15 +7,25 @@ code or of an engine's version makes its jobs run again.
 """
 from __future__ import annotations
 
+import argparse
 import sys
 import time
 
-from physval import cli
-from physval.core import COLUMNS, Job, run_jobs
+from physval.commands import options
+from physval.core import COLUMNS, run_jobs
+from physval.core.plan import plan
 from physval.core.selection import select_variants
 from physval.core.store import RowStore, cache_keys
 
 READINGS = ("effective", "laws")
+
+EPILOG = """examples:
+  physval run                                   every case on every installed engine, report in reports/
+  physval run --cases central_impact --engines reference,mujoco
+  physval run --cases "incline_threshold[mu=0.5*]" --dt 5e-3 --out /tmp/incline
+  physval run --cases-dir my_cases --cases second_bounce
+exit codes: 0 the run completed (failing physics is a result); 2 bad input; 130 interrupted
+(finished jobs are kept; the same command resumes)."""
 
 HELP_CASES = ("case families or variants: NAME, a glob, or NAME[VARIANT] (an exact variant id or a glob), "
               "space- or comma-separated, e.g. 'central_impact[drop,e=0.5]' (default: every family)")
@@ -26,13 +36,13 @@ HELP_ENGINES = ("engines: names or globs, e.g. 'reference-*' (default: every ins
 def add_parser(sub) -> None:
     run = sub.add_parser(
         "run", help="run cases on engines and write results.csv, report.md, plots",
-        formatter_class=cli.argparse.RawDescriptionHelpFormatter, epilog=cli.EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG,
         description="Run case variants on engines; write results.csv (streamed as jobs finish), report.md and "
                     "plots/ into --out. Failing physics is a result (exit 0). Running the same command again "
                     "resumes: finished jobs are not recomputed unless the code or an engine changed.")
-    cli.add_selection(run, HELP_CASES, HELP_ENGINES)
-    run.add_argument("--dt", type=cli.positive_float, metavar="DT", help="time step in s for every case (default: each family's own)")
-    run.add_argument("--iterations", type=cli.positive_int, metavar="N", help="solver iterations (default: each adapter's stated default)")
+    options.add_selection(run, HELP_CASES, HELP_ENGINES)
+    run.add_argument("--dt", type=options.positive_float, metavar="DT", help="time step in s for every case (default: each family's own)")
+    run.add_argument("--iterations", type=options.positive_int, metavar="N", help="solver iterations (default: each adapter's stated default)")
     run.add_argument("--full", action="store_true", help="also each family's full grid (long or many-body variants)")
     run.add_argument("--on-demand", action="store_true",
                      help="also the runs an engine declares too slow for a default run (minutes each)")
@@ -41,39 +51,8 @@ def add_parser(sub) -> None:
                           "(physics-law residuals of the contact forces), all, none, or auto (default: all when no "
                           "--cases are named, else none); cached per engine version and reused")
     run.add_argument("--save-trajectories", metavar="DIR",
-                     help="also write each job's trajectory and contact forces (npz; physval.trajectories.load)")
-    cli.add_execution(run, "reports")
-    run.set_defaults(func=cmd_run)
-
-
-def plan(chosen: dict, engines: list[str], resolver, engines_named: bool, dt=None, iterations=None,
-         on_demand: bool = False) -> tuple[list[Job], list[Job]]:
-    """(jobs to run, jobs left out as on demand). An engine with `default_tags` runs only
-    families with one of those tags (and the variants whose compliant contact law it
-    models), unless it was named; a job the adapter declares on demand runs only when asked."""
-    jobs, later = [], []
-    for name, variants in chosen.items():
-        fam = resolver.family(name)
-        for v in variants:
-            scene = None
-            for eng in engines:
-                job = Job(name, v, eng, dt, iterations)
-                try:
-                    adapter = resolver.adapter(eng)
-                except Exception:
-                    jobs.append(job)  # not installed: its rows say so
-                    continue
-                if scene is None:
-                    scene = fam.scene(v.params)
-                if not engines_named and adapter.default_tags is not None and not (fam.tags & adapter.default_tags):
-                    laws = scene.contact_laws
-                    if not (laws and laws <= adapter.capabilities.contact_laws):
-                        continue
-                if not on_demand and adapter.on_demand(scene):
-                    later.append(job)
-                    continue
-                jobs.append(job)
-    return jobs, later
+                     help="also write each job's trajectory and contact forces (npz; physval.core.trajectories.load)")
+    options.add_execution(run, "reports")
 
 
 def readings_of(text: str, cases_named: bool) -> list[str]:
@@ -86,37 +65,37 @@ def readings_of(text: str, cases_named: bool) -> list[str]:
         return []
     bad = [n for n in names if n not in READINGS]
     if bad or not names:
-        raise cli.UsageError(f"--readings {text!r}: choose from {', '.join(READINGS)}, all, none, auto")
+        raise options.UsageError(f"--readings {text!r}: choose from {', '.join(READINGS)}, all, none, auto")
     return names
 
 
-def cmd_run(args) -> int:
-    started = cli.STARTED
+def run(args) -> int:
+    started = args.started
     if not args.scheduler:
         from physval.core.executor import start_fork_server
         start_fork_server(args.start_method)  # loads in parallel with what follows
-    ctx = cli.context_of(args)
+    ctx = options.context_of(args)
     resolver = ctx.resolver()
     families = resolver.families
-    from physval.checkcase import dry_run_user_families
+    from physval.core.dry_run import dry_run_user_families
     dry_run_user_families(ctx)
     chosen = select_variants(families, args.cases, full=args.full)
-    engines = cli.engines_of(args, ctx)
+    engines = options.engines_of(args, ctx)
     if args.dt is not None:
         from adapters.base import Settings
         Settings(dt=args.dt)  # validates the range once, with a message naming dt
     readings = readings_of(args.readings, args.cases is not None)
-    out = cli.output_folder(args.out)
-    traj_dir = cli.output_folder(args.save_trajectories) if args.save_trajectories else None
-    cli.check_scheduler(args.scheduler)
+    out = options.output_folder(args.out)
+    traj_dir = options.output_folder(args.save_trajectories) if args.save_trajectories else None
+    options.check_scheduler(args.scheduler)
     jobs, later = plan(chosen, engines, resolver, args.engines is not None, args.dt, args.iterations, args.on_demand)
     if traj_dir is not None:
-        from physval.trajectories import with_saving
+        from physval.core.trajectories import with_saving
         jobs = [with_saving(j, traj_dir) for j in jobs]
     keys = cache_keys(ctx, engines)
     store = RowStore(out / "results.csv", COLUMNS)
     reused = store.load(lambda row: keys.get(row["engine"], ""))
-    say = (lambda text: None) if args.quiet else (lambda text: print(f"physval: {text}", file=sys.stderr))
+    say = options.teller(args)
     todo = sum(j.key not in store.rows for j in jobs)
     say(f"{len(jobs)} runs ({len(chosen)} families x {len(engines)} engines), {todo} to run"
         + (f", {len(jobs) - todo} finished before" if reused and todo < len(jobs) else "")
@@ -129,9 +108,9 @@ def cmd_run(args) -> int:
     t_jobs = time.monotonic() - t_jobs
     finished = [j for j in jobs if j.key in res.rows]
     rows = store.finalize([j.key for j in finished])
-    from physval import report
+    from physval.readings import results
     if not res.complete:
-        report.write_run_report(rows, out, families, command=cli.command_line(), complete=False,
+        results.write_run_report(rows, out, families, command=options.command_line(), complete=False,
                                 planned=len(jobs))
         print(f"physval: interrupted ({res.interrupted}): {len(finished)} of {len(jobs)} runs kept in "
               f"{out / 'results.csv'}; run the same command again to finish", file=sys.stderr)
@@ -141,7 +120,7 @@ def cmd_run(args) -> int:
     from physval.readings import effective, laws
     # the engines users run, with the reference at its default formulation; the slow
     # pure-Python formulations (Adapter.slow) are read when named
-    wide = engines if args.engines is not None else [e for e in engines if e in cli.fast_engines(ctx)]
+    wide = engines if args.engines is not None else [e for e in engines if e in options.fast_engines(ctx)]
     for name in readings:
         say(f"engine-wide reading: {name} (cached per engine version)")
         module = {"effective": effective, "laws": laws}[name]
@@ -149,10 +128,10 @@ def cmd_run(args) -> int:
         if part is None:  # interrupted
             return 130
         engine_wide[name] = part
-    from physval.known import stale_entries
+    from physval.core.deviations import stale_entries
     from physval.reportkit import frame, status_counts
     df = frame(rows, COLUMNS)
-    report.write_run_report(rows, out, families, command=cli.command_line(), engine_wide=engine_wide,
+    results.write_run_report(rows, out, families, command=options.command_line(), engine_wide=engine_wide,
                             stale=stale_entries(df, resolver))
     total = time.monotonic() - started
     print(f"{len(df)} checks: {status_counts(df)} ({res.ran} runs now, {res.reused} reused; {total:.1f} s, "
@@ -169,6 +148,7 @@ def import_report_meanwhile(start_method: str) -> None:
         import threading
 
         def load():
-            from physval import report, reportkit  # noqa: F401 (pandas)
+            from physval import reportkit  # noqa: F401 (pandas)
+            from physval.readings import results  # noqa: F401 (matplotlib's users)
             reportkit.pyplot()
         threading.Thread(target=load, name="import the report's modules", daemon=True).start()

@@ -12,26 +12,26 @@ entries that no longer cover anything (remove or narrow them).
 """
 from __future__ import annotations
 
-import math
+import argparse
 import sys
 from fnmatch import fnmatchcase
 from pathlib import Path
 
-import pandas as pd
 
-from physval import cli, deviations
+from physval.core.deviations import deviating, measured_bands
+from physval.commands import options
+from physval.core import deviations
 from physval.core import COLUMNS, Job
 from physval.core.selection import select_variants
 from physval.core.session import Execution, run_stored
 from physval.core.store import cache_dir
-from physval.core.verdicts import errors
 from physval.reportkit import write_atomic
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "known", help="measure engines' known deviations and write their bands",
-        formatter_class=cli.argparse.RawDescriptionHelpFormatter,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
         description=__doc__.split("\n\n", 1)[1],
         epilog="examples:\n  physval known mujoco                 what would change in adapters/xfails/mujoco.txt\n"
                "  physval known mujoco --write         write the bands\n"
@@ -46,48 +46,17 @@ def add_parser(sub) -> None:
     p.add_argument("--cases", nargs="+", metavar="SPEC", help="only these families or variants (the --cases grammar)")
     p.add_argument("--cases-dir", action="append", metavar="DIR", help="also load case families from DIR")
     p.add_argument("--adapter", action="append", metavar="MODULE:CLASS", help="also use this adapter")
-    cli.add_execution(p, str(cache_dir()))
-    p.set_defaults(func=cmd_known)
+    options.add_execution(p, str(cache_dir()))
 
 
-def deviating(row: dict) -> bool:
-    """A judged check whose measurement misses its tolerance."""
-    try:
-        expected, measured, tol = float(row["expected"]), float(row["measured"]), float(row["tolerance"])
-    except (TypeError, ValueError):
-        return False
-    if not math.isfinite(measured):
-        return False
-    abs_err, rel_err = errors(expected, measured)
-    err = abs_err if row["tolerance_kind"] == "abs" else rel_err
-    return not (math.isfinite(err) and err <= tol)
-
-
-def measured_bands(engine: str, entries: list[deviations.Deviation], rows_by_job: dict, raised: dict) -> dict:
-    """Entry line -> the bands a fresh run measures for `engine` (first matching entry wins)."""
-    out: dict[int, list[deviations.Band]] = {e.line: [] for e in entries}
-    for key, rows in rows_by_job.items():
-        exc = raised.get(key)
-        for r in rows:
-            entry = deviations.find(entries, r["case"], r["variant"], r["metric"])
-            if entry is None:
-                continue
-            if exc and r["status"] in ("error", "deviation"):
-                out[entry.line].append(deviations.Band(engine, r["variant"], r["metric"], raises=exc))
-            elif r["status"] in ("pass", "fail", "deviation") and deviating(r):
-                e, m, t = float(r["expected"]), float(r["measured"]), float(r["tolerance"])
-                out[entry.line].append(deviations.Band(engine, r["variant"], r["metric"], m,
-                                                       deviations.band_width(e, m, t)))
-    return out
-
-
-def cmd_known(args) -> int:
-    ctx = cli.context_of(args)
+def run(args) -> int:
+    ctx = options.context_of(args)
     resolver = ctx.resolver()
-    engines = cli.engines_of(args, ctx, default=[])
+    engines = options.engines_of(args, ctx, default=[])
     if args.file and not Path(args.file).is_file():
-        raise cli.UsageError(f"--file {args.file!r}: not a file")
-    cli.check_scheduler(args.scheduler)
+        raise options.UsageError(f"--file {args.file!r}: not a file")
+    options.check_scheduler(args.scheduler)
+    out = options.output_folder(args.out)
     families = resolver.families
     changed = 0
     for engine in engines:
@@ -113,7 +82,7 @@ def cmd_known(args) -> int:
                         and (args.on_demand or not adapter.on_demand(fam.scene(v.params))):
                     jobs.append(Job(fam_name, v, engine))
         raised = {}
-        res, _ = run_stored(jobs, ctx, cache_dir() / f"known-{engine}.csv", COLUMNS, Execution.of(args), label=f"known {engine}",
+        res, _ = run_stored(jobs, ctx, out / f"known-{engine}.csv", COLUMNS, Execution.of(args), label=f"known {engine}",
                             on_outcome=lambda o: o.exception and raised.__setitem__(o.job.key, o.exception))
         if not res.complete:
             return 130
@@ -150,28 +119,3 @@ def cmd_known(args) -> int:
     if not args.write and changed:
         print("(nothing written: add --write to record these bands)")
     return 0
-
-
-def stale_entries(df: pd.DataFrame, resolver) -> list[str]:
-    """Entries whose recorded checks now pass, that have no band, or that match no check of
-    a family that ran (at the settings bands are recorded at)."""
-    notes = []
-    ran_families = set(df.case)
-    for engine in dict.fromkeys(df.engine):
-        mine = df[df.engine == engine]
-        judged = {(r.case, r.variant, r.metric): r.status for r in mine.itertuples()}
-        for e in resolver.known(engine):
-            if e.family not in ran_families:
-                continue
-            hits = [k for k in judged if e.matches(*k)]
-            if not hits:
-                notes.append(f"{engine}: `{e.pattern}` ({e.where}) matched no check in this run")
-                continue
-            bands = [b for b in e.bands if b.engine == engine]
-            if not bands:
-                notes.append(f"{engine}: `{e.pattern}` ({e.where}) records no band: `physval known {engine} --write`")
-            passing = [b for b in bands if judged.get((e.family, b.variant, b.metric)) == "pass"]
-            if passing:
-                notes.append(f"{engine}: `{e.pattern}` ({e.where}): {len(passing)} recorded checks now pass "
-                             f"(e.g. [{passing[0].variant}]:{passing[0].metric}): `physval known {engine} --write`")
-    return notes

@@ -1,8 +1,9 @@
-"""The verdicts of a run, as report sections: the summary (engines, then the reference
-formulations), known deviations with their recorded bands beside today's measurement,
+"""The report of `physval run` (report.md and plots/) and the sections it is built from:
+the summary (engines, then the reference formulations), known deviations with their recorded bands beside today's measurement,
 failures, unsupported runs, one section per family (what it checks, where its closed form
 comes from, every tolerance with its reason, a plot and a table of measured values),
-the engine settings and the stepping cost.
+the engine settings and the stepping cost. results.csv is the row store itself
+(physval.core.store), finalised in job order.
 """
 from __future__ import annotations
 
@@ -13,7 +14,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from physval.reportkit import (STATUS_MARK, deviation_summary, deviation_table, fmt, md_table, pyplot, save_figure, summary_matrix)
+from physval.core import COLUMNS
+from physval.reportkit import (STATUS_MARK, contents, deviation_summary, deviation_table, engine_versions, environment,
+                               fmt, frame, heading, md_table, problems_section, pyplot, save_figure, status_counts,
+                               summary_matrix, unsupported_section, write_atomic)
 
 FORMULATION_PREFIX = "reference-"  # the reference's other formulations, summarised apart from the engines
 
@@ -192,3 +196,47 @@ def cost_section(df: pd.DataFrame) -> list[str]:
         include_groups=False).reset_index()
     return ["## Cost", "", "Wall time of stepping only (scene construction excluded), all families "
             "together; see `physval sweep` for error against cost.", "", md_table(t), ""]
+
+
+# --- the report --------------------------------------------------------------------------
+
+INTRO = ("physval runs analytic cases (closed-form answers with tolerances, each with its reason) on physics "
+         "engines and judges every check. Read the summary first; each family's section says what it checks "
+         "and why its tolerances have their size.")
+
+
+def write_run_report(rows: list[dict], out: Path, families: dict, command: str = "", complete: bool = True,
+                     planned: int | None = None, engine_wide: dict | None = None, stale: list[str] = ()) -> None:
+    """report.md and plots/ for the rows of a run; `complete` False: an interrupted run's
+    report (marked so, without plots). `stale`: notes on known-deviation entries."""
+    out = Path(out)
+    df = frame(rows, COLUMNS)
+    runs = df.groupby(["case", "variant", "engine"]).ngroups if len(df) else 0
+    head = heading("physval report", command,
+                   "" if complete else f"the run was interrupted after {runs} of {planned} runs. Finished runs are "
+                                        "kept and not recomputed; plots are drawn when it completes.")
+    head += [INTRO, "", f"{len(df)} checks from {runs} runs: {status_counts(df)}.", ""]
+    if not complete:
+        body = [md_table(summary_matrix(df)), ""] if len(df) else []
+        body += problems_section(df)
+        write_atomic(out / "report.md", "\n".join(head + body))
+        return
+    plots = out / "plots"
+    sections = ["\n".join(summary_sections(df, plots)),
+                "\n".join(deviation_sections(df, list(stale))),
+                "\n".join(problems_section(df)),
+                "\n".join(unsupported_section(df))]
+    from physval.readings import agreement, effective, laws
+    engine_wide = engine_wide or {}
+    if "effective" in engine_wide:
+        sections.append(effective.section(engine_wide["effective"], out))
+    agree = agreement.measure(df, {n for n, f in families.items() if f.cross_engine})
+    if len(agree):
+        sections.append(agreement.section(agree, out))
+    if "laws" in engine_wide:
+        sections.append(laws.section(engine_wide["laws"], out))
+    sections += ["\n".join(family_sections(df, families, plots)),
+                 "\n".join(settings_section(df)), "\n".join(cost_section(df)),
+                 "\n".join(["## Environment", "", md_table(environment(engine_versions(df))), ""])]
+    sections = [s for s in sections if s.strip()]
+    write_atomic(out / "report.md", "\n".join(head + [contents(sections)] + sections))

@@ -6,80 +6,36 @@ one-step trajectory (it must give a value for every check, whatever an engine di
 prints each closed form with its tolerance and reason, and which engines would run each
 variant or skip it and why. Exit 0 when the file is usable, 2 with the first problem.
 
-The same dry run checks every user family (`--cases-dir`) before `physval run` starts.
+The same dry run (physval.core.dry_run) checks every user family (`--cases-dir`) before
+`physval run` starts.
 """
 from __future__ import annotations
 
+import argparse
 import math
 from pathlib import Path
 
 from adapters import registry
-from adapters.base import Settings
-from cases.family import CaseError, CaseFamily
-from physval import cli
-from physval.core.jobs import describe
-from physval.core.record import simulate
-
-DRY_RUN_ENGINE = "reference"
-
-
-def dry_run(fam: CaseFamily, where: str, variants=None) -> list[tuple[str, dict]]:
-    """Run each variant one step on the reference and observe it: [(variant id, values)].
-    Raises CaseError naming `where`, the variant and what went wrong."""
-    adapter = registry.get(DRY_RUN_ENGINE)
-    out = []
-    for v in variants or fam.variants:
-        at = f"{where}: {fam.name}[{v.id}]"
-        scene = fam.scene(v.params)
-        dt = fam.dt_for(v.params)
-        checks = fam.expect(v.params, dt)
-        if adapter.capabilities.cannot_run(scene):
-            out.append((v.id, {}))
-            continue
-        try:
-            with adapter.build(scene, Settings(dt=dt)) as sim:
-                traj = simulate(sim, scene, dt, 1, forces="contact_forces" in fam.needs_of(v.params)).trajectory
-        except Exception as exc:
-            raise CaseError(f"{at}: one step on the reference failed: {describe(exc)}") from None
-        try:
-            values = fam.observe(traj, v.params)
-        except Exception as exc:
-            raise CaseError(f"{at}: observe() raised {describe(exc)} on a one-step run: an observer must give "
-                            "every check a value whatever the engine did (the check then fails with a size)") from None
-        if not hasattr(values, "get"):
-            raise CaseError(f"{at}: observe() returned {type(values).__name__}, not a dict of metrics")
-        missing = [c.metric for c in checks if c.metric not in values]
-        if missing:
-            raise CaseError(f"{at}: observe() gives no {', '.join(missing)} (expect() checks it)")
-        out.append((v.id, values))
-    return out
-
-
-def dry_run_user_families(ctx) -> None:
-    """The dry run of every family loaded from the run's --cases-dir folders."""
-    from cases.registry import builtin_families
-    builtin = builtin_families()
-    for name, fam in ctx.resolver().families.items():
-        if name not in builtin:
-            dry_run(fam, fam.module_file)
+from cases.family import CaseError
+from physval.commands import options
+from physval.core.dry_run import dry_run
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("check-case", help="validate a case family file and dry-run it before a real run",
-                       formatter_class=cli.argparse.RawDescriptionHelpFormatter,
+                       formatter_class=argparse.RawDescriptionHelpFormatter,
                        description=__doc__.split("\n\n", 1)[1],
                        epilog="example:\n  physval check-case my_cases/second_bounce.py")
     p.add_argument("files", nargs="+", metavar="FILE", help="family files (*.py defining FAMILY)")
     p.add_argument("--adapter", action="append", metavar="MODULE:CLASS", help="also show this engine")
-    p.set_defaults(func=cmd_check_case)
 
 
-def cmd_check_case(args) -> int:
+def run(args) -> int:
     from cases.registry import _families_in, _load_file, builtin_families, validate_family
     for text in args.files:
         file = Path(text)
         if not file.is_file() or file.suffix != ".py":
-            raise cli.UsageError(f"{text}: not a .py file")
+            raise options.UsageError(f"{text}: not a .py file")
         fams = _families_in(_load_file(file.resolve()), str(file))
         if not fams:
             raise CaseError(f"{file}: defines no FAMILY (a cases.family.CaseFamily)")

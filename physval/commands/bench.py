@@ -1,0 +1,59 @@
+"""`physval bench`: speed side by side in one run, as ratios (physval.readings.bench)."""
+from __future__ import annotations
+
+import argparse
+
+from physval.core.executor import START_METHODS
+from physval.core.session import Execution
+from physval.readings import bench
+from physval.readings.bench import (WHAT, fault_matrix, overhead, pgs_scaling, steps_side_by_side, sweep_workers,
+                                     write)
+from physval.commands import options
+
+
+def add_parser(sub) -> None:
+    bn = sub.add_parser("bench", help="speed side by side in one run, as ratios (not a test)",
+                        description=bench.__doc__.split("\n\n", 1)[1].split("\n\nEvery")[0],
+                        formatter_class=argparse.RawDescriptionHelpFormatter)
+    bn.add_argument("what", nargs="*", metavar="WHAT", help=f"{', '.join(WHAT)} (default: all)")
+    options.add_engines(bn, "engines: names or globs (default: all installed, the reference with its default "
+                            "formulation)")
+    bn.add_argument("--out", default="reports/bench", metavar="DIR", help="output folder (default: reports/bench)")
+    bn.add_argument("--scheduler", metavar="ADDRESS", help=argparse.SUPPRESS)
+    bn.add_argument("--job-timeout", type=options.seconds_or_off, default=1800.0, metavar="S",
+                    help="per-job time limit (default 1800 s; the 55-box pyramid is slow on pure-Python engines)")
+    bn.add_argument("--start-method", choices=START_METHODS, help="how local workers start")
+    bn.add_argument("--quiet", action="store_true", help="no progress")
+
+
+def run(args) -> int:
+    ctx = options.context_of(args)
+    engines = options.engines_of(args, ctx, options.fast_engines(ctx))
+    what = args.what or list(WHAT)
+    unknown = [w for w in what if w not in WHAT]
+    if unknown:
+        raise options.UsageError(f"unknown benchmark {unknown[0]!r}: choose from {', '.join(WHAT)}")
+    out = options.output_folder(args.out)
+    execution = Execution(1, None, args.job_timeout, args.start_method, not args.quiet)
+    sections = {}
+    say = options.teller(args, "physval bench")
+    if "overhead" in what:
+        say("the core's recorded step against a bare step")
+        sections["overhead"] = overhead(engines, ctx, execution)
+    if "step" in what:
+        say("step time side by side")
+        sections["step"] = steps_side_by_side(engines, ctx, execution)
+    if "sweep-workers" in what:
+        say("the same sweep with 1 and with 2 workers")
+        sections["sweep-workers"] = sweep_workers([e for e in engines if e in ("reference", "pybullet", "mujoco")], ctx)
+    if "pgs" in what:
+        say("PGS sweep cost against contact count")
+        sections["pgs"] = pgs_scaling()
+    if "faults" in what:
+        say("planted faults: the detection matrix")
+        from physval.faults import ENGINES
+        sections["faults"] = fault_matrix(engines if args.engines else [e for e in engines if e in ENGINES], ctx,
+                                          progress=not args.quiet)
+    write(out, sections)
+    print(f"wrote {out / 'bench.md'}")
+    return 0

@@ -1,0 +1,346 @@
+"""`physval real`: engines against 400 measured cube tosses (the real-world tier). The
+measurement and the report are physval.readings.real; this module holds the options, plans
+each engine's fit within its CPU budget, and says what it does as it goes."""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from cases import cube_toss as ct
+from physval.commands import options
+from physval.readings.real import (BOOTSTRAP, DEFAULT_OUT, DT, FAIL_LOSS, FIT_LIMIT, GENERATIONS, NEUTRAL, NEUTRAL_GRID,
+                                   MIN_FIT_TOSSES, POPSIZE, SCORE_LIMIT, SUBSTEPS, Batch, MapFn, _cost, _flight,
+                                   engine_version, engines_3d, fit, noise_rows, nominal, parameter_space, rounded,
+                                   sensitivity, simulate_many, write_report)
+
+
+EPILOG = """examples:
+  physval real                                   fit every 3D engine on the training split, score the test split
+  physval real --engines mujoco,pybullet --workers 2
+  physval real --tosses my_tosses.csv.gz --params reports/real/params.json
+  physval real --tosses my_tosses.csv.gz --fit --out /tmp/mine
+  physval real --limit 4 --horizon 0.3 --generations 1 --out /tmp/quick
+exit codes: 0 the run completed (poor agreement is a result); 2 bad input."""
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "real", help="engines against 400 measured cube tosses: fit, test, rank; writes reports/real/",
+        formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG,
+        description="Replay motion-captured cube tosses on every 3D engine from their measured start states; fit "
+                    "each engine's contact parameters on the training split (even toss ids) and score the test "
+                    "split (odd ids) at the fitted and the nominal parameters, against the data's own noise "
+                    "floor. Writes real_report.md, real_scores.csv, real_summary.csv, real_fits.csv, params.json "
+                    "and plots/ into --out.")
+    options.add_engines(p, "engines: names or globs (default: every installed 3D engine)")
+    p.add_argument("--tosses", metavar="FILE",
+                   help="a toss CSV (gzipped or not) with the packaged data's columns (default: the packaged data)")
+    how = p.add_mutually_exclusive_group()
+    how.add_argument("--params", metavar="FILE",
+                     help="parameters per engine as JSON {engine: {name: value}} (params.json of a run); no fit. "
+                          "With --tosses every toss of the file is scored")
+    how.add_argument("--fit", action="store_true", help="fit on the training split (the default without --params)")
+    how.add_argument("--nominal", action="store_true", help="score the nominal parameters only (no fit)")
+    options.add_execution(p, str(DEFAULT_OUT))
+    p.add_argument("--cache", metavar="DIR", help="simulation cache (default: real/ in physval's cache folder, "
+                                                  "$PHYSVAL_CACHE_DIR or ~/.cache/physval)")
+    p.add_argument("--no-cache", action="store_true", help="simulate everything again, cache nothing")
+    p.add_argument("--limit", type=options.positive_int, metavar="N",
+                   help="only the first N tosses of each split (quick runs)")
+    p.add_argument("--horizon", type=options.positive_float, metavar="S",
+                   help="simulate at most S seconds from the start (quick runs)")
+    p.add_argument("--popsize", type=options.positive_int, default=POPSIZE, metavar="N",
+                   help=f"differential evolution popsize (default {POPSIZE})")
+    p.add_argument("--generations", type=options.whole_number, default=GENERATIONS, metavar="N",
+                   help=f"differential evolution generations after the first (default {GENERATIONS})")
+    p.add_argument("--bootstrap", type=options.positive_int, default=BOOTSTRAP, metavar="N",
+                   help=f"resamples of the training tosses for the parameters' spread (default {BOOTSTRAP})")
+    p.add_argument("--fit-limit", type=options.positive_float, default=FIT_LIMIT, metavar="S",
+                   help=f"CPU seconds per engine for its fit: slower engines fit on an evenly spread subset of the "
+                        f"training tosses (at least {MIN_FIT_TOSSES}; else nominal only); default {FIT_LIMIT:g}")
+    p.add_argument("--score-limit", type=options.positive_float, default=SCORE_LIMIT, metavar="S",
+                   help=f"score an evenly spread subset of the test tosses on engines that would take longer than "
+                        f"S CPU seconds per parameter set over all of them (default {SCORE_LIMIT:g})")
+
+
+def _fit_plan(engine: str, nominal_rows: list[dict], train: list[int], args) -> tuple[str, list[int], int]:
+    """(why not fit, or ""; the training tosses to fit on; one in how many training tosses). An engine that fails on most
+    tosses at nominal parameters is not fitted (the fit would measure its failures); one
+    whose fit over the whole training split would cost more than --fit-limit CPU seconds
+    (estimated from its nominal tosses) fits on an evenly spread subset of it, if that
+    keeps at least MIN_FIT_TOSSES tosses."""
+    if not train:
+        return "no training tosses (even ids) to fit on", [], 0
+    failed = sum(r["status"] != "ok" for r in nominal_rows)
+    if failed > len(nominal_rows) / 2:
+        return f"fails on {failed} of {len(nominal_rows)} test tosses at nominal parameters", [], 0
+    per_toss = float(np.median([r["elapsed_cpu"] for r in nominal_rows]))
+    evaluations = args.popsize * len(parameter_space(engine)) * (args.generations + 1)
+    estimate = per_toss * evaluations * len(train)
+    if estimate <= args.fit_limit:
+        return "", list(train), 1
+    every = math.ceil(estimate / args.fit_limit)
+    part = list(train[::every])
+    if len(part) < MIN_FIT_TOSSES:
+        return (f"one toss costs {per_toss:.2g} CPU s, so even {MIN_FIT_TOSSES} training tosses x {evaluations} "
+                f"parameter sets would take {per_toss * evaluations * MIN_FIT_TOSSES / 3600:.2g} h "
+                f"(> --fit-limit {args.fit_limit:g} s)"), [], every
+    return "", part, every
+
+
+def default_cache() -> Path:
+    from physval.core.store import cache_dir
+    return cache_dir() / "real"
+
+
+def executor_map(workers: int = 1, scheduler: str | None = None, job_timeout: float | None = None,
+                 start_method: str | None = None) -> MapFn:
+    """map_fn on the harness's executor (physval.core.session.map_calls): each batch of
+    tosses runs in a worker process (a crash or a time-out costs that batch only, its tosses
+    then read as errors) or on a Dask cluster, unchanged."""
+    from physval.core.session import Execution, map_calls
+    execution = Execution(workers, scheduler, job_timeout, start_method, progress=False)
+
+    def map_fn(fn, xs):
+        xs = list(xs)
+        return [r.value if not r.error else _lost_batch(x, r.error)
+                for x, r in zip(xs, map_calls(fn, xs, execution=execution))]
+    return map_fn
+
+
+def _lost_batch(batch: "Batch", why: str) -> list[dict]:
+    """The rows of a batch whose run produced nothing (it raised, or its worker died)."""
+    return [{"engine": batch.engine, "toss": t, "status": "error", "message": why, "loss": FAIL_LOSS,
+             "params": json.dumps(dict(batch.params), sort_keys=True)} for t in batch.tosses]
+
+
+def read_params(path: str, known_engines: list[str]) -> dict[str, dict]:
+    """{engine: parameters} from a --params file, every value checked against the engine's
+    parameter space before any work."""
+    try:
+        given = json.loads(Path(path).read_text())
+    except (OSError, ValueError) as exc:
+        raise options.UsageError(f"--params {path}: cannot read it as JSON ({exc})") from None
+    if not isinstance(given, dict) or not all(isinstance(v, dict) for v in given.values()):
+        raise options.UsageError(f"--params {path}: must be a JSON object {{engine: {{parameter: value}}}}")
+    for engine, params in given.items():
+        if engine not in known_engines:
+            raise options.UsageError(f"--params {path}: {engine!r} is not an engine: choose from "
+                                     f"{', '.join(known_engines)}")
+        space = parameter_space(engine)
+        for name, value in params.items():
+            at = f"--params {path}: {engine} {name}"
+            if name not in space:
+                raise options.UsageError(f"{at}: not a parameter of {engine}; it takes {', '.join(space)}")
+            t = space[name]
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+                    or not t.low <= value <= t.high:
+                raise options.UsageError(f"{at} = {value!r}: must be a number in [{t.low:g}, {t.high:g}] "
+                                         f"({t.meaning})")
+    return {e: rounded(e, p) for e, p in given.items()}
+
+
+def _cpu_seconds() -> float:
+    """CPU time of this process and of its finished child processes (a process pool's)."""
+    import resource
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+def run(args) -> int:
+    """Fit and score; write the report."""
+    started, started_cpu = time.perf_counter(), _cpu_seconds()
+
+    say = options.teller(args, "physval real")
+
+    ctx = options.context_of(args)
+    source = str(Path(args.tosses).resolve()) if args.tosses else None
+    try:
+        tosses = ct.load(source)
+    except ct.TossError as exc:
+        raise options.UsageError(f"--tosses {args.tosses}: {exc}") from None
+    from adapters import registry
+    engines, skipped = engines_3d(options.engines_of(args, ctx) if args.engines else None)
+    if not engines:
+        raise options.UsageError("no engine to score: " + "; ".join(f"{e}: {w}" for e, w in skipped.items()))
+    given = read_params(args.params, registry.engine_names(ctx.adapters)) if args.params else {}
+    do_fit = not args.params and not args.nominal
+    out = options.output_folder(args.out)
+    options.check_scheduler(args.scheduler)
+
+    usable, unusable = [], {}
+    for i in tosses:
+        try:
+            _flight(source, i)
+            usable.append(i)
+        except ct.TossError as exc:
+            unusable[i] = str(exc)
+    train, test = ct.split(usable)
+    if source and args.params:
+        train, test = [], sorted(usable)  # a user's own tosses, scored with saved parameters
+    if not test:
+        raise options.UsageError(f"no test tosses (odd ids) in {source or ct.DATA}")
+    if args.limit:
+        train, test = train[:args.limit], test[:args.limit]
+    cache = None if args.no_cache else str(Path(args.cache) if args.cache else default_cache())
+    common = {"horizon": args.horizon, "dt": DT, "source": source, "cache": cache}
+    say(f"{len(train)} training and {len(test)} test tosses from {source or 'the packaged data'}; "
+        f"engines {', '.join(engines)}" + (f" (skipped: {', '.join(skipped)})" if skipped else ""))
+
+    rows, trajectories, fits, not_fitted, failures, subsets, cost = [], {}, {}, {}, [], {}, []
+    map_fn = executor_map(args.workers, args.scheduler, args.job_timeout, args.start_method)
+    for engine in engines:
+        t0 = time.perf_counter()
+        nom = simulate_many(engine, nominal(engine), test[:1], map_fn=map_fn, keep=True, **common)
+        if nom[0]["status"] == "unsupported":
+            skipped[engine] = nom[0]["message"]
+            say(f"  {engine}: unsupported ({nom[0]['message']})")
+            continue
+        per_toss = nom[0]["elapsed_cpu"]
+        scored = test
+        if per_toss * len(test) > args.score_limit:
+            every = math.ceil(per_toss * len(test) / args.score_limit)
+            scored = test[::every]
+            subsets[engine] = (f"one toss costs {per_toss:.2g} CPU s: scored on one test toss in {every} "
+                               f"({len(scored)} of {len(test)}; --score-limit {args.score_limit:g} s)")
+            say(f"  {engine}: {subsets[engine]}")
+        nom += simulate_many(engine, nominal(engine), scored[1:], map_fn=map_fn, keep=True, **common)
+        params = None
+        if engine in given:
+            params = given[engine]
+        elif do_fit:
+            why, part, every = _fit_plan(engine, nom, train, args)
+            if why:
+                not_fitted[engine] = why
+                say(f"  {engine}: nominal only: {why}")
+            else:
+                say(f"  {engine}: fitting {', '.join(parameter_space(engine))} on {len(part)} tosses")
+                f = fit(engine, part, map_fn=map_fn, popsize=args.popsize, generations=args.generations,
+                        **common)
+                fits[engine] = {"params": f.params, "names": list(f.names), "loss": f.loss,
+                                "nominal_loss": f.nominal_loss, "evaluations": f.evaluations,
+                                "tosses": len(f.tosses), "seconds": f.seconds,
+                                "spread": f.bootstrap(args.bootstrap),
+                                "subset": (f"one training toss in {every}, {len(part)} of {len(train)}: the "
+                                           f"whole split would cost more than --fit-limit" if every > 1 else "")}
+                cost.append(f.cost)
+                params = f.params
+        else:
+            not_fitted[engine] = "no parameters given for it" if args.params else "--nominal"
+        for r in nom:
+            r["param_set"] = "nominal"
+        sets = [("nominal", nom)]
+        if params is not None:
+            fitted_rows = simulate_many(engine, params, scored, map_fn=map_fn, keep=True, **common)
+            for r in fitted_rows:
+                r["param_set"] = "fitted"
+            sets.append(("fitted", fitted_rows))
+            if engine in given:
+                fits[engine] = {"params": params, "names": list(params), "spread": []}
+        for pset, rs in sets:
+            for r in rs:
+                tr, fl = _flight(source, r["toss"])
+                r["t_contact"] = float(tr.t[fl.contact] - fl.t0)
+                r["split"] = "test"
+            bad = [r for r in rs if r["status"] != "ok"]
+            if bad:
+                kinds = pd.Series([r["status"] for r in bad]).value_counts().to_dict()
+                failures.append(f"{engine} ({pset}): {len(bad)} of {len(rs)} tosses "
+                                f"({', '.join(f'{n} {k}' for k, n in kinds.items())}); first, toss "
+                                f"{bad[0]['toss']}: {bad[0]['message'][:200]}")
+            trajectories[(engine, pset)] = rs
+            rows += rs
+        # how far the capture's noise in the start state alone carries this engine
+        best = sets[-1]
+        shaken = simulate_many(engine, params or nominal(engine), scored, map_fn=map_fn, keep=True,
+                               perturb=True, **common)
+        floor = sensitivity(best[1], shaken, source)
+        trajectories[(engine, "start noise")] = floor
+        rows += floor
+        cost.append(_cost(nom + sum((rs for p, rs in sets[1:]), []) + shaken))
+        say(f"  {engine}: done in {time.perf_counter() - t0:.0f} s")
+
+    scores = pd.DataFrame([{k: v for k, v in r.items() if k != "trajectory"} for r in rows])
+    sims = {k: sum(c[k] for c in cost) for k in ("computed", "cached", "cpu")}
+    noise = noise_rows(test, source, args.horizon)
+    noise_table = _noise_text(pd.DataFrame(noise), len(test), ct.rest_tilt(tosses, test))
+    notes = {
+        "intro": _intro(source, train, test, unusable),
+        "fit": _fit_text(args, do_fit),
+        "not_fitted": not_fitted,
+        "subsets": subsets,
+        "nominal": {e: nominal(e) for e in engines},
+        "noise": noise_table,
+        "failures": failures,
+        "run": (f"Simulations: {sims['computed'] + sims['cached']} ({sims['computed']} computed in this run, "
+                f"{sims['cached']} read from the cache), costing {sims['cpu']:.0f} CPU s when computed (build and "
+                f"stepping, each measured as it ran): about {sims['cpu'] / 2 / 60:.0f} min on two free cores. "
+                f"This run: {time.perf_counter() - started:.0f} s with {args.workers} worker(s) "
+                f"({_cpu_seconds() - started_cpu:.0f} CPU s in this process and its worker processes; "
+                f"machine load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores at the end)"
+                f"{' on ' + args.scheduler if args.scheduler else ''}; dt = {DT * 1e3:.4f} ms ({SUBSTEPS} steps per "
+                f"sample); cache {'off' if not cache else 'on'}; engine versions: "
+                + ", ".join(f"{e} {engine_version(e)}" for e in engines if e not in skipped) + "; command: "
+                + " ".join(["physval"] + sys.argv[1:])),
+    }
+    path = write_report(out, scores, noise, trajectories, fits, skipped, notes, source)
+    say(f"wrote {path} in {time.perf_counter() - started:.0f} s")
+    return 0
+
+
+def _intro(source, train, test, unusable) -> str:
+    data = (f"`{source}`" if source else
+            "the packaged ContactNets cube tosses (`cases/data/cube_toss/`: 400 motion-captured tosses of one "
+            "acrylic cube, 10.48 cm, 0.37 kg, onto one surface, sampled at 148 Hz; BSD 3-Clause)")
+    text = (f"Data: {data}. Each toss starts from its free flight fitted up to the sample just before first "
+            f"contact (a parabola for the centre, a constant world-frame spin for the orientation: exact for "
+            f"a free cube), with the ground {abs(ct.SURFACE_Z) * 1e3:.2f} mm below the data's z = 0 (the resting "
+            f"cubes' centres say so), and runs to the toss's last sample at dt = {DT * 1e3:.3f} ms. "
+            f"Split: even toss ids train ({len(train)} tosses), odd ids test ({len(test)}). Horizons count "
+            f"from the first measured sample in contact.")
+    if unusable:
+        text += f" Tosses left out ({len(unusable)}): " + "; ".join(f"{i}: {w}" for i, w in unusable.items())
+    return text
+
+
+def _fit_text(args, do_fit) -> str:
+    if not do_fit:
+        return "Parameters were given (--params) or not fitted (--nominal)."
+    spread = (f" Uncertainty: {args.bootstrap} bootstrap resamples of the training tosses, each taking the best of "
+              "the parameter sets the fit evaluated (their per-toss losses are kept; no further simulation).")
+    return (f"Differential evolution (scipy), popsize {args.popsize} per parameter, {args.generations} generations "
+            f"after the first, seed 0, the nominal point in the first generation; loss: the mean over training "
+            f"tosses of each toss's mean corner error (cube widths); mu and e on a {NEUTRAL_GRID} grid, bounds "
+            + ", ".join(f"{n} [{t.low:g}, {t.high:g}]" for n, t in NEUTRAL.items())
+            + "; engine-specific ones in their adapter's range (MuJoCo's contact_steps: the contact lasts about "
+            "that many steps; its solref follows from it and e). An engine whose fit over the whole training split "
+            f"would cost more than {args.fit_limit:g} CPU s (estimated from its nominal tosses) fits on every k-th "
+            f"training toss, if that leaves at least {MIN_FIT_TOSSES}." + spread)
+
+
+def _noise_text(noise: pd.DataFrame, n: int, tilt: float) -> str:
+    if noise.empty:
+        return ""
+    def q(column):  # median and 95th percentile over the tosses that have the reading
+        v = noise[column].dropna()
+        return np.percentile(v, [50, 95]) if len(v) else (math.nan, math.nan)
+
+    return (f"The measured trajectory against itself smoothed (a quadratic least-squares fit over 5 samples, "
+            f"{4 * ct.SAMPLE_PERIOD * 1e3:.0f} ms: Savitzky-Golay), scored by the same code as the engines over the {n} test tosses: "
+            f"mean corner error median {q('corner_mean')[0]:.3g} widths (95th percentile {q('corner_mean')[1]:.3g}); "
+            f"centre {q('pos_final')[0]:.2g} widths and orientation {q('rot_final')[0]:.2g} deg at rest. "
+            f"The free flight before the first contact departs from its exact free-flight fit by "
+            f"{q('flight_pos_mm')[0]:.2g} mm and {q('flight_rot_deg')[0]:.2g} deg RMS (median over tosses; 95th "
+            f"percentile {q('flight_pos_mm')[1]:.2g} mm, {q('flight_rot_deg')[1]:.2g} deg): the start state is known "
+            f"to about that. Resting cubes read {abs(ct.SURFACE_Z) * 1e3:.2f} mm lower than the half-width (the "
+            f"surface offset every scene takes) and tilted by {math.degrees(tilt):.2g} deg (median of the final samples), "
+            f"so orientation errors at rest below about {math.degrees(tilt):.2g} deg and centre errors below about "
+            f"0.01 widths are within the data's precision.")
