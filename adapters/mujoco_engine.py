@@ -651,6 +651,10 @@ class MuJoCoSimulation(Simulation):
 class MuJoCoAdapter(Adapter):
     name = "mujoco"
     package = "mujoco"
+    # 3.2.6 (Dec 2024) to 4.x: every release of the last two years runs the conformance battery
+    # (the MJCF written is the release's own, mjcf_schema); 3.2.0-3.2.5 lack rollout([m], d) and
+    # before 3.2.1 the autoreset flag. Resting stacks of boxes topple before 3.12.0 (README).
+    supported = ">=3.2.6,<5"
     capabilities = Capabilities(
         dimensions=frozenset({2, 3}),
         shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
