@@ -77,3 +77,22 @@ def test_version_problem_reads_the_installed_release_of_the_adapters_package():
     adhoc = ("tests.test_versions:OldNumpyOnly",)
     assert registry.version_problem("old-numpy-only", adhoc) == (
         f"numpy {metadata.version('numpy')} is outside the supported range <1 of adapter old-numpy-only")
+
+
+def test_the_mujoco_adapter_leaves_out_only_what_the_release_lacks_and_records_it(monkeypatch):
+    """A release whose schema lacks the sleep flag and pair adhesion (as 3.2.6-3.3.7 do) gets
+    MJCF without them, the knob left_out names them, and the scene still compiles."""
+    mj = pytest.importorskip("adapters.mujoco_engine", exc_type=ImportError)
+    from adapters.base import Settings
+    from cases import resting_blocks
+    schema = mj.mjcf_schema()
+    assert {"timestep", "cone", "impratio"} <= schema["option"] and "autoreset" in schema["option/flag"]
+    older = {**schema, "option/flag": schema["option/flag"] - {"sleep"},
+             "contact/pair": schema["contact/pair"] - {"adhesion"}}
+    monkeypatch.setattr(mj, "mjcf_schema", lambda: older)
+    scene = resting_blocks.scene({"n": 2, "dim": 3})
+    xml, knobs = mj.scene_mjcf(scene, Settings(dt=1e-3), mj.ITERATIONS, mj.CONTACT_STEPS)
+    assert "sleep=" not in xml and "adhesion=" not in xml and 'autoreset="disable"' in xml
+    assert {"option/flag/sleep", "contact/pair/adhesion"} <= set(knobs["left_out"])
+    assert "sleep" not in knobs["flag"] and all("adhesion" not in p for p in knobs["pair"].values())
+    mj.MuJoCoAdapter._compile(xml)
