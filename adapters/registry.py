@@ -226,5 +226,6 @@ def version_problem(name: str, adapters: tuple[str, ...] = ()) -> str | None:
     try:
         installed = metadata.version(adapter.package)
     except metadata.PackageNotFoundError:
-        return f"adapter {name} declares supported releases of {adapter.package}, which is not installed as a distribution"
+        return (f"adapter {name} declares supported releases of {adapter.package}, "
+                "which is not installed as a distribution")
     return range_problem(adapter, installed)
