@@ -123,7 +123,7 @@ def _import_target(target: str):
     except EngineError:
         raise
     except ImportError as exc:
-        raise EngineError(f"adapter {target!r} cannot be imported ({exc.name or exc})") from None
+        raise EngineError(f"adapter {target!r} cannot be imported: {exc}") from None
     except Exception as exc:
         raise EngineError(f"adapter {target!r} cannot be imported: {type(exc).__name__}: {exc}") from None
     try:

@@ -96,3 +96,36 @@ def test_the_mujoco_adapter_leaves_out_only_what_the_release_lacks_and_records_i
     assert {"option/flag/sleep", "contact/pair/adhesion"} <= set(knobs["left_out"])
     assert "sleep" not in knobs["flag"] and all("adhesion" not in p for p in knobs["pair"].values())
     mj.MuJoCoAdapter._compile(xml)
+
+
+# --- through the command line: before any work ------------------------------------------------
+
+OUT_OF_RANGE = '''
+from adapters.mujoco_engine import MuJoCoAdapter
+
+
+class Future(MuJoCoAdapter):
+    name = "mujoco-future"
+    supported = ">=999"   # a release of MuJoCo nobody has
+'''
+
+
+def test_an_engine_outside_its_range_is_named_before_any_work(tmp_path, capsys):
+    """Named by its name: one line with the range, exit 2, nothing written. Picked by a glob:
+    left out with one line, and the run goes on without it."""
+    from adapters.registry import available
+    from physval.cli import main
+    if not available("mujoco"):
+        pytest.skip("MuJoCo is not installed")
+    (tmp_path / "future.py").write_text(OUT_OF_RANGE)
+    adapter = ["--adapter", f"{tmp_path / 'future.py'}:Future"]
+    one = ["run", "--cases", "central_impact[drop,e=0.5]", "--quiet", "--readings", "none", *adapter]
+    assert main([*one, "--engines", "mujoco-future", "--out", str(tmp_path / "a")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "outside the supported range >=999 of adapter mujoco-future" in err[0], err
+    assert not (tmp_path / "a" / "results.csv").exists()
+    assert main([*one, "--engines", "mujoco*", "--out", str(tmp_path / "b")]) == 0
+    assert "mujoco-future left out" in capsys.readouterr().err
+    import csv
+    engines = {r["engine"] for r in csv.DictReader(open(tmp_path / "b" / "results.csv"))}
+    assert "mujoco-future" not in engines and "mujoco" in engines

@@ -154,7 +154,29 @@ def engines_of(args, ctx, default: list[str] | None = None) -> list[str]:
     resolver = ctx.resolver()
     for e in chosen:
         resolver.known(e)  # an engine's own known-deviation file that does not parse stops here
-    return chosen
+    named = {w.strip() for v in args.engines or [] for w in v.split(",")}
+    return supported_releases(chosen, ctx, named)
+
+
+def supported_releases(engines: list[str], ctx, named: set[str]) -> list[str]:
+    """The engines whose installed release lies in their adapter's supported range. One
+    outside it stops the command if it was named by its name (UsageError), else (a glob, the
+    default) is left out with one line on stderr; either way before any work. An engine
+    not installed stays (its rows say so)."""
+    from adapters import registry
+    kept = []
+    for e in engines:
+        try:
+            problem = registry.version_problem(e, ctx.adapters)
+        except registry.EngineError:
+            problem = None
+        if problem and e in named:
+            raise UsageError(f"--engines {e}: {problem}")
+        if problem:
+            print(f"physval: {e} left out: {problem}", file=sys.stderr)
+            continue
+        kept.append(e)
+    return kept
 
 
 def _installed(ctx, engine: str) -> bool:
