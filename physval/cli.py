@@ -21,7 +21,7 @@ _commands_run = 0
 COMMANDS = {"list": "physval.commands.list", "run": "physval.commands.run", "sweep": "physval.commands.sweep",
             "stress": "physval.commands.stress", "bench": "physval.commands.bench",
             "known": "physval.commands.known", "check-case": "physval.commands.check_case",
-            "real": "physval.commands.real"}
+            "real": "physval.commands.real", "compare": "physval.commands.compare"}
 
 EPILOG = """examples:
   physval run                                   every case on every installed engine, report in reports/
@@ -31,10 +31,12 @@ EPILOG = """examples:
   physval list                                  case families, variants, effects, engines
   physval list --engines                        engines, where each comes from, capabilities
   physval check-case my_cases/second_bounce.py  validate a family file before running it
+  physval compare before/ after/                what changed between two result folders (exit 1 if anything)
   physval COMMAND --help                        each command's options
-exit codes: 0 the command completed (failing physics is a result, not a crash); 2 bad input;
-130 interrupted (finished jobs are kept; the same command resumes); 141 the reader of the
-output went away (e.g. `physval list | head`), as a shell reports SIGPIPE."""
+exit codes: 0 the command completed (failing physics is a result, not a crash); 1 (compare)
+something changed between the runs; 2 bad input; 130 interrupted (finished jobs
+are kept; the same command resumes); 141 the reader of the output went away (e.g.
+`physval list | head`), as a shell reports SIGPIPE."""
 
 
 class _Parser(argparse.ArgumentParser):

@@ -25,6 +25,16 @@ def positive_float(text: str) -> float:
     return x
 
 
+def nonnegative_float(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(x) and x >= 0):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number >= 0")
+    return x
+
+
 def positive_int(text: str) -> int:
     try:
         x = int(text)
