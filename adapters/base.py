@@ -189,11 +189,19 @@ class Adapter(ABC):
     # the lower bound is a release the conformance battery ran on. None: not declared.
     # adapters.registry.version_problem checks the installed release against it.
     supported: str | None = None
+    # The PyPI distributions one release of the engine is made of, each pinned to that release
+    # when `physval versions` installs it (release_requirements). Empty: `package` alone (it
+    # pins whatever else it needs, as mujoco 4.0.0 pins mujoco-core and mujoco-studio 4.0.0).
+    packages: tuple[str, ...] = ()
     tunables: Mapping[str, Tunable] = {}  # Settings.options this adapter understands
 
     @abstractmethod
     def version(self) -> str:
         """The engine's version string."""
+
+    def release_requirements(self, release: str) -> list[str]:
+        """The pip requirements that install release `release` of this engine."""
+        return [f"{p}=={release}" for p in self.packages or (self.package,)]
 
     def deviations_file(self) -> Path | None:
         """This engine's known-deviation file (physval/core/deviations.py): by default

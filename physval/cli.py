@@ -21,7 +21,8 @@ _commands_run = 0
 COMMANDS = {"list": "physval.commands.list", "run": "physval.commands.run", "sweep": "physval.commands.sweep",
             "stress": "physval.commands.stress", "bench": "physval.commands.bench",
             "known": "physval.commands.known", "check-case": "physval.commands.check_case",
-            "real": "physval.commands.real", "compare": "physval.commands.compare"}
+            "real": "physval.commands.real", "compare": "physval.commands.compare",
+            "versions": "physval.commands.versions"}
 
 EPILOG = """examples:
   physval run                                   every case on every installed engine, report in reports/
@@ -32,9 +33,10 @@ EPILOG = """examples:
   physval list --engines                        engines, where each comes from, capabilities
   physval check-case my_cases/second_bounce.py  validate a family file before running it
   physval compare before/ after/                what changed between two result folders (exit 1 if anything)
+  physval versions mujoco 3.11.0 3.12.0         the same run on two releases, each in its own environment
   physval COMMAND --help                        each command's options
-exit codes: 0 the command completed (failing physics is a result, not a crash); 1 (compare)
-something changed between the runs; 2 bad input; 130 interrupted (finished jobs
+exit codes: 0 the command completed (failing physics is a result, not a crash); 1 (compare,
+versions) something changed between the runs; 2 bad input; 130 interrupted (finished jobs
 are kept; the same command resumes); 141 the reader of the output went away (e.g.
 `physval list | head`), as a shell reports SIGPIPE."""
 

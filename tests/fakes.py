@@ -168,3 +168,24 @@ def square_or_crash(x):
     if x < 0:
         raise ValueError(f"negative: {x}")
     return x * x
+
+
+class ReleaseBallistic(FakeAdapter):
+    """A stand-in engine whose "releases" are those of a tiny PyPI package (iniconfig): from
+    2.0 its gravity is 0.1 % strong, so `physval versions` on 1.1.1 and 2.0.0 has a change
+    to find (free fall leaves Euler's closed form)."""
+    package = "iniconfig"
+    supported = ">=1.1.1,<3"
+
+    def __init__(self):
+        super().__init__(name="fake-release")
+
+    def version(self):
+        from importlib import metadata
+        return metadata.version("iniconfig")
+
+    def build(self, scene, settings):
+        sim = super().build(scene, settings)
+        if int(self.version().split(".")[0]) >= 2:
+            sim.g = sim.g * 1.001
+        return sim

@@ -86,16 +86,18 @@ def add_selection(p, cases_help: str, engines_help: str) -> None:
                    help="known deviations you expect (the format of adapters/xfails/*.txt; repeatable)")
 
 
-def add_execution(p, out: str, workers: int | None = None, job_timeout: float | None = None) -> None:
-    """--out, --workers, --scheduler, --job-timeout, --start-method, --quiet."""
+def add_execution(p, out: str, workers: int | None = None, job_timeout: float | None = None,
+                  scheduler: bool = True) -> None:
+    """--out, --workers, --scheduler (unless `scheduler` is False), --job-timeout, --start-method, --quiet."""
     from physval.core.executor import DEFAULT_JOB_TIMEOUT, START_METHODS
     job_timeout = job_timeout or DEFAULT_JOB_TIMEOUT
     p.add_argument("--out", default=out, metavar="DIR", help=f"output folder (default: {out})")
     p.add_argument("--workers", type=positive_int, default=workers or os.cpu_count() or 1, metavar="N",
                    help="worker processes; every job runs in one, so a crash costs only that job "
                         f"(default: {workers or 'one per core'})")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="run the jobs on an existing Dask distributed cluster (e.g. tcp://127.0.0.1:8786)")
+    if scheduler:
+        p.add_argument("--scheduler", metavar="ADDRESS",
+                       help="run the jobs on an existing Dask distributed cluster (e.g. tcp://127.0.0.1:8786)")
     p.add_argument("--job-timeout", type=seconds_or_off, default=job_timeout, metavar="S",
                    help=f"stop a job that runs longer and record it as an error (default {job_timeout:g} s; "
                         "0: no limit; local workers only)")

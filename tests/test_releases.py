@@ -1,0 +1,117 @@
+"""`physval versions ENGINE RELEASE ...`: bad input stops in one line before any environment
+is made; an environment per release is made once and reused, holds the release, and runs
+this checkout's physval; the whole command on a stand-in engine whose releases are those of
+a tiny PyPI package (tests.fakes.ReleaseBallistic, iniconfig 1.1.1 and 2.0.0). The tests that
+install are skipped when pip cannot reach the registry."""
+from __future__ import annotations
+
+import csv
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from physval.cli import main
+from physval.core import envs
+
+ROOT = Path(__file__).resolve().parent.parent
+FAKE = ["--adapter", "tests.fakes:ReleaseBallistic"]
+FREE_FALL = ["--cases", "conformance[free_fall_matches_discrete_closed_form,3D]"]
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    """One cache folder for this module's environments (made once, reused by the next test)."""
+    with pytest.MonkeyPatch.context() as mp:
+        folder = tmp_path_factory.mktemp("cache")
+        mp.setenv("PHYSVAL_CACHE_DIR", str(folder))
+        yield folder
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["fake-release", "1.1.1", "3.0.0"], "iniconfig 3.0.0 is outside the supported range >=1.1.1,<3 of adapter "
+                                         "fake-release"),
+    (["fake-release", "1.0", "2.0.0"], "iniconfig 1.0 is outside the supported range"),
+    (["fake-release", "2.0.0"], "name at least two releases to compare"),
+    (["fake-release", "2.0.0", "2.0"], "releases 2.0.0 2.0: each release once"),
+    (["fake-release", "2.0.0", "latest"], "Invalid version: 'latest'"),
+    (["reference", "0.1.0", "0.2.0"], "engine reference declares no releases of its own"),
+    (["fake-release", "1.1.1", "2.0.0", "--engines", "mujoco"], "unknown engine 'mujoco': choose from fake-release"),
+    (["fake-release", "1.1.1", "2.0.0", "--cases", "no_such_family"], "unknown case 'no_such_family'"),
+    (["no-such-engine", "1.1.1", "2.0.0"], "unknown engine 'no-such-engine'"),
+])
+def test_bad_input_stops_before_any_environment(argv, message, capsys, tmp_path, monkeypatch):
+    monkeypatch.setenv("PHYSVAL_CACHE_DIR", str(tmp_path / "cache"))
+    assert main(["versions", *argv, *FAKE, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
+    assert not (tmp_path / "cache").exists() and not (tmp_path / "out").exists()
+
+
+def _ensure(requirements):
+    try:
+        return envs.ensure(requirements)
+    except envs.EnvError as exc:
+        if "pip cannot install" in str(exc):
+            pytest.skip(str(exc))
+        raise
+
+
+def test_an_environment_is_made_once_and_runs_this_physval_with_its_release(cache):
+    made = _ensure(["iniconfig==1.1.1"])
+    assert made.created and made.installed == {"iniconfig": "1.1.1"}
+    again = envs.ensure(["iniconfig==1.1.1"])
+    assert not again.created and again.path == made.path and again.seconds == pytest.approx(made.seconds, abs=0.01)
+    probe = ("import iniconfig, physval; from importlib.metadata import version; "
+             "print(version('iniconfig'), physval.__file__)")
+    done = subprocess.run(again.command("-c", probe), env=again.environ(), capture_output=True, text=True,
+                          cwd=cache)
+    assert done.returncode == 0, done.stderr
+    release, where = done.stdout.split()
+    assert release == "1.1.1" and Path(where) == ROOT / "physval" / "__init__.py"
+
+
+def test_a_make_cut_short_is_made_again(cache):
+    made = _ensure(["iniconfig==1.1.1"])
+    (made.path / envs.MARK).unlink()  # as a kill during pip would leave it
+    again = envs.ensure(["iniconfig==1.1.1"])
+    assert again.created and (again.path / envs.MARK).is_file()
+
+
+def test_versions_runs_each_release_and_compares_them(cache, tmp_path, capfd):
+    argv = ["versions", "fake-release", "2.0.0", "1.1.1", *FAKE, *FREE_FALL, "--out", str(tmp_path), "--workers", "1",
+            "--save-trajectories"]
+    code = main(argv)
+    if code == 2 and "pip cannot install" in capfd.readouterr().err:
+        pytest.skip("pip cannot reach the registry")
+    assert code == 1  # from 2.0 the stand-in's gravity is 0.1 % strong
+    out = tmp_path / "fake-release"
+    for release in ("1.1.1", "2.0.0"):
+        rows = list(csv.DictReader(open(out / release / "results.csv")))
+        assert {r["engine_version"] for r in rows} == {release}
+    changes = {r["metric"]: r for r in csv.DictReader(open(out / "compare" / "1.1.1-vs-2.0.0" / "compare.csv"))}
+    assert changes["discrete_error"]["change"] == "status"
+    assert (changes["discrete_error"]["status_a"], changes["discrete_error"]["status_b"]) == ("pass", "fail")
+    assert changes["continuous_error"]["direction"] == "away"
+    parts = (out / "compare" / "1.1.1-vs-2.0.0" / "compare.md").read_text().split("## Trajectories")[1]
+    # they part in the first step, in the velocity (symplectic Euler: velocity first, then position)
+    assert "1 part" in parts and "|               1 |    0.001 | body velocity[2] |" in parts
+    report = (out / "versions.md").read_text()
+    assert "| 1.1.1 | 2.0.0 |                2 |" in report  # both free-fall checks fail from 2.0
+    capfd.readouterr()
+    assert main(argv) == 1  # again: both environments and every job reused
+    said = capfd.readouterr()  # the runs' own lines too (they are processes of their own)
+    assert said.out.count("0 runs now, 1 reused") == 2 and said.err.count("environment from the cache") == 2
+    assert "from the cache" in (out / "versions.md").read_text()
+
+
+def test_a_run_that_reports_another_release_stops_the_command(cache, tmp_path, capfd, monkeypatch):
+    """The guard behind every run: an environment that ran a release other than the one it
+    was made for (here: 1.1.1's, handed out for 2.0.0) stops the command, exit 2."""
+    old = _ensure(["iniconfig==1.1.1"])
+    monkeypatch.setattr(envs, "ensure", lambda requirements, say=None: old)
+    argv = ["versions", "fake-release", "1.1.1", "2.0.0", *FAKE, *FREE_FALL, "--out", str(tmp_path), "--quiet",
+            "--workers", "1"]
+    assert main(argv) == 2
+    assert "fake-release/2.0.0 reports fake-release '1.1.1', not release 2.0.0" in capfd.readouterr().err
+    assert not (tmp_path / "fake-release" / "versions.md").exists()
