@@ -141,13 +141,13 @@ def test_a_run_that_repeats_a_check_and_a_missing_folder_are_bad_input(tmp_path,
 
 # --- trajectories -----------------------------------------------------------------------------
 
-def _trajectory(folder, job, z):
+def _trajectory(folder, job, z, spin=0.0):
     """A saved trajectory (the format of physval.core.trajectories) of one ball whose height is
-    z, falling at g t (whatever z is: only the position differs between runs)."""
+    z, falling at g t (whatever z is: only the position differs between runs), turning at `spin`."""
     folder.mkdir(parents=True, exist_ok=True)
     n = len(z)
     state = np.zeros((n, 13))
-    state[:, 2], state[:, 3] = z, 1.0
+    state[:, 2], state[:, 3], state[:, 10] = z, 1.0, spin
     state[:, 9] = -9.81 * np.arange(n) * 1e-3
     meta = {"family": "fam", "variant": "v", "params": {}, "engine": "mujoco", "dt": 1e-3, "effects": [],
             "bodies": ["ball"], "knobs": {}}
@@ -165,14 +165,19 @@ def test_where_two_runs_part(runs, capsys):
                          (b, {"same": z, "late": late, "rounding": rounding})):
         for job, zz in traj.items():
             _trajectory(folder / "trajectories", job, zz)
+    # at rest, turning at rounding's rate (1e-13 rad/s) in one run: rounding of the job's scale of
+    # turning (sqrt(g L) / L = 4.4 rad/s here), though all of the body's own
+    _trajectory(a / "trajectories", "resting", np.full(1001, 0.5))
+    _trajectory(b / "trajectories", "resting", np.full(1001, 0.5), spin=1e-13)
     assert main(["compare", str(a), str(b), "--out", str(out)]) == 1
     parts = pd.read_csv(out / "trajectories.csv").set_index("job")
     assert parts.loc["late", "parted_step"] == 600 and parts.loc["late", "first_to_part"] == "ball position[2]"
     assert np.isnan(parts.loc["same", "parted_step"]) and parts.loc["same", "largest"] == 0
     assert np.isnan(parts.loc["rounding", "parted_step"]) and 0 < parts.loc["rounding", "largest"] < PARTED
+    assert np.isnan(parts.loc["resting", "parted_step"]) and 0 < parts.loc["resting", "largest"] < 1e-13
     assert parts.loc["only_a", "note"] == "saved in A only"
     assert list(parts.index[:1]) == ["late"]  # the worst first
     text = (out / "compare.md").read_text()
-    assert "3 jobs saved by both runs compared step by step: 1 part" in text
+    assert "4 jobs saved by both runs compared step by step: 1 part" in text
     assert "![the trajectories that part the most, side by side](trajectories.png)" in text
     assert (out / "trajectories.png").stat().st_size > 10_000

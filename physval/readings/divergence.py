@@ -2,12 +2,15 @@
 wrote in two runs (two engine releases, two settings), compared step by step.
 
 For each job saved by both runs, the first step at which any dynamic body's state differs
-by more than PARTED of that state's scale: per body, the largest norm the position, the
-velocity and the angular velocity reach in either run (a quaternion's scale is 1). PARTED
-= 1e-9 lies seven orders of magnitude above the rounding of one double-precision operation
-(1.1e-16), so a float32 engine that stores the same bits, or a double one that reorders a sum,
-does not part at once; it lies below anything a plot or a check can show (1 nm on a scene of
-metres). A job whose two trajectories are equal to the last bit never parts.
+by more than PARTED of that quantity's scale in the job (`scales`): the scene's size L (the
+largest distance of a body from the origin), its speed (the largest body speed, and at least
+sqrt(g L), what a fall across the scene reaches), its rate of turning (the largest angular
+speed, and at least speed / L); a quaternion's scale is 1. Scales are the job's, not each
+body's: a box resting in a stack turns at ~1e-13 rad/s, rounding, and measured against that
+its rounding would part at once. PARTED = 1e-9 lies seven orders of magnitude above the
+rounding of one double-precision operation (1.1e-16), so a double engine that reorders a sum
+does not part at once, and below anything a plot or a check can show (1 nm on a scene of a
+metre). A job whose two trajectories are equal to the last bit never parts.
 """
 from __future__ import annotations
 
@@ -21,24 +24,28 @@ from physval.core.trajectories import load
 from physval.reportkit import fmt, md_table, pyplot, save_figure
 
 PARTED = 1e-9
+G = 9.81  # m/s^2: the floor of the speed scale is sqrt(G L)
 QUANTITIES = (("position", POS), ("orientation", QUAT), ("velocity", VEL), ("angular velocity", OMEGA))
 SHOWN = 30   # rows of the table in the report (every job is in trajectories.csv)
 DRAWN = 4    # jobs drawn side by side
 
 
-def _relative(sa: np.ndarray, sb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def scales(states: list[np.ndarray]) -> dict[str, float]:
+    """Each quantity's scale over every body of both runs (the module's docstring)."""
+    def largest(cols):
+        return max((float(np.nanmax(np.linalg.norm(s[:, cols], axis=1), initial=0.0)) for s in states), default=0.0)
+    size = max(largest(POS), np.finfo(float).tiny)
+    speed = max(largest(VEL), np.sqrt(G * size))
+    return {"position": size, "orientation": 1.0, "velocity": speed,
+            "angular velocity": max(largest(OMEGA), speed / size)}
+
+
+def _relative(sa: np.ndarray, sb: np.ndarray, scale: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """(per sample: the largest difference of any state component over its quantity's scale,
     per sample: which component it was)."""
     rel = np.empty_like(sa)
-    for _, cols in QUANTITIES:
-        a, b = sa[:, cols], sb[:, cols]
-        if cols == QUAT:
-            scale = 1.0
-        else:
-            scale = max(np.linalg.norm(a, axis=1).max(initial=0.0), np.linalg.norm(b, axis=1).max(initial=0.0))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            diff = np.abs(b - a)
-            rel[:, cols] = np.where(diff == 0, 0.0, diff / scale if scale > 0 else np.inf)
+    for name, cols in QUANTITIES:
+        rel[:, cols] = np.abs(sb[:, cols] - sa[:, cols]) / scale[name]
     rel = np.where(np.isnan(rel), np.inf, rel)  # NaN in one run only (a blow-up) parts it
     rel = np.where(np.isnan(sa) & np.isnan(sb), 0.0, rel)
     return rel.max(axis=1), rel.argmax(axis=1)
@@ -54,8 +61,9 @@ def _quantity(col: int) -> str:
 def _apart(ta, tb, n: int) -> tuple[np.ndarray, dict]:
     """(per sample: the largest relative difference over the bodies of both runs, per body:
     what `_relative` gives) over the first n samples."""
-    per_body = {body: _relative(ta.states[body][:n], tb.states[body][:n])
-                for body in sorted(set(ta.states) & set(tb.states))}
+    bodies = sorted(set(ta.states) & set(tb.states))
+    scale = scales([t.states[b][:n] for t in (ta, tb) for b in bodies])
+    per_body = {body: _relative(ta.states[body][:n], tb.states[body][:n], scale) for body in bodies}
     worst = np.max([rel for rel, _ in per_body.values()], axis=0) if per_body else np.zeros(n)
     return worst, per_body
 
@@ -107,8 +115,9 @@ def section(df: pd.DataFrame, figure: str | None) -> list[str]:
     lines = ["## Trajectories", "",
              f"{len(compared)} jobs saved by both runs compared step by step: {len(parted)} part (some state "
              f"differs by more than {PARTED:g} of its scale), {len(compared) - len(parted)} do not "
-             f"({int((compared.largest == 0).sum())} identical to the last bit). The scale of a body's position, "
-             "velocity and angular velocity is the largest norm it reaches in either run; a quaternion's is 1. "
+             f"({int((compared.largest == 0).sum())} identical to the last bit). Scales are the job's: its size L "
+             "(the largest distance of a body from the origin), its speed (the largest, at least sqrt(g L)) and "
+             "rate of turning (the largest, at least speed / L); a quaternion's is 1. "
              f"{PARTED:g} lies seven orders above one double's rounding and below anything a plot can show.", ""]
     if figure:
         lines += [f"![the trajectories that part the most, side by side]({figure})", ""]
