@@ -98,6 +98,7 @@ def test_versions_runs_each_release_and_compares_them(cache, tmp_path, capfd):
     assert "1 part" in parts and "|               1 |    0.001 | body velocity[2] |" in parts
     report = (out / "versions.md").read_text()
     assert "| 1.1.1 | 2.0.0 |                2 |" in report  # both free-fall checks fail from 2.0
+    assert "| 1 of 1 jobs, first at 0.001 s |" in report
     capfd.readouterr()
     assert main(argv) == 1  # again: both environments and every job reused
     said = capfd.readouterr()  # the runs' own lines too (they are processes of their own)

@@ -56,8 +56,8 @@ def trajectory_folders(a, b, named) -> tuple[Path, Path] | None:
 
 def compare_runs(a, b, out: str, threshold: float, trajectories=None, command: str = ""):
     """Compare run folders a and b into folder `out` (made once both are read): (the joined
-    table of physval.readings.compare, the files written). CompareError (bad input) becomes
-    UsageError."""
+    table of physval.readings.compare, where the trajectories part (physval.readings.divergence;
+    None without trajectories), the files written). CompareError (bad input) becomes UsageError."""
     from physval.readings import compare, divergence
     try:
         left, right = compare.load(a), compare.load(b)
@@ -66,7 +66,7 @@ def compare_runs(a, b, out: str, threshold: float, trajectories=None, command: s
     folder = options.output_folder(out)
     table = compare.compare(left, right, threshold)
     names = (str(a), str(b))
-    extra, written = [], [folder / "compare.md", folder / "compare.csv", folder / "compare.png"]
+    extra, parts, written = [], None, [folder / "compare.md", folder / "compare.csv", folder / "compare.png"]
     if trajectories:
         parts = divergence.measure(*trajectories)
         from physval.reportkit import write_csv
@@ -76,13 +76,13 @@ def compare_runs(a, b, out: str, threshold: float, trajectories=None, command: s
         written += [folder / "trajectories.png"] if drawn else []
         extra = divergence.section(parts, "trajectories.png" if drawn else None)
     compare.write(table, left, right, folder, names, threshold, command, extra)
-    return table, written
+    return table, parts, written
 
 
 def run(args) -> int:
     from physval.readings.compare import changed, summary_line
     trajectories = trajectory_folders(args.a, args.b, args.trajectories)
-    table, written = compare_runs(args.a, args.b, args.out, args.threshold, trajectories, options.command_line())
+    table, _, written = compare_runs(args.a, args.b, args.out, args.threshold, trajectories, options.command_line())
     print(f"{'changed' if changed(table) else 'nothing changed'}: {summary_line(table, args.threshold)}")
     print(f"wrote {', '.join(str(p) for p in written)}")
     return 1 if changed(table) else 0

@@ -161,11 +161,11 @@ def run(args) -> int:
     compared = []
     for a, b in pairs:
         trajectories = (out / a / "trajectories", out / b / "trajectories") if args.save_trajectories else None
-        table, _ = compare_runs(out / a, out / b, str(out / "compare" / f"{a}-vs-{b}"), args.threshold,
-                                trajectories, options.command_line())
-        compared.append((a, b, table))
+        table, parts, _ = compare_runs(out / a, out / b, str(out / "compare" / f"{a}-vs-{b}"), args.threshold,
+                                       trajectories, options.command_line())
+        compared.append((a, b, table, parts))
     versions.write(out, adapter.package, engines, rows, compared, args.threshold, options.command_line())
-    for a, b, table in compared:
+    for a, b, table, _ in compared:
         print(f"{a} -> {b}: {summary_line(table, args.threshold)}")
     print(f"wrote {out / 'versions.md'}")
-    return 1 if any(changed(t) for _, _, t in compared) else 0
+    return 1 if any(changed(t) for _, _, t, _ in compared) else 0

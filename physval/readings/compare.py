@@ -171,6 +171,11 @@ def _status_flows(table: pd.DataFrame) -> str:
     return "; ".join(f"{a} -> {b}: {n}" for (a, b), n in flows.items()) or "none"
 
 
+def _engines(df: pd.DataFrame) -> str:
+    n = df.engine.nunique()
+    return f"{n} engine" + ("s" if n != 1 else "")
+
+
 def _versions(df: pd.DataFrame) -> str:
     return ", ".join(f"{e} {v}" for e, v in df.groupby("engine", sort=False).engine_version.first().items()) or "none"
 
@@ -210,16 +215,16 @@ def report(table: pd.DataFrame, a: pd.DataFrame, b: pd.DataFrame, names: tuple[s
     n = counts(table)
     verdict = ("**Something changed** (exit code 1)" if changed(table) else "**Nothing changed** (exit code 0)")
     moves = table[table.change.isin(["status", "moved"]) & np.isfinite(table.move.fillna(np.inf))]
-    top = table[table.change == "moved"].head(1)
+    top = moves.head(1)  # the table is sorted: the largest first
     lines = heading("Comparison of two runs", command) + [
-        f"- A: `{names[0]}`: {len(a)} checks on {a.engine.nunique()} engines",
-        f"- B: `{names[1]}`: {len(b)} checks on {b.engine.nunique()} engines",
+        f"- A: `{names[0]}`: {len(a)} checks on {_engines(a)}",
+        f"- B: `{names[1]}`: {len(b)} checks on {_engines(b)}",
         "",
         f"{verdict}: {summary_line(table, threshold)}.",
         "",
         f"- status changes: {_status_flows(table)}",
-        f"- moves above the threshold: {(moves.direction == 'towards').sum()} towards the closed form, "
-        f"{(moves.direction == 'away').sum()} away from it",
+        f"- of the status changes and moves, {(moves.direction == 'towards').sum()} brought the measured value "
+        f"nearer the closed form, {(moves.direction == 'away').sum()} further from it",
         f"- engine releases: {_changed_versions(table)}; dt differs on {_differs(table, 'dt')} checks, "
         f"iterations on {_differs(table, 'iterations')}, the expected value on {_differs(table, 'expected')}",
     ]
