@@ -143,6 +143,19 @@ def test_cli_bad_input_is_one_line_and_exit_2(args, message, tmp_path):
     assert not (tmp_path / "out" / "results.csv").exists(), "bad input must stop before any job"
 
 
+@pytest.mark.parametrize("address", ["foo", "tcp://host:port", "http://127.0.0.1:8786"])
+def test_a_malformed_scheduler_address_is_one_line(address, tmp_path):
+    """In a process of its own: the traceback of a half-made Dask client came at exit."""
+    import subprocess
+    import sys
+    proc = subprocess.run([sys.executable, "-m", "physval", "run", "--cases", "central_impact[drop,e=0.5]",
+                           "--engines", "reference", "--scheduler", address, "--out", str(tmp_path)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=120)
+    (line,) = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2 and line.startswith(f"physval: error: --scheduler {address!r}: not a Dask "
+                                                    "scheduler address; give tcp://HOST:PORT"), proc.stderr
+
+
 def test_bad_output_folders_stop_before_any_work(tmp_path):
     a_file = tmp_path / "file"
     a_file.write_text("x")

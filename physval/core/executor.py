@@ -249,6 +249,22 @@ def _run_batch(tasks: list, ctx: Context) -> list:
     return [perform(t, resolver) for t in tasks]
 
 
+def check_address(address: str) -> None:
+    """A scheduler address as Dask reads it, checked before any Client exists: a Client
+    built on a malformed address raises, and at exit its __del__ prints a traceback
+    after a 6 s wait for a connection that never was."""
+    from distributed.comm import get_address_host_port, parse_address
+    from distributed.comm.registry import get_backend
+    try:
+        scheme, _ = parse_address(address)
+        get_backend(scheme)  # a scheme Dask knows
+        if scheme in ("tcp", "tls", "ws", "wss"):  # inproc:// (one process) and ucx:// have no host:port
+            get_address_host_port(address)
+    except ValueError as exc:
+        raise ExecutorError(f"--scheduler {address!r}: not a Dask scheduler address; give "
+                            f"tcp://HOST:PORT or tls://HOST:PORT ({exc})") from None
+
+
 class DaskExecutor:
     """Jobs in batches on an existing Dask distributed cluster."""
 
@@ -258,6 +274,8 @@ class DaskExecutor:
         except ImportError:
             raise ExecutorError("--scheduler needs dask's distributed package: pip install 'dask[distributed]'") from None
         self.ctx = ctx
+        self.client = None
+        check_address(address)
         try:
             self.client = Client(address, timeout=connect_timeout, set_as_default=False)
         except (OSError, TimeoutError, ValueError, TypeError) as exc:
