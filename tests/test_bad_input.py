@@ -134,6 +134,8 @@ def _physval(*args):
     (["sweep", "--engines", "pymunk", "--cases", "resting_blocks[n=5]"], "has no sweep point"),
     (["stress", "--cases", "robustness_nothing"], "unknown case 'robustness_nothing'"),
     (["known", "no-such-engine"], "unknown engine 'no-such-engine'"),
+    (["run", "--cases", "central_impact[drop,e=0.5]", "--engines", "reference", "--save-trajectories", ""],
+     "--save-trajectories '': must name a folder"),
 ])
 def test_cli_bad_input_is_one_line_and_exit_2(args, message, tmp_path):
     out = _physval(*args, "--out", str(tmp_path / "out"))

@@ -86,7 +86,8 @@ def run(args) -> int:
         Settings(dt=args.dt)  # validates the range once, with a message naming dt
     readings = readings_of(args.readings, args.cases is not None)
     out = options.output_folder(args.out)
-    traj_dir = options.output_folder(args.save_trajectories) if args.save_trajectories else None
+    traj_dir = None if args.save_trajectories is None else options.output_folder(args.save_trajectories,
+                                                                                  "--save-trajectories")
     options.check_scheduler(args.scheduler)
     jobs, later = plan(chosen, engines, resolver, args.engines is not None, args.dt, args.iterations, args.on_demand)
     if traj_dir is not None:
