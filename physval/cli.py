@@ -47,7 +47,8 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+        from physval.commands.options import with_replacements
+        self.exit(2, f"{self.prog}: error: {with_replacements(message)} (see '{self.prog} --help')\n")
 
 
 def parser(argv: list[str] | None = None) -> argparse.ArgumentParser:

@@ -158,6 +158,25 @@ def test_a_malformed_scheduler_address_is_one_line(address, tmp_path):
                                                     "scheduler address; give tcp://HOST:PORT"), proc.stderr
 
 
+@pytest.mark.parametrize("command", ["run", "sweep", "stress"])
+@pytest.mark.parametrize("removed,replacement", [("--no-effective", "--readings laws"),
+                                                 ("--no-laws", "--readings effective")])
+def test_a_removed_option_names_its_replacement(command, removed, replacement):
+    out = _physval(command, removed)
+    assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1, out.stderr
+    assert f"{removed} was removed: use physval run {replacement}" in out.stderr, out.stderr
+    assert "--readings takes effective, laws, all, none or auto" in out.stderr
+
+
+def test_what_the_removed_options_note_says_readings_takes_is_what_it_takes():
+    from physval.commands.options import READINGS_TAKES
+    from physval.commands.run import READINGS, readings_of
+    named = READINGS_TAKES.split(" takes ", 1)[1].replace(" or ", ", ").split(", ")
+    assert set(named) == set(READINGS) | {"all", "none", "auto"}
+    for name in named:
+        readings_of(name, cases_named=False)  # raises UsageError if it is not taken
+
+
 def test_bad_output_folders_stop_before_any_work(tmp_path):
     a_file = tmp_path / "file"
     a_file.write_text("x")

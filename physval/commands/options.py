@@ -15,6 +15,25 @@ class UsageError(ValueError):
     """Bad input on the command line: one line, exit code 2."""
 
 
+# Options that were removed -> (what replaces them, what the replacement takes). Every
+# command's parser (physval.cli) names the replacement instead of only "unrecognized".
+READINGS_TAKES = "--readings takes effective, laws, all, none or auto"
+REMOVED = {
+    "--no-effective": ("physval run --readings laws (or none)", READINGS_TAKES),
+    "--no-laws": ("physval run --readings effective (or none)", READINGS_TAKES),
+}
+
+
+def with_replacements(message: str) -> str:
+    """argparse's error message, with the replacement of each removed option it names."""
+    if not message.startswith("unrecognized arguments:"):
+        return message
+    given = dict.fromkeys(a.split("=", 1)[0] for a in message.split(":", 1)[1].split())
+    removed = [o for o in given if o in REMOVED]
+    uses = [f"{o} was removed: use {REMOVED[o][0]}" for o in removed]
+    return "; ".join([message, *uses, *dict.fromkeys(REMOVED[o][1] for o in removed)])
+
+
 def positive_float(text: str) -> float:
     try:
         x = float(text)
