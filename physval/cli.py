@@ -72,6 +72,8 @@ def main(argv: list[str] | None = None) -> int:
     global STARTED, _commands_run
     if _commands_run:
         STARTED = time.monotonic()
+        from physval.core.context import forget
+        forget()
     _commands_run += 1
     from adapters.base import SettingsError
     from adapters.registry import EngineError

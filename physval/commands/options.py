@@ -129,8 +129,15 @@ def context_of(args):
                   known_files=tuple(str(Path(f).resolve()) for f in getattr(args, "known", None) or []))
     from adapters import registry
     registry.specs(ctx.adapters)  # an ad-hoc adapter that does not load stops here
-    from physval.core import deviations
-    deviations.load(ctx.known_files)  # a --known file that does not parse stops here
+    if ctx.known_files:  # a --known file that does not parse, or names what does not exist, stops here
+        from physval.core import deviations
+        try:
+            entries = deviations.load(ctx.known_files)
+        except deviations.DeviationFileError as exc:
+            raise UsageError(f"--known {exc}") from None
+        unknown = deviations.unknown_names(entries, ctx.resolver().families, registry.engine_names(ctx.adapters))
+        if unknown:
+            raise UsageError(f"--known {unknown}")
     return ctx
 
 
