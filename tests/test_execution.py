@@ -248,3 +248,56 @@ def test_an_interrupt_during_the_disk_write_keeps_the_job_that_was_being_written
     assert kept and {r["job"] for r in kept} == {jobs[0].key}
     with open(tmp_path / "results.csv", newline="") as fh:
         assert len(list(csv.DictReader(fh))) == len(kept)
+
+
+def test_a_full_disk_is_one_line_keeps_the_finished_rows_and_the_same_command_resumes(tmp_path, monkeypatch,
+                                                                                      capsys):
+    """The third job's write finds the disk full after half a line: exit 74 (README) with
+    one line, the two finished jobs on disk, and the same command runs only the rest."""
+    import errno
+    import os
+    from physval.core import store as store_module
+    from physval.cli import DISK_FULL
+
+    class FullDisk:
+        """A file opened for appending that takes half of what is written, then ENOSPC."""
+        def __init__(self, fh):
+            self.fh = fh
+
+        def write(self, text):
+            self.fh.write(text[:len(text) // 2])
+            self.fh.flush()
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+        def __getattr__(self, name):
+            return getattr(self.fh, name)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.fh.close()
+
+    appends = []
+
+    def filling_open(path, mode="r", **kw):
+        fh = open(path, mode, **kw)
+        if "a" in mode:
+            appends.append(path)
+            return FullDisk(fh) if len(appends) == 3 else fh
+        return fh
+
+    out = tmp_path / "out"
+    argv = ["run", "--cases", "central_impact[e=0.5,m=1:*]", "--engines", "reference", "--workers", "1",
+            "--quiet", "--out", str(out)]
+    monkeypatch.setattr(store_module, "open", filling_open, raising=False)
+    assert main(argv) == DISK_FULL == 74
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("physval: error: the disk is full (No space left on device)") and \
+        "the rows of finished jobs are kept" in line and "run the same command again" in line, line
+    assert not (out / "report.md").exists()
+    monkeypatch.undo()
+    assert main(argv) == 0
+    assert "(2 runs now, 2 reused" in capsys.readouterr().out
+    rows = list(csv.DictReader(open(out / "results.csv")))
+    assert len({r["variant"] for r in rows}) == 4 and {r["status"] for r in rows} == {"pass"}

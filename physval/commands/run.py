@@ -24,8 +24,8 @@ EPILOG = """examples:
   physval run --cases central_impact --engines reference,mujoco
   physval run --cases "incline_threshold[mu=0.5*]" --dt 5e-3 --out /tmp/incline
   physval run --cases-dir my_cases --cases second_bounce
-exit codes: 0 the run completed (failing physics is a result); 2 bad input; 130 interrupted
-(finished jobs are kept; the same command resumes)."""
+exit codes: 0 the run completed (failing physics is a result); 2 bad input; 74 the disk is full
+and 130 interrupted (finished jobs are kept in both; the same command resumes)."""
 
 HELP_CASES = ("case families or variants: NAME, a glob, or NAME[VARIANT] (an exact variant id or a glob), "
               "space- or comma-separated, e.g. 'central_impact[drop,e=0.5]' (default: every family)")
