@@ -33,6 +33,8 @@ FAMILY = textwrap.dedent("""
             faults = json.loads((pathlib.Path(__file__).parent / "faults.json").read_text())
             NAP, CRASH, HOW, HANG = (faults.get(k, d) for k, d in (("nap", 0), ("crash", -1), ("how", "segfault"),
                                                                     ("hang", -1)))
+            if NAP:  # in a job now: say so (the kill test waits for its workers to be busy)
+                (pathlib.Path(__file__).parent / f"napping-{os.getpid()}").touch()
             time.sleep(NAP)
             if p["k"] == CRASH:
                 if HOW == "segfault":
@@ -140,10 +142,11 @@ def _as_from_a_terminal() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def _start(cases_dir: Path, out: Path, nap: float, workers: int = 2) -> subprocess.Popen:
+def _start(cases_dir: Path, out: Path, nap: float, workers: int = 2, method: str = "forkserver") -> subprocess.Popen:
     _faults(cases_dir, nap=nap)
     return subprocess.Popen([sys.executable, "-m", "physval", "run", "--cases-dir", str(cases_dir), "--cases",
-                             "faulty_fall", "--engines", "reference", "--workers", str(workers), "--out", str(out)],
+                             "faulty_fall", "--engines", "reference", "--workers", str(workers),
+                             "--start-method", method, "--out", str(out)],
                             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=_as_from_a_terminal)
 
@@ -187,21 +190,29 @@ def test_an_interrupted_run_keeps_its_rows_leaves_no_process_and_resumes(cases_d
     assert sorted(_rows(out)) == [f"k={k}" for k in range(6)]
 
 
-@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
-def test_workers_exit_when_their_parent_is_killed(cases_dir, tmp_path):
-    proc = _start(cases_dir, tmp_path / "out", nap=3.0)
+@pytest.mark.parametrize("method", ["fork", "spawn", "forkserver"])
+def test_every_child_exits_when_the_main_process_is_killed(cases_dir, tmp_path, method):
+    """SIGKILL leaves the main process no cleanup at all. Its two workers are in a job of
+    60 s (so no job's end lets them notice), and under forkserver the fork server and the
+    resource tracker are its children too: every descendant must be gone within 3 s."""
+    psutil = pytest.importorskip("psutil")
+    proc = _start(cases_dir, tmp_path / "out", nap=60.0, method=method)
     t0 = time.monotonic()
-    while not _descendants(proc.pid) and time.monotonic() - t0 < 30:
+    while len(list(cases_dir.glob("napping-*"))) < 2 and time.monotonic() - t0 < 60:
+        assert proc.poll() is None, proc.communicate()
         time.sleep(0.05)
-    time.sleep(1.0)  # workers busy in a job
-    family = _descendants(proc.pid)
-    assert family
-    proc.kill()  # SIGKILL: no cleanup in the parent at all
-    proc.communicate()
-    t0 = time.monotonic()
-    while _alive(family) and time.monotonic() - t0 < 5:
-        time.sleep(0.1)
-    assert not _alive(family), "workers outlived their parent"
+    family = psutil.Process(proc.pid).children(recursive=True)
+    busy = {int(f.name.split("-")[1]) for f in cases_dir.glob("napping-*")}
+    assert len(busy) == 2 and busy <= {p.pid for p in family}, "two workers in a job"
+    proc.kill()
+    proc.wait()  # not communicate(): the children hold its output pipes until they exit
+    gone, alive = psutil.wait_procs(family, timeout=3)
+    survivors = [" ".join(p.cmdline())[:80] for p in alive]
+    for p in alive:
+        p.kill()
+    proc.stdout.close()
+    proc.stderr.close()
+    assert not survivors, f"{survivors} outlived the main process ({method})"
 
 
 @pytest.mark.parametrize("method", ["fork", "spawn", "forkserver"])

@@ -52,11 +52,15 @@ def start_fork_server(start_method: str | None = None) -> None:
 
 # --- the worker process --------------------------------------------------------------------
 
-def _die_with_parent() -> None:
-    """Exit when the process that started this one dies (the main process, or under
-    forkserver the fork server, which exits with the main process): at once on Linux (the
-    kernel's parent-death signal), and within half a second anywhere (a watchdog thread)."""
-    parent = os.getppid()
+def _die_with_parent(lifeline) -> None:
+    """Exit when the main process dies. `lifeline` is the read end of a pipe whose write
+    end only the main process holds: it reads as closed the moment that process dies, by
+    any signal, under every start method and platform (a thread waits on it). Under
+    forkserver a worker's parent is the fork server, and the fork server exits only once
+    every worker has (each holds its 'alive' pipe): watching the parent alone, a busy
+    worker and the fork server waited on each other, and the resource tracker on both, for
+    as long as the job ran. On Linux the kernel's parent-death signal also ends a worker
+    the moment its parent dies."""
     if sys.platform.startswith("linux"):
         try:
             import ctypes
@@ -66,16 +70,16 @@ def _die_with_parent() -> None:
             pass
 
     def watch():
-        while True:
-            if os.getppid() != parent:
-                os._exit(1)
-            time.sleep(0.5)
+        try:
+            lifeline.poll(None)  # nothing is ever sent: readable means the write end is gone
+        finally:
+            os._exit(1)
 
-    threading.Thread(target=watch, daemon=True).start()
+    threading.Thread(target=watch, name="exit with the main process", daemon=True).start()
 
 
-def _worker(conn, ctx: Context) -> None:
-    _die_with_parent()
+def _worker(conn, ctx: Context, lifeline) -> None:
+    _die_with_parent(lifeline)
     signal.signal(signal.SIGINT, signal.SIG_IGN)   # the main process handles interrupts
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     resolver = ctx.resolver()
@@ -107,9 +111,11 @@ class _Slot:
 
     def __init__(self, mpctx, ctx: Context):
         self.conn, child = mpctx.Pipe()
-        self.process = mpctx.Process(target=_worker, args=(child, ctx), daemon=True)
+        lifeline, self.lifeline = mpctx.Pipe(duplex=False)  # its read end and write end: _die_with_parent
+        self.process = mpctx.Process(target=_worker, args=(child, ctx, lifeline), daemon=True)
         self.process.start()
         child.close()
+        lifeline.close()
         self.job: Job | None = None
         self.started = 0.0
         self.ready = False  # the worker has loaded the families and waits for jobs
@@ -127,6 +133,7 @@ class _Slot:
             self.process.kill()
         self.process.join(timeout=2)
         self.conn.close()
+        self.lifeline.close()
 
 
 class LocalExecutor:
