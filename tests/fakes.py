@@ -78,6 +78,14 @@ class OtherFake(FakeAdapter):
         super().__init__("fake-2")
 
 
+class CrashingFake(FakeAdapter):
+    """A stand-in engine whose every run raises in its first step, `fake-crash`
+    (`--adapter tests/fakes.py:CrashingFake`)."""
+
+    def __init__(self):
+        super().__init__("fake-crash", crash_at=1)
+
+
 # --- a time-stepped bouncing ball: the discrete impacts the rebound tolerances cover ------
 
 def stepped_ball(e: float, h: float, dt: float, duration: float, order: str = "velocity",
