@@ -56,17 +56,8 @@ def selected_engines(config) -> tuple[list[str], bool]:
 def pytest_generate_tests(metafunc):
     """The jobs of the default run (reference formulations on the core families); the
     on-demand ones (minutes each) are marked slow and run with `pytest -m slow`."""
-    import pytest
-    from physval.core import Context
-    from physval.core.plan import plan
+    from physval.testing import engine_checks
     for name, conformance in (("job", False), ("conformance_job", True)):
-        if name not in metafunc.fixturenames:
-            continue
-        engines, named = selected_engines(metafunc.config)
-        resolver = Context().resolver()
-        fams = {n: [v for v in f.variants] for n, f in resolver.families.items()
-                if ("conformance" in f.tags) == conformance}
-        jobs, later = plan(fams, engines, resolver, named, on_demand=False)
-        params = [pytest.param(j, id=j.test_id) for j in jobs]
-        params += [pytest.param(j, id=j.test_id, marks=[pytest.mark.slow]) for j in later]
-        metafunc.parametrize(name, params)
+        if name in metafunc.fixturenames:
+            engines, named = selected_engines(metafunc.config)
+            metafunc.parametrize(name, engine_checks(engines, conformance, named))
