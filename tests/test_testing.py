@@ -1,6 +1,7 @@
-"""The battery as tests: physval.testing runs the battery in an engine's own repository
-from the installed package (examples/physval-engine-example/tests/test_battery.py), with
-no physval checkout on the path."""
+"""The battery as tests: `pytest --engine NAME` keeps only that engine's tests, and
+physval.testing runs the battery in an engine's own repository from the installed
+package (examples/physval-engine-example/tests/test_battery.py), with no physval
+checkout on the path."""
 from __future__ import annotations
 
 import os
@@ -14,6 +15,33 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "physval-engine-example"
+# test_cases.py: the jobs; test_bulk_reads.py: an `engine` argument; test_box2d_rapier_mapping.py:
+# engine marks; test_harness.py: about no engine
+FILES = ["tests/test_cases.py", "tests/test_bulk_reads.py", "tests/test_box2d_rapier_mapping.py",
+         "tests/test_harness.py"]
+
+
+def _collect(*args: str) -> tuple[list[str], str]:
+    proc = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q", "-p", "no:cacheprovider", *args],
+                          cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+    return [x for x in proc.stdout.splitlines() if "::" in x], proc.stdout.strip().splitlines()[-1]
+
+
+@pytest.mark.parametrize("engine, kept", [
+    ("reference", r"tests/test_cases\.py::test_(case|conformance)\[.*-reference\]"
+                  r"|tests/test_bulk_reads\.py::test_\w+\[reference-[23]D\]"),
+    ("box2d", r"tests/test_cases\.py::test_(case|conformance)\[.*-box2d\]"
+              r"|tests/test_bulk_reads\.py::test_\w+\[box2d-[23]D\]|tests/test_box2d_rapier_mapping\.py::test_box2d_\w+.*"),
+])
+def test_pytest_engine_keeps_that_engines_tests_only(engine, kept):
+    every, _ = _collect(*FILES)
+    ids, summary = _collect("--engine", engine, *FILES)
+    assert ids and all(re.fullmatch(kept, i) for i in ids), [i for i in ids if not re.fullmatch(kept, i)][:5]
+    assert sorted(ids) == sorted(i for i in every if re.fullmatch(kept, i)), "every test of the engine is kept"
+    assert re.search(r"\d+ deselected", summary) and any("test_harness.py" in i for i in every)
+
+
 @pytest.fixture(scope="module")
 def installed(tmp_path_factory) -> tuple[Path, Path]:
     """(a folder holding physval and the example plug-in as pip installs them, a copy of
