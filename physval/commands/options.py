@@ -15,6 +15,25 @@ class UsageError(ValueError):
     """Bad input on the command line: one line, exit code 2."""
 
 
+# Options that were removed -> (what replaces them, what the replacement takes). Every
+# command's parser (physval.cli) names the replacement instead of only "unrecognized".
+READINGS_TAKES = "--readings takes effective, laws, all, none or auto"
+REMOVED = {
+    "--no-effective": ("physval run --readings laws (or none)", READINGS_TAKES),
+    "--no-laws": ("physval run --readings effective (or none)", READINGS_TAKES),
+}
+
+
+def with_replacements(message: str) -> str:
+    """argparse's error message, with the replacement of each removed option it names."""
+    if not message.startswith("unrecognized arguments:"):
+        return message
+    given = dict.fromkeys(a.split("=", 1)[0] for a in message.split(":", 1)[1].split())
+    removed = [o for o in given if o in REMOVED]
+    uses = [f"{o} was removed: use {REMOVED[o][0]}" for o in removed]
+    return "; ".join([message, *uses, *dict.fromkeys(REMOVED[o][1] for o in removed)])
+
+
 def positive_float(text: str) -> float:
     try:
         x = float(text)
@@ -110,13 +129,20 @@ def context_of(args):
                   known_files=tuple(str(Path(f).resolve()) for f in getattr(args, "known", None) or []))
     from adapters import registry
     registry.specs(ctx.adapters)  # an ad-hoc adapter that does not load stops here
-    from physval.core import deviations
-    deviations.load(ctx.known_files)  # a --known file that does not parse stops here
+    if ctx.known_files:  # a --known file that does not parse, or names what does not exist, stops here
+        from physval.core import deviations
+        try:
+            entries = deviations.load(ctx.known_files)
+        except deviations.DeviationFileError as exc:
+            raise UsageError(f"--known {exc}") from None
+        unknown = deviations.unknown_names(entries, ctx.resolver().families, registry.engine_names(ctx.adapters))
+        if unknown:
+            raise UsageError(f"--known {unknown}")
     return ctx
 
 
 def output_folder(text: str, option: str = "--out") -> Path:
-    """--out (or `option`) as a folder that exists and can be written to (made if missing)."""
+    """`option`'s value as a folder that exists and can be written to (made if missing)."""
     if not text or not text.strip():
         raise UsageError(f"{option} '': must name a folder")
     out = Path(text)

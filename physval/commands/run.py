@@ -26,7 +26,8 @@ EPILOG = """examples:
   physval run --cases-dir my_cases --cases second_bounce
   physval run --engines mujoco --junitxml physval.xml --fail-on fail,error,unstable,changed   an engine's CI gate
 exit codes: 0 the run completed (failing physics is a result); 1 a check fell under --fail-on;
-2 bad input; 130 interrupted (finished jobs are kept; the same command resumes)."""
+2 bad input; 74 the disk is full and 130 interrupted (finished jobs are kept in both; the
+same command resumes)."""
 
 HELP_CASES = ("case families or variants: NAME, a glob, or NAME[VARIANT] (an exact variant id or a glob), "
               "space- or comma-separated, e.g. 'central_impact[drop,e=0.5]' (default: every family)")
@@ -96,7 +97,8 @@ def run(args) -> int:
     fail_on = fail_on_of(args.fail_on)
     junit = options.output_file(args.junitxml, "--junitxml") if args.junitxml is not None else None
     out = options.output_folder(args.out)
-    traj_dir = options.output_folder(args.save_trajectories) if args.save_trajectories else None
+    traj_dir = None if args.save_trajectories is None else options.output_folder(args.save_trajectories,
+                                                                                  "--save-trajectories")
     options.check_scheduler(args.scheduler)
     jobs, later = plan(chosen, engines, resolver, args.engines is not None, args.dt, args.iterations, args.on_demand)
     if traj_dir is not None:

@@ -86,7 +86,7 @@ def judge(c: Check, value: float, engine: str, variant: str, entry: deviations.D
     if band is None:
         return dict(fields, status="fail", reason=(
             f"{outside}; matches {where} but no band is recorded for this check on {engine}: "
-            f"`physval known {engine}` measures it"))
+            f"`{entry.remeasure(engine)}` measures it"))
     if not bands_apply:
         return dict(fields, status="fail", reason=(
             f"{outside}; {where} is recorded at the family's dt and the adapter's default iterations only"))
