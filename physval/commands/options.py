@@ -44,24 +44,22 @@ def positive_float(text: str) -> float:
     return x
 
 
-def positive_int(text: str) -> int:
+def _int_at_least(text: str, low: int) -> int:
     try:
         x = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if x < 1:
-        raise argparse.ArgumentTypeError(f"{text!r}: must be >= 1")
+    if x < low:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be >= {low}")
     return x
+
+
+def positive_int(text: str) -> int:
+    return _int_at_least(text, 1)
 
 
 def whole_number(text: str) -> int:
-    try:
-        x = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if x < 0:
-        raise argparse.ArgumentTypeError(f"{text!r}: must be >= 0")
-    return x
+    return _int_at_least(text, 0)
 
 
 def seconds_or_off(text: str) -> float:
