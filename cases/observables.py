@@ -2,10 +2,12 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
-from cases.trajectory import Trajectory
+from cases.overlap import penetration
+from cases.trajectory import POS, QUAT, Trajectory
 
 
 def free_acceleration(traj: Trajectory, name: str, gravity, band: float = 0.25) -> np.ndarray:
@@ -214,10 +216,6 @@ def deepest_overlap(traj: Trajectory, scene, t0: float, samples: int = 20) -> fl
     """Largest depth (m) by which any two bodies overlap, at `samples` sample times spread
     evenly from t0 to the end; exact per pair (cases.overlap: distances and separating
     axes), pairs whose bounding spheres are apart skipped."""
-    from dataclasses import replace
-
-    from cases.overlap import penetration
-    from cases.trajectory import POS, QUAT
     picks = window_samples(traj, t0)
     picks = np.unique(picks[np.linspace(0, len(picks) - 1, min(samples, len(picks))).round().astype(int)])
     pairs = scene.contact_pairs()

@@ -1,5 +1,6 @@
-"""Finds case families: every module of this package that defines `FAMILY`, plus the
-modules of a user's `--cases-dir` folders. A user's file is checked when it is loaded:
+"""Finds case families: every module of the `cases` package and its subpackages that
+defines `FAMILY` (a module that does not is a library: scene, observables, the robustness
+package's shared invariants), plus the modules of a user's `--cases-dir` folders. A user's file is checked when it is loaded:
 any error in it (an exception while importing, in `scene`, `duration` or `expect` of a
 variant, a name already taken) stops with a one-line `CaseError` naming the file, the
 family and the field.
@@ -16,8 +17,6 @@ from pathlib import Path
 import cases
 from cases.family import CaseError, CaseFamily
 
-_SKIP = {"scene", "overlap", "trajectory", "family", "registry", "closed_forms", "observables", "robustness"}
-
 
 def _families_in(module, where: str) -> list[CaseFamily]:
     found = getattr(module, "FAMILY", None)
@@ -30,12 +29,11 @@ def _families_in(module, where: str) -> list[CaseFamily]:
 
 @functools.cache
 def builtin_families() -> dict[str, CaseFamily]:
-    """The families shipped in `cases/` (the conformance battery among them), by name."""
+    """The families shipped in `cases/` (the conformance battery among them), by name: the
+    FAMILY of every module, in the order of the modules' names."""
     out = {}
-    for info in sorted(pkgutil.iter_modules(cases.__path__), key=lambda i: i.name):
-        if info.name in _SKIP or info.name.startswith("_"):
-            continue
-        module = importlib.import_module(f"cases.{info.name}")
+    for info in sorted(pkgutil.walk_packages(cases.__path__, "cases."), key=lambda i: i.name):
+        module = importlib.import_module(info.name)
         for fam in _families_in(module, module.__name__):
             out[fam.name] = fam
     return dict(out)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -116,3 +117,36 @@ def test_saved_file_names_read_like_test_ids():
     from physval.core.jobs import Job
     job = Job("central_impact", Variant("central_impact", "e=0.5,m=1:3", {}), "mujoco")
     assert file_name(job) == "central_impact[e=0.5,m=1:3]-mujoco.npz"
+
+
+# --- the case folder: families and libraries, told apart by what a module defines -------------
+
+def test_every_module_of_the_cases_package_is_a_family_or_a_library():
+    """No list kept by hand: a module defining FAMILY is a family (found in subpackages too),
+    any other a library. The robustness families live in the package cases/robustness with
+    what they share (its __init__, a library); no robustness family lives outside it."""
+    import importlib
+    import pkgutil
+
+    import cases
+    from cases.registry import builtin_families
+    modules = {i.name: importlib.import_module(i.name) for i in pkgutil.walk_packages(cases.__path__, "cases.")}
+    families = {m.FAMILY.name: name for name, m in modules.items() if hasattr(m, "FAMILY")}
+    assert families == {n: f.scene.__module__ for n, f in builtin_families().items()}
+    libraries = {name for name, m in modules.items() if not hasattr(m, "FAMILY")}
+    assert {"cases.scene", "cases.family", "cases.observables", "cases.overlap", "cases.robustness"} <= libraries
+    robust = {n: m for n, m in families.items() if "robustness" in builtin_families()[n].tags}
+    assert robust and all(m.startswith("cases.robustness.") for m in robust.values()), robust
+    assert all(n.startswith("robustness_") for n in robust)
+    assert not [n for n in libraries if n.startswith("cases.robustness.")], "a library among the robustness families"
+
+
+def test_overlap_and_scene_do_not_import_each_other():
+    """cases.scene validates start overlaps with cases.overlap, which reads shapes by kind
+    and size and imports nothing from cases.scene."""
+    import subprocess
+    import sys
+    code = "import sys, cases.overlap; print('cases.scene' in sys.modules)"
+    root = str(Path(__file__).resolve().parent.parent)
+    out = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=60)
+    assert out.stdout.strip() == "False", out.stdout + out.stderr
