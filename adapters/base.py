@@ -185,6 +185,10 @@ class Adapter(ABC):
     name: str
     capabilities: Capabilities
     package: str  # the PyPI distribution that provides the engine (for messages)
+    # The releases of `package` the adapter works with, a PEP 440 specifier (">=3.2.6,<5");
+    # the lower bound is a release the conformance battery ran on. None: not declared.
+    # adapters.registry.version_problem checks the installed release against it.
+    supported: str | None = None
     tunables: Mapping[str, Tunable] = {}  # Settings.options this adapter understands
 
     @abstractmethod

@@ -111,6 +111,8 @@ ACTING_GAP = 1e-4  # m
 class Box2DAdapter(Adapter):
     name = "box2d"
     package = "pyb2d3"
+    # the release the conformance battery ran on; the next major (minor for 0.x) may change the API
+    supported = ">=0.11.1,<0.12"
     capabilities = Capabilities(
         dimensions=frozenset({2}),
         shapes=frozenset({"circle", "rect", "plane"}),

@@ -422,6 +422,8 @@ class DartSimulation(Simulation):
 class DartAdapter(Adapter):
     name = "dart"
     package = "dartpy"
+    # the release the conformance battery ran on; the next major (minor for 0.x) may change the API
+    supported = ">=6.20.0,<7"
     capabilities = Capabilities(
         dimensions=frozenset({2, 3}),
         shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),

@@ -704,6 +704,8 @@ def _unrepresentable(scene: Scene, contact_model: str) -> str | None:
 
 class DrakeAdapter(Adapter):
     package = "drake"
+    # the release the conformance battery ran on; the next major (minor for 0.x) may change the API
+    supported = ">=1.51.1,<2"
 
     def __init__(self, approximation: str = "sap", contact_model: str = "point", name: str | None = None):
         if approximation not in _APPROXIMATIONS or contact_model not in _CONTACT_MODELS:

@@ -25,7 +25,9 @@ finite width: xi^1.5 would need d ~ xi^0.25.
 """
 from __future__ import annotations
 
+import functools
 import math
+import re
 from importlib import metadata
 from xml.sax.saxutils import quoteattr
 
@@ -182,6 +184,54 @@ def _hooke_unrepresentable(scene: Scene) -> str | None:
     return None
 
 
+# --- what this MuJoCo release's MJCF knows ------------------------------------------------------
+# The adapter writes one MJCF for every supported release (MuJoCoAdapter.supported) and asks the
+# release itself what its parser accepts, instead of keeping a table of version numbers: the
+# schema MuJoCo prints (mj_printSchema) names every element and its attributes.
+
+_SCHEMA_ELEMENT = re.compile(r"^( *)(\S+) \(.\)(.*)$")  # "   option (*)   timestep ...": 3 spaces a level
+
+
+@functools.cache
+def mjcf_schema() -> dict[str, frozenset[str]]:
+    """Every element of this release's MJCF by its path below <mujoco> ("option/flag",
+    "contact/pair", "(world)body/freejoint"), with the attributes its parser accepts. Read
+    once a process."""
+    _import_mujoco()
+    out: dict[str, set[str]] = {}
+    path: list[str] = []
+    for line in mujoco.mj_printSchema(False, False).splitlines():
+        element = _SCHEMA_ELEMENT.match(line)
+        if element:  # an element and the first of its attributes; continuation lines hold more
+            path = path[:len(element.group(1)) // 3] + [element.group(2)]
+            line = element.group(3)
+        out.setdefault("/".join(path[1:]), set()).update(line.split())
+    return {k: frozenset(v) for k, v in out.items()}
+
+
+# Attributes written only where the release knows them. Leaving one out asks for the same
+# physics, because a release without the attribute lacks what it switches off (MuJoCo's
+# changelog). Every other attribute the adapter writes is in every supported release; one that
+# is not makes the compiler reject the scene (Unsupported, naming it).
+ABSENT_MEANS = {
+    "option/flag/sleep": "no sleeping before MuJoCo 3.4.0",
+    "option/flag/speculative": "no speculative contacts before MuJoCo 4.0.0",
+    "compiler/alignfree": "no free-joint alignment before MuJoCo 3.2.3",
+    "(world)body/freejoint/align": "no free-joint alignment before MuJoCo 3.2.3",
+    "contact/pair/adhesion": "no contact adhesion before MuJoCo 3.11.0",
+}
+
+
+def _known(path: str, attrs: dict, left_out: dict) -> dict:
+    """`attrs` of the element at `path` less the ABSENT_MEANS attributes this release does not
+    know, each noted in `left_out` (the knob of that name) with why that changes nothing."""
+    known = mjcf_schema().get(path, frozenset())
+    drop = [a for a in attrs if a not in known and f"{path}/{a}" in ABSENT_MEANS]
+    for a in drop:
+        left_out[f"{path}/{a}"] = ABSENT_MEANS[f"{path}/{a}"]
+    return {k: v for k, v in attrs.items() if k not in drop} if drop else attrs
+
+
 # --- MJCF ----------------------------------------------------------------------------------
 
 def _num(x: float) -> str:
@@ -266,7 +316,7 @@ def _body_xml(body: Body, dimension: int, knobs: dict, ground: str = "plane") ->
         # joint's qpos and qvel describe the body itself (align="false" keeps it so)
         frame = {"name": body.name, "pos": list(body.position), "quat": q0}
         geom = {"name": body.name, **_geom(body, [1, 0, 0, 0]), **no_collide}
-        joint_xml = '<freejoint align="false"/>'
+        joint_xml = _element("freejoint", _known("(world)body/freejoint", {"align": "false"}, knobs["left_out"]))
         inertial = {"pos": [0, 0, 0], "quat": [1, 0, 0, 0]}
         knobs["joint"][body.name] = "free"
     else:
@@ -293,15 +343,15 @@ def _pair_xml(scene: Scene, n: float, dt: float, knobs: dict, invweight: dict | 
         if mat.compliance is not None:  # Hooke (capabilities turn the others away)
             # invweight None: the first compile, which only reads body_invweight0
             w = 1.0 if invweight is None else invweight[a.name] + invweight[b.name]
-            pair = {"geom1": a.name, "geom2": b.name, **hooke_row(mat.compliance.k, w),
-                    "margin": 0, "gap": 0, "adhesion": 0}
+            pair = _known("contact/pair", {"geom1": a.name, "geom2": b.name, **hooke_row(mat.compliance.k, w),
+                                           "margin": 0, "gap": 0, "adhesion": 0}, knobs["left_out"])
             knobs["pair"]["|".join(pair_key(a.name, b.name))] = {
                 **pair, "e": mat.e, "law": "hooke", "k": mat.compliance.k, "invweight": w}
             out.append(_element("pair", pair))
             continue
         k, damping = contact_spring_damper(mat.e, n, dt)
-        pair = {"geom1": a.name, "geom2": b.name, "solref": [-k, -damping], "solimp": list(SOLIMP),
-                "margin": 0, "gap": 0, "adhesion": 0}
+        pair = _known("contact/pair", {"geom1": a.name, "geom2": b.name, "solref": [-k, -damping],
+                                       "solimp": list(SOLIMP), "margin": 0, "gap": 0, "adhesion": 0}, knobs["left_out"])
         if mat.frictional:  # one coefficient: capabilities turn away mu_k != mu_s
             pair.update(condim=3, friction=[mat.mu_s, mat.mu_s, 0, 0, 0],
                         solreffriction=[0, -1.0 / (n * dt)])
@@ -325,12 +375,13 @@ def scene_mjcf(scene: Scene, settings: Settings, iterations: int, n: float,
               "solver": "Newton", "iterations": iterations, "tolerance": TOLERANCE,
               "ls_iterations": 50, "noslip_iterations": 0, "cone": CONE, "impratio": IMPRATIO,
               "density": 0, "viscosity": 0, "wind": [0, 0, 0]}
-    flag = {"gravity": "enable" if "gravity" in scene.effects else "disable",
-            "contact": "enable" if "contact" in scene.effects else "disable",
-            "sleep": "disable", "speculative": "disable", "override": "disable",
-            "autoreset": "disable",  # a blown-up state stays visible instead of resetting
-            "warmstart": "enable"}
-    compiler = {"inertiafromgeom": "false", "alignfree": "false", "angle": "radian"}
+    left_out = {}  # the ABSENT_MEANS attributes this release does not know
+    flag = _known("option/flag", {"gravity": "enable" if "gravity" in scene.effects else "disable",
+                                  "contact": "enable" if "contact" in scene.effects else "disable",
+                                  "sleep": "disable", "speculative": "disable", "override": "disable",
+                                  "autoreset": "disable",  # a blown-up state stays visible instead of resetting
+                                  "warmstart": "enable"}, left_out)
+    compiler = _known("compiler", {"inertiafromgeom": "false", "alignfree": "false", "angle": "radian"}, left_out)
     knobs = {"compiler": compiler, "option": option, "flag": flag,
              "restitution_map": {"contact_steps_n": n, "w": math.pi / (n * settings.dt),
                                  "k": "w^2", "b": "2 zeta w, at most 1/dt"},
@@ -339,7 +390,7 @@ def scene_mjcf(scene: Scene, settings: Settings, iterations: int, n: float,
                                "D": "sum of the two bodies' body_invweight0 (translational)",
                                "force": "k xi per contact row (condim 1)"}}
                 if "hooke" in scene.contact_laws else {}),
-             "ground": ground, "joint": {}, "inertial": {}, "geom": {}, "pair": {}}
+             "ground": ground, "joint": {}, "inertial": {}, "geom": {}, "pair": {}, "left_out": left_out}
     bodies = "".join(_body_xml(b, scene.dimension, knobs, ground) for b in scene.bodies)
     pairs = _pair_xml(scene, n, settings.dt, knobs, invweight)
     xml = ('<mujoco model="physval">' + _element("compiler", compiler)
@@ -389,6 +440,9 @@ class MuJoCoSimulation(Simulation):
         self._pair_keys = list(index)
         self._f6 = np.zeros(6)  # mj_contactForce's output (pyramidal cones only)
         self._elliptic = model.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
+        # mjContact.adhesion, which mj_contactForce subtracts, exists from MuJoCo 3.11.0 on
+        # (before it a contact has no adhesion)
+        self._adhesion = hasattr(d.contact, "adhesion")
         # contacts come from <pair>s only: which carry friction rows (condim 3)
         rubs = model.pair_dim > 1
         self._rubs = "all" if rubs.all() else "some" if rubs.any() else "none"
@@ -465,7 +519,9 @@ class MuJoCoSimulation(Simulation):
         full = self._buffer[:, :steps]
         if not full.flags.c_contiguous:
             full = np.empty((1, steps, self._state.shape[1]))
-        _rollout.rollout([m], [d], self._state, nstep=steps, initial_warmstart=self._warm, state=full,
+        # one model in a list and one MjData as such: the call every release from 3.2.6 takes
+        # (3.2.6 takes no list of MjData, 3.2.0-3.2.5 no list of models)
+        _rollout.rollout([m], d, self._state, nstep=steps, initial_warmstart=self._warm, state=full,
                          skip_checks=True)
         full = full[0]
         out[:, :self._nq] = full[:, 1:1 + self._nq]
@@ -530,12 +586,13 @@ class MuJoCoSimulation(Simulation):
             return sel, np.zeros((0, 3))
         if self._elliptic and self._rubs == "all":  # condim 3 everywhere: three rows a contact
             f = d.efc_force[a[:, None] + _ROWS]
-            f[:, 0] -= con.adhesion[sel]
+            if self._adhesion:
+                f[:, 0] -= con.adhesion[sel]
             return sel, f
         f = np.zeros((len(a), 3))
         if self._elliptic:  # mj_contactForce's elliptic branch, all contacts at once
             efc = d.efc_force
-            f[:, 0] = efc[a] - con.adhesion[sel]
+            f[:, 0] = efc[a] - con.adhesion[sel] if self._adhesion else efc[a]
             if self._rubs == "some":  # condim 1 pairs have no friction rows: zeros
                 rub = con.dim[sel] > 1
                 f[rub, 1] = efc[a[rub] + 1]
@@ -594,6 +651,10 @@ class MuJoCoSimulation(Simulation):
 class MuJoCoAdapter(Adapter):
     name = "mujoco"
     package = "mujoco"
+    # 3.2.6 (Dec 2024) to 4.x: every release of the last two years runs the conformance battery
+    # (the MJCF written is the release's own, mjcf_schema); 3.2.0-3.2.5 lack rollout([m], d) and
+    # before 3.2.1 the autoreset flag. Resting stacks of boxes topple before 3.12.0 (README).
+    supported = ">=3.2.6,<5"
     capabilities = Capabilities(
         dimensions=frozenset({2, 3}),
         shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),

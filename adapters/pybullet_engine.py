@@ -121,6 +121,8 @@ GROUNDS = ("plane", "box")
 class PyBulletAdapter(Adapter):
     name = "pybullet"
     package = "pybullet"
+    # the release the conformance battery ran on; the next major (minor for 0.x) may change the API
+    supported = ">=3.2.7,<4"
     capabilities = Capabilities(
         dimensions=frozenset({2, 3}),
         shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),

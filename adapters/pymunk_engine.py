@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import sys
+from importlib import metadata
 
 import numpy as np
 import pymunk
@@ -90,6 +91,8 @@ class _PointSet:
 class PymunkAdapter(Adapter):
     name = "pymunk"
     package = "pymunk"
+    # 7.0.0 runs the battery as 7.3.1 does, bit for bit; Pymunk 6 has no Space.on_collision
+    supported = ">=7.0.0,<8"
     capabilities = Capabilities(
         dimensions=frozenset({2}),
         shapes=frozenset({"circle", "rect", "plane"}),
@@ -116,7 +119,8 @@ class PymunkAdapter(Adapter):
         self.collision_slop = float(collision_slop)
 
     def version(self) -> str:
-        return f"{pymunk.version} (Munk2D {pymunk.chipmunk_version})"
+        # the distribution's version: pymunk 7.0.0's pymunk.version reads "2.0.0", its Munk2D's
+        return f"{metadata.version('pymunk')} (Munk2D {pymunk.chipmunk_version})"
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
         reason = self.capabilities.cannot_run(scene)

@@ -87,6 +87,8 @@ RULE_NAMES = {"max": "MAX", "min": "MIN", "product": "MULTIPLY"}
 class RapierAdapter(Adapter):
     name = "rapier"
     package = "rapier3d"
+    # the release the conformance battery ran on; the next major (minor for 0.x) may change the API
+    supported = ">=0.36.1,<0.37"
     capabilities = Capabilities(
         dimensions=frozenset({2, 3}),
         shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),

@@ -48,6 +48,7 @@ ON_DEMAND_BOXES = {"single_contact": 2, "spook": 4, "pgs": 5}
 
 class ReferenceAdapter(Adapter):
     package = "physval"
+    supported = None  # part of physval itself: no engine release to check
     capabilities = Capabilities(
         dimensions=frozenset({2, 3}),
         shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),

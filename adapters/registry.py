@@ -7,6 +7,9 @@ A plug-in entry point or ad-hoc spec names an `Adapter` subclass (instantiated w
 arguments), an `Adapter` instance, or a function returning one. Its known deviations live
 in the file the adapter declares (`Adapter.deviations_file()`; by default
 `xfails/<name>.txt` beside the adapter's module), so a plug-in ships them with itself.
+
+`version_problem(name)` says in one line when the installed engine release lies outside the
+range its adapter declares (`Adapter.supported`).
 """
 from __future__ import annotations
 
@@ -15,6 +18,7 @@ import importlib
 import importlib.util
 import sys
 from dataclasses import dataclass, field
+from importlib import metadata
 from importlib.metadata import entry_points
 from pathlib import Path
 
@@ -194,3 +198,36 @@ def available(name: str, adapters: tuple[str, ...] = ()) -> bool:
         return True
     except EngineError:
         return False
+
+
+def range_problem(adapter: Adapter, installed: str) -> str | None:
+    """One line if release `installed` of the adapter's package lies outside the adapter's
+    `supported` range, else None (also when it declares none). Pre-releases count as
+    their release."""
+    if adapter.supported is None:
+        return None
+    from packaging.specifiers import SpecifierSet
+    from packaging.version import InvalidVersion, Version
+    try:
+        inside = SpecifierSet(adapter.supported).contains(Version(installed), prereleases=True)
+    except InvalidVersion:
+        return (f"{adapter.package} {installed} is not a PEP 440 version: whether it lies in the supported "
+                f"range {adapter.supported} of adapter {adapter.name} cannot be told")
+    if inside:
+        return None
+    return f"{adapter.package} {installed} is outside the supported range {adapter.supported} of adapter {adapter.name}"
+
+
+def version_problem(name: str, adapters: tuple[str, ...] = ()) -> str | None:
+    """One line if the installed release of engine `name` lies outside its adapter's
+    `supported` range ("mujoco 3.1.0 is outside the supported range >=3.2.6,<5 of adapter
+    mujoco"), else None. EngineError as `get` for an unknown or missing engine."""
+    adapter = get(name, adapters)
+    if adapter.supported is None:
+        return None
+    try:
+        installed = metadata.version(adapter.package)
+    except metadata.PackageNotFoundError:
+        return (f"adapter {name} declares supported releases of {adapter.package}, "
+                "which is not installed as a distribution")
+    return range_problem(adapter, installed)

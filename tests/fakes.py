@@ -71,6 +71,21 @@ class FakeAdapter(Adapter):
         return sim
 
 
+class OtherFake(FakeAdapter):
+    """A second stand-in engine, `fake-2` (`--adapter tests/fakes.py:OtherFake`)."""
+
+    def __init__(self):
+        super().__init__("fake-2")
+
+
+class CrashingFake(FakeAdapter):
+    """A stand-in engine whose every run raises in its first step, `fake-crash`
+    (`--adapter tests/fakes.py:CrashingFake`)."""
+
+    def __init__(self):
+        super().__init__("fake-crash", crash_at=1)
+
+
 # --- a time-stepped bouncing ball: the discrete impacts the rebound tolerances cover ------
 
 def stepped_ball(e: float, h: float, dt: float, duration: float, order: str = "velocity",

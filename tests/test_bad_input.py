@@ -134,6 +134,8 @@ def _physval(*args):
     (["sweep", "--engines", "pymunk", "--cases", "resting_blocks[n=5]"], "has no sweep point"),
     (["stress", "--cases", "robustness_nothing"], "unknown case 'robustness_nothing'"),
     (["known", "no-such-engine"], "unknown engine 'no-such-engine'"),
+    (["run", "--cases", "central_impact[drop,e=0.5]", "--engines", "reference", "--save-trajectories", ""],
+     "--save-trajectories '': must name a folder"),
 ])
 def test_cli_bad_input_is_one_line_and_exit_2(args, message, tmp_path):
     out = _physval(*args, "--out", str(tmp_path / "out"))
@@ -141,6 +143,38 @@ def test_cli_bad_input_is_one_line_and_exit_2(args, message, tmp_path):
     assert message in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1 and "Traceback" not in out.stderr
     assert not (tmp_path / "out" / "results.csv").exists(), "bad input must stop before any job"
+
+
+@pytest.mark.parametrize("address", ["foo", "tcp://host:port", "http://127.0.0.1:8786"])
+def test_a_malformed_scheduler_address_is_one_line(address, tmp_path):
+    """In a process of its own: the traceback of a half-made Dask client came at exit."""
+    import subprocess
+    import sys
+    proc = subprocess.run([sys.executable, "-m", "physval", "run", "--cases", "central_impact[drop,e=0.5]",
+                           "--engines", "reference", "--scheduler", address, "--out", str(tmp_path)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=120)
+    (line,) = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2 and line.startswith(f"physval: error: --scheduler {address!r}: not a Dask "
+                                                    "scheduler address; give tcp://HOST:PORT"), proc.stderr
+
+
+@pytest.mark.parametrize("command", ["run", "sweep", "stress"])
+@pytest.mark.parametrize("removed,replacement", [("--no-effective", "--readings laws"),
+                                                 ("--no-laws", "--readings effective")])
+def test_a_removed_option_names_its_replacement(command, removed, replacement):
+    out = _physval(command, removed)
+    assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1, out.stderr
+    assert f"{removed} was removed: use physval run {replacement}" in out.stderr, out.stderr
+    assert "--readings takes effective, laws, all, none or auto" in out.stderr
+
+
+def test_what_the_removed_options_note_says_readings_takes_is_what_it_takes():
+    from physval.commands.options import READINGS_TAKES
+    from physval.commands.run import READINGS, readings_of
+    named = READINGS_TAKES.split(" takes ", 1)[1].replace(" or ", ", ").split(", ")
+    assert set(named) == set(READINGS) | {"all", "none", "auto"}
+    for name in named:
+        readings_of(name, cases_named=False)  # raises UsageError if it is not taken
 
 
 def test_bad_output_folders_stop_before_any_work(tmp_path):

@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 
 from physval.core.executor import START_METHODS
+from physval.core.selection import select_variants
 from physval.core.session import Execution
 from physval.readings import bench
 from physval.readings.bench import (WHAT, fault_matrix, overhead, pgs_scaling, steps_side_by_side, sweep_workers,
@@ -18,6 +19,9 @@ def add_parser(sub) -> None:
     bn.add_argument("what", nargs="*", metavar="WHAT", help=f"{', '.join(WHAT)} (default: all)")
     options.add_engines(bn, "engines: names or globs (default: all installed, the reference with its default "
                             "formulation)")
+    bn.add_argument("--cases", nargs="+", metavar="SPEC",
+                    help="faults only: these families or variants (the --cases grammar; default: every family "
+                         "but the robustness ones)")
     bn.add_argument("--out", default="reports/bench", metavar="DIR", help="output folder (default: reports/bench)")
     bn.add_argument("--scheduler", metavar="ADDRESS", help=argparse.SUPPRESS)
     bn.add_argument("--job-timeout", type=options.seconds_or_off, default=1800.0, metavar="S",
@@ -52,8 +56,9 @@ def run(args) -> int:
     if "faults" in what:
         say("planted faults: the detection matrix")
         from physval.faults import ENGINES
+        chosen = select_variants(ctx.resolver().families, args.cases) if args.cases else None
         sections["faults"] = fault_matrix(engines if args.engines else [e for e in engines if e in ENGINES], ctx,
-                                          progress=not args.quiet)
+                                          progress=not args.quiet, families=chosen)
     write(out, sections)
     print(f"wrote {out / 'bench.md'}")
     return 0

@@ -67,7 +67,7 @@ def run(args) -> int:
         if path is None or not path.exists():
             print(f"{engine}: no known-deviation file ({path})")
             continue
-        entries = deviations.parse(path)
+        entries = [e for e in deviations.parse(path) if e.applies_to(engine)]
         for fam_name in dict.fromkeys(e.family for e in entries):
             if fam_name not in families:
                 print(f"{engine}: {path.name}: no family {fam_name!r}", file=sys.stderr)

@@ -15,6 +15,25 @@ class UsageError(ValueError):
     """Bad input on the command line: one line, exit code 2."""
 
 
+# Options that were removed -> (what replaces them, what the replacement takes). Every
+# command's parser (physval.cli) names the replacement instead of only "unrecognized".
+READINGS_TAKES = "--readings takes effective, laws, all, none or auto"
+REMOVED = {
+    "--no-effective": ("physval run --readings laws (or none)", READINGS_TAKES),
+    "--no-laws": ("physval run --readings effective (or none)", READINGS_TAKES),
+}
+
+
+def with_replacements(message: str) -> str:
+    """argparse's error message, with the replacement of each removed option it names."""
+    if not message.startswith("unrecognized arguments:"):
+        return message
+    given = dict.fromkeys(a.split("=", 1)[0] for a in message.split(":", 1)[1].split())
+    removed = [o for o in given if o in REMOVED]
+    uses = [f"{o} was removed: use {REMOVED[o][0]}" for o in removed]
+    return "; ".join([message, *uses, *dict.fromkeys(REMOVED[o][1] for o in removed)])
+
+
 def positive_float(text: str) -> float:
     try:
         x = float(text)
@@ -123,8 +142,15 @@ def context_of(args):
     if files:
         tried = dry_run.try_files([(f, str(f)) for f in files], dry_run.execution_of(args))
         ctx = replace(ctx, broken=tuple(Problem(t.file, t.family, t.problem) for t in tried if t.problem))
-    from physval.core import deviations
-    deviations.load(ctx.known_files)  # a --known file that does not parse stops here
+    if ctx.known_files:  # a --known file that does not parse, or names what does not exist, stops here
+        from physval.core import deviations
+        try:
+            entries = deviations.load(ctx.known_files)
+        except deviations.DeviationFileError as exc:
+            raise UsageError(f"--known {exc}") from None
+        unknown = deviations.unknown_names(entries, ctx.resolver().families, registry.engine_names(ctx.adapters))
+        if unknown:
+            raise UsageError(f"--known {unknown}")
     return ctx
 
 
@@ -142,21 +168,33 @@ def cases_of(args, resolver, families: dict | None = None, full: bool = False) -
     return chosen
 
 
-def output_folder(text: str) -> Path:
-    """--out as a folder that exists and can be written to (made if missing)."""
+def output_folder(text: str, option: str = "--out") -> Path:
+    """`option`'s value as a folder that exists and can be written to (made if missing)."""
     if not text or not text.strip():
-        raise UsageError("--out '': must name a folder")
+        raise UsageError(f"{option} '': must name a folder")
     out = Path(text)
     if out.exists() and not out.is_dir():
-        raise UsageError(f"--out {text}: exists and is not a folder")
+        raise UsageError(f"{option} {text}: exists and is not a folder")
     try:
         out.mkdir(parents=True, exist_ok=True)
         probe = out / f".physval-write-test-{os.getpid()}"
         probe.write_bytes(b"")
         probe.unlink()
     except OSError as exc:
-        raise UsageError(f"--out {text}: cannot write there ({exc.strerror or exc})") from None
+        raise UsageError(f"{option} {text}: cannot write there ({exc.strerror or exc})") from None
     return out
+
+
+def output_file(text: str, option: str) -> Path:
+    """A file to write at the end, checked now: a name, not a folder, in a folder that can be
+    written to (made if missing)."""
+    if not text or not text.strip():
+        raise UsageError(f"{option} '': must name a file")
+    path = Path(text)
+    if path.is_dir():
+        raise UsageError(f"{option} {text}: is a folder; name a file")
+    output_folder(str(path.parent), option)
+    return path
 
 
 def check_scheduler(address: str | None) -> None:
@@ -181,7 +219,29 @@ def engines_of(args, ctx, default: list[str] | None = None) -> list[str]:
     resolver = ctx.resolver()
     for e in chosen:
         resolver.known(e)  # an engine's own known-deviation file that does not parse stops here
-    return chosen
+    named = {w.strip() for v in args.engines or [] for w in v.split(",")}
+    return supported_releases(chosen, ctx, named)
+
+
+def supported_releases(engines: list[str], ctx, named: set[str]) -> list[str]:
+    """The engines whose installed release lies in their adapter's supported range. One
+    outside it stops the command if it was named by its name (UsageError), else (a glob, the
+    default) is left out with one line on stderr; either way before any work. An engine
+    not installed stays (its rows say so)."""
+    from adapters import registry
+    kept = []
+    for e in engines:
+        try:
+            problem = registry.version_problem(e, ctx.adapters)
+        except registry.EngineError:
+            problem = None
+        if problem and e in named:
+            raise UsageError(f"--engines {e}: {problem}")
+        if problem:
+            print(f"physval: {e} left out: {problem}", file=sys.stderr)
+            continue
+        kept.append(e)
+    return kept
 
 
 def _installed(ctx, engine: str) -> bool:

@@ -21,7 +21,8 @@ EPILOG = """examples:
   physval stress --long                             every robustness scene (minutes to hours) and the full map
   physval stress --engines mujoco,pybullet --cases 'robustness_stacks*'
   physval stress --cases 'robustness_pile[6^3*]' --long --out /tmp/pile
-exit codes: 0 the battery completed (failing physics is a result); 2 bad input; 130 interrupted."""
+exit codes: 0 the battery completed (failing physics is a result); 2 bad input; 74 the disk is full;
+130 interrupted."""
 
 
 def add_parser(subparsers):

@@ -25,6 +25,12 @@ class Context:
     def resolver(self) -> "Resolver":
         return _resolver(self)
 
+    @property
+    def options(self) -> tuple[str, ...]:
+        """The command-line options that extend the library: --cases-dir and --adapter."""
+        return (*(x for d in self.cases_dirs for x in ("--cases-dir", d)),
+                *(x for a in self.adapters for x in ("--adapter", a)))
+
 
 class Resolver:
     """Families, adapters and known deviations of one Context, each made once per process."""
@@ -72,15 +78,16 @@ class Resolver:
         return found
 
     def known(self, engine: str) -> list[deviations.Deviation]:
-        """The engine's own deviation file, then the user's --known files."""
+        """The entries for this engine of its own deviation file, then of the user's --known files."""
         if engine not in self._known:
             own = None
             try:
                 own = self.adapter(engine).deviations_file()
             except registry.EngineError:
                 pass
-            self._known[engine] = deviations.load([own]) + [replace(d, user=True)
-                                                             for d in deviations.load(self.ctx.known_files)]
+            users = [replace(d, user=True) for d in deviations.load(self.ctx.known_files)]
+            self._known[engine] = [replace(d, options=self.ctx.options) for d in deviations.load([own]) + users
+                                   if d.applies_to(engine)]
         return self._known[engine]
 
     def deviation_files(self, engine: str) -> list[Path]:
@@ -94,3 +101,9 @@ class Resolver:
 @functools.cache
 def _resolver(ctx: Context) -> Resolver:
     return Resolver(ctx)
+
+
+def forget() -> None:
+    """Drop the resolvers made so far: a command run again in the same process (a script,
+    a test) reads deviation files, user cases and adapters afresh, as its workers do."""
+    _resolver.cache_clear()

@@ -218,13 +218,17 @@ def faults_note() -> str:
     return FAULTS_NOTE + "\n\n" + "\n".join(f"- `{f.name}`: {f.summary}" for f in faults.FAULTS)
 
 
-def fault_matrix(engines: list[str], ctx: Context, progress: bool = True) -> pd.DataFrame:
+def fault_matrix(engines: list[str], ctx: Context, progress: bool = True,
+                 families: dict[str, list] | None = None) -> pd.DataFrame:
     """Fault x family detection counts for every engine of `engines` that faults are
-    written for. Jobs run in this process (physval.faults.verdicts), so the planted
-    wrapper takes the engine's name and bands without being registered as an engine."""
+    written for, over `families` (name -> variants; default: the default variants of every
+    family but the robustness ones). Jobs run in this process (physval.faults.verdicts),
+    so the planted wrapper takes the engine's name and bands without being registered as
+    an engine."""
     from physval import faults
     resolver = ctx.resolver()
-    families = {n: f.variants for n, f in resolver.families.items() if "robustness" not in f.tags}
+    if families is None:
+        families = {n: f.variants for n, f in resolver.families.items() if "robustness" not in f.tags}
     out = []
     for engine in engines:
         try:
