@@ -114,8 +114,14 @@ def add_execution(p, out: str, workers: int | None = None, job_timeout: float | 
 # --- checks before any work ---------------------------------------------------------------
 
 def context_of(args):
-    """The run's Context from --cases-dir, --adapter and --known (each checked)."""
-    from physval.core import Context
+    """The run's Context from --cases-dir, --adapter and --known (each checked). User code is
+    tried in worker processes first (physval.core.dry_run): an --adapter that cannot be
+    imported and made stops here; a family file that fails its dry run is left out of the
+    Context (`broken`: not imported, here or by any worker) and stops only a selection
+    that needs it (cases_of)."""
+    from dataclasses import replace
+
+    from physval.core import Context, dry_run
     for d in getattr(args, "cases_dir", None) or []:
         if not d or not Path(d).is_dir():
             raise UsageError(f"--cases-dir {d!r}: not a folder")
@@ -126,7 +132,14 @@ def context_of(args):
                   adapters=tuple(getattr(args, "adapter", None) or []),
                   known_files=tuple(str(Path(f).resolve()) for f in getattr(args, "known", None) or []))
     from adapters import registry
+    from cases.registry import Problem, case_files
+    if ctx.adapters:
+        dry_run.try_adapters(ctx.adapters, dry_run.execution_of(args))
     registry.specs(ctx.adapters)  # an ad-hoc adapter that does not load stops here
+    files = [f for d in ctx.cases_dirs for f in case_files(d)]
+    if files:
+        tried = dry_run.try_files([(f, str(f)) for f in files], dry_run.execution_of(args))
+        ctx = replace(ctx, broken=tuple(Problem(t.file, t.family, t.problem) for t in tried if t.problem))
     if ctx.known_files:  # a --known file that does not parse, or names what does not exist, stops here
         from physval.core import deviations
         try:
@@ -137,6 +150,20 @@ def context_of(args):
         if unknown:
             raise UsageError(f"--known {unknown}")
     return ctx
+
+
+def cases_of(args, resolver, families: dict | None = None, full: bool = False) -> dict:
+    """The --cases selection among `families` (default: every family the resolver has):
+    family name -> variants. A user's family file that cannot be used stops the command
+    when the selection may need it (no --cases, or a spec naming it: its one line, exit 2);
+    otherwise the command goes on without it and one line on stderr says why."""
+    from physval.core.selection import select_variants
+    every = resolver.families  # loading them completes resolver.broken
+    chosen = select_variants(every if families is None else families, getattr(args, "cases", None), full=full,
+                             unusable=list(resolver.broken.values()))
+    for problem in resolver.broken.values():
+        print(f"physval: left out {problem.message}", file=sys.stderr)
+    return chosen
 
 
 def output_folder(text: str, option: str = "--out") -> Path:

@@ -14,7 +14,6 @@ import time
 from physval.commands import options
 from physval.core import COLUMNS, run_jobs
 from physval.core.plan import plan
-from physval.core.selection import select_variants
 from physval.core.store import RowStore, cache_keys
 
 READINGS = ("effective", "laws")
@@ -83,12 +82,10 @@ def run(args) -> int:
     if not args.scheduler:
         from physval.core.executor import start_fork_server
         start_fork_server(args.start_method)  # loads in parallel with what follows
-    ctx = options.context_of(args)
+    ctx = options.context_of(args)  # user families dry-run in workers
     resolver = ctx.resolver()
     families = resolver.families
-    from physval.core.dry_run import dry_run_user_families
-    dry_run_user_families(ctx)
-    chosen = select_variants(families, args.cases, full=args.full)
+    chosen = options.cases_of(args, resolver, full=args.full)
     engines = options.engines_of(args, ctx)
     if args.dt is not None:
         from adapters.base import Settings

@@ -7,7 +7,6 @@ import sys
 import time
 
 from physval.core import COLUMNS, Job
-from physval.core.selection import select_variants
 from physval.core.session import Execution, run_stored
 from physval.readings.robustness import (MAP, QUICK_MAP, TAG, determinism, stability_map,
                                          write_stress_report)
@@ -56,7 +55,7 @@ def run(args) -> int:
     ctx = options.context_of(args)
     resolver = ctx.resolver()
     families = {n: f for n, f in resolver.families.items() if TAG in f.tags}
-    chosen = select_variants(families, args.cases, full=args.long)
+    chosen = options.cases_of(args, resolver, families, full=args.long)
     engines = options.engines_of(args, ctx, options.fast_engines(ctx))
     out = options.output_folder(args.out)
     options.check_scheduler(args.scheduler)

@@ -20,6 +20,7 @@ class Context:
     cases_dirs: tuple[str, ...] = ()   # --cases-dir folders
     adapters: tuple[str, ...] = ()     # --adapter module:Class specs
     known_files: tuple[str, ...] = ()  # --known files (deviations a user expects)
+    broken: tuple = ()                 # cases.registry.Problem of each user file the dry run refused
 
     def resolver(self) -> "Resolver":
         return _resolver(self)
@@ -37,14 +38,17 @@ class Resolver:
     def __init__(self, ctx: Context):
         self.ctx = ctx
         self._families: dict[str, CaseFamily] | None = None
+        self.broken = {p.file: p for p in ctx.broken}  # user files that cannot be used -> cases.registry.Problem
         self._adapters: dict[str, Adapter | registry.EngineError] = {}
         self._known: dict[str, list[deviations.Deviation]] = {}
 
     @property
     def families(self) -> dict[str, CaseFamily]:
+        """The built-in families and the user's usable ones (a user file that is not is
+        left out, in `broken`)."""
         if self._families is None:
             from cases.registry import all_families
-            self._families = all_families(self.ctx.cases_dirs)
+            self._families = all_families(self.ctx.cases_dirs, self.broken)
         return self._families
 
     def family(self, name: str) -> CaseFamily:

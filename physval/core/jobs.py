@@ -81,13 +81,17 @@ class CallResult:
 
 
 def perform(task, resolver: Resolver):
-    """Run a Job (-> Outcome) or a Call (-> CallResult) in this process; never raises."""
-    if isinstance(task, Job):
-        return execute(task, resolver)
+    """Run a Job (-> Outcome) or a Call (-> CallResult) in this process; never raises but
+    on Ctrl-C: whatever else the code it runs raises, an exit (SystemExit) included, is
+    the task's error (a Job's rows say it), so a worker lives on to take the next task."""
     try:
+        if isinstance(task, Job):
+            return execute(task, resolver)
         return CallResult(task, task.fn(task.arg))
-    except Exception as exc:
-        return CallResult(task, error=describe(exc))
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:
+        return lost(task, resolver, describe(exc))
 
 
 def lost(task, resolver: Resolver, reason: str):
@@ -248,7 +252,7 @@ def execute(job: Job, resolver: Resolver) -> Outcome:
             rows.append(blank_row(family.name, job.variant, job.engine, c, status="error", dt=settings.dt,
                                   reason=f"observe() in {where} gave no {c.metric!r}", **fields))
             continue
-        number = _number(value)
+        number = number_of(value)
         if number is None or not math.isfinite(number):
             rows.append(blank_row(family.name, job.variant, job.engine, c, status="error", dt=settings.dt,
                                   reason=f"observe() in {where} gave {c.metric} = {value!r}: not a finite number",
@@ -274,7 +278,8 @@ def _raised(job, family, checks, known, exc, base) -> list[dict]:
     return job_rows(job, family, "error", "the engine raised " + describe(exc), checks, **base)
 
 
-def _number(value) -> float | None:
+def number_of(value) -> float | None:
+    """The float a metric's value stands for; None for a bool or what is no number."""
     if isinstance(value, bool):
         return None
     try:
