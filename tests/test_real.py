@@ -372,3 +372,55 @@ def test_a_batch_whose_worker_dies_or_hangs_costs_only_its_tosses(fault, limit, 
     assert (given.status == "error").all() and given.message.str.contains(why).all(), given.message
     assert given.corner_mean.isna().all() and (given.loss == real.FAIL_LOSS).all()
     assert "## Failed simulations" in (out / "real_report.md").read_text()
+
+
+# --- the output folder --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("option", ["--out", "--cache"])
+def test_a_folder_option_naming_a_file_stops_before_any_work(option, tmp_path, capsys):
+    mine = tmp_path / "report.md"
+    mine.write_text("mine")
+    folders = {"--out": str(tmp_path / "out"), "--cache": str(tmp_path / "cache"), option: str(mine)}
+    assert _cli("--engines", "mujoco", "--limit", "2", *(x for pair in folders.items() for x in pair)) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{option} {mine}: exists and is not a folder" in err[0]
+    # nothing simulated, nothing cached, nothing written
+    assert mine.read_text() == "mine" and not (tmp_path / "cache").exists()
+    assert not (tmp_path / "out" / "real_scores.csv").exists()
+
+
+VANDAL = """
+import pathlib, shutil
+from tests.fakes import FakeAdapter
+
+class Vandal(FakeAdapter):
+    '''Replaces the run's --out folder by a file when it first builds a scene.'''
+    def __init__(self):
+        super().__init__(name="fake-vandal", dimensions=frozenset({{3}}))
+
+    def build(self, scene, settings):
+        out = pathlib.Path({out!r})
+        if out.is_dir():
+            shutil.rmtree(out)
+            out.write_text("in the way")
+        return super().build(scene, settings)
+"""
+
+
+def test_an_out_that_goes_away_during_the_run_keeps_the_results(tmp_path, capsys, monkeypatch):
+    """--out is replaced by a file while the engine runs: the report and every result go to
+    a new folder, one line on stderr names it, exit 1."""
+    import tempfile
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "tmp"))
+    (tmp_path / "tmp").mkdir()
+    out = tmp_path / "out"
+    (tmp_path / "vandal.py").write_text(VANDAL.format(out=str(out)))
+    assert _cli("--adapter", f"{tmp_path / 'vandal.py'}:Vandal", "--engines", "fake-vandal", "--nominal", *QUICK,
+                "--no-cache", "--out", str(out)) == 1
+    assert out.read_text() == "in the way"
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    (rescue,) = (tmp_path / "tmp").glob("physval-real-*")  # (multiprocessing keeps its own folders there too)
+    assert f"cannot write to --out {out}" in line and str(rescue) in line
+    scores = pd.read_csv(rescue / "real_scores.csv")
+    assert sorted(scores[scores.param_set == "nominal"].toss) == [3, 5, 7]
+    assert (rescue / "real_report.md").is_file() and (rescue / "params.json").is_file()

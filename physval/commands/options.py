@@ -117,18 +117,24 @@ def context_of(args):
 
 def output_folder(text: str) -> Path:
     """--out as a folder that exists and can be written to (made if missing)."""
+    return writable_folder(text, "--out")
+
+
+def writable_folder(text: str, option: str) -> Path:
+    """A folder option's value as a folder that exists and can be written to (made if
+    missing); UsageError naming the option if it cannot be."""
     if not text or not text.strip():
-        raise UsageError("--out '': must name a folder")
+        raise UsageError(f"{option} '': must name a folder")
     out = Path(text)
     if out.exists() and not out.is_dir():
-        raise UsageError(f"--out {text}: exists and is not a folder")
+        raise UsageError(f"{option} {text}: exists and is not a folder")
     try:
         out.mkdir(parents=True, exist_ok=True)
         probe = out / f".physval-write-test-{os.getpid()}"
         probe.write_bytes(b"")
         probe.unlink()
     except OSError as exc:
-        raise UsageError(f"--out {text}: cannot write there ({exc.strerror or exc})") from None
+        raise UsageError(f"{option} {text}: cannot write there ({exc.strerror or exc})") from None
     return out
 
 

@@ -8,6 +8,7 @@ import json
 import math
 import os
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -31,7 +32,8 @@ EPILOG = """examples:
   physval real --adapter my_engine.py:MyAdapter --engines my-engine --nominal --limit 20
 tosses run in batches of {batch} per worker task: a batch whose worker crashes or runs over
 --job-timeout becomes error rows for its tosses; the run goes on.
-exit codes: 0 the run completed (poor agreement is a result); 2 bad input.""".format(
+exit codes: 0 the run completed (poor agreement is a result); 2 bad input (said before any work);
+1 --out could not be written at the end (the results went to the folder the message names).""".format(
     batch=BATCH)
 
 
@@ -172,7 +174,8 @@ def run(args) -> int:
         raise options.UsageError("no engine to score: " + "; ".join(f"{e}: {w}" for e, w in skipped.items()))
     given = read_params(args.params, registry.engine_names(ctx.adapters), ctx) if args.params else {}
     do_fit = not args.params and not args.nominal
-    out = options.output_folder(args.out)
+    out = options.output_folder(args.out)  # input checked: the folders, then the work
+    cache = None if args.no_cache else str(options.writable_folder(args.cache or str(default_cache()), "--cache"))
     options.check_scheduler(args.scheduler)
 
     usable, unusable = [], {}
@@ -189,7 +192,6 @@ def run(args) -> int:
         raise options.UsageError(f"no test tosses (odd ids) in {source or ct.DATA}")
     if args.limit:
         train, test = train[:args.limit], test[:args.limit]
-    cache = None if args.no_cache else str(Path(args.cache) if args.cache else default_cache())
     common = {"horizon": args.horizon, "dt": DT, "source": source, "cache": cache, "ctx": ctx}
     say(f"{len(train)} training and {len(test)} test tosses from {source or 'the packaged data'}; "
         f"engines {', '.join(engines)}" + (f" (skipped: {', '.join(skipped)})" if skipped else ""))
@@ -292,7 +294,14 @@ def run(args) -> int:
                 + ", ".join(f"{e} {engine_version(e, ctx)}" for e in engines if e not in skipped) + "; command: "
                 + " ".join(["physval"] + sys.argv[1:])),
     }
-    path = write_report(out, scores, noise, trajectories, fits, skipped, notes, source)
+    try:
+        path = write_report(out, scores, noise, trajectories, fits, skipped, notes, source)
+    except OSError as exc:  # --out went away or filled up during the run: keep the results elsewhere
+        rescue = Path(tempfile.mkdtemp(prefix="physval-real-"))
+        write_report(rescue, scores, noise, trajectories, fits, skipped, notes, source)
+        print(f"physval real: error: cannot write to --out {args.out} ({exc.strerror or exc}); the report and "
+              f"every result are in {rescue} instead", file=sys.stderr)
+        return 1
     say(f"wrote {path} in {time.perf_counter() - started:.0f} s")
     return 0
 
