@@ -56,7 +56,6 @@ NARROWED = {
     # known deviations
     "physval known mujoco": Narrowed('--cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
     "physval known 'drake-*' --write": Narrowed('--cases "central_impact[drop,e=0.5]"', needs=("drake",)),
-    "physval known 'reference-*' --on-demand --write": Narrowed('--cases "central_impact[drop,e=0.5]"'),
     # a user's case family
     "physval check-case my_cases/second_bounce.py": Narrowed(),
     "physval run --cases-dir my_cases --cases second_bounce --engines reference,pybullet": Narrowed(needs=("pybullet",)),
@@ -69,12 +68,15 @@ NARROWED = {
                                needs=("mujoco",)),
     "physval stress --long": Narrowed('--cases "robustness_overlap[box_in_ground,3D]" --engines mujoco --no-map',
                                       needs=("mujoco",)),
-    "physval bench": Narrowed("overhead --engines reference"),
-    "physval bench overhead": Narrowed("--engines reference"),
+    "physval bench": Narrowed("overhead --engines mujoco", needs=("mujoco",)),
+    "physval bench overhead": Narrowed("--engines mujoco", needs=("mujoco",)),
     "physval bench step": Narrowed("--engines mujoco", needs=("mujoco",)),
-    "physval bench sweep-workers": Narrowed("--engines reference"),
+    "physval bench sweep-workers": Narrowed("--engines mujoco", needs=("mujoco",)),
     "physval bench pgs": Narrowed(),
-    "physval bench faults": Narrowed('--engines reference --cases "central_impact[drop,e=0.5]" incline_threshold'),
+    "physval bench faults": Narrowed('--engines mujoco --cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
+    # an engine's CI gate (exit 1 only if a check falls under --fail-on)
+    "physval run --engines mujoco --junitxml physval.xml --fail-on fail,error,unstable,changed": Narrowed(
+        '--cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
     # the real-world tier
     "physval real": Narrowed(REAL_QUICK, needs=("mujoco",)),
     "physval real --tosses my_tosses.csv --params reports/real/params.json": Narrowed("--engines mujoco",
