@@ -39,11 +39,10 @@ DEFAULT = Config()  # the engine's stated defaults (iterations: DEFAULT.iteratio
 IMPACT_MODEL = {"compliant": "compliant"}  # every other formulation: "simultaneous"
 
 
-# Boxes from which a formulation's run takes a minute or more (resting_blocks, 3 s of
-# simulated time at dt = 1e-3, on a loaded 2-core machine): pairwise Newton-Coulomb 74 s
-# already for one box on the ground, 7 min for a 10-box stack; SPOOK's 200 PGS sweeps 98 s
-# for 4 boxes, 285 s for 5; PGS 60 s for 5. The default formulation, si, runs everything.
-ON_DEMAND_BOXES = {"single_contact": 2, "spook": 4, "pgs": 5}
+# No run of a formulation is on demand (Adapter.on_demand): with their loops compiled
+# (reference_impl/compiled.py) the slowest default variant, pairwise Newton-Coulomb on a
+# 10-box stack, takes seconds, not minutes. Scenes large by design (the robustness families'
+# many-body variants) are in the families' full grids (physval run --full), for every engine.
 
 
 class ReferenceAdapter(Adapter):
@@ -78,17 +77,6 @@ class ReferenceAdapter(Adapter):
     def version(self) -> str:
         from reference_impl import __version__
         return f"reference_impl {__version__} ({self.formulation})"
-
-    def on_demand(self, scene: Scene) -> str | None:
-        """The iterative formulations solve every corner contact of a stack in pure Python:
-        from ON_DEMAND_BOXES boxes on (measured on resting_blocks, 3 s at dt = 1e-3) a
-        variant takes a minute or more, so it runs only when asked (physval run --on-demand)."""
-        limit = ON_DEMAND_BOXES.get(self.formulation)
-        boxes = sum(isinstance(b.shape, (Box, Rect)) for b in scene.dynamic_bodies)
-        if limit is not None and boxes >= limit:
-            return (f"{self.name} solves the corner contacts of {boxes} boxes in pure Python: a minute or more "
-                    "per variant")
-        return None
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
         reason = self.capabilities.cannot_run(scene)

@@ -23,6 +23,7 @@ from importlib.metadata import entry_points
 from pathlib import Path
 
 from adapters.base import Adapter
+from cases.family import user_code
 
 ENTRY_POINT_GROUP = "physval.engines"
 
@@ -101,31 +102,34 @@ def _plugins() -> dict[str, EngineSpec]:
     return out
 
 
+# What an adapter's code may do, said in the one-line error when it does something else.
+ADAPTER_RULE = "an adapter's module must import, and its class be made, without error or exit"
+
+
 def _import_target(target: str):
-    """The object a 'module:attr' or 'path/to/file.py:attr' spec names."""
+    """The object a 'module:attr' or 'path/to/file.py:attr' spec names. EngineError if
+    it cannot be found, or importing it raises (an exit included)."""
     if ":" not in target:
         raise EngineError(f"--adapter {target!r}: must read 'module:Class' or 'path/to/file.py:Class'")
     where, attr = target.rsplit(":", 1)
-    try:
+    path = Path(where).resolve()
+    if where.endswith(".py") and not path.is_file():
+        raise EngineError(f"--adapter {target!r}: no file {where}")
+    with user_code(f"adapter {target!r}", "cannot be imported:", ADAPTER_RULE, error=EngineError):
         if where.endswith(".py"):
-            path = Path(where).resolve()
             name = f"physval_user_adapters.{path.stem}"
             module = sys.modules.get(name)
             if module is None or getattr(module, "__file__", None) != str(path):
                 spec = importlib.util.spec_from_file_location(name, path)
-                if spec is None or not path.exists():
-                    raise EngineError(f"--adapter {target!r}: no file {where}")
                 module = importlib.util.module_from_spec(spec)
                 sys.modules[name] = module
-                spec.loader.exec_module(module)
+                try:
+                    spec.loader.exec_module(module)
+                except BaseException:
+                    del sys.modules[name]  # not half-loaded the next time
+                    raise
         else:
             module = importlib.import_module(where)
-    except EngineError:
-        raise
-    except ImportError as exc:
-        raise EngineError(f"adapter {target!r} cannot be imported: {exc}") from None
-    except Exception as exc:
-        raise EngineError(f"adapter {target!r} cannot be imported: {type(exc).__name__}: {exc}") from None
     try:
         return getattr(module, attr)
     except AttributeError:
@@ -136,10 +140,8 @@ def _make(target: str, kwargs: dict) -> Adapter:
     obj = _import_target(target)
     if isinstance(obj, Adapter):
         return obj
-    try:
+    with user_code(f"adapter {target!r}", "cannot be made:", ADAPTER_RULE, error=EngineError):
         made = obj(**kwargs)
-    except Exception as exc:
-        raise EngineError(f"adapter {target!r} cannot be made: {type(exc).__name__}: {exc}") from None
     if not isinstance(made, Adapter):
         raise EngineError(f"adapter {target!r} gives a {type(made).__name__}, not an adapters.base.Adapter")
     return made

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import math
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Callable
 
@@ -183,7 +184,13 @@ class CaseFamily:
     def validate(self, full: bool = False) -> None:
         """Raise CaseError, naming the family, variant and field, unless every variant
         builds a valid scene and its checks (`full`: the full grid too)."""
-        from cases.scene import SceneError
+        self.validate_grid(full)
+        for v in self.all_variants if full else self.variants:
+            self.validate_variant(v)
+
+    def validate_grid(self, full: bool = False) -> None:
+        """The family as a whole: its name, tags, a grid of distinct variant ids, and
+        sweep_variants among them. CaseError naming the family otherwise."""
         if not isinstance(self.name, str) or not self.name.isidentifier():
             raise CaseError(f"family name {self.name!r}: must be an identifier (letters, digits, _)")
         unknown = set(self.tags) - set(TAGS)
@@ -191,48 +198,89 @@ class CaseFamily:
             raise CaseError(f"{self.name}: tags {sorted(unknown)}: unknown; choose from {', '.join(TAGS)}")
         if not self.grid:
             raise CaseError(f"{self.name}: grid is empty: a family needs at least one variant")
-        ids = set()
-        for v in self.all_variants if full else self.variants:
-            where = f"{self.name}[{v.id}]"
-            if v.id in ids:
-                raise CaseError(f"{where}: variant id repeats: make variant_id distinguish the grid")
-            ids.add(v.id)
-            try:
-                json.dumps(v.params)
-            except TypeError as exc:
-                raise CaseError(f"{where}: params must be JSON-serialisable ({exc})") from None
-            try:
-                scene = self.scene(v.params)
-            except (SceneError, CaseError) as exc:
-                raise CaseError(f"{where}: {exc}") from None
-            if not isinstance(scene, Scene):
-                raise CaseError(f"{where}: scene() returned {type(scene).__name__}, not a Scene")
-            dt = self.dt_for(v.params)
-            if not (math.isfinite(dt) and 0 < dt <= MAX_DT):
-                raise CaseError(f"{where}: dt = {dt!r}: must lie in (0, {MAX_DT:g}] s")
-            T = self.duration(v.params)
-            if not (isinstance(T, (int, float)) and math.isfinite(T) and T > 0):
-                raise CaseError(f"{where}: duration = {T!r}: must be > 0 s")
-            if T / dt > 5e7:
-                raise CaseError(f"{where}: duration / dt = {T / dt:.3g} steps: more than 5e7")
-            needs = self.needs_of(v.params)
-            from cases.scene import IMPACT_MODEL_NEED, IMPACT_MODELS
-            bad = [n for n in needs if n not in NEEDS and not (n.startswith(IMPACT_MODEL_NEED)
-                                                               and n[len(IMPACT_MODEL_NEED):] in IMPACT_MODELS)]
-            if bad:
-                raise CaseError(f"{where}: needs {sorted(bad)}: unknown; choose from {', '.join(NEEDS)} "
-                                f"or {', '.join(p + '...' for p in NEEDS_PREFIXES)}")
-            try:
-                checks = self.expect(v.params, dt)
-            except CaseError as exc:
-                raise CaseError(f"{where}: expect(): {exc}") from None
-            if not checks:
-                raise CaseError(f"{where}: expect() returned no checks")
-            if not all(isinstance(c, Check) for c in checks):
-                raise CaseError(f"{where}: expect() must return a list of cases.family.Check")
-            metrics = [c.metric for c in checks]
-            if len(set(metrics)) != len(metrics):
-                raise CaseError(f"{where}: expect() names a metric twice: {metrics}")
-        unknown = set(self.sweep_variants) - {v.id for v in self.all_variants}
+        with user_code(self.name, "variant_id() raised", VARIANT_RULE):
+            ids = [v.id for v in (self.all_variants if full else self.variants)]
+            every = {v.id for v in self.all_variants}
+        repeated = sorted({i for i in ids if ids.count(i) > 1})
+        if repeated:
+            raise CaseError(f"{self.name}[{repeated[0]}]: variant id repeats: make variant_id distinguish the grid")
+        unknown = set(self.sweep_variants) - every
         if unknown:
             raise CaseError(f"{self.name}: sweep_variants names no variant: {sorted(unknown)}")
+
+    def validate_variant(self, v: Variant) -> tuple[Scene, float, list[Check]]:
+        """Build the variant (its scene, dt, duration, needs and checks), each checked:
+        what it built. CaseError '<family>[<variant>]: ...' otherwise, for any exception
+        the family's code raises too (an exit included)."""
+        with user_code(v.test_id, "its code raised", VARIANT_RULE):
+            return self._built(v)
+
+    def _built(self, v: Variant) -> tuple[Scene, float, list[Check]]:
+        from cases.scene import IMPACT_MODEL_NEED, IMPACT_MODELS
+        try:
+            json.dumps(v.params)
+        except TypeError as exc:
+            raise CaseError(f"params must be JSON-serialisable ({exc})") from None
+        scene = self.scene(v.params)
+        if not isinstance(scene, Scene):
+            raise CaseError(f"scene() returned {type(scene).__name__}, not a Scene")
+        dt = self.dt_for(v.params)
+        if not (math.isfinite(dt) and 0 < dt <= MAX_DT):
+            raise CaseError(f"dt = {dt!r}: must lie in (0, {MAX_DT:g}] s")
+        T = self.duration(v.params)
+        if not (isinstance(T, (int, float)) and math.isfinite(T) and T > 0):
+            raise CaseError(f"duration = {T!r}: must be > 0 s")
+        if T / dt > 5e7:
+            raise CaseError(f"duration / dt = {T / dt:.3g} steps: more than 5e7")
+        bad = [n for n in self.needs_of(v.params) if n not in NEEDS and not (
+            n.startswith(IMPACT_MODEL_NEED) and n[len(IMPACT_MODEL_NEED):] in IMPACT_MODELS)]
+        if bad:
+            raise CaseError(f"needs {sorted(bad)}: unknown; choose from {', '.join(NEEDS)} "
+                            f"or {', '.join(p + '...' for p in NEEDS_PREFIXES)}")
+        try:
+            checks = self.expect(v.params, dt)
+        except CaseError as exc:
+            raise CaseError(f"expect(): {exc}") from None
+        if not checks:
+            raise CaseError("expect() returned no checks")
+        if not all(isinstance(c, Check) for c in checks):
+            raise CaseError("expect() must return a list of cases.family.Check")
+        metrics = [c.metric for c in checks]
+        if len(set(metrics)) != len(metrics):
+            raise CaseError(f"expect() names a metric twice: {metrics}")
+        return scene, dt, list(checks)
+
+
+# --- code a case author (or a plug-in) wrote --------------------------------------------------
+
+# What such code may do, said in the one-line error when it does something else.
+IMPORT_RULE = "a case file must import without error and define FAMILY"
+VARIANT_RULE = "scene, duration, dt, needs, variant_id and expect must build every variant"
+OBSERVE_RULE = "an observer must give every check a finite number whatever the engine did"
+
+
+def raised(exc: BaseException) -> str:
+    """An exception as a message names it: 'Type: first line of its message', or
+    'SystemExit(code)' for an exit."""
+    if isinstance(exc, SystemExit):
+        return f"SystemExit({exc.code!r})"
+    text = str(exc).splitlines()[0] if str(exc) else ""
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+@contextmanager
+def user_code(where: str, doing: str, rule: str, error: type[Exception] = CaseError):
+    """Run code physval did not write (a family's functions, a user's file, an adapter):
+    any exception it raises becomes one `error` line, '`where`: `doing` Type: message
+    (`rule`)', an exit (SystemExit) and every other BaseException included, so that no
+    user code ends physval's process by raising; only Ctrl-C passes. A CaseError or
+    SceneError (the family's own complaint, already one line) becomes '`where`: message'."""
+    from cases.scene import SceneError
+    try:
+        yield
+    except KeyboardInterrupt:
+        raise
+    except (CaseError, SceneError) as exc:
+        raise error(f"{where}: {exc}") from None
+    except BaseException as exc:
+        raise error(f"{where}: {doing} {raised(exc)} ({rule})") from None

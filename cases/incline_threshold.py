@@ -25,7 +25,7 @@ import math
 import numpy as np
 
 from cases.family import CaseFamily, Check, friction_label, plane_label
-from cases.observables import window_mean
+from cases.observables import rate, window_mean
 from cases.scene import Body, Material, Scene, cube, ground, tilted_gravity
 
 HALF = 0.1     # half-extent of the cube, m
@@ -94,10 +94,8 @@ def observe(traj, p) -> dict:
     moved = x[-1] - x[0]
     # Fit the slope of vx over the second half: away from the start-up of the contact.
     half = duration(p) / 2
-    late = traj.after(half)
-    a = float(np.polyfit(traj.t[late], vx[late], 1)[0])
     return {"slides": float(moved > SLIDE_DISTANCE),
-            "sliding_acceleration": a,
+            "sliding_acceleration": rate(traj, vx, half),
             "creep_rate": window_mean(traj, np.abs(vx), half)}
 
 

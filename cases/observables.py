@@ -2,10 +2,12 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
-from cases.trajectory import Trajectory
+from cases.overlap import penetration
+from cases.trajectory import POS, QUAT, Trajectory
 
 
 def free_acceleration(traj: Trajectory, name: str, gravity, band: float = 0.25) -> np.ndarray:
@@ -82,9 +84,24 @@ def arc_apex(t: np.ndarray, z: np.ndarray, g: float) -> float:
     return float(a + b * b / (2.0 * g))
 
 
+def window_samples(traj: Trajectory, t0: float, t1: float = math.inf, least: int = 1) -> np.ndarray:
+    """Indices of the samples in [t0, t1], at least `least` of them: a window holding fewer
+    (one that starts after the run ended, as in check-case's one-step dry run or at a --dt
+    that does not divide the duration, or that falls between two samples) is widened back to
+    the `least` samples ending where it ends (the run's last sample if it ends after the
+    run). So a reading over a window is always a finite number: a run cut short reads its
+    final state instead of nothing."""
+    inside = np.flatnonzero(traj.after(t0) & (traj.t <= t1 + 1e-12))
+    if inside.size >= least:
+        return inside
+    end = max(int(np.count_nonzero(traj.t <= t1 + 1e-12)), least)
+    return np.arange(end - least, end)
+
+
 def window_mean(traj: Trajectory, values: np.ndarray, t0: float) -> float:
-    """Mean of per-sample values over the samples from t0 on."""
-    return float(np.mean(values[traj.after(t0)]))
+    """Mean of per-sample values over the samples from t0 on (`window_samples`: the last sample
+    alone if t0 lies past the run's end)."""
+    return float(np.mean(values[window_samples(traj, t0)]))
 
 
 def arc_vertex(t: np.ndarray, z: np.ndarray, g: float) -> tuple[float, float]:
@@ -98,9 +115,11 @@ def arc_vertex(t: np.ndarray, z: np.ndarray, g: float) -> tuple[float, float]:
 
 def rate(traj: Trajectory, values: np.ndarray, t0: float, t1: float = math.inf) -> float:
     """Slope (per second) of the least-squares line through per-sample values over
-    [t0, t1]: an acceleration from velocities, a creep speed from positions."""
-    window = traj.after(t0) & (traj.t <= t1 + 1e-12)
-    return float(np.polyfit(traj.t[window], values[window], 1)[0])
+    [t0, t1]: an acceleration from velocities, a creep speed from positions. A line needs
+    two samples: a window holding fewer is widened back to the two ending where it ends
+    (`window_samples`; the last step's slope if t0 lies past the run's end)."""
+    k = window_samples(traj, t0, t1, least=2)
+    return float(np.polyfit(traj.t[k], values[k], 1)[0])
 
 
 def settle_time(traj: Trajectory, values: np.ndarray, bound: float) -> float:
@@ -161,8 +180,9 @@ def momentum(traj: Trajectory, scene) -> np.ndarray:
 
 
 def drift(traj: Trajectory, names, t0: float) -> float:
-    """Largest distance any of the named bodies moves from where it was at t0, m."""
-    later = traj.after(t0)
+    """Largest distance any of the named bodies moves from where it was at t0, m (0 if t0
+    lies past the run's end: the window is then the last sample, `window_samples`)."""
+    later = window_samples(traj, t0)
     out = 0.0
     for name in names:
         x = traj.pos(name)[later]
@@ -196,11 +216,7 @@ def deepest_overlap(traj: Trajectory, scene, t0: float, samples: int = 20) -> fl
     """Largest depth (m) by which any two bodies overlap, at `samples` sample times spread
     evenly from t0 to the end; exact per pair (cases.overlap: distances and separating
     axes), pairs whose bounding spheres are apart skipped."""
-    from dataclasses import replace
-
-    from cases.overlap import penetration
-    from cases.trajectory import POS, QUAT
-    picks = np.flatnonzero(traj.after(t0))
+    picks = window_samples(traj, t0)
     picks = np.unique(picks[np.linspace(0, len(picks) - 1, min(samples, len(picks))).round().astype(int)])
     pairs = scene.contact_pairs()
     index = {b.name: i for i, b in enumerate(scene.bodies)}
@@ -233,9 +249,7 @@ def stack_readings(traj: Trajectory, names: list[str], half: float, settled: flo
         top_below = np.zeros_like(bottom) if k == 0 else traj.pos(below[k])[:, 2] + half
         depth.append(window_mean(traj, top_below - bottom, settled))
     out["penetration"] = max(depth)
-    after = traj.after(settled)
-    out["drift"] = float(max(np.max(np.linalg.norm(traj.pos(nm)[after] - traj.pos(nm)[after][0], axis=1))
-                             for nm in names))
+    out["drift"] = drift(traj, names, settled)
     return out
 
 

@@ -1,14 +1,14 @@
-"""How deep two bodies of a scene start inside each other, for scene validation only.
+"""How deep two bodies overlap: scene validation (bodies that start inside each other)
+and the robustness readings (cases.observables.deepest_overlap).
 
 Exact for every shape pair of the vocabulary: sphere and plane by distance, boxes by the
 separating axis test (15 axes in 3D). 2D shapes are measured as their 3D counterparts in
-the x-z plane (a circle as a sphere, a rect as a box that is deep along y).
+the x-z plane (a circle as a sphere, a rect as a box that is deep along y). Shapes are read
+by their `kind` and sizes, so this module imports nothing from cases.scene (which uses it).
 """
 from __future__ import annotations
 
 import numpy as np
-
-from cases.scene import Body, Box, Circle, Plane, Rect, Sphere
 
 _DEEP = 1e6  # y half-extent of a rect seen as a box: never the axis of least overlap
 
@@ -22,42 +22,46 @@ def rotation_matrix(q) -> np.ndarray:
     ])
 
 
-def _as_3d(shape):
-    if isinstance(shape, Circle):
-        return Sphere(shape.radius)
-    if isinstance(shape, Rect):
-        return Box((shape.half_extents[0], _DEEP, shape.half_extents[1]))
-    return shape
+def _as_3d(shape) -> tuple[str, object]:
+    """The shape as a 3D solid: ("sphere", radius), ("box", half extents) or ("plane",
+    (normal, offset)); a circle is a sphere, a rect a box deep along y."""
+    if shape.kind in ("sphere", "circle"):
+        return "sphere", shape.radius
+    if shape.kind == "rect":
+        a, c = shape.half_extents
+        return "box", np.array((a, _DEEP, c))
+    if shape.kind == "box":
+        return "box", np.asarray(shape.half_extents, float)
+    return "plane", (np.asarray(shape.normal, float), shape.offset)
 
 
-def penetration(a: Body, b: Body) -> float:
-    """Depth (m) by which a and b overlap; 0 when they are apart or touching."""
-    sa, sb = _as_3d(a.shape), _as_3d(b.shape)
-    if isinstance(sb, Plane) or (isinstance(sb, Sphere) and isinstance(sa, Box)):
-        a, b, sa, sb = b, a, sb, sa
+def penetration(a, b) -> float:
+    """Depth (m) by which bodies a and b (cases.scene.Body) overlap; 0 when they are apart
+    or touching."""
+    (ka, sa), (kb, sb) = _as_3d(a.shape), _as_3d(b.shape)
+    if kb == "plane" or (kb == "sphere" and ka == "box"):
+        a, b, ka, kb, sa, sb = b, a, kb, ka, sb, sa
     pa, pb = np.asarray(a.position, float), np.asarray(b.position, float)
-    if isinstance(sa, Plane):
-        if isinstance(sb, Plane):
+    if ka == "plane":
+        if kb == "plane":
             return 0.0
-        n = np.asarray(sa.normal, float)
-        if isinstance(sb, Sphere):
-            lowest = n @ pb - sb.radius
+        n, offset = sa
+        if kb == "sphere":
+            lowest = n @ pb - sb
         else:
             R = rotation_matrix(b.orientation)
-            lowest = n @ pb - np.abs(R.T @ n) @ np.asarray(sb.half_extents, float)
-        return max(0.0, sa.offset - lowest)
-    if isinstance(sa, Sphere) and isinstance(sb, Sphere):
-        return max(0.0, sa.radius + sb.radius - float(np.linalg.norm(pa - pb)))
-    if isinstance(sa, Sphere):  # sphere a against box b
+            lowest = n @ pb - np.abs(R.T @ n) @ sb
+        return max(0.0, offset - lowest)
+    if ka == "sphere" and kb == "sphere":
+        return max(0.0, sa + sb - float(np.linalg.norm(pa - pb)))
+    if ka == "sphere":  # sphere a against box b
         R = rotation_matrix(b.orientation)
-        h = np.asarray(sb.half_extents, float)
         local = R.T @ (pa - pb)
-        closest = np.clip(local, -h, h)
+        closest = np.clip(local, -sb, sb)
         if np.any(closest != local):
-            return max(0.0, sa.radius - float(np.linalg.norm(local - closest)))
-        return sa.radius + float(np.min(h - np.abs(local)))  # centre inside the box
-    return _box_box(pa, rotation_matrix(a.orientation), np.asarray(sa.half_extents, float),
-                    pb, rotation_matrix(b.orientation), np.asarray(sb.half_extents, float))
+            return max(0.0, sa - float(np.linalg.norm(local - closest)))
+        return sa + float(np.min(sb - np.abs(local)))  # centre inside the box
+    return _box_box(pa, rotation_matrix(a.orientation), sa, pb, rotation_matrix(b.orientation), sb)
 
 
 def _box_box(pa, Ra, ha, pb, Rb, hb) -> float:

@@ -1,8 +1,12 @@
-"""Finds case families: every module of this package that defines `FAMILY`, plus the
-modules of a user's `--cases-dir` folders. A user's file is checked when it is loaded:
-any error in it (an exception while importing, in `scene`, `duration` or `expect` of a
-variant, a name already taken) stops with a one-line `CaseError` naming the file, the
-family and the field.
+"""Finds case families: every module of the `cases` package and its subpackages that
+defines `FAMILY` (a module that does not is a library: scene, observables, the robustness
+package's shared invariants), plus the files of a user's `--cases-dir` folders.
+
+A user's file is checked when it is loaded: any error in it (an exception or exit while
+importing, in `scene`, `duration` or `expect` of a variant, a name already taken) is a
+one-line `CaseError` naming the file, the family and the field. Commands load user files
+only after physval.core.dry_run has tried them in a worker process; a file that fails
+there or here is a `Problem`, left out of runs that do not select it.
 """
 from __future__ import annotations
 
@@ -12,11 +16,10 @@ import importlib.util
 import pkgutil
 import sys
 from pathlib import Path
+from typing import NamedTuple
 
 import cases
-from cases.family import CaseError, CaseFamily
-
-_SKIP = {"scene", "overlap", "trajectory", "family", "registry", "closed_forms", "observables", "robustness"}
+from cases.family import IMPORT_RULE, CaseError, CaseFamily, user_code
 
 
 def _families_in(module, where: str) -> list[CaseFamily]:
@@ -30,78 +33,91 @@ def _families_in(module, where: str) -> list[CaseFamily]:
 
 @functools.cache
 def builtin_families() -> dict[str, CaseFamily]:
-    """The families shipped in `cases/` (the conformance battery among them), by name."""
+    """The families shipped in `cases/` (the conformance battery among them), by name: the
+    FAMILY of every module, in the order of the modules' names."""
     out = {}
-    for info in sorted(pkgutil.iter_modules(cases.__path__), key=lambda i: i.name):
-        if info.name in _SKIP or info.name.startswith("_"):
-            continue
-        module = importlib.import_module(f"cases.{info.name}")
+    for info in sorted(pkgutil.walk_packages(cases.__path__, "cases."), key=lambda i: i.name):
+        module = importlib.import_module(info.name)
         for fam in _families_in(module, module.__name__):
             out[fam.name] = fam
     return dict(out)
 
 
-def _load_file(file: Path):
+class Problem(NamedTuple):
+    """A user's family file that cannot be used: the file, its family's name ("" if it was
+    not found) and the one-line message."""
+    file: str
+    family: str
+    message: str
+
+
+def case_files(folder: str | Path) -> list[Path]:
+    """The family files of a user folder: its *.py but those starting with '_'."""
+    return [f for f in sorted(Path(folder).glob("*.py")) if not f.name.startswith("_")]
+
+
+def load_file(file: Path, where: str | None = None) -> CaseFamily:
+    """Import a user's family file and return its FAMILY. CaseError naming `where` (default:
+    the file) if importing it raises (an exit included) or it defines no CaseFamily."""
+    where = where or str(file)
     name = f"physval_user_cases.{file.parent.name}_{file.stem}"
     spec = importlib.util.spec_from_file_location(name, file)
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
-    try:
+    with user_code(where, "cannot be loaded:", IMPORT_RULE):
         spec.loader.exec_module(module)
-    except CaseError as exc:
-        raise CaseError(f"{file}: {exc}") from None
-    except (Exception, SystemExit) as exc:  # a user file that does not import: say which and why
-        what = f"SystemExit({exc.code!r}) raised" if isinstance(exc, SystemExit) else \
-            f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
-        raise CaseError(f"{file}: cannot be loaded: {what}") from None
-    return module
+    fams = _families_in(module, where)
+    if not fams:
+        raise CaseError(f"{where}: defines no FAMILY (a cases.family.CaseFamily)")
+    return fams[0]
 
 
 def validate_family(fam: CaseFamily, where: str, full: bool = False) -> None:
-    """fam.validate(), with any exception the family's own code raises turned into a
-    one-line CaseError naming `where` (the file) and the family."""
+    """fam.validate(), its one-line CaseError naming `where` (the file) too."""
     try:
         fam.validate(full=full)
     except CaseError as exc:
         raise CaseError(f"{where}: {exc}") from None
-    except (Exception, SystemExit) as exc:
-        raise CaseError(f"{where}: family {fam.name!r}: its code raised {type(exc).__name__}: "
-                        f"{str(exc).splitlines()[0] if str(exc) else ''} (while building a variant's scene, "
-                        "duration or checks)") from None
 
 
-def load_dir(path: str | Path) -> dict[str, CaseFamily]:
-    """Import every *.py in a user folder and collect its FAMILY, validated."""
+def load_dir(path: str | Path, broken: dict[str, Problem] | None = None,
+             taken: dict[str, str] | None = None) -> dict[str, CaseFamily]:
+    """Import every family file of a user folder and collect its FAMILY, validated. A file
+    that cannot be used (it does not load or validate, or its family's name is in `taken`,
+    name -> where it is, or repeats) raises its CaseError; given `broken` (file ->
+    Problem), it is recorded there instead and left out, and a file already there is not
+    imported. The names found are added to `taken`."""
     folder = Path(path)
     if not folder.is_dir():
         raise CaseError(f"--cases-dir {path}: not a folder")
-    out, origin = {}, {}
-    for file in sorted(folder.glob("*.py")):
-        if file.name.startswith("_"):
+    taken = {} if taken is None else taken
+    out = {}
+    for file in case_files(folder):
+        if broken is not None and str(file) in broken:
             continue
-        fams = _families_in(_load_file(file), str(file))
-        if not fams:
-            raise CaseError(f"{file}: defines no FAMILY (a cases.family.CaseFamily)")
-        for fam in fams:
-            if fam.name in out:
-                raise CaseError(f"{file}: family {fam.name!r} is also defined in {origin[fam.name]}: "
-                                "family names must be unique")
+        fam = None
+        try:
+            fam = load_file(file)
+            if fam.name in taken:
+                raise CaseError(f"{file}: family {fam.name!r} is already {taken[fam.name]}: family names must be "
+                                "unique, rename it")
             validate_family(fam, str(file))
-            out[fam.name], origin[fam.name] = fam, file
+        except CaseError as exc:
+            if broken is None:
+                raise
+            broken[str(file)] = Problem(str(file), str(fam.name) if fam else "", str(exc))
+            continue
+        out[fam.name], taken[fam.name] = fam, f"defined in {file}"
     return out
 
 
-def all_families(cases_dirs=()) -> dict[str, CaseFamily]:
-    """The built-in families and those of the user folders `cases_dirs` (one path or several)."""
+def all_families(cases_dirs=(), broken: dict[str, Problem] | None = None) -> dict[str, CaseFamily]:
+    """The built-in families and those of the user folders `cases_dirs` (one path or
+    several); `broken` as for load_dir."""
     if isinstance(cases_dirs, (str, Path)):
         cases_dirs = (cases_dirs,)
     fams = dict(builtin_families())
-    where: dict[str, str] = {}
+    taken = {name: "a built-in family" for name in fams}
     for folder in cases_dirs or ():
-        for name, fam in load_dir(folder).items():
-            if name in fams:
-                other = where.get(name, "a built-in family")
-                raise CaseError(f"{fam.module_file}: family {name!r} is already {other}: rename it")
-            fams[name] = fam
-            where[name] = f"defined in {fam.module_file}"
+        fams.update(load_dir(folder, broken, taken))
     return fams

@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from cases.overlap import penetration
+
 # The physics a scene can call for (Scene.effects, derived from the scene; an adapter
 # simulates these and nothing more, and reports what it simulated in Simulation.effects):
 # "gravity" (non-zero gravity), "contact" (a pair that may touch), "restitution" (a pair
@@ -430,7 +432,6 @@ class Scene:
             mat.validate(f"pairs[{j}]({a},{b})")
         if self.dimension == 2:
             self._validate_planar()
-        from cases.overlap import penetration  # local: overlap.py imports this module
         for a, b in self.contact_pairs():
             depth = penetration(a, b)
             if depth > self.allowed_overlap:

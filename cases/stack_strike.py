@@ -35,7 +35,7 @@ import math
 import numpy as np
 
 from cases.family import CaseFamily, Check, plane_label
-from cases.observables import impulse, mechanical_energy
+from cases.observables import impulse, mechanical_energy, window_samples
 from cases.scene import Body, Material, Scene, ball, cube, ground
 
 HALF = 0.1        # half-extent of each cube, m
@@ -130,7 +130,7 @@ def duration(p) -> float:
 def observe(traj, p) -> dict:
     sc = scene(p)
     t_imp = impact_time(p["h"])
-    k_read = int(np.flatnonzero(traj.after(sample(t_imp + READ_AFTER, traj.dt)))[0])
+    k_read = int(window_samples(traj, sample(t_imp + READ_AFTER, traj.dt))[0])
     t_a, t_b = window(p, traj.dt)
     energy = mechanical_energy(traj, sc)
     moved = max(float(np.linalg.norm(traj.pos(nm)[-1] - traj.pos(nm)[0])) for nm in names(p["n"]))

@@ -6,6 +6,7 @@ exit code 2 here, for every command alike."""
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import os
 import sys
@@ -36,9 +37,11 @@ EPILOG = """examples:
   physval versions mujoco 3.11.0 3.12.0         the same run on two releases, each in its own environment
   physval COMMAND --help                        each command's options
 exit codes: 0 the command completed (failing physics is a result, not a crash); 1 (compare,
-versions) something changed between the runs; 2 bad input; 130 interrupted (finished jobs
-are kept; the same command resumes); 141 the reader of the output went away (e.g.
-`physval list | head`), as a shell reports SIGPIPE."""
+versions) something changed between the runs, (run) a check fell under --fail-on; 2 bad
+input; 74 the disk is full (finished jobs are kept; the same command resumes once there is
+space); 130 interrupted (finished jobs are kept; the same command resumes); 141 the reader
+of the output went away (e.g. `physval list | head`), as a shell reports SIGPIPE."""
+DISK_FULL = 74  # EX_IOERR of sysexits.h: an error while doing I/O on a file
 
 
 class _Parser(argparse.ArgumentParser):
@@ -51,7 +54,8 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+        from physval.commands.options import with_replacements
+        self.exit(2, f"{self.prog}: error: {with_replacements(message)} (see '{self.prog} --help')\n")
 
 
 def parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
@@ -75,6 +79,8 @@ def main(argv: list[str] | None = None) -> int:
     global STARTED, _commands_run
     if _commands_run:
         STARTED = time.monotonic()
+        from physval.core.context import forget
+        forget()
     _commands_run += 1
     from adapters.base import SettingsError
     from adapters.registry import EngineError
@@ -105,3 +111,12 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # stdout's reader is gone: say nothing more there (Python's own advice)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+    except OSError as exc:
+        if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+            raise
+        # every finished job's rows were written before this one (each job is one write, and
+        # a job cut short in its write is run again): nothing is lost but the time
+        where = f" writing {exc.filename}" if exc.filename else ""
+        print(f"physval: error: the disk is full ({exc.strerror}{where}); the rows of finished jobs are "
+              "kept: free space and run the same command again to resume", file=sys.stderr)
+        return DISK_FULL

@@ -240,27 +240,9 @@ class _PyramidSolver:
             t1 = rc.tangent_basis(c.n)
             c.tangents = (rc.Row(c.a, c.b, ra, rb, t1), rc.Row(c.a, c.b, ra, rb, rc.cross(c.n, t1)))
             c.Pt = [float(P @ np.asarray(row.d)) for row in c.tangents]
-        module = self._module
-        disc = module._friction
-        module._friction = _square_friction
-        try:
-            return module.solve(contacts, bodies, dt, config)
-        finally:
-            module._friction = disc
-
-
-def _square_friction(c) -> float:
-    """Each tangent row of a contact clamped to [-mu Pn, mu Pn] on its own (the friction
-    pyramid); returns the largest velocity change made."""
-    limit, largest = c.mu * c.Pn, 0.0
-    for k, t in enumerate(c.tangents):
-        P = max(-limit, min(limit, c.Pt[k] - t.mass * t.velocity()))
-        dP = P - c.Pt[k]
-        if dP != 0.0:
-            c.Pt[k] = P
-            t.apply(dP)
-            largest = max(largest, abs(dP) * t.K)
-    return largest
+        from dataclasses import replace  # sequential_impulses' own switch to the per-row clamp
+        return self._module.solve(contacts, bodies, dt,
+                                  replace(config, params={**config.params, "friction_set": "pyramid"}))
 
 
 def _mujoco_rebuilt(sim, scene, edit):

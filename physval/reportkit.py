@@ -187,6 +187,21 @@ def deviation_summary(df: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(out)
 
 
+def per_engine_counts(df: pd.DataFrame, status: str) -> pd.DataFrame:
+    """One row per engine: how many of its checks have `status`, over how many families and
+    causes (reasons), and the worst of them in tolerances: a listing's one-screen summary."""
+    part = df[df.status == status]
+    out = []
+    for eng, grp in part.groupby("engine", sort=False):
+        row = {"engine": eng, "checks": len(grp), "families": grp.case.nunique(),
+               "causes": grp["known_deviation" if status == "deviation" else "reason"].nunique()}
+        if status == "deviation":
+            worst = grp.loc[grp.over_tol.fillna(-1).idxmax()]
+            row |= {"worst check": f"{worst.case}[{worst.variant}]:{worst.metric}", "error/tol": fmt(worst.over_tol)}
+        out.append(row)
+    return pd.DataFrame(out)
+
+
 def problems_section(df: pd.DataFrame, title: str = "Failures, blow-ups and errors") -> list[str]:
     bad = df[df.status.isin(["fail", "unstable", "error"])]
     lines = [f"## {title}", ""]

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from reference_impl import lcp
+from reference_impl.compiled import njit
 from reference_impl.lcp import Bodies, Contact, Rows, build_rows, inverse_mass_matrix, jacobian
 
 
@@ -73,24 +74,39 @@ def integrate(rows: Rows, bodies: Bodies, u: np.ndarray, a_ext: np.ndarray, xi: 
     (lcp.py) pushing with laws[c].force(xi_c): u += h/2 (a_ext + M^-1 J^T F(xi));
     xi -= h J u (J u > 0: separating); u += h/2 (a_ext + M^-1 J^T F(xi)). The contact
     geometry (normal, arms) is held fixed over the n steps."""
-    def push(xi):
-        return np.array([law.force(x) for law, x in zip(laws, xi)])
     J = jacobian(rows, len(bodies))               # dense: (C, 6N), few contacts
     B = inverse_mass_matrix(bodies) @ J.T          # M^-1 J^T
-    U, A = u.ravel().copy(), a_ext.ravel()
-    xi = np.array(xi, dtype=float)
+    H, r = np.array([law.H for law in laws], dtype=float), np.array([law.r for law in laws], dtype=float)
+    U, displacement, xi, impulse = _velocity_verlet(J, B, u.ravel().copy(), a_ext.ravel().copy(),
+                                                    np.array(xi, dtype=float), H, r, float(h), int(n))
+    u, displacement = U.reshape(u.shape), displacement.reshape(u.shape)
+    return Substeps(u, displacement, xi, impulse)
+
+
+@njit
+def _velocity_verlet(J, B, U, A, xi, H, r, h, n):
+    """integrate's n steps on the flat velocity U (6N,), A = M^-1 f flat: (U, displacement,
+    xi, impulse) at the end."""
     displacement, impulse = np.zeros_like(U), np.zeros(len(xi))
-    F = push(xi)
+    F = _push(H, r, xi)
     for _ in range(n):
         U += 0.5 * h * (A + B @ F)
         impulse += 0.5 * h * F
         displacement += h * U
         xi -= h * (J @ U)
-        F = push(xi)
+        F = _push(H, r, xi)
         U += 0.5 * h * (A + B @ F)
         impulse += 0.5 * h * F
-    u, displacement = U.reshape(u.shape), displacement.reshape(u.shape)
-    return Substeps(u, displacement, xi, impulse)
+    return U, displacement, xi, impulse
+
+
+@njit
+def _push(H, r, xi):
+    """ForceLaw(H[c], r[c]).force(xi[c]) of every contact c."""
+    F = np.zeros(len(xi))
+    for c in range(len(xi)):
+        F[c] = H[c] * xi[c] ** r[c] if xi[c] > 0.0 else 0.0
+    return F
 
 
 @dataclass(frozen=True)

@@ -33,6 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from reference_impl import lcp
+from reference_impl.compiled import njit
 from reference_impl.lcp import Rows
 
 
@@ -77,48 +78,24 @@ def lemke(M: np.ndarray, q: np.ndarray, max_pivots: int | None = None, refactor:
     if n == 0 or np.all(q >= 0.0):
         return np.zeros(n)
     max_pivots = 50 * (n + 1) if max_pivots is None else max_pivots
+    return _pivoting(np.ascontiguousarray(M), np.ascontiguousarray(q), int(max_pivots), bool(refactor))
+
+
+@njit
+def _pivoting(M, q, max_pivots, refactor):
+    """Lemke's method on (M, q), n >= 1 and some q < 0 (see lemke)."""
+    n = len(q)
     # tableau of  I w - M z - e z0 = q ; columns: w (0..n-1), z (n..2n-1), z0 (2n), rhs
-    T0 = np.hstack([np.eye(n), -M, -np.ones((n, 1)), q[:, None]])
+    T0 = np.hstack((np.eye(n), -M, -np.ones((n, 1)), q.reshape((n, 1))))
     T = T0.copy()
-    basis = list(range(n))  # basic variable of each row
+    basis = np.arange(n)  # basic variable of each row
     z0 = 2 * n
-    scale = max(1.0, float(np.max(np.abs(M))), float(np.max(np.abs(q))))
+    scale = max(1.0, np.max(np.abs(M)), np.max(np.abs(q)))
     tiny = 1e-12 * scale         # rounding level of a tableau entry
     pivot_floor = 1e-9 * scale   # smallest pivot element: see below
 
-    def pivot(row: int, col: int) -> int:
-        leaving = basis[row]
-        basis[row] = col
-        if refactor:
-            try:
-                T[:] = np.linalg.solve(T0[:, basis], T0)
-            except np.linalg.LinAlgError:
-                raise LemkeFailure("a singular basis") from None
-        else:
-            T[row] /= T[row, col]
-            others = np.arange(n) != row
-            T[others] -= np.outer(T[others, col], T[row])
-        # the basic solution must stay >= 0; rounding leaves -1e-16-sized entries that
-        # would turn into negative ratios and steer the next pivots: set them to zero
-        rhs = T[:, -1]
-        rhs[(rhs < 0.0) & (rhs > -tiny)] = 0.0
-        return leaving
-
-    def checked_solution() -> np.ndarray:
-        """z of the current basis (z0 taken as 0), checked against the original problem:
-        pivots on a near-singular basis (degenerate contact sets) can lose the solution,
-        and a wrong one is never returned."""
-        x = np.zeros(2 * n + 1)
-        x[basis] = T[:, -1]
-        z = np.maximum(x[n:2 * n], 0.0)
-        w = M @ z + q
-        if w.min() < -1e-9 * scale or abs(z @ w) > 1e-9 * scale * (1.0 + z.sum()):
-            raise LemkeFailure(f"pivoting lost accuracy: min(Mz + q) = {w.min():.3g}, "
-                               f"z.(Mz + q) = {z @ w:.3g}")
-        return z
-
     # z0 enters where q is most negative: afterwards every rhs is >= 0
-    leaving = pivot(int(np.argmin(T[:, -1])), z0)
+    leaving = _pivot(T, T0, basis, int(np.argmin(T[:, -1])), z0, refactor, tiny)
     for _ in range(max_pivots):
         entering = leaving + n if leaving < n else leaving - n  # complement of what left
         col = T[:, entering]
@@ -131,17 +108,63 @@ def lemke(M: np.ndarray, q: np.ndarray, max_pivots: int | None = None, refactor:
             # z0 at rounding level: the last pivot was a tie that z0 should have won (the
             # ratio test's tie band is relative to the ratio, z0's rhs is not), and the
             # basis already solves the LCP. Seen once in 30 000 random friction problems.
-            if z0 in basis and T[basis.index(z0), -1] <= tiny:
-                return checked_solution()
+            at = np.flatnonzero(basis == z0)
+            if at.size and T[at[0], -1] <= tiny:
+                return _checked_solution(M, q, T, basis, scale)
             raise LemkeFailure("ray termination: the LCP has no solution Lemke can reach")
-        leaving = pivot(_ratio_test(T, candidates, col, basis, z0, n), entering)
+        leaving = _pivot(T, T0, basis, _ratio_test(T, candidates, col, basis, z0, n), entering, refactor, tiny)
         if leaving == z0:
-            return checked_solution()
-    raise LemkeFailure(f"no solution after {max_pivots} pivots")
+            return _checked_solution(M, q, T, basis, scale)
+    raise LemkeFailure("no solution within the pivot budget (50 (n + 1) by default)")
 
 
-def _ratio_test(T: np.ndarray, candidates: np.ndarray, col: np.ndarray, basis: list[int],
-                z0: int, n: int) -> int:
+@njit
+def _pivot(T, T0, basis, row, col, refactor, tiny):
+    """Make `col` basic in `row` (Gauss-Jordan on the tableau, or refactored from T0);
+    returns the variable that left."""
+    n = len(basis)
+    leaving = basis[row]
+    basis[row] = col
+    if refactor:
+        singular = False
+        try:
+            T[:] = np.linalg.solve(T0[:, basis], T0)
+        except Exception:  # numba cannot raise inside an except block
+            singular = True
+        if singular:
+            raise LemkeFailure("a singular basis")
+    else:
+        T[row] /= T[row, col]
+        for i in range(n):  # T[others] -= outer(T[others, col], T[row])
+            if i != row:
+                f = T[i, col]
+                for j in range(T.shape[1]):
+                    T[i, j] -= f * T[row, j]
+    # the basic solution must stay >= 0; rounding leaves -1e-16-sized entries that
+    # would turn into negative ratios and steer the next pivots: set them to zero
+    for i in range(n):
+        if -tiny < T[i, -1] < 0.0:
+            T[i, -1] = 0.0
+    return leaving
+
+
+@njit
+def _checked_solution(M, q, T, basis, scale):
+    """z of the current basis (z0 taken as 0), checked against the original problem:
+    pivots on a near-singular basis (degenerate contact sets) can lose the solution,
+    and a wrong one is never returned."""
+    n = len(q)
+    x = np.zeros(2 * n + 1)
+    x[basis] = T[:, -1]
+    z = np.maximum(x[n:2 * n], 0.0)
+    w = M @ z + q
+    if w.min() < -1e-9 * scale or abs(z @ w) > 1e-9 * scale * (1.0 + z.sum()):
+        raise LemkeFailure("pivoting lost accuracy: min(Mz + q) or z.(Mz + q) beyond 1e-9 of the problem's scale")
+    return z
+
+
+@njit
+def _ratio_test(T, candidates, col, basis, z0, n):
     """The leaving row: minimum of rhs / col; ties broken lexicographically by the rows of
     B^-1 / col (B^-1 sits in the w columns), which rules out cycling on degenerate
     problems such as a box resting on four corners. z0 leaves whenever it may."""

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from reference_impl import lcp
+from reference_impl.compiled import njit
 from reference_impl.lcp import Bodies, Rows, inverse_mass_times_rows
 
 
@@ -58,16 +59,20 @@ def projected_gauss_seidel(rows: Rows, bodies: Bodies, b: np.ndarray, settings: 
         np.add.at(du, rows.b, W_b * gamma[:, None])
         du[N] = 0.0
 
-    # plain Python lists: the sweep is scalar work, and list indexing is what makes it cheap
-    Ja, Jb, Wa, Wb = rows.J_a.tolist(), rows.J_b.tolist(), W_a.tolist(), W_b.tolist()
-    ia, ib, normal = rows.a.tolist(), rows.b.tolist(), rows.normal.tolist()
-    mu, rhs, sg = rows.mu.tolist(), np.asarray(b, dtype=float).tolist(), sig.tolist()
-    dg = diag.tolist()
-    inv_diag = [1.0 / d if d > 0.0 else 0.0 for d in dg]
-    g, v = gamma.tolist(), du.tolist()
+    inv_diag = np.where(diag > 0.0, 1.0 / np.where(diag > 0.0, diag, 1.0), 0.0)
+    sweeps, change = _sweeps(rows.J_a, rows.J_b, W_a, W_b, rows.a, rows.b, rows.normal, rows.mu,
+                             np.asarray(b, dtype=float), sig, diag, inv_diag, gamma, du,
+                             int(settings.iterations), float(settings.tolerance))
+    return PGSResult(gamma, du[:N].copy(), sweeps, change)
 
+
+@njit
+def _sweeps(Ja, Jb, Wa, Wb, ia, ib, normal, mu, rhs, sg, dg, inv_diag, g, v, iterations, tolerance):
+    """The sweeps, in place on g (gamma) and v (du per body, row N the static world):
+    (sweeps done, largest velocity correction of the last sweep)."""
+    K = len(g)
     sweeps, change = 0, np.inf
-    while sweeps < settings.iterations and change > settings.tolerance:
+    while sweeps < iterations and change > tolerance:
         sweeps += 1
         change = 0.0
         for k in range(K):  # O(1) per row: two bodies' 6-vectors
@@ -93,8 +98,7 @@ def projected_gauss_seidel(rows: Rows, bodies: Bodies, b: np.ndarray, settings: 
                 step = abs(d) * dg[k]
                 if step > change:
                     change = step
-    du = np.array(v[:N]).reshape(N, 6)
-    return PGSResult(np.array(g), du, sweeps, float(change))
+    return sweeps, change
 
 
 def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:

@@ -27,6 +27,8 @@ Per step, after gravity is in the velocities:
                at any angle to the tangent basis meets mu Pn, not up to mu Pn sqrt 2).
                mu = mu_s while the contact sticks, mu_k while it slides.
    A sweep whose largest velocity change |dP| K is at most `tolerance` ends the loop.
+   (config.params["friction_set"] = "pyramid" clamps each tangent row to [-mu Pn, mu Pn]
+   on its own instead: lcp.py's friction set, kept to show what the disc buys.)
 3. position correction with pseudo-velocities (split impulse): the bias velocity
    beta/dt (delta - slop)+ of note 001 is the target of a second set of normal rows that
    act on pseudo-velocities vp, wp (up to `position_iterations` sweeps). They move the
@@ -48,12 +50,16 @@ the same target is a resting contact's v_n+ = 0.
 
 Cost: O(rows) per sweep, a few dozen float operations per row; a warm-started resting
 stack takes one sweep per step.
+The sweeps (`iterate`) run compiled (reference_impl/compiled.py) on the rows' numbers
+packed into arrays; they are contact.Row's `velocity` and `apply`, written out on arrays.
 """
 from __future__ import annotations
 
 import math
 
 import numpy as np
+
+from reference_impl.compiled import njit
 
 
 def solve(contacts, bodies, dt, config) -> tuple[str, ...]:
@@ -62,78 +68,141 @@ def solve(contacts, bodies, dt, config) -> tuple[str, ...]:
             and sum(1 + len(c.tangents) for c in contacts) <= config.cold_start_rows:
         stages.append("cold_start")
         _least_squares_start(contacts)
-    if config.warm_start and any(c.Pn != 0.0 for c in contacts):
+    warm = config.warm_start and any(c.Pn != 0.0 for c in contacts)
+    if warm:
         stages.append("warm_start")
-        for c in contacts:
-            c.normal.apply(c.Pn)
-            for row, P in zip(c.tangents, c.Pt):
-                row.apply(P)
-
     stages.append("velocity")
     if any(c.tangents for c in contacts):
         stages.append("friction")
-    for _ in range(config.iterations):
-        largest = 0.0
-        for c in contacts:
-            if c.tangents:
-                largest = max(largest, _friction(c))
-            row = c.normal
-            Pn = max(c.Pn + row.mass * (c.target - row.velocity()), 0.0)
-            dP = Pn - c.Pn
-            if dP != 0.0:
-                c.Pn = Pn
-                row.apply(dP)
-                largest = max(largest, abs(dP) * row.K)
-        if largest <= config.tolerance:
-            break
-
     if any(c.bias > 0.0 for c in contacts):
         stages.append("position")
-        targets = [c.bias - max(c.normal.velocity(), 0.0) for c in contacts]
-        for c in contacts:
-            c.Pp = 0.0
-        for _ in range(config.position_iterations):
-            largest = 0.0
-            for c, target in zip(contacts, targets):
-                row = c.normal
-                Pp = max(c.Pp + row.mass * (target - row.pseudo_velocity()), 0.0)
-                dP = Pp - c.Pp
-                if dP != 0.0:
-                    c.Pp = Pp
-                    row.apply_pseudo(dP)
-                    largest = max(largest, abs(dP) * row.K)
-            if largest <= config.tolerance:
-                break
+
+    # the contacts' rows (contact.Row) as arrays for the compiled sweeps: per contact its
+    # normal row, then its tangent rows; P holds each row's accumulated impulse
+    rows = [row for c in contacts for row in (c.normal, *c.tangents)]
+    a = np.array([row.a.index for row in rows], dtype=np.int64)
+    b = np.array([row.b.index for row in rows], dtype=np.int64)
+    J = np.array([(*row.d, *row.ra_d, *row.rb_d, *row.ma, *row.mb, *row.ia, *row.ib) for row in rows],
+                 dtype=float).reshape(-1, 21)
+    K, mass = np.array([row.K for row in rows], dtype=float), np.array([row.mass for row in rows], dtype=float)
+    P = np.array([P for c in contacts for P in (c.Pn, *c.Pt)], dtype=float)
+    n_tangents = np.array([len(c.tangents) for c in contacts], dtype=np.int64)
+    target, mu, bias = (np.array([getattr(c, name) for c in contacts], dtype=float) for name in ("target", "mu", "bias"))
+    v, w = np.array([body.v for body in bodies], dtype=float), np.array([body.w for body in bodies], dtype=float)
+    vp, wp = np.array([body.vp for body in bodies], dtype=float), np.array([body.wp for body in bodies], dtype=float)
+    pyramid = config.params.get("friction_set", "disc") == "pyramid"
+    iterate(a, b, J, K, mass, P, n_tangents, target, mu, bias, v, w, vp, wp, warm, pyramid,
+            config.iterations, config.position_iterations, float(config.tolerance))
+    for body, v_i, w_i, vp_i, wp_i in zip(bodies, v.tolist(), w.tolist(), vp.tolist(), wp.tolist()):
+        if not body.static:
+            body.v[:], body.w[:], body.vp[:], body.wp[:] = v_i, w_i, vp_i, wp_i
+    k, P = 0, P.tolist()
+    for c in contacts:
+        c.Pn, c.Pt = P[k], P[k + 1:k + 1 + len(c.tangents)]
+        k += 1 + len(c.tangents)
     return tuple(stages)
 
 
-def _friction(c) -> float:
-    """The tangent rows of one contact, clamped to the disc |Pt| <= mu Pn; returns the
-    largest velocity change made."""
-    Pt, limit = c.Pt, c.mu * c.Pn
-    if len(Pt) == 1:  # 2D: the disc is the interval [-mu Pn, mu Pn]
-        (t,) = c.tangents
-        P = max(-limit, min(limit, Pt[0] - t.mass * t.velocity()))
-        dP = P - Pt[0]
-        if dP == 0.0:
-            return 0.0
-        Pt[0] = P
-        t.apply(dP)
-        return abs(dP) * t.K
-    t1, t2 = c.tangents
-    P1 = Pt[0] - t1.mass * t1.velocity()
-    P2 = Pt[1] - t2.mass * t2.velocity()
+@njit
+def iterate(a, b, J, K, mass, P, n_tangents, target, mu, bias, v, w, vp, wp, warm, pyramid,
+            iterations, position_iterations, tolerance):
+    """Steps 1 (the warm start's impulses), 2 and 3 of the module docstring, in place on
+    the row impulses P, the velocities v, w and the pseudo-velocities vp, wp (per body,
+    by world index). Row k joins bodies a[k] and b[k]; J[k] holds its d, r_a x d, r_b x d,
+    d / m_a, d / m_b, I_a^-1 (r_a x d), I_b^-1 (r_b x d) (contact.Row)."""
+    C = len(n_tangents)
+    first = np.zeros(C, dtype=np.int64)  # each contact's normal row
+    for j in range(1, C):
+        first[j] = first[j - 1] + 1 + n_tangents[j - 1]
+    if warm:
+        for k in range(len(P)):
+            _apply(J[k], P[k], v[a[k]], w[a[k]], v[b[k]], w[b[k]])
+
+    for _ in range(iterations):
+        largest = 0.0
+        for j in range(C):
+            k = first[j]
+            if n_tangents[j]:
+                largest = max(largest, _friction(k, n_tangents[j], a, b, J, K, mass, P, mu[j], v, w, pyramid))
+            Pn = max(P[k] + mass[k] * (target[j] - _velocity(J[k], v[a[k]], w[a[k]], v[b[k]], w[b[k]])), 0.0)
+            dP = Pn - P[k]
+            if dP != 0.0:
+                P[k] = Pn
+                _apply(J[k], dP, v[a[k]], w[a[k]], v[b[k]], w[b[k]])
+                largest = max(largest, abs(dP) * K[k])
+        if largest <= tolerance:
+            break
+
+    if np.any(bias > 0.0):
+        targets = np.empty(C)
+        for j in range(C):
+            k = first[j]
+            targets[j] = bias[j] - max(_velocity(J[k], v[a[k]], w[a[k]], v[b[k]], w[b[k]]), 0.0)
+        Pp = np.zeros(C)
+        for _ in range(position_iterations):
+            largest = 0.0
+            for j in range(C):
+                k = first[j]
+                P_j = max(Pp[j] + mass[k] * (targets[j] - _velocity(J[k], vp[a[k]], wp[a[k]], vp[b[k]], wp[b[k]])),
+                          0.0)
+                dP = P_j - Pp[j]
+                if dP != 0.0:
+                    Pp[j] = P_j
+                    _apply(J[k], dP, vp[a[k]], wp[a[k]], vp[b[k]], wp[b[k]])
+                    largest = max(largest, abs(dP) * K[k])
+            if largest <= tolerance:
+                break
+
+
+@njit
+def _friction(k, count, a, b, J, K, mass, P, mu, v, w, pyramid) -> float:
+    """The tangent rows k + 1 .. k + count of the contact whose normal row is k, clamped to
+    the disc |Pt| <= mu Pn; returns the largest velocity change made. (pyramid: each row
+    clamped to [-mu Pn, mu Pn] on its own, the friction set of lcp.py, which is the disc
+    in 2D.)"""
+    limit = mu * P[k]
+    if count == 1 or pyramid:  # 2D: the disc is the interval [-mu Pn, mu Pn]
+        largest = 0.0
+        for t in range(k + 1, k + 1 + count):
+            P_t = max(-limit, min(limit, P[t] - mass[t] * _velocity(J[t], v[a[t]], w[a[t]], v[b[t]], w[b[t]])))
+            dP = P_t - P[t]
+            if dP != 0.0:
+                P[t] = P_t
+                _apply(J[t], dP, v[a[t]], w[a[t]], v[b[t]], w[b[t]])
+                largest = max(largest, abs(dP) * K[t])
+        return largest
+    t1, t2 = k + 1, k + 2
+    P1 = P[t1] - mass[t1] * _velocity(J[t1], v[a[t1]], w[a[t1]], v[b[t1]], w[b[t1]])
+    P2 = P[t2] - mass[t2] * _velocity(J[t2], v[a[t2]], w[a[t2]], v[b[t2]], w[b[t2]])
     norm = math.sqrt(P1 * P1 + P2 * P2)
     if norm > limit:
         scale = limit / norm
         P1, P2 = P1 * scale, P2 * scale
-    d1, d2 = P1 - Pt[0], P2 - Pt[1]
-    Pt[0], Pt[1] = P1, P2
+    d1, d2 = P1 - P[t1], P2 - P[t2]
+    P[t1], P[t2] = P1, P2
     if d1 != 0.0:
-        t1.apply(d1)
+        _apply(J[t1], d1, v[a[t1]], w[a[t1]], v[b[t1]], w[b[t1]])
     if d2 != 0.0:
-        t2.apply(d2)
-    return max(abs(d1) * t1.K, abs(d2) * t2.K)
+        _apply(J[t2], d2, v[a[t2]], w[a[t2]], v[b[t2]], w[b[t2]])
+    return max(abs(d1) * K[t1], abs(d2) * K[t2])
+
+
+# the two inner-loop operations of contact.Row on one row's J (see iterate)
+@njit
+def _velocity(J, va, wa, vb, wb) -> float:
+    """Row.velocity: d . (v_b - v_a) + (r_b x d) . w_b - (r_a x d) . w_a."""
+    return (J[0] * (vb[0] - va[0]) + J[1] * (vb[1] - va[1]) + J[2] * (vb[2] - va[2])
+            + J[6] * wb[0] + J[7] * wb[1] + J[8] * wb[2]
+            - J[3] * wa[0] - J[4] * wa[1] - J[5] * wa[2])
+
+
+@njit
+def _apply(J, P, va, wa, vb, wb) -> None:
+    """Row.apply: impulse P d on b at its contact point, -P d on a."""
+    va[0] -= P * J[9]; va[1] -= P * J[10]; va[2] -= P * J[11]
+    wa[0] -= P * J[15]; wa[1] -= P * J[16]; wa[2] -= P * J[17]
+    vb[0] += P * J[12]; vb[1] += P * J[13]; vb[2] += P * J[14]
+    wb[0] += P * J[18]; wb[1] += P * J[19]; wb[2] += P * J[20]
 
 
 def _least_squares_start(contacts) -> None:

@@ -13,7 +13,10 @@ import math
 
 import numpy as np
 
+from reference_impl.compiled import njit
 
+
+@njit
 def _split(u: np.ndarray, n: np.ndarray) -> tuple[float, np.ndarray]:
     """Normal speed u_n = u . n and tangential vector u_t = u - u_n n."""
     u_n = float(u @ n)
@@ -54,15 +57,25 @@ def particle_obstacle_impulse(m: float, v, n, c_r: float, mu: float) -> np.ndarr
 
 def cross_matrix(r) -> np.ndarray:
     """r* with r* x = r x x."""
-    x, y, z = (float(c) for c in r)
+    return _cross_matrix(np.asarray(r, dtype=float))
+
+
+@njit
+def _cross_matrix(r):
+    x, y, z = r[0], r[1], r[2]
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
 def body_collision_matrix(m_inv: float, I_inv, r) -> np.ndarray:
     """K_i = 1/M_i 1 - r_i* I_i^-1 r_i* (note 004; note 001 writes r*^T I^-1 r*, the same
     matrix since r*^T = -r*): the change of the contact point's velocity per unit impulse."""
-    r_star = cross_matrix(r)
-    return m_inv * np.eye(3) - r_star @ np.asarray(I_inv, dtype=float) @ r_star
+    return _body_collision_matrix(float(m_inv), np.asarray(I_inv, dtype=float), np.asarray(r, dtype=float))
+
+
+@njit
+def _body_collision_matrix(m_inv, I_inv, r):
+    r_star = _cross_matrix(r)
+    return m_inv * np.eye(3) - r_star @ I_inv @ r_star
 
 
 def collision_matrix(m_inv_a: float, I_inv_a, r_a, m_inv_b: float, I_inv_b, r_b) -> np.ndarray:
@@ -87,7 +100,12 @@ def newton_coulomb_impulse(K, u, n, e: float, mu_s: float, mu_k: float) -> np.nd
     (u_t = 0) the note's t is undefined; we slide against the sticking impulse's tangential
     part, t = -p_t / |p_t|, which is the note's t for spheres.
     """
-    K, u, n = (np.asarray(x, dtype=float) for x in (K, u, n))
+    return _newton_coulomb_impulse(np.asarray(K, dtype=float), np.asarray(u, dtype=float),
+                                   np.asarray(n, dtype=float), float(e), float(mu_s), float(mu_k))
+
+
+@njit
+def _newton_coulomb_impulse(K, u, n, e, mu_s, mu_k):
     u_n, u_t = _split(u, n)
     if u_n >= 0.0:  # separating or resting: no impact
         return np.zeros(3)
@@ -103,8 +121,8 @@ def newton_coulomb_impulse(K, u, n, e: float, mu_s: float, mu_k: float) -> np.nd
     t = -p_t / float(np.linalg.norm(p_t)) if no_slip else u_t / speed_t
     denominator = float(n @ K @ (n - mu_k * t))
     if denominator <= 0.0:
-        raise ValueError(f"n^T K (n - mu_k t) = {denominator:.3g} <= 0: no sliding impulse can "
-                         f"stop the approach (mu_k = {mu_k} too large for this contact's K)")
+        raise ValueError("n^T K (n - mu_k t) <= 0: no sliding impulse can stop the approach "
+                         "(mu_k too large for this contact's K)")
     j = -(1.0 + e) * u_n / denominator
     return j * (n - mu_k * t)
 
@@ -128,40 +146,84 @@ def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
     never taken back (no accumulation, unlike sequential impulses). Then the overlap
     repair of pgs.repair_overlap."""
     from reference_impl import lcp, pgs  # pgs/lcp import nothing from here
-    for c in contacts:
-        c.Pn, c.Pt = 0.0, [0.0] * len(c.tangents)
-    u_start = [c.normal.velocity() for c in contacts]
-    for _ in range(config.iterations):
-        worst = 0.0
-        for c, u_0 in zip(contacts, u_start):
-            u_n = c.normal.velocity()
-            target = newton_target(c, u_n, u_0, config)
-            if u_n >= target - config.tolerance or u_n >= 0.0:  # met, or no approach to reverse
-                continue
-            worst = max(worst, target - u_n)
-            a, b, n = c.a, c.b, np.asarray(c.n, dtype=float)
-            r_a, r_b = (np.subtract(c.point, body.x) for body in (a, b))
-            # our body a is the world's b (pushed along +n, see the module docstring)
-            K = collision_matrix(b.inv_mass, b.inv_I, r_b, a.inv_mass, a.inv_I, r_a)
-            u = (np.add(b.v, np.cross(b.w, r_b)) - np.add(a.v, np.cross(a.w, r_a)))
-            p = newton_coulomb_impulse(K, u, n, -target / u_n, c.mu_s, c.mu_k)
-            for body, r, sign in ((b, r_b, 1.0), (a, r_a, -1.0)):
-                dv = sign * body.inv_mass * p
-                dw = sign * np.asarray(body.inv_I) @ np.cross(r, p)
-                for k in range(3):
-                    body.v[k] += dv[k]
-                    body.w[k] += dw[k]
-            c.Pn += float(p @ n)
-            c.Pt = [P + float(p @ np.asarray(row.d)) for P, row in zip(c.Pt, c.tangents)]
-        if worst == 0.0:
-            break
+    # the contacts and bodies as arrays for the compiled loop (bodies by their world index)
+    C = len(contacts)
+    a = np.array([c.a.index for c in contacts], dtype=np.int64)
+    b = np.array([c.b.index for c in contacts], dtype=np.int64)
+    point, n = np.array([c.point for c in contacts], dtype=float), np.array([c.n for c in contacts], dtype=float)
+    ra_n = np.array([c.normal.ra_d for c in contacts], dtype=float)  # the normal row's r x n
+    rb_n = np.array([c.normal.rb_d for c in contacts], dtype=float)
+    tangents = np.zeros((C, 2, 3))
+    n_tangents = np.array([len(c.tangents) for c in contacts], dtype=np.int64)
+    for j, c in enumerate(contacts):
+        for k, row in enumerate(c.tangents):
+            tangents[j, k] = row.d
+    e, mu_s, mu_k, depth, target = (np.array([getattr(c, name) for c in contacts], dtype=float)
+                                    for name in ("e", "mu_s", "mu_k", "depth", "target"))
+    x = np.array([body.x for body in bodies], dtype=float)
+    inv_mass = np.array([body.inv_mass for body in bodies], dtype=float)
+    inv_I = np.array([body.inv_I for body in bodies], dtype=float).reshape(-1, 3, 3)
+    v, w = np.array([body.v for body in bodies], dtype=float), np.array([body.w for body in bodies], dtype=float)
+    Pn, Pt = np.zeros(C), np.zeros((C, 2))
+    pairwise_loop(a, b, point, n, ra_n, rb_n, tangents, n_tangents, e, mu_s, mu_k, depth, target,
+                  x, inv_mass, inv_I, v, w, Pn, Pt, config.iterations, float(config.tolerance), float(config.slop))
+    for body, v_i, w_i in zip(bodies, v.tolist(), w.tolist()):
+        if not body.static:
+            body.v[:], body.w[:] = v_i, w_i
+    for c, P, P_t in zip(contacts, Pn.tolist(), Pt.tolist()):
+        c.Pn, c.Pt = P, P_t[:len(c.tangents)]
     stages = ["impulses"]
     if pgs.repair_overlap(contacts, bodies, *lcp.world_rows(contacts, bodies)[:2], config):
         stages.append("position")
     return tuple(stages)
 
 
-def newton_target(c, u_n: float, u_0: float, config) -> float:
+@njit
+def pairwise_loop(a, b, point, n, ra_n, rb_n, tangents, n_tangents, e, mu_s, mu_k, depth, target,
+                  x, inv_mass, inv_I, v, w, Pn, Pt, iterations, tolerance, slop):
+    """The sweeps of solve, in place on the bodies' v, w and the contacts' impulses Pn, Pt
+    (the world's contact j: its bodies a[j], b[j], pushed along n[j] on b)."""
+    u_start = np.array([_normal_velocity(v, w, a[j], b[j], n[j], ra_n[j], rb_n[j]) for j in range(len(a))])
+    for _ in range(iterations):
+        worst = 0.0
+        for j in range(len(a)):
+            u_n = _normal_velocity(v, w, a[j], b[j], n[j], ra_n[j], rb_n[j])
+            goal = newton_target(e[j], depth[j], target[j], u_n, u_start[j], slop)
+            if u_n >= goal - tolerance or u_n >= 0.0:  # met, or no approach to reverse
+                continue
+            worst = max(worst, goal - u_n)
+            A, B = a[j], b[j]
+            r_a, r_b = point[j] - x[A], point[j] - x[B]
+            # our body a is the world's b (pushed along +n, see the module docstring)
+            K = (_body_collision_matrix(inv_mass[B], inv_I[B], r_b)
+                 + _body_collision_matrix(inv_mass[A], inv_I[A], r_a))
+            u = (v[B] + np.cross(w[B], r_b)) - (v[A] + np.cross(w[A], r_a))
+            p = _newton_coulomb_impulse(K, u, n[j], -goal / u_n, mu_s[j], mu_k[j])
+            for body, r, sign in ((B, r_b, 1.0), (A, r_a, -1.0)):
+                dv = sign * inv_mass[body] * p
+                dw = sign * inv_I[body] @ np.cross(r, p)
+                for k in range(3):
+                    v[body, k] += dv[k]
+                    w[body, k] += dw[k]
+            Pn[j] += p[0] * n[j, 0] + p[1] * n[j, 1] + p[2] * n[j, 2]
+            for k in range(n_tangents[j]):
+                d = tangents[j, k]
+                Pt[j, k] += p[0] * d[0] + p[1] * d[1] + p[2] * d[2]
+        if worst == 0.0:
+            break
+
+
+@njit
+def _normal_velocity(v, w, a, b, d, ra_d, rb_d):
+    """contact.Row.velocity of the normal row: d . (v_b - v_a) + (r_b x d) . w_b - (r_a x d) . w_a."""
+    va, wa, vb, wb = v[a], w[a], v[b], w[b]
+    return (d[0] * (vb[0] - va[0]) + d[1] * (vb[1] - va[1]) + d[2] * (vb[2] - va[2])
+            + rb_d[0] * wb[0] + rb_d[1] * wb[1] + rb_d[2] * wb[2]
+            - ra_d[0] * wa[0] - ra_d[1] * wa[1] - ra_d[2] * wa[2])
+
+
+@njit
+def newton_target(e, depth, target, u_n, u_0, slop):
     """The normal velocity a touching contact must reach when the loop comes to it:
     Newton's law on its approach at that moment (note 004: each pair's collision is solved
     with its own velocities). The approach it had at the start of the step is taken
@@ -171,9 +233,9 @@ def newton_target(c, u_n: float, u_0: float, config) -> float:
     the row) took every impulse plastically: a Newton's cradle with e = 1 lost 75 % of its
     energy in 0.5 s instead of passing the pulse down the row."""
     induced = u_n - u_0
-    if c.e == 0.0 or induced >= 0.0 or c.depth < -config.slop:
-        return c.target
-    return c.target - c.e * induced
+    if e == 0.0 or induced >= 0.0 or depth < -slop:
+        return target
+    return target - e * induced
 
 
 def knobs(config) -> dict:

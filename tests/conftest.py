@@ -1,7 +1,12 @@
-"""`pytest --engine NAME` (repeatable, or comma-separated; globs allowed) selects engines
-(default: every engine, built-in or plug-in; a missing one is skipped); a named engine
-runs every family it can represent. Property tests run derandomized by default (profile
-"ci"); `pytest --hypothesis-profile=wide` searches widely at random."""
+"""`pytest --engine NAME` (repeatable, or comma-separated; globs allowed) runs the tests of
+those engines only: the tests parametrized on an engine (a job of the case battery or the
+conformance battery, an agreement pairing, an `engine` argument) whose engine is selected,
+and the tests marked `@pytest.mark.engine(GLOB)` (an adapter's own mapping tests) whose
+glob matches a selected engine; every other test (the harness, closed forms, the
+reference implementation's units) is deselected. A named engine runs every family it can
+represent; without --engine every test runs on every engine, built-in or plug-in (a
+missing one is skipped). Property tests run derandomized by default (profile "ci");
+`pytest --hypothesis-profile=wide` searches widely at random."""
 from __future__ import annotations
 
 import os
@@ -34,6 +39,7 @@ def pytest_configure(config):
     """Load --hypothesis-profile if given, else "ci"; before the test modules are imported,
     so their @settings inherit it."""
     settings.load_profile(config.getoption("--hypothesis-profile", default=None) or "ci")
+    config.addinivalue_line("markers", "engine(*globs): a test about these engines, kept by `pytest --engine`")
 
 
 def pytest_addoption(parser):
@@ -56,17 +62,36 @@ def selected_engines(config) -> tuple[list[str], bool]:
 def pytest_generate_tests(metafunc):
     """The jobs of the default run (reference formulations on the core families); the
     on-demand ones (minutes each) are marked slow and run with `pytest -m slow`."""
-    import pytest
-    from physval.core import Context
-    from physval.core.plan import plan
+    from physval.testing import engine_checks
     for name, conformance in (("job", False), ("conformance_job", True)):
-        if name not in metafunc.fixturenames:
-            continue
-        engines, named = selected_engines(metafunc.config)
-        resolver = Context().resolver()
-        fams = {n: [v for v in f.variants] for n, f in resolver.families.items()
-                if ("conformance" in f.tags) == conformance}
-        jobs, later = plan(fams, engines, resolver, named, on_demand=False)
-        params = [pytest.param(j, id=j.test_id) for j in jobs]
-        params += [pytest.param(j, id=j.test_id, marks=[pytest.mark.slow]) for j in later]
-        metafunc.parametrize(name, params)
+        if name in metafunc.fixturenames:
+            engines, named = selected_engines(metafunc.config)
+            metafunc.parametrize(name, engine_checks(engines, conformance, named))
+
+
+def engines_of(item) -> tuple[set[str], list[str]]:
+    """(the engines a test is parametrized on, the engine globs it is marked with)."""
+    params = getattr(item, "callspec", None)
+    engines = set()
+    for name, value in (params.params.items() if params else ()):
+        if name == "engine" and isinstance(value, str):
+            engines.add(value)
+        elif isinstance(getattr(value, "engine", None), str):  # a Job, an agreement pairing
+            engines.add(value.engine)
+    return engines, [g for mark in item.iter_markers("engine") for g in mark.args]
+
+
+def pytest_collection_modifyitems(config, items):
+    """Under --engine, deselect every test that is not about a selected engine."""
+    if not config.getoption("--engine"):
+        return
+    from fnmatch import fnmatchcase
+    selected = set(selected_engines(config)[0])
+    keep, drop = [], []
+    for item in items:
+        engines, globs = engines_of(item)
+        ours = engines & selected or any(fnmatchcase(e, g) for g in globs for e in selected)
+        (keep if ours else drop).append(item)
+    if drop:
+        config.hook.pytest_deselected(items=drop)
+        items[:] = keep

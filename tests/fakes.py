@@ -71,6 +71,61 @@ class FakeAdapter(Adapter):
         return sim
 
 
+class OtherFake(FakeAdapter):
+    """A second stand-in engine, `fake-2` (`--adapter tests/fakes.py:OtherFake`)."""
+
+    def __init__(self):
+        super().__init__("fake-2")
+
+
+class CrashingFake(FakeAdapter):
+    """A stand-in engine whose every run raises in its first step, `fake-crash`
+    (`--adapter tests/fakes.py:CrashingFake`)."""
+
+    def __init__(self):
+        super().__init__("fake-crash", crash_at=1)
+
+
+class FaultAboveFriction(FakeAdapter):
+    """For `--adapter tests/fakes.py:<subclass>`: a ballistic engine (FakeAdapter, made
+    without arguments) that fails, the way a crashing or hanging engine does, while
+    stepping any scene whose friction coefficient exceeds FRICTION; below it it runs.
+    So one parameter set of a run can crash its worker while another completes."""
+    FRICTION = 0.3
+    name_ = "fake-fault"
+
+    def __init__(self):
+        super().__init__(name=self.name_, dimensions=frozenset({3}))
+
+    def build(self, scene, settings):
+        sim = super().build(scene, settings)
+        if scene.material.mu_s > self.FRICTION:
+            sim.step = self.fault
+        return sim
+
+    @staticmethod
+    def fault():
+        raise NotImplementedError
+
+
+class SegfaultAboveFriction(FaultAboveFriction):
+    name_ = "fake-segfault"
+
+    @staticmethod
+    def fault():
+        import ctypes
+        ctypes.string_at(0)  # reads address 0: SIGSEGV, as an engine's bad pointer does
+
+
+class HangAboveFriction(FaultAboveFriction):
+    name_ = "fake-hang"
+
+    @staticmethod
+    def fault():
+        import time
+        time.sleep(3600)
+
+
 # --- a time-stepped bouncing ball: the discrete impacts the rebound tolerances cover ------
 
 def stepped_ball(e: float, h: float, dt: float, duration: float, order: str = "velocity",

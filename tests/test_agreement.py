@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import NamedTuple
 
 import pytest
 
@@ -29,10 +30,17 @@ def _rows(family: str, variant_id: str, engine: str) -> tuple[dict, ...]:
     return tuple(execute(Job(family, variant, engine), Context().resolver()).rows)
 
 
+class Pairing(NamedTuple):
+    """A cross-engine family's variant on an engine (its `engine` is what `pytest --engine` selects by)."""
+    family: str
+    variant: str
+    engine: str
+
+
 def pytest_generate_tests(metafunc):
     if "pairing" in metafunc.fixturenames:
         engines = [e for e in selected_engines(metafunc.config)[0] if not e.startswith(REFERENCE)]
-        params = [pytest.param((name, v.id, e), id=f"{name}[{v.id}]-{e}")
+        params = [pytest.param(Pairing(name, v.id, e), id=f"{name}[{v.id}]-{e}")
                   for name, fam in _families().items() for v in fam.variants for e in engines]
         metafunc.parametrize("pairing", params)
 

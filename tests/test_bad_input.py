@@ -134,6 +134,8 @@ def _physval(*args):
     (["sweep", "--engines", "pymunk", "--cases", "resting_blocks[n=5]"], "has no sweep point"),
     (["stress", "--cases", "robustness_nothing"], "unknown case 'robustness_nothing'"),
     (["known", "no-such-engine"], "unknown engine 'no-such-engine'"),
+    (["run", "--cases", "central_impact[drop,e=0.5]", "--engines", "reference", "--save-trajectories", ""],
+     "--save-trajectories '': must name a folder"),
 ])
 def test_cli_bad_input_is_one_line_and_exit_2(args, message, tmp_path):
     out = _physval(*args, "--out", str(tmp_path / "out"))
@@ -141,6 +143,38 @@ def test_cli_bad_input_is_one_line_and_exit_2(args, message, tmp_path):
     assert message in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1 and "Traceback" not in out.stderr
     assert not (tmp_path / "out" / "results.csv").exists(), "bad input must stop before any job"
+
+
+@pytest.mark.parametrize("address", ["foo", "tcp://host:port", "http://127.0.0.1:8786"])
+def test_a_malformed_scheduler_address_is_one_line(address, tmp_path):
+    """In a process of its own: the traceback of a half-made Dask client came at exit."""
+    import subprocess
+    import sys
+    proc = subprocess.run([sys.executable, "-m", "physval", "run", "--cases", "central_impact[drop,e=0.5]",
+                           "--engines", "reference", "--scheduler", address, "--out", str(tmp_path)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=120)
+    (line,) = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2 and line.startswith(f"physval: error: --scheduler {address!r}: not a Dask "
+                                                    "scheduler address; give tcp://HOST:PORT"), proc.stderr
+
+
+@pytest.mark.parametrize("command", ["run", "sweep", "stress"])
+@pytest.mark.parametrize("removed,replacement", [("--no-effective", "--readings laws"),
+                                                 ("--no-laws", "--readings effective")])
+def test_a_removed_option_names_its_replacement(command, removed, replacement):
+    out = _physval(command, removed)
+    assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1, out.stderr
+    assert f"{removed} was removed: use physval run {replacement}" in out.stderr, out.stderr
+    assert "--readings takes effective, laws, all, none or auto" in out.stderr
+
+
+def test_what_the_removed_options_note_says_readings_takes_is_what_it_takes():
+    from physval.commands.options import READINGS_TAKES
+    from physval.commands.run import READINGS, readings_of
+    named = READINGS_TAKES.split(" takes ", 1)[1].replace(" or ", ", ").split(", ")
+    assert set(named) == set(READINGS) | {"all", "none", "auto"}
+    for name in named:
+        readings_of(name, cases_named=False)  # raises UsageError if it is not taken
 
 
 def test_bad_output_folders_stop_before_any_work(tmp_path):
@@ -215,12 +249,13 @@ def _user_case(name="my_bounce", grid='({"e": 0.5},)', scene=None, observe="lamb
     ({"mine.py": "import nonexistent_module\n"}, "cannot be loaded: ModuleNotFoundError"),
     ({"mine.py": "x = 1\n"}, "defines no FAMILY"),
     ({"mine.py": "FAMILY = 3\n"}, "FAMILY is a int, not a CaseFamily"),
-    ({"mine.py": "import sys\nsys.exit(0)\n"}, "cannot be loaded: SystemExit(0) raised"),
+    ({"mine.py": "import sys\nsys.exit(0)\n"},
+     "cannot be loaded: SystemExit(0) (a case file must import without error and define FAMILY)"),
     ({"mine.py": _user_case(scene="lambda p: 1 / 0")}, "its code raised ZeroDivisionError"),
     ({"mine.py": _user_case(expect="lambda p, dt: [][1]")}, "its code raised IndexError"),
     ({"mine.py": _user_case(scene='lambda p: Scene(bodies=(ground(), Body("ball", None, mass=1.0)))')},
      "shape = None: must be a shape of cases.scene"),
-    ({"a.py": _user_case(), "b.py": _user_case()}, "family 'my_bounce' is also defined in"),
+    ({"a.py": _user_case(), "b.py": _user_case()}, "family 'my_bounce' is already defined in"),
     ({"mine.py": _user_case(name="conformance")}, "family 'conformance' is already a built-in family"),
     ({"mine.py": _user_case(extra=", dt=0.5")}, "dt = 0.5: must lie in (0, 0.1] s"),
     ({"mine.py": _user_case(extra=', needs=frozenset({"contact_force"})')}, "needs ['contact_force']: unknown"),
@@ -255,3 +290,129 @@ def test_an_observer_giving_no_number_is_an_error_row_naming_the_metric_and_file
     (row,) = list(csv.DictReader(open(tmp_path / "out" / "results.csv")))
     assert row["status"] == "error" and "x = None: not a finite number" in row["reason"]
     assert str(cases / "mine.py") in row["reason"]
+
+
+# --- user code never takes physval down (issue 20) ---------------------------------------------
+
+def _physval_process(*args, timeout=120):
+    """`python3 -m physval ARGS` in its own process: a crash that got through would end
+    that process, not the test's."""
+    import subprocess
+    import sys
+    return subprocess.run([sys.executable, "-m", "physval", *args], cwd=ROOT, capture_output=True, text=True,
+                          timeout=timeout)
+
+
+SEGFAULT, EXIT, OS_EXIT = "__import__('ctypes').string_at(0)", "__import__('sys').exit(0)", "__import__('os')._exit(0)"
+HANG = "[0 for _ in iter(int, 1)]"  # an endless loop, as an expression
+ENDS = "never end the process, and finish within the time limit"  # the rule those lines state
+ENDS_FULLY = "a family's code must return or raise, " + ENDS
+LOAD_ENDS = "a case file must import without ending the process, within the time limit"
+
+
+@pytest.mark.parametrize("source,names,message", [
+    (_user_case(observe=f"lambda t, p: {SEGFAULT}"), "my_bounce[e=0.5]",
+     "killed by signal SIGSEGV (11) (" + ENDS_FULLY),
+    (_user_case(observe=f"lambda t, p: {OS_EXIT}"), "my_bounce[e=0.5]", "it exited with code 0 (" + ENDS_FULLY),
+    (_user_case(observe=f"lambda t, p: {EXIT}"), "my_bounce[e=0.5]",
+     "observe() raised SystemExit(0) (an observer must give every check a finite number"),
+    (_user_case(observe=f"lambda t, p: {HANG}"), "my_bounce[e=0.5]", "longer than the per-job time limit of 2 s"),
+    (_user_case(scene=f"lambda p: {SEGFAULT}"), "my_bounce[e=0.5]", "killed by signal SIGSEGV"),
+    (_user_case(expect=f"lambda p, dt: {OS_EXIT}"), "my_bounce[e=0.5]", "it exited with code 0"),
+    (_user_case(expect=f"lambda p, dt: {EXIT}"), "my_bounce[e=0.5]", "its code raised SystemExit(0) (scene, duration"),
+    ("import os\nos._exit(3)\n" + _user_case(), "cannot be loaded", "it exited with code 3 (" + LOAD_ENDS),
+    ("import sys\nsys.exit(3)\n" + _user_case(), "cannot be loaded", "SystemExit(3) (a case file must import"),
+], ids=["observe-segfault", "observe-os_exit", "observe-sys_exit", "observe-hang", "scene-segfault",
+        "expect-os_exit", "expect-sys_exit", "import-os_exit", "import-sys_exit"])
+def test_check_case_survives_a_family_that_crashes_exits_or_hangs(source, names, message, tmp_path):
+    """Every way a family's code can end a process, in each place physval calls it, is one
+    line and exit 2: the file, the family[variant] (or that it cannot be loaded) and what is
+    allowed (before: exit 139 and nothing said for a segfault, exit 0, 'usable', for an exit)."""
+    (tmp_path / "mine.py").write_text(source)
+    got = _physval_process("check-case", "--job-timeout", "2", str(tmp_path / "mine.py"))
+    lines = got.stderr.strip().splitlines()
+    assert got.returncode == 2, (got.returncode, got.stderr)
+    assert len(lines) == 1 and lines[0].startswith(f"physval: error: {tmp_path / 'mine.py'}: {names}"), got.stderr
+    assert message in lines[0], lines[0]
+    assert "runs on" not in got.stdout
+
+
+@pytest.mark.parametrize("source", [_user_case(observe=f"lambda t, p: {SEGFAULT}"), "import os\nos._exit(3)\n"],
+                         ids=["observe-segfault", "import-os_exit"])
+def test_a_run_survives_a_family_that_crashes(source, tmp_path):
+    """`physval run --cases-dir` dry-runs the folder's families in workers: a family that
+    crashes stops the run that selects it with one line, before any job."""
+    (tmp_path / "cases").mkdir()
+    (tmp_path / "cases" / "mine.py").write_text(source)
+    got = _physval_process("run", "--cases-dir", str(tmp_path / "cases"), "--engines", "reference", "--quiet",
+                           "--out", str(tmp_path / "out"))
+    lines = got.stderr.strip().splitlines()
+    assert got.returncode == 2 and len(lines) == 1 and str(tmp_path / "cases" / "mine.py") in lines[0], got.stderr
+    assert ENDS in lines[0] or LOAD_ENDS in lines[0], lines[0]
+    assert not (tmp_path / "out" / "results.csv").exists()
+
+
+@pytest.mark.parametrize("adapter,message", [
+    ("import sys\nsys.exit(0)\n", "cannot be imported: SystemExit(0) (an adapter's module must import"),
+    ("import os\nos._exit(0)\n", "it exited with code 0 (an adapter's module must import, and its class be made, "
+                                  "without ending the process)"),
+    ("import os\nfrom adapters.reference_engine import ReferenceAdapter\n"
+     "class Engine(ReferenceAdapter):\n    def __init__(self):\n        os.kill(os.getpid(), 11)\n",
+     "killed by signal SIGSEGV"),
+], ids=["import-sys_exit", "import-os_exit", "constructor-segfault"])
+@pytest.mark.parametrize("command", [["list", "--engines"], ["run", "--engines", "reference", "--quiet"]],
+                         ids=["list", "run"])
+def test_an_adapter_file_that_exits_or_crashes_is_one_line(adapter, message, command, tmp_path):
+    """An --adapter file is imported and made in a worker first (before: exit 0 and no word)."""
+    (tmp_path / "engine.py").write_text(adapter)
+    target = f"{tmp_path / 'engine.py'}:Engine"
+    out = ["--out", str(tmp_path / "out")] if command[0] == "run" else []
+    got = _physval_process(*command, "--adapter", target, *out)
+    lines = got.stderr.strip().splitlines()
+    assert got.returncode == 2 and len(lines) == 1, (got.returncode, got.stderr)
+    assert lines[0].startswith(f"physval: error: adapter {target!r}: ") and message in lines[0], lines[0]
+    assert not (tmp_path / "out" / "results.csv").exists()
+
+
+def test_an_observer_that_exits_in_a_real_run_is_an_error_row(tmp_path):
+    """Past the one-step dry run, an exit in an observer costs its job's rows, which say so;
+    the worker goes on."""
+    cases = tmp_path / "cases"
+    cases.mkdir()
+    (cases / "mine.py").write_text(_user_case(observe=f"lambda t, p: {{'x': 0.0}} if len(t.t) <= 2 else {EXIT}"))
+    out = _physval("run", "--cases-dir", str(cases), "--cases", "my_bounce", "--out", str(tmp_path / "out"),
+                   "--engines", "reference", "--workers", "1", "--quiet")
+    assert out.returncode == 0, out.stderr
+    import csv
+    (row,) = list(csv.DictReader(open(tmp_path / "out" / "results.csv")))
+    assert row["status"] == "error" and row["reason"].startswith("SystemExit: 0 (at mine.py:"), row["reason"]
+
+
+def test_a_broken_file_leaves_the_other_families_of_its_folder_runnable(tmp_path):
+    """One file that does not load (it even ends the process), one whose observer gives NaN
+    and one whose family takes a built-in name: a run naming the good family runs it and
+    says in one line per file what was left out; naming a broken family, or every family,
+    stops with its line."""
+    cases, out = tmp_path / "cases", tmp_path / "out"
+    cases.mkdir()
+    (cases / "good.py").write_text(_user_case(name="good"))
+    (cases / "exits.py").write_text("import os\nos._exit(3)\n")
+    (cases / "nan.py").write_text(_user_case(name="nan_family", observe="lambda t, p: {'x': float('nan')}"))
+    (cases / "clash.py").write_text(_user_case(name="conformance"))
+    broken = {"exits.py": "cannot be loaded", "nan.py": "observe() gave x = nan",
+              "clash.py": "family 'conformance' is already a built-in family"}
+    run = ("run", "--cases-dir", str(cases), "--engines", "reference", "--workers", "1", "--quiet", "--out", str(out))
+    got = _physval_process(*run, "--cases", "good")
+    assert got.returncode == 0, got.stderr
+    lines = got.stderr.strip().splitlines()
+    assert len(lines) == len(broken), lines
+    for f, message in broken.items():
+        (line,) = [x for x in lines if str(cases / f) in x]
+        assert line.startswith(f"physval: left out {cases / f}: ") and message in line, line
+    import csv
+    rows = list(csv.DictReader(open(out / "results.csv")))
+    assert {r["case"] for r in rows} == {"good"} and {r["status"] for r in rows} == {"pass"}, rows
+    for spec, f in (("nan_family", "nan.py"), ("conformance", "clash.py"), ("exits_family", "exits.py"), (None, "")):
+        got = _physval_process(*run, *(["--cases", spec] if spec else []))
+        lines = got.stderr.strip().splitlines()
+        assert got.returncode == 2 and len(lines) == 1 and str(cases / f) in lines[0], (spec, got.stderr)

@@ -42,6 +42,7 @@ def box2d():
     return box2d_engine
 
 
+@pytest.mark.engine("box2d")
 @pytest.mark.parametrize("name", SCENES)
 def test_box2d_shape_materials_reproduce_every_pair_under_its_mixing(box2d, name):
     """Box2D mixes sqrt(mu_a mu_b) and max(e_a, e_b) (b2DefaultWorldDef's callbacks)."""
@@ -53,6 +54,7 @@ def test_box2d_shape_materials_reproduce_every_pair_under_its_mixing(box2d, name
         assert max(e[a.name], e[b.name]) == pytest.approx(m.e, rel=1e-12)
 
 
+@pytest.mark.engine("box2d")
 def test_box2d_pairs_no_shape_values_reproduce_are_unsupported(box2d):
     """max(e_a, e_b) cannot give a-b 0.2 when the bodies take 0.5 and 0.1 from the ground."""
     from adapters.base import Unsupported
@@ -62,6 +64,7 @@ def test_box2d_pairs_no_shape_values_reproduce_are_unsupported(box2d):
         box2d.Box2DAdapter().build(scene, Settings(dt=1e-3))
 
 
+@pytest.mark.engine("box2d")
 def test_box2d_materials_act_in_the_engine(box2d):
     """The mixed friction is the pair's: a square sliding at 1 m/s on the ground with the
     pair's mu = 0.7 (shape values 1 and 0.49) decelerates at mu g."""
@@ -75,6 +78,7 @@ def test_box2d_materials_act_in_the_engine(box2d):
     assert (2.0 - v) / 0.1 == pytest.approx(0.7 * G, rel=1e-4)  # float32 engine
 
 
+@pytest.mark.engine("box2d")
 def test_box2d_angle_round_trip(box2d):
     """A square turned by phi about scene +y reads back turned by phi (Box2D angle -phi),
     to float32 and without b2MakeRot's polynomial approximation (1e-3 rad)."""
@@ -88,6 +92,7 @@ def test_box2d_angle_round_trip(box2d):
     assert sim.knobs["bodies"]["box"]["rotational_inertia"] == pytest.approx(2 * 0.1**2 / 3, rel=1e-7)
 
 
+@pytest.mark.engine("box2d")
 @pytest.mark.parametrize("dz, expected_gap", [(0.0, 0.0), (0.01, 0.01), (-0.002, -0.002)])
 def test_box2d_gaps_and_normals(box2d, dz, expected_gap):
     """Signed distance and normal (from b into a) of circle/plane, square/plane,
@@ -106,6 +111,7 @@ def test_box2d_gaps_and_normals(box2d, dz, expected_gap):
         assert np.allclose(n, normal, atol=1e-6)
 
 
+@pytest.mark.engine("box2d")
 def test_box2d_force_split_drops_speculative_cycle_closers(box2d):
     """Three millimetre squares stacked: the upper two also touch the ground speculatively
     (Box2D's contacts reach 2 cm); those pairs, 1 and 2 mm apart, close cycles and carry
@@ -126,6 +132,7 @@ def test_box2d_force_split_drops_speculative_cycle_closers(box2d):
     assert f[3] == 0.0 and f[4] == 0.0
 
 
+@pytest.mark.engine("box2d")
 def test_box2d_stiffness_is_the_cap_and_options_are_checked(box2d):
     adapter = box2d.Box2DAdapter()
     scene = SCENES["uniform"](2)
@@ -149,6 +156,7 @@ def rapier():
     return rapier_engine
 
 
+@pytest.mark.engine("rapier")
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("name", SCENES)
 def test_rapier_collider_materials_reproduce_every_pair_under_the_chosen_rule(rapier, name, dim):
@@ -162,6 +170,7 @@ def test_rapier_collider_materials_reproduce_every_pair_under_the_chosen_rule(ra
                                                                       rel=1e-12)
 
 
+@pytest.mark.engine("rapier")
 @pytest.mark.parametrize("dim", [2, 3])
 def test_rapier_friction_acts_in_the_plane(rapier, dim):
     """A box sliding at 2 m/s with mu = 0.5 decelerates at mu g, in 3D and in a 2D scene
@@ -179,6 +188,7 @@ def test_rapier_friction_acts_in_the_plane(rapier, dim):
         assert abs(row[1]) < 1e-6 and abs(row[8]) < 1e-6
 
 
+@pytest.mark.engine("rapier")
 def test_rapier_resting_force_and_options(rapier):
     scene = Scene(bodies=(ground(), Body("box", cube(0.1, 3), mass=2.0, position=(0, 0, 0.1))),
                   gravity=(0, 0, -G), material=Material(mu_s=0.5), dimension=3)

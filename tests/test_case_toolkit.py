@@ -6,6 +6,9 @@ from __future__ import annotations
 
 import csv
 import math
+import re
+import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -60,6 +63,12 @@ _BROKEN = {
     "bad_scene": (lambda s: s.replace("mass=M_TOP", "mass=-M_TOP"), "pair_drop[e=0.5]: bodies[2](top).mass = -0.1: must be > 0"),
     "no_family": (lambda s: s.replace("FAMILY = CaseFamily(", "NOT_A_FAMILY = CaseFamily("),
                   "defines no FAMILY"),
+    # an observer must give a finite number for every check (before: check-case said usable)
+    "nan": (lambda s: s.replace('"apex_top": rebound(traj, "top", 3 * R)}', '"apex_top": float("nan")}'),
+            "pair_drop[e=0.5]: observe() gave apex_top = nan on a one-step run (an observer must give every check "
+            "a finite number"),
+    "string": (lambda s: s.replace('"apex_top": rebound(traj, "top", 3 * R)}', '"apex_top": "high"}'),
+               "pair_drop[e=0.5]: observe() gave apex_top = 'high' on a one-step run"),
 }
 
 
@@ -116,3 +125,65 @@ def test_saved_file_names_read_like_test_ids():
     from physval.core.jobs import Job
     job = Job("central_impact", Variant("central_impact", "e=0.5,m=1:3", {}), "mujoco")
     assert file_name(job) == "central_impact[e=0.5,m=1:3]-mujoco.npz"
+
+
+# --- the case folder: families and libraries, told apart by what a module defines -------------
+
+def test_every_module_of_the_cases_package_is_a_family_or_a_library():
+    """No list kept by hand: a module defining FAMILY is a family (found in subpackages too),
+    any other a library. The robustness families live in the package cases/robustness with
+    what they share (its __init__, a library); no robustness family lives outside it."""
+    import importlib
+    import pkgutil
+
+    import cases
+    from cases.registry import builtin_families
+    modules = {i.name: importlib.import_module(i.name) for i in pkgutil.walk_packages(cases.__path__, "cases.")}
+    families = {m.FAMILY.name: name for name, m in modules.items() if hasattr(m, "FAMILY")}
+    assert families == {n: f.scene.__module__ for n, f in builtin_families().items()}
+    libraries = {name for name, m in modules.items() if not hasattr(m, "FAMILY")}
+    assert {"cases.scene", "cases.family", "cases.observables", "cases.overlap", "cases.robustness"} <= libraries
+    robust = {n: m for n, m in families.items() if "robustness" in builtin_families()[n].tags}
+    assert robust and all(m.startswith("cases.robustness.") for m in robust.values()), robust
+    assert all(n.startswith("robustness_") for n in robust)
+    assert not [n for n in libraries if n.startswith("cases.robustness.")], "a library among the robustness families"
+
+
+def test_overlap_and_scene_do_not_import_each_other():
+    """cases.scene validates start overlaps with cases.overlap, which reads shapes by kind
+    and size and imports nothing from cases.scene."""
+    import subprocess
+    import sys
+    code = "import sys, cases.overlap; print('cases.scene' in sys.modules)"
+    root = str(Path(__file__).resolve().parent.parent)
+    out = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=60)
+    assert out.stdout.strip() == "False", out.stdout + out.stderr
+
+
+def test_an_observer_built_from_the_window_helpers_passes_the_dry_run(tmp_path, capsys):
+    """Readings from a settling time on (window_mean, drift, rate) on check-case's one-step
+    run: the windows lie past its end, and each helper still gives a finite number (before:
+    drift raised IndexError, window_mean gave NaN, rate raised)."""
+    (tmp_path / "settle.py").write_text(textwrap.dedent("""
+        from cases.family import CaseFamily, Check
+        from cases.observables import drift, rate, window_mean
+        from cases.scene import Body, Material, Scene, Sphere, ground
+
+        def observe(traj, p):
+            vz = traj.vel("ball")[:, 2]
+            return {"rest_speed": window_mean(traj, vz, 0.5), "drift": drift(traj, ["ball"], 0.5),
+                    "deceleration": rate(traj, vz, 0.5)}
+
+        def expect(p, dt):
+            return [Check(m, "-", 0.0, 1.0, "abs", "a resting ball") for m in ("rest_speed", "drift", "deceleration")]
+
+        FAMILY = CaseFamily(
+            name="settle", summary="a ball at rest stays", source="statics", grid=({"e": 0.0},),
+            scene=lambda p: Scene(bodies=(ground(), Body("ball", Sphere(0.1), mass=1.0, position=(0, 0, 0.1))),
+                                  material=Material(e=p["e"])),
+            duration=lambda p: 1.0, observe=observe, expect=expect)
+    """))
+    assert main(["check-case", str(tmp_path / "settle.py")]) == 0, capsys.readouterr().err
+    out = capsys.readouterr().out
+    steps = re.findall(r"\[one reference step: (.*)\]", out)
+    assert len(steps) == 3 and all(math.isfinite(float(x)) for x in steps), out

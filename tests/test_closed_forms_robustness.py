@@ -7,11 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from cases import (robustness_cradle as cradle, robustness_degenerate as degenerate, robustness_mass_ratio as ratio,
-                   robustness_overlap as overlap, robustness_stacks as stacks, robustness_tunnelling as tunnelling,
-                   robustness_warm_start as warm)
 from cases.overlap import penetration, rotation_matrix
-from cases.robustness import free_flight_energy_tolerance
+from cases.robustness import (cradle, degenerate, free_flight_energy_tolerance, mass_ratio as ratio, overlap, stacks,
+                              tunnelling, warm_start as warm)
 
 G = 9.81
 

@@ -13,6 +13,7 @@ from scipy.integrate import solve_ivp
 from scipy.special import lambertw
 
 pytest.importorskip("pydrake")
+pytestmark = pytest.mark.engine("drake*")  # `pytest --engine drake-sap` runs these too
 
 from adapters import drake_engine as de  # noqa: E402
 from adapters.base import Settings, SettingsError  # noqa: E402

@@ -33,6 +33,8 @@ FAMILY = textwrap.dedent("""
             faults = json.loads((pathlib.Path(__file__).parent / "faults.json").read_text())
             NAP, CRASH, HOW, HANG = (faults.get(k, d) for k, d in (("nap", 0), ("crash", -1), ("how", "segfault"),
                                                                     ("hang", -1)))
+            if NAP:  # in a job now: say so (the kill test waits for its workers to be busy)
+                (pathlib.Path(__file__).parent / f"napping-{os.getpid()}").touch()
             time.sleep(NAP)
             if p["k"] == CRASH:
                 if HOW == "segfault":
@@ -140,10 +142,11 @@ def _as_from_a_terminal() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def _start(cases_dir: Path, out: Path, nap: float, workers: int = 2) -> subprocess.Popen:
+def _start(cases_dir: Path, out: Path, nap: float, workers: int = 2, method: str = "forkserver") -> subprocess.Popen:
     _faults(cases_dir, nap=nap)
     return subprocess.Popen([sys.executable, "-m", "physval", "run", "--cases-dir", str(cases_dir), "--cases",
-                             "faulty_fall", "--engines", "reference", "--workers", str(workers), "--out", str(out)],
+                             "faulty_fall", "--engines", "reference", "--workers", str(workers),
+                             "--start-method", method, "--out", str(out)],
                             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=_as_from_a_terminal)
 
@@ -187,21 +190,29 @@ def test_an_interrupted_run_keeps_its_rows_leaves_no_process_and_resumes(cases_d
     assert sorted(_rows(out)) == [f"k={k}" for k in range(6)]
 
 
-@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
-def test_workers_exit_when_their_parent_is_killed(cases_dir, tmp_path):
-    proc = _start(cases_dir, tmp_path / "out", nap=3.0)
+@pytest.mark.parametrize("method", ["fork", "spawn", "forkserver"])
+def test_every_child_exits_when_the_main_process_is_killed(cases_dir, tmp_path, method):
+    """SIGKILL leaves the main process no cleanup at all. Its two workers are in a job of
+    60 s (so no job's end lets them notice), and under forkserver the fork server and the
+    resource tracker are its children too: every descendant must be gone within 3 s."""
+    psutil = pytest.importorskip("psutil")
+    proc = _start(cases_dir, tmp_path / "out", nap=60.0, method=method)
     t0 = time.monotonic()
-    while not _descendants(proc.pid) and time.monotonic() - t0 < 30:
+    while len(list(cases_dir.glob("napping-*"))) < 2 and time.monotonic() - t0 < 60:
+        assert proc.poll() is None, proc.communicate()
         time.sleep(0.05)
-    time.sleep(1.0)  # workers busy in a job
-    family = _descendants(proc.pid)
-    assert family
-    proc.kill()  # SIGKILL: no cleanup in the parent at all
-    proc.communicate()
-    t0 = time.monotonic()
-    while _alive(family) and time.monotonic() - t0 < 5:
-        time.sleep(0.1)
-    assert not _alive(family), "workers outlived their parent"
+    family = psutil.Process(proc.pid).children(recursive=True)
+    busy = {int(f.name.split("-")[1]) for f in cases_dir.glob("napping-*")}
+    assert len(busy) == 2 and busy <= {p.pid for p in family}, "two workers in a job"
+    proc.kill()
+    proc.wait()  # not communicate(): the children hold its output pipes until they exit
+    gone, alive = psutil.wait_procs(family, timeout=3)
+    survivors = [" ".join(p.cmdline())[:80] for p in alive]
+    for p in alive:
+        p.kill()
+    proc.stdout.close()
+    proc.stderr.close()
+    assert not survivors, f"{survivors} outlived the main process ({method})"
 
 
 @pytest.mark.parametrize("method", ["fork", "spawn", "forkserver"])
@@ -248,3 +259,56 @@ def test_an_interrupt_during_the_disk_write_keeps_the_job_that_was_being_written
     assert kept and {r["job"] for r in kept} == {jobs[0].key}
     with open(tmp_path / "results.csv", newline="") as fh:
         assert len(list(csv.DictReader(fh))) == len(kept)
+
+
+def test_a_full_disk_is_one_line_keeps_the_finished_rows_and_the_same_command_resumes(tmp_path, monkeypatch,
+                                                                                      capsys):
+    """The third job's write finds the disk full after half a line: exit 74 (README) with
+    one line, the two finished jobs on disk, and the same command runs only the rest."""
+    import errno
+    import os
+    from physval.core import store as store_module
+    from physval.cli import DISK_FULL
+
+    class FullDisk:
+        """A file opened for appending that takes half of what is written, then ENOSPC."""
+        def __init__(self, fh):
+            self.fh = fh
+
+        def write(self, text):
+            self.fh.write(text[:len(text) // 2])
+            self.fh.flush()
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+        def __getattr__(self, name):
+            return getattr(self.fh, name)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.fh.close()
+
+    appends = []
+
+    def filling_open(path, mode="r", **kw):
+        fh = open(path, mode, **kw)
+        if "a" in mode:
+            appends.append(path)
+            return FullDisk(fh) if len(appends) == 3 else fh
+        return fh
+
+    out = tmp_path / "out"
+    argv = ["run", "--cases", "central_impact[e=0.5,m=1:*]", "--engines", "reference", "--workers", "1",
+            "--quiet", "--out", str(out)]
+    monkeypatch.setattr(store_module, "open", filling_open, raising=False)
+    assert main(argv) == DISK_FULL == 74
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("physval: error: the disk is full (No space left on device)") and \
+        "the rows of finished jobs are kept" in line and "run the same command again" in line, line
+    assert not (out / "report.md").exists()
+    monkeypatch.undo()
+    assert main(argv) == 0
+    assert "(2 runs now, 2 reused" in capsys.readouterr().out
+    rows = list(csv.DictReader(open(out / "results.csv")))
+    assert len({r["variant"] for r in rows}) == 4 and {r["status"] for r in rows} == {"pass"}

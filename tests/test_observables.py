@@ -104,3 +104,82 @@ def test_rebound_tolerance_has_the_first_order_terms():
         first = G * dt / v * ((1 + e) / 2 + (1 - e * e) / e)
         assert ci.rebound_tolerance(e, v, dt) - 1e-6 == pytest.approx(first, rel=1e-3)  # less the solver floor
     assert ci.rebound_tolerance(0.0, v, dt) == pytest.approx(1e-6)  # plastic: no rising arc at all
+
+
+# --- windows: a reading over a window is a finite number whatever the run's length ----------
+
+def falling_box(steps: int, dt: float = 1e-3) -> Trajectory:
+    """A box falling freely from rest for `steps` steps (velocity-first Euler), sliding
+    at 1 m/s along x, with the force of a resting contact growing 1 N a step."""
+    from cases.scene import pair_key
+    t = np.arange(steps + 1) * dt
+    states = np.zeros((steps + 1, 13))
+    states[:, 0], states[:, 3], states[:, 7] = t, 1.0, 1.0
+    states[:, 9] = -G * t
+    states[:, 2] = 1.0 - G * dt * dt * np.arange(steps + 1) * (np.arange(steps + 1) + 1) / 2
+    return Trajectory(dt=dt, t=t, states={"box": states}, forces={pair_key("ground", "box"): np.arange(steps + 1.0)},
+                      bodies=frozenset({"ground", "box"}))
+
+
+def no_warnings(read):
+    """read(), with any warning (numpy's RankWarning, 'Mean of empty slice') an error."""
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        return read()
+
+
+@pytest.mark.parametrize("t0", [0.0005, 0.002, 0.5])
+def test_a_window_past_the_runs_end_reads_the_last_samples(t0):
+    """check-case's one-step run (two samples) observed with windows that start after it
+    ended (a guide-style observer reading from a settling time): the mean and the drift
+    read the last sample, the rate the last step, each a finite number and without a warning."""
+    from cases.observables import drift, rate, window_mean
+    traj = falling_box(1)
+    vz = traj.vel("box")[:, 2]
+    assert no_warnings(lambda: window_mean(traj, vz, t0)) == vz[-1]
+    assert no_warnings(lambda: window_mean(traj, traj.force("ground", "box"), t0)) == 1.0
+    assert no_warnings(lambda: drift(traj, ["box"], t0)) == 0.0
+    assert no_warnings(lambda: rate(traj, vz, t0)) == pytest.approx(-G, rel=1e-12)
+    assert no_warnings(lambda: rate(traj, traj.pos("box")[:, 0], t0)) == pytest.approx(1.0, rel=1e-12)
+
+
+def test_a_rate_over_one_sample_is_the_slope_of_the_step_ending_there():
+    """A window [t0, t1] that holds one sample (or none, between two samples): numpy's line
+    through one point is any line (a RankWarning and a meaningless slope); the rate is the
+    step ending at the window's last sample."""
+    from cases.observables import rate
+    traj = falling_box(100)
+    x = traj.pos("box")[:, 2]
+    for t0, t1, k in ((0.05, 0.05, 50), (0.0503, 0.0507, 50), (0.0, 0.0, 1)):
+        expected = (x[k] - x[k - 1]) / traj.dt
+        assert no_warnings(lambda: rate(traj, x, t0, t1)) == pytest.approx(expected, rel=1e-9), (t0, t1)
+
+
+def test_windows_inside_the_run_read_as_before():
+    """The widening touches only windows too short for their reading: within a run the
+    rate is the least-squares slope and the mean and drift those of the samples from t0 on."""
+    from cases.observables import drift, rate, window_mean
+    traj = falling_box(100)
+    vz, late = traj.vel("box")[:, 2], traj.t >= 0.04 - 1e-12
+    assert rate(traj, vz, 0.04) == pytest.approx(-G, rel=1e-9)
+    assert rate(traj, vz, 0.04) == float(np.polyfit(traj.t[late], vz[late], 1)[0])
+    assert window_mean(traj, vz, 0.04) == float(np.mean(vz[late]))
+    x = traj.pos("box")[late]
+    assert drift(traj, ["box"], 0.04) == float(np.max(np.linalg.norm(x - x[0], axis=1)))
+
+
+def test_stack_readings_and_overlap_past_the_runs_end_are_finite():
+    from cases import resting_blocks
+    from cases.observables import deepest_overlap, stack_readings
+    from physval.core.record import simulate
+    from adapters import registry
+    from adapters.base import Settings
+    p = resting_blocks.FAMILY.variants[0].params
+    scene = resting_blocks.scene(p)
+    with registry.get("reference").build(scene, Settings(dt=1e-3)) as sim:
+        traj = simulate(sim, scene, 1e-3, 1, forces=True).trajectory
+    names = [b.name for b in scene.dynamic_bodies]
+    got = no_warnings(lambda: stack_readings(traj, names, resting_blocks.HALF, settled=5.0))
+    assert got and all(math.isfinite(v) for v in got.values()) and got["drift"] == 0.0, got
+    assert math.isfinite(no_warnings(lambda: deepest_overlap(traj, scene, 5.0)))

@@ -204,3 +204,45 @@ def test_a_deviation_file_that_does_not_parse_stops_the_run_with_one_line(tmp_pa
     err = capsys.readouterr().err
     assert code == 2 and "reference-broken.txt:2" in err and len(err.strip().splitlines()) == 1, err
     assert not (tmp_path / "out" / "results.csv").exists()
+
+
+# --- resuming: a plug-in's code is part of the resume key --------------------------------------
+
+def _to_run(proc: subprocess.CompletedProcess) -> tuple[int, int]:
+    """(runs, runs to run) from `physval run`'s first progress line."""
+    import re
+    m = re.search(r"^physval: (\d+) runs \(.*?\), (\d+) to run", proc.stderr, re.M)
+    assert m, proc.stderr
+    return int(m[1]), int(m[2])
+
+
+def _edited_rerun(args, edited: Path, path) -> list[tuple[int, int]]:
+    """(runs, to run) of `physval run ARGS` three times: first, again, and after a comment
+    is added to `edited` (its behaviour and the engine's version string unchanged)."""
+    counts = [_to_run(physval(*args, path=path)), _to_run(physval(*args, path=path))]
+    edited.write_text(edited.read_text() + "\n# tuned\n")
+    return counts + [_to_run(physval(*args, path=path))]
+
+
+def test_an_adapter_module_that_changed_runs_its_jobs_again(tmp_path):
+    """`--adapter module:Class` on the path: its source is part of the resume key, as a
+    case file's is (before: the jobs were reused)."""
+    (tmp_path / "mine_engine.py").write_text(textwrap.dedent("""
+        from adapters.reference_engine import ReferenceAdapter
+
+        class Mine(ReferenceAdapter):
+            def __init__(self):
+                super().__init__(name="reference-mine")
+    """))
+    args = ["run", "--adapter", "mine_engine:Mine", "--engines", "reference-mine", "--cases", CASE,
+            "--workers", "1", "--out", str(tmp_path / "out")]
+    (n, first), (_, again), (_, edited) = _edited_rerun(args, tmp_path / "mine_engine.py", [tmp_path])
+    assert n >= 1 and (first, again, edited) == (n, 0, n)
+
+
+def test_an_installed_plugin_whose_code_changed_runs_its_jobs_again(site, tmp_path):
+    """The entry-point plug-in's package source is part of the resume key: a change that
+    keeps its version string runs its jobs again (before: they were reused)."""
+    args = ["run", "--engines", ENGINE, "--cases", CASE, "--workers", "1", "--out", str(tmp_path / "out")]
+    (n, first), (_, again), (_, edited) = _edited_rerun(args, site / "physval_engine_example" / "__init__.py", [site])
+    assert n >= 1 and (first, again, edited) == (n, 0, n)

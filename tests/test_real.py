@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -309,3 +310,117 @@ def test_any_toss_file_is_scored_with_saved_parameters(tmp_path, synthetic_file)
 def test_bad_input_exits_with_2(argv, message, capsys, tmp_path):
     assert _cli(*argv, "--out", str(tmp_path)) == 2
     assert message in capsys.readouterr().err
+
+
+# --- engines from outside the repository, and faults ------------------------------------------
+
+FAKES = Path(__file__).with_name("fakes.py")
+QUICK = ("--limit", "3", "--horizon", "0.2", "--workers", "1")
+
+
+def test_an_adhoc_adapter_reaches_the_workers(tmp_path):
+    """`--adapter path/file.py:Class` names an engine no registry lists: the command finds
+    it, and every worker process builds and steps it (a worker that could not resolve it
+    would leave error rows)."""
+    out = tmp_path / "out"
+    assert _cli("--adapter", f"{FAKES}:FaultAboveFriction", "--engines", "fake-fault", "--nominal", *QUICK,
+                "--no-cache", "--out", str(out)) == 0
+    scores = pd.read_csv(out / "real_scores.csv")
+    mine = scores[scores.engine == "fake-fault"]
+    assert sorted(mine[mine.param_set == "nominal"].toss) == [3, 5, 7]
+    assert (mine.status == "ok").all() and (mine.steps > 0).all(), mine[["status", "message"]]
+
+
+def test_an_edited_adhoc_adapter_is_simulated_again_not_read_from_the_cache(tmp_path):
+    adapter = tmp_path / "mine.py"
+    code = ("from tests.fakes import FakeAdapter\n\nclass Mine(FakeAdapter):\n"
+            "    def __init__(self):\n        super().__init__(name='fake-mine', dimensions=frozenset({3}))\n")
+    adapter.write_text(code)
+
+    def cached() -> set:
+        out = tmp_path / "out"
+        assert _cli("--adapter", f"{adapter}:Mine", "--engines", "fake-mine", "--nominal", *QUICK,
+                    "--cache", str(tmp_path / "cache"), "--out", str(out)) == 0
+        return set(pd.read_csv(out / "real_scores.csv").query("engine == 'fake-mine'").cached)
+
+    assert cached() == {False}
+    assert cached() == {True}   # unchanged: every simulation read back
+    adapter.write_text(code + "    # edited\n")
+    assert cached() == {False}  # its source changed: simulated again
+
+
+# A worker's first batch loads the toss data (~1 CPU s): the time limit leaves room for that
+# on a loaded machine, and only the hanging batch (the given parameters') waits it out.
+@pytest.mark.parametrize("fault, limit, why", [("FaultAboveFriction", "900", "the engine raised NotImplementedError"),
+                                               ("SegfaultAboveFriction", "900", "killed by signal SIGSEGV"),
+                                               ("HangAboveFriction", "10", "per-job time limit of 10 s")])
+def test_a_batch_whose_worker_dies_or_hangs_costs_only_its_tosses(fault, limit, why, tmp_path):
+    """The fake engine raises in a step, crashes its worker or hangs at friction above 0.3
+    and runs below: the given parameters' tosses become error rows naming the exception,
+    the signal or the limit, the nominal ones are scored, and the command completes with
+    its report."""
+    from tests import fakes
+    engine = getattr(fakes, fault).name_
+    params, out = tmp_path / "params.json", tmp_path / "out"
+    params.write_text(json.dumps({engine: {"mu": 0.5}}))
+    assert _cli("--adapter", f"{FAKES}:{fault}", "--engines", engine, "--params", str(params), *QUICK,
+                "--job-timeout", limit, "--no-cache", "--out", str(out)) == 0
+    scores = pd.read_csv(out / "real_scores.csv")
+    nominal, given = (scores[(scores.engine == engine) & (scores.param_set == p)] for p in ("nominal", "fitted"))
+    assert sorted(nominal.toss) == sorted(given.toss) == [3, 5, 7]
+    assert (nominal.status == "ok").all(), nominal.message
+    assert (given.status == "error").all() and given.message.str.contains(why).all(), given.message
+    assert given.corner_mean.isna().all() and (given.loss == real.FAIL_LOSS).all()
+    assert "## Failed simulations" in (out / "real_report.md").read_text()
+
+
+# --- the output folder --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("option", ["--out", "--cache"])
+def test_a_folder_option_naming_a_file_stops_before_any_work(option, tmp_path, capsys):
+    mine = tmp_path / "report.md"
+    mine.write_text("mine")
+    folders = {"--out": str(tmp_path / "out"), "--cache": str(tmp_path / "cache"), option: str(mine)}
+    assert _cli("--engines", "mujoco", "--limit", "2", *(x for pair in folders.items() for x in pair)) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{option} {mine}: exists and is not a folder" in err[0]
+    # nothing simulated, nothing cached, nothing written
+    assert mine.read_text() == "mine" and not (tmp_path / "cache").exists()
+    assert not (tmp_path / "out" / "real_scores.csv").exists()
+
+
+VANDAL = """
+import pathlib, shutil
+from tests.fakes import FakeAdapter
+
+class Vandal(FakeAdapter):
+    '''Replaces the run's --out folder by a file when it first builds a scene.'''
+    def __init__(self):
+        super().__init__(name="fake-vandal", dimensions=frozenset({{3}}))
+
+    def build(self, scene, settings):
+        out = pathlib.Path({out!r})
+        if out.is_dir():
+            shutil.rmtree(out)
+            out.write_text("in the way")
+        return super().build(scene, settings)
+"""
+
+
+def test_an_out_that_goes_away_during_the_run_keeps_the_results(tmp_path, capsys, monkeypatch):
+    """--out is replaced by a file while the engine runs: the report and every result go to
+    a new folder, one line on stderr names it, exit 1."""
+    import tempfile
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "tmp"))
+    (tmp_path / "tmp").mkdir()
+    out = tmp_path / "out"
+    (tmp_path / "vandal.py").write_text(VANDAL.format(out=str(out)))
+    assert _cli("--adapter", f"{tmp_path / 'vandal.py'}:Vandal", "--engines", "fake-vandal", "--nominal", *QUICK,
+                "--no-cache", "--out", str(out)) == 1
+    assert out.read_text() == "in the way"
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    (rescue,) = (tmp_path / "tmp").glob("physval-real-*")  # (multiprocessing keeps its own folders there too)
+    assert f"cannot write to --out {out}" in line and str(rescue) in line
+    scores = pd.read_csv(rescue / "real_scores.csv")
+    assert sorted(scores[scores.param_set == "nominal"].toss) == [3, 5, 7]
+    assert (rescue / "real_report.md").is_file() and (rescue / "params.json").is_file()

@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from cases import robustness_stacks
+from cases.robustness import stacks as robustness_stacks
 from cases.observables import deepest_overlap, drift, energy_rise, mechanical_energy, momentum, time_to_collapse
 from cases.registry import builtin_families
 from cases.scene import Body, Box, Material, Scene, Sphere, ground

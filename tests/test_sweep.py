@@ -128,3 +128,26 @@ def test_the_report_answers_in_a_sentence_per_case(tmp_path):
     assert "to reach the case's tolerances it needs dt <=" in md
     assert (tmp_path / "plots" / "cost_central_impact_e_0.5_m_1_3.png").exists()
     assert len(point_table(pd.DataFrame(rows), FAMS)) == 3
+
+
+@pytest.mark.parametrize("engines", [["fake-crash"], ["fake-crash", "reference"]])
+def test_a_variant_whose_points_all_failed_is_reported_and_plotted_without_them(engines, tmp_path):
+    """An engine that raises in every run: its points are listed as not completed, in the
+    first run and in every rerun (which reads them back from sweep.csv); plots show the
+    points that completed, if any."""
+    from pathlib import Path
+    from physval.cli import main
+    fakes = Path(__file__).resolve().parent / "fakes.py"
+    argv = ["sweep", "--adapter", f"{fakes}:CrashingFake", "--engines", *engines, "--cases", "central_impact[e=0.5,m=1:3]",
+            "--repeats", "1", "--workers", "1", "--quiet", "--out", str(tmp_path)]
+    for attempt in ("first run", "rerun"):
+        assert main(argv) == 0, attempt
+        md = (tmp_path / "sweep_report.md").read_text()
+        assert "`central_impact[e=0.5,m=1:3]` on **fake-crash**: no point completed." in md
+        failed = md.split("## Points that did not complete", 1)[1]
+        assert failed.count("| fake-crash |") == len(sweep.DTS) and "RuntimeError: engine crashed" in failed
+        crashed = pd.read_csv(tmp_path / "sweep_points.csv").query("engine == 'fake-crash'")
+        assert list(crashed.iterations) == ["default"] * len(sweep.DTS), "what each point asked for"
+        plotted = "reference" in engines
+        assert (tmp_path / "plots" / "cost_central_impact_e_0.5_m_1_3.png").exists() == plotted, attempt
+        assert ("No point of this variant completed on any engine" in md) != plotted

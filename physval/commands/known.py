@@ -22,7 +22,6 @@ from physval.core.deviations import deviating, measured_bands
 from physval.commands import options
 from physval.core import deviations
 from physval.core import COLUMNS, Job
-from physval.core.selection import select_variants
 from physval.core.session import Execution, run_stored
 from physval.core.store import cache_dir
 from physval.reportkit import write_atomic
@@ -58,6 +57,9 @@ def run(args) -> int:
     options.check_scheduler(args.scheduler)
     out = options.output_folder(args.out)
     families = resolver.families
+    # every variant the engines can run (or the --cases), so that failing checks no entry
+    # covers show up too; with a user's file, only the families it names
+    selected = options.cases_of(args, resolver, full=args.full)
     changed = 0
     for engine in engines:
         adapter = resolver.adapter(engine)
@@ -65,13 +67,11 @@ def run(args) -> int:
         if path is None or not path.exists():
             print(f"{engine}: no known-deviation file ({path})")
             continue
-        entries = deviations.parse(path)
+        entries = [e for e in deviations.parse(path) if e.applies_to(engine)]
         for fam_name in dict.fromkeys(e.family for e in entries):
             if fam_name not in families:
                 print(f"{engine}: {path.name}: no family {fam_name!r}", file=sys.stderr)
-        # every variant the engine can run (or the --cases), so that failing checks no
-        # entry covers show up too; with a user's file, only the families it names
-        chosen = select_variants(families, args.cases, full=args.full)
+        chosen = selected
         if args.file and args.cases is None:
             chosen = {f: vs for f, vs in chosen.items() if any(e.family == f for e in entries)}
         jobs = []

@@ -24,7 +24,7 @@ def run(args) -> int:
             except registry.EngineError as exc:
                 print(f"{name}\tnot installed\t{spec.origin}\t{exc}")
         return 0
-    fams = ctx.resolver().families
+    fams = {n: ctx.resolver().family(n) for n in options.cases_of(args, ctx.resolver())}
     adapters = {}
     for name in specs:
         try:

@@ -15,44 +15,59 @@ class UsageError(ValueError):
     """Bad input on the command line: one line, exit code 2."""
 
 
-def positive_float(text: str) -> float:
+# Options that were removed -> (what replaces them, what the replacement takes). Every
+# command's parser (physval.cli) names the replacement instead of only "unrecognized".
+READINGS_TAKES = "--readings takes effective, laws, all, none or auto"
+REMOVED = {
+    "--no-effective": ("physval run --readings laws (or none)", READINGS_TAKES),
+    "--no-laws": ("physval run --readings effective (or none)", READINGS_TAKES),
+}
+
+
+def with_replacements(message: str) -> str:
+    """argparse's error message, with the replacement of each removed option it names."""
+    if not message.startswith("unrecognized arguments:"):
+        return message
+    given = dict.fromkeys(a.split("=", 1)[0] for a in message.split(":", 1)[1].split())
+    removed = [o for o in given if o in REMOVED]
+    uses = [f"{o} was removed: use {REMOVED[o][0]}" for o in removed]
+    return "; ".join([message, *uses, *dict.fromkeys(REMOVED[o][1] for o in removed)])
+
+
+def _float_above(text: str, low: float, inclusive: bool) -> float:
     try:
         x = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(x) and x > 0):
-        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number > 0")
+    if not (math.isfinite(x) and (x >= low if inclusive else x > low)):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number {'>=' if inclusive else '>'} {low:g}")
     return x
 
 
+def positive_float(text: str) -> float:
+    return _float_above(text, 0, inclusive=False)
+
+
 def nonnegative_float(text: str) -> float:
+    return _float_above(text, 0, inclusive=True)
+
+
+def _int_at_least(text: str, low: int) -> int:
     try:
-        x = float(text)
+        x = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(x) and x >= 0):
-        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number >= 0")
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if x < low:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be >= {low}")
     return x
 
 
 def positive_int(text: str) -> int:
-    try:
-        x = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if x < 1:
-        raise argparse.ArgumentTypeError(f"{text!r}: must be >= 1")
-    return x
+    return _int_at_least(text, 1)
 
 
 def whole_number(text: str) -> int:
-    try:
-        x = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if x < 0:
-        raise argparse.ArgumentTypeError(f"{text!r}: must be >= 0")
-    return x
+    return _int_at_least(text, 0)
 
 
 def seconds_or_off(text: str) -> float:
@@ -109,8 +124,14 @@ def add_execution(p, out: str, workers: int | None = None, job_timeout: float | 
 # --- checks before any work ---------------------------------------------------------------
 
 def context_of(args):
-    """The run's Context from --cases-dir, --adapter and --known (each checked)."""
-    from physval.core import Context
+    """The run's Context from --cases-dir, --adapter and --known (each checked). User code is
+    tried in worker processes first (physval.core.dry_run): an --adapter that cannot be
+    imported and made stops here; a family file that fails its dry run is left out of the
+    Context (`broken`: not imported, here or by any worker) and stops only a selection
+    that needs it (cases_of)."""
+    from dataclasses import replace
+
+    from physval.core import Context, dry_run
     for d in getattr(args, "cases_dir", None) or []:
         if not d or not Path(d).is_dir():
             raise UsageError(f"--cases-dir {d!r}: not a folder")
@@ -121,27 +142,67 @@ def context_of(args):
                   adapters=tuple(getattr(args, "adapter", None) or []),
                   known_files=tuple(str(Path(f).resolve()) for f in getattr(args, "known", None) or []))
     from adapters import registry
+    from cases.registry import Problem, case_files
+    if ctx.adapters:
+        dry_run.try_adapters(ctx.adapters, dry_run.execution_of(args))
     registry.specs(ctx.adapters)  # an ad-hoc adapter that does not load stops here
-    from physval.core import deviations
-    deviations.load(ctx.known_files)  # a --known file that does not parse stops here
+    files = [f for d in ctx.cases_dirs for f in case_files(d)]
+    if files:
+        tried = dry_run.try_files([(f, str(f)) for f in files], dry_run.execution_of(args))
+        ctx = replace(ctx, broken=tuple(Problem(t.file, t.family, t.problem) for t in tried if t.problem))
+    if ctx.known_files:  # a --known file that does not parse, or names what does not exist, stops here
+        from physval.core import deviations
+        try:
+            entries = deviations.load(ctx.known_files)
+        except deviations.DeviationFileError as exc:
+            raise UsageError(f"--known {exc}") from None
+        unknown = deviations.unknown_names(entries, ctx.resolver().families, registry.engine_names(ctx.adapters))
+        if unknown:
+            raise UsageError(f"--known {unknown}")
     return ctx
 
 
-def output_folder(text: str) -> Path:
-    """--out as a folder that exists and can be written to (made if missing)."""
+def cases_of(args, resolver, families: dict | None = None, full: bool = False) -> dict:
+    """The --cases selection among `families` (default: every family the resolver has):
+    family name -> variants. A user's family file that cannot be used stops the command
+    when the selection may need it (no --cases, or a spec naming it: its one line, exit 2);
+    otherwise the command goes on without it and one line on stderr says why."""
+    from physval.core.selection import select_variants
+    every = resolver.families  # loading them completes resolver.broken
+    chosen = select_variants(every if families is None else families, getattr(args, "cases", None), full=full,
+                             unusable=list(resolver.broken.values()))
+    for problem in resolver.broken.values():
+        print(f"physval: left out {problem.message}", file=sys.stderr)
+    return chosen
+
+
+def output_folder(text: str, option: str = "--out") -> Path:
+    """`option`'s value as a folder that exists and can be written to (made if missing)."""
     if not text or not text.strip():
-        raise UsageError("--out '': must name a folder")
+        raise UsageError(f"{option} '': must name a folder")
     out = Path(text)
     if out.exists() and not out.is_dir():
-        raise UsageError(f"--out {text}: exists and is not a folder")
+        raise UsageError(f"{option} {text}: exists and is not a folder")
     try:
         out.mkdir(parents=True, exist_ok=True)
         probe = out / f".physval-write-test-{os.getpid()}"
         probe.write_bytes(b"")
         probe.unlink()
     except OSError as exc:
-        raise UsageError(f"--out {text}: cannot write there ({exc.strerror or exc})") from None
+        raise UsageError(f"{option} {text}: cannot write there ({exc.strerror or exc})") from None
     return out
+
+
+def output_file(text: str, option: str) -> Path:
+    """A file to write at the end, checked now: a name, not a folder, in a folder that can be
+    written to (made if missing)."""
+    if not text or not text.strip():
+        raise UsageError(f"{option} '': must name a file")
+    path = Path(text)
+    if path.is_dir():
+        raise UsageError(f"{option} {text}: is a folder; name a file")
+    output_folder(str(path.parent), option)
+    return path
 
 
 def check_scheduler(address: str | None) -> None:

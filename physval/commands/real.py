@@ -8,6 +8,7 @@ import json
 import math
 import os
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -16,10 +17,10 @@ import pandas as pd
 
 from cases import cube_toss as ct
 from physval.commands import options
-from physval.readings.real import (BOOTSTRAP, DEFAULT_OUT, DT, FAIL_LOSS, FIT_LIMIT, GENERATIONS, NEUTRAL, NEUTRAL_GRID,
-                                   MIN_FIT_TOSSES, POPSIZE, SCORE_LIMIT, SUBSTEPS, Batch, MapFn, _cost, _flight,
-                                   engine_version, engines_3d, fit, noise_rows, nominal, parameter_space, rounded,
-                                   sensitivity, simulate_many, write_report)
+from physval.readings.real import (BATCH, BOOTSTRAP, DEFAULT_OUT, DT, FIT_LIMIT, GENERATIONS, NEUTRAL, NEUTRAL_GRID,
+                                   MIN_FIT_TOSSES, POPSIZE, SCORE_LIMIT, SUBSTEPS, MapFn, _cost, _flight,
+                                   engine_version, engines_3d, fit, lost_batch, noise_rows, nominal, parameter_space,
+                                   rounded, sensitivity, simulate_many, write_report)
 
 
 EPILOG = """examples:
@@ -28,7 +29,12 @@ EPILOG = """examples:
   physval real --tosses my_tosses.csv.gz --params reports/real/params.json
   physval real --tosses my_tosses.csv.gz --fit --out /tmp/mine
   physval real --limit 4 --horizon 0.3 --generations 1 --out /tmp/quick
-exit codes: 0 the run completed (poor agreement is a result); 2 bad input."""
+  physval real --adapter my_engine.py:MyAdapter --engines my-engine --nominal --limit 20
+tosses run in batches of {batch} per worker task: a batch whose worker crashes or runs over
+--job-timeout becomes error rows for its tosses; the run goes on.
+exit codes: 0 the run completed (poor agreement is a result); 2 bad input (said before any work);
+1 --out could not be written at the end (the results went to the folder the message names).""".format(
+    batch=BATCH)
 
 
 def add_parser(sub) -> None:
@@ -71,7 +77,7 @@ def add_parser(sub) -> None:
                         f"S CPU seconds per parameter set over all of them (default {SCORE_LIMIT:g})")
 
 
-def _fit_plan(engine: str, nominal_rows: list[dict], train: list[int], args) -> tuple[str, list[int], int]:
+def _fit_plan(engine: str, nominal_rows: list[dict], train: list[int], args, ctx) -> tuple[str, list[int], int]:
     """(why not fit, or ""; the training tosses to fit on; one in how many training tosses). An engine that fails on most
     tosses at nominal parameters is not fitted (the fit would measure its failures); one
     whose fit over the whole training split would cost more than --fit-limit CPU seconds
@@ -83,7 +89,7 @@ def _fit_plan(engine: str, nominal_rows: list[dict], train: list[int], args) -> 
     if failed > len(nominal_rows) / 2:
         return f"fails on {failed} of {len(nominal_rows)} test tosses at nominal parameters", [], 0
     per_toss = float(np.median([r["elapsed_cpu"] for r in nominal_rows]))
-    evaluations = args.popsize * len(parameter_space(engine)) * (args.generations + 1)
+    evaluations = args.popsize * len(parameter_space(engine, ctx)) * (args.generations + 1)
     estimate = per_toss * evaluations * len(train)
     if estimate <= args.fit_limit:
         return "", list(train), 1
@@ -101,28 +107,23 @@ def default_cache() -> Path:
     return cache_dir() / "real"
 
 
-def executor_map(workers: int = 1, scheduler: str | None = None, job_timeout: float | None = None,
+def executor_map(ctx, workers: int = 1, scheduler: str | None = None, job_timeout: float | None = None,
                  start_method: str | None = None) -> MapFn:
-    """map_fn on the harness's executor (physval.core.session.map_calls): each batch of
-    tosses runs in a worker process (a crash or a time-out costs that batch only, its tosses
-    then read as errors) or on a Dask cluster, unchanged."""
+    """map_fn on the harness's executor (physval.core.session.map_calls) with the run's
+    context: each batch of tosses runs in a worker process (a crash or a time-out costs
+    that batch only, its tosses then read as errors: readings.real.lost_batch) or on a
+    Dask cluster, unchanged."""
     from physval.core.session import Execution, map_calls
     execution = Execution(workers, scheduler, job_timeout, start_method, progress=False)
 
     def map_fn(fn, xs):
         xs = list(xs)
-        return [r.value if not r.error else _lost_batch(x, r.error)
-                for x, r in zip(xs, map_calls(fn, xs, execution=execution))]
+        return [r.value if not r.error else lost_batch(x, r.error)
+                for x, r in zip(xs, map_calls(fn, xs, ctx, execution=execution))]
     return map_fn
 
 
-def _lost_batch(batch: "Batch", why: str) -> list[dict]:
-    """The rows of a batch whose run produced nothing (it raised, or its worker died)."""
-    return [{"engine": batch.engine, "toss": t, "status": "error", "message": why, "loss": FAIL_LOSS,
-             "params": json.dumps(dict(batch.params), sort_keys=True)} for t in batch.tosses]
-
-
-def read_params(path: str, known_engines: list[str]) -> dict[str, dict]:
+def read_params(path: str, known_engines: list[str], ctx) -> dict[str, dict]:
     """{engine: parameters} from a --params file, every value checked against the engine's
     parameter space before any work."""
     try:
@@ -135,7 +136,7 @@ def read_params(path: str, known_engines: list[str]) -> dict[str, dict]:
         if engine not in known_engines:
             raise options.UsageError(f"--params {path}: {engine!r} is not an engine: choose from "
                                      f"{', '.join(known_engines)}")
-        space = parameter_space(engine)
+        space = parameter_space(engine, ctx)
         for name, value in params.items():
             at = f"--params {path}: {engine} {name}"
             if name not in space:
@@ -145,7 +146,7 @@ def read_params(path: str, known_engines: list[str]) -> dict[str, dict]:
                     or not t.low <= value <= t.high:
                 raise options.UsageError(f"{at} = {value!r}: must be a number in [{t.low:g}, {t.high:g}] "
                                          f"({t.meaning})")
-    return {e: rounded(e, p) for e, p in given.items()}
+    return {e: rounded(e, p, ctx) for e, p in given.items()}
 
 
 def _cpu_seconds() -> float:
@@ -168,12 +169,13 @@ def run(args) -> int:
     except ct.TossError as exc:
         raise options.UsageError(f"--tosses {args.tosses}: {exc}") from None
     from adapters import registry
-    engines, skipped = engines_3d(options.engines_of(args, ctx) if args.engines else None)
+    engines, skipped = engines_3d(options.engines_of(args, ctx) if args.engines else None, ctx)
     if not engines:
         raise options.UsageError("no engine to score: " + "; ".join(f"{e}: {w}" for e, w in skipped.items()))
-    given = read_params(args.params, registry.engine_names(ctx.adapters)) if args.params else {}
+    given = read_params(args.params, registry.engine_names(ctx.adapters), ctx) if args.params else {}
     do_fit = not args.params and not args.nominal
-    out = options.output_folder(args.out)
+    out = options.output_folder(args.out)  # input checked: the folders, then the work
+    cache = None if args.no_cache else str(options.output_folder(args.cache or str(default_cache()), "--cache"))
     options.check_scheduler(args.scheduler)
 
     usable, unusable = [], {}
@@ -190,16 +192,15 @@ def run(args) -> int:
         raise options.UsageError(f"no test tosses (odd ids) in {source or ct.DATA}")
     if args.limit:
         train, test = train[:args.limit], test[:args.limit]
-    cache = None if args.no_cache else str(Path(args.cache) if args.cache else default_cache())
-    common = {"horizon": args.horizon, "dt": DT, "source": source, "cache": cache}
+    common = {"horizon": args.horizon, "dt": DT, "source": source, "cache": cache, "ctx": ctx}
     say(f"{len(train)} training and {len(test)} test tosses from {source or 'the packaged data'}; "
         f"engines {', '.join(engines)}" + (f" (skipped: {', '.join(skipped)})" if skipped else ""))
 
     rows, trajectories, fits, not_fitted, failures, subsets, cost = [], {}, {}, {}, [], {}, []
-    map_fn = executor_map(args.workers, args.scheduler, args.job_timeout, args.start_method)
+    map_fn = executor_map(ctx, args.workers, args.scheduler, args.job_timeout, args.start_method)
     for engine in engines:
         t0 = time.perf_counter()
-        nom = simulate_many(engine, nominal(engine), test[:1], map_fn=map_fn, keep=True, **common)
+        nom = simulate_many(engine, nominal(engine, ctx), test[:1], map_fn=map_fn, keep=True, **common)
         if nom[0]["status"] == "unsupported":
             skipped[engine] = nom[0]["message"]
             say(f"  {engine}: unsupported ({nom[0]['message']})")
@@ -212,17 +213,17 @@ def run(args) -> int:
             subsets[engine] = (f"one toss costs {per_toss:.2g} CPU s: scored on one test toss in {every} "
                                f"({len(scored)} of {len(test)}; --score-limit {args.score_limit:g} s)")
             say(f"  {engine}: {subsets[engine]}")
-        nom += simulate_many(engine, nominal(engine), scored[1:], map_fn=map_fn, keep=True, **common)
+        nom += simulate_many(engine, nominal(engine, ctx), scored[1:], map_fn=map_fn, keep=True, **common)
         params = None
         if engine in given:
             params = given[engine]
         elif do_fit:
-            why, part, every = _fit_plan(engine, nom, train, args)
+            why, part, every = _fit_plan(engine, nom, train, args, ctx)
             if why:
                 not_fitted[engine] = why
                 say(f"  {engine}: nominal only: {why}")
             else:
-                say(f"  {engine}: fitting {', '.join(parameter_space(engine))} on {len(part)} tosses")
+                say(f"  {engine}: fitting {', '.join(parameter_space(engine, ctx))} on {len(part)} tosses")
                 f = fit(engine, part, map_fn=map_fn, popsize=args.popsize, generations=args.generations,
                         **common)
                 fits[engine] = {"params": f.params, "names": list(f.names), "loss": f.loss,
@@ -258,9 +259,11 @@ def run(args) -> int:
                                 f"{bad[0]['toss']}: {bad[0]['message'][:200]}")
             trajectories[(engine, pset)] = rs
             rows += rs
-        # how far the capture's noise in the start state alone carries this engine
+        # how far the capture's noise in the start state alone carries this engine, on the
+        # tosses its simulation from the fitted start completed (the others have no reference)
         best = sets[-1]
-        shaken = simulate_many(engine, params or nominal(engine), scored, map_fn=map_fn, keep=True,
+        completed = [r["toss"] for r in best[1] if r["status"] == "ok"]
+        shaken = simulate_many(engine, params or nominal(engine, ctx), completed, map_fn=map_fn, keep=True,
                                perturb=True, **common)
         floor = sensitivity(best[1], shaken, source)
         trajectories[(engine, "start noise")] = floor
@@ -277,7 +280,7 @@ def run(args) -> int:
         "fit": _fit_text(args, do_fit),
         "not_fitted": not_fitted,
         "subsets": subsets,
-        "nominal": {e: nominal(e) for e in engines},
+        "nominal": {e: nominal(e, ctx) for e in engines},
         "noise": noise_table,
         "failures": failures,
         "run": (f"Simulations: {sims['computed'] + sims['cached']} ({sims['computed']} computed in this run, "
@@ -288,10 +291,17 @@ def run(args) -> int:
                 f"machine load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores at the end)"
                 f"{' on ' + args.scheduler if args.scheduler else ''}; dt = {DT * 1e3:.4f} ms ({SUBSTEPS} steps per "
                 f"sample); cache {'off' if not cache else 'on'}; engine versions: "
-                + ", ".join(f"{e} {engine_version(e)}" for e in engines if e not in skipped) + "; command: "
+                + ", ".join(f"{e} {engine_version(e, ctx)}" for e in engines if e not in skipped) + "; command: "
                 + " ".join(["physval"] + sys.argv[1:])),
     }
-    path = write_report(out, scores, noise, trajectories, fits, skipped, notes, source)
+    try:
+        path = write_report(out, scores, noise, trajectories, fits, skipped, notes, source)
+    except OSError as exc:  # --out went away or filled up during the run: keep the results elsewhere
+        rescue = Path(tempfile.mkdtemp(prefix="physval-real-"))
+        write_report(rescue, scores, noise, trajectories, fits, skipped, notes, source)
+        print(f"physval real: error: cannot write to --out {args.out} ({exc.strerror or exc}); the report and "
+              f"every result are in {rescue} instead", file=sys.stderr)
+        return 1
     say(f"wrote {path} in {time.perf_counter() - started:.0f} s")
     return 0
 

@@ -14,7 +14,6 @@ import time
 from physval.commands import options
 from physval.core import COLUMNS, run_jobs
 from physval.core.plan import plan
-from physval.core.selection import select_variants
 from physval.core.store import RowStore, cache_keys
 
 READINGS = ("effective", "laws")
@@ -24,8 +23,10 @@ EPILOG = """examples:
   physval run --cases central_impact --engines reference,mujoco
   physval run --cases "incline_threshold[mu=0.5*]" --dt 5e-3 --out /tmp/incline
   physval run --cases-dir my_cases --cases second_bounce
-exit codes: 0 the run completed (failing physics is a result); 2 bad input; 130 interrupted
-(finished jobs are kept; the same command resumes)."""
+  physval run --engines mujoco --junitxml physval.xml --fail-on fail,error,unstable,changed   an engine's CI gate
+exit codes: 0 the run completed (failing physics is a result); 1 a check fell under --fail-on;
+2 bad input; 74 the disk is full and 130 interrupted (finished jobs are kept in both; the
+same command resumes)."""
 
 HELP_CASES = ("case families or variants: NAME, a glob, or NAME[VARIANT] (an exact variant id or a glob), "
               "space- or comma-separated, e.g. 'central_impact[drop,e=0.5]' (default: every family)")
@@ -52,6 +53,13 @@ def add_parser(sub) -> None:
                           "--cases are named, else none); cached per engine version and reused")
     run.add_argument("--save-trajectories", metavar="DIR",
                      help="also write each job's trajectory and contact forces (npz; physval.core.trajectories.load)")
+    run.add_argument("--junitxml", metavar="FILE",
+                     help="also write every check as a JUnit XML test case (fail: <failure>; error, unstable: <error>; "
+                          "deviation, unsupported: <skipped>), for an engine's CI")
+    run.add_argument("--fail-on", metavar="LIST", default="",
+                     help="exit with 1 if any check is one of these (comma-separated): fail, error, unstable, "
+                          "deviation, unsupported, changed (a known deviation that left its band), vanished (a known "
+                          "deviation that now passes); default: none (exit 0 whatever the physics)")
     options.add_execution(run, "reports")
 
 
@@ -74,19 +82,20 @@ def run(args) -> int:
     if not args.scheduler:
         from physval.core.executor import start_fork_server
         start_fork_server(args.start_method)  # loads in parallel with what follows
-    ctx = options.context_of(args)
+    ctx = options.context_of(args)  # user families dry-run in workers
     resolver = ctx.resolver()
     families = resolver.families
-    from physval.core.dry_run import dry_run_user_families
-    dry_run_user_families(ctx)
-    chosen = select_variants(families, args.cases, full=args.full)
+    chosen = options.cases_of(args, resolver, full=args.full)
     engines = options.engines_of(args, ctx)
     if args.dt is not None:
         from adapters.base import Settings
         Settings(dt=args.dt)  # validates the range once, with a message naming dt
     readings = readings_of(args.readings, args.cases is not None)
+    fail_on = fail_on_of(args.fail_on)
+    junit = options.output_file(args.junitxml, "--junitxml") if args.junitxml is not None else None
     out = options.output_folder(args.out)
-    traj_dir = options.output_folder(args.save_trajectories) if args.save_trajectories else None
+    traj_dir = None if args.save_trajectories is None else options.output_folder(args.save_trajectories,
+                                                                                  "--save-trajectories")
     options.check_scheduler(args.scheduler)
     jobs, later = plan(chosen, engines, resolver, args.engines is not None, args.dt, args.iterations, args.on_demand)
     if traj_dir is not None:
@@ -137,7 +146,24 @@ def run(args) -> int:
     print(f"{len(df)} checks: {status_counts(df)} ({res.ran} runs now, {res.reused} reused; {total:.1f} s, "
           f"of which {t_jobs:.1f} s ({t_jobs / total:.0%}) in the selected runs)")
     print(f"wrote {out / 'results.csv'}, {out / 'report.md'}, {out / 'plots'}/")
+    from physval.readings import junit as junit_report
+    if junit is not None:
+        print(f"wrote {junit_report.write(rows, junit)}")
+    tripped = junit_report.gate(rows, fail_on)
+    if tripped:
+        print(f"physval: --fail-on {args.fail_on}: " + ", ".join(f"{n} {g}" for g, n in sorted(tripped.items())),
+              file=sys.stderr)
+        return 1
     return 0
+
+
+def fail_on_of(text: str) -> set[str]:
+    from physval.readings.junit import GATES
+    names = {x.strip() for x in text.split(",") if x.strip()}
+    bad = sorted(names - set(GATES))
+    if bad:
+        raise options.UsageError(f"--fail-on {text!r}: {bad[0]!r} is not one of {', '.join(GATES)}")
+    return names
 
 
 def import_report_meanwhile(start_method: str) -> None:

@@ -7,7 +7,6 @@ import sys
 import time
 
 from physval.core import COLUMNS, Job
-from physval.core.selection import select_variants
 from physval.core.session import Execution, run_stored
 from physval.readings.robustness import (MAP, QUICK_MAP, TAG, determinism, stability_map,
                                          write_stress_report)
@@ -22,7 +21,8 @@ EPILOG = """examples:
   physval stress --long                             every robustness scene (minutes to hours) and the full map
   physval stress --engines mujoco,pybullet --cases 'robustness_stacks*'
   physval stress --cases 'robustness_pile[6^3*]' --long --out /tmp/pile
-exit codes: 0 the battery completed (failing physics is a result); 2 bad input; 130 interrupted."""
+exit codes: 0 the battery completed (failing physics is a result); 2 bad input; 74 the disk is full;
+130 interrupted."""
 
 
 def add_parser(subparsers):
@@ -55,7 +55,7 @@ def run(args) -> int:
     ctx = options.context_of(args)
     resolver = ctx.resolver()
     families = {n: f for n, f in resolver.families.items() if TAG in f.tags}
-    chosen = select_variants(families, args.cases, full=args.long)
+    chosen = options.cases_of(args, resolver, families, full=args.long)
     engines = options.engines_of(args, ctx, options.fast_engines(ctx))
     out = options.output_folder(args.out)
     options.check_scheduler(args.scheduler)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import sys
 
-from physval.core.selection import select_variants
 from physval.core.session import Execution, run_stored
 from physval.readings.sweep import REPEATS, SWEEP_COLUMNS, points, sweep_variants, write_report
 from physval.commands import options
@@ -38,10 +37,10 @@ def run(args) -> int:
     ctx = options.context_of(args)
     resolver = ctx.resolver()
     fams = resolver.families
+    chosen = options.cases_of(args, resolver)  # without --cases every family (a broken user file stops it)
     if args.cases is None:
-        chosen = sweep_variants(fams, [n for n, f in fams.items() if "core" in f.tags])
+        chosen = sweep_variants(fams, [n for n in chosen if "core" in fams[n].tags])
     else:
-        chosen = select_variants(fams, args.cases)
         chosen = {n: [v for v in vs if v.id in (fams[n].sweep_variants or (fams[n].variants[0].id,))] or vs
                   for n, vs in chosen.items()}
     engines = options.engines_of(args, ctx, options.fast_engines(ctx))

@@ -11,6 +11,7 @@ to a row store. Every command and reading goes through it.
     executor.py   local worker processes (crash- and timeout-isolated) or Dask
     store.py      the streaming, resumable row store and the code fingerprint
     session.py    run_jobs: executor + store + progress + interrupts
+    dry_run.py    user code (family files, --adapter files) tried in workers before use
 """
 from physval.core.context import Context, Resolver
 from physval.core.jobs import Job, Outcome, Probe, execute, steps_of, time_step

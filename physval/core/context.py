@@ -20,9 +20,16 @@ class Context:
     cases_dirs: tuple[str, ...] = ()   # --cases-dir folders
     adapters: tuple[str, ...] = ()     # --adapter module:Class specs
     known_files: tuple[str, ...] = ()  # --known files (deviations a user expects)
+    broken: tuple = ()                 # cases.registry.Problem of each user file the dry run refused
 
     def resolver(self) -> "Resolver":
         return _resolver(self)
+
+    @property
+    def options(self) -> tuple[str, ...]:
+        """The command-line options that extend the library: --cases-dir and --adapter."""
+        return (*(x for d in self.cases_dirs for x in ("--cases-dir", d)),
+                *(x for a in self.adapters for x in ("--adapter", a)))
 
 
 class Resolver:
@@ -31,14 +38,17 @@ class Resolver:
     def __init__(self, ctx: Context):
         self.ctx = ctx
         self._families: dict[str, CaseFamily] | None = None
+        self.broken = {p.file: p for p in ctx.broken}  # user files that cannot be used -> cases.registry.Problem
         self._adapters: dict[str, Adapter | registry.EngineError] = {}
         self._known: dict[str, list[deviations.Deviation]] = {}
 
     @property
     def families(self) -> dict[str, CaseFamily]:
+        """The built-in families and the user's usable ones (a user file that is not is
+        left out, in `broken`)."""
         if self._families is None:
             from cases.registry import all_families
-            self._families = all_families(self.ctx.cases_dirs)
+            self._families = all_families(self.ctx.cases_dirs, self.broken)
         return self._families
 
     def family(self, name: str) -> CaseFamily:
@@ -68,15 +78,16 @@ class Resolver:
         return found
 
     def known(self, engine: str) -> list[deviations.Deviation]:
-        """The engine's own deviation file, then the user's --known files."""
+        """The entries for this engine of its own deviation file, then of the user's --known files."""
         if engine not in self._known:
             own = None
             try:
                 own = self.adapter(engine).deviations_file()
             except registry.EngineError:
                 pass
-            self._known[engine] = deviations.load([own]) + [replace(d, user=True)
-                                                             for d in deviations.load(self.ctx.known_files)]
+            users = [replace(d, user=True) for d in deviations.load(self.ctx.known_files)]
+            self._known[engine] = [replace(d, options=self.ctx.options) for d in deviations.load([own]) + users
+                                   if d.applies_to(engine)]
         return self._known[engine]
 
     def deviation_files(self, engine: str) -> list[Path]:
@@ -90,3 +101,9 @@ class Resolver:
 @functools.cache
 def _resolver(ctx: Context) -> Resolver:
     return Resolver(ctx)
+
+
+def forget() -> None:
+    """Drop the resolvers made so far: a command run again in the same process (a script,
+    a test) reads deviation files, user cases and adapters afresh, as its workers do."""
+    _resolver.cache_clear()

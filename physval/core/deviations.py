@@ -10,6 +10,13 @@ with its cause, written by a person, followed by indented band lines, written by
         mujoco [drop,e=0.5,2D]:rebound_ratio = 0.51498 +- 0.00075
     resting_blocks[n=[45]]:*  # rank-deficient corner LCP: Lemke's pivoting loses the solution
         reference-lemke [n=4]:drift = raises LemkeFailure
+    mujoco pair_drop[*]:apex_top  # compliant impacts launch the light top ball higher
+        mujoco [e=0.5]:apex_top = 0.060672 +- 0.00053
+
+An entry line may begin with an engine name or glob (`mujoco` above, `drake-*`; no
+brackets): the entry then applies to those engines only, and its band lines must name
+one of them. Without one it applies to every engine its file is read for: an engine's
+own file is read for that engine, a user's `--known` file for every engine of the run.
 
 A failing check is a `deviation` only when an entry's pattern matches it AND a band line
 records it (engine, exact variant id, metric) AND its measured value lies in the band:
@@ -23,13 +30,14 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+import shlex
+from dataclasses import dataclass, field, replace
 from fnmatch import fnmatchcase
 from pathlib import Path
 
 from physval.core.verdicts import errors
 
-_ENTRY = re.compile(r"^(?P<family>\w+)\[(?P<variant>.*)\]:(?P<metric>\S+)\s*#\s*(?P<reason>\S.*)$")
+_ENTRY = re.compile(r"^(?:(?P<engines>[^\s\[#]+)\s+)?(?P<family>\w+)\[(?P<variant>.*)\]:(?P<metric>\S+)\s*#\s*(?P<reason>\S.*)$")
 _BAND = re.compile(r"^\s+(?P<engine>\S+)\s+\[(?P<variant>.*)\]:(?P<metric>[^\s=]+)\s*=\s*(?P<rest>\S.*?)\s*(?:#.*)?$")
 _VALUE = re.compile(r"^(?P<value>\S+)\s*\+-\s*(?P<width>\S+)$")
 _RAISES = re.compile(r"^raises\s+(?P<exc>[\w.]+)$")
@@ -87,11 +95,23 @@ class Deviation:
     line: int
     bands: tuple[Band, ...] = field(default=())
     user: bool = False  # from a user's --known file: a difference the user expects, not an engine's own
+    engines: str = "*"  # the engines it applies to (a name or glob)
+    options: tuple[str, ...] = ()  # the --cases-dir and --adapter options of the run that read it
 
     @property
     def cause(self) -> str:
         """The cause as results and reports show it; a user's entry says it is the user's."""
         return f"expected by the user (--known {Path(self.source).name}): {self.reason}" if self.user else self.reason
+
+    def applies_to(self, engine: str) -> bool:
+        return fnmatchcase(engine, self.engines)
+
+    def remeasure(self, engine: str) -> str:
+        """The command that measures this entry's bands on `engine` again and writes them
+        into the file the entry came from (an engine's own file is where `physval known`
+        writes without --file)."""
+        where = ["--file", self.source] if self.user else []
+        return shlex.join(["physval", "known", engine, *where, *self.options, "--write"])
 
     def matches(self, family: str, variant: str, metric: str) -> bool:
         return family == self.family and fnmatchcase(variant, self.variant) and fnmatchcase(metric, self.metric)
@@ -104,7 +124,8 @@ class Deviation:
 
     @property
     def pattern(self) -> str:
-        return f"{self.family}[{self.variant}]:{self.metric}"
+        engines = "" if self.engines == "*" else f"{self.engines} "
+        return f"{engines}{self.family}[{self.variant}]:{self.metric}"
 
     @property
     def where(self) -> str:
@@ -115,7 +136,7 @@ def parse(path: Path | str) -> list[Deviation]:
     """Every entry of one file, with its bands."""
     path = Path(path)
     out: list[Deviation] = []
-    for i, raw in enumerate(path.read_text().splitlines(), start=1):
+    for i, raw in enumerate(_text(path).splitlines(), start=1):
         line = raw.rstrip()
         if not line.strip() or line.lstrip().startswith("#"):
             continue
@@ -141,14 +162,42 @@ def parse(path: Path | str) -> list[Deviation]:
             if not entry.matches(entry.family, band.variant, band.metric):
                 raise DeviationFileError(f"{path}:{i}: [{band.variant}]:{band.metric} is not matched by its "
                                          f"entry {entry.pattern}")
-            out[-1] = Deviation(entry.source, entry.family, entry.variant, entry.metric, entry.reason,
-                                entry.line, entry.bands + (band,))
+            if not entry.applies_to(band.engine):
+                raise DeviationFileError(f"{path}:{i}: engine {band.engine!r} is not one of its entry's "
+                                         f"engines {entry.engines!r}")
+            out[-1] = replace(entry, bands=entry.bands + (band,))
             continue
         m = _ENTRY.match(line)
         if not m:
-            raise DeviationFileError(f"{path}:{i}: expected 'family[variant-glob]:metric-glob  # cause', got {raw!r}")
-        out.append(Deviation(str(path), m["family"], m["variant"], m["metric"], m["reason"].strip(), i))
+            raise DeviationFileError(f"{path}:{i}: expected '[ENGINE-GLOB] family[variant-glob]:metric-glob  # cause', "
+                                     f"got {raw!r}")
+        out.append(Deviation(str(path), m["family"], m["variant"], m["metric"], m["reason"].strip(), i,
+                             engines=m["engines"] or "*"))
     return out
+
+
+def _text(path: Path) -> str:
+    try:
+        return path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise DeviationFileError(f"{path}: not UTF-8 text (byte {exc.object[exc.start]:#04x} at offset "
+                                 f"{exc.start}); a known-deviation file is UTF-8 text") from None
+    except OSError as exc:
+        raise DeviationFileError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+
+
+def unknown_names(entries: list[Deviation], families, engines: list[str]) -> str | None:
+    """What the first entry naming a family or an engine that does not exist names, with
+    where it is and what exists; None if every name exists."""
+    for e in entries:
+        if e.family not in families:
+            return f"{e.source}:{e.line}: no family {e.family!r} (families: {', '.join(sorted(families))})"
+        if not any(e.applies_to(x) for x in engines):
+            return f"{e.source}:{e.line}: engine {e.engines!r} matches no engine (engines: {', '.join(engines)})"
+        for b in e.bands:
+            if b.engine not in engines:
+                return f"{e.source}:{b.line}: no engine {b.engine!r} (engines: {', '.join(engines)})"
+    return None
 
 
 def load(paths) -> list[Deviation]:
@@ -173,7 +222,7 @@ def find(deviations: list[Deviation], family: str, variant: str, metric: str) ->
 def rewrite(path: Path, bands_of: dict[int, list[Band]]) -> str:
     """The text of `path` with each entry's band lines replaced by `bands_of[entry line]`
     (entries not in `bands_of` keep theirs); comments and causes are kept as written."""
-    lines = Path(path).read_text().splitlines()
+    lines = _text(Path(path)).splitlines()
     out: list[str] = []
     current: int | None = None
     for i, raw in enumerate(lines, start=1):
@@ -240,9 +289,9 @@ def stale_entries(df, resolver) -> list[str]:
                 continue
             bands = [b for b in e.bands if b.engine == engine]
             if not bands:
-                notes.append(f"{engine}: `{e.pattern}` ({e.where}) records no band: `physval known {engine} --write`")
+                notes.append(f"{engine}: `{e.pattern}` ({e.where}) records no band: `{e.remeasure(engine)}`")
             passing = [b for b in bands if judged.get((e.family, b.variant, b.metric)) == "pass"]
             if passing:
                 notes.append(f"{engine}: `{e.pattern}` ({e.where}): {len(passing)} recorded checks now pass "
-                             f"(e.g. [{passing[0].variant}]:{passing[0].metric}): `physval known {engine} --write`")
+                             f"(e.g. [{passing[0].variant}]:{passing[0].metric}): `{e.remeasure(engine)}`")
     return notes

@@ -52,11 +52,15 @@ def start_fork_server(start_method: str | None = None) -> None:
 
 # --- the worker process --------------------------------------------------------------------
 
-def _die_with_parent() -> None:
-    """Exit when the process that started this one dies (the main process, or under
-    forkserver the fork server, which exits with the main process): at once on Linux (the
-    kernel's parent-death signal), and within half a second anywhere (a watchdog thread)."""
-    parent = os.getppid()
+def _die_with_parent(lifeline) -> None:
+    """Exit when the main process dies. `lifeline` is the read end of a pipe whose write
+    end only the main process holds: it reads as closed the moment that process dies, by
+    any signal, under every start method and platform (a thread waits on it). Under
+    forkserver a worker's parent is the fork server, and the fork server exits only once
+    every worker has (each holds its 'alive' pipe): watching the parent alone, a busy
+    worker and the fork server waited on each other, and the resource tracker on both, for
+    as long as the job ran. On Linux the kernel's parent-death signal also ends a worker
+    the moment its parent dies."""
     if sys.platform.startswith("linux"):
         try:
             import ctypes
@@ -66,16 +70,16 @@ def _die_with_parent() -> None:
             pass
 
     def watch():
-        while True:
-            if os.getppid() != parent:
-                os._exit(1)
-            time.sleep(0.5)
+        try:
+            lifeline.poll(None)  # nothing is ever sent: readable means the write end is gone
+        finally:
+            os._exit(1)
 
-    threading.Thread(target=watch, daemon=True).start()
+    threading.Thread(target=watch, name="exit with the main process", daemon=True).start()
 
 
-def _worker(conn, ctx: Context) -> None:
-    _die_with_parent()
+def _worker(conn, ctx: Context, lifeline) -> None:
+    _die_with_parent(lifeline)
     signal.signal(signal.SIGINT, signal.SIG_IGN)   # the main process handles interrupts
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     resolver = ctx.resolver()
@@ -107,9 +111,11 @@ class _Slot:
 
     def __init__(self, mpctx, ctx: Context):
         self.conn, child = mpctx.Pipe()
-        self.process = mpctx.Process(target=_worker, args=(child, ctx), daemon=True)
+        lifeline, self.lifeline = mpctx.Pipe(duplex=False)  # its read end and write end: _die_with_parent
+        self.process = mpctx.Process(target=_worker, args=(child, ctx, lifeline), daemon=True)
         self.process.start()
         child.close()
+        lifeline.close()
         self.job: Job | None = None
         self.started = 0.0
         self.ready = False  # the worker has loaded the families and waits for jobs
@@ -127,6 +133,7 @@ class _Slot:
             self.process.kill()
         self.process.join(timeout=2)
         self.conn.close()
+        self.lifeline.close()
 
 
 class LocalExecutor:
@@ -249,6 +256,22 @@ def _run_batch(tasks: list, ctx: Context) -> list:
     return [perform(t, resolver) for t in tasks]
 
 
+def check_address(address: str) -> None:
+    """A scheduler address as Dask reads it, checked before any Client exists: a Client
+    built on a malformed address raises, and at exit its __del__ prints a traceback
+    after a 6 s wait for a connection that never was."""
+    from distributed.comm import get_address_host_port, parse_address
+    from distributed.comm.registry import get_backend
+    try:
+        scheme, _ = parse_address(address)
+        get_backend(scheme)  # a scheme Dask knows
+        if scheme in ("tcp", "tls", "ws", "wss"):  # inproc:// (one process) and ucx:// have no host:port
+            get_address_host_port(address)
+    except ValueError as exc:
+        raise ExecutorError(f"--scheduler {address!r}: not a Dask scheduler address; give "
+                            f"tcp://HOST:PORT or tls://HOST:PORT ({exc})") from None
+
+
 class DaskExecutor:
     """Jobs in batches on an existing Dask distributed cluster."""
 
@@ -258,6 +281,8 @@ class DaskExecutor:
         except ImportError:
             raise ExecutorError("--scheduler needs dask's distributed package: pip install 'dask[distributed]'") from None
         self.ctx = ctx
+        self.client = None
+        check_address(address)
         try:
             self.client = Client(address, timeout=connect_timeout, set_as_default=False)
         except (OSError, TimeoutError, ValueError, TypeError) as exc:

@@ -81,13 +81,17 @@ class CallResult:
 
 
 def perform(task, resolver: Resolver):
-    """Run a Job (-> Outcome) or a Call (-> CallResult) in this process; never raises."""
-    if isinstance(task, Job):
-        return execute(task, resolver)
+    """Run a Job (-> Outcome) or a Call (-> CallResult) in this process; never raises but
+    on Ctrl-C: whatever else the code it runs raises, an exit (SystemExit) included, is
+    the task's error (a Job's rows say it), so a worker lives on to take the next task."""
     try:
+        if isinstance(task, Job):
+            return execute(task, resolver)
         return CallResult(task, task.fn(task.arg))
-    except Exception as exc:
-        return CallResult(task, error=describe(exc))
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:
+        return lost(task, resolver, describe(exc))
 
 
 def lost(task, resolver: Resolver, reason: str):
@@ -172,6 +176,49 @@ def failed(job: Job, resolver: Resolver, status: str, reason: str) -> Outcome:
     return Outcome(job, rows)
 
 
+# --- building and stepping one scene -------------------------------------------------------
+
+class Failed(Exception):
+    """A scene that gave no run: `status` unsupported, unstable or error, with the reason;
+    `stage` "build" or "run"; `exception` the type name of what the engine raised, and
+    `cause` the exception itself; `knobs` the engine's knobs of an unstable run."""
+
+    def __init__(self, status: str, reason: str, stage: str = "build", cause: BaseException | None = None,
+                 knobs: dict | None = None):
+        super().__init__(reason)
+        self.status, self.reason, self.stage, self.cause = status, reason, stage, cause
+        self.exception = type(cause).__name__ if cause is not None else None
+        self.knobs = dict(knobs or {})
+
+
+def run_scene(adapter, scene, settings: Settings, steps: int, needs: frozenset = frozenset(),
+              make_probe: Callable[[], Probe] = Probe, warmup: int = 0) -> tuple[Run, dict]:
+    """Build `scene` on `adapter`, step and record it `steps` times (record.simulate) and
+    take the probe's reading: (Run, what the probe read). The one build-and-step of every
+    job (`execute`) and of the readings that make their own scenes (physval real's tosses).
+    Raises Failed: unsupported (the engine cannot represent the scene, or its build says
+    so), error (the build or a step raised: `describe`d), unstable (the state blew up)."""
+    why_not = adapter.capabilities.cannot_run(scene, needs)
+    if why_not:
+        raise Failed("unsupported", why_not)
+    probe = make_probe()
+    try:
+        sim = adapter.build(scene, settings)
+    except Unsupported as exc:
+        raise Failed("unsupported", str(exc)) from None
+    except Exception as exc:  # an engine crash while building: recorded, the run goes on
+        raise Failed("error", "the engine failed to build the scene: " + describe(exc), cause=exc) from None
+    try:
+        with sim:
+            run = simulate(sim, scene, settings.dt, steps, forces="contact_forces" in needs or probe.forces,
+                           warmup=warmup, on_step=probe.on_step if type(probe).on_step is not Probe.on_step else None)
+            return run, probe.after(run, sim, lambda: adapter.build(scene, settings))
+    except Unstable as exc:
+        raise Failed("unstable", str(exc), "run", knobs=getattr(sim, "knobs", {})) from None
+    except Exception as exc:
+        raise Failed("error", "the engine raised " + describe(exc), "run", cause=exc) from None
+
+
 # --- executing one job ---------------------------------------------------------------------
 
 def execute(job: Job, resolver: Resolver) -> Outcome:
@@ -201,33 +248,18 @@ def execute(job: Job, resolver: Resolver) -> Outcome:
         base["engine_version"] = adapter.version()
     except Exception:
         base["engine_version"] = "unknown"
-    why_not = adapter.capabilities.cannot_run(scene, needs)
-    if why_not:
-        return Outcome(job, rows_with("unsupported", why_not))
-    probe = _probe(job)
-    try:
-        sim = adapter.build(scene, settings)
-    except Unsupported as exc:
-        return Outcome(job, rows_with("unsupported", str(exc)))
-    except Exception as exc:  # an engine crash while building: recorded, the run goes on
-        return Outcome(job, rows_with("error", "the engine failed to build the scene: " + describe(exc)),
-                       exception=type(exc).__name__)
     try:
         known = resolver.known(job.engine)
     except deviations.DeviationFileError as exc:  # a worker must not die of a bad file: its rows say why
-        sim.close()
         return Outcome(job, rows_with("error", f"the known-deviation file does not parse: {exc}"))
-    steps = steps_of(job, family)
-    extra: dict = {}
     try:
-        with sim:
-            run = simulate(sim, scene, settings.dt, steps, forces="contact_forces" in needs or probe.forces,
-                           warmup=job.warmup, on_step=probe.on_step if type(probe).on_step is not Probe.on_step else None)
-            extra = probe.after(run, sim, lambda: adapter.build(scene, settings))
-    except Unstable as exc:
-        return Outcome(job, rows_with("unstable", str(exc), knobs=_knobs(getattr(sim, "knobs", {}))))
-    except Exception as exc:
-        return Outcome(job, _raised(job, family, checks, known, exc, base), exception=type(exc).__name__)
+        run, extra = run_scene(adapter, scene, settings, steps_of(job, family), needs=needs,
+                               make_probe=lambda: _probe(job), warmup=job.warmup)
+    except Failed as f:
+        if f.status == "error" and f.stage == "run":  # judged against the bands of a known exception
+            return Outcome(job, _raised(job, family, checks, known, f.cause, base), exception=f.exception)
+        knobs = {"knobs": _knobs(f.knobs)} if f.status == "unstable" else {}
+        return Outcome(job, rows_with(f.status, f.reason, **knobs), exception=f.exception)
     timing = {"wall_s": run.wall_s, "sim_s": run.steps * settings.dt, "steps": run.steps,
               "iterations": "" if run.iterations is None else run.iterations,
               "effects_simulated": ",".join(sorted(run.effects)), "knobs": _knobs(run.knobs)}
@@ -248,7 +280,7 @@ def execute(job: Job, resolver: Resolver) -> Outcome:
             rows.append(blank_row(family.name, job.variant, job.engine, c, status="error", dt=settings.dt,
                                   reason=f"observe() in {where} gave no {c.metric!r}", **fields))
             continue
-        number = _number(value)
+        number = number_of(value)
         if number is None or not math.isfinite(number):
             rows.append(blank_row(family.name, job.variant, job.engine, c, status="error", dt=settings.dt,
                                   reason=f"observe() in {where} gave {c.metric} = {value!r}: not a finite number",
@@ -274,7 +306,8 @@ def _raised(job, family, checks, known, exc, base) -> list[dict]:
     return job_rows(job, family, "error", "the engine raised " + describe(exc), checks, **base)
 
 
-def _number(value) -> float | None:
+def number_of(value) -> float | None:
+    """The float a metric's value stands for; None for a bool or what is no number."""
     if isinstance(value, bool):
         return None
     try:

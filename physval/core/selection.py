@@ -32,13 +32,18 @@ def _matches(name: str, pattern: str) -> bool:
 
 
 def select_variants(families: dict[str, CaseFamily], values: list[str] | None, option: str = "--cases",
-                    full: bool = False) -> dict[str, list[Variant]]:
+                    full: bool = False, unusable=()) -> dict[str, list[Variant]]:
     """Family name -> chosen variants. `values` None: every family, every variant (the
-    grid; `full`: with the full grid)."""
+    grid; `full`: with the full grid). `unusable`: the user files that could not be loaded
+    (cases.registry.Problem); a selection that may need one raises SelectionError with its
+    line: every family, a spec naming its family, or one naming nothing (when the file
+    failed before its family's name was known)."""
     def variants(fam):
         return list(fam.all_variants if full else fam.variants)
 
     if values is None:
+        if unusable:
+            raise SelectionError(unusable[0].message)
         return {n: variants(f) for n, f in families.items()}
     specs = split(values)
     if not specs:
@@ -48,9 +53,13 @@ def select_variants(families: dict[str, CaseFamily], values: list[str] | None, o
         m = re.fullmatch(r"([^\[\]]+)(?:\[(.*)\])?", spec)
         if not m:
             raise SelectionError(f"{option} {spec!r}: write FAMILY or FAMILY[VARIANT] (globs allowed)")
+        named = [p for p in unusable if p.family and _matches(p.family, m[1])]
+        if named:
+            raise SelectionError(named[0].message)
         names = [n for n in families if _matches(n, m[1])]
         if not names:
-            raise SelectionError(f"unknown case {spec!r}: choose from {', '.join(families)}")
+            unnamed = "".join(f"; not loaded: {p.message}" for p in unusable if not p.family)
+            raise SelectionError(f"unknown case {spec!r}: choose from {', '.join(families)}{unnamed}")
         for name in names:
             pool = variants(families[name])
             if m[2] is None:

@@ -5,8 +5,9 @@ again recomputes none of them.
 Each row carries its job's key, the number of rows the job wrote (so a job cut short by a
 kill is recognised and run again) and a cache key: the fingerprint of the code that
 produced it (every source file of physval, cases, adapters, reference_impl, the known
-deviations, and a user's case files, adapters and --known files) with the engine's
-version. A row whose cache key differs from the current one is stale and run again.
+deviations, a user's case files and --known files, and a plug-in's or --adapter's own
+source and deviation file) with the engine's version. A row whose cache key differs from
+the current one is stale and run again.
 """
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ import csv
 import hashlib
 import io
 import os
+import sys
 from collections import defaultdict
 from pathlib import Path
 
@@ -30,17 +32,23 @@ class StoreError(ValueError):
     """The store's file is not one of ours (bad --out): the message names it."""
 
 
+ROOT = Path(__file__).resolve().parents[2]
+
+
 def fingerprint(extra_files=()) -> str:
     """SHA-256 (16 hex digits) of the project's source and deviation files and `extra_files`."""
-    root = Path(__file__).resolve().parents[2]
     files = []
     for pkg in PACKAGES:
-        files += sorted((root / pkg).rglob("*.py")) + sorted((root / pkg).rglob("xfails/*.txt"))
-    files += [Path(f) for f in extra_files]
+        files += sorted((ROOT / pkg).rglob("*.py")) + sorted((ROOT / pkg).rglob("xfails/*.txt"))
+    return digest(files + [Path(f) for f in extra_files])
+
+
+def digest(files) -> str:
+    """SHA-256 (16 hex digits) of the files' names and contents (those that exist)."""
     h = hashlib.sha256()
     for f in files:
         if f.is_file():
-            h.update(str(f.relative_to(root) if f.is_relative_to(root) else f).encode())
+            h.update(str(f.relative_to(ROOT) if f.is_relative_to(ROOT) else f).encode())
             h.update(f.read_bytes())
     return h.hexdigest()[:16]
 
@@ -118,22 +126,33 @@ class RowStore:
 
 
 def cache_keys(ctx, engines: list[str]) -> dict[str, str]:
-    """Per engine: the fingerprint of the code that measures (with a user's case files,
-    ad-hoc adapter files and --known files), and the engine's version."""
+    """Per engine: the fingerprint of the code that measures (with a user's case files and
+    --known files, and the engine's own source and deviation file when they lie outside
+    this project: a plug-in's, an --adapter's), and the engine's version."""
     resolver = ctx.resolver()
-    files = [f for d in ctx.cases_dirs for f in sorted(Path(d).glob("*.py"))] + [Path(f) for f in ctx.known_files]
-    for spec in ctx.adapters:
-        where = spec.rsplit(":", 1)[0]
-        if where.endswith(".py"):
-            files.append(Path(where))
-    fp = fingerprint(files)
+    fp = fingerprint([f for d in ctx.cases_dirs for f in sorted(Path(d).glob("*.py"))] + list(ctx.known_files))
     out = {}
     for e in engines:
         try:
-            out[e] = f"{fp}:{resolver.adapter(e).version()}"
+            adapter = resolver.adapter(e)
         except Exception:
             out[e] = f"{fp}:not installed"
+            continue
+        own = [f for f in adapter_sources(adapter) + resolver.deviation_files(e)
+               if f.is_file() and not f.resolve().is_relative_to(ROOT) and str(f) not in ctx.known_files]
+        out[e] = f"{fp}{'+' + digest(own) if own else ''}:{adapter.version()}"
     return out
+
+
+def adapter_sources(adapter) -> list[Path]:
+    """The source files of the package (or the lone module) that defines the adapter's
+    class: a plug-in's code can change without its version string, and its jobs must run
+    again as they do when this project's code changes."""
+    module = type(adapter).__module__
+    top = sys.modules.get(module.split(".")[0])
+    if getattr(top, "__path__", None) and getattr(top, "__file__", None):
+        return sorted(Path(top.__file__).parent.rglob("*.py"))
+    return [Path(getattr(sys.modules.get(module), "__file__", None) or "")]
 
 
 def cache_dir() -> Path:

@@ -33,6 +33,12 @@ COLUMNS = ["case", "variant", "params", "engine", "engine_version", "dt", "itera
            "band", "wall_s", "sim_s", "steps", "knobs"]
 
 
+# the reasons that open a row whose known deviation moved: out of its band (a fail), or
+# onto the closed form (a pass); `physval run --fail-on changed,vanished` gates on them
+CHANGED = "known deviation changed"
+VANISHED = "known deviation vanished"
+
+
 def errors(expected: float, measured: float) -> tuple[float, float]:
     """(absolute, relative) error; relative is NaN when the expected value is 0."""
     if measured is None or not math.isfinite(measured):
@@ -69,6 +75,10 @@ def judge(c: Check, value: float, engine: str, variant: str, entry: deviations.D
                   known_deviation=entry.cause if entry else "", band=band.describe() if band else "")
     outside = f"{c.kind} error {size:.3g} > tolerance {c.tolerance:.3g}"
     if within(c, abs_err, rel_err):
+        if band is not None and bands_apply:  # the engine (or its mapping) changed: physval known ENGINE --write
+            return dict(fields, status="pass", reason=(
+                f"{VANISHED}: {entry.pattern} ({entry.where}) records {band.describe()}, measured {value:.6g} "
+                f"{c.unit}, within the tolerance"))
         return dict(fields, status="pass")
     if entry is None:
         return dict(fields, status="fail", reason=outside)
@@ -76,7 +86,7 @@ def judge(c: Check, value: float, engine: str, variant: str, entry: deviations.D
     if band is None:
         return dict(fields, status="fail", reason=(
             f"{outside}; matches {where} but no band is recorded for this check on {engine}: "
-            f"`physval known {engine}` measures it"))
+            f"`{entry.remeasure(engine)}` measures it"))
     if not bands_apply:
         return dict(fields, status="fail", reason=(
             f"{outside}; {where} is recorded at the family's dt and the adapter's default iterations only"))
@@ -85,7 +95,7 @@ def judge(c: Check, value: float, engine: str, variant: str, entry: deviations.D
             f"{entry.cause} [measured {value:.6g} {c.unit} in the recorded band {band.describe()}; "
             f"expected {c.expected:.6g}: {outside}]"))
     return dict(fields, status="fail", reason=(
-        f"known deviation changed: recorded {band.describe()}, measured {value:.6g} {c.unit} "
+        f"{CHANGED}: recorded {band.describe()}, measured {value:.6g} {c.unit} "
         f"({where}: {entry.cause})"))
 
 

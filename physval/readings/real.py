@@ -24,7 +24,15 @@ What it does, per engine (every registered 3D engine that is installed):
 1. Each toss of the test split (odd toss ids, `cases.cube_toss`) is built as an
    engine-neutral scene from its start state (the free flight fitted up to the sample just
    before first contact) and simulated to the toss's last sample at dt = 1/148/7 s (seven
-   steps per measured sample, so simulated states fall on the measured sample times).
+   steps per measured sample, so simulated states fall on the measured sample times). The
+   simulation is the core's, as for every job: `physval.core.jobs.run_scene` builds the
+   scene, steps and records it (`record.simulate`) and gives a failure the statuses every
+   job gets (unsupported, unstable: NaN or a blow-up, or the cube beyond LOST; error: the
+   engine raised, with `describe`'s reason). Tosses travel in batches (`Batch`, run by
+   `run_batch`) as tasks of the core's executor, each in a worker process: a batch whose
+   worker dies (a segfault) or runs over --job-timeout becomes error rows for its tosses
+   (`lost_batch`), and the run goes on. The batch carries the run's Context, so engines
+   from `--adapter` and plug-ins resolve in the workers as in the main process.
 2. Each simulated sample is compared with the measured one: the centre distance in cube
    widths, the geodesic angle between the orientations in degrees, and both together as
    the root mean square distance between corresponding corners, in cube widths
@@ -56,7 +64,14 @@ What it does, per engine (every registered 3D engine that is installed):
    from that fit's own uncertainty, `sensitivity`).
 
 Simulations are cached on disk (SimCache), keyed by engine, engine version, the toss's
-content, parameters, dt, horizon and CODE_VERSION, so a rerun costs only what changed.
+content, parameters, dt, horizon and CODE_VERSION (and, for an engine from outside the
+repository, its adapter's source), so a rerun costs only what changed. The core's RowStore
+is not used for them: measured on this data (MuJoCo tosses, ~90 samples each), it would
+hold a simulation's poses as a CSV row of 14 kB (SimCache: a 6.5 kB .npz), read and
+rewrite the whole file at every start (0.73 ms per simulation: 49 s for the 67,414
+simulations of the full run, against 0.29 ms per simulation looked up here), and be
+invalidated by any edit to any source file (its code fingerprint), which costs the full
+run's 3,300 CPU s again.
 
 The command (options, planning the fit, the progress lines) is physval/commands/real.py.
 """
@@ -77,8 +92,10 @@ import numpy as np
 import pandas as pd
 
 from adapters import registry
-from adapters.base import Settings, Tunable, Unsupported
+from adapters.base import Settings, Tunable
 from cases import cube_toss as ct
+from physval.core.context import Context
+from physval.core.jobs import Failed, run_scene
 
 # Bump when a change alters what a cached simulation means (scene, start state, stepping).
 CODE_VERSION = "real-2"
@@ -116,47 +133,64 @@ MapFn = Callable[[Callable, Iterable], Iterable]
 
 # --- engines and their parameters ---------------------------------------------------------
 
-@functools.lru_cache(maxsize=None)
-def _adapter(engine: str):
-    return registry.get(engine)
+# Every function that names an engine takes the run's Context (physval.core.context): its
+# --adapter specs make ad-hoc adapters and plug-ins resolvable here and in every worker.
+
+def _adapter(engine: str, ctx: Context):
+    return ctx.resolver().adapter(engine)  # made once per process and context
 
 
 @functools.lru_cache(maxsize=None)
-def engine_version(engine: str) -> str:
-    return _adapter(engine).version()
+def engine_version(engine: str, ctx: Context = Context()) -> str:
+    return _adapter(engine, ctx).version()
 
 
-def parameter_space(engine: str) -> dict[str, Tunable]:
+@functools.lru_cache(maxsize=None)
+def adapter_source(engine: str, ctx: Context = Context()) -> str:
+    """For an engine from outside the repository (a plug-in or an --adapter): the SHA-1 of
+    its adapter's source file, so an edited adapter is simulated again rather than read
+    from the cache; "" for a built-in engine (CODE_VERSION and the version cover those)."""
+    if registry.specs(ctx.adapters)[engine].origin == "built-in":
+        return ""
+    import inspect
+    try:
+        return hashlib.sha1(Path(inspect.getsourcefile(type(_adapter(engine, ctx)))).read_bytes()).hexdigest()
+    except (TypeError, OSError):
+        return "source unknown"
+
+
+def parameter_space(engine: str, ctx: Context = Context()) -> dict[str, Tunable]:
     """The fitted parameters: mu, e and the adapter's tunables, by name."""
-    return {**NEUTRAL, **dict(getattr(_adapter(engine), "tunables", {}) or {})}
+    return {**NEUTRAL, **dict(getattr(_adapter(engine, ctx), "tunables", {}) or {})}
 
 
-def nominal(engine: str) -> dict[str, float]:
+def nominal(engine: str, ctx: Context = Context()) -> dict[str, float]:
     """The data set's mu and e, the adapter's defaults for the rest."""
-    return {name: t.default for name, t in parameter_space(engine).items()}
+    return {name: t.default for name, t in parameter_space(engine, ctx).items()}
 
 
-def rounded(engine: str, params: dict) -> dict[str, float]:
+def rounded(engine: str, params: dict, ctx: Context = Context()) -> dict[str, float]:
     """Parameters on the fit's grid (mu, e: NEUTRAL_GRID; tunables: 3 significant digits);
     a parameter not given takes its default. The command checks given values first
     (physval/commands/real.py)."""
     out = {}
-    for name, t in parameter_space(engine).items():
+    for name, t in parameter_space(engine, ctx).items():
         v = float(params.get(name, t.default))
         v = round(v / NEUTRAL_GRID) * NEUTRAL_GRID if name in NEUTRAL else float(f"{v:.3g}")
         out[name] = round(v, 10)
     return out
 
 
-def engines_3d(names: list[str] | None = None) -> tuple[list[str], dict[str, str]]:
-    """(engines to score, {engine: why skipped}). Default: every registered engine that is
-    installed and takes 3D boxes on a plane; an engine registered twice under two names
-    (the same adapter class with the same settings) is scored once."""
-    chosen = names or registry.engine_names()
+def engines_3d(names: list[str] | None = None, ctx: Context = Context()) -> tuple[list[str], dict[str, str]]:
+    """(engines to score, {engine: why skipped}). Default: every registered engine (with
+    the context's ad-hoc adapters) that is installed and takes 3D boxes on a plane; an
+    engine registered twice under two names (the same adapter class with the same
+    settings) is scored once."""
+    chosen = names or registry.engine_names(ctx.adapters)
     out, skipped, seen = [], {}, {}
     for name in chosen:
         try:
-            adapter = _adapter(name)
+            adapter = _adapter(name, ctx)
         except registry.EngineError as exc:
             skipped[name] = str(exc)
             continue
@@ -199,10 +233,12 @@ class SimCache:
 
     @staticmethod
     def key(engine: str, tr: ct.Toss, params: dict, dt: float, horizon: float | None,
-            perturb: int | None = None) -> str:
-        text = json.dumps([CODE_VERSION, engine, engine_version(engine), _toss_digest(tr), tr.id,
+            perturb: int | None = None, ctx: Context = Context()) -> str:
+        source = adapter_source(engine, ctx)
+        text = json.dumps([CODE_VERSION, engine, engine_version(engine, ctx), _toss_digest(tr), tr.id,
                            sorted(params.items()), repr(float(dt)), horizon]
-                          + ([] if perturb is None else [f"perturb {perturb}"]), sort_keys=True)
+                          + ([] if perturb is None else [f"perturb {perturb}"])
+                          + ([f"adapter source {source}"] if source else []), sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:40]
 
     def get(self, key: str) -> dict | None:
@@ -238,41 +274,38 @@ def _samples(tr: ct.Toss, fit: ct.FlightFit, horizon: float | None, dt: float) -
     return k, np.rint(s / dt).astype(int)
 
 
-def _step(engine: str, scene, dt: float, options: dict, steps_at: np.ndarray) -> dict:
-    """Build and step one scene, reading the cube's pose at the given step counts."""
+def _run(adapter, scene, dt: float, options: dict, steps_at: np.ndarray) -> dict:
+    """Build and step one scene through the core (physval.core.jobs.run_scene: the build,
+    record.simulate and the statuses every job gets: unsupported, unstable, error), and
+    read the cube's pose at the given step counts. A failed simulation has no poses (NaN).
+    `wall`: the core's stepping time (Run.wall_s); `cpu`: this thread's CPU time over the
+    recorded run (Run.cpu_s); `elapsed`, `elapsed_cpu`: the same with the build."""
     n = len(steps_at)
     pos, quat = np.full((n, 3), np.nan), np.full((n, 4), np.nan)
     out = {"status": "ok", "message": "", "wall": 0.0, "cpu": 0.0, "steps": 0}
     start, start_cpu = time.perf_counter(), time.thread_time()
     try:
-        sim = _adapter(engine).build(scene, Settings(dt=dt, options=options))
-    except Unsupported as exc:
-        return {**out, "status": "unsupported", "message": str(exc), "pos": pos, "quat": quat,
-                "elapsed": time.perf_counter() - start, "elapsed_cpu": time.thread_time() - start_cpu}
-    step = 0
-    try:
-        with sim:
-            for j, target in enumerate(steps_at.tolist()):
-                t0, c0 = time.perf_counter(), time.thread_time()
-                while step < target:
-                    sim.step()
-                    step += 1
-                out["wall"] += time.perf_counter() - t0
-                out["cpu"] += time.thread_time() - c0
-                row = sim.states()["cube"]
-                if not (np.all(np.isfinite(row[:7])) and np.linalg.norm(row[:3]) < LOST):
-                    out.update(status="unstable", message=f"state {row[:7].tolist()} at step {step}")
-                    break
-                pos[j], quat[j] = row[:3], row[3:7] / np.linalg.norm(row[3:7])
-    except Exception as exc:  # an engine failure is a result of this toss, not a crash
-        out.update(status="error", message=f"{type(exc).__name__}: {exc}"[:300])
-    out.update(steps=step, pos=pos, quat=quat, elapsed=time.perf_counter() - start,
-               elapsed_cpu=time.thread_time() - start_cpu)
+        run, _ = run_scene(adapter, scene, Settings(dt=dt, options=options), int(steps_at[-1]))
+    except Failed as f:
+        out.update(status=f.status, message=f.reason)
+    else:
+        rows = run.trajectory.states["cube"][steps_at]
+        far = np.linalg.norm(rows[:, :3], axis=1) >= LOST
+        if far.any():
+            j = int(np.argmax(far))
+            out.update(status="unstable", message=f"the cube left the scene: state {rows[j, :7].tolist()} at step "
+                                                   f"{int(steps_at[j])}")
+        else:
+            pos = rows[:, :3]
+            quat = np.array([q / np.linalg.norm(q) for q in rows[:, 3:7]]).reshape(n, 4)
+        out.update(wall=run.wall_s, cpu=run.cpu_s, steps=run.steps)
+    out.update(pos=pos, quat=quat, elapsed=time.perf_counter() - start, elapsed_cpu=time.thread_time() - start_cpu)
     return out
 
 
 def simulate_toss(engine: str, toss_id: int, params: dict, horizon: float | None = None, dt: float = DT,
-                  source: str | None = None, cache: str | None = None, perturb: int | None = None) -> dict:
+                  source: str | None = None, cache: str | None = None, perturb: int | None = None,
+                  ctx: Context = Context()) -> dict:
     """Simulate one toss from its start state; a pure function of picklable arguments.
 
     Returns the simulated poses at the measured sample times from the start sample on
@@ -281,20 +314,22 @@ def simulate_toss(engine: str, toss_id: int, params: dict, horizon: float | None
     shared machine's load does not inflate), the same with the build (`elapsed`,
     `elapsed_cpu`), whether it came from the cache (`cached`), and the per-sample errors
     against the measurement (`errors`). `perturb`: a seed; the start state is then drawn
-    from its own uncertainty (`cases.cube_toss.FlightFit.perturbed`)."""
+    from its own uncertainty (`cases.cube_toss.FlightFit.perturbed`). `ctx`: the run's
+    context (its ad-hoc adapters)."""
     tr, fit = _flight(source, int(toss_id))
     if perturb is not None:
         fit = fit.perturbed(perturb)
-    params = rounded(engine, params)
+    params = rounded(engine, params, ctx)
     k, steps_at = _samples(tr, fit, horizon, dt)
     store = SimCache(cache) if cache else None
-    key = SimCache.key(engine, tr, params, dt, horizon, perturb) if store else None
+    key = SimCache.key(engine, tr, params, dt, horizon, perturb, ctx) if store else None
     sim = store.get(key) if store else None
     cached = sim is not None
     if sim is None:
-        tunables = getattr(_adapter(engine), "tunables", {}) or {}
+        adapter = _adapter(engine, ctx)
+        tunables = getattr(adapter, "tunables", {}) or {}
         options = {n: v for n, v in params.items() if n in tunables}
-        sim = _step(engine, ct.scene(tr, params["mu"], params["e"], fit), dt, options, steps_at)
+        sim = _run(adapter, ct.scene(tr, params["mu"], params["e"], fit), dt, options, steps_at)
         if store and sim["status"] != "unsupported":
             store.put(key, sim)
     return {"engine": engine, "toss": tr.id, "params": params, "t": tr.t[k] - fit.t0, **sim, "cached": cached,
@@ -331,17 +366,17 @@ def metric_names() -> list[str]:
 def score(tr: ct.Toss, fit: ct.FlightFit, t: np.ndarray, pos: np.ndarray, quat: np.ndarray,
           status: str = "ok") -> dict:
     """One toss's scores from poses at the measured samples from fit.k0 on (len(t) of
-    them): errors at HORIZONS after the first measured contact (NaN where the toss or the
-    simulation ends earlier), at the final sample (the rest pose, NaN if the simulation
-    stopped short of it), whether the cube ends on the same face, and the fit's loss (the
-    mean corner error; FAIL_LOSS if the simulation failed)."""
+    them): errors at HORIZONS after the first measured contact (NaN where the toss ends
+    earlier), at the final sample (the rest pose), whether the cube ends on the same face,
+    and the fit's loss (the mean corner error). A failed simulation (status not ok) has no
+    readings (NaN), does not end on the same face, and its loss is FAIL_LOSS."""
     k = np.arange(fit.k0, fit.k0 + len(t))
     e = errors(tr, k, pos, quat)
     t_contact = tr.t[fit.contact] - fit.t0
     row = {}
     for h in HORIZONS:
         j = int(np.argmin(np.abs(t - (t_contact + h))))
-        near = abs(t[j] - (t_contact + h)) <= 0.5 * ct.SAMPLE_PERIOD + 1e-9
+        near = abs(t[j] - (t_contact + h)) <= 0.5 * ct.SAMPLE_PERIOD + 1e-9 and status == "ok"
         row[f"pos_{h:g}s"] = float(e["pos_err"][j]) if near else math.nan
         row[f"rot_{h:g}s"] = float(e["rot_err"][j]) if near else math.nan
     full = k[-1] == len(tr) - 1 and status == "ok"
@@ -359,7 +394,7 @@ def score(tr: ct.Toss, fit: ct.FlightFit, t: np.ndarray, pos: np.ndarray, quat: 
 @dataclass(frozen=True)
 class Batch:
     """Some tosses of one engine at one parameter set; picklable, so any executor can run
-    `run_batch` on it."""
+    `run_batch` on it. `ctx`: the run's context, which resolves the engine in the worker."""
     engine: str
     params: tuple[tuple[str, float], ...]
     tosses: tuple[int, ...]
@@ -369,25 +404,44 @@ class Batch:
     cache: str | None = None
     keep: bool = False  # return the per-sample errors and poses too (reports), not only scores
     perturb: bool = False  # start each toss from a start state drawn from its uncertainty (seed: the toss id)
+    ctx: Context = Context()
 
 
 def run_batch(batch: Batch) -> list[dict]:
     """Score every toss of a batch (module-level and pure: an executor's task)."""
+    return [_row(batch, toss_id, simulate_toss(batch.engine, toss_id, dict(batch.params), batch.horizon, batch.dt,
+                                               batch.source, batch.cache, toss_id if batch.perturb else None,
+                                               batch.ctx))
+            for toss_id in batch.tosses]
+
+
+def lost_batch(batch: Batch, why: str) -> list[dict]:
+    """The rows of a batch whose task produced nothing (it raised, its worker died, or it
+    ran over the time limit): each of its tosses failed with status error, `why` its message."""
     rows = []
     for toss_id in batch.tosses:
-        r = simulate_toss(batch.engine, toss_id, dict(batch.params), batch.horizon, batch.dt,
-                          batch.source, batch.cache, toss_id if batch.perturb else None)
         tr, fit = _flight(batch.source, toss_id)
-        row = {"engine": batch.engine, "toss": toss_id, "status": r["status"], "message": r["message"],
-               "sim_time": float(r["t"][-1]) if len(r["t"]) else 0.0, "wall": r["wall"], "cpu": r["cpu"],
-               "elapsed": r["elapsed"], "elapsed_cpu": r["elapsed_cpu"], "steps": r["steps"], "cached": r["cached"],
-               "params": json.dumps(r["params"], sort_keys=True)}
-        if r["status"] != "unsupported":
-            row.update(score(tr, fit, r["t"], r["pos"], r["quat"], r["status"]))
-        if batch.keep:
-            row["trajectory"] = {k: r[k] for k in ("t", "pos", "quat", "pos_err", "rot_err", "corner_err")}
-        rows.append(row)
+        k, _ = _samples(tr, fit, batch.horizon, batch.dt)
+        pos, quat = np.full((len(k), 3), np.nan), np.full((len(k), 4), np.nan)
+        rows.append(_row(batch, toss_id, {
+            "params": dict(batch.params), "t": tr.t[k] - fit.t0, "pos": pos, "quat": quat, "status": "error",
+            "message": why, "wall": 0.0, "cpu": 0.0, "elapsed": 0.0, "elapsed_cpu": 0.0, "steps": 0, "cached": False,
+            **errors(tr, k, pos, quat)}))
     return rows
+
+
+def _row(batch: Batch, toss_id: int, r: dict) -> dict:
+    """A toss's row from its simulation (simulate_toss)."""
+    tr, fit = _flight(batch.source, toss_id)
+    row = {"engine": batch.engine, "toss": toss_id, "status": r["status"], "message": r["message"],
+           "sim_time": float(r["t"][-1]) if len(r["t"]) else 0.0, "wall": r["wall"], "cpu": r["cpu"],
+           "elapsed": r["elapsed"], "elapsed_cpu": r["elapsed_cpu"], "steps": r["steps"], "cached": r["cached"],
+           "params": json.dumps(r["params"], sort_keys=True)}
+    if r["status"] != "unsupported":
+        row.update(score(tr, fit, r["t"], r["pos"], r["quat"], r["status"]))
+    if batch.keep:
+        row["trajectory"] = {k: r[k] for k in ("t", "pos", "quat", "pos_err", "rot_err", "corner_err")}
+    return row
 
 
 def _chunks(ids, size: int) -> list[tuple[int, ...]]:
@@ -396,10 +450,10 @@ def _chunks(ids, size: int) -> list[tuple[int, ...]]:
 
 
 def simulate_many(engine: str, params: dict, ids, *, map_fn: MapFn = map, batch: int = BATCH,
-                  keep: bool = False, perturb: bool = False, **common) -> list[dict]:
+                  keep: bool = False, perturb: bool = False, ctx: Context = Context(), **common) -> list[dict]:
     """Score tosses `ids` of one engine at one parameter set through `map_fn`."""
-    key = tuple(sorted(rounded(engine, params).items()))
-    jobs = [Batch(engine, key, chunk, keep=keep, perturb=perturb, **common) for chunk in _chunks(ids, batch)]
+    key = tuple(sorted(rounded(engine, params, ctx).items()))
+    jobs = [Batch(engine, key, chunk, keep=keep, perturb=perturb, ctx=ctx, **common) for chunk in _chunks(ids, batch)]
     return [row for rows in map_fn(run_batch, jobs) for row in rows]
 
 
@@ -430,7 +484,7 @@ class FitResult:
 
 def fit(engine: str, ids, *, map_fn: MapFn = map, popsize: int = POPSIZE, generations: int = GENERATIONS,
         seed: int = 0, batch: int = BATCH, names: tuple[str, ...] | None = None,
-        fixed: dict | None = None, **common) -> FitResult:
+        fixed: dict | None = None, ctx: Context = Context(), **common) -> FitResult:
     """Fit an engine's contact parameters to tosses `ids` by differential evolution.
 
     The loss of a parameter set is the mean over the tosses of each toss's mean corner
@@ -441,20 +495,20 @@ def fit(engine: str, ids, *, map_fn: MapFn = map, popsize: int = POPSIZE, genera
     from scipy.optimize import differential_evolution
 
     start = time.perf_counter()
-    space = parameter_space(engine)
+    space = parameter_space(engine, ctx)
     names = tuple(names or space)
-    base = {**nominal(engine), **(fixed or {})}
+    base = {**nominal(engine, ctx), **(fixed or {})}
     ids = tuple(sorted(int(i) for i in ids))
     memo: dict[tuple, np.ndarray] = {}
     cost = {"computed": 0, "cached": 0, "cpu": 0.0}
 
     def params_of(x) -> dict:
-        return rounded(engine, {**base, **dict(zip(names, np.asarray(x, float).tolist()))})
+        return rounded(engine, {**base, **dict(zip(names, np.asarray(x, float).tolist()))}, ctx)
 
     def losses(candidates: list[dict]) -> list[float]:
         keys = [tuple(sorted(c.items())) for c in candidates]
         todo = list(dict.fromkeys(k for k in keys if k not in memo))
-        jobs = [Batch(engine, k, chunk, **common) for k in todo for chunk in _chunks(ids, batch)]
+        jobs = [Batch(engine, k, chunk, ctx=ctx, **common) for k in todo for chunk in _chunks(ids, batch)]
         per_key: dict[tuple, list[float]] = {k: [] for k in todo}
         for job, rows in zip(jobs, map_fn(run_batch, jobs)):
             per_key[job.params] += [r.get("loss", FAIL_LOSS) for r in rows]
@@ -476,7 +530,7 @@ def fit(engine: str, ids, *, map_fn: MapFn = map, popsize: int = POPSIZE, genera
     result = differential_evolution(objective, bounds, x0=x0, popsize=popsize, maxiter=generations, seed=seed,
                                     polish=False, vectorized=True, updating="deferred", init="latinhypercube")
     best = params_of(result.x)
-    nominal_loss = losses([rounded(engine, base)])[0]
+    nominal_loss = losses([rounded(engine, base, ctx)])[0]
     return FitResult(engine, names, best, losses([best])[0], nominal_loss, len(memo), ids,
                      time.perf_counter() - start, memo, cost)
 
@@ -559,7 +613,8 @@ def paired_difference(scores: pd.DataFrame, a: tuple[str, str], b: tuple[str, st
 def summary(scores: pd.DataFrame) -> pd.DataFrame:
     """Per engine and parameter set: tosses, failures, median / mean / 95th percentile of
     every metric over the tosses that ran, the fraction ending on the right face (failures
-    count as wrong), and the speed (simulated seconds per wall second of stepping)."""
+    count as wrong), and the speed (simulated seconds per wall second of stepping, and per
+    CPU second of the recorded run: stepping and recording)."""
     out = []
     for (engine, pset), g in scores.groupby(["engine", "param_set"], sort=False):
         ok = g[g.status == "ok"]
@@ -718,7 +773,8 @@ def section(summ: pd.DataFrame, fits: dict[str, dict], skipped: dict[str, str], 
               "residuals): what the capture's noise alone costs this engine, a floor no parameter removes. Centre "
               f"errors in cube widths ({ct.WIDTH * 100:.2f} cm), angles in degrees, medians over the test tosses; "
               "'right face': the fraction of tosses that end on the measured face (failed simulations count as "
-              "wrong).", "",
+              "wrong). 'speed': simulated seconds per wall second of stepping, and per CPU second of the "
+              "recorded run (stepping and recording every step, as every physval job records).", "",
               f"| rank | engine | parameters | mean corner err. | vs rank 1 | start noise | centre {h1} | angle {h1} | "
               f"centre {h2} | angle {h2} | centre final | angle final | right face | speed (sim s per wall s; "
               "per CPU s) |",

@@ -16,6 +16,7 @@ import pandas as pd
 
 from physval.core import COLUMNS
 from physval.reportkit import (STATUS_MARK, contents, deviation_summary, deviation_table, engine_versions, environment,
+                               per_engine_counts,
                                fmt, frame, heading, md_table, problems_section, pyplot, save_figure, status_counts,
                                summary_matrix, unsupported_section, write_atomic)
 
@@ -140,48 +141,70 @@ def summary_sections(df: pd.DataFrame, plots: Path) -> list[str]:
     return lines
 
 
-def deviation_sections(df: pd.DataFrame, stale: list[str]) -> list[str]:
-    lines = ["## Known deviations", "",
-             "Each engine's known shortfalls (`adapters/xfails/<engine>.txt`, a plug-in's own file, or a "
-             "`--known` file): one row per engine and cause, then every check with the band its size was "
-             "recorded in and the value measured now. A measurement outside its band is a `FAIL` (the deviation "
-             "changed); `physval known ENGINE` measures the bands again.", ""]
+def deviation_sections(df: pd.DataFrame, stale: list[str]) -> tuple[list[str], list[str]]:
+    """(the report's section: counts per engine and cause, entries gone stale; the page
+    deviations.md: every known deviation, band against measurement)."""
+    intro = ("Each engine's known shortfalls (`adapters/xfails/<engine>.txt`, a plug-in's own file, or a "
+             "`--known` file): one row per engine and cause. A measurement outside its band is a `FAIL` (the "
+             "deviation changed); `physval known ENGINE` measures the bands again.")
+    lines = ["## Known deviations", "", intro, ""]
+    page = ["# Known deviations", "", intro, ""]
     if (df.status == "deviation").any():
-        lines += [md_table(deviation_summary(df)), "", "<details><summary>Every known deviation, band against "
-                  "measurement</summary>", "", md_table(deviation_table(df)), "", "</details>", ""]
+        lines += [md_table(per_engine_counts(df, "deviation")), "",
+                  "Each engine's causes, and every known deviation with the band its size was recorded in beside "
+                  "the value measured now: [deviations.md](deviations.md).", ""]
+        page += ["## Per engine and cause", "", md_table(deviation_summary(df)), "",
+                 "## Every known deviation", "", md_table(deviation_table(df)), ""]
     else:
         lines += ["_(none in this run)_", ""]
     if stale:
         lines += ["Entries that no longer deviate or match nothing:", ""] + [f"- {s}" for s in stale] + [""]
-    return lines
+    return lines, page
 
 
-def family_sections(df: pd.DataFrame, families: dict, plots: Path) -> list[str]:
-    lines = ["## Families", ""]
+def family_sections(df: pd.DataFrame, families: dict, plots: Path) -> tuple[list[str], dict[str, str]]:
+    """(the report's index of families, one line each; {family: its page families/<name>.md}):
+    what it checks, where its closed form comes from, every tolerance with its reason, the
+    heat map and the measured values."""
+    lines = ["## Families", "", "One page per family: what it checks, where its closed form comes from, every "
+             "tolerance with its reason, a heat map of every check per engine, and the measured values.", ""]
+    index, pages = [], {}
     for name in sorted(df.case.unique()):
         fam = families.get(name)
-        first = df[df.case == name].iloc[0]
+        mine = df[df.case == name]
         plot_family(df, name, plots / f"{name}.png")
-        lines += [f"### {name}", ""]
+        page = [f"# {name}", "", "[back to the report](../report.md)", ""]
         if fam is not None:
-            lines += [f"{fam.summary[:1].upper() + fam.summary[1:]}." if fam.summary else "", "",
-                      f"Closed form: {fam.source}." if fam.source else "", ""]
-        lines += [f"Effects simulated: {first.effects or 'none'}.", "", "Tolerances:", "",
-                  md_table(tolerance_reasons(df, name)), "", f"![{name}](plots/{name}.png)", "",
-                  "<details><summary>Measured values</summary>", "", md_table(family_table(df, name)), "",
-                  "</details>", ""]
-    return lines
+            page += [f"{fam.summary[:1].upper() + fam.summary[1:]}." if fam.summary else "", "",
+                     f"Closed form: {fam.source}." if fam.source else "", ""]
+        page += [f"Effects simulated: {mine.iloc[0].effects or 'none'}.", "", "Tolerances:", "",
+                 md_table(tolerance_reasons(df, name)), "", f"![{name}](../plots/{name}.png)", "",
+                 "Measured values:", "", md_table(family_table(df, name)), ""]
+        pages[name] = "\n".join(page)
+        index.append({"family": f"[{name}](families/{name}.md)", "what it checks": fam.summary if fam else "",
+                      "checks": len(mine), "statuses": status_counts(mine)})
+    return lines + [md_table(pd.DataFrame(index)), ""], pages
 
 
-def settings_section(df: pd.DataFrame) -> list[str]:
-    lines = ["## Engine settings", "",
-             "The knobs each adapter set (engine's own names), from one run per engine; every run's "
-             "record is in the `knobs` column of `results.csv`.", ""]
+def unsupported_counts(df: pd.DataFrame) -> list[str]:
+    """The report's section on runs an engine cannot represent: counts per engine; the
+    reasons are on unsupported.md."""
+    if not (df.status == "unsupported").any():
+        return []
+    return ["## Unsupported", "", "Checks each engine cannot represent (a 3D scene in a 2D engine, `mu_s != mu_k` "
+            "in an engine with one friction coefficient, ...); every reason: [unsupported.md](unsupported.md).", "",
+            md_table(per_engine_counts(df, "unsupported")), ""]
+
+
+def settings_section(df: pd.DataFrame) -> tuple[list[str], list[str]]:
+    """(the report's pointer; the page knobs.md: the knobs each adapter set)."""
+    intro = ("The knobs each adapter set (engine's own names), from one run per engine; every run's "
+             "record is in the `knobs` column of `results.csv`.")
+    page = ["# Engine settings", "", intro, ""]
     for eng, grp in df[df.knobs != ""].groupby("engine", sort=False):
-        lines += [f"<details><summary>{eng} (effects simulated in that run: {grp.iloc[0].effects_simulated})"
-                  "</summary>", "", "```", json.dumps(json.loads(grp.iloc[0].knobs), indent=1, sort_keys=True),
-                  "```", "", "</details>", ""]
-    return lines
+        page += [f"## {eng}", "", f"Effects simulated in that run: {grp.iloc[0].effects_simulated}.", "", "```",
+                 json.dumps(json.loads(grp.iloc[0].knobs), indent=1, sort_keys=True), "```", ""]
+    return ["## Engine settings", "", intro + " Every engine's: [knobs.md](knobs.md).", ""], page
 
 
 def cost_section(df: pd.DataFrame) -> list[str]:
@@ -201,8 +224,8 @@ def cost_section(df: pd.DataFrame) -> list[str]:
 # --- the report --------------------------------------------------------------------------
 
 INTRO = ("physval runs analytic cases (closed-form answers with tolerances, each with its reason) on physics "
-         "engines and judges every check. Read the summary first; each family's section says what it checks "
-         "and why its tolerances have their size.")
+         "engines and judges every check. Read the summary first; each family's page (linked under Families) says "
+         "what it checks and why its tolerances have their size.")
 
 
 def write_run_report(rows: list[dict], out: Path, families: dict, command: str = "", complete: bool = True,
@@ -222,10 +245,11 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
         write_atomic(out / "report.md", "\n".join(head + body))
         return
     plots = out / "plots"
+    deviations, deviation_page = deviation_sections(df, list(stale))
     sections = ["\n".join(summary_sections(df, plots)),
-                "\n".join(deviation_sections(df, list(stale))),
+                "\n".join(deviations),
                 "\n".join(problems_section(df)),
-                "\n".join(unsupported_section(df))]
+                "\n".join(unsupported_counts(df))]
     from physval.readings import agreement, effective, laws
     engine_wide = engine_wide or {}
     if "effective" in engine_wide:
@@ -235,8 +259,25 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
         sections.append(agreement.section(agree, out))
     if "laws" in engine_wide:
         sections.append(laws.section(engine_wide["laws"], out))
-    sections += ["\n".join(family_sections(df, families, plots)),
-                 "\n".join(settings_section(df)), "\n".join(cost_section(df)),
+    family_index, family_pages = family_sections(df, families, plots)
+    settings, knobs_page = settings_section(df)
+    sections += ["\n".join(family_index), "\n".join(settings), "\n".join(cost_section(df)),
                  "\n".join(["## Environment", "", md_table(environment(engine_versions(df))), ""])]
     sections = [s for s in sections if s.strip()]
+    write_pages(out, {"deviations.md": "\n".join(deviation_page), "knobs.md": "\n".join(knobs_page),
+                      "unsupported.md": "\n".join(["# Unsupported runs", ""] + unsupported_section(df)[2:])},
+                {f"{name}.md": text for name, text in family_pages.items()})
     write_atomic(out / "report.md", "\n".join(head + [contents(sections)] + sections))
+
+
+def write_pages(out: Path, pages: dict[str, str], family_pages: dict[str, str]) -> None:
+    """The report's detail pages beside report.md, and families/<name>.md for this run's
+    families (pages of families this run did not hold are removed: the index links none)."""
+    for name, text in pages.items():
+        write_atomic(out / name, text)
+    folder = out / "families"
+    for old in folder.glob("*.md") if folder.is_dir() else ():
+        if old.name not in family_pages:
+            old.unlink()
+    for name, text in family_pages.items():
+        write_atomic(folder / name, text)

@@ -1,6 +1,6 @@
 """`physval stress`: the robustness battery, stability maps and determinism.
 
-- Battery: every family tagged `robustness` (cases/robustness.py says what they share)
+- Battery: every family tagged `robustness` (the package cases/robustness says what they share)
   on every engine, as jobs of the core, so statuses, known deviations and costs are
   exactly those of `physval run`; rows go to `stress_results.csv` (the columns of
   results.csv). Each family's small default grid also runs in `physval run`; `--long`
@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from cases import robustness_stacks
+from cases.robustness import stacks as robustness_stacks
 from cases.family import Variant
 from cases.robustness import COLLAPSE_FRACTION
 from physval.core import COLUMNS, Job, Probe, simulate
@@ -287,7 +287,7 @@ def write_stress_report(rows: list[dict], smap, det, out: Path, command: str = "
     lines = heading("physval stress report", command, "" if complete else "interrupted.")
     lines += [f"{len(df)} checks from {df.groupby(['case', 'variant', 'engine']).ngroups if len(df) else 0} runs: "
               f"{status_counts(df)}.", "",
-              "Robustness scenes are judged by invariants (cases/robustness.py): no NaN or blow-up (status "
+              "Robustness scenes are judged by invariants (the package cases/robustness): no NaN or blow-up (status "
               "`unstable`), energy never rises, bounded overlap and drift, momentum kept where no external "
               "force acts, and the time a structure stands (its time to collapse). Each family's docstring says "
               "why its scenes are hard; every tolerance's reason is in `stress_results.csv`.", "",

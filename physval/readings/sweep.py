@@ -120,12 +120,21 @@ def point_table(df: pd.DataFrame, fams: dict) -> pd.DataFrame:
             worst = max(errs)
         cost = pd.to_numeric(first.get("wall_per_sim_s", math.nan), errors="coerce")
         out.append({"point": key, "case": first.case, "variant": first.variant, "engine": first.engine,
-                    "dt": float(first["dt"]), "iterations": str(first.iterations_asked),
+                    "dt": float(first["dt"]), "iterations": _asked(first),
                     "iterations_in_force": str(first.iterations),
                     "cost_us_per_sim_s": float(cost) * 1e6, "worst_over_tol": worst,
                     "status": "ok" if ok.all() else grp.status.iloc[0],
                     "reason": "" if ok.all() else grp.reason.iloc[0]})
     return pd.DataFrame(out)
+
+
+def _asked(row) -> str:
+    """The iterations a point asked for: its probe's record, or for a point that did not
+    run (its probe never read anything) the iterations its rows were made with."""
+    asked = row.get("iterations_asked", "")
+    if pd.isna(asked) or asked == "":
+        asked = row.iterations if not pd.isna(row.iterations) and row.iterations != "" else "default"
+    return str(asked)
 
 
 def pareto_front(points: pd.DataFrame) -> pd.DataFrame:
@@ -141,6 +150,11 @@ def pareto_front(points: pd.DataFrame) -> pd.DataFrame:
 
 def _default_iterations(pts: pd.DataFrame) -> pd.DataFrame:
     return pts[pts.iterations == "default"]
+
+
+def completed(pts: pd.DataFrame) -> pd.DataFrame:
+    """The points with an error and a cost to plot (not those whose runs failed)."""
+    return pts[np.isfinite(pts.worst_over_tol) & np.isfinite(pts.cost_us_per_sim_s)]
 
 
 def convergence_order(pts: pd.DataFrame) -> float:
@@ -185,9 +199,10 @@ def sentence(s) -> str:
 
 def plot_cost(points: pd.DataFrame, case: str, variant: str, path: Path) -> None:
     """Error against cost, log-log, one line per engine along its dt axis; iteration points
-    as open markers; each engine's Pareto front dashed."""
+    as open markers; each engine's Pareto front dashed. Points that did not complete are
+    left out (the report lists them)."""
     plt = pyplot()
-    sub = points[(points.case == case) & (points.variant == variant)]
+    sub = completed(points[(points.case == case) & (points.variant == variant)])
     fig, ax = plt.subplots(figsize=(8.2, 4.6), layout="constrained")
     styles = engine_styles(sub.engine.unique())
     for eng, pts in sub.groupby("engine", sort=False):
@@ -211,9 +226,10 @@ def plot_cost(points: pd.DataFrame, case: str, variant: str, path: Path) -> None
 
 
 def plot_convergence(points: pd.DataFrame, case: str, variant: str, path: Path) -> None:
-    """Error against dt, log-log, with each engine's fitted slope in the legend."""
+    """Error against dt, log-log, with each engine's fitted slope in the legend. Points
+    that did not complete are left out (the report lists them)."""
     plt = pyplot()
-    sub = points[(points.case == case) & (points.variant == variant)]
+    sub = completed(points[(points.case == case) & (points.variant == variant)])
     fig, ax = plt.subplots(figsize=(8.2, 4.6), layout="constrained")
     styles = engine_styles(sub.engine.unique())
     for eng, pts in sub.groupby("engine", sort=False):
@@ -229,6 +245,13 @@ def plot_convergence(points: pd.DataFrame, case: str, variant: str, path: Path) 
     ax.set_title(f"{case}[{variant}]: error against time step (default iterations)", fontsize=9)
     ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))  # beside: up to ~20 engines
     save_figure(fig, path)
+
+
+def _column(table: pd.DataFrame, name: str, fmt: str) -> pd.Series:
+    """A summary column as text; "-" where there is no number (no point completed, no
+    setting reached the tolerances, or no row has the column at all)."""
+    values = table[name] if name in table else pd.Series(math.nan, index=table.index)
+    return values.map(lambda x: format(x, fmt) if isinstance(x, (int, float)) and math.isfinite(x) else "-")
 
 
 def write_report(rows: list[dict], fams: dict, out: Path, command: str = "", complete: bool = True) -> pd.DataFrame:
@@ -249,21 +272,24 @@ def write_report(rows: list[dict], fams: dict, out: Path, command: str = "", com
               "minimum over repeats). Error is each point's worst check in units of its tolerance at the "
               "family's default dt; every check's own error is in `sweep.csv`.", "", "## Answers", ""]
     lines += [sentence(s) for _, s in summ.iterrows()] + [""]
-    for (case, variant), _ in (pts.groupby(["case", "variant"], sort=False) if len(pts) and complete else []):
+    for (case, variant), grp in (pts.groupby(["case", "variant"], sort=False) if len(pts) and complete else []):
         slug = re.sub(r"[^A-Za-z0-9._-]+", "_", f"{case}_{variant}").strip("_")
-        plot_cost(pts, case, variant, out / "plots" / f"cost_{slug}.png")
-        plot_convergence(pts, case, variant, out / "plots" / f"dt_{slug}.png")
+        lines += [f"## {case}[{variant}]", ""]
+        if len(completed(grp)):
+            plot_cost(pts, case, variant, out / "plots" / f"cost_{slug}.png")
+            plot_convergence(pts, case, variant, out / "plots" / f"dt_{slug}.png")
+            lines += [f"![error against cost](plots/cost_{slug}.png)", f"![error against dt](plots/dt_{slug}.png)", ""]
+        else:
+            lines += ["No point of this variant completed on any engine: nothing to plot (see the points that "
+                      "did not complete, below).", ""]
         part = summ[(summ.case == case) & (summ.variant == variant)]
         shown = pd.DataFrame({
             "engine": part.engine,
-            "order (slope of log error vs log dt)": part.order.map(lambda x: f"{x:.2f}" if math.isfinite(x) else "-"),
-            "best error/tol": part.best_over_tol.map(lambda x: f"{x:.3g}"),
-            "cheapest dt reaching tol": part.get("reach_dt", pd.Series(dtype=float)).map(
-                lambda x: f"{x:.3g}" if isinstance(x, float) and math.isfinite(x) else "-"),
-            "its cost (us/sim s)": part.get("reach_cost_us_per_sim_s", pd.Series(dtype=float)).map(
-                lambda x: f"{x:,.0f}" if isinstance(x, float) and math.isfinite(x) else "-")})
-        lines += [f"## {case}[{variant}]", "", f"![error against cost](plots/cost_{slug}.png)",
-                  f"![error against dt](plots/dt_{slug}.png)", "", md_table(shown), ""]
+            "order (slope of log error vs log dt)": _column(part, "order", ".2f"),
+            "best error/tol": _column(part, "best_over_tol", ".3g"),
+            "cheapest dt reaching tol": _column(part, "reach_dt", ".3g"),
+            "its cost (us/sim s)": _column(part, "reach_cost_us_per_sim_s", ",.0f")})
+        lines += [md_table(shown), ""]
     bad = pts[pts.status != "ok"] if len(pts) else pts
     if len(bad):
         lines += ["## Points that did not complete", "",

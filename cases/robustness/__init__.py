@@ -1,9 +1,10 @@
 """The robustness category: hard scenes judged by invariants, not by a closed-form motion.
 
-Each `cases/robustness_<what>.py` family says in its docstring why its scenes are hard.
-They share the invariants below, each a `Check` whose tolerance has its reason:
+Each family of this package (`cases/robustness/<what>.py`, family `robustness_<what>`) says
+in its docstring why its scenes are hard. They share the invariants below (this module:
+a library, it defines no FAMILY), each a `Check` whose tolerance has its reason:
 
-- no NaN or infinity: the runner reports such a run `unstable` (physval/runner.py);
+- no NaN or infinity: the harness reports such a run `unstable` (physval.core.record);
 - energy: with e <= 1 and nothing doing work but gravity, the mechanical energy
   (`cases.observables.mechanical_energy`) never rises above its initial value;
 - penetration: after settling, no two bodies overlap by more than a small part of their size;

@@ -31,7 +31,7 @@ import math
 import numpy as np
 
 from cases.family import CaseFamily, Check
-from cases.observables import energy_rise, mechanical_energy
+from cases.observables import energy_rise, mechanical_energy, window_samples
 from cases.robustness import (PENETRATION_FRACTION, collapse_time, free_flight_energy_tolerance,
                               no_energy_gain, stands)
 from cases.scene import Body, Box, Material, Rect, Scene, ball, cube, ground
@@ -100,7 +100,7 @@ def observe(traj, p) -> dict:
     light = Scene(bodies=tuple(b for b in sc.bodies if b.name in light_names() or b.static),
                   gravity=sc.gravity, material=sc.material, dimension=sc.dimension)
     t0, _ = window(p)
-    start = int(np.flatnonzero(traj.after(t0))[0])
+    start = int(window_samples(traj, t0)[0])
     stack_energy = mechanical_energy(traj, light)[start:]
     return {
         "stack_energy_gain": float(max(np.max(stack_energy) - stack_energy[0], 0.0)),

@@ -1,0 +1,300 @@
+"""physval as a user meets it: the wheel built from this checkout, installed into a fresh
+virtual environment, run from a folder outside the repository through the `physval`
+console script. Every command line the README (and the plug-in example's README) shows is
+run as written; a command whose full run takes minutes or hours is narrowed only by
+options appended to it (fewer engines, fewer cases, a shorter fit), never rewritten.
+A README line that this file does not know fails the first test, so the documentation
+cannot grow a command nobody ran.
+
+The environment sees the machine's site packages (the engines and numpy, which pip would
+otherwise download again) but imports physval, cases, adapters and reference_impl from the
+wheel alone: the first test checks where they come from.
+"""
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+README = ROOT / "README.md"
+EXAMPLE = ROOT / "examples" / "physval-engine-example"
+PACKAGES = ("physval", "cases", "adapters", "reference_impl")
+
+
+@dataclass(frozen=True)
+class Narrowed:
+    """How the test runs one README line: `extra` options appended to it (a full run takes
+    minutes); `after` a README line whose output it reads; `where` the folder it runs in
+    ("user": the user's folder; "example": a copy of the plug-in example)."""
+    extra: str = ""
+    after: str = ""
+    where: str = "user"
+    needs: tuple[str, ...] = ()  # engines it runs on (skipped if one is not installed here)
+
+
+REAL_QUICK = "--engines mujoco --limit 2 --horizon 0.15 --generations 0 --popsize 2 --bootstrap 10"
+NARROWED = {
+    # README: useful commands
+    "physval list": Narrowed(),
+    "physval list --engines": Narrowed(),
+    "physval run --cases central_impact --engines reference,mujoco": Narrowed(needs=("mujoco",)),
+    'physval run --cases "incline_threshold[mu=0.5*]" --dt 5e-3 --out /tmp/incline': Narrowed("--engines reference"),
+    'physval run --cases "central_impact[e=0.5,m=1:3]"': Narrowed("--engines reference pybullet", needs=("pybullet",)),
+    "physval run --help": Narrowed(),
+    "physval run --scheduler tcp://127.0.0.1:8786": Narrowed('--cases "central_impact[e=0.5,m=1:3]" --engines reference'),
+    # known deviations
+    "physval known mujoco": Narrowed('--cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
+    "physval known 'drake-*' --write": Narrowed('--cases "central_impact[drop,e=0.5]"', needs=("drake",)),
+    # a user's case family
+    "physval check-case my_cases/second_bounce.py": Narrowed(),
+    "physval run --cases-dir my_cases --cases second_bounce --engines reference,pybullet": Narrowed(needs=("pybullet",)),
+    "physval run --cases-dir my_cases --cases second_bounce --save-trajectories traj/": Narrowed("--engines reference"),
+    # sweeps, stress, benchmarks
+    "physval sweep": Narrowed('--cases "central_impact[drop,e=0.5]" --engines mujoco --repeats 1', needs=("mujoco",)),
+    "physval sweep --cases incline_threshold --engines reference,mujoco --workers 2": Narrowed("--repeats 1",
+                                                                                             needs=("mujoco",)),
+    "physval stress": Narrowed('--cases "robustness_overlap[box_in_ground,3D]" --engines mujoco --no-map',
+                               needs=("mujoco",)),
+    "physval stress --long": Narrowed('--cases "robustness_overlap[box_in_ground,3D]" --engines mujoco --no-map',
+                                      needs=("mujoco",)),
+    "physval bench": Narrowed("overhead --engines mujoco", needs=("mujoco",)),
+    "physval bench overhead": Narrowed("--engines mujoco", needs=("mujoco",)),
+    "physval bench step": Narrowed("--engines mujoco", needs=("mujoco",)),
+    "physval bench sweep-workers": Narrowed("--engines mujoco", needs=("mujoco",)),
+    "physval bench pgs": Narrowed(),
+    "physval bench faults": Narrowed('--engines mujoco --cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
+    # an engine's CI gate (exit 1 only if a check falls under --fail-on)
+    "physval run --engines mujoco --junitxml physval.xml --fail-on fail,error,unstable,changed": Narrowed(
+        '--cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
+    # comparing runs and releases (the same code twice: compare exits 0; central impact is
+    # identical to the last bit on MuJoCo 3.11.0, 3.12.0 and 4.0.0: versions exits 0)
+    "physval run --cases central_impact --engines reference,mujoco --out before": Narrowed(
+        '--cases "central_impact[drop,e=0.5]" --engines reference'),
+    "physval run --cases central_impact --engines reference,mujoco --out after": Narrowed(
+        '--cases "central_impact[drop,e=0.5]" --engines reference',
+        after="physval run --cases central_impact --engines reference,mujoco --out before"),
+    "physval compare before after": Narrowed(
+        after="physval run --cases central_impact --engines reference,mujoco --out after"),
+    "physval versions mujoco 3.11.0 3.12.0 4.0.0 --cases resting_blocks stack_strike --save-trajectories": Narrowed(
+        '--cases "central_impact[drop,e=0.5]" --engines mujoco', needs=("mujoco",)),
+    # the real-world tier
+    "physval real": Narrowed(REAL_QUICK, needs=("mujoco",)),
+    "physval real --tosses my_tosses.csv --params reports/real/params.json": Narrowed("--engines mujoco",
+                                                                                     after="physval real",
+                                                                                     needs=("mujoco",)),
+    # the plug-in example's README (after its `pip install`)
+    "pip install ./examples/physval-engine-example": Narrowed(where="repo"),
+    "physval run --cases central_impact --engines mujoco,mujoco-soft": Narrowed(
+        after="pip install ./examples/physval-engine-example", needs=("mujoco",)),
+    "physval known mujoco-soft --file physval_engine_example/xfails/mujoco-soft.txt --write": Narrowed(
+        '--cases "central_impact[drop,e=0.5]"', after="pip install ./examples/physval-engine-example",
+        where="example", needs=("mujoco",)),
+}
+# lines the README shows that start processes of other programs (the Dask cluster the
+# --scheduler line runs on is started by the test itself, as the README says)
+NOT_PHYSVAL = ("dask scheduler", "dask worker")
+
+
+def readme_lines(path: Path) -> list[str]:
+    """The command lines of a README's indented code blocks, without trailing comments."""
+    lines = []
+    for raw in re.findall(r"^ {4,}((?:physval|pip install|dask) .*)$", path.read_text(), re.M):
+        line = re.sub(r"\s+#.*$", "", raw).strip().rstrip("&").strip()
+        lines.append(line)
+    return list(dict.fromkeys(lines))
+
+
+ALL_LINES = readme_lines(README) + [line for line in readme_lines(EXAMPLE / "README.md") if line not in
+                                    readme_lines(README)]
+
+
+def test_every_readme_command_is_run_here():
+    unknown = [line for line in ALL_LINES if line not in NARROWED and not line.startswith(NOT_PHYSVAL)]
+    assert not unknown, f"README commands this file does not run: {unknown}"
+    gone = [line for line in NARROWED if line not in ALL_LINES]
+    assert not gone, f"lines no README shows any more: {gone}"
+
+
+# --- the installed product -------------------------------------------------------------------
+
+@dataclass
+class Installed:
+    venv: Path
+    user: Path      # a folder outside the repository, with the user's files
+    env: dict
+    wheel: Path
+
+    def bin(self, name: str) -> str:
+        return str(self.venv / "bin" / name)
+
+
+def _sh(args, **kw) -> subprocess.CompletedProcess:
+    return subprocess.run(args, capture_output=True, text=True, **kw)
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory) -> Installed:
+    base = tmp_path_factory.mktemp("installed")
+    wheels = base / "wheels"
+    built = _sh([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(ROOT)])
+    assert built.returncode == 0, built.stderr[-2000:]
+    # the build leaves build/ in the checkout; a user's later `pip install .` would reuse it
+    shutil.rmtree(ROOT / "build", ignore_errors=True)
+    (wheel,) = wheels.glob("physval-*.whl")
+    venv = base / "venv"
+    assert _sh([sys.executable, "-m", "venv", "--system-site-packages", str(venv)]).returncode == 0
+    inst = _sh([str(venv / "bin" / "pip"), "install", "-q", "--no-deps", "--ignore-installed", str(wheel)])
+    assert inst.returncode == 0, inst.stderr[-2000:]
+    user = base / "user"
+    user.mkdir()
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
+    env |= {"PHYSVAL_CACHE_DIR": str(base / "cache"), "MPLBACKEND": "Agg", "PATH": f"{venv / 'bin'}:{env['PATH']}"}
+    _user_files(user)
+    return Installed(venv, user, env, wheel)
+
+
+def _user_files(user: Path) -> None:
+    """What the README's commands expect in the user's folder: the worked example family,
+    and a toss file of the packaged data's columns (three measured tosses)."""
+    (code,) = re.findall(r"```python\n(# my_cases/second_bounce.py\n.*?)```", README.read_text(), re.S)
+    (user / "my_cases").mkdir()
+    (user / "my_cases" / "second_bounce.py").write_text(code)
+    import pandas as pd
+    data = pd.read_csv(ROOT / "cases" / "data" / "cube_toss" / "cube_tosses.csv.gz")
+    data[data.toss.isin([1, 3, 5])].to_csv(user / "my_tosses.csv", index=False)
+
+
+def test_the_environment_imports_physval_from_the_wheel(installed):
+    probe = ("import importlib, json, sys; "
+             "print(json.dumps({n: importlib.import_module(n).__file__ for n in sys.argv[1:]}))")
+    done = _sh([installed.bin("python"), "-c", probe, *PACKAGES], cwd=installed.user, env=installed.env)
+    assert done.returncode == 0, done.stderr
+    import json
+    for name, file in json.loads(done.stdout).items():
+        assert file.startswith(str(installed.venv)), f"{name} imported from {file}, not from the installed wheel"
+    version = _sh([installed.bin("physval"), "--version"], cwd=installed.user, env=installed.env)
+    assert version.returncode == 0 and re.fullmatch(r"physval \d+\.\d+\.\d+\S*\n", version.stdout), version
+
+
+def _missing_engines(installed: Installed, names) -> list[str]:
+    probe = "import sys; from adapters.registry import available; print(' '.join(n for n in sys.argv[1:] if not available(n)))"
+    done = _sh([installed.bin("python"), "-c", probe, *names], cwd=installed.user, env=installed.env)
+    return done.stdout.split()
+
+
+def _run_line(installed: Installed, line: str, tmp: Path) -> subprocess.CompletedProcess:
+    how = NARROWED[line]
+    if how.after and how.after not in _done:
+        _run_line(installed, how.after, tmp)
+    words = shlex.split(line) + shlex.split(how.extra)
+    words = [w.replace("/tmp/", f"{tmp}/") for w in words]
+    if how.where == "repo":  # `pip install ./examples/...`: from the repository, into the environment
+        cwd, words = ROOT, [installed.bin("pip"), *words[1:], "-q"]
+    elif how.where == "example":
+        cwd = tmp / "example"
+        if not cwd.exists():
+            shutil.copytree(EXAMPLE, cwd, ignore=shutil.ignore_patterns("build", "*.egg-info"))
+    else:
+        cwd = installed.user
+    if words[0] == "physval":
+        words[0] = installed.bin("physval")
+    if line.startswith("physval run --scheduler"):
+        with _dask_cluster(installed) as address:
+            words[words.index("tcp://127.0.0.1:8786")] = address
+            done = _sh(words, cwd=cwd, env=installed.env, timeout=600)
+    else:
+        done = _sh(words, cwd=cwd, env=installed.env, timeout=900)
+    _done.add(line)
+    shutil.rmtree(ROOT / "examples" / "physval-engine-example" / "build", ignore_errors=True)
+    return done
+
+
+_done: set[str] = set()
+
+
+@pytest.mark.parametrize("line", [line for line in ALL_LINES if line in NARROWED])
+def test_a_readme_command_works_from_the_installed_wheel(installed, line, tmp_path):
+    missing = _missing_engines(installed, NARROWED[line].needs)
+    if missing:
+        pytest.skip(f"not installed here: {', '.join(missing)}")
+    done = _run_line(installed, line, tmp_path)
+    said = f"`{line}` {NARROWED[line].extra}: exit {done.returncode}\n{done.stdout[-1500:]}\n{done.stderr[-3000:]}"
+    assert done.returncode == 0, said
+    assert "Traceback" not in done.stderr, said
+    if line.startswith("physval run ") and "--help" not in line:
+        assert "wrote " in done.stdout, said
+        if "--save-trajectories" in line:
+            assert list((installed.user / "traj").glob("*.npz")), said
+    if line == "physval real":
+        assert (installed.user / "reports" / "real" / "params.json").is_file(), said
+    if line.startswith("physval run --cases central_impact --engines mujoco,mujoco-soft"):
+        assert "mujoco-soft" in done.stdout + done.stderr or (installed.user / "reports" / "results.csv").is_file()
+
+
+class _dask_cluster:
+    """The README's Dask cluster, started from the environment on a free port of this
+    machine, and stopped after."""
+
+    def __init__(self, installed: Installed):
+        self.installed = installed
+
+    def __enter__(self) -> str:
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            port = s.getsockname()[1]
+        address = f"tcp://127.0.0.1:{port}"
+        run = dict(cwd=self.installed.user, env=self.installed.env, stdout=subprocess.DEVNULL,
+                   stderr=subprocess.DEVNULL, start_new_session=True)
+        dask = [self.installed.bin("python"), "-m", "dask"]  # the environment's own interpreter
+        self.procs = [subprocess.Popen([*dask, "scheduler", "--host", "127.0.0.1", "--port", str(port),
+                                        "--no-dashboard"], **run)]
+        self.procs.append(subprocess.Popen([*dask, "worker", address, "--nworkers", "1", "--nthreads", "1",
+                                            "--no-dashboard"], **run))
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            with socket.socket() as s:
+                if s.connect_ex(("127.0.0.1", port)) == 0:
+                    break
+            time.sleep(0.2)
+        time.sleep(2)  # the worker registers with the scheduler
+        return address
+
+    def __exit__(self, *exc):
+        for p in self.procs:
+            try:
+                os.killpg(p.pid, signal.SIGTERM)
+            except ProcessLookupError:
+                pass
+        for p in self.procs:
+            try:
+                p.wait(10)
+            except subprocess.TimeoutExpired:
+                os.killpg(p.pid, signal.SIGKILL)
+
+
+def test_the_engine_ci_example_gates_on_the_plug_in(installed, tmp_path):
+    """The plug-in example's CI script, as its workflow runs it: install physval (here the
+    wheel), install the plug-in, run the battery with --junitxml and --fail-on."""
+    if _missing_engines(installed, ("mujoco",)):
+        pytest.skip("MuJoCo is not installed here")
+    example = tmp_path / "engine-repo"
+    shutil.copytree(EXAMPLE, example, ignore=shutil.ignore_patterns("build", "*.egg-info", "physval-out"))
+    env = installed.env | {"PHYSVAL": str(installed.wheel), "CASES": "conformance central_impact"}
+    done = _sh(["bash", "ci/battery.sh"], cwd=example, env=env, timeout=900)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-3000:]
+    import csv
+    import xml.etree.ElementTree as ET
+    rows = list(csv.DictReader(open(example / "physval-out" / "results.csv")))
+    root = ET.parse(example / "physval-out" / "physval.xml").getroot()
+    assert int(root.get("tests")) == len(rows) > 0 and {r["engine"] for r in rows} == {"mujoco-soft"}

@@ -1,0 +1,82 @@
+"""A user's `--known FILE`: an entry may be limited to engines (an engine glob before the
+pattern), names that do not exist and files that are not text stop the run with one line
+(exit 2), and the report's hint for an entry without bands is the command that measures
+them into the file the entry came from."""
+from __future__ import annotations
+
+import csv
+import shlex
+from pathlib import Path
+
+import pytest
+
+from physval.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+FAKES = f"{ROOT / 'tests' / 'fakes.py'}"
+ADAPTERS = ["--adapter", f"{FAKES}:FakeAdapter", "--adapter", f"{FAKES}:OtherFake"]  # engines fake and fake-2
+CASE = "central_impact[e=0.5,m=1:3]"  # ballistic fakes let the bodies pass through: v1_after fails on both
+QUIET = ["--workers", "1", "--quiet"]
+
+
+def _rows(out: Path) -> dict:
+    with open(out / "results.csv", newline="") as f:
+        return {(r["engine"], r["metric"]): r for r in csv.DictReader(f)}
+
+
+def _stale_notes(out: Path) -> list[str]:
+    report = (out / "report.md").read_text()
+    if "Entries that no longer deviate or match nothing:" not in report:
+        return []
+    section = report.split("Entries that no longer deviate or match nothing:", 1)[1].split("\n## ", 1)[0]
+    return [line[2:] for line in section.splitlines() if line.startswith("- ")]
+
+
+def test_an_entry_for_one_engine_covers_that_engine_only_and_its_hint_writes_its_own_file(tmp_path, capsys):
+    known = tmp_path / "my_known.txt"
+    known.write_text("fake central_impact[e=0.5,m=1:*]:v1_after  # the fake engine lets bodies pass through\n")
+    run = ["run", *ADAPTERS, "--engines", "fake", "fake-2", "--cases", CASE, "--known", str(known), *QUIET]
+
+    assert main([*run, "--out", str(tmp_path / "a")]) == 0
+    rows = _rows(tmp_path / "a")
+    assert rows["fake-2", "v1_after"]["status"] == "fail" and rows["fake-2", "v1_after"]["known_deviation"] == ""
+    assert "known deviation" not in rows["fake-2", "v1_after"]["reason"]
+    mine = rows["fake", "v1_after"]
+    assert mine["status"] == "fail" and "no band is recorded for this check on fake" in mine["reason"]
+    (note,) = _stale_notes(tmp_path / "a")  # none for fake-2: the entry is not fake-2's
+    hint = note.split("`")[-2]
+    assert note.startswith("fake: `fake central_impact") and hint == mine["reason"].split("`")[-2]
+    words = shlex.split(hint)
+    assert words[:5] == ["physval", "known", "fake", "--file", str(known)] and words[-1] == "--write"
+
+    assert main([*words[1:], *QUIET, "--out", str(tmp_path / "measured")]) == 0  # the hint, as given
+    assert f"    fake [{CASE[15:-1]}]:v1_after = " in known.read_text()  # written into the user's own file
+
+    assert main([*run, "--out", str(tmp_path / "b")]) == 0
+    rows = _rows(tmp_path / "b")
+    assert rows["fake", "v1_after"]["status"] == "deviation"
+    assert rows["fake-2", "v1_after"]["status"] == "fail" and rows["fake-2", "v1_after"]["known_deviation"] == ""
+    assert _stale_notes(tmp_path / "b") == []
+    capsys.readouterr()
+
+
+@pytest.mark.parametrize("text,message", [
+    (b"central_impakt[*]:v1_after  # a cause\n", ":1: no family 'central_impakt' (families: bounce_series, "),
+    (b"havok central_impact[*]:v1_after  # a cause\n",
+     ":1: engine 'havok' matches no engine (engines: reference, "),
+    (b"central_impact[*]:v1_after  # a cause\n    havok [e=0.5,m=1:3]:v1_after = 1.0 +- 0.1\n",
+     ":2: no engine 'havok' (engines: reference, "),
+    (b"mujoco central_impact[*]:v1_after  # a cause\n    pybullet [e=0.5,m=1:3]:v1_after = 1.0 +- 0.1\n",
+     ":2: engine 'pybullet' is not one of its entry's engines 'mujoco'"),
+    (b"central_impact[*]:v1_after  # caf\xe9 au lait\n",
+     ": not UTF-8 text (byte 0xe9 at offset 33); a known-deviation file is UTF-8 text"),
+])
+def test_a_known_file_naming_what_does_not_exist_or_not_text_is_one_line(text, message, tmp_path, capsys):
+    known = tmp_path / "k.txt"
+    known.write_bytes(text)
+    code = main(["run", "--cases", CASE, "--engines", "reference", "--known", str(known), *QUIET,
+                 "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.startswith(f"physval: error: --known {known}{message}"), err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not (tmp_path / "out" / "results.csv").exists()
