@@ -10,7 +10,7 @@ from physval.commands import options
 
 EPILOG = """examples:
   physval compare reports/versions/3.11.0 reports/versions/3.12.0
-  physval compare before/ after/ --threshold 0.1 --out /tmp/diff
+  physval compare before/ after/ --threshold 0.1 --out diff
 exit codes: 0 nothing changed; 1 something changed (a status, a move above the threshold,
 a check in one run only); 2 bad input (a folder without results.csv, a table without
 physval's columns)."""

@@ -53,7 +53,7 @@ def write(out: Path, package: str, engines: list[str], releases: list[Release], 
     for r in releases:
         df = compare.load(r.folder)
         runs.append({"release": r.release, "environment": _environment(r.env), "run s": f"{r.run_s:.0f}",
-                     "checks": len(df), "statuses": status_counts(df), "run": f"[{r.release}/]({r.release}/)"})
+                     "checks": len(df), "statuses": status_counts(df)})
     lines = heading(f"{package} across releases", command) + [
         f"Engines: {', '.join(engines)}. Each release ran in a virtual environment of its own holding that release "
         "(cached under physval's cache folder, envs/), with this physval's code; a check moved when its error "
@@ -63,7 +63,7 @@ def write(out: Path, package: str, engines: list[str], releases: list[Release], 
         md_table(pd.DataFrame([_pair_row(*pair) for pair in compared])), "",
         "## The releases", "",
         md_table(pd.DataFrame(runs)), "",
-        "`run s` is the wall time of the release's `physval run`; run again, the command reuses each environment "
-        "and every finished job.", ""]
+        "Each release's run is in its folder (RELEASE/: results.csv, report.md). `run s` is the wall time of its "
+        "`physval run`; run again, the command reuses each environment and every finished job.", ""]
     write_atomic(out / "versions.md", "\n".join(lines))
 
