@@ -224,7 +224,7 @@ def cost_section(df: pd.DataFrame) -> list[str]:
 # --- the report --------------------------------------------------------------------------
 
 INTRO = ("physval runs analytic cases (closed-form answers with tolerances, each with its reason) on physics "
-         "engines and judges every check. Read the summary first; each family's page (linked under Families) says "
+         "engines and judges every check. Read the scorecard first; each family's page (linked under Families) says "
          "what it checks and why its tolerances have their size.")
 
 
@@ -246,7 +246,8 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
         return
     plots = out / "plots"
     deviations, deviation_page = deviation_sections(df, list(stale))
-    sections = ["\n".join(summary_sections(df, plots)),
+    from physval.readings import scorecard
+    sections = [scorecard.section(scorecard.measure(df)), "\n".join(summary_sections(df, plots)),
                 "\n".join(deviations),
                 "\n".join(problems_section(df)),
                 "\n".join(unsupported_counts(df))]

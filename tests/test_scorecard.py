@@ -1,0 +1,53 @@
+"""The engine scorecard: each grade follows its stated rule from the checks behind it, and
+every run's report opens with it."""
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+import pytest
+
+from physval.readings import scorecard
+
+
+def _checks(*rows) -> pd.DataFrame:
+    return pd.DataFrame([{"engine": "e", "case": "central_impact", "metric": "v1_after", "status": s,
+                          "over_tol": x} for s, x in rows])
+
+
+@pytest.mark.parametrize("rows, grade", [
+    ((), "-"),
+    ((("pass", 0.5), ("pass", 1.0)), "A"),
+    ((("pass", 0.5), ("deviation", 9.9)), "B"),
+    ((("pass", 0.5), ("deviation", 10.1)), "C"),
+    ((("deviation", 2.0), ("fail", 1.5)), "F"),
+    ((("pass", 0.1), ("unstable", math.nan)), "F"),
+    ((("pass", 0.1), ("error", math.nan)), "F"),
+])
+def test_the_grade_follows_its_rule(rows, grade):
+    assert scorecard.grade(_checks(*rows)) == grade
+
+
+def test_a_family_tests_the_effects_of_its_metrics():
+    assert scorecard.effect_of("incline_threshold", "slides") == ["static friction"]
+    assert scorecard.effect_of("incline_threshold", "sliding_acceleration") == ["kinetic friction"]
+    assert scorecard.effect_of("robustness_pile", "energy_gain") == ["stability"]
+    assert scorecard.effect_of("no_such_family", "x") == []
+
+
+def test_unsupported_checks_are_not_graded():
+    df = pd.concat([_checks(("pass", 0.2)), _checks(("unsupported", math.nan)).assign(engine="f")])
+    card = scorecard.measure(df).set_index(["engine", "effect"])
+    assert card.loc[("e", "restitution"), "grade"] == "A" and card.loc[("f", "restitution"), "grade"] == "-"
+    assert card.loc[("e", "restitution"), "within"] == 1 == card.loc[("e", "restitution"), "judged"]
+
+
+def test_the_run_report_opens_with_the_scorecard(tmp_path):
+    from physval.cli import main
+    out = tmp_path / "out"
+    assert main(["run", "--cases", "central_impact[drop,e=0.5]", "--engines", "reference", "--quiet",
+                 "--readings", "none", "--out", str(out)]) == 0
+    report = (out / "report.md").read_text()
+    first = report.index("\n## ", report.index("## Contents") + 1)
+    assert report[first:].startswith("\n## Scorecard")
+    assert "| reference | **A** 2/2 |" in report.replace("  ", "").replace(" |", " |")
