@@ -19,7 +19,7 @@ from cases import cube_toss as ct
 from physval.commands import options
 from physval.readings.real import (BATCH, BOOTSTRAP, DEFAULT_OUT, DT, FIT_LIMIT, GENERATIONS, NEUTRAL, NEUTRAL_GRID,
                                    MIN_FIT_TOSSES, POPSIZE, SCORE_LIMIT, SUBSTEPS, MapFn, _cost, _flight,
-                                   engine_version, engines_3d, fit, lost_batch, noise_rows, nominal, parameter_space,
+                                   engine_version, engines_3d, fit, fitted_names, lost_batch, noise_rows, nominal, parameter_space,
                                    rounded, sensitivity, simulate_many, write_report)
 
 
@@ -89,7 +89,7 @@ def _fit_plan(engine: str, nominal_rows: list[dict], train: list[int], args, ctx
     if failed > len(nominal_rows) / 2:
         return f"fails on {failed} of {len(nominal_rows)} test tosses at nominal parameters", [], 0
     per_toss = float(np.median([r["elapsed_cpu"] for r in nominal_rows]))
-    evaluations = args.popsize * len(parameter_space(engine, ctx)) * (args.generations + 1)
+    evaluations = args.popsize * len(fitted_names(engine, ctx)) * (args.generations + 1)
     estimate = per_toss * evaluations * len(train)
     if estimate <= args.fit_limit:
         return "", list(train), 1
@@ -223,7 +223,7 @@ def run(args) -> int:
                 not_fitted[engine] = why
                 say(f"  {engine}: nominal only: {why}")
             else:
-                say(f"  {engine}: fitting {', '.join(parameter_space(engine, ctx))} on {len(part)} tosses")
+                say(f"  {engine}: fitting {', '.join(fitted_names(engine, ctx))} on {len(part)} tosses")
                 f = fit(engine, part, map_fn=map_fn, popsize=args.popsize, generations=args.generations,
                         **common)
                 fits[engine] = {"params": f.params, "names": list(f.names), "loss": f.loss,

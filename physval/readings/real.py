@@ -164,6 +164,13 @@ def parameter_space(engine: str, ctx: Context = Context()) -> dict[str, Tunable]
     return {**NEUTRAL, **dict(getattr(_adapter(engine, ctx), "tunables", {}) or {})}
 
 
+def fitted_names(engine: str, ctx: Context = Context()) -> tuple[str, ...]:
+    """The parameters a fit searches: those with a finite range. One whose range is
+    unbounded (Rapier's and Box2D's push-out stiffness, whose default inf means no cap) stays
+    at its default: differential evolution samples a box, and no box holds infinity."""
+    return tuple(n for n, t in parameter_space(engine, ctx).items() if math.isfinite(t.low) and math.isfinite(t.high))
+
+
 def nominal(engine: str, ctx: Context = Context()) -> dict[str, float]:
     """The data set's mu and e, the adapter's defaults for the rest."""
     return {name: t.default for name, t in parameter_space(engine, ctx).items()}
@@ -496,7 +503,7 @@ def fit(engine: str, ids, *, map_fn: MapFn = map, popsize: int = POPSIZE, genera
 
     start = time.perf_counter()
     space = parameter_space(engine, ctx)
-    names = tuple(names or space)
+    names = tuple(names or fitted_names(engine, ctx))
     base = {**nominal(engine, ctx), **(fixed or {})}
     ids = tuple(sorted(int(i) for i in ids))
     memo: dict[tuple, np.ndarray] = {}
