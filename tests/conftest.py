@@ -59,14 +59,32 @@ def selected_engines(config) -> tuple[list[str], bool]:
         raise pytest.UsageError(str(exc)) from None
 
 
+# The suite's own speed table (scikit-learn keeps one too): jobs of the default run that
+# cost the suite more than its share of the 10-minute budget on 2 cores, run here with
+# `pytest -m slow` (and in every `physval run`). (engine glob, test id glob): why.
+SLOW_IN_THE_SUITE = {
+    ("reference-newton-coulomb", "resting_blocks[[]n=[345]]*"):
+        "pairwise impulses run all 200 sweeps each step on a resting stack: 25-77 s each on 2 shared cores",
+    ("reference-lemke", "resting_blocks[[]n=[45]]*"): "a dense pivoting tableau per step: 14-19 s each",
+}
+
+
+def _suite_speed(param):
+    from fnmatch import fnmatchcase
+    import pytest
+    job = param.values[0]
+    slow = any(fnmatchcase(job.engine, e) and fnmatchcase(job.variant.test_id, v) for e, v in SLOW_IN_THE_SUITE)
+    return pytest.param(*param.values, id=param.id, marks=[*param.marks, pytest.mark.slow]) if slow else param
+
+
 def pytest_generate_tests(metafunc):
-    """The jobs of the default run (reference formulations on the core families); the
-    on-demand ones (minutes each) are marked slow and run with `pytest -m slow`."""
+    """The jobs of the default run, each a test; the on-demand ones (minutes each) and
+    those SLOW_IN_THE_SUITE lists are marked slow and run with `pytest -m slow`."""
     from physval.testing import engine_checks
     for name, conformance in (("job", False), ("conformance_job", True)):
         if name in metafunc.fixturenames:
             engines, named = selected_engines(metafunc.config)
-            metafunc.parametrize(name, engine_checks(engines, conformance, named))
+            metafunc.parametrize(name, [_suite_speed(p) for p in engine_checks(engines, conformance, named)])
 
 
 def engines_of(item) -> tuple[set[str], list[str]]:
