@@ -291,11 +291,13 @@ def test_the_contract_check_finds_each_kind_of_breach(tmp_path):
 def test_report_has_its_sections_and_no_temporary_files(tmp_path):
     _write_report(_rows(), tmp_path, command="physval run")
     md = (tmp_path / "report.md").read_text()
-    for heading in ("## Contents", "## Summary", "## Known deviations", "## Failures, blow-ups and errors",
-                    "## Families", "## Engine settings", "## Environment", "### free_fall"):
+    for heading in ("## Scorecard", "## Contents", "## Summary", "## Known deviations",
+                    "## Failures, blow-ups and errors", "## Families", "## Engine settings", "## Environment"):
         assert heading in md
-    assert "- [Families](#families)" in md and "Closed form: symplectic Euler." in md
-    assert "the discrete closed form of symplectic Euler: exact to round-off" in md  # each tolerance's reason
+    assert "- [Families](#families)" in md and "[free_fall](families/free_fall.md)" in md
+    page = (tmp_path / "families" / "free_fall.md").read_text()  # the family's detail, one click away
+    assert page.startswith("# free_fall") and "Closed form: symplectic Euler." in page
+    assert "the discrete closed form of symplectic Euler: exact to round-off" in page  # each tolerance's reason
     assert (tmp_path / "plots" / "free_fall.png").stat().st_size > 1000
     assert not (tmp_path / "plots" / "summary.png").exists()  # one family: its own heat map is the summary
     assert not [p for p in tmp_path.rglob(".*") if p.is_file()], "temporary files left behind"
