@@ -80,3 +80,18 @@ def test_a_known_file_naming_what_does_not_exist_or_not_text_is_one_line(text, m
     assert code == 2 and err.startswith(f"physval: error: --known {known}{message}"), err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert not (tmp_path / "out" / "results.csv").exists()
+
+
+def test_an_entry_for_variants_this_run_left_out_is_not_stale(tmp_path):
+    """The report lists an entry as matching nothing only when no variant of its family
+    could match it, not when its variants lie in a full grid this run did not run."""
+    from physval.cli import main
+    known = tmp_path / "known.txt"
+    known.write_text("central_impact[drop,e=0.9,2D]:rebound_ratio  # a variant of the default grid, not run here\n"
+                     "central_impact[no such variant]:rebound_ratio  # matches no variant at all\n")
+    out = tmp_path / "out"
+    assert main(["run", "--cases", "central_impact[drop,e=0.5]", "--engines", "reference", "--known", str(known),
+                 "--quiet", "--readings", "none", "--out", str(out)]) == 0
+    section = (out / "report.md").read_text().split("## Known deviations", 1)[1].split("\n## ", 1)[0]
+    assert "`central_impact[no such variant]:rebound_ratio` (known.txt:2) matched no check" in section
+    assert "e=0.9,2D" not in section

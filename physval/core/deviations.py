@@ -274,18 +274,24 @@ def measured_bands(engine: str, entries: list[Deviation], rows_by_job: dict, rai
 
 def stale_entries(df, resolver) -> list[str]:
     """Entries whose recorded checks now pass, that have no band, or that match no check of
-    a family that ran (at the settings bands are recorded at)."""
+    a family that ran (at the settings bands are recorded at). An entry whose variants all
+    lie outside this run (a full grid's, or another engine's) is not stale: only one that
+    matches no variant of its family at all, or none of the variants that ran although
+    they are all its family has, is listed as matching nothing."""
     notes = []
     ran_families = set(df.case)
     for engine in dict.fromkeys(df.engine):
         mine = df[df.engine == engine]
         judged = {(r.case, r.variant, r.metric): r.status for r in mine.itertuples()}
+        ran_variants = {(c, v) for c, v, _ in judged}
         for e in resolver.known(engine):
             if e.family not in ran_families:
                 continue
             hits = [k for k in judged if e.matches(*k)]
             if not hits:
-                notes.append(f"{engine}: `{e.pattern}` ({e.where}) matched no check in this run")
+                variants = [v.id for v in resolver.family(e.family).all_variants if fnmatchcase(v.id, e.variant)]
+                if not variants or all((e.family, v) in ran_variants for v in variants):
+                    notes.append(f"{engine}: `{e.pattern}` ({e.where}) matched no check in this run")
                 continue
             bands = [b for b in e.bands if b.engine == engine]
             if not bands:
