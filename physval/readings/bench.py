@@ -286,7 +286,7 @@ def _note(name: str) -> str:
 
 
 STEP_NOTE = ("Minimum over 2 repeats of the mean wall time per step over 20 steps at dt = 1e-3 (10 warm-up "
-             "steps; the 55-box pyramid costs up to 0.8 s a step on pure-Python engines); `reference / X` is how "
+             "steps; the 55-box pyramid costs up to 0.5 s a step (DART), and Lemke's dense tableau outlasts a 150 s job); `reference / X` is how "
              "many times slower the reference is.")
 SWEEP_WORKERS_NOTE = ("central_impact's sweep points on reference, pybullet and mujoco, one timing repeat each; "
                       "throughput relative to one worker.")
