@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from adapters.base import Settings, Unsupported
+from adapters.base import Settings
 from adapters.reference_engine import ReferenceAdapter
 from cases.scene import Body, Box, Circle, Material, Rect, Scene, Sphere, ground, tilted_gravity
 

@@ -4,9 +4,6 @@ problems, the friction set, momentum, energy, invariance under a rigid transform
 cost of one PGS sweep."""
 from __future__ import annotations
 
-import math
-import time
-
 import numpy as np
 import pytest
 from hypothesis import example, given
