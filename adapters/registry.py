@@ -222,12 +222,16 @@ def version_problem(name: str, adapters: tuple[str, ...] = ()) -> str | None:
     """One line if the installed release of engine `name` lies outside its adapter's
     `supported` range ("mujoco 3.1.0 is outside the supported range >=3.2.6,<5 of adapter
     mujoco"), else None. EngineError as `get` for an unknown or missing engine."""
-    adapter = get(name, adapters)
+    return release_problem(get(name, adapters))
+
+
+def release_problem(adapter: Adapter) -> str | None:
+    """version_problem of an adapter already made."""
     if adapter.supported is None:
         return None
     try:
         installed = metadata.version(adapter.package)
     except metadata.PackageNotFoundError:
-        return (f"adapter {name} declares supported releases of {adapter.package}, "
+        return (f"adapter {adapter.name} declares supported releases of {adapter.package}, "
                 "which is not installed as a distribution")
     return range_problem(adapter, installed)

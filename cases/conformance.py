@@ -138,33 +138,28 @@ def locked_rotation_stays_locked(dim: int) -> Probe:
     return Probe(scene, T, measure, expect)
 
 
-def resting_contact_carries_the_weight(dim: int) -> Probe:
-    """A box at rest on the ground: the contact normal forces sum to m g."""
-    scene = Scene(bodies=(ground(), _box(dim, position=(0, 0, R))), gravity=(0, 0, -G),
-                  material=Material(e=0.0, mu_s=0.5), dimension=dim)
+def _resting_weight(body: Body, dim: int) -> Probe:
+    """`body` at rest on the ground: the contact normal forces sum to m g."""
+    scene = Scene(bodies=(ground(), body), gravity=(0, 0, -G), material=Material(e=0.0, mu_s=0.5), dimension=dim)
 
     def measure(traj):
         return {"normal_force": window_mean(traj, traj.force("ground", "body"), 0.5)}
 
     def expect(dt):
-        return [Check("normal_force", "N", 1.0 * G, 1e-3, "rel",
+        return [Check("normal_force", "N", body.mass * G, 1e-3, "rel",
                       "momentum balance of a body at rest (mean over 0.5 s)")]
     return Probe(scene, 1.0, measure, expect, needs=frozenset({"contact_forces"}))
+
+
+def resting_contact_carries_the_weight(dim: int) -> Probe:
+    """A box at rest on the ground: the contact normal forces sum to m g."""
+    return _resting_weight(_box(dim, position=(0, 0, R)), dim)
 
 
 def a_resting_ball_carries_its_weight(dim: int) -> Probe:
     """A ball at rest on the ground: its one contact's normal force is m g (the box's check
     on a sphere, so an engine with round shapes only reads its forces here too)."""
-    scene = Scene(bodies=(ground(), _ball(dim, position=(0, 0, R))), gravity=(0, 0, -G),
-                  material=Material(e=0.0, mu_s=0.5), dimension=dim)
-
-    def measure(traj):
-        return {"normal_force": window_mean(traj, traj.force("ground", "body"), 0.5)}
-
-    def expect(dt):
-        return [Check("normal_force", "N", 1.0 * G, 1e-3, "rel",
-                      "momentum balance of a body at rest (mean over 0.5 s)")]
-    return Probe(scene, 1.0, measure, expect, needs=frozenset({"contact_forces"}))
+    return _resting_weight(_ball(dim, position=(0, 0, R)), dim)
 
 
 CHECKS = (free_fall_matches_discrete_closed_form, nothing_damps_a_free_body, a_slow_body_does_not_fall_asleep,

@@ -240,8 +240,8 @@ def supported_releases(engines: list[str], ctx, named: set[str]) -> list[str]:
     kept = []
     for e in engines:
         try:
-            problem = registry.version_problem(e, ctx.adapters)
-        except registry.EngineError:
+            problem = registry.release_problem(ctx.resolver().adapter(e))  # the adapter this run already made
+        except Exception:
             problem = None
         if problem and e in named:
             raise UsageError(f"--engines {e}: {problem}")

@@ -26,8 +26,7 @@ from adapters import registry
 from adapters.base import Settings
 from cases.family import OBSERVE_RULE, VARIANT_RULE, CaseError, CaseFamily, Variant, user_code
 from physval.core.context import Context
-from physval.core.jobs import describe, number_of
-from physval.core.record import simulate
+from physval.core.jobs import Failed, number_of, run_scene
 from physval.core.session import Execution, map_calls
 
 DRY_RUN_ENGINE = "reference"
@@ -123,16 +122,15 @@ def dry_run(fam: CaseFamily, v: Variant, where: str) -> dict[str, float]:
         scene, dt, checks = fam.validate_variant(v)
     except CaseError as exc:
         raise CaseError(f"{where}: {exc}") from None
-    adapter = registry.get(DRY_RUN_ENGINE)
-    if adapter.capabilities.cannot_run(scene):
-        return {}
     with user_code(at, "its code raised", VARIANT_RULE):
-        forces = "contact_forces" in fam.needs_of(v.params)
+        needs = fam.needs_of(v.params)
     try:
-        with adapter.build(scene, Settings(dt=dt)) as sim:
-            traj = simulate(sim, scene, dt, 1, forces=forces).trajectory
-    except Exception as exc:
-        raise CaseError(f"{at}: one step on the reference failed: {describe(exc)}") from None
+        run, _ = run_scene(registry.get(DRY_RUN_ENGINE), scene, Settings(dt=dt), 1, needs)
+    except Failed as exc:
+        if exc.status == "unsupported":
+            return {}
+        raise CaseError(f"{at}: one step on the reference failed: {exc.reason}") from None
+    traj = run.trajectory
     with user_code(at, "observe() raised", f"{OBSERVE_RULE}, on a one-step run too"):
         values = fam.observe(traj, v.params)
     if not hasattr(values, "get"):

@@ -83,7 +83,7 @@ def cell(r) -> str:
     return f"**{r.grade}** {r.within}/{r.judged}" + (f", worst {fmt(r.worst)} tol" if r.grade != "A" else "")
 
 
-def section(card: pd.DataFrame, family_link=lambda name: f"families/{name}.md") -> str:
+def section(card: pd.DataFrame) -> str:
     """The scorecard as markdown: a table of grades and, below it, how to read it."""
     if not len(card):
         return ""
@@ -98,6 +98,6 @@ def section(card: pd.DataFrame, family_link=lambda name: f"families/{name}.md") 
         "tolerance; **B** no failure, the known deviations within 10 tolerances; **C** no failure, a known "
         "deviation beyond 10 tolerances; **F** a check failed, blew up or raised; - nothing of it ran. Beside the "
         "grade: checks within tolerance / checks judged, and the worst error in tolerances. The effects' "
-        "families: " + ", ".join(f"[{f}]({family_link(f)})" for f in families) + " (`physval.readings.scorecard."
+        "families: " + ", ".join(f"[{f}](families/{f}.md)" for f in families) + " (`physval.readings.scorecard."
         "EFFECTS` says which family and metric tests which effect).", "",
         md_table(table.reset_index()), ""])
