@@ -261,6 +261,8 @@ class Material:
                 raise SceneError(f"{where}.mu_k = {self.mu_k!r}: must be <= mu_s = {self.mu_s!r}")
         for name in CONTACT_TORQUES:
             value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise SceneError(f"{where}.{name} = {value!r}: must be a number (a lever arm in m, >= 0)")
             _finite(value, f"{where}.{name}")
             if value < 0:
                 raise SceneError(f"{where}.{name} = {value!r}: a lever arm in m, must be >= 0")
