@@ -160,3 +160,67 @@ def test_the_manifest_catches_rolling_resistance_nobody_asked_for():
     traj = replace(traj, effects=probe.scene.effects | {"rolling_resistance"})
     counts = {k: v for k, v in conformance._observe(traj, p).items() if k.endswith("_effects")}
     assert counts == {"unasked_effects": 1.0, "missing_effects": 0.0}
+
+
+# --- the adapters' mappings of the lever arms -------------------------------------------------
+
+def _two_balls(**pair) -> Scene:
+    """Two balls of different radii on the ground; the balls' own pair overridden."""
+    return Scene(bodies=(ground(), Body("big", Sphere(0.1), mass=1.0, position=(0, 0, 0.1)),
+                         Body("small", Sphere(0.05), mass=0.1, position=(0, 0, 0.25))),
+                 material=Material(mu_s=0.5, rolling_resistance=0.004, torsional_friction=0.001),
+                 pairs=(("big", "small", Material(mu_s=0.5, **pair)),))
+
+
+@pytest.mark.parametrize("pair", [dict(rolling_resistance=0.004, torsional_friction=0.001),
+                                  # the ground takes a share: r_ground > 0 (every body solved)
+                                  dict(rolling_resistance=0.002, torsional_friction=0.0005)])
+def test_pybullet_values_reproduce_every_pair_under_bullets_rule(pair):
+    pb = pytest.importorskip("adapters.pybullet_engine")
+    scene = _two_balls(**pair)
+    mu, _ = pb._material_values(scene)
+    for effect, knob in pb.TORQUE_KNOBS.items():
+        r = pb._torque_values(scene, mu, effect)
+        for a, b in scene.contact_pairs():  # btManifoldResult: r_a mu_b + r_b mu_a
+            combined = r[a.name] * mu[b.name] + r[b.name] * mu[a.name]
+            assert combined == pytest.approx(scene.material_of(a.name, b.name).torque(effect), rel=1e-12), knob
+
+
+def test_pybullet_refuses_pairs_no_non_negative_values_give():
+    # both balls' ground pairs at 1 mm, their own pair at 3 mm: r_ground would be negative
+    pb = pytest.importorskip("adapters.pybullet_engine")
+    scene = _two_balls(torsional_friction=0.003)
+    with pytest.raises(Exception, match="spinningFriction under Bullet's rule"):
+        pb._torque_values(scene, pb._material_values(scene)[0], "torsional_friction")
+
+
+def test_pybullet_refuses_a_torque_on_a_frictionless_pair():
+    pb = pytest.importorskip("adapters.pybullet_engine")
+    scene = _ball_scene(rolling_resistance=0.005)
+    scene = Scene(bodies=scene.bodies, material=Material(rolling_resistance=0.005))
+    with pytest.raises(Exception, match="rollingFriction"):
+        pb._torque_values(scene, pb._material_values(scene)[0], "rolling_resistance")
+
+
+def test_mujoco_pairs_carry_the_lever_arms_as_they_are():
+    mj = pytest.importorskip("adapters.mujoco_engine")
+    from adapters.base import Settings
+    xml, knobs = mj.scene_mjcf(_two_balls(rolling_resistance=0.0, torsional_friction=0.003), Settings(dt=1e-3),
+                               100, 16.0)
+    pairs = knobs["pair"]
+    assert pairs["big|ground"]["condim"] == 6 and pairs["big|ground"]["friction"] == [0.5, 0.5, 0.001, 0.004, 0.004]
+    assert pairs["big|small"]["condim"] == 4 and pairs["big|small"]["friction"][2:] == [0.003, 0.0, 0.0]
+    plain = mj.scene_mjcf(_ball_scene(), Settings(dt=1e-3), 100, 16.0)[1]["pair"]["ball|ground"]
+    assert plain["condim"] == 3
+
+
+def test_box2d_divides_by_the_larger_radius():
+    b2 = pytest.importorskip("adapters.box2d_engine")
+    from cases.scene import Circle, Rect
+    disc = Body("disc", Circle(0.1), mass=1.0, position=(0, 0, 0.1))
+    scene = Scene(bodies=(ground(), disc), material=Material(mu_s=0.5, rolling_resistance=0.005), dimension=2)
+    assert b2._rolling(scene) == {"ground": 0.0, "disc": pytest.approx(0.05)}  # mu_r = d / r
+    square = Body("square", Rect((0.1, 0.1)), mass=1.0, position=(0, 0, 0.1))
+    scene = Scene(bodies=(ground(), square), material=Material(mu_s=0.5, rolling_resistance=0.005), dimension=2)
+    with pytest.raises(Exception, match="radius, which is 0 for polygons"):
+        b2._rolling(scene)
