@@ -18,7 +18,7 @@ from typing import Mapping
 
 import numpy as np
 
-from cases.scene import IMPACT_MODEL_NEED, IMPACT_MODELS, Scene  # noqa: F401 (re-exported)
+from cases.scene import CONTACT_TORQUES, IMPACT_MODEL_NEED, IMPACT_MODELS, Scene  # noqa: F401 (re-exported)
 from cases.trajectory import ContactPoint
 
 
@@ -62,10 +62,16 @@ class Capabilities:
     # How the engine resolves impacts at several contacts within one step (IMPACT_MODELS);
     # None: not declared.
     impact_model: str | None = None
+    # The contact torques of cases.scene.CONTACT_TORQUES the engine models with the scene's
+    # lever arm (rolling_resistance, torsional_friction); a pair asking for another: unsupported
+    contact_torques: frozenset[str] = frozenset()
 
     def __post_init__(self):
         if self.impact_model is not None and self.impact_model not in IMPACT_MODELS:
             raise ValueError(f"impact_model = {self.impact_model!r}: must be one of {', '.join(IMPACT_MODELS)} or None")
+        unknown = set(self.contact_torques) - set(CONTACT_TORQUES)
+        if unknown:
+            raise ValueError(f"contact_torques = {sorted(unknown)}: must be among {', '.join(CONTACT_TORQUES)}")
 
     def cannot_run(self, scene: Scene, needs: frozenset[str] = frozenset()) -> str | None:
         """Why this engine cannot represent `scene` (and a case's extra `needs`), or None."""
@@ -81,6 +87,13 @@ class Capabilities:
                 if m.mu_k_ != m.mu_s:
                     return (f"mu_s = {m.mu_s} != mu_k = {m.mu_k_} for {a.name}/{b.name}: "
                             "the engine has one friction coefficient")
+        for effect in CONTACT_TORQUES:
+            if effect in scene.effects and effect not in self.contact_torques:
+                a, b = next((a, b) for a, b in scene.contact_pairs()
+                            if scene.material_of(a.name, b.name).torque(effect) > 0)
+                d = scene.material_of(a.name, b.name).torque(effect)
+                return (f"{effect.replace('_', ' ')} = {d:g} m for {a.name}/{b.name}: the engine has no "
+                        f"{effect.replace('_', ' ')}")
         laws = scene.contact_laws - self.contact_laws
         if laws:
             return (f"compliant contact ({', '.join(sorted(laws))} law) asked for: the engine does not "
@@ -105,7 +118,8 @@ class Capabilities:
                  if getattr(self, f)]
         laws = f"; compliant contact: {','.join(sorted(self.contact_laws))}" if self.contact_laws else ""
         impacts = f"; impacts: {self.impact_model}" if self.impact_model else ""
-        return f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags) + laws + impacts
+        torques = f"; contact torques: {','.join(sorted(self.contact_torques))}" if self.contact_torques else ""
+        return f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags) + laws + impacts + torques
 
 
 class Simulation(ABC):

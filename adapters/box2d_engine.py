@@ -122,6 +122,9 @@ class Box2DAdapter(Adapter):
         iterations=True,       # the sub-step count
         contact_points=False,
         impact_model="simultaneous",
+        # rollingResistance per shape (`_rolling`); no torsional friction (a 2D engine has
+        # no spin about a contact normal in its plane)
+        contact_torques=frozenset({"rolling_resistance"}),
     )
     tunables = {
         "contact_hertz": Tunable(1.0, math.inf, math.inf,
@@ -163,6 +166,33 @@ def _materials(scene: Scene) -> tuple[dict[str, float], dict[str, float]]:
     mu = per_body_values(scene, lambda m: m.mu_s**2, "product", "friction")
     e = per_body_values(scene, lambda m: m.e, "max", "restitution")
     return mu, e
+
+
+def _shape_radius(body: Body) -> float:
+    """b2GetShapeRadius: a circle's radius; 0 for the polygons the adapter makes (no rounding)."""
+    return body.shape.radius if isinstance(body.shape, Circle) else 0.0
+
+
+def _rolling(scene: Scene) -> dict[str, float]:
+    """Per-shape rollingResistance: Box2D v3's is dimensionless (note 001's mu_r), a pair's
+    lever arm is max(rr_a, rr_b) times the larger shape radius (src/contact.c, b2UpdateContact;
+    the solver bounds the angular impulse by it times the normal impulse), so each pair asks
+    for max(rr_a, rr_b) = d / max(r_a, r_b). Unsupported where no shape is round (a polygon's
+    radius is 0: no rolling resistance) or no per-shape values fit."""
+    names = [b.name for b in scene.bodies]
+    if "rolling_resistance" not in scene.effects:
+        return {n: 0.0 for n in names}
+
+    def ratio(a: Body, b: Body) -> float:
+        d = scene.material_of(a.name, b.name).rolling_resistance
+        if d == 0.0:
+            return 0.0
+        r = max(_shape_radius(a), _shape_radius(b))
+        if r == 0.0:
+            raise Unsupported(f"rolling resistance = {d:g} m for {a.name}/{b.name}: Box2D scales it by the larger "
+                              "shape radius, which is 0 for polygons")
+        return d / r
+    return per_body_values(scene, lambda m: m.rolling_resistance, "max", "rolling resistance", ratio)
 
 
 # --- contact geometry: gap and normal of a pair from the bodies' poses ----------------------
@@ -346,6 +376,7 @@ class Box2DSimulation(Simulation):
         }
 
         friction, restitution = _materials(scene)
+        self._rolling = _rolling(scene)
         self._pairs = {pair_key(a.name, b.name): scene.material_of(a.name, b.name)
                        for a, b in scene.contact_pairs()}
         self._bodies: dict[str, object] = {}   # dynamic bodies by name
@@ -369,9 +400,10 @@ class Box2DSimulation(Simulation):
 
     def _add(self, body: Body, mu: float, e: float) -> None:
         shape_def = b2.shape_def(enable_contact_events=True, density=1.0)
-        shape_def.material = b2.surface_material(friction=mu, restitution=e, rolling_resistance=0.0,
+        rolling = self._rolling[body.name]  # mu_r = d / r (`_rolling`)
+        shape_def.material = b2.surface_material(friction=mu, restitution=e, rolling_resistance=rolling,
                                                  tangent_speed=0.0)
-        record = {"friction": mu, "restitution": e, "rolling_resistance": 0.0, "tangent_speed": 0.0}
+        record = {"friction": mu, "restitution": e, "rolling_resistance": rolling, "tangent_speed": 0.0}
         self._geometry[body.name] = body
         if isinstance(body.shape, Plane):
             nx, ny, nz = body.shape.normal
@@ -432,6 +464,9 @@ class Box2DSimulation(Simulation):
                 fx.add("restitution")
             if any(friction[a] * friction[b] > 0 for a, b in self._pairs):
                 fx.add("friction")
+            radius = {n: _shape_radius(b) for n, b in self._geometry.items()}
+            if any(max(self._rolling[a], self._rolling[b]) * max(radius[a], radius[b]) > 0 for a, b in self._pairs):
+                fx.add("rolling_resistance")
         if any(b.mass_data.rotational_inertia > 0 for b in self._bodies.values()):
             fx.add("rotation")
         return frozenset(fx)

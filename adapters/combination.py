@@ -13,7 +13,7 @@ import numpy as np
 from typing import Callable
 
 from adapters.base import Unsupported
-from cases.scene import Material, Scene
+from cases.scene import Body, Material, Scene
 
 RULES: dict[str, Callable[[float, float], float]] = {
     "product": lambda a, b: a * b,
@@ -28,13 +28,18 @@ NEUTRAL = {"product": 1.0, "min": 1e6, "max": 0.0}
 
 
 def per_body_values(scene: Scene, value_of: Callable[[Material], float], rule: str,
-                    what: str) -> dict[str, float]:
+                    what: str, pair_value: Callable[[Body, Body], float] | None = None) -> dict[str, float]:
     """Per-body values v with rule(v[a], v[b]) == value_of(pair material) for every pair
-    that may touch. Tries, in order: static bodies neutral and each dynamic body the value
-    of its pairs; every body the same value (sqrt of it for the product rule); for the
-    product rule, the solution of the pairs' equations in logs."""
+    that may touch (or == pair_value(a, b), where the value an engine combines depends on
+    the bodies too, e.g. a lever arm divided by their radius). Tries, in order: static
+    bodies neutral and each dynamic body the value of its pairs; every body the same value
+    (sqrt of it for the product rule); for the product rule, the solution of the pairs'
+    equations in logs."""
     combine = RULES[rule]
-    pairs = [(a.name, b.name, value_of(scene.material_of(a.name, b.name))) for a, b in scene.contact_pairs()]
+    if pair_value is None:
+        def pair_value(a: Body, b: Body) -> float:
+            return value_of(scene.material_of(a.name, b.name))
+    pairs = [(a.name, b.name, pair_value(a, b)) for a, b in scene.contact_pairs()]
 
     def fits(v: dict[str, float]) -> bool:
         return all(math.isclose(combine(v[a], v[b]), c, rel_tol=1e-12, abs_tol=1e-15) for a, b, c in pairs)

@@ -316,7 +316,7 @@ class DrakeSimulation(Simulation):
         self._results_port = plant.get_contact_results_output_port()
         self._steps = 0
         self._dt = settings.dt
-        self.effects = _effects(scene, material, plan)
+        self.effects = _effects(scene, material, plan, self._hydro)
 
     # --- building -----------------------------------------------------------------------
 
@@ -670,8 +670,14 @@ def _hydroelastic(body: Body, props: ProximityProperties, modulus: float) -> dic
             "margin": 0.0}
 
 
-def _effects(scene: Scene, material: dict, plan: dict) -> frozenset[str]:
-    """What the built plant simulates, read from what was given to Drake."""
+def _effects(scene: Scene, material: dict, plan: dict, hydro: bool = False) -> frozenset[str]:
+    """What the built plant simulates, read from what was given to Drake. Hydroelastic
+    contact is a pressure patch, not a point: with friction on it, a body that turns meets
+    friction over the patch's area, which resists spin about the normal (a patch of radius a:
+    2/3 mu a N; a 2D body cannot spin about an in-plane normal), and the patch's damped
+    pressure, higher where it is being compressed, resists rolling. The scene asks for
+    neither: both are reported, so the effect manifest shows them (measured sizes:
+    adapters/xfails/drake.txt, cases/rolling_resistance.py and cases/spin_down.py)."""
     fx = set()
     if any(g != 0.0 for g in scene.gravity):
         fx.add("gravity")
@@ -685,6 +691,10 @@ def _effects(scene: Scene, material: dict, plan: dict) -> frozenset[str]:
             fx.add("friction")
     if any(kind != "static" and kind[0] in ("free", "planar") for kind in plan.values()):
         fx.add("rotation")
+        if hydro and "friction" in fx:
+            fx.add("rolling_resistance")
+            if any(kind != "static" and kind[0] == "free" for kind in plan.values()):
+                fx.add("torsional_friction")
     return frozenset(fx)
 
 

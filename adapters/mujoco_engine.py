@@ -169,6 +169,33 @@ def hooke_row(k: float, invweight: float) -> dict:
             "friction": [0, 0, 0, 0, 0]}
 
 
+# Contact torques (cases.scene.Material.rolling_resistance, torsional_friction): MuJoCo's
+# torsional coefficient friction[2] (condim 4 and 6) and rolling coefficients friction[3:5]
+# (condim 6) are lengths, the scene's lever arms, taken as they are. In the elliptic cone
+# they share one cone with sliding friction: f_n >= |(f_t1 / mu, f_t2 / mu, tau_n / d_t,
+# tau_r1 / d_r, tau_r2 / d_r)|, so a rolling ball that also needs a friction force gets
+# slightly less than d_r N (by (F / mu N)^2 / 2: 2.6e-3 of it in cases/rolling_resistance.py).
+# MuJoCo clamps every coefficient to at least mjMINMU = 1e-5 (engine_collision_driver.c):
+# condim 6 for rolling resistance alone realises a torsional friction of 1e-5 m nobody
+# asked for (reported in Simulation.effects), and a torque on a frictionless pair would
+# realise sliding friction 1e-5 (turned away: `_torques_unrepresentable`).
+MJMINMU = 1e-5
+
+
+def _condim(mat) -> int:
+    """3 (sliding friction), 4 (and torsional), 6 (and rolling) for a frictional pair."""
+    return 6 if mat.rolling_resistance > 0 else 4 if mat.torsional_friction > 0 else 3
+
+
+def _torques_unrepresentable(scene: Scene) -> str | None:
+    for a, b in scene.contact_pairs():
+        mat = scene.material_of(a.name, b.name)
+        if not mat.frictional and (mat.rolling_resistance > 0 or mat.torsional_friction > 0):
+            return (f"{a.name}/{b.name}: a contact torque on a frictionless pair: MuJoCo's torque rows come with "
+                    f"condim 4/6, whose sliding friction it clamps to at least mjMINMU = {MJMINMU:g}")
+    return None
+
+
 def _hooke_unrepresentable(scene: Scene) -> str | None:
     for a, b in scene.contact_pairs():
         mat = scene.material_of(a.name, b.name)
@@ -353,7 +380,8 @@ def _pair_xml(scene: Scene, n: float, dt: float, knobs: dict, invweight: dict | 
         pair = _known("contact/pair", {"geom1": a.name, "geom2": b.name, "solref": [-k, -damping],
                                        "solimp": list(SOLIMP), "margin": 0, "gap": 0, "adhesion": 0}, knobs["left_out"])
         if mat.frictional:  # one coefficient: capabilities turn away mu_k != mu_s
-            pair.update(condim=3, friction=[mat.mu_s, mat.mu_s, 0, 0, 0],
+            pair.update(condim=_condim(mat), friction=[mat.mu_s, mat.mu_s, mat.torsional_friction,
+                                                       mat.rolling_resistance, mat.rolling_resistance],
                         solreffriction=[0, -1.0 / (n * dt)])
         else:  # no friction rows at all
             pair.update(condim=1, friction=[0, 0, 0, 0, 0])
@@ -462,6 +490,10 @@ class MuJoCoSimulation(Simulation):
                 fx.add("restitution")
             if np.any(m.pair_dim > 1):
                 fx.add("friction")
+            if np.any(m.pair_dim >= 4):  # realised at >= mjMINMU even where the scene says 0
+                fx.add("torsional_friction")
+            if np.any(m.pair_dim == 6):
+                fx.add("rolling_resistance")
         if np.any(np.isin(m.jnt_type, (mujoco.mjtJoint.mjJNT_FREE, mujoco.mjtJoint.mjJNT_HINGE))):
             fx.add("rotation")
         return frozenset(fx)
@@ -668,6 +700,7 @@ class MuJoCoAdapter(Adapter):
         # touching bodies spreads over them (cases/column_impact.py: a struck row of two
         # leaves at 0.66 and 0.68 m/s where rigid simultaneous contact gives 2/3 each)
         impact_model="compliant",
+        contact_torques=frozenset({"rolling_resistance", "torsional_friction"}),  # condim 6 / 4, lengths
     )
     # Settings.options: the contact time scale n (the module notes), which with e sets the
     # contact row's solref (k, b) and the friction rows' slip time n dt. From 2 steps (stiff:
@@ -690,7 +723,7 @@ class MuJoCoAdapter(Adapter):
     def build(self, scene: Scene, settings: Settings) -> Simulation:
         # (a body held from rotating does not spin, and a 2D scene lies in the x-z plane:
         # cases.scene validates both)
-        reason = self.capabilities.cannot_run(scene) or _hooke_unrepresentable(scene)
+        reason = self.capabilities.cannot_run(scene) or _hooke_unrepresentable(scene) or _torques_unrepresentable(scene)
         if reason:
             raise Unsupported(reason)
         iterations = ITERATIONS if settings.iterations is None else settings.iterations

@@ -136,6 +136,7 @@ class PyBulletAdapter(Adapter):
         # approach velocity (cases/column_impact.py: two pressed balls leave the ground
         # together at e v, a struck row of two leaves as one body, both paths)
         impact_model="simultaneous",
+        contact_torques=frozenset({"rolling_resistance", "torsional_friction"}),  # TORQUE_KNOBS
     )
 
     def __init__(self, name: str = "pybullet", bodies: str = "auto", friction_anchor: bool = True,
@@ -157,10 +158,24 @@ class PyBulletAdapter(Adapter):
         return metadata.version("pybullet")
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
-        reason = self.capabilities.cannot_run(scene)
+        reason = self.capabilities.cannot_run(scene) or self._spin_without_roll(scene)
         if reason:
             raise Unsupported(reason)
         return PyBulletSimulation(scene, settings, **self.config)
+
+    def _spin_without_roll(self, scene: Scene) -> str | None:
+        """Maximal coordinates (btSequentialImpulseConstraintSolver::convertContact) add a
+        contact's spinning row only inside `if (cp.m_combinedRollingFriction > 0)`: torsional
+        friction without rolling resistance is dropped (measured: a ball spinning on the
+        ground with spinningFriction alone never slows)."""
+        if self.config["bodies"] != "rigid":
+            return None  # reduced coordinates add the two independently (btMultiBodyConstraintSolver)
+        for a, b in scene.contact_pairs():
+            mat = scene.material_of(a.name, b.name)
+            if mat.torsional_friction > 0 and mat.rolling_resistance == 0:
+                return (f"torsional friction without rolling resistance for {a.name}/{b.name}: Bullet's maximal-"
+                        "coordinate solver adds the spinning row only where the pair's rollingFriction is > 0")
+        return None
 
 
 def _solver_parameters(scene: Scene, settings: Settings, maximal: bool, hooke: bool,
@@ -246,6 +261,40 @@ def _material_values(scene: Scene) -> tuple[dict[str, float], dict[str, float]]:
     return friction, restitution
 
 
+# Contact torques (cases.scene.Material.rolling_resistance, torsional_friction). Bullet's
+# rollingFriction and spinningFriction are lengths: both solvers bound the torque impulse
+# of the rolling rows (about the two tangent directions) and of the spinning row (about
+# the normal) by the pair's combined value times the normal impulse. A pair combines them
+# with the partner's lateralFriction, r_a mu_b + r_b mu_a, clamped to 10
+# (btManifoldResult::calculateCombinedRollingFriction / -SpinningFriction); the adapter
+# undoes that rule as it undoes the product rule of lateralFriction (`_torque_values`).
+TORQUE_KNOBS = {"rolling_resistance": "rollingFriction", "torsional_friction": "spinningFriction"}
+
+
+def _torque_values(scene: Scene, friction: dict[str, float], effect: str) -> dict[str, float]:
+    """Per-body values r (rollingFriction or spinningFriction) with r_a mu_b + r_b mu_a equal
+    to each touching pair's lever arm, mu the bodies' lateralFriction: static bodies 0 if
+    the dynamic ones can carry every pair, else every body; 0 everywhere when the scene does
+    not ask for the torque. Unsupported when no non-negative r fits (a torque on a
+    frictionless pair: Bullet multiplies it by the partner's friction)."""
+    names = [b.name for b in scene.bodies]
+    if effect not in scene.effects:
+        return {n: 0.0 for n in names}
+    pairs = [(a.name, b.name, scene.material_of(a.name, b.name).torque(effect)) for a, b in scene.contact_pairs()]
+    for free in ([b.name for b in scene.bodies if b.dynamic], names):
+        A = np.zeros((len(pairs), len(free)))
+        for row, (a, b, _) in enumerate(pairs):
+            for name, partner in ((a, b), (b, a)):
+                if name in free:
+                    A[row, free.index(name)] += friction[partner]
+        target = np.array([d for _, _, d in pairs])
+        r = np.linalg.lstsq(A, target, rcond=None)[0]
+        if np.allclose(A @ r, target, rtol=1e-12, atol=1e-15) and np.all(r >= 0.0) and np.all(target <= 10.0):
+            return {n: float(r[free.index(n)]) if n in free else 0.0 for n in names}
+    raise Unsupported(f"the scene's pair {effect.replace('_', ' ')} values cannot be expressed as per-body "
+                      f"{TORQUE_KNOBS[effect]} under Bullet's rule r_a mu_b + r_b mu_a (with its lateralFriction)")
+
+
 def _collision_shape(body: Body, client: int, ground: str = "plane") -> tuple[int, dict]:
     """The engine shape of a body and the record of how it was made."""
     s = body.shape
@@ -321,6 +370,7 @@ class PyBulletSimulation(Simulation):
         self._threshold = _contact_processing_threshold(scene)
         friction, restitution = _material_values(scene)
         self._frictional = "friction" in scene.effects
+        self._torques = {knob: _torque_values(scene, friction, effect) for effect, knob in TORQUE_KNOBS.items()}
 
         self.iterations = engine["numSolverIterations"]
         self.knobs = {
@@ -411,7 +461,8 @@ class PyBulletSimulation(Simulation):
         """Two changeDynamics calls, recorded as made: the collider's own values, then the
         whole body's. They must not share a call: given with a link's mass, the
         body-wide ones also set the chain's fixed base to that mass and set it free."""
-        collider = dict(lateralFriction=mu, restitution=e, rollingFriction=0.0, spinningFriction=0.0,
+        collider = dict(lateralFriction=mu, restitution=e,
+                        **{knob: values[body.name] for knob, values in self._torques.items()},
                         contactProcessingThreshold=self._threshold)
         if self._frictional or not self._maximal:
             # a box resting on an incline crept 0.1 mm/s; with the anchor, not at all
@@ -456,6 +507,10 @@ class PyBulletSimulation(Simulation):
             fx.add("restitution")  # an undamped spring gives the energy back: the bounce
         if any(friction[a.name] * friction[b.name] > 0 for a, b in pairs):
             fx.add("friction")
+        for effect, knob in TORQUE_KNOBS.items():  # Bullet's combination of the values given
+            r = self._torques[knob]
+            if any(r[a.name] * friction[b.name] + r[b.name] * friction[a.name] > 0 for a, b in pairs):
+                fx.add(effect)
         if any(b.rotates for b in scene.dynamic_bodies):
             fx.add("rotation")
         return frozenset(fx)

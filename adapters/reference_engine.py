@@ -57,6 +57,9 @@ class ReferenceAdapter(Adapter):
         iterations=True,
         contact_points=True,
         impact_model="simultaneous",
+        # the default formulation's torque rows (reference_impl/sequential_impulses.py); the
+        # others have none and report such pairs unsupported
+        contact_torques=frozenset({"rolling_resistance", "torsional_friction"}),
     )
 
     def __init__(self, formulation: str = "si", name: str | None = None, params: dict | None = None):
@@ -70,6 +73,8 @@ class ReferenceAdapter(Adapter):
         self.default_tags = None if formulation == "si" else frozenset({"core", "conformance"})
         self.slow = formulation != "si"
         self.capabilities = replace(self.capabilities, impact_model=IMPACT_MODEL.get(formulation, "simultaneous"))
+        if formulation != "si":  # only the sequential impulses have torque rows
+            self.capabilities = replace(self.capabilities, contact_torques=frozenset())
         if formulation == "compliant":  # the one force law it is configured with
             law = self.params.get("compliant_law", "hertz")
             self.capabilities = replace(self.capabilities, contact_laws=frozenset({law}))
@@ -118,7 +123,8 @@ def _compliance_params(scene: Scene) -> dict:
 
 
 def _material(m) -> Material:
-    return Material(e=float(m.e), mu_s=float(m.mu_s), mu_k=float(m.mu_k_))
+    return Material(e=float(m.e), mu_s=float(m.mu_s), mu_k=float(m.mu_k_),
+                    rolling=float(m.rolling_resistance), torsion=float(m.torsional_friction))
 
 
 class ReferenceSimulation(Simulation):
@@ -156,6 +162,8 @@ class ReferenceSimulation(Simulation):
             "margin": config.margin,
             "params": dict(config.params),
             "friction_cone": "disc |Pt| <= mu Pn (isotropic)",
+            "contact_torques": "rolling: disc |Pr| <= rolling Pn about the tangent axes; torsion: "
+                               "|Pq| <= torsion Pn about n (lever arms in m, sequential impulses only)",
             "restitution": "v_n+ = -e v_n at the start of the step (before gravity)",
             "depenetration": "split impulse on pseudo-velocities",
             "integrator": "symplectic Euler: velocity, then position",
@@ -189,6 +197,10 @@ class ReferenceSimulation(Simulation):
                 fx.add("restitution")
             if any(m.mu_s > 0 for m in mats):
                 fx.add("friction")
+            if any(m.rolling > 0 for m in mats):
+                fx.add("rolling_resistance")
+            if any(m.torsion > 0 for m in mats):
+                fx.add("torsional_friction")
         if any(b.can_rotate for b in self._dynamic):
             fx.add("rotation")
         return frozenset(fx)

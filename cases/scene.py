@@ -23,8 +23,14 @@ from cases.overlap import penetration
 # The physics a scene can call for (Scene.effects, derived from the scene; an adapter
 # simulates these and nothing more, and reports what it simulated in Simulation.effects):
 # "gravity" (non-zero gravity), "contact" (a pair that may touch), "restitution" (a pair
-# with e > 0), "friction" (a pair with mu_s > 0), "rotation" (a dynamic body that rotates).
-EFFECTS = ("gravity", "contact", "restitution", "friction", "rotation")
+# with e > 0), "friction" (a pair with mu_s > 0), "rotation" (a dynamic body that rotates),
+# "rolling_resistance" / "torsional_friction" (a pair with Material.rolling_resistance /
+# Material.torsional_friction > 0: the contact torques of CONTACT_TORQUES).
+EFFECTS = ("gravity", "contact", "restitution", "friction", "rotation", "rolling_resistance",
+           "torsional_friction")
+# The effects that are torques a contact exerts (about the rolling axes, about the normal);
+# an engine declares the ones it models in Capabilities.contact_torques.
+CONTACT_TORQUES = ("rolling_resistance", "torsional_friction")
 
 # How an engine resolves impacts at several contacts within one step (an adapter declares
 # its model in Capabilities.impact_model):
@@ -208,12 +214,32 @@ class Material:
     - `mu_s`: Coulomb's static friction coefficient (>= 0; 0: frictionless);
     - `mu_k`: the kinetic coefficient, <= mu_s (None: equal to mu_s). Engines with one
       coefficient report a pair with mu_k != mu_s `unsupported`;
-    - `compliance`: a compliant contact law (`Compliance`), or None for rigid contact.
+    - `compliance`: a compliant contact law (`Compliance`), or None for rigid contact;
+    - `rolling_resistance`: d_r in m (>= 0; 0: none), the lever arm of the normal force N
+      against rolling: the contact exerts a torque about the rolling axes (tangent to the
+      contact plane) opposing the relative rolling, |tau_r| <= d_r N (isotropic: a disc
+      in the tangent plane), as static friction holds up to mu_s N. Note 001 ("dry
+      friction") writes rolling friction as a force F_r = mu_r F_n, mu_r << mu_k: for a
+      body of radius r that is the same law with mu_r = d_r / r (the torque d_r N at the
+      contact equals F_r r). A length, not mu_r, because it does not depend on the shape:
+      MuJoCo's rolling coefficient (friction[3:5], condim 6) and Bullet's rollingFriction
+      (the combined value times the normal impulse) are this length; Box2D v3's
+      rollingResistance is mu_r (it multiplies by the larger radius of the pair), so its
+      adapter divides;
+    - `torsional_friction`: d_t in m (>= 0; 0: none), the same law about the contact
+      normal: a torque opposing the relative spin about n, |tau_n| <= d_t N (a contact
+      patch of radius a with uniform pressure and Coulomb friction mu gives
+      d_t = 2/3 mu a). MuJoCo's torsional coefficient (friction[2], condim 4 or 6) and
+      Bullet's spinningFriction are this length.
+    Engines that model neither report a pair asking for them `unsupported`
+    (Capabilities.contact_torques).
     """
     e: float = 0.0
     mu_s: float = 0.0
     mu_k: float | None = None  # None: equal to mu_s
     compliance: Compliance | None = None
+    rolling_resistance: float = 0.0  # m: |tau_r| <= d_r N about the rolling axes
+    torsional_friction: float = 0.0  # m: |tau_n| <= d_t N about the contact normal
 
     @property
     def mu_k_(self) -> float:
@@ -233,8 +259,21 @@ class Material:
                 raise SceneError(f"{where}.mu_k = {self.mu_k!r}: friction coefficient must be >= 0")
             if self.mu_k > self.mu_s:
                 raise SceneError(f"{where}.mu_k = {self.mu_k!r}: must be <= mu_s = {self.mu_s!r}")
+        for name in CONTACT_TORQUES:
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise SceneError(f"{where}.{name} = {value!r}: must be a number (a lever arm in m, >= 0)")
+            _finite(value, f"{where}.{name}")
+            if value < 0:
+                raise SceneError(f"{where}.{name} = {value!r}: a lever arm in m, must be >= 0")
         if self.compliance is not None:
             self.compliance.validate(f"{where}.compliance")
+
+    def torque(self, effect: str) -> float:
+        """The lever arm (m) of a contact torque of CONTACT_TORQUES: d_r or d_t."""
+        if effect not in CONTACT_TORQUES:
+            raise KeyError(f"{effect!r}: not a contact torque ({', '.join(CONTACT_TORQUES)})")
+        return float(getattr(self, effect))
 
     @property
     def frictional(self) -> bool:
@@ -396,6 +435,7 @@ class Scene:
                 fx.add("restitution")
             if any(m.frictional for m in mats):
                 fx.add("friction")
+            fx.update(effect for effect in CONTACT_TORQUES if any(m.torque(effect) > 0 for m in mats))
         if any(b.rotates for b in self.dynamic_bodies):
             fx.add("rotation")
         return frozenset(fx)

@@ -49,6 +49,21 @@ class Row:
                   + rb_d[0] * ib[0] + rb_d[1] * ib[1] + rb_d[2] * ib[2])
         self.mass = 1.0 / self.K
 
+    @classmethod
+    def angular(cls, a, b, axis):
+        """A row on the relative angular velocity about a unit `axis`: J v = axis . (w_b - w_a),
+        a torque impulse P axis on b and -P axis on a (rolling resistance, torsional
+        friction). In the fields of a linear row: d = 0, r_a x d = r_b x d = axis, so
+        `velocity`, `apply` and `coupling` need nothing new; K = axis . (I_a^-1 + I_b^-1) axis."""
+        row = cls.__new__(cls)
+        row.a, row.b, row.d = a, b, ZERO
+        row.ra_d = row.rb_d = tuple(axis)
+        row.ia, row.ib = _inertia_times(a.inv_I, axis), _inertia_times(b.inv_I, axis)
+        row.ma = row.mb = ZERO
+        row.K = dot(axis, row.ia) + dot(axis, row.ib)
+        row.mass = 1.0 / row.K if row.K > 0.0 else 0.0
+        return row
+
     def velocity(self) -> float:
         """J v: the relative velocity of b's point against a's along d."""
         return _jv(self, self.a.v, self.a.w, self.b.v, self.b.w)
@@ -115,15 +130,20 @@ class Contact:
     """A contact point between bodies a and b with its rows and impulses."""
 
     __slots__ = ("a", "b", "point", "n", "depth", "feature", "planar", "e", "mu_s", "mu_k",
-                 "normal", "tangents", "vn0", "target", "sticks", "mu", "bias", "Pn", "Pt", "Pp", "warm")
+                 "rolling", "torsion", "normal", "tangents", "torques", "n_rolling", "vn0", "target",
+                 "sticks", "mu", "bias", "Pn", "Pt", "Pq", "Pp", "warm")
 
-    def __init__(self, a, b, point, n, depth, feature, e, mu_s, mu_k, planar):
+    def __init__(self, a, b, point, n, depth, feature, e, mu_s, mu_k, planar, rolling=0.0, torsion=0.0):
         self.a, self.b = a, b
         self.point, self.n, self.depth, self.feature = point, n, depth, feature
         self.e, self.mu_s, self.mu_k = e, mu_s, mu_k
+        self.rolling, self.torsion = rolling, torsion  # lever arms of the contact torques, m
         self.planar = planar
+        self.torques = ()  # angular rows: n_rolling about tangent axes, then one about n (torsion)
+        self.n_rolling = 0
         self.Pn = 0.0   # accumulated normal impulse (N s)
         self.Pt = []    # accumulated tangential impulses, one per tangent row
+        self.Pq = []    # accumulated torque impulses (N m s), one per torque row
         self.Pp = 0.0   # accumulated pseudo-impulse of the position correction
         self.warm = False  # Pn, Pt hold the impulses of this contact's previous step
 
@@ -167,6 +187,7 @@ class Contact:
         # bias velocity beta/dt (delta - slop)+ (note 001, "de-penetration bias velocity")
         self.bias = config.beta / dt * max(self.depth - config.slop, 0.0)
         self.sticks, self.mu = True, self.mu_s
+        self._torque_rows()
         if self.mu_s == 0.0:
             self.tangents = ()
             return
@@ -186,6 +207,28 @@ class Contact:
         else:
             self.tangents = (Row(a, b, ra, rb, t1), Row(a, b, ra, rb, cross(n, t1)))
         self.Pt = [0.0] * len(self.tangents)
+
+
+    def _torque_rows(self) -> None:
+        """Rolling resistance and torsional friction as angular rows (Row.angular), each
+        torque impulse bounded by its lever arm times the normal impulse, as friction is by
+        mu Pn (sequential_impulses.py): rolling about the two tangent axes (one in 2D, the
+        axis y normal to the plane), kept in the disc |Pr| <= rolling Pn; torsion about n,
+        in [-torsion Pn, torsion Pn]. An axis no body can turn about (K = 0: a 2D body about
+        n, bodies that cannot rotate) gets no row."""
+        rows, n = [], self.n
+        if self.rolling > 0.0:
+            t1 = tangent_basis(n)
+            axes = ((cross(n, t1),) if self.planar else (t1, cross(n, t1)))
+            rows = [Row.angular(self.a, self.b, axis) for axis in axes]
+            rows = rows if all(row.K > 0.0 for row in rows) else []
+        self.n_rolling = len(rows)
+        if self.torsion > 0.0:
+            row = Row.angular(self.a, self.b, n)
+            if row.K > 0.0:
+                rows.append(row)
+        self.torques = tuple(rows)
+        self.Pq = [0.0] * len(rows)
 
 
 def _point_velocity(body, r):

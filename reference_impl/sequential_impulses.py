@@ -26,6 +26,17 @@ Per step, after gravity is in the velocities:
                section of the cone, not the pyramid, so friction is isotropic (sliding
                at any angle to the tangent basis meets mu Pn, not up to mu Pn sqrt 2).
                mu = mu_s while the contact sticks, mu_k while it slides.
+     torques:  after its friction rows, a contact's torque rows (contact.Row.angular, on
+               the relative angular velocity about an axis), with the same accumulate-
+               and-clamp as friction and the lever arm in place of mu:
+               rolling resistance about the two tangent axes (one in 2D), target 0,
+               the pair kept inside the disc |Pr| <= d_r Pn; torsional friction about n,
+               Pq in [-d_t Pn, d_t Pn]. This is how Bullet's sequential impulses
+               (btSequentialImpulseConstraintSolver: rolling and spinning friction as
+               angular-only friction rows bounded by the coefficient times the normal
+               impulse) and Box2D v3 (contact_solver.c, rolling resistance: an angular
+               impulse clamped to rollingResistance times the normal impulse) model them;
+               note 001 ("dry friction") names rolling friction, mu_r = d_r / r.
    A sweep whose largest velocity change |dP| K is at most `tolerance` ends the loop.
    (config.params["friction_set"] = "pyramid" clamps each tangent row to [-mu Pn, mu Pn]
    on its own instead: lcp.py's friction set, kept to show what the disc buys.)
@@ -61,6 +72,8 @@ import numpy as np
 
 from reference_impl.compiled import njit
 
+CONTACT_TORQUES = True  # models rolling resistance and torsional friction (torque rows)
+
 
 def solve(contacts, bodies, dt, config) -> tuple[str, ...]:
     stages = []
@@ -74,38 +87,45 @@ def solve(contacts, bodies, dt, config) -> tuple[str, ...]:
     stages.append("velocity")
     if any(c.tangents for c in contacts):
         stages.append("friction")
+    if any(c.torques for c in contacts):
+        stages.append("torques")
     if any(c.bias > 0.0 for c in contacts):
         stages.append("position")
 
     # the contacts' rows (contact.Row) as arrays for the compiled sweeps: per contact its
-    # normal row, then its tangent rows; P holds each row's accumulated impulse
-    rows = [row for c in contacts for row in (c.normal, *c.tangents)]
+    # normal row, then its tangent rows, then its torque rows; P holds each row's
+    # accumulated impulse
+    rows = [row for c in contacts for row in (c.normal, *c.tangents, *c.torques)]
     a = np.array([row.a.index for row in rows], dtype=np.int64)
     b = np.array([row.b.index for row in rows], dtype=np.int64)
     J = np.array([(*row.d, *row.ra_d, *row.rb_d, *row.ma, *row.mb, *row.ia, *row.ib) for row in rows],
                  dtype=float).reshape(-1, 21)
     K, mass = np.array([row.K for row in rows], dtype=float), np.array([row.mass for row in rows], dtype=float)
-    P = np.array([P for c in contacts for P in (c.Pn, *c.Pt)], dtype=float)
+    P = np.array([P for c in contacts for P in (c.Pn, *c.Pt, *c.Pq)], dtype=float)
     n_tangents = np.array([len(c.tangents) for c in contacts], dtype=np.int64)
-    target, mu, bias = (np.array([getattr(c, name) for c in contacts], dtype=float) for name in ("target", "mu", "bias"))
+    n_rolling = np.array([c.n_rolling for c in contacts], dtype=np.int64)
+    n_torsion = np.array([len(c.torques) - c.n_rolling for c in contacts], dtype=np.int64)
+    target, mu, bias, rolling, torsion = (np.array([getattr(c, name) for c in contacts], dtype=float)
+                                          for name in ("target", "mu", "bias", "rolling", "torsion"))
     v, w = np.array([body.v for body in bodies], dtype=float), np.array([body.w for body in bodies], dtype=float)
     vp, wp = np.array([body.vp for body in bodies], dtype=float), np.array([body.wp for body in bodies], dtype=float)
     pyramid = config.params.get("friction_set", "disc") == "pyramid"
-    iterate(a, b, J, K, mass, P, n_tangents, target, mu, bias, v, w, vp, wp, warm, pyramid,
-            config.iterations, config.position_iterations, float(config.tolerance))
+    iterate(a, b, J, K, mass, P, n_tangents, n_rolling, n_torsion, target, mu, rolling, torsion, bias,
+            v, w, vp, wp, warm, pyramid, config.iterations, config.position_iterations, float(config.tolerance))
     for body, v_i, w_i, vp_i, wp_i in zip(bodies, v.tolist(), w.tolist(), vp.tolist(), wp.tolist()):
         if not body.static:
             body.v[:], body.w[:], body.vp[:], body.wp[:] = v_i, w_i, vp_i, wp_i
     k, P = 0, P.tolist()
     for c in contacts:
-        c.Pn, c.Pt = P[k], P[k + 1:k + 1 + len(c.tangents)]
-        k += 1 + len(c.tangents)
+        nt, nq = len(c.tangents), len(c.torques)
+        c.Pn, c.Pt, c.Pq = P[k], P[k + 1:k + 1 + nt], P[k + 1 + nt:k + 1 + nt + nq]
+        k += 1 + nt + nq
     return tuple(stages)
 
 
 @njit
-def iterate(a, b, J, K, mass, P, n_tangents, target, mu, bias, v, w, vp, wp, warm, pyramid,
-            iterations, position_iterations, tolerance):
+def iterate(a, b, J, K, mass, P, n_tangents, n_rolling, n_torsion, target, mu, rolling, torsion, bias,
+            v, w, vp, wp, warm, pyramid, iterations, position_iterations, tolerance):
     """Steps 1 (the warm start's impulses), 2 and 3 of the module docstring, in place on
     the row impulses P, the velocities v, w and the pseudo-velocities vp, wp (per body,
     by world index). Row k joins bodies a[k] and b[k]; J[k] holds its d, r_a x d, r_b x d,
@@ -113,7 +133,7 @@ def iterate(a, b, J, K, mass, P, n_tangents, target, mu, bias, v, w, vp, wp, war
     C = len(n_tangents)
     first = np.zeros(C, dtype=np.int64)  # each contact's normal row
     for j in range(1, C):
-        first[j] = first[j - 1] + 1 + n_tangents[j - 1]
+        first[j] = first[j - 1] + 1 + n_tangents[j - 1] + n_rolling[j - 1] + n_torsion[j - 1]
     if warm:
         for k in range(len(P)):
             _apply(J[k], P[k], v[a[k]], w[a[k]], v[b[k]], w[b[k]])
@@ -123,7 +143,15 @@ def iterate(a, b, J, K, mass, P, n_tangents, target, mu, bias, v, w, vp, wp, war
         for j in range(C):
             k = first[j]
             if n_tangents[j]:
-                largest = max(largest, _friction(k, n_tangents[j], a, b, J, K, mass, P, mu[j], v, w, pyramid))
+                largest = max(largest, _friction(k, k + 1, n_tangents[j], a, b, J, K, mass, P, mu[j], v, w,
+                                                 pyramid))
+            q = k + 1 + n_tangents[j]  # the first torque row
+            if n_rolling[j]:  # the disc |Pr| <= d_r Pn (2D: the interval)
+                largest = max(largest, _friction(k, q, n_rolling[j], a, b, J, K, mass, P, rolling[j], v, w,
+                                                 False))
+            if n_torsion[j]:  # the interval [-d_t Pn, d_t Pn]
+                largest = max(largest, _friction(k, q + n_rolling[j], 1, a, b, J, K, mass, P, torsion[j], v, w,
+                                                 False))
             Pn = max(P[k] + mass[k] * (target[j] - _velocity(J[k], v[a[k]], w[a[k]], v[b[k]], w[b[k]])), 0.0)
             dP = Pn - P[k]
             if dP != 0.0:
@@ -155,15 +183,15 @@ def iterate(a, b, J, K, mass, P, n_tangents, target, mu, bias, v, w, vp, wp, war
 
 
 @njit
-def _friction(k, count, a, b, J, K, mass, P, mu, v, w, pyramid) -> float:
-    """The tangent rows k + 1 .. k + count of the contact whose normal row is k, clamped to
-    the disc |Pt| <= mu Pn; returns the largest velocity change made. (pyramid: each row
-    clamped to [-mu Pn, mu Pn] on its own, the friction set of lcp.py, which is the disc
-    in 2D.)"""
+def _friction(k, first, count, a, b, J, K, mass, P, mu, v, w, pyramid) -> float:
+    """The rows first .. first + count - 1 (a contact's tangent rows, or its torque rows
+    with the lever arm as mu) of the contact whose normal row is k, clamped to the disc
+    |Pt| <= mu Pn; returns the largest velocity change made. (pyramid: each row clamped
+    to [-mu Pn, mu Pn] on its own, the friction set of lcp.py, which is the disc in 2D.)"""
     limit = mu * P[k]
     if count == 1 or pyramid:  # 2D: the disc is the interval [-mu Pn, mu Pn]
         largest = 0.0
-        for t in range(k + 1, k + 1 + count):
+        for t in range(first, first + count):
             P_t = max(-limit, min(limit, P[t] - mass[t] * _velocity(J[t], v[a[t]], w[a[t]], v[b[t]], w[b[t]])))
             dP = P_t - P[t]
             if dP != 0.0:
@@ -171,7 +199,7 @@ def _friction(k, count, a, b, J, K, mass, P, mu, v, w, pyramid) -> float:
                 _apply(J[t], dP, v[a[t]], w[a[t]], v[b[t]], w[b[t]])
                 largest = max(largest, abs(dP) * K[t])
         return largest
-    t1, t2 = k + 1, k + 2
+    t1, t2 = first, first + 1
     P1 = P[t1] - mass[t1] * _velocity(J[t1], v[a[t1]], w[a[t1]], v[b[t1]], w[b[t1]])
     P2 = P[t2] - mass[t2] * _velocity(J[t2], v[a[t2]], w[a[t2]], v[b[t2]], w[b[t2]])
     norm = math.sqrt(P1 * P1 + P2 * P2)

@@ -31,16 +31,26 @@ def formulation(name: str):
 @dataclass(frozen=True)
 class Material:
     """What a pair does on contact: restitution e, static mu_s and kinetic mu_k friction
-    (mu_k None: the same as mu_s)."""
+    (mu_k None: the same as mu_s), and the lever arms (m) of the contact torques: rolling
+    resistance |tau_r| <= rolling N about the tangent axes, torsional friction
+    |tau_n| <= torsion N about the normal (contact.Contact.prepare)."""
     e: float = 0.0
     mu_s: float = 0.0
     mu_k: float | None = None
+    rolling: float = 0.0   # m
+    torsion: float = 0.0   # m
 
     def __post_init__(self):
         if self.mu_k is None:
             object.__setattr__(self, "mu_k", self.mu_s)
-        if not (0.0 <= self.e <= 1.0 and 0.0 <= self.mu_k <= self.mu_s):
-            raise ValueError(f"{self}: needs 0 <= e <= 1 and 0 <= mu_k <= mu_s")
+        if not (0.0 <= self.e <= 1.0 and 0.0 <= self.mu_k <= self.mu_s and self.rolling >= 0.0
+                and self.torsion >= 0.0):
+            raise ValueError(f"{self}: needs 0 <= e <= 1, 0 <= mu_k <= mu_s, rolling >= 0 and torsion >= 0")
+
+    @property
+    def torques(self) -> bool:
+        """True when the pair has a contact torque (rolling resistance or torsional friction)."""
+        return self.rolling > 0.0 or self.torsion > 0.0
 
 
 class World:
@@ -76,6 +86,10 @@ class World:
 
     def unsupported(self) -> str | None:
         """Why the configured formulation cannot run this world faithfully, or None."""
+        if not getattr(self.solver, "CONTACT_TORQUES", False) and any(
+                m.torques for m in (self.material, *self.pair_materials.values())):
+            return ("rolling resistance or torsional friction asked: this formulation has no torque "
+                    "rows (the sequential impulses, 'si', have them)")
         check = getattr(self.solver, "unsupported", None)
         return check(self) if check is not None else None
 
@@ -131,7 +145,8 @@ class World:
             mat = self.material_of(a, b)
             planar = a.planar or b.planar
             for point, n, depth, feature in points:
-                c = Contact(a, b, point, n, depth, feature, mat.e, mat.mu_s, mat.mu_k, planar)
+                c = Contact(a, b, point, n, depth, feature, mat.e, mat.mu_s, mat.mu_k, planar,
+                            mat.rolling, mat.torsion)
                 c.prepare(dt, self.config)
                 if c.target is None and not getattr(self.solver, "KEEP_LATE_CONTACTS", False):
                     continue  # touches late in the step: the next step's contact (impulse formulations)
@@ -140,6 +155,7 @@ class World:
                     c.warm = True
                     c.Pn = old[0]
                     c.Pt = [sum(P * d for P, d in zip(old[1], row.d)) for row in c.tangents]
+                    c.Pq = [sum(P * d for P, d in zip(old[2], row.rb_d)) for row in c.torques]
                 contacts.append(c)
         return contacts
 
@@ -148,11 +164,14 @@ class World:
         self._previous = {}
         impulses = {}
         for c in self.contacts:
-            Pt = [0.0, 0.0, 0.0]
+            Pt, Pq = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
             for row, P in zip(c.tangents, c.Pt):
                 for k in range(3):
                     Pt[k] += P * row.d[k]
-            self._previous[(c.a.index, c.b.index, c.feature)] = (c.Pn, Pt)
+            for row, P in zip(c.torques, c.Pq):  # an angular row's axis is its rb_d
+                for k in range(3):
+                    Pq[k] += P * row.rb_d[k]
+            self._previous[(c.a.index, c.b.index, c.feature)] = (c.Pn, Pt, Pq)
             key = (c.a.name, c.b.name) if c.a.name <= c.b.name else (c.b.name, c.a.name)
             impulses[key] = impulses.get(key, 0.0) + c.Pn
         self.normal_impulses = impulses

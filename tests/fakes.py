@@ -190,15 +190,18 @@ def stepped_ball(e: float, h: float, dt: float, duration: float, order: str = "v
 # --- Coulomb friction integrated in time: a second way to the friction closed forms ------
 
 def coulomb_on_plane(g_t: float, g_n: float, mu_s: float, mu_k: float, k: float | None = None,
-                     radius: float = 0.1, duration: float = 1.0, stiffness: float = 1e6) -> tuple[float, float]:
-    """(a, alpha): the downhill acceleration of a body released at rest on a plane, and the
-    angular acceleration about the axis of forward roll, fitted over the second half of
-    `duration`, from integrating Newton-Euler in time (scipy Radau) with gravity g_t along
-    the plane, g_n into it, and Coulomb friction at the contact point against its slip s
-    (a regularised law: per unit mass, f = stiffness * s while that is within mu_s g_n, the
-    sticking branch; mu_k g_n otherwise). A box when k is None (it cannot turn); a ball
-    with I = k m R^2 otherwise (slip s = v - R w). No closed form enters: whether it sticks,
-    rolls or slips, and how fast, comes out of the integration."""
+                     radius: float = 0.1, duration: float = 1.0, stiffness: float = 1e6,
+                     rolling: float = 0.0, start: tuple[float, float] = (0.0, 0.0)) -> tuple[float, float]:
+    """(a, alpha): the downhill acceleration of a body released on a plane (at rest, or at
+    `start` = (v, w)), and the angular acceleration about the axis of forward roll, fitted
+    over the second half of `duration`, from integrating Newton-Euler in time (scipy Radau)
+    with gravity g_t along the plane, g_n into it, and Coulomb friction at the contact point
+    against its slip s (a regularised law: per unit mass, f = stiffness * s while that is
+    within mu_s g_n, the sticking branch; mu_k g_n otherwise). A box when k is None (it
+    cannot turn); a ball with I = k m R^2 otherwise (slip s = v - R w), against a rolling
+    resistance torque of lever arm `rolling` (the same regularised law on w, bounded by
+    rolling g_n per unit mass). No closed form enters: whether it sticks, rolls or slips,
+    and how fast, comes out of the integration."""
     from scipy.integrate import solve_ivp
 
     def rates(t, y):
@@ -207,10 +210,13 @@ def coulomb_on_plane(g_t: float, g_n: float, mu_s: float, mu_k: float, k: float 
         f = stiffness * s
         if abs(f) > mu_s * g_n:
             f = math.copysign(mu_k * g_n, s)
-        return [g_t - f, f / (k * radius) if k is not None else 0.0]
+        if k is None:
+            return [g_t - f, 0.0]
+        tau = max(-rolling * g_n, min(rolling * g_n, stiffness * radius * radius * w))
+        return [g_t - f, (f * radius - tau) / (k * radius * radius)]
 
     t = np.linspace(0.0, duration, 201)
-    sol = solve_ivp(rates, (0.0, duration), [0.0, 0.0], method="Radau", t_eval=t, rtol=1e-10, atol=1e-12)
+    sol = solve_ivp(rates, (0.0, duration), list(start), method="Radau", t_eval=t, rtol=1e-10, atol=1e-12)
     late = t >= duration / 2
     return float(np.polyfit(t[late], sol.y[0][late], 1)[0]), float(np.polyfit(t[late], sol.y[1][late], 1)[0])
 

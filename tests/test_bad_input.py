@@ -44,6 +44,9 @@ def test_body_fields(make, message):
     (Material(compliance=Compliance("hooke", k=math.nan)), r"compliance.k = nan: must be finite"),
     (Material(compliance=Compliance("spring", k=1.0)), r"compliance.law = 'spring': must be 'hertz' or 'hooke'"),
     (Material(mu_s=0.3, mu_k=0.5), r"material.mu_k = 0.5: must be <= mu_s = 0.3"),
+    (Material(rolling_resistance=-0.001), r"material.rolling_resistance = -0.001: a lever arm in m, must be >= 0"),
+    (Material(torsional_friction=math.inf), r"material.torsional_friction = inf: must be finite"),
+    (Material(torsional_friction="0.002"), r"material.torsional_friction = '0.002': must be a number \(a lever arm in m, >= 0\)"),
 ])
 def test_material_fields(material, message):
     with pytest.raises(SceneError, match=message):

@@ -30,6 +30,7 @@ EFFECTS = {
     "kinetic friction": (("incline_threshold", "sliding_acceleration"), ("slide_to_stop", "*"),
                          ("friction_isotropy", "*")),
     "rolling": (("rolling_incline", "*"), ("slip_to_roll", "*")),
+    "rolling resistance and torsion": (("rolling_resistance", "*"), ("spin_down", "*")),
     "resting and stacking": (("resting_blocks", "*"), ("stack_forces", "*"), ("stack_strike", "*")),
     "simultaneous impacts": (("newtons_cradle", "*"), ("column_impact", "*")),
     "rotation and inertia": (("free_rigid_body", "*"), ("eccentric_impact", "*"), ("edge_landing", "*"),
