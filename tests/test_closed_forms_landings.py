@@ -187,3 +187,70 @@ def test_slow_ball_touches_inside_its_third_step_and_has_time_to_leave():
         assert 2.5 * si.DT + 25 * si.DT < si.T
         checks = {c.metric: c for c in si.FAMILY.expect(p, si.DT)}
         assert checks["rebound"].expected == pytest.approx(si.E * p["v"], rel=1e-15)
+
+
+# --- brick tumble: support function, critical values, release arc, rest face --------------------
+
+from cases import brick_tumble as bt  # noqa: E402
+
+
+def test_brick_support_is_the_depth_of_the_lowest_vertex():
+    """sigma(n) = a |n_1| + b |n_2| + c |n_3| against the vertices rotated by scipy."""
+    rng = np.random.default_rng(2)
+    verts = np.array([(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * np.array(bt.SIDES)
+    for _ in range(200):
+        R = Rotation.random(random_state=rng)
+        x, y, z, w = R.as_quat()
+        assert bt.support((w, x, y, z), 3) == pytest.approx(-np.min((verts @ R.as_matrix().T)[:, 2]), abs=1e-12)
+
+
+def test_brick_barrier_is_the_lowest_saddle_between_rest_faces():
+    """Brute force: on a dense set of directions n, wherever n leaves the region of the a-face
+    (its nearest face minimum, by steepest descent of sigma, changes) sigma is at least
+    sqrt(a^2 + b^2); that value is reached (the a-b edge)."""
+    rng = np.random.default_rng(3)
+    n = rng.normal(size=(60_000, 3))
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    h = np.array(bt.SIDES)
+    radius = 0.02  # neighbours this close in n differ in sigma by at most radius |h|
+    sigma = np.abs(n) @ h
+    # the face minimum sigma descends to from n, by steps along -grad sigma on the sphere
+    m = n.copy()
+    for _ in range(300):
+        g = np.sign(m) * h
+        g -= np.sum(g * m, axis=1)[:, None] * m
+        m -= 0.01 * g
+        m /= np.linalg.norm(m, axis=1)[:, None]
+    face = np.argmax(np.abs(m), axis=1) * 2 + (m[np.arange(len(m)), np.argmax(np.abs(m), axis=1)] > 0)
+    a_up = face == 1  # +e_1: lying on the a-face with the body x axis up
+    # boundary of that basin: points in it with a neighbour (near in n) outside it
+    from scipy.spatial import cKDTree
+    tree = cKDTree(n)
+    pairs = tree.query_pairs(radius, output_type="ndarray")
+    cross = pairs[a_up[pairs[:, 0]] != a_up[pairs[:, 1]]]
+    edge_sigma = np.minimum(sigma[cross[:, 0]], sigma[cross[:, 1]])
+    assert edge_sigma.min() >= bt.barrier(3) - radius * np.linalg.norm(h)
+    assert edge_sigma.min() == pytest.approx(bt.barrier(3), abs=radius * np.linalg.norm(h))
+
+
+@pytest.mark.parametrize("p", bt.GRID, ids=bt.variant_id)
+def test_brick_release_lies_in_the_a_face_basin_below_the_barrier(p):
+    """sigma rises monotonically along the tilt from lying flat (so the release is in the
+    a-face's part of the sublevel set), the release energy is below m g s* with room for a
+    solver's depth, the lowest feature is an edge (tilt about y) or one corner, and the
+    a-face is the one down at release."""
+    angles = np.linspace(0.0, math.radians(bt.TILT[p["tilt"]]), 200)
+    s = [bt.support(bt.orientation(p, a), p["dim"]) for a in angles]
+    assert s[0] == pytest.approx(bt.SIDES[0], abs=1e-12) and np.all(np.diff(s) > 0)
+    assert bt.margin(p) > 20 * bt.PENETRATION
+    q = bt.orientation(p)
+    w, x, y, z = q
+    R = Rotation.from_quat([x, y, z, w]).as_matrix()
+    ys = (-1, 1) if p["dim"] == 3 else (0,)
+    verts = np.array([(i, j, k) for i in (-1, 1) for j in ys for k in (-1, 1)]) * np.array(bt.SIDES)
+    zs = (verts @ R.T)[:, 2]
+    lowest = np.sum(np.isclose(zs, zs.min(), atol=1e-12))
+    assert lowest == (2 if (p["tilt"] == "y" and p["dim"] == 3) else 1)
+    assert R[2, 0] > 0.98  # the body x axis nearly up: the a-face down
+    assert bt.energy_dissipated(p) == pytest.approx(bt.M * bt.G * (bt.H - zs.min() - bt.SIDES[0]),
+                                                     abs=1e-12)

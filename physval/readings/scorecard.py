@@ -33,7 +33,7 @@ EFFECTS = {
     "resting and stacking": (("resting_blocks", "*"), ("stack_forces", "*"), ("stack_strike", "*")),
     "simultaneous impacts": (("newtons_cradle", "*"), ("column_impact", "*")),
     "rotation and inertia": (("free_rigid_body", "*"), ("eccentric_impact", "*"), ("edge_landing", "*"),
-                             ("tumbling_box", "*"), ("oblique_landing", "*")),
+                             ("tumbling_box", "*"), ("oblique_landing", "*"), ("brick_tumble", "*")),
     "compliant contact": (("hertz_impact", "*"),),
     "stability": (("robustness_*", "*"),),
     "adapter contract": (("conformance", "*"),),
