@@ -1,10 +1,11 @@
-"""The closed forms of oblique_landing and slow_impact against independent routes: the
+"""The closed forms of oblique_landing, slow_impact and brick_tumble against independent routes: the
 impulse-momentum equations of one body with a full inertia tensor solved as one
 saddle-point (KKT) system in generalised velocities (no collision matrix), the world
 inertia from scipy's rotation, the ball's textbook sliding-impact formula, the grid's
 regimes (sliding slip keeps its direction; sticking inside a friction pyramid), torque-free
 precession integrated to show the observer's angular momentum is what free flight keeps,
-and the slow ball's start gap."""
+the slow ball's start gap, and the brick's support function, its rest-face basin (found by
+steepest descent) and its release arc."""
 from __future__ import annotations
 
 import math
@@ -14,6 +15,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
+from cases import brick_tumble as bt
 from cases import oblique_landing as ol
 from cases import slow_impact as si
 
@@ -190,8 +192,6 @@ def test_slow_ball_touches_inside_its_third_step_and_has_time_to_leave():
 
 
 # --- brick tumble: support function, critical values, release arc, rest face --------------------
-
-from cases import brick_tumble as bt  # noqa: E402
 
 
 def test_brick_support_is_the_depth_of_the_lowest_vertex():
