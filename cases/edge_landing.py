@@ -1,12 +1,11 @@
-"""Edge landing: a cube dropped tilted lands on one edge (or one corner): a single-point
-impact with a lever arm, then it settles on the face that was lowest.
+"""Edge landing: a cube falling tilted lands on one edge (or one corner): a single-point
+impact with a lever arm.
 
 The impact (note 004, "The collision matrix" and "Newton Coulomb impulses for rigid
 bodies"; note 001, "Inverse Mass Matrix of Contact", "Impact with Friction"). The cube
 (mass m, half-extent a, inertia I = 2/3 m a^2 about every axis through its centre) falls
-from rest with its lowest point h above the ground and meets it at v_in = sqrt(2 g h),
-without spin. Its contact point sits at r from the centre; an impulse p there changes the
-contact point's velocity by K p, with the collision matrix
+without spin and meets the ground at v_in. Its contact point sits at r from the centre;
+an impulse p there changes the contact point's velocity by K p, with the collision matrix
     K = 1/m 1 - r* I^-1 r*        (r* the cross-product matrix of r).
 With n = e_z and the approach u = -v_in n (no slip), Newton's law asks u'_n = e v_in.
 - Sticking: u' = e v_in n, p = K^-1 (u' - u); kept if |p_t| <= mu p_n.
@@ -27,21 +26,28 @@ about any other axis. The ratio |p_t| / p_n of the sticking impulse does not dep
 or v_in: 0.40 for the edge (tilt 15 deg), 0.65 for the corner (12 deg), so mu = 0.3
 slides and mu = 0.8 sticks.
 
-The face it ends on: the energy argument of cases/tumbling_box.py (the cube's energy never
-exceeds its release energy, which lies below that of the cube balanced on an edge), so it
-comes to rest flat on the face that was lowest.
+The approach: the cube starts GAP = 1 mm above the ground moving down at the speed that
+brings it to V_IN = 2 m/s at the touch (that of a 0.20 m drop), so the run is 30 ms. The
+time-stepping error of the outcome is about g dt / v_in (a contact found a step late, the
+impact step's gravity: see expect), so the speed and the step set the bands: at 2 m/s and
+dt = 2e-4 s they are 0.2 % on the velocities and spin and 0.6 % on the contact point's
+rebound, so an engine with e, the inertia, g or mu off by 1 % is flagged. (The family
+dropped its cube from 1 cm, 0.44 m/s, at dt = 1e-3 s: bands of 4.4 % and 13 %. A drop
+that tall could no longer be trusted to end on the face that was lowest, the energy
+argument of cases/tumbling_box.py, so that check left this family: tumbling_box judges
+the rest face at the same two poses.)
 
 Reading the impact: the state at the first sample from which the cube flies free again
 after the first contact (cases.observables.first_impact; it does, e > 0 lifts the
 contact point at e v_in), with the vertical velocity taken back to the moment of touching
-(t = sqrt(2 h / g)) along the free fall: v_z + g (t_k - t). Spin and horizontal velocity
-are constant in free flight (a cube's inertia is isotropic, so a free cube keeps its
-angular velocity). A compliant contact acts over several steps while the cube turns;
-the reading then includes that, and the deviation it makes is the engine's.
+along the free fall: v_z + g (t_k - t_touch). Spin and horizontal velocity are constant
+in free flight (a cube's inertia is isotropic, so a free cube keeps its angular
+velocity). A compliant contact acts over several steps while the cube turns; the reading
+then includes that, and the deviation it makes is the engine's.
 
 Sources: note 004 (Umea, Visual Interactive Simulation), collision matrix and the
 Newton-Coulomb impulse; note 001 (CG3 II.5), inverse mass matrix of contact, impact with
-friction; the energy barrier of cases/tumbling_box.py.
+friction.
 """
 from __future__ import annotations
 
@@ -50,19 +56,20 @@ import math
 import numpy as np
 
 from cases.family import CaseFamily, Check, plane_label
-from cases.observables import first_impact, rotations
+from cases.observables import first_impact
 from cases.scene import Body, Material, Scene, cube, ground, quat_about_y
-from cases.tumbling_box import barrier_height, corners, down_face, rotation
+from cases.tumbling_box import corners, rotation
 
 HALF = 0.1      # half-extent of the cube, m
 M = 1.0         # kg
 I = 2.0 / 3.0 * M * HALF**2  # kg m^2, about every axis through the centre (cube and square alike)
 G = 9.81
 E = 0.5         # restitution: the contact point leaves at e v_in, so the cube flies free to be read
-H = 0.01        # height of the lowest point at release, m (v_in = 0.44 m/s)
-TILT = {"y": 15.0, "diag": 12.0}  # deg: an edge lowest, a corner lowest; both below the barrier (margin())
-T = 0.8         # simulated time, s
-PENETRATION = 1e-3  # m: the depth a solver may rest at (stack_forces: 0.5 % of the box)
+V_IN = 2.0      # speed at the touch, m/s (a 0.20 m drop)
+GAP = 1e-3      # height of the lowest point at the start, m
+TILT = {"y": 15.0, "diag": 12.0}  # deg: an edge lowest, a corner lowest
+T = 0.03        # simulated time, s: the touch at 0.5 ms, then the impact and free flight
+DT = 2e-4       # s: the bands are ~ g dt / v_in (expect): 0.2 % and 0.6 % here
 
 # Grid: frictionless, sliding (mu = 0.3) and sticking (mu = 0.8) impacts on an edge (3D: two
 # corners at once; 2D: one corner of the square), and a corner landing frictionless and
@@ -96,13 +103,18 @@ def lever(p) -> np.ndarray:
 
 
 def release_height(p) -> float:
-    """Centre height at release: h above the touching height -r_z."""
-    return H - lever(p)[2]
+    """Centre height at the start: GAP above the touching height -r_z."""
+    return GAP - lever(p)[2]
 
 
-def margin(p) -> float:
-    """How far (m) the release height lies below the barrier of tipping over an edge."""
-    return barrier_height(HALF) - release_height(p)
+def start_speed() -> float:
+    """The downward speed at the start that becomes V_IN after falling GAP."""
+    return math.sqrt(V_IN**2 - 2.0 * G * GAP)
+
+
+def touch_time() -> float:
+    """When the lowest point reaches the ground: the speed grows from start_speed to V_IN."""
+    return (V_IN - start_speed()) / G
 
 
 def slide_direction(p) -> np.ndarray:
@@ -143,14 +155,16 @@ def impact_impulse(r, mu: float, e: float, v_in: float) -> np.ndarray:
 
 
 def impact_speed() -> float:
-    return math.sqrt(2.0 * G * H)
+    return V_IN
 
 
-def after_impact(p) -> dict[str, float]:
+def after_impact(p, depth: float = 0.0) -> dict[str, float]:
     """The closed-form state right after the first impact: the centre's velocity along the
     slide direction and vertical, the spin about the tilt axis, the contact point's normal
-    velocity, and the spin about the other axes."""
-    r = lever(p)
+    velocity, and the spin about the other axes. `depth`: the impulse taken that far above
+    the corner (an engine that finds the contact a step late, the corner below the ground,
+    may put the contact point anywhere between the corner and the ground's surface)."""
+    r = lever(p) + np.array([0.0, 0.0, depth])
     v_in = impact_speed()
     P = impact_impulse(r, p["mu"], E, v_in)
     v = np.array([0.0, 0.0, -v_in]) + P / M
@@ -170,14 +184,14 @@ def sticks(p) -> bool:
 
 def scene(p) -> Scene:
     box = Body("box", cube(HALF, p["dim"]), mass=M, position=(0.0, 0.0, release_height(p)),
-               orientation=orientation(p))
+               orientation=orientation(p), velocity=(0.0, 0.0, -start_speed()))
     return Scene(bodies=(ground(), box), gravity=(0.0, 0.0, -G), material=Material(e=E, mu_s=p["mu"]),
                  dimension=p["dim"])
 
 
 def duration(p) -> float:
-    # measured on the reference at dt = 1e-3: every variant lies still on its face (every
-    # point slower than 1 mm/s) by 0.35 s; the run goes on to twice that
+    # the touch at 0.5 ms; a rigid impact is over in a step, MuJoCo's soft contact takes
+    # ~20 steps, and the cube must fly free 5 steps to be read: 30 ms leaves room for all
     return T
 
 
@@ -185,7 +199,7 @@ def duration(p) -> float:
 
 def observe(traj, p) -> dict:
     _, k = first_impact(traj, "box", (0.0, 0.0, -G))
-    t_touch = math.sqrt(2.0 * H / G)
+    t_touch = touch_time()
     if k is None:  # it never flew free after its first impact (or never landed): it left the
         v, w = traj.vel("box")[-1], traj.omega("box")[-1]  # ground with what it ends with
     else:
@@ -196,8 +210,6 @@ def observe(traj, p) -> dict:
            "contact_rebound": float((v + np.cross(w, lever(p)))[2])}
     if p["dim"] == 3:
         out["off_axis_spin"] = float(np.linalg.norm(w - (w @ u) * u))
-    f = down_face(orientation(p), p["dim"])
-    out["down_face_alignment"] = float(-(rotations(traj, "box")[-1] @ f)[2])
     return out
 
 
@@ -211,27 +223,32 @@ def expect(p, dt) -> list[Check]:
     # up with) the impulse: the speed is v_in to within 2 g dt. The state is read at the
     # end of the impact step, up to 2 dt after the touch, and taken back along free fall:
     # up to 2 g dt on the vertical velocities for the gravity the impact step absorbed.
+    # Found a step late, the corner is up to v_in dt below the ground, and the engine may
+    # take the impulse anywhere between it and the surface: the closed form with the lever
+    # raised by v_in dt bounds what that does (0.1-0.3 % here; the reference puts the
+    # point on the surface, measured 0.21 % on the spin at dt = 2e-4).
     rel = 2.0 * G * dt / v_in
     floor = 1e-6 * v_in  # zero by symmetry: solver convergence (1e-6 of the impact speed)
     why = (f"outcome linear in the approach speed, known to 2 g dt = {rel:.2g} of v_in (a contact found up to a "
-           "step late, the impact step's gravity)")
+           f"step late, the impact step's gravity), plus the contact point up to v_in dt = {v_in * dt * 1e3:.2g} mm "
+           "above the corner")
     late = "; plus 2 g dt for reading it up to 2 steps after the touch"
-    cf = after_impact(p)
+    cf, raised = after_impact(p), after_impact(p, v_in * dt)
+
+    def band(metric: str) -> float:
+        return rel * abs(cf[metric]) + abs(raised[metric] - cf[metric])
+
     checks = [
-        Check("v_slide_after", "m/s", cf["v_slide_after"], rel * abs(cf["v_slide_after"]) + floor, "abs", why),
-        Check("vz_after", "m/s", cf["vz_after"], rel * abs(cf["vz_after"]) + 2 * G * dt, "abs", why + late),
-        Check("spin_after", "rad/s", cf["spin_after"], rel * abs(cf["spin_after"]) + floor / HALF, "abs", why),
-        Check("contact_rebound", "m/s", cf["contact_rebound"], rel * abs(cf["contact_rebound"]) + 2 * G * dt, "abs",
+        Check("v_slide_after", "m/s", cf["v_slide_after"], band("v_slide_after") + floor, "abs", why),
+        Check("vz_after", "m/s", cf["vz_after"], band("vz_after") + 2 * G * dt, "abs", why + late),
+        Check("spin_after", "rad/s", cf["spin_after"], band("spin_after") + floor / HALF, "abs", why),
+        Check("contact_rebound", "m/s", cf["contact_rebound"], band("contact_rebound") + 2 * G * dt, "abs",
               "Newton's law at the contact point, e v_in: " + why + late),
     ]
     if p["dim"] == 3:
         checks.append(Check("off_axis_spin", "rad/s", cf["off_axis_spin"], G * dt / HALF, "abs",
                             "a corner moving g dt relative to the centre: one step of gravity a contact has not yet "
                             "cancelled; an edge struck at one corner gives ~1 rad/s"))
-    tilt = PENETRATION / (2 * HALF)
-    checks.append(Check("down_face_alignment", "-", 1.0, 1 - math.cos(tilt), "abs",
-                        f"flat on the lowest face to within {PENETRATION * 1e3:g} mm across it ({tilt:.2g} rad); "
-                        "any other face gives <= 0"))
     return checks
 
 
@@ -241,15 +258,15 @@ def variant_id(p) -> str:
 
 FAMILY = CaseFamily(
     name="edge_landing",
-    summary="a cube dropped tilted lands on an edge or a corner: velocities and spin after the single-point impact "
-            "(collision matrix, Newton-Coulomb impulse), then at rest on the lowest face",
+    summary="a cube falling tilted at 2 m/s lands on an edge or a corner: velocities and spin after the "
+            "single-point impact (collision matrix, Newton-Coulomb impulse)",
     source="note 004 (collision matrix K, Newton-Coulomb impulse); note 001 (CG3 II.5), inverse mass matrix of "
-           "contact, impact with friction; the energy barrier of cases/tumbling_box.py",
+           "contact, impact with friction",
     grid=GRID,
     scene=scene,
     duration=duration,
     observe=observe,
     expect=expect,
-    dt=1e-3,
+    dt=DT,
     variant_id=variant_id,
 )

@@ -250,8 +250,8 @@ def test_newton_coulomb_impulse_for_any_tilt_friction_and_restitution(tilt, mu, 
 
 def test_edge_geometry():
     """The lever from scipy's rotation: the edge's midpoint a (cos + sin) below the centre,
-    or the single corner sqrt 2 sin + cos; the release below the edge-tipping barrier by
-    more than the rest-depth allowance."""
+    or the single corner sqrt 2 sin + cos; the start (GAP above, moving down) reaches the
+    ground at V_IN at the touch time, by the free-fall position and velocity."""
     for v in el.FAMILY.variants:
         p = v.params
         angle = math.radians(el.TILT[p["tilt"]])
@@ -260,7 +260,10 @@ def test_edge_geometry():
         sigma = math.cos(angle) + (math.sin(angle) if p["tilt"] == "y" else math.sqrt(2) * math.sin(angle))
         assert -el.lever(p)[2] == pytest.approx(el.HALF * sigma, abs=1e-12)
         assert el.lever(p) @ el.axis(p) == pytest.approx(0.0, abs=1e-12)
-        assert el.margin(p) > el.PENETRATION
+        t, v0 = el.touch_time(), el.start_speed()
+        assert v0 * t + 0.5 * el.G * t * t == pytest.approx(el.GAP, rel=1e-12)
+        assert v0 + el.G * t == pytest.approx(el.V_IN, rel=1e-12)
+        assert el.scene(p).body("box").position[2] + el.lever(p)[2] == pytest.approx(el.GAP, abs=1e-15)
 
 
 def test_edge_sticking_ratio_is_the_quoted_one():

@@ -25,7 +25,7 @@ from physval.reportkit import fmt, md_table
 # effect -> the (family, metric glob) pairs whose checks test it; a family may test several
 # effects through different metrics (an incline holds a box: static; slides it: kinetic)
 EFFECTS = {
-    "restitution": (("central_impact", "*"), ("bounce_series", "*"), ("face_landing", "*")),
+    "restitution": (("central_impact", "*"), ("bounce_series", "*"), ("face_landing", "*"), ("slow_impact", "*")),
     "static friction": (("incline_threshold", "slides"), ("incline_threshold", "creep_rate"), ("creep", "*")),
     "kinetic friction": (("incline_threshold", "sliding_acceleration"), ("slide_to_stop", "*"),
                          ("friction_isotropy", "*")),
@@ -34,7 +34,7 @@ EFFECTS = {
     "resting and stacking": (("resting_blocks", "*"), ("stack_forces", "*"), ("stack_strike", "*")),
     "simultaneous impacts": (("newtons_cradle", "*"), ("column_impact", "*")),
     "rotation and inertia": (("free_rigid_body", "*"), ("eccentric_impact", "*"), ("edge_landing", "*"),
-                             ("tumbling_box", "*")),
+                             ("tumbling_box", "*"), ("oblique_landing", "*"), ("brick_tumble", "*")),
     "compliant contact": (("hertz_impact", "*"),),
     "stability": (("robustness_*", "*"),),
     "adapter contract": (("conformance", "*"),),
