@@ -11,10 +11,12 @@ uniformly and stops at
     d_i = v0^2 / (2 mu_i g)   after   t_i = v0 / (mu_i g),   i = a, b,
 so d_a / d_b = mu_b / mu_a, whatever the engine's units or time step. The blocks start
 apart and move apart: they never touch. Their own pair (the scene's default material) is
-given min(mu_a, mu_b): it takes no part in the motion, and with it every per-body
-combination rule of the engines (product, min, max, Drake's harmonic mean) can express
-the table of three pairs with the ground's own value non-neutral, so the variants test
-how an adapter undoes its engine's rule, not only that it reads the pair table.
+given min(mu_a, mu_b): it takes no part in the motion, and with it every per-body friction
+rule the engines use (PyBullet's and Pymunk's product, Box2D's geometric mean, DART's min,
+Drake's harmonic mean; Rapier chooses min) can express the table of three pairs, with the
+ground's own value non-neutral under the product and the harmonic mean, so the variants
+test how an adapter undoes its engine's rule, not only that it reads the pair table. (The
+max rule cannot: the ground would need max(mu_a, mu_b), and so would the blocks' pair.)
 
 What a mistake shows: an adapter that ignores the pair overrides runs both blocks at the
 default min(mu_a, mu_b) (the faster block slides mu_b / mu_a too far); one that puts each
