@@ -32,10 +32,11 @@ import numpy as np
 from cases.family import CaseFamily, Check, plane_label
 from cases.observables import settle_time
 from cases.scene import Body, Material, Scene, cube, ground
-from cases.slide_to_stop import AFTER_STOP, G, HALF, stop_distance, stop_time
+from cases.slide_to_stop import G, HALF, stop_distance, stop_time
 
 GAP = 0.1      # between the blocks at the start, m
-V0 = 1.0       # launch speed of each block, m/s (slides of 0.06-0.26 m: 0.8 s of stepping)
+V0 = 1.0       # launch speed of each block, m/s (slides of 0.06-0.26 m)
+AFTER_STOP = 0.15  # s simulated past the later stop: 150 steps to see a block stay stopped
 BLOCKS = ("a", "b")
 
 # Grid: friction ratios 4 and 2.5, the high one on the first block in 3D and on the second
