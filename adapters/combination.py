@@ -25,6 +25,17 @@ RULES: dict[str, Callable[[float, float], float]] = {
 # A value that leaves the partner's value unchanged under each rule (the harmonic mean
 # has none: only 2 a x / (a + x) -> 2 a as x grows).
 NEUTRAL = {"product": 1.0, "min": 1e6, "max": 0.0}
+# max and min: the body value that stays within every pair's (the max rule's bodies
+# lie at or below their pairs' values, the min rule's at or above).
+EXTREME = {"max": min, "min": max}
+# Rules linear in a transform t of the per-body values: t(v_a) + t(v_b) = forward(c) for a
+# pair value c; (forward, back from t to v, whether a solution t is usable). The product
+# in logs (values kept in (0, 1]: engines clamp or reject a restitution above 1); the
+# harmonic mean in reciprocals, 1/v_a + 1/v_b = 2/c (values finite and positive).
+LINEAR: dict[str, tuple[Callable[[float], float], Callable[[float], float], Callable[[float], bool]]] = {
+    "product": (math.log, lambda t: min(math.exp(t), 1.0), lambda t: t <= 1e-12),
+    "harmonic": (lambda c: 2.0 / c, lambda t: 1.0 / t, lambda t: t > 0.0),
+}
 
 
 def per_body_values(scene: Scene, value_of: Callable[[Material], float], rule: str,
@@ -33,8 +44,10 @@ def per_body_values(scene: Scene, value_of: Callable[[Material], float], rule: s
     that may touch (or == pair_value(a, b), where the value an engine combines depends on
     the bodies too, e.g. a lever arm divided by their radius). Tries, in order: static
     bodies neutral and each dynamic body the value of its pairs; every body the same value
-    (sqrt of it for the product rule); for the product rule, the solution of the pairs'
-    equations in logs."""
+    (sqrt of it for the product rule); for the max and min rules, each body at the extreme
+    value its pairs allow (EXTREME); for the product and harmonic rules, the solution of the
+    pairs' equations in logs or reciprocals (LINEAR). Every candidate is checked against
+    every pair before it is used."""
     combine = RULES[rule]
     if pair_value is None:
         def pair_value(a: Body, b: Body) -> float:
@@ -57,22 +70,34 @@ def per_body_values(scene: Scene, value_of: Callable[[Material], float], rule: s
     values = {c for _, _, c in pairs}
     if len(values) == 1:
         (c,) = values
-        same = math.sqrt(c) if rule == "product" else c
+        same = math.sqrt(c) if rule == "product" else c  # harmonic: 2 c c / (c + c) = c
         candidates.append({b.name: same for b in scene.bodies})
-    # 3. the product rule in logs: log v_a + log v_b = log c over every pair, a linear
-    # system; its least-squares solution reproduces the pairs when any solution does (e.g.
-    # ground at e, two balls at 1: ground-ball pairs e, ball-ball 1). Values kept in (0, 1].
-    if rule == "product" and pairs and all(c > 0.0 for _, _, c in pairs):
+    # 3. max and min: each body at the least (max rule) or the largest (min rule) value of
+    # its pairs. Under max every body lies at or below each of its pairs' values, and
+    # raising it to the least of them keeps every pair's max: so if any per-body values
+    # reproduce the pairs, these do (min: the same, mirrored).
+    if rule in EXTREME:
+        v = {}
+        for a, b, c in pairs:
+            for name in (a, b):
+                v[name] = EXTREME[rule](v.get(name, c), c)
+        candidates.append(v)
+    # 4. rules linear in a transform of the values (LINEAR): the product rule in logs,
+    # log v_a + log v_b = log c, and the harmonic mean in reciprocals, 1/v_a + 1/v_b = 2/c,
+    # over every pair: a linear system whose least-squares solution reproduces the pairs
+    # when any solution does (e.g. ground at e, two balls at 1: ground-ball pairs e,
+    # ball-ball 1); kept only if its values lie in the rule's range.
+    if rule in LINEAR and pairs and all(c > 0.0 for _, _, c in pairs):
+        forward, back, usable = LINEAR[rule]
         names = list(dict.fromkeys(n for a, b, _ in pairs for n in (a, b)))
         index = {n: i for i, n in enumerate(names)}
         A = np.zeros((len(pairs), len(names)))
         for row, (a, b, _) in enumerate(pairs):
             A[row, index[a]] += 1.0
             A[row, index[b]] += 1.0
-        x = np.linalg.lstsq(A, np.log([c for _, _, c in pairs]), rcond=None)[0]
-        v = {n: float(np.exp(x[i])) for n, i in index.items()}
-        if all(0.0 < val <= 1.0 + 1e-12 for val in v.values()):
-            candidates.append({n: min(val, 1.0) for n, val in v.items()})
+        x = np.linalg.lstsq(A, np.array([forward(c) for _, _, c in pairs]), rcond=None)[0]
+        if all(usable(float(xi)) for xi in x):
+            candidates.append({n: back(float(x[i])) for n, i in index.items()})
     for v in candidates:
         if all(b.name in v for b in scene.bodies) and fits(v):
             return v

@@ -227,9 +227,15 @@ def _per_body(names: list[str], rows: list[tuple[str, str, float, float, float]]
         rhs[r] = value
     x = np.linalg.lstsq(A, rhs, rcond=None)[0]
     x[np.abs(x) < 1e-15 * max(1.0, np.abs(rhs).max())] = 0.0
-    if not (np.all(x >= 0.0) and np.allclose(A @ x, rhs, rtol=1e-10, atol=1e-300)):
+    # a pair asking 0 (e above the ceiling: no dissipation) is met to round-off of the others
+    if not np.allclose(A @ x, rhs, rtol=1e-10, atol=1e-12 * max(np.abs(rhs).max(), 1e-300)):
         raise Unsupported(f"the pairs' {what} cannot be split into per-geometry values under Drake's "
-                          "combination rule")
+                          f"combination rule: no per-geometry values give all {len(rows)} pairs theirs")
+    negative = [n for n, v in zip(names, x) if v < 0.0]
+    if negative:
+        # a unique split (as many pairs as geometries) or the least-norm one is negative
+        raise Unsupported(f"the pairs' {what} cannot be split into per-geometry values under Drake's "
+                          f"combination rule: the split asks a negative value of {', '.join(negative)}")
     return {n: float(v) for n, v in zip(names, x)}
 
 

@@ -44,3 +44,94 @@ def test_pairs_no_per_body_values_reproduce_are_unsupported():
                   pairs=(("ground", "bottom", Material(e=0.0)),))
     with pytest.raises(Unsupported, match="product rule"):
         per_body_values(scene, lambda m: m.e, "product", "restitution")
+
+
+# --- the pair families' tables, pair by pair ------------------------------------------------
+
+def _family_scenes():
+    from cases import pair_friction, pair_restitution
+    out = []
+    for fam, value_of in ((pair_friction, lambda m: m.mu_s), (pair_restitution, lambda m: m.e)):
+        for p in fam.GRID:
+            out.append(pytest.param(fam.scene(p), value_of, id=f"{fam.FAMILY.name}[{fam.variant_id(p)}]"))
+    return out
+
+
+@pytest.mark.parametrize("rule", sorted(RULES))
+@pytest.mark.parametrize("scene,value_of", _family_scenes())
+def test_values_found_reproduce_every_pair_or_none_are_given(scene, value_of, rule):
+    """Whatever the rule, per_body_values either refuses or gives values whose combination
+    is each pair's own value, checked here pair by pair (a silent wrong mapping is the bug
+    the pair families exist to catch)."""
+    try:
+        v = per_body_values(scene, value_of, rule, "value")
+    except Unsupported:
+        return
+    for a, b in scene.contact_pairs():
+        assert RULES[rule](v[a.name], v[b.name]) == pytest.approx(value_of(scene.material_of(a.name, b.name)),
+                                                                  rel=1e-12, abs=1e-15)
+
+
+@pytest.mark.parametrize("rule", sorted(RULES))
+def test_the_friction_rules_engines_use_express_the_pair_friction_tables(rule):
+    """The blocks' own pair at min(mu_a, mu_b) makes the table solvable under product,
+    min and harmonic (the family's docstring says so), with the ground non-neutral for
+    product and harmonic; max would need the ground and the blocks' pair at max(mu_a, mu_b)."""
+    from cases import pair_friction as pf
+    for p in pf.GRID:
+        if rule == "max":
+            with pytest.raises(Unsupported, match="max rule"):
+                per_body_values(pf.scene(p), lambda m: m.mu_s, rule, "friction")
+            continue
+        v = per_body_values(pf.scene(p), lambda m: m.mu_s, rule, "friction")
+        if rule in ("product", "harmonic"):
+            assert v["ground"] != pytest.approx(1.0)
+
+
+def test_the_max_rule_takes_each_body_at_its_least_pair():
+    """Balls 0.5 | 0.3 | (ends 0.5): under max, b1 = 0.5 and b2 = b3 = 0.3. The candidate
+    with each body at its first pair's value (b2 = 0.5) misses it; Box2D reported the
+    variant unsupported before."""
+    from cases import pair_restitution as pr
+    p = next(p for p in pr.GRID if p["e13"] == max(p["e12"], p["e23"]))
+    v = per_body_values(pr.scene(p), lambda m: m.e, "max", "restitution")
+    assert v == {"b1": 0.5, "b2": 0.3, "b3": 0.3}
+    with pytest.raises(Unsupported, match="min rule"):
+        per_body_values(pr.scene(p), lambda m: m.e, "min", "restitution")
+
+
+def test_the_min_rule_takes_each_body_at_its_largest_pair():
+    from cases import pair_restitution as pr
+    p = pr.GRID[0]   # 0.7 | 0.3 | ends 0.3
+    v = per_body_values(pr.scene(p), lambda m: m.e, "min", "restitution")
+    assert v == {"b1": 0.7, "b2": 0.7, "b3": 0.3}
+    with pytest.raises(Unsupported, match="max rule"):
+        per_body_values(pr.scene(p), lambda m: m.e, "max", "restitution")
+
+
+def test_the_harmonic_rule_is_solved_in_reciprocals():
+    """Drake's 2 a b / (a + b): 1/v_a + 1/v_b = 2/c. Ground-a 0.2, ground-b 0.5, a-b 0.2:
+    ground 0.5, a 0.2 * 0.5 / (2 * 0.5 - 0.2) = 0.125, b 0.5. One value for every body
+    (the only candidate before) cannot give two pairs different values."""
+    from cases import pair_friction as pf
+    v = per_body_values(pf.scene(pf.GRID[1]), lambda m: m.mu_s, "harmonic", "friction")
+    assert v["ground"] == pytest.approx(0.5) and v["b"] == pytest.approx(0.5)
+    assert v["a"] == pytest.approx(0.125)
+
+
+def test_the_harmonic_rule_refuses_a_table_that_needs_a_negative_reciprocal():
+    """Ground-a and ground-b 1.0, a-b 0.05: the three pairs fix the reciprocals, and the
+    ground's is (2/1 + 2/1 - 2/0.05) / 2 = -18 < 0: no finite positive friction gives it."""
+    from cases import pair_friction as pf
+    scene = pf.scene({"mu_a": 1.0, "mu_b": 1.0, "dim": 3})
+    scene = Scene(bodies=scene.bodies, gravity=scene.gravity, material=Material(mu_s=0.05), pairs=scene.pairs)
+    with pytest.raises(Unsupported, match="harmonic rule"):
+        per_body_values(scene, lambda m: m.mu_s, "harmonic", "friction")
+
+
+def test_the_harmonic_rule_is_drakes():
+    """RULES["harmonic"] against pydrake's own CalcContactFrictionFromSurfaceProperties."""
+    plant = pytest.importorskip("pydrake.multibody.plant")
+    for a, b in ((0.2, 0.5), (0.8, 0.05), (1.0, 1.0)):
+        mu = plant.CalcContactFrictionFromSurfaceProperties(plant.CoulombFriction(a, a), plant.CoulombFriction(b, b))
+        assert RULES["harmonic"](a, b) == pytest.approx(mu.dynamic_friction(), rel=1e-14)

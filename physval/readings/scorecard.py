@@ -25,10 +25,11 @@ from physval.reportkit import fmt, md_table
 # effect -> the (family, metric glob) pairs whose checks test it; a family may test several
 # effects through different metrics (an incline holds a box: static; slides it: kinetic)
 EFFECTS = {
-    "restitution": (("central_impact", "*"), ("bounce_series", "*"), ("face_landing", "*"), ("slow_impact", "*")),
+    "restitution": (("central_impact", "*"), ("bounce_series", "*"), ("face_landing", "*"), ("slow_impact", "*"),
+                    ("pair_restitution", "*")),
     "static friction": (("incline_threshold", "slides"), ("incline_threshold", "creep_rate"), ("creep", "*")),
     "kinetic friction": (("incline_threshold", "sliding_acceleration"), ("slide_to_stop", "*"),
-                         ("friction_isotropy", "*")),
+                         ("friction_isotropy", "*"), ("pair_friction", "*")),
     "rolling": (("rolling_incline", "*"), ("slip_to_roll", "*")),
     "rolling resistance and torsion": (("rolling_resistance", "*"), ("spin_down", "*")),
     "resting and stacking": (("resting_blocks", "*"), ("stack_forces", "*"), ("stack_strike", "*")),
