@@ -19,6 +19,7 @@ from cases import free_rigid_body as fr
 from cases import hertz_impact as hi
 from cases import newtons_cradle as nc
 from cases import stack_forces as sf
+from cases.observables import free_flight_error
 
 
 def cross_matrix(r) -> np.ndarray:
@@ -362,21 +363,69 @@ def test_second_order_bounds_hold_for_runge_kutta_2_and_fail_explicit_euler(w0):
     assert dE > 100 * 5e-4**2 / 2 * s_E / (E2 / 2) and dL > 10 * 5e-4**2 / 6 * s_M
 
 
-def test_free_flight_forms_are_the_euler_recurrences():
-    x0, v0, g, dt = np.array([0.0, 0.0, 10.0]), np.array([1.0, 0.5, 3.0]), np.array([0.0, 0.0, -9.81]), 1e-3
-    xv, xp, x, v = [x0.copy()], [x0.copy()], x0.copy(), v0.copy()
-    for _ in range(100):
-        v = v + g * dt
-        x = x + v * dt
-        xv.append(x.copy())
-    x, v = x0.copy(), v0.copy()
-    for _ in range(100):
-        x = x + v * dt
-        v = v + g * dt
-        xp.append(x.copy())
-    first, second = fr.euler_positions(x0, v0, g, dt, np.arange(101))
-    assert first == pytest.approx(np.array(xv), abs=1e-12)
-    assert second == pytest.approx(np.array(xp), abs=1e-12)
+def _flight(scheme: str, x0, v0, g, dt: float, steps: int, substeps: int = 1):
+    """Free flight stepped by hand by `scheme`: positions at every step (steps + 1 rows)."""
+    x, v, h, out = np.array(x0, float), np.array(v0, float), dt / substeps, [np.array(x0, float)]
+    for _ in range(steps):
+        for _ in range(substeps):
+            if scheme == "velocity_first":     # semi-implicit (symplectic) Euler
+                v = v + g * h
+                x = x + v * h
+            elif scheme == "position_first":   # explicit Euler
+                x = x + v * h
+                v = v + g * h
+            elif scheme == "verlet":           # velocity Verlet
+                x = x + v * h + 0.5 * g * h * h
+                v = v + g * h
+            elif scheme == "rk4":              # classical Runge-Kutta on (x, v)' = (v, g)
+                k1x, k1v = v, g
+                k2x, k2v = v + 0.5 * h * k1v, g
+                k3x, k3v = v + 0.5 * h * k2v, g
+                k4x, k4v = v + h * k3v, g
+                x = x + h / 6.0 * (k1x + 2 * k2x + 2 * k3x + k4x)
+                v = v + h / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v)
+        out.append(x.copy())
+    return np.array(out)
+
+
+FLIGHT = (np.array([0.0, 0.0, 10.0]), np.array([1.0, 0.5, 3.0]), np.array([0.0, 0.0, -9.81]), 1e-3, 1000)
+
+
+@pytest.mark.parametrize("scheme,substeps", [("velocity_first", 1), ("position_first", 1), ("verlet", 1), ("rk4", 1),
+                                             ("velocity_first", 4), ("position_first", 4), ("velocity_first", 64)])
+def test_free_flight_band_accepts_every_consistent_integrator(scheme, substeps):
+    """Euler either way, velocity Verlet, RK4 and sub-stepped Euler (Box2D's 4 sub-steps)
+    all lie in the band x0 + v0 t + g t^2/2 + c g dt t, |c| <= 1/2, to round-off; so does
+    the analytic parabola."""
+    x0, v0, g, dt, n = FLIGHT
+    t = np.arange(n + 1) * dt
+    x = _flight(scheme, x0, v0, g, dt, n, substeps)
+    assert free_flight_error(x, x0, v0, g, t, dt) < 1e-11
+    exact = x0 + v0 * t[:, None] + 0.5 * g * t[:, None] ** 2
+    assert free_flight_error(exact, x0, v0, g, t, dt) < 1e-12
+    # the scheme's c, as the helper's docstring gives it
+    c = {"velocity_first": 0.5, "position_first": -0.5}.get(scheme, 0.0) / substeps
+    assert np.max(np.abs(x - exact - c * g * dt * t[:, None])) < 1e-11
+
+
+@pytest.mark.parametrize("scheme", ["velocity_first", "position_first", "verlet"])
+def test_free_flight_band_rejects_a_wrong_g_or_dt(scheme):
+    """9.80 for 9.81, or a step 1 % longer than the dt the samples are read at, leave a
+    parabola the band cannot take: far above round-off (the old 1e-9 m and the float32
+    bounds of the free-flight checks alike)."""
+    x0, v0, g, dt, n = FLIGHT
+    t = np.arange(n + 1) * dt
+    weak = _flight(scheme, x0, v0, g * 9.80 / 9.81, dt, n)
+    assert free_flight_error(weak, x0, v0, g, t, dt) > 5e-4
+    slow = _flight(scheme, x0, v0, g, 1.01 * dt, n)
+    assert free_flight_error(slow, x0, v0, g, t, dt) > 5e-3
+    # one dimension (the conformance battery's free fall from rest)
+    fall = _flight(scheme, x0[2:], [0.0], g[2:], dt, n)
+    assert free_flight_error(fall, x0[2:], [0.0], g[2:], t, dt) < 1e-11
+    assert free_flight_error(_flight(scheme, x0[2:], [0.0], g[2:] * 9.80 / 9.81, dt, n), x0[2:], [0.0], g[2:], t,
+                             dt) > 5e-4
+    assert free_flight_error(_flight(scheme, x0[2:], [0.0], g[2:], 1.01 * dt, n), x0[2:], [0.0], g[2:], t,
+                             dt) > 5e-4
 
 
 # --- Hertz impact -------------------------------------------------------------------------
