@@ -18,6 +18,7 @@ from typing import Mapping
 
 import numpy as np
 
+from cases.family import UNIT_ROUNDOFF
 from cases.scene import IMPACT_MODEL_NEED, IMPACT_MODELS, Scene  # noqa: F401 (re-exported)
 from cases.trajectory import ContactPoint
 
@@ -62,10 +63,24 @@ class Capabilities:
     # How the engine resolves impacts at several contacts within one step (IMPACT_MODELS);
     # None: not declared.
     impact_model: str | None = None
+    # The width of the floats the engine stores and steps its state in (64 or 32): the
+    # round-off part of a check's tolerance follows it (cases.family.Check.roundoff).
+    float_bits: int = 64
+    # Settings.iterations counts sub-steps, each a whole velocity and position update: the
+    # round-off a check allows is counted per sub-step (Simulation.iterations of them a step).
+    substeps: bool = False
 
     def __post_init__(self):
         if self.impact_model is not None and self.impact_model not in IMPACT_MODELS:
             raise ValueError(f"impact_model = {self.impact_model!r}: must be one of {', '.join(IMPACT_MODELS)} or None")
+        if self.float_bits not in UNIT_ROUNDOFF:
+            raise ValueError(f"float_bits = {self.float_bits!r}: must be one of {', '.join(map(str, UNIT_ROUNDOFF))}")
+
+    def judged(self, checks, iterations: int | None = None) -> list:
+        """`checks` at this engine's float width (cases.family.Check.at_precision), with
+        `iterations` (the count in force) sub-steps a step if the engine sub-steps."""
+        substeps = iterations if self.substeps and iterations else 1
+        return [c.at_precision(self.float_bits, substeps) for c in checks]
 
     def cannot_run(self, scene: Scene, needs: frozenset[str] = frozenset()) -> str | None:
         """Why this engine cannot represent `scene` (and a case's extra `needs`), or None."""
@@ -105,7 +120,8 @@ class Capabilities:
                  if getattr(self, f)]
         laws = f"; compliant contact: {','.join(sorted(self.contact_laws))}" if self.contact_laws else ""
         impacts = f"; impacts: {self.impact_model}" if self.impact_model else ""
-        return f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags) + laws + impacts
+        floats = f"; float{self.float_bits}" + (", sub-steps" if self.substeps else "")
+        return f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags) + laws + impacts + floats
 
 
 class Simulation(ABC):

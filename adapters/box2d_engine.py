@@ -122,6 +122,8 @@ class Box2DAdapter(Adapter):
         iterations=True,       # the sub-step count
         contact_points=False,
         impact_model="simultaneous",
+        float_bits=32,         # positions, velocities and masses in single precision (checked: 0.1 m/s reads back as float32(0.1))
+        substeps=True,         # Settings.iterations is the sub-step count
     )
     tunables = {
         "contact_hertz": Tunable(1.0, math.inf, math.inf,

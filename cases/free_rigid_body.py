@@ -53,7 +53,7 @@ import math
 import numpy as np
 
 from cases.family import CaseFamily, Check
-from cases.observables import free_flight_error
+from cases.observables import free_flight_error, free_flight_roundoff
 from cases.overlap import rotation_matrix
 from cases.scene import Body, Box, Rect, Scene
 
@@ -198,12 +198,16 @@ def observe(traj, p) -> dict:
 def expect(p, dt) -> list[Check]:
     T = duration(p)
     scale = float(np.linalg.norm(X0)) + float(np.linalg.norm(V0)) * T + G * T * T
+    v_max = float(np.linalg.norm(V0)) + G * T
+    round_v, round_x = free_flight_roundoff(max(1, round(T / dt)), dt, scale, v_max, G)
     checks = [
-        Check("com_velocity_error", "m/s", 0.0, 1e-9 * (float(np.linalg.norm(V0)) + G * T), "abs",
-              "v += g dt (or g h per sub-step) is exact in every consistent integrator, to round-off"),
+        Check("com_velocity_error", "m/s", 0.0, 1e-9 * v_max, "abs",
+              "v += g dt (or g h per sub-step) is exact in every consistent integrator, to round-off: "
+              "1e-9 of the speed in float64, u (|v| + 3 g h) a sub-step at the engine's float width", round_v),
         Check("com_position_error", "m", 0.0, 1e-9 * scale, "abs",
               "free flight is a consistent one-step integrator's (x0 + v0 t + g t^2/2 + c g dt t, "
-              "|c| <= 1/2: Euler either way, sub-stepped, exact), to round-off"),
+              "|c| <= 1/2: Euler either way, sub-stepped, exact), to round-off: 1e-9 of the reach in float64, "
+              "2.5 u (|x| + h |v|) a sub-step plus T times the velocity's at the engine's float width", round_x),
     ]
     if p["dim"] == 2:
         exact = "a spin about a principal axis is constant: exact in any integrator, to round-off"
