@@ -19,7 +19,8 @@ from typing import Mapping
 import numpy as np
 
 from cases.family import UNIT_ROUNDOFF
-from cases.scene import IMPACT_MODEL_NEED, IMPACT_MODELS, Scene  # noqa: F401 (re-exported)
+from cases.scene import (IMPACT_MODEL_NEED, IMPACT_MODELS, RESTITUTION_LAW_NEED,  # noqa: F401 (re-exported)
+                         RESTITUTION_LAWS, Scene)
 from cases.trajectory import ContactPoint
 
 
@@ -63,6 +64,10 @@ class Capabilities:
     # How the engine resolves impacts at several contacts within one step (IMPACT_MODELS);
     # None: not declared.
     impact_model: str | None = None
+    # The restitution law at a frictional contact (cases.scene.RESTITUTION_LAWS): Newton's
+    # with friction throughout (the notes' Newton-Coulomb impulse), or two-phase (friction in
+    # a plastic impact, then restitution without friction).
+    restitution_law: str = "newton"
     # The width of the floats the engine stores and steps its state in (64 or 32): the
     # round-off part of a check's tolerance follows it (cases.family.Check.roundoff).
     float_bits: int = 64
@@ -73,6 +78,8 @@ class Capabilities:
     def __post_init__(self):
         if self.impact_model is not None and self.impact_model not in IMPACT_MODELS:
             raise ValueError(f"impact_model = {self.impact_model!r}: must be one of {', '.join(IMPACT_MODELS)} or None")
+        if self.restitution_law not in RESTITUTION_LAWS:
+            raise ValueError(f"restitution_law = {self.restitution_law!r}: must be one of {', '.join(RESTITUTION_LAWS)}")
         if self.float_bits not in UNIT_ROUNDOFF:
             raise ValueError(f"float_bits = {self.float_bits!r}: must be one of {', '.join(map(str, UNIT_ROUNDOFF))}")
 
@@ -111,6 +118,13 @@ class Capabilities:
                     declared = (f"the engine resolves impacts as {self.impact_model}" if self.impact_model
                                 else "the engine declares no impact model")
                     return f"the case checks the {model} impact model's closed form; {declared}"
+            if need.startswith(RESTITUTION_LAW_NEED):
+                law = need[len(RESTITUTION_LAW_NEED):]
+                if law not in RESTITUTION_LAWS:
+                    raise ValueError(f"need {need!r}: the restitution law must be one of {', '.join(RESTITUTION_LAWS)}")
+                if self.restitution_law != law:
+                    return (f"the case checks the {law} restitution law's closed form; the engine applies "
+                            f"{self.restitution_law} restitution")
         return None
 
     def describe(self) -> str:
@@ -120,8 +134,10 @@ class Capabilities:
                  if getattr(self, f)]
         laws = f"; compliant contact: {','.join(sorted(self.contact_laws))}" if self.contact_laws else ""
         impacts = f"; impacts: {self.impact_model}" if self.impact_model else ""
+        restitution = f"; restitution: {self.restitution_law}"
         floats = f"; float{self.float_bits}" + (", sub-steps" if self.substeps else "")
-        return f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags) + laws + impacts + floats
+        return (f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags) + laws + impacts
+                + restitution + floats)
 
 
 class Simulation(ABC):

@@ -122,6 +122,7 @@ class Box2DAdapter(Adapter):
         iterations=True,       # the sub-step count
         contact_points=False,
         impact_model="simultaneous",
+        restitution_law="two_phase",  # restitution in a pass of its own after the sub-steps, without friction
         float_bits=32,         # positions, velocities and masses in single precision (checked: 0.1 m/s reads back as float32(0.1))
         substeps=True,         # Settings.iterations is the sub-step count
     )

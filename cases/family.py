@@ -32,8 +32,10 @@ class CaseError(ValueError):
 # "contact_forces"  the observer reads Trajectory.force / impulse (normal force per pair);
 # "impact_model:M"  the closed forms assume the engine resolves simultaneous impacts by
 #                   model M (cases.scene.IMPACT_MODELS); other engines report unsupported.
+# "restitution_law:L"  the closed forms assume restitution law L at a frictional contact
+#                   (cases.scene.RESTITUTION_LAWS); other engines report unsupported.
 NEEDS = ("contact_forces",)
-NEEDS_PREFIXES = ("impact_model:",)  # followed by one of cases.scene.IMPACT_MODELS
+NEEDS_PREFIXES = ("impact_model:", "restitution_law:")  # followed by one of IMPACT_MODELS, RESTITUTION_LAWS
 
 # Labels a family carries (CaseFamily.tags); physval selects by them, it keeps no name lists:
 TAGS = {
@@ -259,7 +261,7 @@ class CaseFamily:
             return self._built(v)
 
     def _built(self, v: Variant) -> tuple[Scene, float, list[Check]]:
-        from cases.scene import IMPACT_MODEL_NEED, IMPACT_MODELS
+        from cases.scene import IMPACT_MODEL_NEED, IMPACT_MODELS, RESTITUTION_LAW_NEED, RESTITUTION_LAWS
         try:
             json.dumps(v.params)
         except TypeError as exc:
@@ -275,8 +277,9 @@ class CaseFamily:
             raise CaseError(f"duration = {T!r}: must be > 0 s")
         if T / dt > 5e7:
             raise CaseError(f"duration / dt = {T / dt:.3g} steps: more than 5e7")
-        bad = [n for n in self.needs_of(v.params) if n not in NEEDS and not (
-            n.startswith(IMPACT_MODEL_NEED) and n[len(IMPACT_MODEL_NEED):] in IMPACT_MODELS)]
+        bad = [n for n in self.needs_of(v.params) if n not in NEEDS and not any(
+            n.startswith(prefix) and n[len(prefix):] in values
+            for prefix, values in ((IMPACT_MODEL_NEED, IMPACT_MODELS), (RESTITUTION_LAW_NEED, RESTITUTION_LAWS)))]
         if bad:
             raise CaseError(f"needs {sorted(bad)}: unknown; choose from {', '.join(NEEDS)} "
                             f"or {', '.join(p + '...' for p in NEEDS_PREFIXES)}")
