@@ -62,6 +62,10 @@ UNIT_ROUNDOFF = {64: 2.0**-53, 32: 2.0**-24}
 # exactly, so only impacts round the momentum.
 IMPACT_ROUNDINGS = 2 * 4 * 2
 
+# What a check's miss shows (Check.measures): the physics, or the order of the engine's
+# time integration (a tolerance that is a scheme's error bound on exactly conserved motion).
+MEASURES = ("physics", "integrator")
+
 
 def impulse_roundoff(pair_momentum: float, impacts: int = 1) -> float:
     """Check.roundoff of a total momentum that `impacts` pair impacts change, each between
@@ -84,7 +88,13 @@ class Check:
     round (in `unit`; for kind "rel", divided by |expected|). An engine computing with unit
     round-off u (UNIT_ROUNDOFF of its declared float width) in k sub-steps a step is judged
     within `tolerance + roundoff * k * u` (`at_precision`); `tolerance` alone is what a
-    float64 engine is held to, with room for its round-off."""
+    float64 engine is held to, with room for its round-off.
+
+    `measures` says what a miss shows (MEASURES): "physics" (the default), or "integrator"
+    when the tolerance is the error bound of a time-stepping scheme of a stated order (a
+    second-order rotation step, say) on motion whose physics conserves exactly, so that a
+    miss measures the engine's integration order, not its physics; reports show those
+    checks apart (physval.readings.scorecard)."""
     metric: str
     unit: str
     expected: float
@@ -92,10 +102,13 @@ class Check:
     kind: str
     why: str
     roundoff: float = 0.0
+    measures: str = "physics"
 
     def __post_init__(self):
         if not isinstance(self.metric, str) or not self.metric:
             raise CaseError(f"check metric = {self.metric!r}: must be a non-empty string")
+        if self.measures not in MEASURES:
+            raise CaseError(f"check {self.metric!r}: measures = {self.measures!r}: must be one of {', '.join(MEASURES)}")
         if self.kind not in ("abs", "rel"):
             raise CaseError(f"check {self.metric!r}: kind = {self.kind!r}: must be 'abs' or 'rel'")
         for name in ("expected", "tolerance", "roundoff"):

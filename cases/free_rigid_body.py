@@ -42,6 +42,9 @@ stay within these bounds and explicit Euler does not. (Before the reference beca
 second order, the checks allowed one dt of explicit Euler's rates: 2.6-4.4 % of the
 flip time.) The flip time is still ill-conditioned near the separatrix, so this family
 steps at dt = 2e-4 and starts 20-30 deg off the intermediate axis.
+Those three 3D checks (momentum_drift, energy_drift, flip_time) therefore measure the
+engine's rotation integrator, not physics: they carry Check.measures = "integrator", and
+the scorecard grades them under "integration order", apart from rotation and inertia.
 
 The 2D variant (a rect in the x-z plane, turning about y only) has no intermediate axis:
 its spin is constant and its centre ballistic.
@@ -226,13 +229,13 @@ def expect(p, dt) -> list[Check]:
     return checks + [
         Check("momentum_drift", "-", 0.0, tol_M, "abs",
               "second-order rotation step: L = R L_b errs by dt^3/6 (|R''' L_b| + |L_b'''|) per step, "
-              "summed over the run"),
+              "summed over the run", measures="integrator"),
         Check("energy_drift", "-", 0.0, tol_E, "abs",
               "second-order rotation step: E errs by dt^3/2 |w_dot|_I |w_ddot|_I per step "
-              "(w . I w''' = -3 w_dot . I w_ddot), summed over the run"),
+              "(w . I w''' = -3 w_dot . I w_ddot), summed over the run", measures="integrator"),
         Check("flip_time", "s", T_flip / 2.0, tol_T, "abs",
               "T_flip(E, M) / 2 at the tolerated energy and momentum drifts, plus a second-order step's "
-              "phase error dt^2/6 int |w'''| / |w_dot| up to the flip"),
+              "phase error dt^2/6 int |w'''| / |w_dot| up to the flip", measures="integrator"),
     ]
 
 
