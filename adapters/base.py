@@ -18,7 +18,9 @@ from typing import Mapping
 
 import numpy as np
 
-from cases.scene import CONTACT_TORQUES, IMPACT_MODEL_NEED, IMPACT_MODELS, Scene  # noqa: F401 (re-exported)
+from cases.family import UNIT_ROUNDOFF
+from cases.scene import (CONTACT_TORQUES, IMPACT_MODEL_NEED, IMPACT_MODELS,  # noqa: F401 (re-exported)
+                         RESTITUTION_LAW_NEED, RESTITUTION_LAWS, Scene)
 from cases.trajectory import ContactPoint
 
 
@@ -65,6 +67,16 @@ class Capabilities:
     # The contact torques of cases.scene.CONTACT_TORQUES the engine models with the scene's
     # lever arm (rolling_resistance, torsional_friction); a pair asking for another: unsupported
     contact_torques: frozenset[str] = frozenset()
+    # The restitution law at a frictional contact (cases.scene.RESTITUTION_LAWS): Newton's
+    # with friction throughout (the notes' Newton-Coulomb impulse), or two-phase (friction in
+    # a plastic impact, then restitution without friction).
+    restitution_law: str = "newton"
+    # The width of the floats the engine stores and steps its state in (64 or 32): the
+    # round-off part of a check's tolerance follows it (cases.family.Check.roundoff).
+    float_bits: int = 64
+    # Settings.iterations counts sub-steps, each a whole velocity and position update: the
+    # round-off a check allows is counted per sub-step (Simulation.iterations of them a step).
+    substeps: bool = False
 
     def __post_init__(self):
         if self.impact_model is not None and self.impact_model not in IMPACT_MODELS:
@@ -72,6 +84,16 @@ class Capabilities:
         unknown = set(self.contact_torques) - set(CONTACT_TORQUES)
         if unknown:
             raise ValueError(f"contact_torques = {sorted(unknown)}: must be among {', '.join(CONTACT_TORQUES)}")
+        if self.restitution_law not in RESTITUTION_LAWS:
+            raise ValueError(f"restitution_law = {self.restitution_law!r}: must be one of {', '.join(RESTITUTION_LAWS)}")
+        if self.float_bits not in UNIT_ROUNDOFF:
+            raise ValueError(f"float_bits = {self.float_bits!r}: must be one of {', '.join(map(str, UNIT_ROUNDOFF))}")
+
+    def judged(self, checks, iterations: int | None = None) -> list:
+        """`checks` at this engine's float width (cases.family.Check.at_precision), with
+        `iterations` (the count in force) sub-steps a step if the engine sub-steps."""
+        substeps = iterations if self.substeps and iterations else 1
+        return [c.at_precision(self.float_bits, substeps) for c in checks]
 
     def cannot_run(self, scene: Scene, needs: frozenset[str] = frozenset()) -> str | None:
         """Why this engine cannot represent `scene` (and a case's extra `needs`), or None."""
@@ -109,6 +131,13 @@ class Capabilities:
                     declared = (f"the engine resolves impacts as {self.impact_model}" if self.impact_model
                                 else "the engine declares no impact model")
                     return f"the case checks the {model} impact model's closed form; {declared}"
+            if need.startswith(RESTITUTION_LAW_NEED):
+                law = need[len(RESTITUTION_LAW_NEED):]
+                if law not in RESTITUTION_LAWS:
+                    raise ValueError(f"need {need!r}: the restitution law must be one of {', '.join(RESTITUTION_LAWS)}")
+                if self.restitution_law != law:
+                    return (f"the case checks the {law} restitution law's closed form; the engine applies "
+                            f"{self.restitution_law} restitution")
         return None
 
     def describe(self) -> str:
@@ -119,7 +148,10 @@ class Capabilities:
         laws = f"; compliant contact: {','.join(sorted(self.contact_laws))}" if self.contact_laws else ""
         impacts = f"; impacts: {self.impact_model}" if self.impact_model else ""
         torques = f"; contact torques: {','.join(sorted(self.contact_torques))}" if self.contact_torques else ""
-        return f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags) + laws + impacts + torques
+        restitution = f"; restitution: {self.restitution_law}"
+        floats = f"; float{self.float_bits}" + (", sub-steps" if self.substeps else "")
+        return (f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags) + laws + impacts
+                + torques + restitution + floats)
 
 
 class Simulation(ABC):

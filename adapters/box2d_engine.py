@@ -125,6 +125,9 @@ class Box2DAdapter(Adapter):
         # rollingResistance per shape (`_rolling`); no torsional friction (a 2D engine has
         # no spin about a contact normal in its plane)
         contact_torques=frozenset({"rolling_resistance"}),
+        restitution_law="two_phase",  # restitution in a pass of its own after the sub-steps, without friction
+        float_bits=32,         # positions, velocities and masses in single precision (checked: 0.1 m/s reads back as float32(0.1))
+        substeps=True,         # Settings.iterations is the sub-step count
     )
     tunables = {
         "contact_hertz": Tunable(1.0, math.inf, math.inf,

@@ -98,6 +98,9 @@ class RapierAdapter(Adapter):
         iterations=True,       # the sub-step count
         contact_points=False,  # tangent impulses come in a basis the bindings do not expose
         impact_model="simultaneous",
+        restitution_law="two_phase",  # restitution in a pass of its own after the sub-steps, without friction
+        float_bits=32,         # positions, velocities and masses in single precision (checked: 0.1 m/s reads back as float32(0.1))
+        substeps=True,         # Settings.iterations is the sub-step count
     )
     tunables = {
         "contact_natural_frequency": Tunable(

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check, plane_label
+from cases.family import IMPACT_ROUNDINGS, CaseFamily, Check, impulse_roundoff, plane_label
 from cases.observables import arc_apex, fall_gravity, first_impact, free_arc_start
 from cases.scene import Body, Material, Scene, ball, ground
 
@@ -188,7 +188,9 @@ def expect(p, dt) -> list[Check]:
             Check("v1_after", "m/s", v1e, tol_v, "abs", why_v),
             Check("v2_after", "m/s", v2e, tol_v, "abs", why_v),
             Check("momentum_after", "kg m/s", m1 * V1 + m2 * V2, 1e-9 * (m1 * abs(V1) + m2 * abs(V2)), "abs",
-                  "equal and opposite impulses conserve momentum to round-off"),
+                  "equal and opposite impulses conserve momentum to round-off (1e-9 in float64; "
+                  f"{IMPACT_ROUNDINGS} roundings of m |v| a sub-step at the engine's float width)",
+                  impulse_roundoff(m1 * max(abs(V1), abs(v1e)) + m2 * max(abs(V2), abs(v2e)))),
             Check("energy_lost", "J", deformation_work(m1, m2, v_rel, e),
                   (m1 * abs(v1e) + m2 * abs(v2e)) * tol_v + 1e-12, "abs",
                   "the velocity tolerance carried through dE = sum m v dv"),

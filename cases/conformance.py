@@ -17,7 +17,7 @@ from typing import Callable
 import numpy as np
 
 from cases.family import CaseFamily, Check
-from cases.observables import rate, window_mean
+from cases.observables import free_flight_error, free_flight_roundoff, rate, window_mean
 from cases.scene import Body, Material, Scene, ball, cube, ground
 from cases.trajectory import Trajectory
 
@@ -45,23 +45,27 @@ def _box(dim: int, **kw) -> Body:
 # --- the checks ---------------------------------------------------------------------------
 
 def free_fall_matches_discrete_closed_form(dim: int) -> Probe:
-    """z_n of a falling body is one of the two explicit Euler forms (velocity first:
-    z0 - g dt^2 n(n+1)/2, as in MuJoCo, DART, Bullet; position first: z0 - g dt^2 n(n-1)/2,
-    as in Pymunk), to round-off; and the continuous z0 - g t^2/2 to first order in dt."""
+    """z_n of a falling body is the free flight of a consistent one-step integrator,
+    z0 - g t^2/2 - c g dt t with c in [-1/2, 1/2] (cases.observables.free_flight_error:
+    velocity first, c = 1/2, as in MuJoCo, DART, Bullet; position first, -1/2, as in Pymunk;
+    velocity first in 4 sub-steps, 1/8, as in Box2D and Rapier; the exact parabola, 0), to
+    round-off; and the continuous z0 - g t^2/2 to first order in dt."""
     z0, T = 10.0, 1.0
     scene = Scene(bodies=(_ball(dim, position=(0, 0, z0), rotates=False),), gravity=(0, 0, -G), dimension=dim)
 
     def measure(traj):
-        n = np.arange(len(traj.t))
         z = traj.pos("body")[:, 2]
-        forms = [z0 - G * traj.dt**2 * n * (n + 1) / 2, z0 - G * traj.dt**2 * n * (n - 1) / 2]
-        return {"discrete_error": min(float(np.max(np.abs(z - f))) for f in forms),
+        return {"discrete_error": free_flight_error(z[:, None], [z0], [0.0], [-G], traj.t, traj.dt),
                 "continuous_error": abs(z[-1] - (z0 - G * traj.t[-1] ** 2 / 2))}
 
     def expect(dt):
-        return [Check("discrete_error", "m", 0.0, 1e-9, "abs", "an explicit Euler recurrence is exact to round-off"),
+        _, round_x = free_flight_roundoff(max(1, round(T / dt)), dt, z0, G * T, G)
+        return [Check("discrete_error", "m", 0.0, 1e-9, "abs",
+                      "a consistent one-step integrator's free flight (c in [-1/2, 1/2]) is exact to round-off: "
+                      "1e-9 m in float64; 2.5 u (|z| + h |v|) a sub-step plus T times the velocity's "
+                      "u (|v| + 3 g h) at the engine's float width", round_x),
                 Check("continuous_error", "m", 0.0, G * T * dt, "abs",
-                      "first-order time stepping: either Euler form is within g T dt / 2 of g t^2 / 2")]
+                      "first-order time stepping: every consistent step is within g T dt / 2 of g t^2 / 2")]
     return Probe(scene, T, measure, expect)
 
 
@@ -89,9 +93,16 @@ def a_slow_body_does_not_fall_asleep(dim: int) -> Probe:
     def measure(traj):
         return {"distance": float(traj.pos("body")[-1, 0] - traj.pos("body")[0, 0])}
 
+    v, T = 1e-3, 10.0
+
     def expect(dt):
-        return [Check("distance", "m", 1e-3 * 10.0, 1e-6, "rel", "uniform motion is integrated exactly; a sleeping body stops")]
-    return Probe(scene, 10.0, measure, expect)
+        d = v * T
+        # each sub-step rounds x + h v (u (|x| + h v), |x| <= d); v itself is stored rounded (u v, T long)
+        roundoff = (max(1, round(T / dt)) * (d + dt * v) + T * v) / d
+        return [Check("distance", "m", d, 1e-6, "rel",
+                      "uniform motion is integrated exactly (1e-6 in float64; u (|x| + h v) a sub-step at the "
+                      "engine's float width); a sleeping body stops", roundoff)]
+    return Probe(scene, T, measure, expect)
 
 
 def no_gravity_when_the_scene_has_none(dim: int) -> Probe:

@@ -18,6 +18,17 @@ keep it if |J_t| <= mu_s J_n, else slide along t = u_t / |u_t| with
     J = j (n - mu_k t),  j = -(1 + e) u_n / n^T K (n - mu_k t).
 Frictionless (mu = 0): j = -(1 + e) u_n / n^T K n (note 001, "Frictionless Impact").
 
+With friction and e > 0 the outcome depends on the restitution law the engine declares
+(cases.scene.RESTITUTION_LAWS; each such variant needs "restitution_law:<law>", and an
+engine that declares the other law reports it unsupported):
+- "newton": the Newton-Coulomb impulse above, friction acting on the whole normal impulse;
+- "two_phase": a plastic impact with friction, J_c = the Newton-Coulomb impulse at e = 0,
+  which leaves u_c = u + K J_c with u_c . n = 0; then a normal impulse alone, j_r n with
+  j_r = -e u_n / n^T K n, so that u'_n = -e u_n (Newton's law on the approach before the
+  impact) and friction acts on J_c only: J = J_c + j_r n. A sliding ball's friction impulse
+  is then 1/(1 + e) of the Newton-Coulomb one. tests/test_closed_forms_impacts.py checks
+  both laws against the impulse-momentum equations solved as linear systems, phase by phase.
+
 Every variant lies in the x-z plane (the rod turns about y), where the note's sliding
 direction (that of the slip before the impact) is also the direction of the slip after
 it, so a simultaneous (LCP) solver and the note's law give the same impulse
@@ -56,6 +67,22 @@ GRID = (
 FULL_GRID = GRID + tuple({"e": e, "mu": mu, "v_t": vt, "dim": dim}
                          for dim in (3, 2) for e in (0.0, 0.9)
                          for mu, vt in ((0.0, 0.0), (0.3, -1.0), (0.5, -1.0)))
+
+
+def law_matters(p) -> bool:
+    """Friction and restitution together: the restitution laws give different impulses."""
+    return p["mu"] > 0.0 and p["e"] > 0.0
+
+
+def law_of(p) -> str:
+    """The variant's restitution law (cases.scene.RESTITUTION_LAWS; "newton" unless named)."""
+    return p.get("law", "newton")
+
+
+# Each variant whose outcome depends on the restitution law also in the two-phase law's
+# closed form (its id ends ",two_phase"; the others are Newton's).
+GRID = GRID + tuple(dict(p, law="two_phase") for p in GRID if law_matters(p))
+FULL_GRID = FULL_GRID + tuple(dict(p, law="two_phase") for p in FULL_GRID if law_matters(p))
 
 
 # --- closed form --------------------------------------------------------------------------
@@ -109,13 +136,25 @@ def setup(p, shift=(0.0, 0.0, 0.0)) -> dict:
             "v_1": np.array(b.velocity), "w_1": np.zeros(3), "v_2": np.zeros(3), "w_2": np.zeros(3)}
 
 
+def two_phase_impulse(K, u, n, e: float, mu_s: float, mu_k: float) -> np.ndarray:
+    """J on body 2 by the two-phase law (module docstring): the Newton-Coulomb impulse of a
+    plastic impact, then a frictionless normal impulse up to u'_n = -e u_n."""
+    J_c = newton_coulomb_impulse(K, u, n, 0.0, mu_s, mu_k)
+    u_c = u + K @ J_c
+    j_r = (-e * (u @ n) - u_c @ n) / (n @ K @ n)
+    return J_c + max(j_r, 0.0) * n
+
+
+IMPULSE_OF_LAW = {"newton": newton_coulomb_impulse, "two_phase": two_phase_impulse}
+
+
 def velocities_after(p, shift=(0.0, 0.0, 0.0)) -> dict[str, np.ndarray]:
-    """Post-impact v_1, w_1, v_2, w_2 and the impulse J, by the Newton-Coulomb law."""
+    """Post-impact v_1, w_1, v_2, w_2 and the impulse J, by the variant's restitution law."""
     s = setup(p, shift)
     K = (body_collision_matrix(s["M_1"], s["I_1_inv"], s["r_1"])
          + body_collision_matrix(s["M_2"], s["I_2_inv"], s["r_2"]))   # K = K_1 + K_2
     u = s["v_2"] + np.cross(s["w_2"], s["r_2"]) - s["v_1"] - np.cross(s["w_1"], s["r_1"])
-    J = newton_coulomb_impulse(K, u, s["n"], p["e"], p["mu"], p["mu"])
+    J = IMPULSE_OF_LAW[law_of(p)](K, u, s["n"], p["e"], p["mu"], p["mu"])
     return {"v_1": s["v_1"] - J / s["M_1"], "w_1": s["w_1"] - s["I_1_inv"] @ np.cross(s["r_1"], J),
             "v_2": s["v_2"] + J / s["M_2"], "w_2": s["w_2"] + s["I_2_inv"] @ np.cross(s["r_2"], J), "J": J}
 
@@ -218,19 +257,26 @@ def strike_dt(p) -> float:
 def variant_id(p) -> str:
     plane = ",2D" if p["dim"] == 2 else ""
     rough = f",mu={p['mu']},slip={-p['v_t']:g}" if p["mu"] > 0 else ""
-    return f"e={p['e']}{rough}{plane}"
+    law = f",{law_of(p)}" if law_of(p) != "newton" else ""
+    return f"e={p['e']}{rough}{law}{plane}"
+
+
+def needs(p) -> frozenset[str]:
+    """The restitution law, where it changes the outcome (adapters.base Capabilities.restitution_law)."""
+    return frozenset({f"restitution_law:{law_of(p)}"}) if law_matters(p) else frozenset()
 
 
 FAMILY = CaseFamily(
     name="eccentric_impact",
-    summary="a ball strikes a free rod off its centre line: post-impact linear and angular velocities, frictionless and with sticking or sliding friction",
-    source="note 004 (Umea VIS), collision matrix K and Newton-Coulomb impulse; note 001 (CG3 II.5), K_i = 1/M + r*^T I^-1 r*",
+    summary="a ball strikes a free rod off its centre line: post-impact linear and angular velocities, frictionless and with sticking or sliding friction, by the restitution law the engine declares",
+    source="note 004 (Umea VIS), collision matrix K and Newton-Coulomb impulse; note 001 (CG3 II.5), K_i = 1/M + r*^T I^-1 r*; the two-phase law derived in the module docstring",
     grid=GRID,
     scene=scene,
     duration=duration,
     observe=observe,
     expect=expect,
     dt=strike_dt,
+    needs=needs,
     variant_id=variant_id,
     full_grid=FULL_GRID,
 )

@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import math
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 from cases.scene import Scene
@@ -32,8 +32,10 @@ class CaseError(ValueError):
 # "contact_forces"  the observer reads Trajectory.force / impulse (normal force per pair);
 # "impact_model:M"  the closed forms assume the engine resolves simultaneous impacts by
 #                   model M (cases.scene.IMPACT_MODELS); other engines report unsupported.
+# "restitution_law:L"  the closed forms assume restitution law L at a frictional contact
+#                   (cases.scene.RESTITUTION_LAWS); other engines report unsupported.
 NEEDS = ("contact_forces",)
-NEEDS_PREFIXES = ("impact_model:",)  # followed by one of cases.scene.IMPACT_MODELS
+NEEDS_PREFIXES = ("impact_model:", "restitution_law:")  # followed by one of IMPACT_MODELS, RESTITUTION_LAWS
 
 # Labels a family carries (CaseFamily.tags); physval selects by them, it keeps no name lists:
 TAGS = {
@@ -45,6 +47,31 @@ TAGS = {
 
 MAX_DT = 0.1  # s: a family's time step above this leaves no contact worth judging (adapters.base.Settings)
 
+# The unit round-off of each float width an engine may declare (adapters.base.Capabilities
+# .float_bits): one rounding of x errs by at most u |x|, u = 2^-p for a p-bit significand
+# (IEEE 754 binary64: p = 53; binary32: p = 24).
+UNIT_ROUNDOFF = {64: 2.0**-53, 32: 2.0**-24}
+
+# Rounded updates of a body's velocity that one pair impact makes, per sub-step: an impulse
+# solver applies the pair's impulse in its warm-start, solve and relax passes and (once a
+# step, counted here per sub-step) its restitution pass, each rounding both bodies'
+# velocities (u m |v|) and scaling the impulse by a stored, rounded inverse mass (u m |dv|
+# <= u m |v| before and after): 4 passes x 2 roundings, over the 2 steps the impulse acts in
+# (the impact's, and the next, whose warm start applies it again and whose solve takes it
+# back). Where no force acts (zero gravity along the momentum) a velocity update adds 0
+# exactly, so only impacts round the momentum.
+IMPACT_ROUNDINGS = 2 * 4 * 2
+
+# What a check's miss shows (Check.measures): the physics, or the order of the engine's
+# time integration (a tolerance that is a scheme's error bound on exactly conserved motion).
+MEASURES = ("physics", "integrator")
+
+
+def impulse_roundoff(pair_momentum: float, impacts: int = 1) -> float:
+    """Check.roundoff of a total momentum that `impacts` pair impacts change, each between
+    bodies whose m |v| sum to at most `pair_momentum` (kg m/s)."""
+    return IMPACT_ROUNDINGS * impacts * pair_momentum
+
 
 @dataclass(frozen=True)
 class Check:
@@ -53,27 +80,58 @@ class Check:
 
     `kind` says which error the tolerance bounds: "abs" (|measured - expected|, in `unit`)
     or "rel" (that divided by |expected|). `why` is the one-line reason for its size: the
-    physics or numerics that allow it (time step, contact stiffness, solver convergence)."""
+    physics or numerics that allow it (time step, contact stiffness, solver convergence).
+
+    `roundoff` is the part of the tolerance that floating-point rounding takes, which
+    depends on the engine's float width: the sum, over the rounded operations of one
+    sub-step that the checked value accumulates through the run, of the magnitudes they
+    round (in `unit`; for kind "rel", divided by |expected|). An engine computing with unit
+    round-off u (UNIT_ROUNDOFF of its declared float width) in k sub-steps a step is judged
+    within `tolerance + roundoff * k * u` (`at_precision`); `tolerance` alone is what a
+    float64 engine is held to, with room for its round-off.
+
+    `measures` says what a miss shows (MEASURES): "physics" (the default), or "integrator"
+    when the tolerance is the error bound of a time-stepping scheme of a stated order (a
+    second-order rotation step, say) on motion whose physics conserves exactly, so that a
+    miss measures the engine's integration order, not its physics; reports show those
+    checks apart (physval.readings.scorecard)."""
     metric: str
     unit: str
     expected: float
     tolerance: float
     kind: str
     why: str
+    roundoff: float = 0.0
+    measures: str = "physics"
 
     def __post_init__(self):
         if not isinstance(self.metric, str) or not self.metric:
             raise CaseError(f"check metric = {self.metric!r}: must be a non-empty string")
+        if self.measures not in MEASURES:
+            raise CaseError(f"check {self.metric!r}: measures = {self.measures!r}: must be one of {', '.join(MEASURES)}")
         if self.kind not in ("abs", "rel"):
             raise CaseError(f"check {self.metric!r}: kind = {self.kind!r}: must be 'abs' or 'rel'")
-        for name in ("expected", "tolerance"):
+        for name in ("expected", "tolerance", "roundoff"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise CaseError(f"check {self.metric!r}: {name} = {value!r}: must be a finite number")
         if self.tolerance < 0:
             raise CaseError(f"check {self.metric!r}: tolerance = {self.tolerance!r}: must be finite and >= 0")
+        if self.roundoff < 0:
+            raise CaseError(f"check {self.metric!r}: roundoff = {self.roundoff!r}: must be finite and >= 0")
         if not isinstance(self.why, str) or not self.why.strip():
             raise CaseError(f"check {self.metric!r}: why is empty: every tolerance needs its reason")
+
+
+    def at_precision(self, float_bits: int = 64, substeps: int = 1) -> "Check":
+        """The check an engine computing with `float_bits` floats in `substeps` sub-steps a
+        step is judged by: its round-off part added to the tolerance at that width."""
+        if not self.roundoff:
+            return self
+        if float_bits not in UNIT_ROUNDOFF:
+            raise CaseError(f"float_bits = {float_bits!r}: must be one of {sorted(UNIT_ROUNDOFF)}")
+        extra = self.roundoff * max(1, int(substeps)) * UNIT_ROUNDOFF[float_bits]
+        return replace(self, tolerance=self.tolerance + extra, roundoff=0.0)
 
 
 @dataclass(frozen=True)
@@ -216,7 +274,7 @@ class CaseFamily:
             return self._built(v)
 
     def _built(self, v: Variant) -> tuple[Scene, float, list[Check]]:
-        from cases.scene import IMPACT_MODEL_NEED, IMPACT_MODELS
+        from cases.scene import IMPACT_MODEL_NEED, IMPACT_MODELS, RESTITUTION_LAW_NEED, RESTITUTION_LAWS
         try:
             json.dumps(v.params)
         except TypeError as exc:
@@ -232,8 +290,9 @@ class CaseFamily:
             raise CaseError(f"duration = {T!r}: must be > 0 s")
         if T / dt > 5e7:
             raise CaseError(f"duration / dt = {T / dt:.3g} steps: more than 5e7")
-        bad = [n for n in self.needs_of(v.params) if n not in NEEDS and not (
-            n.startswith(IMPACT_MODEL_NEED) and n[len(IMPACT_MODEL_NEED):] in IMPACT_MODELS)]
+        bad = [n for n in self.needs_of(v.params) if n not in NEEDS and not any(
+            n.startswith(prefix) and n[len(prefix):] in values
+            for prefix, values in ((IMPACT_MODEL_NEED, IMPACT_MODELS), (RESTITUTION_LAW_NEED, RESTITUTION_LAWS)))]
         if bad:
             raise CaseError(f"needs {sorted(bad)}: unknown; choose from {', '.join(NEEDS)} "
                             f"or {', '.join(p + '...' for p in NEEDS_PREFIXES)}")

@@ -50,6 +50,40 @@ def first_impact(traj: Trajectory, name: str, gravity) -> tuple[int | None, int 
     return k_in, None
 
 
+def free_flight_error(x, x0, v0, gravity, t: np.ndarray, dt: float) -> float:
+    """Largest distance (m) of the positions x (n, d) at times t from the nearest free
+    flight that a consistent one-step integrator produces, to be judged against round-off.
+
+    Every one-step integrator that moves a body under constant acceleration g by
+    dt (v_n + alpha g dt) in a step whose velocity goes from v_n to v_n + g dt, with alpha
+    in [0, 1] (the step's displacement is dt times a velocity the step passes through), puts
+    the body at x_n = x0 + v0 t + g t^2 / 2 + c g dt t, c = alpha - 1/2 constant: position
+    first (explicit Euler) c = -1/2, velocity first (semi-implicit Euler) +1/2, the exact
+    parabola (velocity Verlet, Runge-Kutta 2-4, the analytic flight) 0, k velocity-first
+    sub-steps of dt/k 1/(2k) (Box2D, Rapier: k = 4, c = 1/8), k position-first ones -1/(2k).
+    The best c (least squares, clipped to [-1/2, 1/2]) is removed; what is left is the
+    distance from that band. A wrong g leaves (g' - g) t^2 / 2, a step other than dt leaves
+    v0 t and g t^2 scaled: parabolas no line through the origin removes."""
+    t = np.asarray(t, float)[:, None]
+    r = np.asarray(x, float) - (np.asarray(x0, float) + np.asarray(v0, float) * t
+                                + 0.5 * np.asarray(gravity, float) * t * t)
+    b = np.asarray(gravity, float) * dt * t  # the direction c moves the positions in
+    bb = float(np.sum(b * b))
+    c = float(np.clip(np.sum(r * b) / bb, -0.5, 0.5)) if bb > 0.0 else 0.0
+    return float(np.max(np.linalg.norm(r - c * b, axis=1)))
+
+
+def free_flight_roundoff(steps: int, dt: float, x_max: float, v_max: float, g: float) -> tuple[float, float]:
+    """(velocity, position) round-off of a free flight of `steps` steps, per unit round-off u
+    and sub-step (cases.family.Check.roundoff), for speeds up to v_max and positions up to
+    x_max. Each sub-step of h <= dt rounds v + g h (u |v|; g and h are stored rounded, and
+    their product rounds: 3 u g h) and x + h v (u |x| and u h |v|); the velocity's error then
+    moves the positions by up to T times it; the band's least-squares c (free_flight_error)
+    takes up to sum t_n T / sum t_n^2 = 3/2 of a position error into the residual: 2.5 times."""
+    v = steps * (v_max + 3.0 * g * dt)
+    return v, 2.5 * (steps * (x_max + dt * v_max) + steps * dt * v)
+
+
 def fall_gravity(z: np.ndarray, g: float, dt: float, band: float = 0.25) -> float:
     """The gravity a height z really falls with, from its positions: minus the median second
     difference / dt^2 over the samples within `band` of -g dt^2; g if none is. (Positions

@@ -48,6 +48,20 @@ IMPACT_MODELS = ("simultaneous", "sequential", "compliant")
 # variant unsupported (adapters.base.Capabilities.cannot_run).
 IMPACT_MODEL_NEED = "impact_model:"
 
+# The restitution law an engine applies at a contact with friction (an adapter declares it
+# in Capabilities.restitution_law; the closed forms differ where a frictional contact has
+# e > 0 and its impulse turns a body, so normal and tangential velocities couple):
+# "newton": Newton's velocity restitution with Coulomb friction acting throughout the
+#   impact (the Newton-Coulomb impulse of note 004: u_n+ = -e u_n-, friction on the whole
+#   normal impulse);
+# "two_phase": a plastic impact with Coulomb friction (the Newton-Coulomb impulse at e = 0),
+#   then a normal impulse alone up to Newton's u_n+ = -e u_n-, without friction (Box2D and
+#   Rapier apply restitution in a pass of its own after the solve).
+# (Poisson's impulse restitution, the restitution impulse e times the compression one, is
+# no engine's law here; add it with a closed form when one declares it.)
+RESTITUTION_LAWS = ("newton", "two_phase")
+RESTITUTION_LAW_NEED = "restitution_law:"
+
 # Bodies may start this far inside each other: contact geometry built by hand is exact to
 # rounding (1e-12 m), and 1 um is far below any depth an engine resolves at dt = 1e-3.
 DEFAULT_ALLOWED_OVERLAP = 1e-6

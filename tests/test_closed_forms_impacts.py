@@ -19,6 +19,7 @@ from cases import free_rigid_body as fr
 from cases import hertz_impact as hi
 from cases import newtons_cradle as nc
 from cases import stack_forces as sf
+from cases.observables import free_flight_error
 
 
 def cross_matrix(r) -> np.ndarray:
@@ -28,16 +29,21 @@ def cross_matrix(r) -> np.ndarray:
 
 # --- eccentric impact ---------------------------------------------------------------------
 
-def impulse_momentum(M_1, I_1, M_2, I_2, r_1, r_2, v_1, v_2, n, e, mu, planar):
+def impulse_momentum(M_1, I_1, M_2, I_2, r_1, r_2, v_1, v_2, n, e, mu, planar, w_1=None, w_2=None,
+                     target=None):
     """Post-impact (v_1, w_1, v_2, w_2, J) from the impulse-momentum equations of both
     bodies and the contact law, as one linear system (no collision matrix): unknowns
-    v_1', w_1', v_2', w_2', J (and the sliding magnitude j). Bodies start without spin.
-    Sticking: u' = -e u_n n. Sliding (if sticking needs |J_t| > mu J_n): n . u' = -e u_n
-    and J = j (n - mu t), t along the slip before the impact. A planar body keeps w_x =
-    w_z = 0 (its x and z inertia rows are replaced by w = 0)."""
+    v_1', w_1', v_2', w_2', J (and the sliding magnitude j). Bodies start spinning at w_1,
+    w_2 (default none). Sticking: u' = target n, target = -e u_n unless given. Sliding (if
+    sticking needs |J_t| > mu J_n): n . u' = target and J = j (n - mu t), t along the slip
+    before the impact. A planar body keeps w_x = w_z = 0 (its x and z inertia rows are
+    replaced by w = 0)."""
+    w_1 = np.zeros(3) if w_1 is None else np.asarray(w_1, float)
+    w_2 = np.zeros(3) if w_2 is None else np.asarray(w_2, float)
     I_1, I_2 = np.diag(I_1), np.diag(I_2)
-    u = v_2 - v_1
+    u = v_2 + np.cross(w_2, r_2) - v_1 - np.cross(w_1, r_1)
     u_n = u @ n
+    target = -e * u_n if target is None else target
     t = (u - u_n * n) / max(np.linalg.norm(u - u_n * n), 1e-300)
 
     def solve(sticking: bool) -> np.ndarray:
@@ -45,21 +51,21 @@ def impulse_momentum(M_1, I_1, M_2, I_2, r_1, r_2, v_1, v_2, n, e, mu, planar):
         A, b = np.zeros((size, size)), np.zeros(size)
         V1, W1, V2, W2, JJ = (slice(3 * i, 3 * i + 3) for i in range(5))
         A[0:3, V1], A[0:3, JJ], b[0:3] = M_1 * np.eye(3), np.eye(3), M_1 * v_1          # M_1 v_1' + J = M_1 v_1
-        A[3:6, W1], A[3:6, JJ] = I_1, cross_matrix(r_1)                                   # I_1 w_1' + r_1 x J = 0
+        A[3:6, W1], A[3:6, JJ], b[3:6] = I_1, cross_matrix(r_1), I_1 @ w_1              # I_1 w_1' + r_1 x J = I_1 w_1
         A[6:9, V2], A[6:9, JJ], b[6:9] = M_2 * np.eye(3), -np.eye(3), M_2 * v_2          # M_2 v_2' - J = M_2 v_2
-        A[9:12, W2], A[9:12, JJ] = I_2, -cross_matrix(r_2)                                # I_2 w_2' - r_2 x J = 0
+        A[9:12, W2], A[9:12, JJ], b[9:12] = I_2, -cross_matrix(r_2), I_2 @ w_2           # I_2 w_2' - r_2 x J = I_2 w_2
         if planar:
             for row, W in ((3, W1), (9, W2)):
                 for axis in (0, 2):
-                    A[row + axis, :] = 0.0
+                    A[row + axis, :], b[row + axis] = 0.0, 0.0
                     A[row + axis, W.start + axis] = 1.0
         # u' = v_2' + w_2' x r_2 - v_1' - w_1' x r_1, with w x r = -r* w
         U = np.zeros((3, size))
         U[:, V2], U[:, W2], U[:, V1], U[:, W1] = np.eye(3), -cross_matrix(r_2), -np.eye(3), cross_matrix(r_1)
         if sticking:
-            A[12:15], b[12:15] = U, -e * u_n * n
+            A[12:15], b[12:15] = U, target * n
         else:
-            A[12], b[12] = n @ U, -e * u_n
+            A[12], b[12] = n @ U, target
             A[13:16, JJ], A[13:16, 15] = np.eye(3), -(n - mu * t)                         # J - j (n - mu t) = 0
         return np.linalg.solve(A, b)
 
@@ -84,9 +90,22 @@ def from_scene(p):
                 planar=p["dim"] == 2)
 
 
+def two_phase(**inputs):
+    """The two-phase law phase by phase: the impulse-momentum system of a plastic impact
+    with friction, then, from the velocities it leaves, one of a frictionless impact whose
+    normal velocity ends at -e times the approach before the first phase."""
+    e = inputs["e"]
+    u_n = (inputs["v_2"] - inputs["v_1"]) @ inputs["n"]
+    v_1, w_1, v_2, w_2, J_c = impulse_momentum(**{**inputs, "e": 0.0})
+    v_1, w_1, v_2, w_2, J_r = impulse_momentum(**{**inputs, "v_1": v_1, "v_2": v_2, "mu": 0.0}, w_1=w_1, w_2=w_2,
+                                               target=-e * u_n)
+    return v_1, w_1, v_2, w_2, J_c + J_r
+
+
 @pytest.mark.parametrize("p", ei.FULL_GRID, ids=ei.variant_id)
 def test_eccentric_impact_solves_the_impulse_momentum_equations(p):
-    v_1, w_1, v_2, w_2, J = impulse_momentum(**from_scene(p))
+    law = two_phase if ei.law_of(p) == "two_phase" else impulse_momentum
+    v_1, w_1, v_2, w_2, J = law(**from_scene(p))
     after = ei.velocities_after(p)
     for got, want in ((after["v_1"], v_1), (after["w_1"], w_1), (after["v_2"], v_2), (after["w_2"], w_2),
                       (after["J"], J)):
@@ -119,7 +138,7 @@ def test_grid_has_a_sticking_and_a_sliding_strike_whose_slip_keeps_its_direction
     (slip before) is the one a simultaneous solver uses (slip after): the same impulse."""
     kinds = set()
     for p in ei.GRID:
-        if p["mu"] == 0:
+        if p["mu"] == 0 or ei.law_of(p) != "newton":  # the two-phase law: test_two_phase_friction_...
             continue
         s, after = ei.setup(p), ei.velocities_after(p)
         J, n = after["J"], s["n"]
@@ -136,6 +155,38 @@ def test_grid_has_a_sticking_and_a_sliding_strike_whose_slip_keeps_its_direction
             assert J_t == pytest.approx(p["mu"] * J_n, rel=1e-12)
             assert np.sign(u_t_after) == np.sign(u_t) and abs(u_t_after) > 0.05
     assert kinds == {"sticks", "slides"}
+
+
+@pytest.mark.parametrize("dim", [3, 2])
+def test_two_phase_friction_acts_on_the_compression_impulse_only(dim):
+    """A ball sliding through the impact: friction mu J_n acts on the plastic phase's normal
+    impulse, 1/(1 + e) of Newton's; its spin (from friction alone) is 1/(1 + e) of Newton's,
+    and both laws give the same normal approach-to-departure ratio -e."""
+    newton = {"e": 0.5, "mu": 0.1, "v_t": -1.0, "dim": dim}
+    phased = dict(newton, law="two_phase")
+    w_n, w_p = ei.velocities_after(newton)["w_1"][1], ei.velocities_after(phased)["w_1"][1]
+    assert w_p == pytest.approx(w_n / 1.5, rel=1e-12)
+    for p in (newton, phased):
+        s, after = ei.setup(p), ei.velocities_after(p)
+        u_n = s["v_2"] @ s["n"] - s["v_1"] @ s["n"]
+        u_after = after["v_2"] + np.cross(after["w_2"], s["r_2"]) - after["v_1"] - np.cross(after["w_1"], s["r_1"])
+        assert u_after @ s["n"] == pytest.approx(-0.5 * u_n, rel=1e-12)
+
+
+def test_the_restitution_law_is_a_declared_capability():
+    """An engine is judged by the closed form of the law it declares: the Newton variants are
+    unsupported on a two-phase engine and the reverse."""
+    from adapters.base import Capabilities
+    base = dict(dimensions=frozenset({2, 3}), shapes=frozenset({"sphere", "box", "circle", "rect"}),
+                native_restitution=True, static_kinetic=True, contact_forces=True, iterations=True)
+    newton, phased = Capabilities(**base), Capabilities(**base, restitution_law="two_phase")
+    for v in ei.FAMILY.variants:
+        scene, needs = ei.scene(v.params), ei.FAMILY.needs_of(v.params)
+        law = ei.law_of(v.params) if ei.law_matters(v.params) else None
+        assert (newton.cannot_run(scene, needs) is None) == (law in (None, "newton"))
+        assert (phased.cannot_run(scene, needs) is None) == (law in (None, "two_phase"))
+    if registry.available("box2d"):
+        assert registry.get("box2d").capabilities.restitution_law == "two_phase"
 
 
 @pytest.mark.parametrize("p", ei.FULL_GRID, ids=ei.variant_id)
@@ -362,21 +413,69 @@ def test_second_order_bounds_hold_for_runge_kutta_2_and_fail_explicit_euler(w0):
     assert dE > 100 * 5e-4**2 / 2 * s_E / (E2 / 2) and dL > 10 * 5e-4**2 / 6 * s_M
 
 
-def test_free_flight_forms_are_the_euler_recurrences():
-    x0, v0, g, dt = np.array([0.0, 0.0, 10.0]), np.array([1.0, 0.5, 3.0]), np.array([0.0, 0.0, -9.81]), 1e-3
-    xv, xp, x, v = [x0.copy()], [x0.copy()], x0.copy(), v0.copy()
-    for _ in range(100):
-        v = v + g * dt
-        x = x + v * dt
-        xv.append(x.copy())
-    x, v = x0.copy(), v0.copy()
-    for _ in range(100):
-        x = x + v * dt
-        v = v + g * dt
-        xp.append(x.copy())
-    first, second = fr.euler_positions(x0, v0, g, dt, np.arange(101))
-    assert first == pytest.approx(np.array(xv), abs=1e-12)
-    assert second == pytest.approx(np.array(xp), abs=1e-12)
+def _flight(scheme: str, x0, v0, g, dt: float, steps: int, substeps: int = 1):
+    """Free flight stepped by hand by `scheme`: positions at every step (steps + 1 rows)."""
+    x, v, h, out = np.array(x0, float), np.array(v0, float), dt / substeps, [np.array(x0, float)]
+    for _ in range(steps):
+        for _ in range(substeps):
+            if scheme == "velocity_first":     # semi-implicit (symplectic) Euler
+                v = v + g * h
+                x = x + v * h
+            elif scheme == "position_first":   # explicit Euler
+                x = x + v * h
+                v = v + g * h
+            elif scheme == "verlet":           # velocity Verlet
+                x = x + v * h + 0.5 * g * h * h
+                v = v + g * h
+            elif scheme == "rk4":              # classical Runge-Kutta on (x, v)' = (v, g)
+                k1x, k1v = v, g
+                k2x, k2v = v + 0.5 * h * k1v, g
+                k3x, k3v = v + 0.5 * h * k2v, g
+                k4x, k4v = v + h * k3v, g
+                x = x + h / 6.0 * (k1x + 2 * k2x + 2 * k3x + k4x)
+                v = v + h / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v)
+        out.append(x.copy())
+    return np.array(out)
+
+
+FLIGHT = (np.array([0.0, 0.0, 10.0]), np.array([1.0, 0.5, 3.0]), np.array([0.0, 0.0, -9.81]), 1e-3, 1000)
+
+
+@pytest.mark.parametrize("scheme,substeps", [("velocity_first", 1), ("position_first", 1), ("verlet", 1), ("rk4", 1),
+                                             ("velocity_first", 4), ("position_first", 4), ("velocity_first", 64)])
+def test_free_flight_band_accepts_every_consistent_integrator(scheme, substeps):
+    """Euler either way, velocity Verlet, RK4 and sub-stepped Euler (Box2D's 4 sub-steps)
+    all lie in the band x0 + v0 t + g t^2/2 + c g dt t, |c| <= 1/2, to round-off; so does
+    the analytic parabola."""
+    x0, v0, g, dt, n = FLIGHT
+    t = np.arange(n + 1) * dt
+    x = _flight(scheme, x0, v0, g, dt, n, substeps)
+    assert free_flight_error(x, x0, v0, g, t, dt) < 1e-11
+    exact = x0 + v0 * t[:, None] + 0.5 * g * t[:, None] ** 2
+    assert free_flight_error(exact, x0, v0, g, t, dt) < 1e-12
+    # the scheme's c, as the helper's docstring gives it
+    c = {"velocity_first": 0.5, "position_first": -0.5}.get(scheme, 0.0) / substeps
+    assert np.max(np.abs(x - exact - c * g * dt * t[:, None])) < 1e-11
+
+
+@pytest.mark.parametrize("scheme", ["velocity_first", "position_first", "verlet"])
+def test_free_flight_band_rejects_a_wrong_g_or_dt(scheme):
+    """9.80 for 9.81, or a step 1 % longer than the dt the samples are read at, leave a
+    parabola the band cannot take: far above round-off (the old 1e-9 m and the float32
+    bounds of the free-flight checks alike)."""
+    x0, v0, g, dt, n = FLIGHT
+    t = np.arange(n + 1) * dt
+    weak = _flight(scheme, x0, v0, g * 9.80 / 9.81, dt, n)
+    assert free_flight_error(weak, x0, v0, g, t, dt) > 5e-4
+    slow = _flight(scheme, x0, v0, g, 1.01 * dt, n)
+    assert free_flight_error(slow, x0, v0, g, t, dt) > 5e-3
+    # one dimension (the conformance battery's free fall from rest)
+    fall = _flight(scheme, x0[2:], [0.0], g[2:], dt, n)
+    assert free_flight_error(fall, x0[2:], [0.0], g[2:], t, dt) < 1e-11
+    assert free_flight_error(_flight(scheme, x0[2:], [0.0], g[2:] * 9.80 / 9.81, dt, n), x0[2:], [0.0], g[2:], t,
+                             dt) > 5e-4
+    assert free_flight_error(_flight(scheme, x0[2:], [0.0], g[2:], 1.01 * dt, n), x0[2:], [0.0], g[2:], t,
+                             dt) > 5e-4
 
 
 # --- Hertz impact -------------------------------------------------------------------------

@@ -111,6 +111,25 @@ def test_unmodified_wrapper_measures_what_the_engine_measures(engine):
         {key(r): (r["status"], str(r["measured"])) for r in plain}
 
 
+# --- the free-flight checks judge physics, not the integrator ---------------------------------
+
+FREE_FLIGHT = {("conformance", "free_fall_matches_discrete_closed_form,2D"): "discrete_error",
+               ("free_rigid_body", "spin=5,2D"): "com_position_error"}
+
+
+@pytest.mark.parametrize("fault", ["gravity", "time step"])
+@pytest.mark.parametrize("engine", ENGINES)
+def test_the_free_flight_band_still_rejects_a_wrong_g_or_dt(engine, fault):
+    """The free-flight checks accept every consistent integrator (cases.observables
+    free_flight_error), yet 9.80 for 9.81 and a step 1 % long each fail them: both checks
+    pass on the unmodified wrapper and fail under the fault."""
+    for name, expect in ((faults.NONE.name, "pass"), (fault, "fail")):
+        found = {(r["case"], r["variant"], r["metric"]): r for r in rows(engine, name)}
+        for (case, variant), metric in FREE_FLIGHT.items():
+            r = found[(case, variant, metric)]
+            assert r["status"] == expect, f"{name} on {engine}: {case}[{variant}]:{metric} {r['status']}: {r['reason']}"
+
+
 # --- every fault -----------------------------------------------------------------------------
 
 def check_fault(engine: str, fault_name: str, which: str) -> None:

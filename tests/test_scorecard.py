@@ -42,6 +42,21 @@ def test_unsupported_checks_are_not_graded():
     assert card.loc[("e", "restitution"), "within"] == 1 == card.loc[("e", "restitution"), "judged"]
 
 
+def test_integration_order_checks_are_graded_apart_from_the_physics():
+    """A check that measures the integrator (Check.measures = "integrator": free_rigid_body's
+    second-order drift bounds) is graded under "integration order", not under its effect."""
+    from cases import free_rigid_body as fr
+    checks = {c.metric: c.measures for c in fr.expect({"spin": 5.0, "wobble": 2.0, "dim": 3}, fr.DT)}
+    assert checks["energy_drift"] == checks["flip_time"] == "integrator" and checks["com_velocity_error"] == "physics"
+    rows = [{"engine": "e", "case": "free_rigid_body", "metric": m, "status": s, "over_tol": x, "measures": k}
+            for m, s, x, k in (("com_velocity_error", "pass", 0.1, "physics"),
+                               ("energy_drift", "deviation", 1500.0, "integrator"))]
+    card = scorecard.measure(pd.DataFrame(rows)).set_index(["engine", "effect"])
+    assert card.loc[("e", "rotation and inertia"), "grade"] == "A"
+    assert card.loc[("e", scorecard.INTEGRATION), "grade"] == "C"
+    assert card.loc[("e", scorecard.INTEGRATION), "judged"] == 1
+
+
 def test_the_run_report_opens_with_the_scorecard(tmp_path):
     from physval.cli import main
     out = tmp_path / "out"

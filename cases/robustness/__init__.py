@@ -19,7 +19,7 @@ simulated time, hundreds of bodies) live in each family's `FULL_GRID` and are ru
 """
 from __future__ import annotations
 
-from cases.family import Check
+from cases.family import IMPACT_ROUNDINGS, Check, impulse_roundoff
 
 # A body more than this part of its size sideways from where it started, or a whole size
 # below it, has left the structure: settling moves a body sideways by round-off and down
@@ -80,7 +80,10 @@ def stands(duration: float, size: float, dt: float) -> Check:
                  "a whole size down, i.e. the time to collapse")
 
 
-def momentum_conserved(p0: float) -> Check:
+def momentum_conserved(p0: float, impacts: int = 1) -> Check:
+    """Momentum p0 brought in by one body, through `impacts` pair impacts at e <= 1: each pair's
+    m |v| sums to at most 3 p0 (the struck body leaves with at most 2 p0, the striker p0)."""
     return Check("momentum_change", "kg m/s", 0.0, 1e-9 * max(p0, 1.0), "abs",
                  "no external force acts and contact impulses are equal and opposite: momentum is "
-                 "conserved to round-off")
+                 f"conserved to round-off (1e-9 in float64; {IMPACT_ROUNDINGS} roundings of m |v| a sub-step "
+                 f"for each of {impacts} pair impacts at the engine's float width)", impulse_roundoff(3.0 * p0, impacts))

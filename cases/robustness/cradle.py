@@ -79,7 +79,7 @@ def expect(p, dt) -> list[Check]:
               "visible slowing"),
     ]
     if not p["walls"]:
-        checks.append(momentum_conserved(M * V))
+        checks.append(momentum_conserved(M * V, impacts=N_ROW))  # the striker's and the row's contacts
     return checks
 
 

@@ -273,7 +273,7 @@ def execute(job: Job, resolver: Resolver) -> Outcome:
         return Outcome(job, rows_with("error", f"observe() in {where} raised {describe(exc)}", **timing), extra)
     bands_apply = at_recorded_settings(job, family)
     rows = []
-    for c in checks:
+    for c in adapter.capabilities.judged(checks, run.iterations):
         fields = {**base, **timing}
         value = measured.get(c.metric)
         if c.metric not in measured:

@@ -29,7 +29,7 @@ STATUSES = ("pass", "fail", "deviation", "unsupported", "unstable", "error")
 
 COLUMNS = ["case", "variant", "params", "engine", "engine_version", "dt", "iterations", "effects",
            "effects_simulated", "metric", "unit", "expected", "measured", "abs_error", "rel_error",
-           "tolerance", "tolerance_kind", "tolerance_reason", "status", "reason", "known_deviation",
+           "tolerance", "tolerance_kind", "tolerance_reason", "measures", "status", "reason", "known_deviation",
            "band", "wall_s", "sim_s", "steps", "knobs"]
 
 
@@ -104,7 +104,7 @@ def blank_row(case: str, variant, engine: str, check: Check, **fields) -> dict:
     row = {c: "" for c in COLUMNS}
     row.update(case=case, variant=variant.id, params=variant.params_json, engine=engine,
                metric=check.metric, unit=check.unit, expected=check.expected, tolerance=check.tolerance,
-               tolerance_kind=check.kind, tolerance_reason=check.why, measured=math.nan,
+               tolerance_kind=check.kind, tolerance_reason=check.why, measures=check.measures, measured=math.nan,
                abs_error=math.nan, rel_error=math.nan)
     row.update(fields)
     return row

@@ -22,6 +22,7 @@ import pandas as pd
 
 from physval.reportkit import fmt, md_table
 
+INTEGRATION = "integration order"
 # effect -> the (family, metric glob) pairs whose checks test it; a family may test several
 # effects through different metrics (an incline holds a box: static; slides it: kinetic)
 EFFECTS = {
@@ -37,6 +38,9 @@ EFFECTS = {
     "rotation and inertia": (("free_rigid_body", "*"), ("eccentric_impact", "*"), ("edge_landing", "*"),
                              ("tumbling_box", "*"), ("oblique_landing", "*"), ("brick_tumble", "*")),
     "compliant contact": (("hertz_impact", "*"),),
+    # the checks that measure an integrator's order, not physics (Check.measures =
+    # "integrator"): graded here, whatever family they are in, and under no physical effect
+    INTEGRATION: (),
     "stability": (("robustness_*", "*"),),
     "adapter contract": (("conformance", "*"),),
 }
@@ -66,10 +70,17 @@ def measure(df: pd.DataFrame) -> pd.DataFrame:
     judged = df[df.status.isin(JUDGED)]
     rows = []
     effects = {k: effect_of(*k) for k in set(zip(judged.case, judged.metric))}
+    order = (judged.measures == "integrator").to_numpy() if "measures" in judged else np.zeros(len(judged), bool)
     for engine in dict.fromkeys(df.engine):
-        mine = judged[judged.engine == engine]
+        mine_at = (judged.engine == engine).to_numpy()
+        mine = judged[mine_at]
+        integrator = order[mine_at]
         for effect in EFFECTS:
-            part = mine[np.array([effect in effects[(c, m)] for c, m in zip(mine.case, mine.metric)], dtype=bool)]
+            if effect == INTEGRATION:
+                part = mine[integrator]
+            else:
+                part = mine[np.array([effect in effects[(c, m)] for c, m in zip(mine.case, mine.metric)], dtype=bool)
+                            & ~integrator]
             rows.append({"engine": engine, "effect": effect, "grade": grade(part),
                          "within": int((part.status == "pass").sum()), "judged": len(part),
                          "deviations": int((part.status == "deviation").sum()),
@@ -99,7 +110,9 @@ def section(card: pd.DataFrame) -> str:
         "Each cell grades the checks of one physical effect on one engine: **A** every check within its "
         "tolerance; **B** no failure, the known deviations within 10 tolerances; **C** no failure, a known "
         "deviation beyond 10 tolerances; **F** a check failed, blew up or raised; - nothing of it ran. Beside the "
-        "grade: checks within tolerance / checks judged, and the worst error in tolerances. The effects' "
+        "grade: checks within tolerance / checks judged, and the worst error in tolerances. Checks whose "
+        "tolerance is an integration scheme's error bound (a second-order rotation step) measure the "
+        "engine's integrator, not its physics: they are graded under *integration order* only. The effects' "
         "families: " + ", ".join(f"[{f}](families/{f}.md)" for f in families) + " (`physval.readings.scorecard."
         "EFFECTS` says which family and metric tests which effect).", "",
         md_table(table.reset_index()), ""])
