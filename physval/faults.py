@@ -140,10 +140,16 @@ class KineticFriction(_Friction):
 @dataclass(frozen=True)
 class _UncheckedMaterial:
     """The reference world's material record without its mu_k <= mu_s check (the world
-    only reads these three numbers)."""
+    only reads these numbers)."""
     e: float
     mu_s: float
     mu_k: float
+    rolling: float
+    torsion: float
+
+    @property
+    def torques(self) -> bool:
+        return self.rolling > 0.0 or self.torsion > 0.0
 
 
 def _reference_materials(sim, mu_s: float = 1.0, mu_k: float = 1.0) -> None:
@@ -151,7 +157,7 @@ def _reference_materials(sim, mu_s: float = 1.0, mu_k: float = 1.0) -> None:
     world = sim._world
 
     def scaled(m):
-        return _UncheckedMaterial(m.e, m.mu_s * mu_s, m.mu_k * mu_k)
+        return _UncheckedMaterial(m.e, m.mu_s * mu_s, m.mu_k * mu_k, m.rolling, m.torsion)
     world.material = scaled(world.material)
     world.pair_materials = {k: scaled(m) for k, m in world.pair_materials.items()}
 
