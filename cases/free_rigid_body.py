@@ -46,6 +46,13 @@ Those three 3D checks (momentum_drift, energy_drift, flip_time) therefore measur
 engine's rotation integrator, not physics: they carry Check.measures = "integrator", and
 the scorecard grades them under "integration order", apart from rotation and inertia.
 
+The 3D box starts turned off the world axes (Q0: 40 deg about (1, 2, 2)/3), its spin given
+in the world frame as R_0 w_b: every closed form above is frame-free (E, M, T_flip from
+I and w_b; the observer reads L in the world and the body's y axis on it), so the turn
+changes no expected value, while an adapter that reads the scene's angular velocity in
+the body frame, or hands the engine its principal moments in other axes, starts another
+motion and flips at another time. It is the first family to check the start spin's frame.
+
 The 2D variant (a rect in the x-z plane, turning about y only) has no intermediate axis:
 its spin is constant and its centre ballistic.
 """
@@ -78,6 +85,8 @@ GRID = (
 # them with a smaller --dt for sharper ones.
 FULL_GRID = GRID + tuple({"spin": s, "wobble": w, "dim": 3} for s in (5.0, 10.0) for w in (0.2, 1.0))
 DT = 2e-4  # s: see the module docstring (the flip time's conditioning)
+# the 3D box's start orientation (w, x, y, z): 40 deg about the axis (1, 2, 2)/3
+Q0 = (math.cos(math.radians(20.0)), *(math.sin(math.radians(20.0)) * c / 3.0 for c in (1.0, 2.0, 2.0)))
 
 
 def inertia(p) -> np.ndarray:
@@ -159,7 +168,9 @@ def _body(p) -> Body:
     if p["dim"] == 2:
         return Body("box", Rect((HALF[0], HALF[2])), mass=MASS, position=X0, velocity=(V0[0], 0.0, V0[2]),
                     angular_velocity=(0.0, p["spin"], 0.0))
-    return Body("box", Box(HALF), mass=MASS, position=X0, velocity=V0, angular_velocity=tuple(omega0(p)))
+    w_world = rotation_matrix(Q0) @ omega0(p)  # the body-frame spin w_b, turned into the world frame
+    return Body("box", Box(HALF), mass=MASS, position=X0, orientation=Q0, velocity=V0,
+                angular_velocity=tuple(float(c) for c in w_world))
 
 
 def scene(p) -> Scene:

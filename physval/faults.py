@@ -49,6 +49,7 @@ def engine_kind(adapter: Adapter) -> str:
 class Fault:
     """What a fault changes; every hook defaults to "nothing". `kind` is the engine."""
     name = "none"
+    kinds = ENGINES  # the engines the fault has a meaning in (the others are left out of its row)
 
     def scene(self, scene: Scene, kind: str) -> Scene:
         """The scene the engine is given instead of the case's."""
@@ -139,10 +140,16 @@ class KineticFriction(_Friction):
 @dataclass(frozen=True)
 class _UncheckedMaterial:
     """The reference world's material record without its mu_k <= mu_s check (the world
-    only reads these three numbers)."""
+    only reads these numbers)."""
     e: float
     mu_s: float
     mu_k: float
+    rolling: float
+    torsion: float
+
+    @property
+    def torques(self) -> bool:
+        return self.rolling > 0.0 or self.torsion > 0.0
 
 
 def _reference_materials(sim, mu_s: float = 1.0, mu_k: float = 1.0) -> None:
@@ -150,7 +157,7 @@ def _reference_materials(sim, mu_s: float = 1.0, mu_k: float = 1.0) -> None:
     world = sim._world
 
     def scaled(m):
-        return _UncheckedMaterial(m.e, m.mu_s * mu_s, m.mu_k * mu_k)
+        return _UncheckedMaterial(m.e, m.mu_s * mu_s, m.mu_k * mu_k, m.rolling, m.torsion)
     world.material = scaled(world.material)
     world.pair_materials = {k: scaled(m) for k, m in world.pair_materials.items()}
 
@@ -295,8 +302,122 @@ class ForceReadout(Fault):
     read_out = 1.05
 
 
+class PairMaterials(Fault):
+    """Pair overrides ignored: every pair gets the scene's default material.
+
+    An adapter that sets each body's coefficients from the scene's material and never
+    reads the pair table (or an engine's combine rule left in force where a pair asked for
+    its own value): a block meant to slide on ice brakes like the rest of the scene."""
+    name = "pair materials"
+
+    def scene(self, scene, kind):
+        return replace(scene, pairs=())
+
+
+class InertiaAxes(Fault):
+    """Principal moments handed to the engine in the wrong body axes: x and z swapped on
+    every box (a box with equal sides, a sphere, a disc or a 2D rect is unchanged).
+
+    An inertia tensor written in another axis order than the engine reads it (z-up
+    against y-up, or a diagonal given in the order of the shape's extents reversed): a
+    flat box then tumbles and lands like a tall one."""
+    name = "inertia axes"
+
+    def scene(self, scene, kind):
+        def body(b):
+            if b.static or not isinstance(b.shape, Box):
+                return b
+            i = b.principal_inertia
+            return replace(b, inertia=(i[2], i[1], i[0]))
+        return replace(scene, bodies=tuple(body(b) for b in scene.bodies))
+
+
+def _rotate(q, v):
+    """v turned by the unit quaternion q = (w, x, y, z)."""
+    w, x, y, z = q
+    u = np.array((x, y, z))
+    v = np.asarray(v, dtype=float)
+    return tuple(float(c) for c in v + 2.0 * np.cross(u, np.cross(u, v) + w * v))
+
+
+class AngularVelocityFrame(Fault):
+    """Start angular velocity read in the body frame where the scene gives it in the
+    world frame (the two agree for a body that starts unrotated).
+
+    The most common slip of an adapter: MuJoCo's free joint and Bullet's base velocity
+    take different frames; a tilted box launched spinning about the vertical instead
+    spins about its own tilted axis, and lands with the wrong spin at the contact."""
+    name = "angular velocity frame"
+
+    def scene(self, scene, kind):
+        def body(b):
+            if b.static or not any(b.angular_velocity):
+                return b
+            return replace(b, angular_velocity=_rotate(b.orientation, b.angular_velocity))
+        return replace(scene, bodies=tuple(body(b) for b in scene.bodies))
+
+
+class RestitutionThreshold(Fault):
+    """Restitution switched off below an approach speed of 0.2 m/s: a slow contact
+    closes plastically (e = 0) whatever the pair's e.
+
+    Bullet's default restitutionVelocityThreshold (0.2 m/s), which the adapter switches
+    off; other engines ship the same with other numbers (Box2D's restitution threshold,
+    1 m/s). PyBullet: the parameter set back. The reference: its solver targets
+    v_n+ = 0 instead of -e v_n- on contacts approaching slower than the threshold. MuJoCo
+    has no restitution coefficient (its bounce is the contact's spring-damper): no
+    such threshold can be planted there."""
+    name = "restitution threshold"
+    speed = 0.2  # m/s
+    kinds = ("reference", "pybullet")
+
+    def plant(self, sim, scene, kind):
+        if kind == "pybullet":
+            from adapters.pybullet_engine import p
+            p.setPhysicsEngineParameter(restitutionVelocityThreshold=self.speed, physicsClientId=sim._client)
+        elif kind == "reference":
+            sim._world.solver = _ThresholdSolver(sim._world.solver, self.speed)
+        return sim
+
+
+class _ThresholdSolver:
+    """The reference's solver with each slow approaching contact's restitution target
+    (contact.normal_target: -e vn0) replaced by 0."""
+
+    def __init__(self, module, speed: float):
+        self._module, self._speed = module, speed
+
+    def __getattr__(self, name):
+        return getattr(self._module, name)
+
+    def solve(self, contacts, bodies, dt, config):
+        for c in contacts:
+            if c.target is not None and -self._speed < c.vn0 < 0.0 and c.target > 0.0:
+                c.target = 0.0
+        return self._module.solve(contacts, bodies, dt, config)
+
+
+class ContactTorques(Fault):
+    """Contact torques nobody asked for on every frictional pair: a torsional friction of
+    5 mm and a rolling resistance of 0.1 mm (lever arms of the normal force).
+
+    MuJoCo's own defaults (geom friction "1 0.005 0.0001") brought in by condim 6 where
+    the scene asked for sliding friction only: a ball rolling at 1 m/s loses 7 mm/s each
+    second, a spinning one stops."""
+    name = "contact torques"
+    torsional, rolling = 5e-3, 1e-4  # m
+
+    def scene(self, scene, kind):
+        def torques(m):
+            if not m.frictional or m.rolling_resistance or m.torsional_friction:
+                return m
+            return replace(m, torsional_friction=self.torsional, rolling_resistance=self.rolling)
+        return _scale_materials(scene, torques)
+
+
 FAULTS: tuple[Fault, ...] = (Restitution(), StaticFriction(), KineticFriction(), Gravity(), TimeStep(), Inertia(),
-                             FrictionCone(), Damping(), ForceReadout())
+                             FrictionCone(), Damping(), ForceReadout(), PairMaterials(), InertiaAxes(),
+                             AngularVelocityFrame(), RestitutionThreshold(), ContactTorques())
 NONE = NoFault()
 
 

@@ -232,11 +232,13 @@ def fault_matrix(engines: list[str], ctx: Context, progress: bool = True,
     out = []
     for engine in engines:
         try:
-            faults.engine_kind(resolver.adapter(engine))
+            kind = faults.engine_kind(resolver.adapter(engine))
         except Exception:
             continue  # not installed, or no faults written for it
         jobs = faults.jobs_of(families, engine)
         for fault in (faults.NONE, *faults.FAULTS):
+            if kind not in fault.kinds:
+                continue  # no meaning there (e.g. a restitution threshold in MuJoCo, which has no e)
             if progress:
                 print(f"physval bench: faults: {engine}, {fault.name}", file=sys.stderr)
             rows = faults.verdicts(engine, fault, jobs)
