@@ -269,6 +269,8 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
                       "unsupported.md": "\n".join(["# Unsupported runs", ""] + unsupported_section(df)[2:])},
                 {f"{name}.md": text for name, text in family_pages.items()})
     write_atomic(out / "report.md", "\n".join(head + [contents(sections)] + sections))
+    from physval.readings import site
+    site.write(out, df, families, command)
 
 
 def write_pages(out: Path, pages: dict[str, str], family_pages: dict[str, str]) -> None:
