@@ -6,6 +6,7 @@ filter narrows a table and a heading sorts it, and the index is photographed. Wi
 without a browser."""
 from __future__ import annotations
 
+import shutil
 import time
 from html.parser import HTMLParser
 from pathlib import Path
@@ -65,6 +66,20 @@ def test_every_page_links_only_files_beside_it(site):
             assert target.is_file(), f"{page.name}: {link}"
             if anchor:
                 assert f'id="{anchor}"' in target.read_text(), f"{page.name}: {link}"
+
+
+def test_the_site_rebuilds_from_the_results_csv(site, tmp_path):
+    """`python3 -m physval.readings.site FOLDER` draws the same family and engine pages from
+    results.csv and knobs.json alone (the index differs only in its command and date)."""
+    from physval.readings.site import rebuild
+    copy = tmp_path / "copy"
+    shutil.copytree(site, copy)
+    for page in (copy / "html").rglob("*.html"):
+        page.unlink()
+    rebuild(copy)
+    for page in (site / "html").rglob("*.html"):
+        assert (copy / page.relative_to(site)).read_text() == page.read_text(), page.name
+    assert "Scorecard" in (copy / "report.html").read_text()
 
 
 def _browser(tmp_path):

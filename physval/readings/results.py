@@ -199,7 +199,8 @@ def unsupported_counts(df: pd.DataFrame) -> list[str]:
 def settings_section(df: pd.DataFrame) -> tuple[list[str], list[str]]:
     """(the report's pointer; the page knobs.md: the knobs each adapter set)."""
     intro = ("The knobs each adapter set (engine's own names), from one run per engine; every run's "
-             "record is in the `knobs` column of `results.csv`.")
+             "record is in `knobs.json` (each engine's distinct records once), named by the `knobs` column of "
+             "`results.csv`.")
     page = ["# Engine settings", "", intro, ""]
     for eng, grp in df[df.knobs != ""].groupby("engine", sort=False):
         page += [f"## {eng}", "", f"Effects simulated in that run: {grp.iloc[0].effects_simulated}.", "", "```",

@@ -182,9 +182,8 @@ def rebuild(folder: Path) -> Path:
     """report.html of a result folder, from its results.csv (and the built-in families)."""
     from cases.registry import builtin_families
     from physval.core import COLUMNS
-    folder = Path(folder)
-    rows = pd.read_csv(folder / "results.csv", dtype=str, keep_default_na=False).to_dict("records")
-    return write(folder, frame(rows, COLUMNS), builtin_families())
+    from physval.core.store import read_results
+    return write(folder, frame(read_results(folder), COLUMNS), builtin_families())
 
 
 if __name__ == "__main__":
