@@ -180,7 +180,7 @@ def test_an_interrupted_run_keeps_its_rows_leaves_no_process_and_resumes(cases_d
     assert not _alive(family), "no worker survives the interrupt"
     kept = _rows(out)
     assert 2 <= len(kept) < 6 and all(r["status"] == "pass" for rs in kept.values() for r in rs)
-    assert "INCOMPLETE" in (out / "report.md").read_text()
+    assert "INCOMPLETE" in (out / "report.md").read_text() and "INCOMPLETE" in (out / "report.html").read_text()
     assert not [p for p in out.rglob(".*") if p.is_file()], "no temporary file is left"
     # the same command again: the finished jobs are not recomputed
     again = _start(cases_dir, out, nap=0.0)

@@ -240,10 +240,14 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
                    "" if complete else f"the run was interrupted after {runs} of {planned} runs. Finished runs are "
                                         "kept and not recomputed; plots are drawn when it completes.")
     head += [INTRO, "", f"{len(df)} checks from {runs} runs: {status_counts(df)}.", ""]
+    from physval.readings import site
     if not complete:
         body = [md_table(summary_matrix(df)), ""] if len(df) else []
         body += problems_section(df)
         write_atomic(out / "report.md", "\n".join(head + body))
+        if len(df):
+            site.write(out, df, families, command, interrupted=f"the run was interrupted after {runs} of {planned} "
+                                                              "runs; finished runs are kept and not recomputed.")
         return
     plots = out / "plots"
     deviations, deviation_page = deviation_sections(df, list(stale))
@@ -270,7 +274,6 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
                       "unsupported.md": "\n".join(["# Unsupported runs", ""] + unsupported_section(df)[2:])},
                 {f"{name}.md": text for name, text in family_pages.items()})
     write_atomic(out / "report.md", "\n".join(head + [contents(sections)] + sections))
-    from physval.readings import site
     site.write(out, df, families, command)
 
 

@@ -100,13 +100,19 @@ def _pages_in(folder: Path, keep: set[str]) -> None:
             old.unlink()
 
 
-def write(out: Path, df: pd.DataFrame, families: dict, command: str = "") -> Path:
-    """report.html in `out` and its pages in out/html/; returns report.html's path."""
+def write(out: Path, df: pd.DataFrame, families: dict, command: str = "", interrupted: str = "") -> Path:
+    """report.html in `out` and its pages in out/html/; returns report.html's path.
+    `interrupted`: what an interrupted run is missing, said on every page (its plots, drawn
+    when the run completes, are not shown: those in the folder may be an earlier run's)."""
     out = Path(out)
     env = _env()
+    env.globals["interrupted"] = interrupted
     engines = list(dict.fromkeys(df.engine))
     names = sorted(df.case.unique())
-    plots = out / "plots"
+
+    def plot(name: str, root: str) -> str:
+        """The link to plots/<name>.png from a page at `root`, if the run drew it."""
+        return f"{root}plots/{name}.png" if not interrupted and (out / "plots" / f"{name}.png").is_file() else ""
 
     def engine_href(root):
         return lambda e: f"{root}{SITE}/engines/{slug(e)}.html"
@@ -122,7 +128,7 @@ def write(out: Path, df: pd.DataFrame, families: dict, command: str = "") -> Pat
     for title, group in engine_groups(df):
         name = "summary" if title == "Engines" else "summary_formulations"
         matrix = summary_matrix(df[df.engine.isin(group)], group)
-        summaries.append({"title": title, "plot": f"plots/{name}.png" if (plots / f"{name}.png").is_file() else "",
+        summaries.append({"title": title, "plot": plot(name, ""),
                           "table": table(name, matrix, links={"family": family_href("")},
                                          classes={e: _status_class for e in group})})
     index = pd.DataFrame([{"family": n, "what it checks": getattr(families.get(n), "summary", ""),
@@ -149,7 +155,7 @@ def write(out: Path, df: pd.DataFrame, families: dict, command: str = "") -> Pat
             title=name, root=root, summary=summary[:1].upper() + summary[1:] + "." if summary else "",
             source=getattr(fam, "source", ""), effects=mine.iloc[0].effects or "none", counts=status_counts(mine),
             tolerances=table("tolerances", tolerance_reasons(df, name)),
-            plot=f"{root}plots/{slug(name)}.png" if (plots / f"{name}.png").is_file() else "",
+            plot=plot(name, root),
             measured=table("measured", measured, classes={e: _status_class for e in engines}))
 
     for engine in engines:
