@@ -134,9 +134,12 @@ def write(out: Path, df: pd.DataFrame, families: dict, command: str = "", interr
     index = pd.DataFrame([{"family": n, "what it checks": getattr(families.get(n), "summary", ""),
                            "checks": int((df.case == n).sum()), "statuses": status_counts(df[df.case == n])}
                           for n in names])
-    per_engine = pd.DataFrame([{"engine": e, "version": v, "checks": int((df.engine == e).sum()),
-                                "statuses": status_counts(df[df.engine == e])}
-                               for e, v in ((e, engine_versions(df).get(e, "")) for e in engines)])
+    versions, devs = engine_versions(df), df[df.status == "deviation"]
+    per_engine = pd.DataFrame([{"engine": e, "version": versions.get(e, ""), "checks": int((df.engine == e).sum()),
+                                "statuses": status_counts(df[df.engine == e]),
+                                "deviation causes": devs[devs.engine == e].known_deviation.nunique(),
+                                "worst deviation (tol)": devs[devs.engine == e].over_tol.max()}
+                               for e in engines])
     pages = {out / "report.html": env.get_template("index.html").render(
         title="physval report", root="", command=command, intro=INTRO, counts=counts,
         scorecard_legend=SCORECARD_LEGEND, summary_legend=SUMMARY_LEGEND,
