@@ -180,7 +180,7 @@ def test_an_interrupted_run_keeps_its_rows_leaves_no_process_and_resumes(cases_d
     assert not _alive(family), "no worker survives the interrupt"
     kept = _rows(out)
     assert 2 <= len(kept) < 6 and all(r["status"] == "pass" for rs in kept.values() for r in rs)
-    assert "INCOMPLETE" in (out / "report.md").read_text()
+    assert "INCOMPLETE" in (out / "report.md").read_text() and "INCOMPLETE" in (out / "report.html").read_text()
     assert not [p for p in out.rglob(".*") if p.is_file()], "no temporary file is left"
     # the same command again: the finished jobs are not recomputed
     again = _start(cases_dir, out, nap=0.0)
@@ -312,3 +312,31 @@ def test_a_full_disk_is_one_line_keeps_the_finished_rows_and_the_same_command_re
     assert "(2 runs now, 2 reused" in capsys.readouterr().out
     rows = list(csv.DictReader(open(out / "results.csv")))
     assert len({r["variant"] for r in rows}) == 4 and {r["status"] for r in rows} == {"pass"}
+
+
+def test_knobs_are_kept_once_per_engine_in_knobs_json_and_read_back_whole(tmp_path):
+    """The finished results.csv names each row's knob record; knobs.json holds each engine's
+    distinct records once; a resumed store and read_results give every row its record back,
+    character for character; without knobs.json the jobs that need it run again."""
+    import json
+    from physval.core.store import KNOBS_FILE, RowStore, read_results
+    from physval.core.verdicts import COLUMNS
+    knobs = {"a": json.dumps({"beta": 0.2, "material": {"e": 0.5}, "x": 1e-05}, sort_keys=True),
+             "b": json.dumps({"beta": 0.2, "material": {"e": 0.9}, "x": float("nan")}, sort_keys=True)}
+    store = RowStore(tmp_path / "results.csv", COLUMNS, knobs_file=tmp_path / KNOBS_FILE)
+    for job, knob in (("j1", "a"), ("j2", "a"), ("j3", "b")):
+        store.append(job, [{"case": "c", "variant": job, "engine": "e", "metric": m, "status": "pass",
+                            "knobs": knobs[knob]} for m in ("m1", "m2")], "k")
+    written = store.finalize(["j1", "j2", "j3"])
+    assert [r["knobs"] for r in written] == [knobs[k] for k in "aaaabb"]  # the report's rows: whole
+    with open(tmp_path / "results.csv", newline="") as fh:
+        named = [r["knobs"] for r in csv.DictReader(fh)]
+    assert len(set(named)) == 2 and all(len(n) == 12 for n in named)
+    assert set(json.loads((tmp_path / KNOBS_FILE).read_text())["e"]) == set(named)
+    assert [r["knobs"] for r in read_results(tmp_path)] == [knobs[k] for k in "aaaabb"]
+    again = RowStore(tmp_path / "results.csv", COLUMNS, knobs_file=tmp_path / KNOBS_FILE)
+    assert again.load(lambda row: "k") == 3
+    assert [r["knobs"] for rows in again.rows.values() for r in rows] == [knobs[k] for k in "aaaabb"]
+    (tmp_path / KNOBS_FILE).unlink()
+    lost = RowStore(tmp_path / "results.csv", COLUMNS, knobs_file=tmp_path / KNOBS_FILE)
+    assert lost.load(lambda row: "k") == 0  # a record it cannot find: the job runs again

@@ -21,6 +21,7 @@ from pathlib import Path
 import pytest
 
 from physval.core import deviations
+from physval.core.store import read_results
 from physval.core.executor import START_METHODS
 
 pytest.importorskip("mujoco", reason="the example plug-in wraps MuJoCo")
@@ -165,7 +166,7 @@ def test_adapters_named_ad_hoc_run_under_spawn(tmp_path):
     out = tmp_path / "out"
     physval("run", *adhoc, "--cases", CASE, "--engines", ENGINE, "mujoco-stiff", "--workers", "1",
             "--start-method", "spawn", "--quiet", "--out", str(out), path=[EXAMPLE])
-    found = rows(out / "results.csv")
+    found = read_results(out)  # each row's knobs from knobs.json
     assert_judged_by_its_own_file(found)
     stiff = [r for r in found if r["engine"] == "mujoco-stiff"]
     assert stiff and {r["status"] for r in stiff} <= {"pass", "fail"}  # no deviation file of its own

@@ -215,8 +215,9 @@ def test_stress_writes_results_report_and_sections(tmp_path, capsys):
     df = pd.read_csv(tmp_path / "stress_results.csv")
     assert list(df.columns) == COLUMNS and set(df.status) == {"pass"}
     report = (tmp_path / "stress_report.md").read_text()
-    for heading in ("## Summary", "## Cost per scene", "## Stability", "## Determinism"):
+    for heading in ("## Scorecard", "## Summary", "## Cost per scene", "## Stability", "## Determinism"):
         assert heading in report
+    assert report.index("## Scorecard") < report.index("## Summary")  # one screen before the detail
     assert "no stability map in this run" in report
     assert "wrote" in capsys.readouterr().out
 

@@ -126,6 +126,7 @@ def test_the_report_answers_in_a_sentence_per_case(tmp_path):
     write_report(rows, FAMS, tmp_path)
     md = (tmp_path / "sweep_report.md").read_text()
     assert "to reach the case's tolerances it needs dt <=" in md
+    assert md.index("## Summary") < md.index("## Answers")  # one screen before the detail
     assert (tmp_path / "plots" / "cost_central_impact_e_0.5_m_1_3.png").exists()
     assert len(point_table(pd.DataFrame(rows), FAMS)) == 3
 

@@ -14,7 +14,7 @@ import time
 from physval.commands import options
 from physval.core import COLUMNS, run_jobs
 from physval.core.plan import plan
-from physval.core.store import RowStore, cache_keys
+from physval.core.store import KNOBS_FILE, RowStore, cache_keys
 
 READINGS = ("effective", "laws")
 
@@ -102,7 +102,7 @@ def run(args) -> int:
         from physval.core.trajectories import with_saving
         jobs = [with_saving(j, traj_dir) for j in jobs]
     keys = cache_keys(ctx, engines)
-    store = RowStore(out / "results.csv", COLUMNS)
+    store = RowStore(out / "results.csv", COLUMNS, knobs_file=out / KNOBS_FILE)
     reused = store.load(lambda row: keys.get(row["engine"], ""))
     say = options.teller(args)
     todo = sum(j.key not in store.rows for j in jobs)
@@ -145,7 +145,7 @@ def run(args) -> int:
     total = time.monotonic() - started
     print(f"{len(df)} checks: {status_counts(df)} ({res.ran} runs now, {res.reused} reused; {total:.1f} s, "
           f"of which {t_jobs:.1f} s ({t_jobs / total:.0%}) in the selected runs)")
-    print(f"wrote {out / 'results.csv'}, {out / 'report.md'}, {out / 'plots'}/")
+    print(f"wrote {out / 'results.csv'}, {out / KNOBS_FILE}, {out / 'report.md'}, {out / 'report.html'}, {out / 'plots'}/")
     from physval.readings import junit as junit_report
     if junit is not None:
         print(f"wrote {junit_report.write(rows, junit)}")

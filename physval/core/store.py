@@ -14,6 +14,7 @@ from __future__ import annotations
 import csv
 import hashlib
 import io
+import json
 import os
 import sys
 from collections import defaultdict
@@ -26,6 +27,53 @@ STORE_COLUMNS = ["job", "job_rows", "cache_key"]
 # default limit would make a store this module wrote unreadable
 csv.field_size_limit(2**31 - 1)
 PACKAGES = ("physval", "cases", "adapters", "reference_impl")
+
+
+KNOBS_COLUMN = "knobs"
+
+
+def knob_ref(text: str) -> str:
+    """The name a knob record goes by in knobs.json: 12 hex digits of its SHA-256."""
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def read_knobs(path: Path) -> dict[str, dict[str, str]]:
+    """knobs.json as {engine: {ref: the record's JSON text, as the row carried it}}; {} if absent."""
+    path = Path(path)
+    if not path.is_file():
+        return {}
+    return {engine: {ref: json.dumps(knobs, sort_keys=True) for ref, knobs in records.items()}
+            for engine, records in json.loads(path.read_text()).items()}
+
+
+def expand_knobs(rows: list[dict], knobs: dict[str, dict[str, str]]) -> list[dict]:
+    """Rows whose knobs column names a knobs.json record, with the record in its place
+    (rows that carry their knobs inline, as a store written before knobs.json did, unchanged).
+    A name knobs.json lacks stays as it is (KeyError-free: `unresolved` finds them)."""
+    for r in rows:
+        text = r.get(KNOBS_COLUMN) or ""
+        if text and not text.startswith("{"):
+            r[KNOBS_COLUMN] = knobs.get(r["engine"], {}).get(text, text)
+    return rows
+
+
+def unresolved(row: dict) -> bool:
+    text = row.get(KNOBS_COLUMN) or ""
+    return bool(text) and not text.startswith("{")
+
+
+def read_results(path) -> list[dict]:
+    """The rows of a results.csv (or of the result folder holding one) as dicts of strings,
+    each row's knobs read from knobs.json beside it."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "results.csv"
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    return expand_knobs(rows, read_knobs(path.with_name(KNOBS_FILE)))
+
+
+KNOBS_FILE = "knobs.json"
 
 
 class StoreError(ValueError):
@@ -54,11 +102,19 @@ def digest(files) -> str:
 
 
 class RowStore:
-    """Rows of finished jobs in `path`, with `columns` (plus STORE_COLUMNS)."""
+    """Rows of finished jobs in `path`, with `columns` (plus STORE_COLUMNS).
 
-    def __init__(self, path: Path, columns: list[str]):
+    `knobs_file`: where each engine's knob records are kept once (knobs.json). Rows stream
+    to `path` with their knobs inline (one JSON object a row, ~1.3 KB: two thirds of a
+    default run's 24 MB); the finished file (finalize, load) names each record instead (12
+    hex digits) and knobs.json holds every distinct record once per engine, written before
+    the CSV that names them. load() reads both forms back with the records inline; a job
+    whose record knobs.json lacks is run again."""
+
+    def __init__(self, path: Path, columns: list[str], knobs_file: Path | None = None):
         self.path = Path(path)
         self.columns = list(columns) + [c for c in STORE_COLUMNS if c not in columns]
+        self.knobs_file = Path(knobs_file) if knobs_file is not None else None
         self.rows: dict[str, list[dict]] = {}   # job key -> rows, complete jobs only
         self._check()
 
@@ -82,11 +138,12 @@ class RowStore:
         if not text.endswith("\n"):  # a write cut short by a kill: drop the tail
             text = text[:text.rfind("\n") + 1]
         by_job = defaultdict(list)
-        for r in csv.DictReader(io.StringIO(text)):
+        records = read_knobs(self.knobs_file) if self.knobs_file is not None else {}
+        for r in expand_knobs(list(csv.DictReader(io.StringIO(text))), records):
             by_job[r["job"]].append(r)
         for key, rows in by_job.items():
             try:
-                whole = len(rows) == int(rows[0]["job_rows"])
+                whole = len(rows) == int(rows[0]["job_rows"]) and not any(unresolved(r) for r in rows)
             except ValueError:
                 whole = False
             if whole and rows[0]["cache_key"] == cache_key_of(rows[0]):
@@ -118,11 +175,32 @@ class RowStore:
         return rows
 
     def _write(self, rows: list[dict]) -> None:
+        if self.knobs_file is not None and KNOBS_COLUMN in self.columns:
+            rows = self._name_knobs(rows)
         buf = io.StringIO()
         writer = csv.DictWriter(buf, self.columns, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
         write_atomic(self.path, buf.getvalue())
+
+    def _name_knobs(self, rows: list[dict]) -> list[dict]:
+        """Write knobs.json (every distinct record once per engine, one line each) and
+        return the rows with each record's name in its place."""
+        records: dict[str, dict[str, str]] = {}
+        named = []
+        for r in rows:
+            text = r.get(KNOBS_COLUMN) or ""
+            if text.startswith("{"):
+                ref = knob_ref(text)
+                records.setdefault(r["engine"], {})[ref] = text
+                r = {**r, KNOBS_COLUMN: ref}
+            named.append(r)
+        lines = []
+        for engine in sorted(records):
+            inner = ",\n".join(f"  {json.dumps(ref)}: {text}" for ref, text in sorted(records[engine].items()))
+            lines.append(f" {json.dumps(engine)}: {{\n{inner}\n }}")
+        write_atomic(self.knobs_file, "{\n" + ",\n".join(lines) + "\n}\n")
+        return named
 
 
 def cache_keys(ctx, engines: list[str]) -> dict[str, str]:

@@ -199,7 +199,8 @@ def unsupported_counts(df: pd.DataFrame) -> list[str]:
 def settings_section(df: pd.DataFrame) -> tuple[list[str], list[str]]:
     """(the report's pointer; the page knobs.md: the knobs each adapter set)."""
     intro = ("The knobs each adapter set (engine's own names), from one run per engine; every run's "
-             "record is in the `knobs` column of `results.csv`.")
+             "record is in `knobs.json` (each engine's distinct records once), named by the `knobs` column of "
+             "`results.csv`.")
     page = ["# Engine settings", "", intro, ""]
     for eng, grp in df[df.knobs != ""].groupby("engine", sort=False):
         page += [f"## {eng}", "", f"Effects simulated in that run: {grp.iloc[0].effects_simulated}.", "", "```",
@@ -239,10 +240,14 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
                    "" if complete else f"the run was interrupted after {runs} of {planned} runs. Finished runs are "
                                         "kept and not recomputed; plots are drawn when it completes.")
     head += [INTRO, "", f"{len(df)} checks from {runs} runs: {status_counts(df)}.", ""]
+    from physval.readings import site
     if not complete:
         body = [md_table(summary_matrix(df)), ""] if len(df) else []
         body += problems_section(df)
         write_atomic(out / "report.md", "\n".join(head + body))
+        if len(df):
+            site.write(out, df, families, command, interrupted=f"the run was interrupted after {runs} of {planned} "
+                                                              "runs; finished runs are kept and not recomputed.")
         return
     plots = out / "plots"
     deviations, deviation_page = deviation_sections(df, list(stale))
@@ -269,6 +274,7 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
                       "unsupported.md": "\n".join(["# Unsupported runs", ""] + unsupported_section(df)[2:])},
                 {f"{name}.md": text for name, text in family_pages.items()})
     write_atomic(out / "report.md", "\n".join(head + [contents(sections)] + sections))
+    site.write(out, df, families, command)
 
 
 def write_pages(out: Path, pages: dict[str, str], family_pages: dict[str, str]) -> None:

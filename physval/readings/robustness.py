@@ -27,6 +27,7 @@ from cases.robustness import COLLAPSE_FRACTION
 from physval.core import COLUMNS, Job, Probe, simulate
 from physval.core.session import Execution, run_stored
 from physval.core.selection import select_variants
+from physval.readings import scorecard
 from physval.reportkit import (deviation_summary, heading, environment, engine_versions, fmt, frame, md_table,
                                problems_section, pyplot, save_figure, status_counts, summary_matrix,
                                unsupported_section, write_atomic)
@@ -291,7 +292,7 @@ def write_stress_report(rows: list[dict], smap, det, out: Path, command: str = "
               "`unstable`), energy never rises, bounded overlap and drift, momentum kept where no external "
               "force acts, and the time a structure stands (its time to collapse). Each family's docstring says "
               "why its scenes are hard; every tolerance's reason is in `stress_results.csv`.", "",
-              "## Summary", "", md_table(summary_matrix(df)), ""]
+              scorecard.by_family(df), "## Summary", "", md_table(summary_matrix(df)), ""]
     lines += ["## Known deviations", "",
               md_table(deviation_summary(df)) if (df.status == "deviation").any() else "_(none in this run)_", ""]
     lines += problems_section(df) + unsupported_section(df)

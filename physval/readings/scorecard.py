@@ -116,3 +116,30 @@ def section(card: pd.DataFrame) -> str:
         "families: " + ", ".join(f"[{f}](families/{f}.md)" for f in families) + " (`physval.readings.scorecard."
         "EFFECTS` says which family and metric tests which effect).", "",
         md_table(table.reset_index()), ""])
+
+
+def by_family(df: pd.DataFrame) -> str:
+    """A scorecard of families rather than effects (engines as rows, each family a column,
+    graded as above): the one-screen opening of a report whose families all test one effect
+    (stress: every robustness family tests stability)."""
+    judged = df[df.status.isin(JUDGED)]
+    if not len(judged):
+        return ""
+    families = sorted(judged.case.unique())
+    rows = []
+    for engine in dict.fromkeys(df.engine):
+        mine = judged[judged.engine == engine]
+        line = {"engine": engine}
+        for fam in families:
+            part = mine[mine.case == fam]
+            g = grade(part)
+            line[fam] = "-" if g == "-" else f"**{g}** {int((part.status == 'pass').sum())}/{len(part)}" + (
+                f", worst {fmt(part.over_tol.max())} tol" if g != "A" else "")
+        rows.append(line)
+    return "\n".join([
+        "## Scorecard", "",
+        "Each cell grades one family's checks on one engine: **A** every check within its tolerance; **B** no "
+        "failure, the known deviations within 10 tolerances; **C** no failure, a known deviation beyond 10 "
+        "tolerances; **F** a check failed, blew up or raised; - nothing of it ran. Beside the grade: checks within "
+        "tolerance / checks judged, and the worst error in tolerances.", "",
+        md_table(pd.DataFrame(rows)), ""])

@@ -184,6 +184,25 @@ def summary(points: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(out)
 
 
+def _reached(s) -> str:
+    """A summary cell: the cheapest dt (and its cost) that reaches the tolerances, else how
+    close the best point came."""
+    if isinstance(s.get("reach_dt"), float) and math.isfinite(s.reach_dt):
+        its = "" if s.reach_iterations == "default" else f", {s.reach_iterations} it."
+        return f"dt <= {s.reach_dt:.3g} s{its}: {s.reach_cost_us_per_sim_s:,.0f} us"
+    if math.isfinite(s.best_over_tol):
+        return f"never; best {s.best_over_tol:.3g} tol"
+    return "no point completed"
+
+
+def summary_table(summ: pd.DataFrame) -> pd.DataFrame:
+    """Engines as rows, case variants as columns: the one-screen opening of the report."""
+    cells = summ.assign(where=summ.case + "[" + summ.variant + "]", cell=[_reached(s) for _, s in summ.iterrows()])
+    table = cells.pivot(index="engine", columns="where", values="cell")
+    table = table.loc[list(dict.fromkeys(summ.engine)), list(dict.fromkeys(cells["where"]))].fillna("-")
+    return table.reset_index()
+
+
 def sentence(s) -> str:
     what = f"`{s.case}[{s.variant}]` on **{s.engine}**"
     if isinstance(s.get("reach_dt"), float) and math.isfinite(s.reach_dt):
@@ -270,8 +289,13 @@ def write_report(rows: list[dict], fams: dict, out: Path, command: str = "", com
               f"{pts.engine.nunique() if len(pts) else 0} engines. "
               "Cost is wall time of stepping only per simulated second (construction and a warm-up excluded, "
               "minimum over repeats). Error is each point's worst check in units of its tolerance at the "
-              "family's default dt; every check's own error is in `sweep.csv`.", "", "## Answers", ""]
-    lines += [sentence(s) for _, s in summ.iterrows()] + [""]
+              "family's default dt; every check's own error is in `sweep.csv`.", ""]
+    if len(summ):
+        lines += ["## Summary", "", "Each cell: the cheapest time step (and iterations, where not the default) "
+                  "whose every check is within its tolerance, and its cost in microseconds of wall time per "
+                  "simulated second; `never`: no setting reached the tolerances, and how close the best came.", "",
+                  md_table(summary_table(summ)), ""]
+    lines += ["## Answers", ""] + [sentence(s) for _, s in summ.iterrows()] + [""]
     for (case, variant), grp in (pts.groupby(["case", "variant"], sort=False) if len(pts) and complete else []):
         slug = re.sub(r"[^A-Za-z0-9._-]+", "_", f"{case}_{variant}").strip("_")
         lines += [f"## {case}[{variant}]", ""]

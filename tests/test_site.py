@@ -1,0 +1,146 @@
+"""report.html, the run's report as a static site, opened in a real browser: Debian's
+Chromium driven by Selenium through its chromedriver, headless, from file:// URLs (no
+server, no network). Every page loads without a console error, every link resolves, a
+filter narrows a table and a heading sorts it, and the index is photographed. Without
+/usr/bin/chromium (or selenium) the browser test skips and says why; the link check runs
+without a browser."""
+from __future__ import annotations
+
+import shutil
+import time
+from html.parser import HTMLParser
+from pathlib import Path
+from urllib.parse import unquote, urlparse
+
+import pytest
+
+from adapters.registry import available
+from physval.cli import main
+
+CHROMIUM, CHROMEDRIVER = Path("/usr/bin/chromium"), Path("/usr/bin/chromedriver")
+# without the background-networking flags Chromium reaches for its update and sync servers,
+# and this closed network refuses the connections (logged as errors, slow to time out)
+FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         "--window-size=1400,1000")
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory) -> Path:
+    """A small run's result folder (report.html and its pages)."""
+    out = tmp_path_factory.mktemp("site") / "out"
+    engines = "reference,mujoco" if available("mujoco") else "reference"
+    assert main(["run", "--cases", "central_impact", "--engines", engines, "--quiet", "--workers", "1",
+                 "--readings", "none", "--out", str(out)]) == 0
+    return out
+
+
+class _Links(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.found = []
+
+    def handle_starttag(self, tag, attrs):
+        attrs = dict(attrs)
+        if tag in ("a", "img") and (attrs.get("href") or attrs.get("src")):
+            self.found.append(attrs.get("href") or attrs.get("src"))
+
+
+def pages(out: Path) -> list[Path]:
+    return [out / "report.html"] + sorted((out / "html").rglob("*.html"))
+
+
+def test_every_page_links_only_files_beside_it(site):
+    """Every href and src is relative and names a file of the folder (no network, no CDN),
+    and the anchor it names exists on that page."""
+    assert {p.relative_to(site).as_posix() for p in pages(site)} >= {
+        "report.html", "html/families/central_impact.html", "html/engines/reference.html"}
+    for page in pages(site):
+        parser = _Links()
+        parser.feed(page.read_text())
+        assert parser.found, page
+        for link in parser.found:
+            assert not urlparse(link).scheme, f"{page.name}: {link}"
+            path, _, anchor = link.partition("#")
+            target = (page.parent / path).resolve() if path else page
+            assert target.is_file(), f"{page.name}: {link}"
+            if anchor:
+                assert f'id="{anchor}"' in target.read_text(), f"{page.name}: {link}"
+
+
+def test_the_site_rebuilds_from_the_results_csv(site, tmp_path):
+    """`python3 -m physval.readings.site FOLDER` draws the same family and engine pages from
+    results.csv and knobs.json alone (the index differs only in its command and date)."""
+    from physval.readings.site import rebuild
+    copy = tmp_path / "copy"
+    shutil.copytree(site, copy)
+    for page in (copy / "html").rglob("*.html"):
+        page.unlink()
+    rebuild(copy)
+    for page in (site / "html").rglob("*.html"):
+        assert (copy / page.relative_to(site)).read_text() == page.read_text(), page.name
+    assert "Scorecard" in (copy / "report.html").read_text()
+
+
+def _browser(tmp_path):
+    if not CHROMIUM.is_file() or not CHROMEDRIVER.is_file():
+        pytest.skip(f"no browser: {CHROMIUM} and {CHROMEDRIVER} come with `apt-get install chromium chromium-driver`")
+    webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is in the test extra")
+    from selenium.webdriver.chrome.service import Service
+    options = webdriver.ChromeOptions()
+    options.binary_location = str(CHROMIUM)
+    for flag in FLAGS + (f"--user-data-dir={tmp_path / 'profile'}",):
+        options.add_argument(flag)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    return webdriver.Chrome(service=Service(str(CHROMEDRIVER)), options=options)
+
+
+def test_the_site_in_a_browser(site, tmp_path):
+    from selenium.webdriver.common.by import By
+    started = time.monotonic()
+    driver = _browser(tmp_path)
+    try:
+        for page in pages(site):
+            driver.get(page.as_uri())
+            assert driver.title.endswith("- physval"), page
+            errors = [e["message"] for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+            assert not errors, f"{page.name}: {errors}"
+            for a in driver.find_elements(By.CSS_SELECTOR, "a[href], img[src]"):
+                url = a.get_attribute("href") or a.get_attribute("src")
+                assert url.startswith("file://"), f"{page.name}: {url}"
+                assert Path(unquote(urlparse(url).path)).is_file(), f"{page.name}: {url}"
+            for img in driver.find_elements(By.TAG_NAME, "img"):
+                assert driver.execute_script("return arguments[0].naturalWidth", img) > 0, img.get_attribute("src")
+
+        driver.get((site / "html" / "families" / "central_impact.html").as_uri())
+        rows = driver.find_elements(By.CSS_SELECTOR, "#t-measured tbody tr")
+        box = driver.find_element(By.CSS_SELECTOR, "input.filter[data-table=t-measured]")
+        box.send_keys("energy_lost")
+        shown = [r for r in rows if r.is_displayed()]
+        assert 0 < len(shown) < len(rows) and all("energy_lost" in r.text for r in shown)
+        assert driver.find_element(By.ID, "t-measured-count").text == f"{len(shown)} of {len(rows)} rows"
+        box.clear()
+        box.send_keys(" ")  # an empty filter shows every row again
+        assert all(r.is_displayed() for r in rows)
+
+        heading = driver.find_elements(By.CSS_SELECTOR, "#t-measured thead th")[0]  # variant
+        heading.click()
+        heading.click()  # descending
+        variants = [r.find_elements(By.TAG_NAME, "td")[0].text
+                    for r in driver.find_elements(By.CSS_SELECTOR, "#t-measured tbody tr")]
+        assert variants == sorted(variants, reverse=True)
+        assert not [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]  # the scripts ran clean
+
+        driver.get((site / "report.html").as_uri())
+        assert driver.find_element(By.ID, "scorecard").is_displayed()
+        shot = tmp_path / "index.png"
+        assert driver.save_screenshot(str(shot)) and shot.stat().st_size > 10_000
+    finally:
+        driver.quit()
+    print(f"browser test: {len(pages(site))} pages in {time.monotonic() - started:.1f} s")
+
+
+def test_chromium_is_found_where_ci_installs_it():
+    """.ci/run installs Debian's chromium before the test command, so CI runs the browser test."""
+    ci = (Path(__file__).resolve().parent.parent / ".ci" / "run").read_text()
+    assert "apt-get install -y chromium chromium-driver" in ci
