@@ -704,7 +704,7 @@ class MuJoCoAdapter(Adapter):
     tunables = {"contact_steps": Tunable(2.0, 50.0, float(CONTACT_STEPS),
                                          "contact duration in time steps (solref time scale n dt)")}
 
-    def __init__(self, contact_steps: float = CONTACT_STEPS, ground: str = "plane", name: str = "mujoco",
+    def __init__(self, contact_steps: float = CONTACT_STEPS, ground: str = "plane", name: str | None = None,
                  defaults=()):
         """contact_steps: n, the contact's duration in steps (the accuracy knob); ground:
         a scene Plane as a MuJoCo plane (the default; its box collisions give every
@@ -712,7 +712,8 @@ class MuJoCoAdapter(Adapter):
         left at MuJoCo's own defaults, "all" for every one (the module notes, "mujoco-defaults")."""
         if ground not in GROUNDS:
             raise ValueError(f"ground = {ground!r}: must be one of {', '.join(GROUNDS)}")
-        self.name = name
+        if name is not None:  # a variant's name (a subclass keeps its own class attribute)
+            self.name = name
         self.contact_steps = contact_steps
         self.ground = ground
         defaults = DEFAULTABLE if defaults == "all" else tuple(defaults)
