@@ -64,6 +64,7 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "pymunk-slop1mm": ("adapters.pymunk_engine", "PymunkAdapter", {"name": "pymunk-slop1mm", "collision_slop": 1e-3}),
     "dart": ("adapters.dart_engine", "DartAdapter", {}),
     "box2d": ("adapters.box2d_engine", "Box2DAdapter", {}),
+    "box3d": ("adapters.box3d_engine", "Box3DAdapter", {}),  # Box3D through robox3d's C API
     "rapier": ("adapters.rapier_engine", "RapierAdapter", {}),
     # Drake's contact models and discrete approximations as variants (adapters/drake_engine.py).
     # The plain name is Drake's own default configuration (MultibodyPlantConfig):
@@ -80,7 +81,7 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
 }
 # The pip extra that installs each built-in engine's package (README, pyproject.toml).
 EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "pymunk": "pymunk", "dart": "dart", "box2d": "box2d",
-          "rapier": "rapier", "drake": "drake"}
+          "box3d": "box3d", "rapier": "rapier", "drake": "drake"}
 
 
 class EngineError(ValueError):
