@@ -31,7 +31,10 @@ constructor argument recorded in `knobs`; the plain "pybullet" keeps the choices
   measured); the box-box detector gives all four corners in the first step. But on the
   box the friction anchors no longer hold a box near the friction limit (creep 0.16-0.45
   mm/s, 0 on the plane) and a disc is found only once 4 mm inside it (no speculative
-  point), so the plane stays the default.
+  point), so the plane stays the default;
+- `solver="dantzig"` / `"pgs"` ("pybullet-dantzig", "pybullet-pgs"): PyBullet's other
+  constraint solvers (`SOLVERS`), the MLCP solver that bounds friction by a square and
+  ignores a Hooke contact's spring (adapters/xfails/pybullet-dantzig.txt, -pgs.txt).
 
 Compliant contact, Hooke's law F = k xi (cases.scene.Compliance "hooke"): changeDynamics
 contactStiffness and contactDamping set btCollisionObject::setContactStiffnessAndDamping;
