@@ -51,7 +51,7 @@ the contacts the solver had in the step). Each pair's impulse P_ab (on a, -P_ab 
 solves sum_pairs(i) +-P = J_i; where the contact graph (all static bodies one node) is a
 forest, as in stacks, chains and single contacts, that split is unique and is the
 engine's. Box2D's contacts include speculative ones up to 2 cm apart; one that would
-close a cycle and is more than ACTING_GAP apart after the step took nothing and is left
+close a cycle and is more than ACTING_GAP (adapters.impulse_split) apart after the step took nothing and is left
 out (a millimetre box's ground contact when it rests on another box). Where a cycle
 remains (a box touching two others that touch each other) only sums are determined (what
 a body takes from all its contacts, what all static bodies give): the least-norm split is
@@ -75,6 +75,7 @@ import pyb2d3 as b2
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.combination import per_body_values
 from adapters.frames import planar_states, state_row
+from adapters.impulse_split import acting_pairs, split_impulses
 from cases.scene import Body, Circle, Plane, Scene, pair_key, quat_about_y
 
 DEFAULT_SUBSTEPS = 4  # Box2D's recommended sub-step count (b2World_Step documentation)
@@ -100,12 +101,6 @@ MAXIMUM_LINEAR_SPEED = 1e4
 # bodies (7.6e-6 m): long enough for every motion of the scenes, short enough for that.
 PLANE_HALF_LENGTH = 100.0  # m
 PLANE_DEPTH = 1.0  # m: deeper than any overlap the scenes make
-# Box2D's contacts include speculative ones, up to 2 cm apart. Where such a pair would close
-# a cycle of the contact graph (a millimetre box's ground contact, the box resting on
-# another), a gap after the step above this marks it as having taken no impulse: resting
-# contacts sit at gaps of -1e-5..0 m (soft contact) and float32 places bodies at 1 km to
-# 6e-5 m; a millimetre box one box up is 1e-3 m from the ground.
-ACTING_GAP = 1e-4  # m
 
 
 class Box2DAdapter(Adapter):
@@ -272,75 +267,6 @@ def contact_gap(A: Body, pose_a, B: Body, pose_b) -> tuple[float, tuple]:
     s_a, (nx, ny) = _max_separation(va, na, vb)
     s_b, n_b = _max_separation(vb, nb, va)
     return (s_a, (-nx, -ny)) if s_a > s_b else (s_b, n_b)
-
-
-def acting_pairs(gaps: dict, dynamic) -> list[tuple[str, str]]:
-    """The touching pairs that take part in the impulse split: every pair of the contact
-    graph's spanning forest grown from the smallest gaps (all static bodies one node), and
-    each pair that would close a cycle unless it is more than ACTING_GAP apart after the
-    step (a speculative contact that took nothing)."""
-    root: dict[str, str] = {}
-
-    def find(x):
-        x = x if x in dynamic else "<static>"
-        while root.setdefault(x, x) != x:
-            root[x] = root[root[x]]
-            x = root[x]
-        return x
-
-    acting = []
-    for key in sorted(gaps, key=gaps.get):
-        ra, rb = find(key[0]), find(key[1])
-        if ra != rb:
-            root[ra] = rb
-            acting.append(key)
-        elif gaps[key] <= ACTING_GAP:
-            acting.append(key)
-    return acting
-
-
-def split_impulses(J: dict, pairs: list) -> tuple[dict, bool]:
-    """Impulses P_ab (on a; -P_ab on b) of the pairs with sum_pairs(i) +-P = J_i for every
-    dynamic body i (J: body -> 2-vector). Leaves of the contact graph first: a body with
-    one pair left gives that pair its remaining impulse. What a cycle leaves is split by
-    least squares (least norm); the flag says whether that happened."""
-    J = {name: list(j) for name, j in J.items()}
-    pairs_of: dict[str, set] = {n: set() for n in J}
-    for pair in pairs:
-        for n in pair:
-            if n in J:
-                pairs_of[n].add(pair)
-    P: dict[tuple[str, str], tuple] = {}
-    leaves = [n for n, ps in pairs_of.items() if len(ps) == 1]
-    while leaves:
-        n = leaves.pop()
-        if len(pairs_of[n]) != 1:
-            continue
-        (pair,) = pairs_of[n]
-        sign = 1.0 if pair[0] == n else -1.0  # P_ab acts on a with +, on b with -
-        p = (sign * J[n][0], sign * J[n][1])
-        P[pair] = p
-        for m, s in ((pair[0], 1.0), (pair[1], -1.0)):
-            if m in J:
-                J[m][0] -= s * p[0]
-                J[m][1] -= s * p[1]
-                pairs_of[m].discard(pair)
-                if len(pairs_of[m]) == 1:
-                    leaves.append(m)
-    left = [pair for pair in pairs if pair not in P]
-    if not left:
-        return P, False
-    names = sorted({n for pair in left for n in pair if n in J})
-    index = {n: i for i, n in enumerate(names)}
-    A = np.zeros((len(names), len(left)))
-    for k, (a, b) in enumerate(left):
-        if a in index:
-            A[index[a], k] = 1.0
-        if b in index:
-            A[index[b], k] = -1.0
-    solution = np.linalg.lstsq(A, np.array([J[n] for n in names]), rcond=None)[0]
-    P.update({pair: tuple(solution[k]) for k, pair in enumerate(left)})
-    return P, True
 
 
 # --- the simulation ------------------------------------------------------------------------

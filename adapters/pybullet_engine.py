@@ -31,7 +31,10 @@ constructor argument recorded in `knobs`; the plain "pybullet" keeps the choices
   measured); the box-box detector gives all four corners in the first step. But on the
   box the friction anchors no longer hold a box near the friction limit (creep 0.16-0.45
   mm/s, 0 on the plane) and a disc is found only once 4 mm inside it (no speculative
-  point), so the plane stays the default.
+  point), so the plane stays the default;
+- `solver="dantzig"` / `"pgs"` ("pybullet-dantzig", "pybullet-pgs"): PyBullet's other
+  constraint solvers (`SOLVERS`), the MLCP solver that bounds friction by a square and
+  ignores a Hooke contact's spring (adapters/xfails/pybullet-dantzig.txt, -pgs.txt).
 
 Compliant contact, Hooke's law F = k xi (cases.scene.Compliance "hooke"): changeDynamics
 contactStiffness and contactDamping set btCollisionObject::setContactStiffnessAndDamping;
@@ -56,6 +59,7 @@ about exp(-pi w h / 2) of the closing speed (0.773 at w h = 0.165), first order 
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import sys
@@ -72,18 +76,25 @@ from cases.scene import Body, Scene, pair_key
 from cases.trajectory import ContactPoint
 
 
+@contextlib.contextmanager
+def _silenced(fd: int):
+    """Hold C-level file descriptor `fd` on /dev/null (pybullet prints from C)."""
+    (sys.stdout if fd == 1 else sys.stderr).flush()
+    saved = os.dup(fd)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), fd)
+            yield
+    finally:
+        os.dup2(saved, fd)
+        os.close(saved)
+
+
 def _import_pybullet():
     """pybullet's module init prints its build time on the C-level stderr: hold fd 2 on
     /dev/null while it loads (an ImportError still propagates)."""
-    sys.stderr.flush()
-    saved = os.dup(2)
-    try:
-        with open(os.devnull, "w") as null:
-            os.dup2(null.fileno(), 2)
-            import pybullet
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
+    with _silenced(2):
+        import pybullet
     return pybullet
 
 
@@ -114,6 +125,18 @@ GEOM_NAMES = {p.GEOM_SPHERE: "GEOM_SPHERE", p.GEOM_BOX: "GEOM_BOX", p.GEOM_PLANE
               p.GEOM_CYLINDER: "GEOM_CYLINDER"}
 
 
+# Constraint solvers (setPhysicsEngineParameter constraintSolverType). "si" is pybullet's
+# own default, btMultiBodyConstraintSolver's sequential impulses; "dantzig" and "pgs" make
+# PhysicsServerCommandProcessor install a btMultiBodyMLCPConstraintSolver around Bullet's
+# btDantzigSolver (a direct pivoting LCP solver) or btSolveProjectedGaussSeidel. The other
+# values the C API names (4 Lemke, 5 NNCG, 6 block PGS) are accepted and ignored by pybullet
+# 3.2.7: a five-box stack, both body models, ends bit for bit where the default leaves it
+# after 2 s (measured), so they are no configuration of their own. "pgs" cannot run 2D
+# scenes: the step in which a contact first acts on a planar joint chain (2D bodies slide
+# and turn on joints, below) leaves NaN in the state, in every 2D scene of the core
+# families (measured), while "dantzig" runs them.
+SOLVERS = {"si": p.CONSTRAINT_SOLVER_LCP_SI, "dantzig": p.CONSTRAINT_SOLVER_LCP_DANTZIG,
+           "pgs": p.CONSTRAINT_SOLVER_LCP_PGS}
 BODY_MODELS = ("auto", "rigid")
 GROUNDS = ("plane", "box")
 
@@ -140,17 +163,21 @@ class PyBulletAdapter(Adapter):
     )
 
     def __init__(self, name: str = "pybullet", bodies: str = "auto", friction_anchor: bool = True,
-                 ground: str = "plane"):
+                 ground: str = "plane", solver: str = "si"):
         """bodies: "auto" (maximal coordinates for frictionless 3D scenes, reduced
         otherwise) or "rigid" (maximal coordinates with warm starting for every scene);
         friction_anchor: frictionAnchor on every frictional contact; ground: a scene
-        Plane as a GEOM_PLANE ("plane") or a large box ("box"). See the module notes."""
+        Plane as a GEOM_PLANE ("plane") or a large box ("box"); solver: the constraint
+        solver (`SOLVERS`). See the module notes."""
         if bodies not in BODY_MODELS:
             raise ValueError(f"bodies = {bodies!r}: must be one of {', '.join(BODY_MODELS)}")
         if ground not in GROUNDS:
             raise ValueError(f"ground = {ground!r}: must be one of {', '.join(GROUNDS)}")
+        if solver not in SOLVERS:
+            raise ValueError(f"solver = {solver!r}: must be one of {', '.join(SOLVERS)}")
         self.name = name
-        self.config = {"bodies": bodies, "friction_anchor": bool(friction_anchor), "ground": ground}
+        self.config = {"bodies": bodies, "friction_anchor": bool(friction_anchor), "ground": ground,
+                       "solver": solver}
         if bodies == "rigid":  # 2D bodies stay in their plane on joints, which need reduced coordinates
             self.capabilities = replace(self.capabilities, dimensions=frozenset({3}))
 
@@ -161,6 +188,9 @@ class PyBulletAdapter(Adapter):
         reason = self.capabilities.cannot_run(scene) or self._spin_without_roll(scene)
         if reason:
             raise Unsupported(reason)
+        if self.config["solver"] == "pgs" and scene.dimension == 2:
+            raise Unsupported("2D scene: pybullet's MLCP projected Gauss-Seidel leaves NaN in the state in the "
+                              "first step a contact acts on the planar joint chain of a 2D body (SOLVERS)")
         return PyBulletSimulation(scene, settings, **self.config)
 
     def _spin_without_roll(self, scene: Scene) -> str | None:
@@ -345,8 +375,9 @@ def _ground_box(plane) -> tuple[list, list, list]:
 
 class PyBulletSimulation(Simulation):
     def __init__(self, scene: Scene, settings: Settings, bodies: str = "auto", friction_anchor: bool = True,
-                 ground: str = "plane"):
+                 ground: str = "plane", solver: str = "si"):
         self._client = p.connect(p.DIRECT)
+        self._solver = solver
         self._rigid = bodies == "rigid"
         self._anchor = friction_anchor
         self._ground = ground
@@ -365,6 +396,9 @@ class PyBulletSimulation(Simulation):
         self._stiffness = _hooke_stiffness(scene)
         warm = WARM_STARTING_FACTOR if self._rigid else PYBULLET_WARM_STARTING_FACTOR
         engine = _solver_parameters(scene, settings, self._maximal, self._stiffness is not None, warm)
+        if self._solver != "si":  # the switch prints two lines from C on stdout
+            with _silenced(1):
+                p.setPhysicsEngineParameter(constraintSolverType=SOLVERS[self._solver], physicsClientId=c)
         p.setPhysicsEngineParameter(physicsClientId=c, **engine)
         p.setGravity(*scene.gravity, physicsClientId=c)
         self._threshold = _contact_processing_threshold(scene)
@@ -379,6 +413,7 @@ class PyBulletSimulation(Simulation):
             "useMaximalCoordinates": self._maximal,
             "body_model": "rigid (maximal coordinates, every scene)" if self._rigid else "auto",
             "ground": self._ground,
+            "constraintSolverType": f"CONSTRAINT_SOLVER_LCP_{self._solver.upper()}",
             "bodies": {},
         }
         self._ids: dict[tuple[int, int], str] = {}  # (body unique id, link index) -> name

@@ -50,12 +50,21 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "pybullet-noanchor": ("adapters.pybullet_engine", "PyBulletAdapter",
                           {"name": "pybullet-noanchor", "friction_anchor": False}),
     "pybullet-boxground": ("adapters.pybullet_engine", "PyBulletAdapter", {"name": "pybullet-boxground", "ground": "box"}),
+    # PyBullet's other constraint solvers (constraintSolverType): the MLCP solver around
+    # Dantzig's pivoting and around projected Gauss-Seidel (pybullet ignores NNCG, Lemke
+    # and block PGS: adapters/pybullet_engine.py SOLVERS)
+    "pybullet-dantzig": ("adapters.pybullet_engine", "PyBulletAdapter", {"name": "pybullet-dantzig", "solver": "dantzig"}),
+    "pybullet-pgs": ("adapters.pybullet_engine", "PyBulletAdapter", {"name": "pybullet-pgs", "solver": "pgs"}),
     "mujoco": ("adapters.mujoco_engine", "MuJoCoAdapter", {}),
+    # what a user gets who tunes nothing: pyramidal cone, impratio 1, default solimp, solref
+    # where e = 0 and solreffriction (adapters/mujoco_engine.py, "mujoco-defaults")
+    "mujoco-defaults": ("adapters.mujoco_engine", "MuJoCoAdapter", {"name": "mujoco-defaults", "defaults": "all"}),
     "pymunk": ("adapters.pymunk_engine", "PymunkAdapter", {}),
     # a 1 mm collision slop: stacks stand at 60 Hz, bodies rest 1 mm deep (pymunk_engine.py)
     "pymunk-slop1mm": ("adapters.pymunk_engine", "PymunkAdapter", {"name": "pymunk-slop1mm", "collision_slop": 1e-3}),
     "dart": ("adapters.dart_engine", "DartAdapter", {}),
     "box2d": ("adapters.box2d_engine", "Box2DAdapter", {}),
+    "box3d": ("adapters.box3d_engine", "Box3DAdapter", {}),  # Box3D through robox3d's C API
     "rapier": ("adapters.rapier_engine", "RapierAdapter", {}),
     # Drake's contact models and discrete approximations as variants (adapters/drake_engine.py).
     # The plain name is Drake's own default configuration (MultibodyPlantConfig):
@@ -72,7 +81,7 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
 }
 # The pip extra that installs each built-in engine's package (README, pyproject.toml).
 EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "pymunk": "pymunk", "dart": "dart", "box2d": "box2d",
-          "rapier": "rapier", "drake": "drake"}
+          "box3d": "box3d", "rapier": "rapier", "drake": "drake"}
 
 
 class EngineError(ValueError):

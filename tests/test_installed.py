@@ -64,6 +64,9 @@ NARROWED = {
     "physval sweep": Narrowed('--cases "central_impact[drop,e=0.5]" --engines mujoco --repeats 1', needs=("mujoco",)),
     "physval sweep --cases incline_threshold --engines reference,mujoco --workers 2": Narrowed("--repeats 1",
                                                                                              needs=("mujoco",)),
+    "physval sweep --cases \"incline_threshold[mu=0.5,theta=atan(mu_s)-1deg]\" --engines "
+    "'mujoco,mujoco-defaults,pybullet,pybullet-dantzig,pybullet-pgs'": Narrowed("--repeats 1",
+                                                                             needs=("mujoco", "pybullet")),
     "physval stress": Narrowed('--cases "robustness_overlap[box_in_ground,3D]" --engines mujoco --no-map',
                                needs=("mujoco",)),
     "physval stress --long": Narrowed('--cases "robustness_overlap[box_in_ground,3D]" --engines mujoco --no-map',

@@ -1,0 +1,398 @@
+"""Box3D (Box2D v3's soft-step solver in 3D) behind the engine contract, through the C API
+that the `robox3d` wheel exposes with cffi (robox3d._ffi: `lib` is libbox3d, `shim` a
+batch read-out). robox3d 0.1.0 bundles Box3D 0.1.0, in float32 (b3IsDoublePrecision is
+false): positions, velocities and material values are rounded to 2^-24 relative.
+
+What one `b3World_Step(dt, n)` does is Box2D v3's step (adapters/box2d_engine.py module
+notes): contacts found for the whole step, speculative ones included; n sub-steps of
+h = dt/n, each integrating gravity into the velocities, a soft contact solve with a
+push-out bias, positions, and a relax solve without the bias; then restitution on each
+point that approached faster than the restitution threshold, against its normal velocity
+before the step. `Settings.iterations` is n.
+
+Faithful mapping (each setting recorded in `knobs`):
+- pair materials exactly: Box3D mixes a pair's friction and restitution through the
+  world's friction and restitution callbacks, which receive the two shapes'
+  `userMaterialId`s; each body's shape carries its own id and the callbacks return the
+  scene's pair value (no per-body combination rule is needed);
+- restitution threshold 0 (Box3D's default 1 m/s takes all bounce from slower impacts),
+  no sleeping, no continuous collision (time-of-impact clamping of fast bodies moves them),
+  no speed cap that can act, no contact recycling (Box3D reuses a pair's manifold while
+  the bodies move little; off, every step's manifold is found anew), fast rotation allowed
+  (otherwise the rotation per sub-step is clamped), damping 0, gravity scale 1;
+- mass and inertia as the scene states them (b3Body_SetMassData), the inertia diagonal in
+  the body frame (the shapes' principal axes);
+- rotation held by motion locks; 2D scenes in the x-z plane by locking y and the rotation
+  about x and z; a circle is a sphere and a rect a box as deep along y as its larger half
+  extent (pybullet_engine's choice: every contact lies in y = 0);
+- a plane is a static box, PLANE_HALF_WIDTH wide, its top face the plane, centred under the
+  dynamic bodies' mean position (float32 places the box's vertices, which contact
+  clipping is relative to, to 2^-24 of its size);
+- the push-out spring at Box2D's cap, 1/8 of the sub-step rate (as adapters/box2d_engine.py:
+  a rigid contact has no compliance; Box3D's default 30 Hz lets a resting ball sit 65 um
+  deep, measured), damping ratio 10 and push speed 3 m/s Box3D's defaults.
+
+Contact forces from what the bodies did (adapters.impulse_split, as adapters/box2d_engine.py):
+body i took J_i = m_i (v_i' - v_i) - m_i g dt from its contacts in a step, split over the
+pairs whose manifolds have points (Box3D's own contacts), and a pair's normal force is its
+impulse along the manifold normal over dt. The manifold points' own `normalImpulse` is the
+last sub-step's impulse only: on a resting 5-box stack its mean over 1 s is 49.77 N at the
+ground for the weight 49.05 N (std 2.2 N), where the momentum read gives 49.0501 N
+(measured). No per-point read-out (`contact_points` is False): a manifold carries one
+friction impulse for all its points.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+from importlib import metadata
+
+import numpy as np
+
+from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
+from adapters.frames import state_row, wxyz_to_xyzw, xyzw_to_wxyz
+from adapters.impulse_split import acting_pairs, split_impulses
+from adapters.lazy import require
+from cases.scene import Body, Plane, Scene, pair_key
+
+require("robox3d")  # not installed: ImportError now, so the registry reports it
+ffi = lib = shim = None  # robox3d._ffi's, bound when a scene is first built (importing takes ~0.5 s)
+
+DEFAULT_SUBSTEPS = 4  # Box2D v3's recommended sub-step count; robox3d's World default too
+HERTZ_CAP_PER_SUBSTEP_RATE = 0.125  # Box2D's clamp of contact_hertz (src/world.c), asked for
+CONTACT_DAMPING_RATIO = 10.0  # Box3D's default (b3DefaultWorldDef)
+CONTACT_PUSH_SPEED = 3.0      # Box3D's default (b3DefaultWorldDef), m/s
+MAXIMUM_LINEAR_SPEED = 1e4    # never acts (default 400 m/s; the harness calls > 100 m/s a blow-up)
+PLANE_HALF_WIDTH = 100.0      # m
+PLANE_HALF_DEPTH = 0.5        # m: deeper than any overlap the scenes make
+
+# userMaterialId -> (scene key, body name); each simulation takes a block of ids
+_MATERIALS: dict[int, tuple[int, str]] = {}
+_PAIRS: dict[int, dict[tuple[str, str], tuple[float, float]]] = {}  # scene key -> pair -> (mu, e)
+_KEYS = itertools.count(1)
+_IDS_PER_SCENE = 1 << 20
+_callbacks = None
+
+
+def _load() -> None:
+    """Import robox3d's FFI layer and make the two material callbacks (once a process)."""
+    global ffi, lib, shim, _callbacks
+    if lib is not None:
+        return
+    from robox3d._ffi import ffi as _ffi, lib as _lib, shim as _shim
+    ffi, lib, shim = _ffi, _lib, _shim
+
+    def mixed(index):
+        def value(_a, id_a, _b, id_b):
+            key, name_a = _MATERIALS[id_a]
+            return _PAIRS[key][pair_key(name_a, _MATERIALS[id_b][1])][index]
+        return value
+
+    _callbacks = (ffi.callback("float(float, uint64_t, float, uint64_t)", mixed(0)),
+                  ffi.callback("float(float, uint64_t, float, uint64_t)", mixed(1)))
+
+
+def _vec(v):
+    out = ffi.new("b3Vec3*")
+    out.x, out.y, out.z = (float(c) for c in v)
+    return out[0]
+
+
+def _quat(q_wxyz, target) -> None:
+    x, y, z, w = wxyz_to_xyzw(q_wxyz)
+    target.v.x, target.v.y, target.v.z, target.s = x, y, z, w
+
+
+def _plane_rotation(n) -> list[float]:
+    """Unit quaternion (w, x, y, z) turning +z onto the unit vector n."""
+    n = np.asarray(n, float)
+    axis = np.cross([0.0, 0.0, 1.0], n)
+    s, c = float(np.linalg.norm(axis)), float(n[2])
+    if s < 1e-12:
+        return [1.0, 0.0, 0.0, 0.0] if c > 0 else [0.0, 1.0, 0.0, 0.0]
+    half = math.atan2(s, c) / 2.0
+    return [math.cos(half)] + list(axis / s * math.sin(half))
+
+
+class Box3DAdapter(Adapter):
+    name = "box3d"
+    package = "robox3d"
+    # the release the conformance battery ran on (it bundles Box3D 0.1.0); 0.x: the next minor
+    # may change the API
+    supported = ">=0.1.0,<0.2"
+    capabilities = Capabilities(
+        dimensions=frozenset({2, 3}),
+        shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
+        native_restitution=True,
+        static_kinetic=False,  # one friction coefficient per pair
+        contact_forces=True,
+        iterations=True,       # the sub-step count
+        contact_points=False,
+        impact_model="simultaneous",  # Box2D v3's solver: one solve over the step's contacts
+        restitution_law="two_phase",  # Box2D v3's relax pass: restitution after the sub-steps, without friction
+        float_bits=32,         # positions, velocities and masses in single precision
+        substeps=True,         # Settings.iterations is the sub-step count
+    )
+    tunables = {
+        "contact_hertz": Tunable(1.0, math.inf, math.inf,
+                                 "push-out stiffness, Hz (default: Box2D's cap, 1/8 of the sub-step rate)"),
+        "contact_damping_ratio": Tunable(0.0, 100.0, CONTACT_DAMPING_RATIO, "push-out damping ratio"),
+        "contact_push_speed": Tunable(0.0, 100.0, CONTACT_PUSH_SPEED, "largest push-out speed, m/s"),
+    }
+
+    def version(self) -> str:
+        return metadata.version("robox3d")
+
+    def build(self, scene: Scene, settings: Settings) -> Simulation:
+        reason = self.capabilities.cannot_run(scene)
+        if reason:
+            raise Unsupported(reason)
+        _load()
+        return Box3DSimulation(scene, settings, self.options_in_force(settings))
+
+
+class Box3DSimulation(Simulation):
+    def __init__(self, scene: Scene, settings: Settings, tuning: dict[str, float]):
+        self._dt = settings.dt
+        self.iterations = DEFAULT_SUBSTEPS if settings.iterations is None else settings.iterations
+        self._h = self._dt / self.iterations
+        hertz = min(tuning["contact_hertz"], HERTZ_CAP_PER_SUBSTEP_RATE / self._h)
+        self._key = next(_KEYS)
+        self._world = None
+        effects = scene.effects
+        _PAIRS[self._key] = {
+            pair_key(a.name, b.name): (m.mu_s if "friction" in effects else 0.0, m.e if "restitution" in effects else 0.0)
+            for a, b in scene.contact_pairs() for m in [scene.material_of(a.name, b.name)]}
+        gravity = scene.gravity if "gravity" in effects else (0.0, 0.0, 0.0)
+        wd = lib.b3DefaultWorldDef()
+        wd.gravity = _vec(gravity)
+        wd.restitutionThreshold = 0.0
+        wd.enableSleep = False
+        wd.enableContinuous = False
+        wd.maximumLinearSpeed = MAXIMUM_LINEAR_SPEED
+        wd.contactHertz = hertz
+        wd.contactDampingRatio = tuning["contact_damping_ratio"]
+        wd.contactSpeed = tuning["contact_push_speed"]
+        wd.frictionCallback, wd.restitutionCallback = _callbacks
+        wd.workerCount = 1
+        self._world = lib.b3CreateWorld(ffi.addressof(wd))
+        self.knobs = {
+            "b3WorldDef": {"gravity": list(gravity), "restitutionThreshold": 0.0, "enableSleep": False,
+                           "enableContinuous": False, "maximumLinearSpeed": MAXIMUM_LINEAR_SPEED,
+                           "contactHertz": hertz, "contactDampingRatio": tuning["contact_damping_ratio"],
+                           "contactSpeed": tuning["contact_push_speed"], "workerCount": 1,
+                           "frictionCallback": "the scene's pair mu", "restitutionCallback": "the scene's pair e"},
+            "subStepCount": self.iterations,
+            "speculative": True,  # Box3D's default: contacts found before they touch
+            "warm_starting": True,  # Box3D's default
+            "pair": {"|".join(k): {"friction": v[0], "restitution": v[1]} for k, v in _PAIRS[self._key].items()},
+            "contact_force": "momentum: J_i = m (v' - v) - m g dt per body, split over the pairs with manifold points",
+            "bodies": {},
+        }
+        self._planar = scene.dimension == 2
+        dynamic = scene.dynamic_bodies
+        self._centre = np.mean([b.position for b in dynamic], axis=0) if dynamic else np.zeros(3)
+        self._names: dict[int, str] = {}  # shape index1 -> body name
+        self._ids: list = []              # dynamic bodies' b3BodyIds, in scene order
+        self._order: list[str] = []
+        for i, body in enumerate(scene.bodies):
+            self._add(body, self._key * _IDS_PER_SCENE + i)
+        self._id_array = ffi.new("b3BodyId[]", self._ids)
+        n = len(self._ids)
+        self._poses = np.empty((n, 7), np.float32)
+        self._vels = np.empty((n, 6), np.float32)
+        self._contacts = ffi.new("b3ContactData[]", 64)
+        self._mass = np.array([lib.b3Body_GetMass(bid) for bid in self._ids])  # as Box3D holds them
+        self._g_dt = np.asarray(gravity, float) * self._dt
+        self._pending = None  # the velocities before and after the last step
+        self._forces: dict | None = {}
+        self.knobs["pair_split"] = "unique (forest)"
+        self.effects = self._built_effects(scene, gravity)
+
+    def _add(self, body: Body, material_id: int) -> None:
+        bd = lib.b3DefaultBodyDef()
+        record: dict = {}
+        s = body.shape
+        if isinstance(s, Plane):
+            n = np.asarray(s.normal, float)
+            foot = self._centre - (self._centre @ n - s.offset) * n  # the plane's point under the bodies
+            position, orientation = foot - PLANE_HALF_DEPTH * n, _plane_rotation(n)
+            half = (PLANE_HALF_WIDTH, PLANE_HALF_WIDTH, PLANE_HALF_DEPTH)
+        else:
+            position, orientation = body.position, body.orientation
+            if s.kind in ("sphere", "circle"):
+                half = None
+            elif s.kind == "box":
+                half = tuple(s.half_extents)
+            else:  # rect: a box as deep along y as its larger half-extent
+                a, c = s.half_extents
+                half = (a, max(a, c), c)
+        bd.type = lib.b3_staticBody if body.static else lib.b3_dynamicBody
+        bd.position = _vec(position)
+        _quat(orientation, bd.rotation)
+        bd.enableSleep = False
+        bd.allowFastRotation = True
+        bd.enableContactRecycling = False
+        bd.linearDamping = bd.angularDamping = 0.0
+        bd.gravityScale = 1.0
+        if body.dynamic:
+            bd.linearVelocity = _vec(body.velocity)
+            bd.angularVelocity = _vec(body.angular_velocity if body.rotates else (0.0, 0.0, 0.0))
+            locks = {"linearY": self._planar, "angularX": self._planar or not body.rotates,
+                     "angularY": not body.rotates, "angularZ": self._planar or not body.rotates}
+            for k, v in locks.items():
+                setattr(bd.motionLocks, k, v)
+            record["motionLocks"] = [k for k, v in locks.items() if v]
+        bid = lib.b3CreateBody(self._world, ffi.addressof(bd))
+        sd = lib.b3DefaultShapeDef()
+        sd.baseMaterial.userMaterialId = material_id
+        sd.baseMaterial.rollingResistance = 0.0
+        sd.density = 1.0  # replaced by the stated mass below
+        _MATERIALS[material_id] = (self._key, body.name)
+        if half is None:
+            sphere = ffi.new("b3Sphere*")
+            sphere.center = _vec((0.0, 0.0, 0.0))
+            sphere.radius = s.radius
+            shape = lib.b3CreateSphereShape(bid, ffi.addressof(sd), sphere)
+            record["sphere"] = {"radius": s.radius}
+        else:
+            hull = ffi.new("b3BoxHull*")
+            hull[0] = lib.b3MakeBoxHull(*half)
+            shape = lib.b3CreateHullShape(bid, ffi.addressof(sd), ffi.addressof(hull.base))
+            record["box_hull"] = {"half_extents": list(half)}
+            if isinstance(s, Plane):
+                record["plane_as_box"] = {"top_face_through": list(position + PLANE_HALF_DEPTH * np.asarray(s.normal)),
+                                          "normal": list(s.normal)}
+        self._names[shape.index1] = body.name
+        if body.dynamic:
+            md = ffi.new("b3MassData*")
+            md.mass = body.mass
+            md.center = _vec((0.0, 0.0, 0.0))
+            ix, iy, iz = body.principal_inertia
+            md.inertia.cx, md.inertia.cy, md.inertia.cz = _vec((ix, 0, 0)), _vec((0, iy, 0)), _vec((0, 0, iz))
+            lib.b3Body_SetMassData(bid, md[0])
+            # b3Body_SetMassData leaves the world-frame inverse inertia of the shapes' density
+            # in force for the first step (measured: a 1 kg ball made of density-1 material,
+            # created sliding on the ground, spins up to 8.8 rad/s in that step instead of
+            # 0.05); setting the same pose again refreshes it
+            lib.b3Body_SetTransform(bid, lib.b3Body_GetPosition(bid), lib.b3Body_GetRotation(bid))
+            self._ids.append(bid)
+            self._order.append(body.name)
+            record.update(mass=lib.b3Body_GetMass(bid), inertia_diagonal=[ix, iy, iz], linearDamping=0.0,
+                          angularDamping=0.0, enableSleep=False, allowFastRotation=True,
+                          enableContactRecycling=False)
+        else:
+            record["static"] = True
+        self.knobs["bodies"][body.name] = record
+
+    def _built_effects(self, scene: Scene, gravity) -> frozenset[str]:
+        fx = set()
+        if any(g != 0.0 for g in gravity):
+            fx.add("gravity")
+        pairs = _PAIRS[self._key]
+        if pairs:
+            fx.add("contact")
+            if any(e > 0 for _, e in pairs.values()):
+                fx.add("restitution")
+            if any(mu > 0 for mu, _ in pairs.values()):
+                fx.add("friction")
+        if any(b.rotates for b in scene.dynamic_bodies):
+            fx.add("rotation")
+        return frozenset(fx)
+
+    # --- stepping and reading -------------------------------------------------------------
+
+    def step(self) -> None:
+        before = self._read()[1].astype(float)
+        lib.b3World_Step(self._world, self._dt, self.iterations)
+        self._pending = (before, self._read()[1].astype(float))
+        self._forces = None  # worked out when asked for (contact_forces), not inside the step
+
+    def _read(self) -> tuple[np.ndarray, np.ndarray]:
+        n = len(self._ids)
+        shim.rxBodyGetPoses(self._id_array, n, ffi.cast("float*", ffi.from_buffer(self._poses)))
+        shim.rxBodyGetVelocities(self._id_array, n, ffi.cast("float*", ffi.from_buffer(self._vels)))
+        return self._poses, self._vels
+
+    def states(self) -> dict[str, np.ndarray]:
+        poses, vels = self._read()
+        return {name: state_row(poses[i, :3], xyzw_to_wxyz(poses[i, 3:7]), vels[i, :3], vels[i, 3:6])
+                for i, name in enumerate(self._order)}
+
+    # Bulk reads (adapters.base): poses (x, y, z, qx, qy, qz, qw) then velocities (v, w), as float32.
+    def body_order(self) -> list[str]:
+        return list(self._order)
+
+    def state_size(self) -> int:
+        return 13 * len(self._ids)
+
+    def write_state(self, out: np.ndarray) -> None:
+        poses, vels = self._read()
+        n = len(self._ids)
+        out[:7 * n] = poses.ravel()
+        out[7 * n:] = vels.ravel()
+
+    def decode_states(self, raw: np.ndarray) -> np.ndarray:
+        n = len(self._ids)
+        poses = raw[:, :7 * n].reshape(len(raw), n, 7)
+        vels = raw[:, 7 * n:].reshape(len(raw), n, 6)
+        out = np.empty((len(raw), n, 13))
+        out[..., 0:3] = poses[..., 0:3]
+        out[..., 3] = poses[..., 6]
+        out[..., 4:7] = poses[..., 3:6]
+        out[..., 7:13] = vels
+        return out
+
+    def _touching(self) -> tuple[dict, dict]:
+        """Gap (least separation) and unit normal from b into a of every pair (a, b) whose
+        manifolds have points after the step."""
+        gaps, normals = {}, {}
+        for bid in self._ids:
+            capacity = lib.b3Body_GetContactCapacity(bid)
+            if capacity > len(self._contacts):
+                self._contacts = ffi.new("b3ContactData[]", capacity)
+            count = lib.b3Body_GetContactData(bid, self._contacts, len(self._contacts))
+            for c in self._contacts[0:count]:
+                name_a, name_b = self._names[c.shapeIdA.index1], self._names[c.shapeIdB.index1]
+                key = pair_key(name_a, name_b)
+                if key in gaps:  # a contact between two dynamic bodies is listed for both
+                    continue
+                gap, normal = math.inf, None
+                for m in range(c.manifoldCount):
+                    manifold = c.manifolds[m]
+                    for j in range(manifold.pointCount):
+                        gap = min(gap, manifold.points[j].separation)
+                    if manifold.pointCount:
+                        normal = manifold.normal  # from shape A to shape B
+                if normal is None:
+                    continue
+                sign = 1.0 if key[0] == name_b else -1.0  # into key[0]
+                gaps[key] = gap
+                normals[key] = (sign * normal.x, sign * normal.y, sign * normal.z)
+        return gaps, normals
+
+    def _read_forces(self) -> dict[tuple[str, str], float]:
+        gaps, normals = self._touching()
+        pairs = acting_pairs(gaps, set(self._order))
+        if not pairs:
+            return {}
+        before, after = self._pending
+        dv = after[:, :3] - before[:, :3] - self._g_dt
+        J = {name: self._mass[i] * dv[i] for i, name in enumerate(self._order)}
+        P, ambiguous = split_impulses(J, pairs)
+        if ambiguous:
+            self.knobs["pair_split"] = "least-norm where the contact graph has a cycle"
+        return {key: float(np.dot(p, normals[key])) / self._dt for key, p in P.items()}
+
+    def contact_forces(self) -> dict[tuple[str, str], float]:
+        if self._forces is None:
+            self._forces = self._read_forces() if self._pending else {}
+        return dict(self._forces)
+
+    def close(self) -> None:
+        world, self._world = self._world, None
+        if world is not None:
+            lib.b3DestroyWorld(world)
+        for material_id in [k for k, (key, _) in _MATERIALS.items() if key == self._key]:
+            del _MATERIALS[material_id]
+        _PAIRS.pop(self._key, None)

@@ -1,0 +1,82 @@
+"""Engine variants are configurations users run (adapters/registry.py): each differs from its
+engine's plain configuration in the knobs it names, and in nothing else.
+
+Each test skips cleanly when its engine's package is missing."""
+from __future__ import annotations
+
+import pytest
+
+from adapters import registry
+from adapters.base import Settings, Unsupported
+from cases.scene import Body, Material, Scene, ball, cube, ground
+
+
+def _adapter(name):
+    try:
+        return registry.get(name)
+    except registry.EngineError as exc:
+        pytest.skip(str(exc))
+
+
+def _scene(dim: int = 3) -> Scene:
+    """A ball bouncing with e = 0.5 and a box resting with e = 0 and friction."""
+    return Scene(bodies=(ground(), Body("ball", ball(0.1, dim), mass=1.0, position=(0, 0, 0.5)),
+                         Body("box", cube(0.1, dim), mass=1.0, position=(1, 0, 0.1))),
+                 pairs=(("ground", "ball", Material(e=0.5, mu_s=0.5)), ("ground", "box", Material(e=0.0, mu_s=0.5)),
+                        ("ball", "box", Material(e=0.0, mu_s=0.25))), dimension=dim)
+
+
+def _knobs(name, scene=None):
+    sim = _adapter(name).build(scene or _scene(), Settings(dt=1e-3))
+    try:
+        return sim.knobs
+    finally:
+        sim.close()
+
+
+@pytest.mark.engine("mujoco-defaults")
+def test_mujoco_defaults_reverts_the_contact_tuning_and_keeps_what_the_scene_asks():
+    """Cone, impratio, solimp, solreffriction and the solref of e = 0 pairs are MuJoCo's
+    defaults; the e = 0.5 pair keeps its mapped solref, every pair its friction and condim,
+    and the solver options and effect switches are the tuned adapter's."""
+    tuned, plain = _knobs("mujoco"), _knobs("mujoco-defaults")
+    from adapters import mujoco_engine as mj
+    assert plain["option"]["cone"] == "pyramidal" and plain["option"]["impratio"] == 1.0
+    assert {k: v for k, v in plain["option"].items() if k not in ("cone", "impratio")} == \
+        {k: v for k, v in tuned["option"].items() if k not in ("cone", "impratio")}
+    assert plain["flag"] == tuned["flag"]
+    pairs, tuned_pairs = plain["pair"], tuned["pair"]
+    assert pairs["ball|ground"]["solref"] == tuned_pairs["ball|ground"]["solref"]  # e = 0.5: mapped
+    assert pairs["box|ground"]["solref"] == list(mj.DEFAULT_SOLREF)                # e = 0: MuJoCo's
+    for key, pair in pairs.items():
+        assert pair["solimp"] == list(mj.DEFAULT_SOLIMP)
+        assert pair["condim"] == tuned_pairs[key]["condim"] and pair["friction"] == tuned_pairs[key]["friction"]
+        if pair["condim"] == 3:
+            assert pair["solreffriction"] == [0, 0]
+    assert plain["mujoco_defaults"] == sorted(mj.DEFAULTABLE)
+
+
+@pytest.mark.engine("mujoco", "mujoco-defaults")
+def test_mujoco_reverts_one_knob_at_a_time_and_refuses_an_unknown_one():
+    pytest.importorskip("mujoco")
+    from adapters.mujoco_engine import MuJoCoAdapter
+    sim = MuJoCoAdapter(defaults=("cone",)).build(_scene(), Settings(dt=1e-3))
+    assert sim.knobs["option"]["cone"] == "pyramidal" and sim.knobs["option"]["impratio"] == 100.0
+    with pytest.raises(ValueError, match="defaults"):
+        MuJoCoAdapter(defaults=("tolerance",))
+
+
+@pytest.mark.engine("pybullet-dantzig", "pybullet-pgs")
+@pytest.mark.parametrize("name, solver", [("pybullet-dantzig", "DANTZIG"), ("pybullet-pgs", "PGS")])
+def test_pybullet_solver_variants_change_the_solver_only(name, solver):
+    tuned, variant = _knobs("pybullet"), _knobs(name)
+    assert tuned["constraintSolverType"] == "CONSTRAINT_SOLVER_LCP_SI"
+    assert variant["constraintSolverType"] == f"CONSTRAINT_SOLVER_LCP_{solver}"
+    assert {k: v for k, v in variant.items() if k != "constraintSolverType"} == \
+        {k: v for k, v in tuned.items() if k != "constraintSolverType"}
+
+
+@pytest.mark.engine("pybullet-pgs")
+def test_pybullet_pgs_turns_2d_scenes_away_with_the_reason():
+    with pytest.raises(Unsupported, match="NaN"):
+        _adapter("pybullet-pgs").build(_scene(2), Settings(dt=1e-3))
