@@ -9,10 +9,11 @@ line for a run the engine aborts). Every job runs `--repeat` times (default 2), 
 repeat in new worker processes and in the reverse order of the one before, so that a
 history dependence shows; a band is the values' middle +- half their spread plus a
 rounding floor (a hundredth of the check's tolerance), at most one tolerance of its check
-unless a `# band: WHY` line under the entry says why it is wider. The cause on the entry line
-and its `# band:` reason stay as the person who measured it wrote them. Without `--write` it only says what would
-change. It also lists failing checks no entry covers (write an entry with its cause) and
-entries that no longer cover anything (remove or narrow them).
+unless a `# band: WHY` line under the entry says why it is wider. The cause on the entry
+line and its `# band:` reason stay as the person who measured it wrote them. Without
+`--write` it only says what would change. It also lists failing checks no entry covers
+(write an entry with its cause) and entries that no longer cover anything (remove or
+narrow them).
 """
 from __future__ import annotations
 

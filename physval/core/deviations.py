@@ -35,9 +35,9 @@ of its check (the tolerance in the check's units: `tolerance`, or `tolerance * |
 for a relative one): a change of the engine or of its mapping by more than that is `fail`.
 A wider band needs its reason written under the entry, as a `# band:` line:
 
-    stack_strike[*]:x_top  # point contact on a 5-box stack: the top box slides 4 cm further
-        # band: chaotic: the stack's order of contact events moves with numpy's rounding
-        drake [n=5]:x_top = 0.8412 +- 0.031
+    stack_strike[*]:stack_displacement  # point contact: the struck stack shuffles sideways
+        # band: chaotic: the order of the stack's contact events moves with the rounding
+        drake [n=5]:stack_displacement = 0.0412 +- 0.0031
 
 Only then is the measured spread recorded as it is; a band wider than one tolerance
 whose entry states no reason makes its check `fail`, naming the file and the band's line
