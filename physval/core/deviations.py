@@ -5,13 +5,13 @@ beside itself) and a user's `--known FILE` share one format. An entry is a patte
 with its cause, written by a person, followed by indented band lines, written by
 `physval known` from a fresh run:
 
-    central_impact[drop,e=0.5*]:rebound_ratio  # e mapped onto a spring-damper: ratio off by 0.015
-        mujoco [drop,e=0.5]:rebound_ratio = 0.51529 +- 0.00075
-        mujoco [drop,e=0.5,2D]:rebound_ratio = 0.51498 +- 0.00075
+    central_impact[drop,e=0.5*]:rebound_ratio  # e mapped onto a spring-damper: ratio off by 0.021
+        mujoco [drop,e=0.5]:rebound_ratio = 0.47946 +- 5e-06
+        mujoco [drop,e=0.5,2D]:rebound_ratio = 0.47946 +- 5e-06
     resting_blocks[n=[45]]:*  # rank-deficient corner LCP: Lemke's pivoting loses the solution
         reference-lemke [n=4]:drift = raises LemkeFailure
     mujoco pair_drop[*]:apex_top  # compliant impacts launch the light top ball higher
-        mujoco [e=0.5]:apex_top = 0.060672 +- 0.00053
+        mujoco [e=0.5]:apex_top = 0.060672 +- 3.47e-05
 
 An entry line may begin with an engine name or glob (`mujoco` above, `drake-*`; no
 brackets): the entry then applies to those engines only, and its band lines must name
@@ -21,7 +21,7 @@ own file is read for that engine, a user's `--known` file for every engine of th
 A failing check is a `deviation` only when an entry's pattern matches it AND a band line
 records it (engine, exact variant id, metric) AND its measured value lies in the band:
 a wildcard covers exactly the checks whose measurements it records. A measurement outside
-its band is `fail` ("known deviation changed: recorded 0.515 +- 0.00075, measured 0.60"),
+its band is `fail` ("known deviation changed: recorded 0.479458 +- 5e-06, measured 0.4821"),
 so a deviation can neither hide a regression nor an improvement. Bands hold at the
 family's default time step and the adapter's default iterations (the settings they were
 measured at); elsewhere a failing check is `fail`.
@@ -37,7 +37,7 @@ A wider band needs its reason written under the entry, as a `# band:` line:
 
     stack_strike[*]:stack_displacement  # point contact: the struck stack shuffles sideways
         # band: chaotic: the order of the stack's contact events moves with the rounding
-        drake [n=5]:stack_displacement = 0.0412 +- 0.0031
+        drake [n=3,m=2.0,h=0.5]:stack_displacement = 0.0412 +- 0.0031
 
 Only then is the measured spread recorded as it is; a band wider than one tolerance
 whose entry states no reason makes its check `fail`, naming the file and the band's line
