@@ -92,7 +92,7 @@ def _entry(variant="offset=0.5", metric="z_*", bands=(), reason="the fake engine
     return deviations.Deviation("fake.txt", "free_fall", variant, metric, reason, 1, tuple(bands))
 
 
-def _band(value, width=1e-3, variant="offset=0.5", metric="z_end", raises=None):
+def _band(value, width=1e-10, variant="offset=0.5", metric="z_end", raises=None):
     return deviations.Band("fake", variant, metric, value, width, raises)
 
 
@@ -112,7 +112,7 @@ def test_a_deviation_that_leaves_its_band_is_a_fail_with_both_sizes():
     known = [_entry(bands=[_band(expected_z - 0.4)])]  # recorded 0.4 off; the fake is 0.5 off
     (row, _) = run_job(_job(1), FALL, FakeAdapter(), known=known)
     assert row["status"] == "fail" and row["reason"].startswith("known deviation changed: recorded")
-    assert f"{expected_z - 0.4:.6g} +- 0.001" in row["reason"] and f"{expected_z - 0.5:.6g}" in row["reason"]
+    assert f"{expected_z - 0.4:.6g} +- 1e-10" in row["reason"] and f"{expected_z - 0.5:.6g}" in row["reason"]
 
 
 def test_a_wildcard_covers_only_the_checks_whose_bands_it_records():
@@ -239,6 +239,29 @@ def test_every_deviation_entry_matches_a_check_of_a_builtin_case():
             assert hits, f"adapters/xfails/{eng}.txt:{d.line}: {d.pattern} matches no check"
             for b in d.bands:
                 assert (b.variant, b.metric) in checks, f"{eng}.txt:{b.line}: no check [{b.variant}]:{b.metric}"
+
+
+def test_every_shipped_band_is_at_most_one_tolerance_unless_its_entry_says_why():
+    """Bands are measured (physval/core/deviations.py): a band wider than one tolerance of its
+    check needs a `# band:` reason under its entry; a run would fail its check, this says so
+    without running an engine."""
+    from adapters.registry import engine_names, get, EngineError
+    from cases.registry import builtin_families
+    from physval.core.verdicts import tolerance_units
+    fams = builtin_families()
+    tolerance = {(name, v.id, c.metric): tolerance_units(c.expected, c.tolerance, c.kind)
+                 for name, fam in fams.items() for v in fam.all_variants
+                 for c in fam.expect(v.params, fam.dt_for(v.params))}
+    wide = []
+    for eng in engine_names():
+        try:
+            path = get(eng).deviations_file()
+        except EngineError:
+            continue
+        for d in deviations.load([path]):
+            wide += [f"{eng}.txt:{b.line}: {why}" for b in d.bands
+                     if (why := d.too_wide(b, tolerance[d.family, b.variant, b.metric])) is not None]
+    assert not wide, f"{len(wide)} bands wider than a tolerance without a reason, e.g. {wide[:3]}"
 
 
 # --- the results table and the report -----------------------------------------------------

@@ -95,3 +95,23 @@ def test_an_entry_for_variants_this_run_left_out_is_not_stale(tmp_path):
     section = (out / "report.md").read_text().split("## Known deviations", 1)[1].split("\n## ", 1)[0]
     assert "`central_impact[no such variant]:rebound_ratio` (known.txt:2) matched no check" in section
     assert "e=0.9,2D" not in section
+
+
+def test_a_known_deviation_that_vanished_has_its_own_listing_in_the_report(tmp_path):
+    """A band recorded where the reference meets the closed form: the report names the vanished
+    deviation under the run's summary line, links its section, and lists the check there."""
+    known = tmp_path / "known.txt"
+    known.write_text("central_impact[drop,e=0.5]:rebound_ratio  # a band planted for this test\n"
+                     "    reference [drop,e=0.5]:rebound_ratio = 0.3 +- 0.001\n")
+    out = tmp_path / "out"
+    assert main(["run", "--cases", "central_impact[drop,e=0.5]", "--engines", "reference", "--known", str(known),
+                 "--quiet", "--readings", "none", "--out", str(out)]) == 0
+    report = (out / "report.md").read_text()
+    head, rest = report.split("## Contents", 1)
+    assert "**Known deviations that vanished: 1** (their checks now pass: the engine or its mapping changed): " \
+           "[known deviations that vanished](#known-deviations-that-vanished)" in head
+    assert "- [Known deviations that vanished](#known-deviations-that-vanished)" in rest
+    section = rest.split("\n## Known deviations that vanished\n", 1)[1].split("\n## ", 1)[0]
+    assert rest.index("## Known deviations that vanished") < rest.index("\n## Summary")  # right after the scorecard
+    (line,) = [x for x in section.splitlines() if x.startswith("| reference ")]
+    assert "central_impact[drop,e=0.5]:rebound_ratio" in line and "0.3 +- 0.001" in line and "(known.txt:1)" in line

@@ -5,14 +5,20 @@ the full grids; `--on-demand`: also the runs the engine declares too slow for on
 `--cases`; with a user's `--file`, the families it names), at the family's dt and the adapter's default iterations,
 and under each entry of the engine's deviation file (or of the `--file`) records a band
 line for every check the entry matches that misses its tolerance (or a `raises EXCEPTION`
-line for a run the engine aborts). The cause on the entry line
-stays as the person who measured it wrote it. Without `--write` it only says what would
-change. It also lists failing checks no entry covers (write an entry with its cause) and
-entries that no longer cover anything (remove or narrow them).
+line for a run the engine aborts). Every job runs `--repeat` times (default 2), each
+repeat in new worker processes and in the reverse order of the one before, so that a
+history dependence shows; a band is the values' middle +- half their spread plus a
+rounding floor (a hundredth of the check's tolerance), at most one tolerance of its check
+unless a `# band: WHY` line under the entry says why it is wider. The cause on the entry
+line and its `# band:` reason stay as the person who measured it wrote them. Without
+`--write` it only says what would change. It also lists failing checks no entry covers
+(write an entry with its cause) and entries that no longer cover anything (remove or
+narrow them).
 """
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from fnmatch import fnmatchcase
 from pathlib import Path
@@ -43,6 +49,10 @@ def add_parser(sub) -> None:
     p.add_argument("--on-demand", action="store_true",
                    help="also the runs the engine declares too slow for a default run (minutes each)")
     p.add_argument("--cases", nargs="+", metavar="SPEC", help="only these families or variants (the --cases grammar)")
+    p.add_argument("--repeat", type=options.positive_int, default=deviations.REPEATS, metavar="N",
+                   help=f"run every job N times, each repeat in new workers and in the reverse order of the one "
+                        f"before (default {deviations.REPEATS}); a band is what the repeats spread, plus the "
+                        "rounding floor")
     p.add_argument("--cases-dir", action="append", metavar="DIR", help="also load case families from DIR")
     p.add_argument("--adapter", action="append", metavar="MODULE:CLASS", help="also use this adapter")
     options.add_execution(p, str(cache_dir()))
@@ -81,13 +91,21 @@ def run(args) -> int:
                 if adapter.capabilities.cannot_run(fam.scene(v.params), fam.needs_of(v.params)) is None \
                         and (args.on_demand or not adapter.on_demand(fam.scene(v.params))):
                     jobs.append(Job(fam_name, v, engine))
-        raised = {}
-        res, _ = run_stored(jobs, ctx, out / f"known-{engine}.csv", COLUMNS, Execution.of(args), label=f"known {engine}",
-                            on_outcome=lambda o: o.exception and raised.__setitem__(o.job.key, o.exception))
-        if not res.complete:
-            return 130
-        rows_by_job = {j.key: res.rows[j.key] for j in jobs}
-        new = measured_bands(engine, entries, rows_by_job, raised)
+        repeats = []
+        for k in range(args.repeat):
+            raised = {}
+            order = jobs if k % 2 == 0 else jobs[::-1]  # another order, in new workers: history shows
+            store = out / (f"known-{engine}.csv" if k == 0 else f"known-{engine}.repeat{k}.csv")
+            res, _ = run_stored(order, ctx, store, COLUMNS, Execution.of(args),
+                                label=f"known {engine}" + (f" (repeat {k + 1} of {args.repeat})" if k else ""),
+                                on_outcome=lambda o, raised=raised: o.exception and raised.__setitem__(o.job.key,
+                                                                                                        o.exception))
+            if not res.complete:
+                return 130
+            repeats.append(({j.key: res.rows[j.key] for j in jobs}, raised))
+        rows_by_job = repeats[0][0]
+        measured = measured_bands(engine, entries, repeats)
+        new = measured.bands
         ran = {(j.family, j.variant.id) for j in jobs}
         # bands of checks this run did not measure (other engines, unselected variants) stay
         bands_of = {e.line: [b for b in e.bands if b.engine != engine or (e.family, b.variant) not in ran]
@@ -105,10 +123,24 @@ def run(args) -> int:
                 print(f"  line {e.line} {e.pattern}: no check deviates any more: remove or narrow the entry")
             elif not after:
                 print(f"  line {e.line} {e.pattern}: matches no deviating check on {engine}")
-            if set(after) != set(before) or moved:
+            redrawn = [k for k in after if k in before and before[k].text() != after[k].text()]
+            if set(after) != set(before) or redrawn:
                 changed += 1
                 print(f"  line {e.line} {e.pattern}: {len(before)} -> {len(after)} bands"
+                      + (f", {len(redrawn)} re-measured" if redrawn else "")
                       + (f", {len(moved)} moved out of their band" if moved else ""))
+        for e, b, _ in measured.too_wide(entries):
+            over = b.tolerances(measured.tolerance[(b.variant, b.metric)])
+            print(f"  line {e.line} {e.pattern}: [{b.variant}]:{b.metric} = {b.describe()} is {over:.3g} tolerances "
+                  f"wide over {args.repeat} repeats: if that spread is the engine's own, write '    # band: WHY' "
+                  "under the entry (until then the check fails)")
+        for note in measured.unsteady:
+            print(f"  unsteady: {note}")
+        widths = sorted(w for bs in new.values() for b in bs if b.raises is None
+                        and math.isfinite(w := b.tolerances(measured.tolerance[(b.variant, b.metric)])))
+        if widths:
+            print(f"  {len(widths)} bands over {args.repeat} repeats: median {widths[len(widths) // 2]:.3g}, "
+                  f"widest {widths[-1]:.3g} tolerances")
         loose = [r for rows in rows_by_job.values() for r in rows
                  if deviating(r) and deviations.find(entries, r["case"], r["variant"], r["metric"]) is None]
         for r in loose:

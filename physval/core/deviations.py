@@ -5,13 +5,13 @@ beside itself) and a user's `--known FILE` share one format. An entry is a patte
 with its cause, written by a person, followed by indented band lines, written by
 `physval known` from a fresh run:
 
-    central_impact[drop,e=0.5*]:rebound_ratio  # e mapped onto a spring-damper: ratio off by 0.015
-        mujoco [drop,e=0.5]:rebound_ratio = 0.51529 +- 0.00075
-        mujoco [drop,e=0.5,2D]:rebound_ratio = 0.51498 +- 0.00075
+    central_impact[drop,e=0.5*]:rebound_ratio  # e mapped onto a spring-damper: ratio off by 0.021
+        mujoco [drop,e=0.5]:rebound_ratio = 0.47946 +- 5e-06
+        mujoco [drop,e=0.5,2D]:rebound_ratio = 0.47946 +- 5e-06
     resting_blocks[n=[45]]:*  # rank-deficient corner LCP: Lemke's pivoting loses the solution
         reference-lemke [n=4]:drift = raises LemkeFailure
     mujoco pair_drop[*]:apex_top  # compliant impacts launch the light top ball higher
-        mujoco [e=0.5]:apex_top = 0.060672 +- 0.00053
+        mujoco [e=0.5]:apex_top = 0.060672 +- 3.47e-05
 
 An entry line may begin with an engine name or glob (`mujoco` above, `drake-*`; no
 brackets): the entry then applies to those engines only, and its band lines must name
@@ -21,10 +21,29 @@ own file is read for that engine, a user's `--known` file for every engine of th
 A failing check is a `deviation` only when an entry's pattern matches it AND a band line
 records it (engine, exact variant id, metric) AND its measured value lies in the band:
 a wildcard covers exactly the checks whose measurements it records. A measurement outside
-its band is `fail` ("known deviation changed: recorded 0.515 +- 0.00075, measured 0.60"),
+its band is `fail` ("known deviation changed: recorded 0.479458 +- 5e-06, measured 0.4821"),
 so a deviation can neither hide a regression nor an improvement. Bands hold at the
 family's default time step and the adapter's default iterations (the settings they were
 measured at); elsewhere a failing check is `fail`.
+
+Bands are measured, not proportional. The engines are deterministic: a deviation's value
+at a given dt and iteration count repeats to rounding. `physval known` measures every check
+REPEATS times (the second time in the reverse order, so each job runs in another worker
+process after other jobs: a history dependence shows) and records the middle of the values
++- half their spread plus a rounding floor (`band_of`). A band is at most one tolerance
+of its check (the tolerance in the check's units: `tolerance`, or `tolerance * |expected|`
+for a relative one): a change of the engine or of its mapping by more than that is `fail`.
+A wider band needs its reason written under the entry, as a `# band:` line:
+
+    stack_strike[*]:stack_displacement  # point contact: the struck stack shuffles sideways
+        # band: chaotic: the order of the stack's contact events moves with the rounding
+        drake [n=3,m=2.0,h=0.5]:stack_displacement = 0.0412 +- 0.0031
+
+Only then is the measured spread recorded as it is; a band wider than one tolerance
+whose entry states no reason makes its check `fail`, naming the file and the band's line
+(the tolerance lives beside the check, in the case, so the band and its limit meet where a
+check is judged: physval.core.verdicts.judge). `physval known` names the entries that need
+a reason when it measures one.
 """
 from __future__ import annotations
 
@@ -35,27 +54,58 @@ from dataclasses import dataclass, field, replace
 from fnmatch import fnmatchcase
 from pathlib import Path
 
-from physval.core.verdicts import errors
+from physval.core.verdicts import errors, tolerance_units
 
 _ENTRY = re.compile(r"^(?:(?P<engines>[^\s\[#]+)\s+)?(?P<family>\w+)\[(?P<variant>.*)\]:(?P<metric>\S+)\s*#\s*(?P<reason>\S.*)$")
 _BAND = re.compile(r"^\s+(?P<engine>\S+)\s+\[(?P<variant>.*)\]:(?P<metric>[^\s=]+)\s*=\s*(?P<rest>\S.*?)\s*(?:#.*)?$")
 _VALUE = re.compile(r"^(?P<value>\S+)\s*\+-\s*(?P<width>\S+)$")
 _RAISES = re.compile(r"^raises\s+(?P<exc>[\w.]+)$")
+_BAND_REASON = re.compile(r"^\s*#\s*band:\s*(?P<why>.*?)\s*$")
 
-# The band `physval known` records around a measured deviation: 5 % of the deviation's
-# size (so a change of its size by more than 5 % shows) but at least a tenth of the check's
-# tolerance (a change below that is not a change the check can resolve).
-BAND_OF_DEVIATION = 0.05
-BAND_OF_TOLERANCE = 0.1
+# The band `physval known` records: the measured values' middle +- half their spread plus a
+# floor. The floor is what float64 rounding can move a value by on another machine (another
+# BLAS, libm or SIMD path): ROUNDING of the value (1e-9 = 4.5e6 ulps, the rounding of 1e5
+# steps amplified 45-fold) or FLOOR_OF_TOLERANCE of the check's tolerance, whichever is
+# larger. A hundredth of a tolerance is far below one (a move the band hides changes no
+# verdict's margin by more than 1 %: physval compare's threshold) and far above what repeats
+# move a deterministic engine by (DART, the one history-dependent engine here, moves its
+# friction scenes by up to 3.5e-5 tolerances between two runs).
+REPEATS = 2
+ROUNDING = 1e-9
+FLOOR_OF_TOLERANCE = 0.01
+WIDTH_DIGITS = 3  # a band's width is written to 3 significant digits, rounded up
+# a band may be one tolerance wide, within the rounding of its written width
+WIDEST_WITHOUT_REASON = 1 + 10.0 ** (1 - WIDTH_DIGITS)
 
 
 class DeviationFileError(ValueError):
     """A line of a known-deviation file that does not parse; the message names file and line."""
 
 
-def band_width(expected: float, measured: float, tolerance: float) -> float:
-    return max(BAND_OF_DEVIATION * abs(measured - expected), BAND_OF_TOLERANCE * tolerance,
-               1e-12 * abs(measured))
+def rounding_floor(value: float, tolerance: float) -> float:
+    """The smallest band half-width: what rounding moves `value` by across machines, or a
+    hundredth of the check's `tolerance` (in the check's units), the larger."""
+    return max(ROUNDING * abs(value), FLOOR_OF_TOLERANCE * tolerance)
+
+
+def round_up(width: float, digits: int = WIDTH_DIGITS) -> float:
+    """`width` to `digits` significant digits, never below it (a written band holds what it
+    measured) by more than the rounding of the subtraction that measured the spread (1e-12)."""
+    if width <= 0 or not math.isfinite(width):
+        return width
+    rounded = float(f"{width:.{digits}g}")
+    if rounded >= width * (1 - 1e-12):
+        return rounded
+    step = 10.0 ** (math.floor(math.log10(rounded)) - digits + 1)
+    return float(f"{rounded + step:.{digits}g}")
+
+
+def band_of(values: list[float], tolerance: float) -> tuple[float, float]:
+    """(value, half-width) of the band around repeated measurements of one check: their
+    middle, and half their spread plus the rounding floor (`tolerance` in the check's units)."""
+    lo, hi = min(values), max(values)
+    middle = lo + (hi - lo) / 2
+    return middle, round_up((hi - lo) / 2 + rounding_floor(middle, tolerance))
 
 
 @dataclass(frozen=True)
@@ -80,8 +130,15 @@ class Band:
         return f"raises {self.raises}" if self.raises else f"{self.value:.6g} +- {self.width:.2g}"
 
     def text(self) -> str:
-        what = f"raises {self.raises}" if self.raises else f"{self.value!r} +- {self.width:.3g}"
+        what = f"raises {self.raises}" if self.raises else f"{self.value!r} +- {self.width:.{WIDTH_DIGITS}g}"
         return f"    {self.engine} [{self.variant}]:{self.metric} = {what}"
+
+    def tolerances(self, tolerance: float) -> float:
+        """The band's half-width in tolerances of its check (`tolerance` in the check's units);
+        0 for a band of an exception, NaN where the tolerance is 0 or not finite."""
+        if self.raises is not None:
+            return 0.0
+        return self.width / tolerance if tolerance > 0 and math.isfinite(tolerance) else math.nan
 
 
 @dataclass(frozen=True)
@@ -97,6 +154,7 @@ class Deviation:
     user: bool = False  # from a user's --known file: a difference the user expects, not an engine's own
     engines: str = "*"  # the engines it applies to (a name or glob)
     options: tuple[str, ...] = ()  # the --cases-dir and --adapter options of the run that read it
+    band_reason: str = ""  # why its bands may be wider than one tolerance (its `# band:` line)
 
     @property
     def cause(self) -> str:
@@ -131,6 +189,16 @@ class Deviation:
     def where(self) -> str:
         return f"{Path(self.source).name}:{self.line}"
 
+    def too_wide(self, band: Band, tolerance: float) -> str | None:
+        """Why `band` may not stand as recorded: wider than one tolerance of its check
+        (`tolerance` in the check's units) while the entry gives no `# band:` reason; None if it may."""
+        over = band.tolerances(tolerance)
+        if self.band_reason or not over > WIDEST_WITHOUT_REASON:
+            return None
+        return (f"the band {band.describe()} ({Path(self.source).name}:{band.line}) is {over:.3g} tolerances wide and "
+                f"its entry {self.pattern} ({self.where}) gives no reason: a band is at most one tolerance unless "
+                f"a '# band: WHY' line under the entry says why")
+
 
 def parse(path: Path | str) -> list[Deviation]:
     """Every entry of one file, with its bands."""
@@ -138,6 +206,12 @@ def parse(path: Path | str) -> list[Deviation]:
     out: list[Deviation] = []
     for i, raw in enumerate(_text(path).splitlines(), start=1):
         line = raw.rstrip()
+        if (why := _BAND_REASON.match(line)) is not None:
+            if not out or not why["why"]:
+                raise DeviationFileError(f"{path}:{i}: a '# band: WHY' line gives the reason of the entry above it "
+                                         f"for bands wider than one tolerance, got {raw!r}")
+            out[-1] = replace(out[-1], band_reason=" ".join(filter(None, (out[-1].band_reason, why["why"]))))
+            continue
         if not line.strip() or line.lstrip().startswith("#"):
             continue
         if raw[:1].isspace():
@@ -221,11 +295,16 @@ def find(deviations: list[Deviation], family: str, variant: str, metric: str) ->
 
 def rewrite(path: Path, bands_of: dict[int, list[Band]]) -> str:
     """The text of `path` with each entry's band lines replaced by `bands_of[entry line]`
-    (entries not in `bands_of` keep theirs); comments and causes are kept as written."""
+    (entries not in `bands_of` keep theirs); comments, causes and `# band:` reasons are kept
+    as written, a reason right under its entry."""
     lines = _text(Path(path)).splitlines()
+    entry_at = [bool(raw.strip()) and not raw.lstrip().startswith("#") and not raw[:1].isspace()
+                and _ENTRY.match(raw.rstrip()) is not None for raw in lines]
     out: list[str] = []
     current: int | None = None
     for i, raw in enumerate(lines, start=1):
+        if current in bands_of and _BAND_REASON.match(raw):
+            continue  # written under its entry
         is_band = raw[:1].isspace() and raw.strip() and not raw.lstrip().startswith("#")
         if is_band:
             if current in bands_of:
@@ -233,9 +312,11 @@ def rewrite(path: Path, bands_of: dict[int, list[Band]]) -> str:
             out.append(raw)
             continue
         out.append(raw)
-        if raw.strip() and not raw.lstrip().startswith("#") and _ENTRY.match(raw.rstrip()):
+        if entry_at[i - 1]:
             current = i
-            out += [b.text() for b in bands_of.get(i, [])]
+            if i in bands_of:
+                below = lines[i:next((j for j in range(i, len(lines)) if entry_at[j]), len(lines))]
+                out += [r for r in below if _BAND_REASON.match(r)] + [b.text() for b in bands_of[i]]
     return "\n".join(out) + "\n"
 
 
@@ -254,21 +335,53 @@ def deviating(row: dict) -> bool:
     return not (math.isfinite(err) and err <= tol)
 
 
-def measured_bands(engine: str, entries: list[Deviation], rows_by_job: dict, raised: dict) -> dict:
-    """Entry line -> the bands a fresh run measures for `engine` (first matching entry wins)."""
-    out: dict[int, list[Band]] = {e.line: [] for e in entries}
-    for key, rows in rows_by_job.items():
-        exc = raised.get(key)
-        for r in rows:
-            entry = find(entries, r["case"], r["variant"], r["metric"])
-            if entry is None:
-                continue
-            if exc and r["status"] in ("error", "deviation"):
-                out[entry.line].append(Band(engine, r["variant"], r["metric"], raises=exc))
-            elif r["status"] in ("pass", "fail", "deviation") and deviating(r):
-                e, m, t = float(r["expected"]), float(r["measured"]), float(r["tolerance"])
-                out[entry.line].append(Band(engine, r["variant"], r["metric"], m,
-                                                       band_width(e, m, t)))
+@dataclass
+class Measured:
+    """What repeated runs measure for one engine under a file's entries."""
+    bands: dict[int, list[Band]]  # entry line -> its bands (first matching entry wins)
+    tolerance: dict[tuple[str, str], float] = field(default_factory=dict)  # (variant, metric) -> tolerance, in units
+    unsteady: list[str] = field(default_factory=list)  # checks whose repeats disagree on raising, one line each
+
+    def too_wide(self, entries: list[Deviation]) -> list[tuple[Deviation, Band, str]]:
+        """The bands wider than one tolerance whose entry gives no reason, with why."""
+        out = []
+        for e in entries:
+            for b in self.bands.get(e.line, []):
+                why = e.too_wide(b, self.tolerance.get((b.variant, b.metric), math.nan))
+                if why is not None:
+                    out.append((e, b, why))
+        return out
+
+
+def measured_bands(engine: str, entries: list[Deviation], repeats: list[tuple[dict, dict]]) -> Measured:
+    """The bands the repeats of a fresh run measure for `engine`: `repeats` holds, per
+    repeat, (job key -> rows, job key -> the exception its run raised). A check gets a band
+    when it misses its tolerance in some repeat (its values' middle +- half their spread
+    plus the rounding floor: band_of), or a `raises` band when every repeat raised the same."""
+    out = Measured({e.line: [] for e in entries})
+    seen: dict[tuple, list] = {}  # (job key, variant, metric) -> [(exception or None, row)] per repeat
+    for rows_by_job, raised in repeats:
+        for key, rows in rows_by_job.items():
+            for r in rows:
+                seen.setdefault((key, r["variant"], r["metric"]), []).append((raised.get(key), r))
+    for (key, variant, metric), runs in seen.items():
+        r = runs[0][1]
+        entry = find(entries, r["case"], variant, metric)
+        if entry is None:
+            continue
+        raised = [exc if exc and row["status"] in ("error", "deviation") else None for exc, row in runs]
+        judged = [row for _, row in runs if row["status"] in ("pass", "fail", "deviation")
+                  and math.isfinite(float(row["measured"]))]
+        if all(raised) and len(set(raised)) == 1:
+            out.bands[entry.line].append(Band(engine, variant, metric, raises=raised[0]))
+        elif any(raised):
+            out.unsteady.append(f"{r['case']}[{variant}]:{metric}: the repeats raised "
+                                f"{', '.join(x or 'nothing' for x in raised)}: no band recorded")
+        elif len(judged) == len(runs) and any(deviating(row) for row in judged):
+            tol = tolerance_units(float(r["expected"]), float(r["tolerance"]), r["tolerance_kind"])
+            value, width = band_of([float(row["measured"]) for row in judged], tol)
+            out.bands[entry.line].append(Band(engine, variant, metric, value, width))
+            out.tolerance[(variant, metric)] = tol
     return out
 
 

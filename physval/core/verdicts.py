@@ -48,6 +48,12 @@ def errors(expected: float, measured: float) -> tuple[float, float]:
     return abs_err, rel_err
 
 
+def tolerance_units(expected: float, tolerance: float, kind: str) -> float:
+    """A check's tolerance in the check's own units: `tolerance` for an absolute one,
+    `tolerance * |expected|` for a relative one."""
+    return tolerance if kind == "abs" else tolerance * abs(expected)
+
+
 def within(check: Check, abs_err: float, rel_err: float) -> bool:
     """True when the error the check's tolerance bounds is within it."""
     err = abs_err if check.kind == "abs" else rel_err
@@ -91,6 +97,8 @@ def judge(c: Check, value: float, engine: str, variant: str, entry: deviations.D
         return dict(fields, status="fail", reason=(
             f"{outside}; {where} is recorded at the family's dt and the adapter's default iterations only"))
     if band.holds(value):
+        if (wide := entry.too_wide(band, tolerance_units(c.expected, c.tolerance, c.kind))) is not None:
+            return dict(fields, status="fail", reason=f"{outside}; {wide}")
         return dict(fields, status="deviation", reason=(
             f"{entry.cause} [measured {value:.6g} {c.unit} in the recorded band {band.describe()}; "
             f"expected {c.expected:.6g}: {outside}]"))

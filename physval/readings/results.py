@@ -9,13 +9,15 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from physval.core import COLUMNS
-from physval.reportkit import (STATUS_MARK, contents, deviation_summary, deviation_table, engine_versions, environment,
+from physval.core.verdicts import VANISHED
+from physval.reportkit import (STATUS_MARK, anchor, contents, deviation_summary, deviation_table, engine_versions, environment,
                                per_engine_counts,
                                fmt, frame, heading, md_table, problems_section, pyplot, save_figure, status_counts,
                                summary_matrix, unsupported_section, write_atomic)
@@ -141,6 +143,33 @@ def summary_sections(df: pd.DataFrame, plots: Path) -> list[str]:
     return lines
 
 
+VANISHED_TITLE = "Known deviations that vanished"
+_VANISHED_ENTRY = re.compile(rf"^{VANISHED}: (?P<entry>.*?) records ")
+
+
+def vanished_rows(df: pd.DataFrame) -> pd.DataFrame:
+    """The checks a known-deviation band records that now meet their closed form."""
+    return df[(df.status == "pass") & df.reason.astype(str).str.startswith(VANISHED)]
+
+
+def vanished_section(df: pd.DataFrame) -> list[str]:
+    """The report's listing of known deviations that vanished (none: no section): the
+    engine or its mapping changed, and the band, which no longer records anything the
+    engine does, has to go."""
+    gone = vanished_rows(df)
+    if not len(gone):
+        return []
+    entry = gone.reason.map(lambda r: m["entry"] if (m := _VANISHED_ENTRY.match(r)) else "")
+    return [f"## {VANISHED_TITLE}", "",
+            f"Checks a known-deviation band records that now meet their closed form ({len(gone)}): the engine or "
+            "its mapping changed. They pass; `physval known ENGINE --write` measures the engine's bands again (the "
+            "entry goes or narrows), `physval run --fail-on vanished` makes a run exit 1 on them.", "",
+            md_table(pd.DataFrame({
+                "engine": gone.engine, "check": gone.case + "[" + gone.variant + "]:" + gone.metric,
+                "expected": gone.expected.map(fmt), "measured": gone.measured.map(fmt),
+                "recorded band": gone.band, "entry": entry})), ""]
+
+
 def deviation_sections(df: pd.DataFrame, stale: list[str]) -> tuple[list[str], list[str]]:
     """(the report's section: counts per engine and cause, entries gone stale; the page
     deviations.md: every known deviation, band against measurement)."""
@@ -241,9 +270,12 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
                                         "kept and not recomputed; plots are drawn when it completes.")
     head += [INTRO, "", f"{len(df)} checks from {runs} runs: {status_counts(df)}.", ""]
     from physval.readings import site
+    if n_vanished := len(vanished_rows(df)):
+        head += [f"**Known deviations that vanished: {n_vanished}** (their checks now pass: the engine or its "
+                 f"mapping changed): [{VANISHED_TITLE.lower()}](#{anchor(VANISHED_TITLE)}).", ""]
     if not complete:
         body = [md_table(summary_matrix(df)), ""] if len(df) else []
-        body += problems_section(df)
+        body += vanished_section(df) + problems_section(df)
         write_atomic(out / "report.md", "\n".join(head + body))
         if len(df):
             site.write(out, df, families, command, interrupted=f"the run was interrupted after {runs} of {planned} "
@@ -252,7 +284,8 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
     plots = out / "plots"
     deviations, deviation_page = deviation_sections(df, list(stale))
     from physval.readings import scorecard
-    sections = [scorecard.section(scorecard.measure(df)), "\n".join(summary_sections(df, plots)),
+    sections = [scorecard.section(scorecard.measure(df)), "\n".join(vanished_section(df)),
+                "\n".join(summary_sections(df, plots)),
                 "\n".join(deviations),
                 "\n".join(problems_section(df)),
                 "\n".join(unsupported_counts(df))]

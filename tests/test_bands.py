@@ -1,0 +1,148 @@
+"""Known-deviation bands are measured, not proportional: a band is what repeating the
+measurement shows plus a rounding floor, at most one tolerance of its check unless its entry
+says why (`# band: WHY`), so that a move of the engine or of its mapping by more than a
+tolerance is `fail` however large the deviation is."""
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import pytest
+
+from cases.family import Check
+from physval.cli import main
+from physval.core import deviations
+from physval.core.verdicts import judge
+
+ROOT = Path(__file__).resolve().parent.parent
+HISTORY = ["--adapter", f"{ROOT / 'tests' / 'fakes.py'}:HistoryFake"]  # engine fake-history
+CASES = ["central_impact[e=0.5,m=1:3]", "central_impact[e=0.5,m=1:1]"]  # ballistic: the spheres pass through
+QUIET = ["--workers", "1", "--quiet"]
+
+# a check with a large known deviation: expected 1.0, the engine gives 1.5 (50 tolerances off)
+CHECK = Check("v", "m/s", 1.0, 0.01, "abs", "a tolerance")
+
+
+def _entry(bands=(), band_reason="", source="k.txt"):
+    return deviations.Deviation(source, "fam", "*", "v", "the engine is slow", 1, tuple(bands),
+                                band_reason=band_reason)
+
+
+def test_a_band_is_the_repeats_spread_plus_a_floor_far_below_a_tolerance():
+    value, width = deviations.band_of([1.5, 1.5], CHECK.tolerance)
+    assert value == 1.5 and width == pytest.approx(deviations.FLOOR_OF_TOLERANCE * CHECK.tolerance)
+    value, width = deviations.band_of([1.5, 1.503, 1.501], CHECK.tolerance)  # a spread of 0.3 tolerances
+    assert value == pytest.approx(1.5015) and width >= 0.0015 + 1e-4 and width == pytest.approx(0.0016, rel=1e-2)
+    # the floor survives rounding where the tolerance is tiny beside the value: 1e-9 of it
+    assert deviations.rounding_floor(1e3, 1e-12) == pytest.approx(1e-6)
+    for w in (0.0012345, 0.00999999, 3.0, 1e-17):  # written to 3 digits, never narrower than measured
+        assert deviations.round_up(w) >= w and float(f"{deviations.round_up(w):.3g}") == deviations.round_up(w)
+
+
+def test_a_move_of_two_tolerances_of_a_recorded_check_is_a_fail():
+    """The 5 %-of-the-deviation band this rule replaces was 0.025 wide here: it hid 2.5 tolerances."""
+    value, width = deviations.band_of([1.5, 1.5], CHECK.tolerance)
+    entry = _entry([deviations.Band("eng", "a", "v", value, width)])
+    assert judge(CHECK, 1.5, "eng", "a", entry)["status"] == "deviation"
+    moved = judge(CHECK, 1.5 + 2 * CHECK.tolerance, "eng", "a", entry)
+    assert moved["status"] == "fail" and moved["reason"].startswith("known deviation changed: recorded 1.5 +- ")
+
+
+def test_a_band_wider_than_a_tolerance_needs_a_written_reason(tmp_path):
+    path = tmp_path / "eng.txt"
+    path.write_text("fam[*]:v  # the engine is slow\n    eng [a]:v = 1.5 +- 0.03\n")
+    (entry,) = deviations.parse(path)
+    row = judge(CHECK, 1.51, "eng", "a", entry)
+    assert row["status"] == "fail" and "eng.txt:2) is 3 tolerances wide" in row["reason"]
+    assert "fam[*]:v (eng.txt:1) gives no reason" in row["reason"] and "# band: WHY" in row["reason"]
+    assert judge(CHECK, 1.6, "eng", "a", entry)["reason"].startswith("known deviation changed")
+
+    path.write_text("fam[*]:v  # the engine is slow\n    # band: the engine's history: a world built where the last "
+                    "was freed\n    eng [a]:v = 1.5 +- 0.03\n")
+    (entry,) = deviations.parse(path)
+    assert entry.band_reason == "the engine's history: a world built where the last was freed"
+    assert judge(CHECK, 1.51, "eng", "a", entry)["status"] == "deviation"
+    # at one tolerance (within the rounding of a width written to 3 digits) no reason is needed
+    assert judge(CHECK, 1.51, "eng", "a", _entry([deviations.Band("eng", "a", "v", 1.5, 0.0101)]))["status"] \
+        == "deviation"
+
+
+def test_a_band_reason_line_belongs_to_an_entry_and_stays_under_it(tmp_path):
+    path = tmp_path / "eng.txt"
+    path.write_text("# band: nothing above\nfam[*]:v  # cause\n")
+    with pytest.raises(deviations.DeviationFileError, match="eng.txt:1: a '# band: WHY' line"):
+        deviations.parse(path)
+    path.write_text("# head\nfam[*]:v  # cause\n    eng [a]:v = 1 +- 0.1\n    # band: why it is wide\n"
+                    "    eng [b]:v = 2 +- 0.1\n")
+    (entry,) = deviations.parse(path)
+    text = deviations.rewrite(path, {entry.line: [deviations.Band("eng", "a", "v", 1.25, 0.02)]})
+    assert text == "# head\nfam[*]:v  # cause\n    # band: why it is wide\n    eng [a]:v = 1.25 +- 0.02\n"
+
+
+def _row(variant, value, status="fail", metric="v"):
+    return {"case": "fam", "variant": variant, "metric": metric, "expected": 1.0, "measured": value,
+            "tolerance": CHECK.tolerance, "tolerance_kind": "abs", "status": status}
+
+
+def test_repeats_that_spread_widen_the_band_and_repeats_that_disagree_on_raising_record_none():
+    entries = [_entry()]
+    first = ({"j1": [_row("a", 1.5)], "j2": [_row("b", 1.2, "error")]}, {"j2": "RuntimeError"})
+    second = ({"j1": [_row("a", 1.54)], "j2": [_row("b", 1.2)]}, {})
+    measured = deviations.measured_bands("eng", entries, [first, second])
+    (band,) = measured.bands[1]
+    assert band.value == pytest.approx(1.52) and band.width == pytest.approx(0.02 + 1e-4, rel=1e-2)
+    ((_, wide, why),) = measured.too_wide(entries)  # 2 tolerances, and the entry gives no reason
+    assert wide is band and "is 2.01 tolerances wide" in why
+    assert len(measured.unsteady) == 1 and "RuntimeError, nothing" in measured.unsteady[0]
+    same = ({"j2": [_row("b", math.nan, "error")]}, {"j2": "RuntimeError"})
+    (raised,) = deviations.measured_bands("eng", entries, [same, same]).bands[1]
+    assert raised.raises == "RuntimeError"
+
+
+def _rows(out: Path) -> dict:
+    with open(out / "results.csv", newline="") as f:
+        return {(r["variant"], r["metric"]): r for r in csv.DictReader(f)}
+
+
+def test_known_measures_twice_in_another_order_and_asks_for_a_reason_where_history_spreads(tmp_path, capsys):
+    """An engine with a history (each scene a process builds starts 1e-7 faster): the second
+    repeat runs the jobs in the reverse order, each variant's values differ, and the band
+    covers both. Momentum, judged to 1e-9, spreads 10 tolerances: its check fails, naming the
+    band's line, until a `# band:` line under the entry says why."""
+    known = tmp_path / "known.txt"
+    known.write_text("fake-history central_impact[e=0.5,m=1:*]:*  # the fake engine lets the spheres pass through\n")
+    measure = ["known", "fake-history", "--file", str(known), "--cases", *CASES, *HISTORY, *QUIET,
+               "--out", str(tmp_path / "m"), "--write"]
+    assert main(measure) == 0
+    said = capsys.readouterr().out
+    assert "momentum_after = " in said and "tolerances wide over 2 repeats" in said and "# band: WHY" in said
+    first, second = (_rows_of(tmp_path / "m" / name) for name in ("known-fake-history.csv",
+                                                                    "known-fake-history.repeat1.csv"))
+    (entry,) = deviations.parse(known)
+    band = entry.band("fake-history", "e=0.5,m=1:3", "v1_after")
+    a, b = float(first["e=0.5,m=1:3", "v1_after"]["measured"]), float(second["e=0.5,m=1:3", "v1_after"]["measured"])
+    assert a != b and band.value == pytest.approx((a + b) / 2, abs=1e-15) and band.width >= abs(a - b) / 2
+
+    run = ["run", "--engines", "fake-history", "--cases", *CASES, "--known", str(known), *HISTORY, *QUIET,
+           "--readings", "none"]
+    assert main([*run, "--out", str(tmp_path / "a")]) == 0
+    rows = _rows(tmp_path / "a")
+    assert rows["e=0.5,m=1:3", "v1_after"]["status"] == "deviation"
+    wide = rows["e=0.5,m=1:3", "momentum_after"]
+    line = entry.band("fake-history", "e=0.5,m=1:3", "momentum_after").line
+    assert wide["status"] == "fail" and f"(known.txt:{line}) is " in wide["reason"] and "gives no reason" in wide["reason"]
+
+    text = known.read_text().splitlines()
+    known.write_text("\n".join(text[:1] + ["    # band: the fake engine's history: each scene starts faster"]
+                               + text[1:]) + "\n")
+    assert main([*run, "--out", str(tmp_path / "b")]) == 0
+    assert {r["status"] for r in _rows(tmp_path / "b").values()} <= {"deviation", "pass"}
+    assert main(measure) == 0  # measuring again keeps the reason under its entry
+    assert known.read_text().splitlines()[1] == "    # band: the fake engine's history: each scene starts faster"
+    capsys.readouterr()
+
+
+def _rows_of(path: Path) -> dict:
+    with open(path, newline="") as f:
+        return {(r["variant"], r["metric"]): r for r in csv.DictReader(f)}
