@@ -246,6 +246,12 @@ class Box3DSimulation(Simulation):
         bid = lib.b3CreateBody(self._world, ffi.addressof(bd))
         sd = lib.b3DefaultShapeDef()
         sd.baseMaterial.userMaterialId = material_id
+        # Box3D's rolling resistance (b3SurfaceMaterial.rollingResistance; a pair takes the larger
+        # of its shapes') is not the bound |tau| <= d N that rolling_resistance asks for (measured
+        # on that family's ball, r = 0.1 m): rolling on the flat it brakes at 8.76 rr m/s^2, 1.25x
+        # Box2D's law with the lever rr r, and a ball released at rest on a 10 deg slope is held by
+        # rr = 0.001, where holding needs a lever of r tan(10 deg) = 18 mm; Box3D has no torsional
+        # friction value. So the adapter declares no contact torques and sets none.
         sd.baseMaterial.rollingResistance = 0.0
         sd.density = 1.0  # replaced by the stated mass below
         _MATERIALS[material_id] = (self._key, body.name)

@@ -146,7 +146,8 @@ def expect(p, dt) -> list[Check]:
     return [
         Check("down_face_alignment", "-", 1.0, 1 - math.cos(tilt), "abs",
               f"flat on the a-face to within {PENETRATION * 1e3:g} mm across its shorter side ({tilt:.2g} rad); "
-              "any other face gives <= 0"),
+              "any other face gives <= 0; plus the orientation's norm, unit to a rounding per sub-step",
+              1.0),
         Check("rest_height", "m", SIDES[0], PENETRATION, "abs",
               f"resting on the a-face; {PENETRATION * 1e3:g} mm is a solver's stabilising depth"),
         Check("energy_dissipated", "J", energy_dissipated(p), M * G * PENETRATION + 0.5 * M * (G * dt) ** 2, "abs",

@@ -22,8 +22,10 @@ at e13; one that puts each pair's e on both bodies of a product rule gets e^2.
 """
 from __future__ import annotations
 
+import math
+
 from cases.central_impact import velocities_after
-from cases.family import CaseError, CaseFamily, Check, plane_label
+from cases.family import CaseError, CaseFamily, Check, impulse_roundoff, plane_label
 from cases.scene import Body, Material, Scene, ball
 
 R = 0.1        # ball radius, m
@@ -111,8 +113,12 @@ def expect(p, dt) -> list[Check]:
     why = ("two single impulses, no external force: each exact to solver convergence (1e-6 of its closing speed), "
            "the first's error carried into the second")
     checks = [Check(f"v{i + 1}_after", "m/s", v, tol, "abs", why) for i, v in enumerate(final_velocities(p))]
+    # energy never rises, so ball i moves at most V0 sqrt(m1 / m_i): each pair's m |v| sums
+    # to at most V0 sum(sqrt(m1 m_i)), rounded in the two impacts
+    bound = V0 * sum(math.sqrt(m1 * m) for m in masses(p))
     checks.append(Check("momentum_after", "kg m/s", m1 * V0, 1e-9 * m1 * V0, "abs",
-                        "equal and opposite impulses conserve momentum to round-off"))
+                        "equal and opposite impulses conserve momentum to round-off (of the engine's float width)",
+                        impulse_roundoff(bound, impacts=2)))
     return checks
 
 
