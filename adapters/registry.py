@@ -51,6 +51,8 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
                           {"name": "pybullet-noanchor", "friction_anchor": False}),
     "pybullet-boxground": ("adapters.pybullet_engine", "PyBulletAdapter", {"name": "pybullet-boxground", "ground": "box"}),
     "mujoco": ("adapters.mujoco_engine", "MuJoCoAdapter", {}),
+    # MuJoCo's model stepped by its Warp port in float32 (adapters/mujoco_warp_engine.py)
+    "mujoco-warp": ("adapters.mujoco_warp_engine", "MuJoCoWarpAdapter", {}),
     "pymunk": ("adapters.pymunk_engine", "PymunkAdapter", {}),
     # a 1 mm collision slop: stacks stand at 60 Hz, bodies rest 1 mm deep (pymunk_engine.py)
     "pymunk-slop1mm": ("adapters.pymunk_engine", "PymunkAdapter", {"name": "pymunk-slop1mm", "collision_slop": 1e-3}),
@@ -71,7 +73,7 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
                     {"approximation": "sap", "contact_model": "hydroelastic"}),
 }
 # The pip extra that installs each built-in engine's package (README, pyproject.toml).
-EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "pymunk": "pymunk", "dart": "dart", "box2d": "box2d",
+EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "mujoco-warp": "mujoco-warp", "pymunk": "pymunk", "dart": "dart", "box2d": "box2d",
           "rapier": "rapier", "drake": "drake"}
 
 
@@ -181,7 +183,7 @@ def get(name: str, adapters: tuple[str, ...] = ()) -> Adapter:
         try:
             mod = importlib.import_module(module)
         except ImportError as exc:
-            extra = EXTRAS.get(name.split("-")[0], name.split("-")[0])
+            extra = EXTRAS.get(name) or EXTRAS.get(name.split("-")[0], name.split("-")[0])
             raise EngineError(f"engine {name!r} is not installed ({exc.name or exc}): "
                               f"pip install '.[{extra}]'") from None
         return getattr(mod, cls)(**spec.kwargs)
