@@ -182,6 +182,12 @@ class MuJoCoWarpAdapter(MuJoCoAdapter):
         substeps=False,  # Settings.iterations caps the Newton solver's iterations
     )
 
+    # A default run (and the default test suite) runs the core families and the conformance
+    # battery on it; named (`--engines mujoco-warp`, `pytest --engine mujoco-warp`) every family.
+    # The model is MuJoCo's, which the default run covers in full, and every process pays Warp's
+    # start (~4 s warm; ~40 s of compiling with an empty kernel cache).
+    default_tags = frozenset({"core", "conformance"})
+
     def __init__(self, contact_steps: float = CONTACT_STEPS, ground: str = "plane", device: str | None = None):
         """As MuJoCoAdapter; device: a Warp device ("cpu", "cuda:0"), by default
         $PHYSVAL_WARP_DEVICE, else the CPU."""

@@ -39,14 +39,14 @@ def test_parity_of_an_engine_with_itself_is_bad_input(tmp_path, capsys):
     assert "name two engines" in capsys.readouterr().err
 
 
-def test_a_difference_is_counted_in_the_originals_tolerance():
+def test_a_difference_is_counted_in_the_wider_tolerance_of_the_two():
     def row(engine, metric, measured, status="pass", kind="abs"):
         return {"case": "f", "variant": "v", "engine": engine, "metric": metric, "status": status,
                 "measured": measured, "expected": 2.0, "tolerance": 0.1, "tolerance_kind": kind, "reason": ""}
-    df = pd.DataFrame([row("a", "x", 2.0), row("b", "x", 2.05), row("a", "r", 2.0, kind="rel"),
+    df = pd.DataFrame([row("a", "x", 2.0), {**row("b", "x", 2.05), "tolerance": 0.05}, row("a", "r", 2.0, kind="rel"),
                        row("b", "r", 2.1, kind="rel"), row("a", "u", 2.0), row("b", "u", float("nan"), "unsupported")])
     t = parity.checks(df, "a", "b").set_index("metric")
-    assert t.difference["x"] == pytest.approx(0.5)   # 0.05 m of a 0.1 m tolerance
+    assert t.difference["x"] == pytest.approx(0.5)   # 0.05 m of the wider, 0.1 m, tolerance
     assert t.difference["r"] == pytest.approx(0.5)   # 0.1 of 10 % of |2|
     assert pd.isna(t.difference["u"]) and t.verdicts_differ["u"] and not t.verdicts_differ["x"]
     fam = parity.families(t.reset_index(), parity.parting([], parity.PARTED)).iloc[0]

@@ -20,7 +20,7 @@ def add_parser(sub) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG,
         description="Run the selected families on ENGINE and PORT through the same job loop, saving every "
                     "trajectory, and report per family each check's difference (PORT minus ENGINE) in units of "
-                    "the check's tolerance, the verdicts that differ, and the step at which each pair of "
+                    "the check's tolerance (at the narrower float width of the two), the verdicts that differ, and the step at which each pair of "
                     "trajectories parts (some state differs by more than --parted of the job's scale). Writes parity.md, parity.csv, parting.csv, the run's "
                     "results.csv and trajectories/ into --out.")
     p.add_argument("engine", metavar="ENGINE", help="the original engine (e.g. mujoco)")

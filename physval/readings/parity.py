@@ -1,10 +1,11 @@
 """Implementation parity: one engine and its port (MuJoCo C and MuJoCo Warp) run the same
 scenes, and each check and each trajectory of the port is set against the original's.
 
-Per check: the port's value minus the original's in units of the check's tolerance (the
-original's, in the check's units: `tolerance`, or `tolerance * |expected|` for a relative
-one), so 0.01 reads "the port moved 1 % of what the closed form allows", and whether the
-two got different verdicts. Per job: the step at which the two trajectories part
+Per check: the port's value minus the original's in units of the check's tolerance (in the
+check's units: `tolerance`, or `tolerance * |expected|` for a relative one; the wider of the
+two engines' rows, i.e. at the narrower float width, whose round-off share it includes, so a
+float32 port's rounding counts as what the checks allow it), so 0.01 reads "the port moved
+1 % of what the closed form allows", and whether the two got different verdicts. Per job: the step at which the two trajectories part
 (physval.readings.divergence.parting), where some state first differs by more than PARTED
 of the job's scale. divergence.PARTED (1e-9, what `physval compare` uses between two runs of
 one double engine) would part a float32 port from its original in free flight by rounding
@@ -44,11 +45,15 @@ def _tolerance(df: pd.DataFrame) -> pd.Series:
 
 def checks(rows: pd.DataFrame, a: str, b: str) -> pd.DataFrame:
     """One row per check run on both engines: both statuses and values, and the port's
-    difference in the original's tolerances (`difference`, NaN where either was not judged)."""
+    difference in the check's tolerance at the narrower float width (`difference`, NaN where
+    either was not judged)."""
     keep = ["case", "variant", "metric", "status", "measured", "expected", "tolerance", "tolerance_kind", "reason"]
     left = rows[rows.engine == a][keep].assign(tol=lambda d: _tolerance(d))
-    right = rows[rows.engine == b][["case", "variant", "metric", "status", "measured", "reason"]]
+    right = rows[rows.engine == b][keep].assign(tol=lambda d: _tolerance(d)).drop(columns=["expected",
+                                                                                          "tolerance_kind"])
     df = left.merge(right, on=["case", "variant", "metric"], suffixes=("_a", "_b"))
+    df["tol"] = np.fmax(df.tol_a, df.tol_b)  # at the narrower float width (NaN only where both are)
+    df = df.rename(columns={"tolerance_a": "tolerance"}).drop(columns=["tol_a", "tol_b", "tolerance_b"])
     both = df.status_a.isin(JUDGED) & df.status_b.isin(JUDGED)
     diff = (pd.to_numeric(df.measured_b, errors="coerce") - pd.to_numeric(df.measured_a, errors="coerce")) / df.tol
     df["difference"] = diff.where(both & (df.tol > 0))
@@ -101,7 +106,7 @@ def write(folder: Path, table: pd.DataFrame, parts: pd.DataFrame, a: str, b: str
         lines += ["Releases: " + "; ".join(f"{e} {v}" for e, v in versions.items()), ""]
     lines += [
         f"The same scenes on both engines. Each check's difference is {b}'s value minus {a}'s in units of "
-        f"the check's tolerance ({a}'s); a trajectory pair parts at the first step where some state differs "
+        f"the check's tolerance (the wider of the two engines', at the narrower float width); a trajectory pair parts at the first step where some state differs "
         f"by more than {threshold:.2g} of the job's scale (physval.readings.parity).", "",
         f"{len(table)} checks on both engines, {judged} judged on both: median |difference| "
         f"{fmt(float(d.median())) if judged else '-'} tolerances, {int((d > 1).sum())} differ by more than one "
