@@ -68,3 +68,14 @@ def test_the_model_is_mujocos_and_the_floats_are_32_bits(adapter):
     assert sim.knobs["mujoco_warp"]["device"] == "cpu"
     assert "mjDSBL_AUTORESET" in sim.knobs["mujoco_warp"]["cleared_flags"]
     assert adapter.version().endswith(", cpu)")
+
+
+def test_the_device_comes_from_the_environment_and_names_the_version(adapter, monkeypatch):
+    from adapters.mujoco_warp_engine import DEVICE_ENV, MuJoCoWarpAdapter
+    monkeypatch.setenv(DEVICE_ENV, "cuda:0")
+    gpu = MuJoCoWarpAdapter()
+    assert gpu.device == "cuda:0" and gpu.version().endswith(", cuda:0)")
+    assert MuJoCoWarpAdapter(device="cpu").device == "cpu"
+    monkeypatch.delenv(DEVICE_ENV)
+    assert MuJoCoWarpAdapter().device == "cpu"
+

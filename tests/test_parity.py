@@ -51,3 +51,19 @@ def test_a_difference_is_counted_in_the_wider_tolerance_of_the_two():
     assert pd.isna(t.difference["u"]) and t.verdicts_differ["u"] and not t.verdicts_differ["x"]
     fam = parity.families(t.reset_index(), parity.parting([], parity.PARTED)).iloc[0]
     assert fam["verdicts differ"] == 1 and fam["largest |diff| (tol)"] == pytest.approx(0.5)
+
+
+def test_the_harness_keeps_warps_kernel_cache_in_its_own_folder(monkeypatch, tmp_path):
+    """Engines' own caches (store.ENGINE_CACHES) go into physval's cache folder before any
+    engine starts, unless the user set them."""
+    import os
+
+    from physval.core.context import Context, Resolver
+    monkeypatch.setenv("WARP_CACHE_PATH", "")  # restored (or removed) after the test
+    monkeypatch.delenv("WARP_CACHE_PATH")
+    monkeypatch.setenv("PHYSVAL_CACHE_DIR", str(tmp_path))
+    Resolver(Context()).adapter("reference")
+    assert os.environ["WARP_CACHE_PATH"] == str(tmp_path / "warp")
+    monkeypatch.setenv("WARP_CACHE_PATH", "/elsewhere")  # a value the user set stays
+    Resolver(Context()).adapter("reference")
+    assert os.environ["WARP_CACHE_PATH"] == "/elsewhere"
