@@ -532,7 +532,7 @@ class MuJoCoSimulation(Simulation):
 
     def states(self) -> dict[str, np.ndarray]:
         # from qpos/qvel: after mj_step, xpos/xquat still describe the start of the step
-        qpos, qvel = self._data.qpos, self._data.qvel
+        qpos, qvel = self._qpos, self._qvel
         out = {}
         for name, qa, va, held in self._bodies:
             if held is None:  # free joint: qpos = pos, quat; qvel = world vel, BODY-frame omega
@@ -634,7 +634,7 @@ class MuJoCoSimulation(Simulation):
         forces in each contact's frame (normal, tangent1, tangent2), as geom1 exerts them
         on geom2. d.contact and efc_force belong to the step just taken: mj_step solves,
         then integrates."""
-        d = self._data
+        d = self._contacts()
         con = d.contact
         addr = con.efc_address
         # no constraint row (e.g. exactly touching, dist = 0) or excluded: no force
@@ -664,11 +664,16 @@ class MuJoCoSimulation(Simulation):
                 f[j] = self._f6[:3]
         return sel, f
 
+    def _contacts(self):
+        """What the contact read-out reads: the MjData (its ncon, contact and efc_force)."""
+        return self._data
+
     def contact_forces(self) -> dict[tuple[str, str], float]:
-        if self._data.ncon == 0:
+        d = self._contacts()
+        if d.ncon == 0:
             return {}
         sel, f = self._solved()
-        geom = self._data.contact.geom[sel]
+        geom = d.contact.geom[sel]
         ids = self._pair_index[geom[:, 0], geom[:, 1]]
         n = len(self._pair_keys)
         total = np.bincount(ids, weights=f[:, 0], minlength=n).tolist()  # summed in contact order
@@ -683,7 +688,7 @@ class MuJoCoSimulation(Simulation):
         2D scenes: a rect is a box as deep along y as it is wide, so MuJoCo reports its
         contacts in pairs at y = +-depth; they are reported as they are, projected onto
         the plane y = 0 (two points at the same x-z place that share the load)."""
-        d = self._data
+        d = self._contacts()
         if d.ncon == 0:
             return []
         sel, f = self._solved()
@@ -759,6 +764,12 @@ class MuJoCoAdapter(Adapter):
         return metadata.version("mujoco")
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
+        return MuJoCoSimulation(scene, *self.model(scene, settings))
+
+    def model(self, scene: Scene, settings: Settings) -> tuple[mujoco.MjModel, dict, int]:
+        """The compiled MjModel of `scene`, the knobs its MJCF sets and the iteration cap:
+        what every MuJoCo implementation (MuJoCo C here, MuJoCo Warp in
+        adapters/mujoco_warp_engine.py) steps. Unsupported for what MuJoCo cannot represent."""
         # (a body held from rotating does not spin, and a 2D scene lies in the x-z plane:
         # cases.scene validates both)
         reason = self.capabilities.cannot_run(scene) or _hooke_unrepresentable(scene) or _torques_unrepresentable(scene)
@@ -777,7 +788,7 @@ class MuJoCoAdapter(Adapter):
                          float(model.body_invweight0[model.geom_bodyid[g], 0]) for g in range(model.ngeom)}
             xml, knobs = scene_mjcf(scene, settings, iterations, n, invweight, self.ground, self.defaults)
             model = self._compile(xml)
-        return MuJoCoSimulation(scene, model, knobs, iterations)
+        return model, knobs, iterations
 
     @staticmethod
     def _compile(xml: str) -> mujoco.MjModel:

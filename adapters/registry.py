@@ -59,6 +59,8 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     # what a user gets who tunes nothing: pyramidal cone, impratio 1, default solimp, solref
     # where e = 0 and solreffriction (adapters/mujoco_engine.py, "mujoco-defaults")
     "mujoco-defaults": ("adapters.mujoco_engine", "MuJoCoAdapter", {"name": "mujoco-defaults", "defaults": "all"}),
+    # MuJoCo's model stepped by its Warp port in float32 (adapters/mujoco_warp_engine.py)
+    "mujoco-warp": ("adapters.mujoco_warp_engine", "MuJoCoWarpAdapter", {}),
     "pymunk": ("adapters.pymunk_engine", "PymunkAdapter", {}),
     # a 1 mm collision slop: stacks stand at 60 Hz, bodies rest 1 mm deep (pymunk_engine.py)
     "pymunk-slop1mm": ("adapters.pymunk_engine", "PymunkAdapter", {"name": "pymunk-slop1mm", "collision_slop": 1e-3}),
@@ -80,8 +82,8 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
                     {"approximation": "sap", "contact_model": "hydroelastic"}),
 }
 # The pip extra that installs each built-in engine's package (README, pyproject.toml).
-EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "pymunk": "pymunk", "dart": "dart", "box2d": "box2d",
-          "box3d": "box3d", "rapier": "rapier", "drake": "drake"}
+EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "mujoco-warp": "mujoco-warp", "pymunk": "pymunk", "dart": "dart",
+          "box2d": "box2d", "box3d": "box3d", "rapier": "rapier", "drake": "drake"}
 
 
 class EngineError(ValueError):
@@ -190,7 +192,7 @@ def get(name: str, adapters: tuple[str, ...] = ()) -> Adapter:
         try:
             mod = importlib.import_module(module)
         except ImportError as exc:
-            extra = EXTRAS.get(name.split("-")[0], name.split("-")[0])
+            extra = EXTRAS.get(name) or EXTRAS.get(name.split("-")[0], name.split("-")[0])
             raise EngineError(f"engine {name!r} is not installed ({exc.name or exc}): "
                               f"pip install '.[{extra}]'") from None
         return getattr(mod, cls)(**spec.kwargs)

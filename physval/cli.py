@@ -23,7 +23,7 @@ COMMANDS = {"list": "physval.commands.list", "run": "physval.commands.run", "swe
             "stress": "physval.commands.stress", "bench": "physval.commands.bench",
             "known": "physval.commands.known", "check-case": "physval.commands.check_case",
             "real": "physval.commands.real", "compare": "physval.commands.compare",
-            "versions": "physval.commands.versions"}
+            "versions": "physval.commands.versions", "parity": "physval.commands.parity"}
 
 EPILOG = """examples:
   physval run                                   every case on every installed engine, report in reports/
@@ -35,6 +35,7 @@ EPILOG = """examples:
   physval check-case my_cases/second_bounce.py  validate a family file before running it
   physval compare before/ after/                what changed between two result folders (exit 1 if anything)
   physval versions mujoco 3.11.0 3.12.0         the same run on two releases, each in its own environment
+  physval parity mujoco mujoco-warp             an engine and its port on the same scenes, check by check
   physval COMMAND --help                        each command's options
 exit codes: 0 the command completed (failing physics is a result, not a crash); 1 (compare,
 versions) something changed between the runs, (run) a check fell under --fail-on; 2 bad

@@ -66,6 +66,12 @@ SLOW_IN_THE_SUITE = {
     ("reference-newton-coulomb", "resting_blocks[[]n=[345]]*"):
         "pairwise impulses run all 200 sweeps each step on a resting stack: 25-77 s each on 2 shared cores",
     ("reference-lemke", "resting_blocks[[]n=[45]]*"): "a dense pivoting tableau per step: 14-19 s each",
+    # MuJoCo Warp steps MuJoCo's own model (tests/test_mujoco_warp_mapping.py; `physval parity`):
+    # its conformance battery stays in the suite, its core families (53 jobs, 1-2 min on 2 cores
+    # with Warp's per-process start) run with -m slow and in every `physval run`
+    ("mujoco-warp", "central_impact*"): "MuJoCo's model on Warp's CPU kernels: 1-3 s a job",
+    ("mujoco-warp", "incline_threshold*"): "MuJoCo's model on Warp's CPU kernels: 1-3 s a job",
+    ("mujoco-warp", "resting_blocks*"): "MuJoCo's model on Warp's CPU kernels: 1-3 s a job",
 }
 
 

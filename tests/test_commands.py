@@ -29,7 +29,8 @@ def test_each_command_dispatches_through_main(command, monkeypatch, capsys):
     called = []
     monkeypatch.setattr(module, "run", lambda args: called.append(args) or 0)
     argv = {"known": ["known", "reference"], "check-case": ["check-case", "x.py"], "compare": ["compare", "a", "b"],
-            "versions": ["versions", "mujoco", "3.3.7", "4.0.0"]}.get(command, [command])
+            "versions": ["versions", "mujoco", "3.3.7", "4.0.0"],
+            "parity": ["parity", "mujoco", "mujoco-warp"]}.get(command, [command])
     assert cli.main(argv) == 0
     assert len(called) == 1 and called[0].command == command
     assert cli.main([command, "--help"]) == 0

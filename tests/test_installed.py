@@ -91,6 +91,9 @@ NARROWED = {
         after="physval run --cases central_impact --engines reference,mujoco --out after"),
     "physval versions mujoco 3.11.0 3.12.0 4.0.0 --cases resting_blocks stack_strike --save-trajectories": Narrowed(
         '--cases "central_impact[drop,e=0.5]" --engines mujoco', needs=("mujoco",)),
+    # an engine and its port (MuJoCo Warp compiles its kernels once into physval's cache folder)
+    "physval parity mujoco mujoco-warp --cases central_impact resting_blocks --workers 2": Narrowed(
+        '--cases "central_impact[e=1.0,m=1:1]"', needs=("mujoco", "mujoco-warp")),
     # the real-world tier
     "physval real": Narrowed(REAL_QUICK, needs=("mujoco",)),
     "physval real --tosses my_tosses.csv --params reports/real/params.json": Narrowed("--engines mujoco",

@@ -13,6 +13,7 @@ from adapters import registry
 from adapters.base import Adapter
 from cases.family import CaseFamily
 from physval.core import deviations
+from physval.core.store import engine_caches
 
 
 @dataclass(frozen=True)
@@ -68,6 +69,7 @@ class Resolver:
     def adapter(self, name: str) -> Adapter:
         """The engine's adapter; raises registry.EngineError (remembered) if unavailable."""
         if name not in self._adapters:
+            engine_caches()  # before any engine starts, in every process that runs jobs
             try:
                 self._adapters[name] = registry.get(name, self.ctx.adapters)
             except registry.EngineError as exc:

@@ -233,6 +233,18 @@ def adapter_sources(adapter) -> list[Path]:
     return [Path(getattr(sys.modules.get(module), "__file__", None) or "")]
 
 
+# Engines' own caches kept in physval's cache folder: environment variable -> subfolder. The
+# engine reads its variable itself (adapters never import the harness); a value the user set
+# is left as it is.
+ENGINE_CACHES = {"WARP_CACHE_PATH": "warp"}  # Warp's compiled kernels (MuJoCo Warp): ~1 min to build
+
+
+def engine_caches() -> None:
+    """Point every engine cache of ENGINE_CACHES into cache_dir(), unless already set."""
+    for variable, folder in ENGINE_CACHES.items():
+        os.environ.setdefault(variable, str(cache_dir() / folder))
+
+
 def cache_dir() -> Path:
     """Where engine-wide readings are cached across runs: $PHYSVAL_CACHE_DIR, else
     $XDG_CACHE_HOME/physval, else ~/.cache/physval."""

@@ -68,10 +68,10 @@ def _apart(ta, tb, n: int) -> tuple[np.ndarray, dict]:
     return worst, per_body
 
 
-def parting(path_a: Path, path_b: Path) -> dict:
-    """How one job's two trajectories part: the first step and time past PARTED, the body and
-    state component that parted first, the largest relative difference, and a note when
-    they cannot be compared step by step."""
+def parting(path_a: Path, path_b: Path, threshold: float = PARTED) -> dict:
+    """How one job's two trajectories part: the first step and time past `threshold` (of the
+    job's scales), the body and state component that parted first, the largest relative
+    difference, and a note when they cannot be compared step by step."""
     ta, _ = load(path_a)
     tb, _ = load(path_b)
     out = {"job": Path(path_a).stem, "steps": min(len(ta.t), len(tb.t)) - 1, "parted_step": np.nan,
@@ -83,7 +83,7 @@ def parting(path_a: Path, path_b: Path) -> dict:
     if set(ta.states) != set(tb.states):
         out["note"] = (out["note"] + "; " if out["note"] else "") + "the runs hold different bodies"
     worst, per_body = _apart(ta, tb, out["steps"] + 1)
-    past = np.flatnonzero(worst > PARTED)
+    past = np.flatnonzero(worst > threshold)
     out["largest"] = float(worst.max(initial=0.0))
     if len(past):
         k = int(past[0])

@@ -1,0 +1,69 @@
+"""`physval parity ENGINE PORT`: the same scenes on two engines, each check's difference in
+units of its tolerance and the step where each pair of trajectories parts; run through
+physval.cli.main on two formulations of the reference (always installed, no compile)."""
+from __future__ import annotations
+
+import csv
+
+import pandas as pd
+import pytest
+
+from physval.cli import main
+from physval.readings import parity
+
+
+def test_parity_runs_both_engines_and_reports_per_family(tmp_path, capsys):
+    out = tmp_path / "parity"
+    code = main(["parity", "reference", "reference-pgs", "--cases", "central_impact[e=0.5,m=1:3]",
+                 "resting_blocks[n=2]", "--workers", "1", "--out", str(out), "--quiet"])
+    assert code == 0
+    said = capsys.readouterr().out
+    assert "checks on both" in said and "trajectory pairs part" in said
+    rows = list(csv.DictReader(open(out / "parity.csv")))
+    assert {r["case"] for r in rows} == {"central_impact", "resting_blocks"}
+    for r in rows:  # both judged: a finite difference in tolerances
+        assert r["status_a"] in parity.JUDGED and r["status_b"] in parity.JUDGED
+        assert float(r["difference"]) == pytest.approx(
+            (float(r["measured_b"]) - float(r["measured_a"])) / float(r["tolerance"]) /
+            (abs(float(r["expected"])) if r["tolerance_kind"] == "rel" else 1.0))
+    parts = list(csv.DictReader(open(out / "parting.csv")))
+    assert len(parts) == 2 and all(p["steps"] for p in parts)
+    text = (out / "parity.md").read_text()
+    assert "## Per family" in text and "central_impact" in text and "resting_blocks" in text
+    assert (out / "trajectories").is_dir() and (out / "results.csv").is_file()
+
+
+def test_parity_of_an_engine_with_itself_is_bad_input(tmp_path, capsys):
+    assert main(["parity", "reference", "reference", "--cases", "central_impact[e=0.5,m=1:3]",
+                 "--out", str(tmp_path / "p")]) == 2
+    assert "name two engines" in capsys.readouterr().err
+
+
+def test_a_difference_is_counted_in_the_wider_tolerance_of_the_two():
+    def row(engine, metric, measured, status="pass", kind="abs"):
+        return {"case": "f", "variant": "v", "engine": engine, "metric": metric, "status": status,
+                "measured": measured, "expected": 2.0, "tolerance": 0.1, "tolerance_kind": kind, "reason": ""}
+    df = pd.DataFrame([row("a", "x", 2.0), {**row("b", "x", 2.05), "tolerance": 0.05}, row("a", "r", 2.0, kind="rel"),
+                       row("b", "r", 2.1, kind="rel"), row("a", "u", 2.0), row("b", "u", float("nan"), "unsupported")])
+    t = parity.checks(df, "a", "b").set_index("metric")
+    assert t.difference["x"] == pytest.approx(0.5)   # 0.05 m of the wider, 0.1 m, tolerance
+    assert t.difference["r"] == pytest.approx(0.5)   # 0.1 of 10 % of |2|
+    assert pd.isna(t.difference["u"]) and t.verdicts_differ["u"] and not t.verdicts_differ["x"]
+    fam = parity.families(t.reset_index(), parity.parting([], parity.PARTED)).iloc[0]
+    assert fam["verdicts differ"] == 1 and fam["largest |diff| (tol)"] == pytest.approx(0.5)
+
+
+def test_the_harness_keeps_warps_kernel_cache_in_its_own_folder(monkeypatch, tmp_path):
+    """Engines' own caches (store.ENGINE_CACHES) go into physval's cache folder before any
+    engine starts, unless the user set them."""
+    import os
+
+    from physval.core.context import Context, Resolver
+    monkeypatch.setenv("WARP_CACHE_PATH", "")  # restored (or removed) after the test
+    monkeypatch.delenv("WARP_CACHE_PATH")
+    monkeypatch.setenv("PHYSVAL_CACHE_DIR", str(tmp_path))
+    Resolver(Context()).adapter("reference")
+    assert os.environ["WARP_CACHE_PATH"] == str(tmp_path / "warp")
+    monkeypatch.setenv("WARP_CACHE_PATH", "/elsewhere")  # a value the user set stays
+    Resolver(Context()).adapter("reference")
+    assert os.environ["WARP_CACHE_PATH"] == "/elsewhere"
