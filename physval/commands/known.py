@@ -107,8 +107,11 @@ def run(args) -> int:
         measured = measured_bands(engine, entries, repeats)
         new = measured.bands
         ran = {(j.family, j.variant.id) for j in jobs}
-        # bands of checks this run did not measure (other engines, unselected variants) stay
-        bands_of = {e.line: [b for b in e.bands if b.engine != engine or (e.family, b.variant) not in ran]
+        # bands of checks this run did not measure (other engines, unselected variants) stay;
+        # a band of a variant its family no longer has goes (a grid changed since it was measured)
+        exists = {(name, v.id) for name, fam in families.items() for v in fam.all_variants}
+        bands_of = {e.line: [b for b in e.bands if (e.family, b.variant) in exists
+                             and (b.engine != engine or (e.family, b.variant) not in ran)]
                     + new[e.line] for e in entries}
         print(f"{engine}: {path}")
         for e in entries:
