@@ -248,25 +248,13 @@ def prepare(contacts, dt: float, config) -> None:
     its torque rows."""
     if not contacts:
         return
-    bodies = {}
-    for c in contacts:
-        bodies.setdefault(id(c.a), c.a)
-        bodies.setdefault(id(c.b), c.b)
-    index = {key: k for k, key in enumerate(bodies)}
-    state = list(bodies.values())
-    x = np.array([body.x for body in state], dtype=float)
-    v, w = np.array([body.v for body in state], dtype=float), np.array([body.w for body in state], dtype=float)
-    inv_m = np.array([body.inv_mass for body in state], dtype=float)
-    inv_I = np.array([body.inv_I for body in state], dtype=float).reshape(-1, 3, 3)
-    turns = np.array([body.inv_I is not ZERO3 for body in state])
-    a = np.array([index[id(c.a)] for c in contacts], dtype=np.int64)
-    b = np.array([index[id(c.b)] for c in contacts], dtype=np.int64)
-    p = np.array([c.point for c in contacts], dtype=float).reshape(-1, 3)
-    n = np.array([c.n for c in contacts], dtype=float).reshape(-1, 3)
-    frictional = np.array([c.mu_s != 0.0 for c in contacts])
-    planar = np.array([c.planar for c in contacts])
-    terms, vn0, sticks = _contact_rows(a, b, p - x[a], p - x[b], n, x, v, w, inv_m, inv_I, turns, frictional,
-                                       planar, float(config.stick_speed))
+    # per contact, in one array: r_a, r_b, n, 1/m_a, 1/m_b, I_a^-1, I_b^-1 (rows), whether
+    # a, b rotate, v_a, w_a, v_b, w_b, whether it has friction, whether it is 2D
+    data = np.array([(*_arm(c.point, c.a.x), *_arm(c.point, c.b.x), *c.n, c.a.inv_mass, c.b.inv_mass,
+                      *c.a.inv_I[0], *c.a.inv_I[1], *c.a.inv_I[2], *c.b.inv_I[0], *c.b.inv_I[1], *c.b.inv_I[2],
+                      c.a.inv_I is not ZERO3, c.b.inv_I is not ZERO3, *c.a.v, *c.a.w, *c.b.v, *c.b.w,
+                      c.mu_s != 0.0, c.planar) for c in contacts], dtype=float)
+    terms, vn0, sticks = _contact_rows(data, float(config.stick_speed))
     bias = config.beta / dt
     for c, rows, vn0_c, sticks_c in zip(contacts, terms.tolist(), vn0.tolist(), sticks.tolist()):
         c.normal = row = Row.__new__(Row)
@@ -289,39 +277,46 @@ def prepare(contacts, dt: float, config) -> None:
         c.Pt = [0.0] * len(tangents)
 
 
+def _arm(p, x):
+    """r = p - x: the arm from a body's centre x to the contact point p."""
+    return (p[0] - x[0], p[1] - x[1], p[2] - x[2])
+
+
 @njit
-def _contact_rows(a, b, ra, rb, n, x, v, w, inv_m, inv_I, turns, frictional, planar, stick_speed):
-    """Per contact j (bodies a[j], b[j], arms ra[j], rb[j], normal n[j]): the terms of its
-    normal row and of its tangent rows (_row_terms), vn0 = J_n v, and whether it sticks
-    (slip speed below stick_speed)."""
-    C = len(a)
+def _contact_rows(data, stick_speed):
+    """Per contact j (row j of data, laid out as in prepare): the terms of its normal row
+    and of its tangent rows (_row_terms), vn0 = J_n v, and whether it sticks (slip speed
+    below stick_speed)."""
+    C = len(data)
     terms = np.zeros((C, 3, ROW_TERMS))
     vn0, sticks = np.empty(C), np.ones(C, dtype=np.bool_)
     for j in range(C):
-        i, k = a[j], b[j]
-        _row_terms(terms[j, 0], ra[j], rb[j], n[j], inv_m[i], inv_m[k], inv_I[i], inv_I[k], turns[i], turns[k])
+        ra, rb, n, inv_ma, inv_mb = data[j, 0:3], data[j, 3:6], data[j, 6:9], data[j, 9], data[j, 10]
+        Ia, Ib = data[j, 11:20].reshape((3, 3)), data[j, 20:29].reshape((3, 3))
+        turns_a, turns_b = data[j, 29] != 0.0, data[j, 30] != 0.0
+        va, wa, vb, wb = data[j, 31:34], data[j, 34:37], data[j, 37:40], data[j, 40:43]
+        frictional, planar = data[j, 43] != 0.0, data[j, 44] != 0.0
+        _row_terms(terms[j, 0], ra, rb, n, inv_ma, inv_mb, Ia, Ib, turns_a, turns_b)
         J = terms[j, 0]
-        va, wa, vb, wb = v[i], w[i], v[k], w[k]
         vn0[j] = (J[0] * (vb[0] - va[0]) + J[1] * (vb[1] - va[1]) + J[2] * (vb[2] - va[2])
                   + J[6] * wb[0] + J[7] * wb[1] + J[8] * wb[2]
                   - J[3] * wa[0] - J[4] * wa[1] - J[5] * wa[2])   # Row.velocity
-        if not frictional[j]:
+        if not frictional:
             continue
         # relative velocity of the contact point; its tangential part is the slip
-        pa, pb = _point_velocity(va, wa, ra[j]), _point_velocity(vb, wb, rb[j])
-        nj = n[j]
-        slip = (pb[0] - pa[0] - vn0[j] * nj[0], pb[1] - pa[1] - vn0[j] * nj[1], pb[2] - pa[2] - vn0[j] * nj[2])
+        pa, pb = _point_velocity(va, wa, ra), _point_velocity(vb, wb, rb)
+        slip = (pb[0] - pa[0] - vn0[j] * n[0], pb[1] - pa[1] - vn0[j] * n[1], pb[2] - pa[2] - vn0[j] * n[2])
         speed = math.sqrt(slip[0] * slip[0] + slip[1] * slip[1] + slip[2] * slip[2])
         sticks[j] = speed < stick_speed
-        if sticks[j] or planar[j]:
-            t1 = tangent_basis(nj)
+        if sticks[j] or planar:
+            t1 = tangent_basis(n)
         else:  # sliding: the first tangent along the slip
             t1 = (slip[0] / speed, slip[1] / speed, slip[2] / speed)
         t = np.array(t1)
-        _row_terms(terms[j, 1], ra[j], rb[j], t, inv_m[i], inv_m[k], inv_I[i], inv_I[k], turns[i], turns[k])
-        if not planar[j]:  # the second tangent n x t1
-            t2 = np.array((nj[1] * t[2] - nj[2] * t[1], nj[2] * t[0] - nj[0] * t[2], nj[0] * t[1] - nj[1] * t[0]))
-            _row_terms(terms[j, 2], ra[j], rb[j], t2, inv_m[i], inv_m[k], inv_I[i], inv_I[k], turns[i], turns[k])
+        _row_terms(terms[j, 1], ra, rb, t, inv_ma, inv_mb, Ia, Ib, turns_a, turns_b)
+        if not planar:  # the second tangent n x t1
+            t2 = np.array((n[1] * t[2] - n[2] * t[1], n[2] * t[0] - n[0] * t[2], n[0] * t[1] - n[1] * t[0]))
+            _row_terms(terms[j, 2], ra, rb, t2, inv_ma, inv_mb, Ia, Ib, turns_a, turns_b)
     return terms, vn0, sticks
 
 
