@@ -1,7 +1,8 @@
 """The one switch between compiled and plain Python: `njit`.
 
 The inner loops of the formulations (PGS and sequential-impulse sweeps, Lemke's pivots,
-the pairwise Newton-Coulomb loop, the compliant substeps) are written once, as plain
+the pairwise Newton-Coulomb loop, the compliant substeps) and of the world around them
+(the box-box narrow phase, a step's contact rows) are written once, as plain
 Python on numpy arrays and floats, and decorated with `njit`: with numba installed (a
 dependency of the project) they run compiled by it, in nopython mode, each compiled once
 per machine and kept in numba's on-disk cache (`__pycache__` beside the module, or

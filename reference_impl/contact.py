@@ -23,6 +23,9 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
+from reference_impl.compiled import njit
 from reference_impl.rigid_body import ZERO3, cross, dot
 
 Y = (0.0, 1.0, 0.0)
@@ -35,19 +38,19 @@ class Row:
     __slots__ = ("a", "b", "d", "ra_d", "rb_d", "ia", "ib", "ma", "mb", "K", "mass")
 
     def __init__(self, a, b, ra, rb, d):
-        self.a, self.b, self.d = a, b, d
-        self.ra_d = ra_d = (ra[1] * d[2] - ra[2] * d[1], ra[2] * d[0] - ra[0] * d[2],
-                            ra[0] * d[1] - ra[1] * d[0])        # r_a x d
-        self.rb_d = rb_d = (rb[1] * d[2] - rb[2] * d[1], rb[2] * d[0] - rb[0] * d[2],
-                            rb[0] * d[1] - rb[1] * d[0])        # r_b x d
-        self.ia = ia = _inertia_times(a.inv_I, ra_d)           # I_a^-1 (r_a x d)
-        self.ib = ib = _inertia_times(b.inv_I, rb_d)
-        ma, mb = a.inv_mass, b.inv_mass
-        self.ma = (ma * d[0], ma * d[1], ma * d[2])            # d / m_a
-        self.mb = (mb * d[0], mb * d[1], mb * d[2])
-        self.K = (ma + mb + ra_d[0] * ia[0] + ra_d[1] * ia[1] + ra_d[2] * ia[2]
-                  + rb_d[0] * ib[0] + rb_d[1] * ib[1] + rb_d[2] * ib[2])
-        self.mass = 1.0 / self.K
+        terms = np.empty(ROW_TERMS)
+        _row_terms(terms, np.array(ra, dtype=float), np.array(rb, dtype=float), np.array(d, dtype=float),
+                   a.inv_mass, b.inv_mass, _inverse_inertia(a), _inverse_inertia(b), a.inv_I is not ZERO3,
+                   b.inv_I is not ZERO3)
+        self._fill(a, b, terms.tolist())
+
+    def _fill(self, a, b, x) -> None:
+        """The fields from the ROW_TERMS numbers x of _row_terms."""
+        self.a, self.b = a, b
+        self.d, self.ra_d, self.rb_d = (x[0], x[1], x[2]), (x[3], x[4], x[5]), (x[6], x[7], x[8])
+        self.ma, self.mb = (x[9], x[10], x[11]), (x[12], x[13], x[14])
+        self.ia, self.ib = (x[15], x[16], x[17]), (x[18], x[19], x[20])
+        self.K, self.mass = x[21], x[22]
 
     @classmethod
     def angular(cls, a, b, axis):
@@ -88,6 +91,38 @@ def _inertia_times(M, r):
             m2[0] * r[0] + m2[1] * r[1] + m2[2] * r[2])
 
 
+# A row's numbers, as _row_terms writes them: d, r_a x d, r_b x d, d / m_a, d / m_b,
+# I_a^-1 (r_a x d), I_b^-1 (r_b x d), K, 1 / K (the first 21 are the J of
+# sequential_impulses.iterate).
+ROW_TERMS = 23
+
+
+def _inverse_inertia(body):
+    return np.array(body.inv_I, dtype=float)
+
+
+@njit
+def _row_terms(out, ra, rb, d, inv_ma, inv_mb, Ia, Ib, turns_a, turns_b):
+    """The numbers of Row(a, b, ra, rb, d) into out (see the module docstring: r x d,
+    I^-1 (r x d), K_d = 1/m_a + 1/m_b + (r_a x d) . I_a^-1 (r_a x d) + (r_b x d) . I_b^-1 (r_b x d));
+    turns_a False: a cannot rotate (I_a^-1 = 0)."""
+    out[0], out[1], out[2] = d[0], d[1], d[2]
+    out[3] = ra[1] * d[2] - ra[2] * d[1]   # r_a x d
+    out[4] = ra[2] * d[0] - ra[0] * d[2]
+    out[5] = ra[0] * d[1] - ra[1] * d[0]
+    out[6] = rb[1] * d[2] - rb[2] * d[1]   # r_b x d
+    out[7] = rb[2] * d[0] - rb[0] * d[2]
+    out[8] = rb[0] * d[1] - rb[1] * d[0]
+    for k in range(3):
+        out[9 + k] = inv_ma * d[k]         # d / m_a
+        out[12 + k] = inv_mb * d[k]
+        out[15 + k] = (Ia[k, 0] * out[3] + Ia[k, 1] * out[4] + Ia[k, 2] * out[5]) if turns_a else 0.0
+        out[18 + k] = (Ib[k, 0] * out[6] + Ib[k, 1] * out[7] + Ib[k, 2] * out[8]) if turns_b else 0.0
+    out[21] = (inv_ma + inv_mb + out[3] * out[15] + out[4] * out[16] + out[5] * out[17]
+               + out[6] * out[18] + out[7] * out[19] + out[8] * out[20])
+    out[22] = 1.0 / out[21]
+
+
 # the two inner-loop operations, written out on floats: they are most of a step's cost
 def _jv(row, va, wa, vb, wb):
     d, ra_d, rb_d = row.d, row.ra_d, row.rb_d
@@ -115,14 +150,15 @@ def coupling(ri: Row, rj: Row) -> float:
     return total
 
 
+@njit
 def tangent_basis(n):
     """A fixed unit tangent for normal n: y x n, which lies in the x-z plane (the 2D
     tangent) whenever n does; x x n ... if n is along y."""
-    t = cross(Y, n)
-    length = math.sqrt(dot(t, t))
+    t = (1.0 * n[2] - 0.0 * n[1], 0.0 * n[0] - 0.0 * n[2], 0.0 * n[1] - 1.0 * n[0])  # Y x n
+    length = math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2])
     if length < 1e-6:
-        t = cross((1.0, 0.0, 0.0), n)
-        length = math.sqrt(dot(t, t))
+        t = (0.0 * n[2] - 0.0 * n[1], 0.0 * n[0] - 1.0 * n[2], 1.0 * n[1] - 0.0 * n[0])  # X x n
+        length = math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2])
     return (t[0] / length, t[1] / length, t[2] / length)
 
 
@@ -177,37 +213,8 @@ class Contact:
 
     def prepare(self, dt: float, config) -> None:
         """Rows, approach velocity vn0, stick/slide decision and bias, from the velocities
-        at the start of the step (before external forces)."""
-        a, b, p, n = self.a, self.b, self.point, self.n
-        ra = (p[0] - a.x[0], p[1] - a.x[1], p[2] - a.x[2])
-        rb = (p[0] - b.x[0], p[1] - b.x[1], p[2] - b.x[2])
-        self.normal = Row(a, b, ra, rb, n)
-        self.vn0 = self.normal.velocity()
-        self.target = self.normal_target(dt, config.slop)
-        # bias velocity beta/dt (delta - slop)+ (note 001, "de-penetration bias velocity")
-        self.bias = config.beta / dt * max(self.depth - config.slop, 0.0)
-        self.sticks, self.mu = True, self.mu_s
-        self._torque_rows()
-        if self.mu_s == 0.0:
-            self.tangents = ()
-            return
-        # relative velocity of the contact point; its tangential part is the slip
-        va, vb = _point_velocity(a, ra), _point_velocity(b, rb)
-        vn0 = self.vn0
-        slip = (vb[0] - va[0] - vn0 * n[0], vb[1] - va[1] - vn0 * n[1], vb[2] - va[2] - vn0 * n[2])
-        speed = math.sqrt(dot(slip, slip))
-        self.sticks = speed < config.stick_speed
-        self.mu = self.mu_s if self.sticks else self.mu_k  # the coefficient in force this step
-        if self.sticks or self.planar:
-            t1 = tangent_basis(n)
-        else:  # sliding: the first tangent along the slip (note 001, t = normalize(v_rel,t))
-            t1 = (slip[0] / speed, slip[1] / speed, slip[2] / speed)
-        if self.planar:
-            self.tangents = (Row(a, b, ra, rb, t1),)
-        else:
-            self.tangents = (Row(a, b, ra, rb, t1), Row(a, b, ra, rb, cross(n, t1)))
-        self.Pt = [0.0] * len(self.tangents)
-
+        at the start of the step (before external forces): `prepare` for this contact."""
+        prepare([self], dt, config)
 
     def _torque_rows(self) -> None:
         """Rolling resistance and torsional friction as angular rows (Row.angular), each
@@ -231,6 +238,89 @@ class Contact:
         self.Pq = [0.0] * len(rows)
 
 
-def _point_velocity(body, r):
-    v, w = body.v, body.w
+def prepare(contacts, dt: float, config) -> None:
+    """Contact.prepare for the contacts of a step at once: each contact's rows (the normal,
+    then its tangents: fixed while it sticks, the first along the slip while it slides,
+    note 001, t = normalize(v_rel,t)), its approach velocity vn0 = J_n v and its slip,
+    from the velocities at the start of the step (before external forces), computed by
+    _contact_rows over all contacts together; then its normal target (normal_target), the
+    bias velocity beta/dt (delta - slop)+ (note 001, "de-penetration bias velocity") and
+    its torque rows."""
+    if not contacts:
+        return
+    # per contact, in one array: r_a, r_b, n, 1/m_a, 1/m_b, I_a^-1, I_b^-1 (rows), whether
+    # a, b rotate, v_a, w_a, v_b, w_b, whether it has friction, whether it is 2D
+    data = np.array([(*_arm(c.point, c.a.x), *_arm(c.point, c.b.x), *c.n, c.a.inv_mass, c.b.inv_mass,
+                      *c.a.inv_I[0], *c.a.inv_I[1], *c.a.inv_I[2], *c.b.inv_I[0], *c.b.inv_I[1], *c.b.inv_I[2],
+                      c.a.inv_I is not ZERO3, c.b.inv_I is not ZERO3, *c.a.v, *c.a.w, *c.b.v, *c.b.w,
+                      c.mu_s != 0.0, c.planar) for c in contacts], dtype=float)
+    terms, vn0, sticks = _contact_rows(data, float(config.stick_speed))
+    bias = config.beta / dt
+    for c, rows, vn0_c, sticks_c in zip(contacts, terms.tolist(), vn0.tolist(), sticks.tolist()):
+        c.normal = row = Row.__new__(Row)
+        row._fill(c.a, c.b, rows[0])
+        c.vn0 = vn0_c
+        c.target = c.normal_target(dt, config.slop)
+        c.bias = bias * max(c.depth - config.slop, 0.0)
+        c.sticks, c.mu = True, c.mu_s
+        c._torque_rows()
+        if c.mu_s == 0.0:
+            c.tangents = ()
+            continue
+        c.sticks = sticks_c
+        c.mu = c.mu_s if sticks_c else c.mu_k  # the coefficient in force this step
+        tangents = []
+        for k in range(1 if c.planar else 2):
+            tangents.append(Row.__new__(Row))
+            tangents[k]._fill(c.a, c.b, rows[1 + k])
+        c.tangents = tuple(tangents)
+        c.Pt = [0.0] * len(tangents)
+
+
+def _arm(p, x):
+    """r = p - x: the arm from a body's centre x to the contact point p."""
+    return (p[0] - x[0], p[1] - x[1], p[2] - x[2])
+
+
+@njit
+def _contact_rows(data, stick_speed):
+    """Per contact j (row j of data, laid out as in prepare): the terms of its normal row
+    and of its tangent rows (_row_terms), vn0 = J_n v, and whether it sticks (slip speed
+    below stick_speed)."""
+    C = len(data)
+    terms = np.zeros((C, 3, ROW_TERMS))
+    vn0, sticks = np.empty(C), np.ones(C, dtype=np.bool_)
+    for j in range(C):
+        ra, rb, n, inv_ma, inv_mb = data[j, 0:3], data[j, 3:6], data[j, 6:9], data[j, 9], data[j, 10]
+        Ia, Ib = data[j, 11:20].reshape((3, 3)), data[j, 20:29].reshape((3, 3))
+        turns_a, turns_b = data[j, 29] != 0.0, data[j, 30] != 0.0
+        va, wa, vb, wb = data[j, 31:34], data[j, 34:37], data[j, 37:40], data[j, 40:43]
+        frictional, planar = data[j, 43] != 0.0, data[j, 44] != 0.0
+        _row_terms(terms[j, 0], ra, rb, n, inv_ma, inv_mb, Ia, Ib, turns_a, turns_b)
+        J = terms[j, 0]
+        vn0[j] = (J[0] * (vb[0] - va[0]) + J[1] * (vb[1] - va[1]) + J[2] * (vb[2] - va[2])
+                  + J[6] * wb[0] + J[7] * wb[1] + J[8] * wb[2]
+                  - J[3] * wa[0] - J[4] * wa[1] - J[5] * wa[2])   # Row.velocity
+        if not frictional:
+            continue
+        # relative velocity of the contact point; its tangential part is the slip
+        pa, pb = _point_velocity(va, wa, ra), _point_velocity(vb, wb, rb)
+        slip = (pb[0] - pa[0] - vn0[j] * n[0], pb[1] - pa[1] - vn0[j] * n[1], pb[2] - pa[2] - vn0[j] * n[2])
+        speed = math.sqrt(slip[0] * slip[0] + slip[1] * slip[1] + slip[2] * slip[2])
+        sticks[j] = speed < stick_speed
+        if sticks[j] or planar:
+            t1 = tangent_basis(n)
+        else:  # sliding: the first tangent along the slip
+            t1 = (slip[0] / speed, slip[1] / speed, slip[2] / speed)
+        t = np.array(t1)
+        _row_terms(terms[j, 1], ra, rb, t, inv_ma, inv_mb, Ia, Ib, turns_a, turns_b)
+        if not planar:  # the second tangent n x t1
+            t2 = np.array((n[1] * t[2] - n[2] * t[1], n[2] * t[0] - n[0] * t[2], n[0] * t[1] - n[1] * t[0]))
+            _row_terms(terms[j, 2], ra, rb, t2, inv_ma, inv_mb, Ia, Ib, turns_a, turns_b)
+    return terms, vn0, sticks
+
+
+@njit
+def _point_velocity(v, w, r):
+    """v + w x r."""
     return (v[0] + w[1] * r[2] - w[2] * r[1], v[1] + w[2] * r[0] - w[0] * r[2], v[2] + w[0] * r[1] - w[1] * r[0])

@@ -98,7 +98,7 @@ def solve(contacts, bodies, dt, config) -> tuple[str, ...]:
     rows = [row for c in contacts for row in (c.normal, *c.tangents, *c.torques)]
     a = np.array([row.a.index for row in rows], dtype=np.int64)
     b = np.array([row.b.index for row in rows], dtype=np.int64)
-    J = np.array([(*row.d, *row.ra_d, *row.rb_d, *row.ma, *row.mb, *row.ia, *row.ib) for row in rows],
+    J = np.array([(row.d, row.ra_d, row.rb_d, row.ma, row.mb, row.ia, row.ib) for row in rows],
                  dtype=float).reshape(-1, 21)
     K, mass = np.array([row.K for row in rows], dtype=float), np.array([row.mass for row in rows], dtype=float)
     P = np.array([P for c in contacts for P in (c.Pn, *c.Pt, *c.Pq)], dtype=float)
