@@ -17,10 +17,11 @@ solvers, each its own engine configuration (adapters/registry.py):
   compliant-ALM contact path). No restitution of any kind (its contacts end plastic): a
   pair with e > 0 is unsupported.
 
-Not here: SolverMuJoCo needs mujoco_warp, which Newton's `sim` extra pins with mujoco
-~=3.17 (this project runs mujoco 4.0.0); SolverKamino (the constrained-dynamics solver of
-Disney Research) is not adapted yet; SolverSteel, Style3D and ImplicitMPM are cloth,
-soft-body and granular solvers.
+Not here: SolverMuJoCo needs mujoco_warp, not installed with newton (Newton's `sim` extra
+pins mujoco-warp ~=3.17.0 with mujoco ~=3.17.0, which would replace this project's mujoco
+4.0.0; MuJoCo Warp is adapted on its own); SolverKamino (Disney Research's constrained
+dynamics solver, present in 1.8.0) is not adapted yet; SolverSteel, Style3D and
+ImplicitMPM are cloth, soft-body and granular solvers.
 
 Float32. Warp stores positions, orientations and velocities in single precision.
 
