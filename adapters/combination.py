@@ -2,7 +2,9 @@
 
 Engines store friction and restitution per body and combine two bodies' values into the
 pair's (PyBullet and Pymunk: product; DART: min for friction, product for restitution;
-MuJoCo: max for friction; Drake: the harmonic mean 2 a b / (a + b) for friction). A scene states pair values; this module finds per-body values
+MuJoCo: max for friction; Drake: the harmonic mean 2 a b / (a + b) for friction; Newton:
+the arithmetic mean (a + b) / 2, and for friction in its VBD solver the geometric mean
+sqrt(a b)). A scene states pair values; this module finds per-body values
 whose combination reproduces every pair of the scene exactly, or says it cannot.
 """
 from __future__ import annotations
@@ -21,6 +23,9 @@ RULES: dict[str, Callable[[float, float], float]] = {
     "max": max,
     # Drake's CalcContactFrictionFromSurfaceProperties, 0 / 0 taken as 0
     "harmonic": lambda a, b: 2.0 * a * b / (a + b) if a + b > 0.0 else 0.0,
+    # Newton's shape materials (adapters/newton_engine.py)
+    "mean": lambda a, b: 0.5 * (a + b),
+    "geometric": lambda a, b: math.sqrt(a * b),
 }
 # A value that leaves the partner's value unchanged under each rule (the harmonic mean
 # has none: only 2 a x / (a + x) -> 2 a as x grows).
@@ -35,6 +40,11 @@ EXTREME = {"max": min, "min": max}
 LINEAR: dict[str, tuple[Callable[[float], float], Callable[[float], float], Callable[[float], bool]]] = {
     "product": (math.log, lambda t: min(math.exp(t), 1.0), lambda t: t <= 1e-12),
     "harmonic": (lambda c: 2.0 / c, lambda t: 1.0 / t, lambda t: t > 0.0),
+    # the arithmetic mean in the values themselves, v_a + v_b = 2 c (values >= 0); the
+    # geometric mean in logs, log v_a + log v_b = 2 log c (values > 0, not capped: a
+    # friction coefficient may exceed 1)
+    "mean": (lambda c: 2.0 * c, lambda t: max(t, 0.0), lambda t: t >= -1e-12),
+    "geometric": (lambda c: 2.0 * math.log(c), math.exp, lambda t: True),
 }
 
 
@@ -87,7 +97,7 @@ def per_body_values(scene: Scene, value_of: Callable[[Material], float], rule: s
     # over every pair: a linear system whose least-squares solution reproduces the pairs
     # when any solution does (e.g. ground at e, two balls at 1: ground-ball pairs e,
     # ball-ball 1); kept only if its values lie in the rule's range.
-    if rule in LINEAR and pairs and all(c > 0.0 for _, _, c in pairs):
+    if rule in LINEAR and pairs and (rule == "mean" or all(c > 0.0 for _, _, c in pairs)):
         forward, back, usable = LINEAR[rule]
         names = list(dict.fromkeys(n for a, b, _ in pairs for n in (a, b)))
         index = {n: i for i, n in enumerate(names)}

@@ -80,10 +80,15 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "drake-tamsi": ("adapters.drake_engine", "DrakeAdapter", {"approximation": "tamsi"}),
     "drake-hydro": ("adapters.drake_engine", "DrakeAdapter",
                     {"approximation": "sap", "contact_model": "hydroelastic"}),
+    # Newton's rigid-body solvers, each its own engine (adapters/newton_engine.py)
+    "newton-xpbd": ("adapters.newton_engine", "NewtonAdapter", {"solver": "xpbd"}),
+    "newton-semi-implicit": ("adapters.newton_engine", "NewtonAdapter", {"solver": "semi-implicit"}),
+    "newton-featherstone": ("adapters.newton_engine", "NewtonAdapter", {"solver": "featherstone"}),
+    "newton-vbd": ("adapters.newton_engine", "NewtonAdapter", {"solver": "vbd"}),
 }
 # The pip extra that installs each built-in engine's package (README, pyproject.toml).
 EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "mujoco-warp": "mujoco-warp", "pymunk": "pymunk", "dart": "dart",
-          "box2d": "box2d", "box3d": "box3d", "rapier": "rapier", "drake": "drake"}
+          "box2d": "box2d", "box3d": "box3d", "rapier": "rapier", "drake": "drake", "newton": "newton"}
 
 
 class EngineError(ValueError):

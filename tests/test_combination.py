@@ -76,11 +76,13 @@ def test_values_found_reproduce_every_pair_or_none_are_given(scene, value_of, ru
 def test_the_friction_rules_engines_use_express_the_pair_friction_tables(rule):
     """The blocks' own pair at min(mu_a, mu_b) makes the table solvable under product,
     min and harmonic (the family's docstring says so), with the ground non-neutral for
-    product and harmonic; max would need the ground and the blocks' pair at max(mu_a, mu_b)."""
+    product and harmonic; max would need the ground and the blocks' pair at max(mu_a, mu_b);
+    Newton's arithmetic mean a negative block value (mu 0.8, 0.2, 0.2: ground 0.8, blocks
+    0.8 and -0.4), so no per-body values exist under those two."""
     from cases import pair_friction as pf
     for p in pf.GRID:
-        if rule == "max":
-            with pytest.raises(Unsupported, match="max rule"):
+        if rule in ("max", "mean"):
+            with pytest.raises(Unsupported, match=f"{rule} rule"):
                 per_body_values(pf.scene(p), lambda m: m.mu_s, rule, "friction")
             continue
         v = per_body_values(pf.scene(p), lambda m: m.mu_s, rule, "friction")
@@ -135,3 +137,16 @@ def test_the_harmonic_rule_is_drakes():
     for a, b in ((0.2, 0.5), (0.8, 0.05), (1.0, 1.0)):
         mu = plant.CalcContactFrictionFromSurfaceProperties(plant.CoulombFriction(a, a), plant.CoulombFriction(b, b))
         assert RULES["harmonic"](a, b) == pytest.approx(mu.dynamic_friction(), rel=1e-14)
+
+
+def test_the_mean_rules_are_solved_linearly():
+    """Newton's arithmetic mean (XPBD, semi-implicit, Featherstone) and VBD's geometric mean
+    of friction: ground-ball 0.5 and ball-ball 1 give the ground 0 and the balls 1 under the
+    mean, the ground 0.25 and the balls 1 under the geometric mean."""
+    scene = _three(0.5, 1.0)
+    v = per_body_values(scene, lambda m: m.e, "mean", "restitution")
+    _check(scene, v, "mean")
+    assert v["ground"] == pytest.approx(0.0, abs=1e-12) and v["top"] == pytest.approx(1.0)
+    v = per_body_values(scene, lambda m: m.e, "geometric", "restitution")
+    _check(scene, v, "geometric")
+    assert v["ground"] == pytest.approx(0.25) and v["top"] == pytest.approx(1.0)

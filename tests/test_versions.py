@@ -20,6 +20,10 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def _adapter(name):
+    """The adapter of extra `name`: the engine of that name, else its first configuration
+    (newton-xpbd for newton)."""
+    if name not in registry.ENGINES:
+        name = next((n for n in registry.ENGINES if n.startswith(f"{name}-")), name)
     try:
         return registry.get(name)
     except registry.EngineError as exc:

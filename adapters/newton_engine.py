@@ -1,0 +1,444 @@
+"""Newton (NVIDIA, Disney Research, Google DeepMind; built on Warp) behind the engine contract.
+
+One `newton.Model` per built scene, stepped on the CPU by one of Newton's rigid-body
+solvers, each its own engine configuration (adapters/registry.py):
+
+- `newton-xpbd`: SolverXPBD, positions projected onto the contact constraints, velocities
+  derived from them, then a restitution pass on the velocities (`enable_restitution`, off
+  by default: switched on when a pair has e > 0). Torsional and rolling friction as lever
+  arms (mu_torsional, mu_rolling clamp the torque impulses at that many metres times the
+  normal impulse: the scene's d_t and d_r).
+- `newton-semi-implicit` and `newton-featherstone`: penalty contact (spring ke, damper kd
+  acting only while the bodies approach, viscous friction kf up to mu fn), integrated
+  explicitly on the bodies (semi-implicit) or on the free joints' coordinates
+  (Featherstone's articulated-body algorithm). No restitution coefficient: e is mapped onto
+  the damper (below), the contact made to last `contact_steps` steps.
+- `newton-vbd`: SolverVBD's rigid bodies (augmented-Lagrangian vertex block descent, the
+  compliant-ALM contact path). No restitution of any kind (its contacts end plastic): a
+  pair with e > 0 is unsupported.
+
+Not here: SolverMuJoCo needs mujoco_warp, not installed with newton (Newton's `sim` extra
+pins mujoco-warp ~=3.17.0 with mujoco ~=3.17.0, which would replace this project's mujoco
+4.0.0; MuJoCo Warp is adapted on its own); SolverKamino (Disney Research's constrained
+dynamics solver, present in 1.8.0) is not adapted yet; SolverSteel, Style3D and
+ImplicitMPM are cloth, soft-body and granular solvers.
+
+Float32. Warp stores positions, orientations and velocities in single precision.
+
+Pair materials. XPBD, semi-implicit and Featherstone combine two shapes' mu, restitution,
+mu_torsional, mu_rolling, ke, kd, kf by the arithmetic mean (kernels: "use average contact
+material properties"); VBD combines mu by the geometric mean sqrt(mu_a mu_b) and ke, kd
+by the arithmetic mean. adapters.combination finds per-shape values that give every pair
+of the scene its value under that rule (unsupported if none do).
+
+Penalty contact of the semi-implicit and Featherstone solvers (kernels_contact.py,
+eval_body_contact): fn = ke d (d the penetration), plus kd vn while the bodies approach
+(vn < 0) and nothing while they separate, so an impact is a damped quarter-oscillation in
+then an undamped one out: with w = sqrt(ke / m) and zeta = kd / (2 sqrt(ke m)), the depth
+reached is (v / w) exp(-zeta atan2(s, zeta) / s), s = sqrt(1 - zeta^2) (zeta < 1;
+exp(-zeta atanh(q / zeta) / q) with q = sqrt(zeta^2 - 1) above 1), and the exit speed w
+times it: e(zeta) = exp(-zeta atan2(s, zeta) / s), inverted by bisection. ke is one value
+for every shape, m (pi / (n dt))^2 with m the smallest reduced mass of the scene's pairs
+(the contact of that pair lasts n steps, the others longer); kd per pair 2 zeta(e) sqrt(ke
+m_pair). e = 0 needs an infinite damper: kd is capped at m_pair / dt shared by the pair's contact
+points (one for a sphere, four for a box's face: the explicit step's damping stays stable),
+which leaves e = exp(-zeta ...) of that zeta. Friction: ft = kf vt up to mu fn, a viscous
+creep below the Coulomb limit at speed F_t / kf; kf = m_pair / dt shared by the points the
+same way (one step relaxes the slip), the largest the explicit step takes.
+
+Contact forces: XPBD and VBD report each contact's force (SolverBase.ObservableKind.CONTACT_F,
+requested every step); `contact_forces` sums the normal components per pair. The penalty
+solvers report none (Capabilities.contact_forces False).
+"""
+from __future__ import annotations
+
+import math
+from importlib import metadata
+
+import numpy as np
+
+from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
+from adapters.combination import RULES as COMBINE, per_body_values
+from adapters.lazy import require
+from adapters.warp_support import init_warp
+from cases.scene import Body, Box, Plane, Scene, Sphere, pair_key
+
+require("newton")
+require("warp")
+
+SOLVERS = ("xpbd", "semi-implicit", "featherstone", "vbd")
+# penalty solvers: the stiffest pair's contact lasts this many steps (as the MuJoCo mapping's
+# 16). At 10 the explicit step's damping takes more than the model says: e = 0.5 maps to
+# 0.395 between two balls (0.434 at 16 steps, 0.474 at 40)
+CONTACT_STEPS = 16
+# penalty solvers: the damper and the friction gain act at every contact point, and a box on
+# a face has four: each point gets a quarter of the largest gain the explicit step takes
+# (m / dt in all; a sphere's one point all of it). With m / dt at each of a box's points, a
+# box below the friction threshold slid off at 0.3-12 m/s and slid 10-30x too fast above it
+# (measured: the friction force rings)
+BOX_CONTACT_POINTS = 4
+
+
+def contact_points(a: Body, b: Body) -> int:
+    """The contact points the penalty gains are shared by: 1 where a sphere touches, else 4."""
+    return 1 if "sphere" in (a.shape.kind, b.shape.kind) else BOX_CONTACT_POINTS
+XPBD_ITERATIONS = 10  # Newton's default is 2; its own examples use 5-10
+VBD_ITERATIONS = 10  # Newton's default (newton:maxSolverIterations absent)
+# VBD solves for the bodies' poses from their inertia tensors, not the inverses: a body held
+# from rotating gets its moments times this (1e9 left 2.5e-8 rad/s of spin from sliding friction; float32 holds 1e15 I)
+HELD_INERTIA_SCALE = 1e15
+VBD_FRICTION_EPSILON = 1e-2  # m/s, Newton's default friction smoothing speed
+# The rule each solver combines a pair's two shape values by, per quantity (module notes).
+MU_RULE = {"xpbd": "mean", "semi-implicit": "mean", "featherstone": "mean", "vbd": "geometric"}
+
+
+def restitution_of_damping(zeta: float) -> float:
+    """e of the penalty contact damped only while approaching (module notes)."""
+    if zeta == 0.0:
+        return 1.0
+    if zeta < 1.0:
+        s = math.sqrt(1.0 - zeta * zeta)
+        return math.exp(-zeta * math.atan2(s, zeta) / s)
+    if zeta == 1.0:
+        return math.exp(-1.0)
+    q = math.sqrt(zeta * zeta - 1.0)
+    return math.exp(-zeta * math.atanh(q / zeta) / q)
+
+
+def damping_of_restitution(e: float) -> float:
+    """The damping ratio zeta whose penalty impact gives e (bisection on the monotone
+    restitution_of_damping); e = 0: infinity."""
+    if e >= 1.0:
+        return 0.0
+    if e <= 0.0:
+        return math.inf
+    lo, hi = 0.0, 1.0
+    while restitution_of_damping(hi) > e:
+        hi *= 2.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if restitution_of_damping(mid) > e else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def per_shape(scene: Scene, value_of, rule: str, what: str, pair_value=None) -> dict[str, float]:
+    """adapters.combination.per_body_values, and 0 on every shape of a scene without pairs."""
+    if not scene.contact_pairs():
+        return {b.name: 0.0 for b in scene.bodies}
+    return per_body_values(scene, value_of, rule, what, pair_value=pair_value)
+
+
+def reduced_mass(a: Body, b: Body) -> float:
+    if a.static:
+        return b.mass
+    if b.static:
+        return a.mass
+    return a.mass * b.mass / (a.mass + b.mass)
+
+
+class NewtonAdapter(Adapter):
+    package = "newton"
+    # the release the conformance battery ran on; Newton is at 1.x and changes its API
+    # within minor releases (deprecations of 1.6-1.8 are live in its solvers)
+    supported = ">=1.8.0,<1.9"
+    packages = ("newton", "warp-lang")
+
+    def __init__(self, solver: str = "xpbd"):
+        if solver not in SOLVERS:
+            raise ValueError(f"solver = {solver!r}: choose from {', '.join(SOLVERS)}")
+        self.solver = solver
+        self.name = f"newton-{solver}"
+        penalty = solver in ("semi-implicit", "featherstone")
+        self.capabilities = Capabilities(
+            dimensions=frozenset({3}),  # 2D scenes would need planar joints: not adapted
+            shapes=frozenset({"sphere", "box", "plane"}),
+            native_restitution=solver == "xpbd",
+            static_kinetic=False,  # one mu per shape
+            contact_forces=not penalty,
+            iterations=solver in ("xpbd", "vbd"),
+            # penalty contacts and VBD's finite-stiffness ALM contacts act over several steps;
+            # XPBD projects every contact of a step in one iterative solve (Gauss-Seidel within
+            # a body pair, averaged across pairs), but a ball striking a row of two keeps half
+            # its momentum (column_impact, measured: 1.0 for 2.0 kg m/s), so no impact model
+            # is declared for it: the model-specific closed forms are unsupported there
+            impact_model=None if solver == "xpbd" else "compliant",
+            contact_torques=frozenset({"rolling_resistance", "torsional_friction"}) if solver == "xpbd" else frozenset(),
+            float_bits=32,
+        )
+        self.tunables = {}
+        if penalty:
+            self.tunables["contact_steps"] = Tunable(
+                2.0, 1000.0, float(CONTACT_STEPS),
+                "contact duration in steps n of the stiffest pair: ke = m (pi / (n dt))^2")
+        if solver == "vbd":
+            self.tunables["friction_epsilon"] = Tunable(
+                1e-6, 1.0, VBD_FRICTION_EPSILON, "friction smoothing speed, m/s (Newton's default 1e-2)")
+            self.tunables["contact_steps"] = Tunable(
+                0.5, 1000.0, 2.0, "contact stiffness as a duration in steps n: ke = m (pi / (n dt))^2")
+
+    # Warp launches a dozen kernels or more a step on the CPU: for one body 5.5-9 ms a step
+    # with XPBD, 1.4 ms semi-implicit, 3.9 ms Featherstone, 2.2 ms VBD (measured on 2 shared
+    # cores; a 5-box stack: XPBD 1.9 ms, MuJoCo 14 us), and each solver compiles 10-60 s on
+    # first use (kept in the kernel cache, adapters/warp_support.py). Newton is left out of the default sweep, stress
+    # battery, benchmarks and readings (`slow`), and every run of it is on demand: it runs
+    # when named with --on-demand (physval run) or in `pytest -m slow`, so the test suite
+    # stays within its 10 minutes on a machine where Newton is installed.
+    slow = True
+
+    def on_demand(self, scene: Scene) -> str | None:
+        return ("Newton takes 1.4-9 ms a step on the CPU (Warp kernel launches) and compiles each solver "
+                "10-60 s on first use")
+
+    def version(self) -> str:
+        return metadata.version("newton")
+
+    def build(self, scene: Scene, settings: Settings) -> Simulation:
+        reason = self.capabilities.cannot_run(scene)
+        if reason:
+            raise Unsupported(reason)
+        if self.solver == "vbd":
+            for a, b in scene.contact_pairs():
+                e = scene.material_of(a.name, b.name).e
+                if e > 0:
+                    raise Unsupported(f"e = {e:g} for {a.name}/{b.name}: SolverVBD has no restitution "
+                                      "(its rigid contacts end plastic)")
+        return NewtonSimulation(scene, settings, self.solver, self.options_in_force(settings))
+
+
+def _quat_xyzw(q):
+    w, x, y, z = q
+    return (x, y, z, w)
+
+
+class NewtonSimulation(Simulation):
+    def __init__(self, scene: Scene, settings: Settings, solver: str, tuning: dict[str, float]):
+        wp = init_warp()
+        import newton
+
+        self._wp, self._dt, self._solver_name = wp, settings.dt, solver
+        pairs = scene.contact_pairs()
+        self._pairs = {pair_key(a.name, b.name): scene.material_of(a.name, b.name) for a, b in pairs}
+        penalty = solver in ("semi-implicit", "featherstone")
+        builder = newton.ModelBuilder(up_axis=newton.Axis.Z, gravity=tuple(float(g) for g in scene.gravity))
+        self.knobs = {"solver": solver, "device": "cpu", "dt": settings.dt, "gravity": list(scene.gravity),
+                      "up_axis": "Z", "rigid_gap": builder.rigid_gap, "bodies": {}}
+
+        # per-shape material values under the solver's combination rules (module notes)
+        mu_rule = MU_RULE[solver]
+        mu = per_shape(scene, lambda m: m.mu_s, mu_rule, "friction")
+        shape = {b.name: {"mu": mu[b.name], "restitution": 0.0, "mu_torsional": 0.0, "mu_rolling": 0.0,
+                          "ka": 0.0, "margin": 0.0} for b in scene.bodies}
+        if solver == "xpbd":
+            e = per_shape(scene, lambda m: m.e, "mean", "restitution")
+            dt_ = per_shape(scene, lambda m: m.torsional_friction, "mean", "torsional friction")
+            dr = per_shape(scene, lambda m: m.rolling_resistance, "mean", "rolling resistance")
+            for b in scene.bodies:
+                shape[b.name].update(restitution=e[b.name], mu_torsional=dt_[b.name], mu_rolling=dr[b.name])
+        m_min = min((reduced_mass(a, b) for a, b in pairs), default=1.0)
+        if penalty or solver == "vbd":
+            n = tuning["contact_steps"]
+            ke = m_min * (math.pi / (n * settings.dt)) ** 2
+            self.knobs["contact_steps"] = n
+        if penalty:
+            def kd_of(a: Body, b: Body) -> float:
+                m = reduced_mass(a, b)
+                zeta = damping_of_restitution(scene.material_of(a.name, b.name).e)
+                return min(2.0 * zeta * math.sqrt(ke * m), m / (contact_points(a, b) * settings.dt))
+
+            def kf_of(a: Body, b: Body) -> float:
+                return reduced_mass(a, b) / (contact_points(a, b) * settings.dt)
+            kd = per_shape(scene, None, "mean", "damping", pair_value=kd_of)
+            kf = per_shape(scene, None, "mean", "friction gain", pair_value=kf_of)
+            for b in scene.bodies:
+                shape[b.name].update(ke=ke, kd=kd[b.name], kf=kf[b.name])
+            self.knobs["penalty_mapping"] = ("ke = m_min (pi / (n dt))^2; kd = 2 zeta(e) sqrt(ke m_pair) capped at "
+                                             "m_pair / (k dt); kf = m_pair / (k dt); k = 1 contact point with a sphere, else 4")
+        elif solver == "vbd":
+            for b in scene.bodies:
+                shape[b.name].update(ke=ke, kd=0.0)
+        self.knobs["combination"] = {"mu": mu_rule, "others": "mean"}
+        self._mu = mu
+
+        self._index: dict[str, int] = {}
+        self._still: list[int] = []  # bodies held from rotating (maximal-coordinate solvers)
+        self._shape_body: list[str] = []
+        for body in scene.bodies:
+            self._add(newton, builder, body, shape[body.name], solver)
+        if solver == "vbd":
+            builder.color()
+        model = builder.finalize(device="cpu")
+        if self._still:  # held from rotating: no inverse inertia (VBD reads the inertia itself: made huge)
+            inv = model.body_inv_inertia.numpy()
+            inv[self._still] = 0.0
+            model.body_inv_inertia.assign(inv)
+            if solver == "vbd":
+                inertia = model.body_inertia.numpy()
+                inertia[self._still] *= HELD_INERTIA_SCALE
+                model.body_inertia.assign(inertia)
+        self._model = model
+
+        if solver == "xpbd":
+            restitution = any(m.e > 0 for m in self._pairs.values())
+            iterations = XPBD_ITERATIONS if settings.iterations is None else settings.iterations
+            self._solver = newton.solvers.SolverXPBD(model, iterations=iterations, enable_restitution=restitution,
+                                                     angular_damping=0.0)
+            self.knobs.update(iterations=iterations, enable_restitution=restitution, angular_damping=0.0,
+                              rigid_contact_relaxation=0.8, rigid_contact_restitution_iterations=2)
+        elif solver == "semi-implicit":
+            iterations = None
+            self._solver = newton.solvers.SolverSemiImplicit(model, angular_damping=0.0)  # default 0.05
+            self.knobs.update(angular_damping=0.0)
+        elif solver == "featherstone":
+            iterations = None
+            self._solver = newton.solvers.SolverFeatherstone(model, angular_damping=0.0)  # default 0.05
+            self.knobs.update(angular_damping=0.0, update_mass_matrix_interval=1)
+        else:
+            iterations = VBD_ITERATIONS if settings.iterations is None else settings.iterations
+            self._solver = newton.solvers.SolverVBD(model, iterations=iterations,
+                                                    friction_epsilon=tuning["friction_epsilon"])
+            self.knobs.update(iterations=iterations, friction_epsilon=tuning["friction_epsilon"],
+                              rigid_compliant_alm=True)
+        self.iterations = iterations
+
+        self._s0, self._s1, self._control = model.state(), model.state(), model.control()
+        q = self._s0.body_q.numpy()
+        qd = np.zeros((model.body_count, 6), dtype=np.float32)
+        for body in scene.bodies:
+            if body.dynamic:
+                i = self._index[body.name]
+                q[i, :3] = body.position
+                q[i, 3:] = _quat_xyzw(body.orientation)
+                qd[i, :3] = body.velocity
+                qd[i, 3:] = body.angular_velocity
+        self._s0.body_q.assign(q)
+        self._s0.body_qd.assign(qd)
+        if solver == "featherstone":  # it steps the joint coordinates
+            newton.eval_ik(model, self._s0, self._s0.joint_q, self._s0.joint_qd)
+        self._pipeline = newton.CollisionPipeline(model)
+        self._contacts = self._pipeline.contacts()
+        self._observables = None
+        if not penalty:
+            self._observables = self._solver.observables(
+                kinds={self._solver.ObservableKind.CONTACT_F}, contacts=self._contacts)
+        self._order = [b.name for b in scene.bodies if b.dynamic]
+        self._rows = [self._index[n] for n in self._order]
+        self.effects = self._built_effects(scene, shape, solver)
+
+    def _add(self, newton, builder, body: Body, values: dict, solver: str) -> None:
+        wp = self._wp
+        cfg = newton.ModelBuilder.ShapeConfig(density=0.0, **values)
+        record = {"shape": dict(values), "density": 0.0}
+        s = body.shape
+        xform = wp.transform(wp.vec3(*body.position), wp.quat(*_quat_xyzw(body.orientation)))
+        if body.static:
+            where = -1
+            record["type"] = "static shape"
+        else:
+            i1, i2, i3 = body.principal_inertia
+            inertia = wp.mat33(i1, 0.0, 0.0, 0.0, i2, 0.0, 0.0, 0.0, i3)
+            if body.rotates or solver != "featherstone":
+                where = builder.add_body(xform=xform, mass=body.mass, inertia=inertia, lock_inertia=True,
+                                         label=body.name)
+                record["joint"] = "free"
+                if not body.rotates:
+                    self._still.append(where)
+                    record["inverse_inertia"] = 0.0  # held from rotating
+            else:  # Featherstone moves the joint coordinates: three sliders, no rotation
+                where = builder.add_link(xform=xform, mass=body.mass, inertia=inertia, lock_inertia=True,
+                                         label=body.name)
+                axes = [newton.ModelBuilder.JointDofConfig(axis=a) for a in (newton.Axis.X, newton.Axis.Y, newton.Axis.Z)]
+                joint = builder.add_joint_d6(-1, where, linear_axes=axes, parent_xform=xform)
+                builder.add_articulation([joint])
+                record["joint"] = "d6, three linear axes"
+            self._index[body.name] = where
+            record.update(type="dynamic", mass=body.mass, principal_inertia=[i1, i2, i3])
+        if isinstance(s, Plane):
+            builder.add_shape_plane(plane=(*s.normal, -s.offset), width=0.0, length=0.0, cfg=cfg, label=body.name)
+            record["plane"] = {"normal": list(s.normal), "offset": s.offset}
+        elif isinstance(s, Sphere):
+            builder.add_shape_sphere(where, xform=None if where >= 0 else xform, radius=s.radius, cfg=cfg,
+                                     label=body.name)
+            record["sphere"] = s.radius
+        elif isinstance(s, Box):
+            hx, hy, hz = s.half_extents
+            builder.add_shape_box(where, xform=None if where >= 0 else xform, hx=hx, hy=hy, hz=hz, cfg=cfg,
+                                  label=body.name)
+            record["box"] = list(s.half_extents)
+        self._shape_body.append(body.name)
+        self.knobs["bodies"][body.name] = record
+
+    def _built_effects(self, scene: Scene, shape: dict, solver: str) -> frozenset[str]:
+        """What the built model simulates, from the values given to Newton and its rules."""
+        fx = set()
+        if any(g != 0.0 for g in scene.gravity):
+            fx.add("gravity")
+        if self._pairs:
+            fx.add("contact")
+        mean = COMBINE["mean"]
+        for a, b in self._pairs:
+            if COMBINE[MU_RULE[solver]](shape[a]["mu"], shape[b]["mu"]) > 0:
+                fx.add("friction")
+            if solver == "xpbd":
+                if mean(shape[a]["restitution"], shape[b]["restitution"]) > 0:
+                    fx.add("restitution")
+                if mean(shape[a]["mu_torsional"], shape[b]["mu_torsional"]) > 0:
+                    fx.add("torsional_friction")
+                if mean(shape[a]["mu_rolling"], shape[b]["mu_rolling"]) > 0:
+                    fx.add("rolling_resistance")
+            elif solver != "vbd" and self._pairs[(a, b)].e > 0:
+                fx.add("restitution")  # mapped onto the damper
+        if any(b.dynamic and b.rotates for b in scene.bodies):
+            fx.add("rotation")
+        return frozenset(fx)
+
+    # --- the contract -------------------------------------------------------------------
+
+    def step(self) -> None:
+        s0 = self._s0
+        s0.clear_forces()
+        self._pipeline.collide(s0, self._contacts)
+        if self._observables is not None:
+            self._solver.step(s0, self._s1, self._control, self._contacts, self._dt, observables=self._observables)
+        else:
+            self._solver.step(s0, self._s1, self._control, self._contacts, self._dt)
+        self._s0, self._s1 = self._s1, s0
+
+    def body_order(self) -> list[str]:
+        return list(self._order)
+
+    def write_state(self, out: np.ndarray) -> None:
+        q = self._s0.body_q.numpy()[self._rows]
+        qd = self._s0.body_qd.numpy()[self._rows]
+        rows = out.reshape(-1, 13)
+        rows[:, 0:3] = q[:, 0:3]
+        rows[:, 3] = q[:, 6]
+        rows[:, 4:7] = q[:, 3:6]
+        rows[:, 7:13] = qd
+        
+    def states(self):
+        out = np.zeros(13 * len(self._order))
+        self.write_state(out)
+        rows = out.reshape(-1, 13)
+        return {name: rows[i].copy() for i, name in enumerate(self._order)}
+
+    def contact_forces(self):
+        if self._observables is None:
+            raise NotImplementedError(f"newton-{self._solver_name} reports no contact forces")
+        c = self._contacts
+        n = int(c.rigid_contact_count.numpy()[0])
+        forces: dict[tuple[str, str], float] = {}
+        if n == 0:
+            return forces
+        f = self._observables.contact_f.numpy()[:n, :3]
+        normal = c.rigid_contact_normal.numpy()[:n]
+        s0, s1 = c.rigid_contact_shape0.numpy()[:n], c.rigid_contact_shape1.numpy()[:n]
+        for k in range(n):
+            fn = float(np.dot(f[k], normal[k]))
+            if fn == 0.0:
+                continue
+            key = pair_key(self._shape_body[s0[k]], self._shape_body[s1[k]])
+            forces[key] = forces.get(key, 0.0) + fn
+        return {k: abs(v) for k, v in forces.items()}
+
+    def close(self) -> None:
+        self._solver = self._model = self._pipeline = self._contacts = self._observables = None
