@@ -8,7 +8,8 @@ PhysX is the first engine here with separate static and kinetic friction (`mu_s 
 per material, and a bounce threshold (restitution acts only above a closing speed).
 Measured (a 0.1 m box at rest on a slope, mu_s = 0.5, mu_k = 0.3, dt 1 ms): under TGS, the
 schema's default solver, it slides on tan(theta) = 0.4 at the acceleration of mu = 0.300
-(static friction holds only up to mu_k); under PGS it holds (0.007 mm in 1 s).
+(static friction holds only up to mu_k); under PGS it holds there (0.007 mm in 1 s) but
+slides at tan 0.48 (787 mm in 1 s, mu_k's slide): PGS holds to about 0.42, not mu_s.
 frictionType (patch, one- or two-directional) changes nothing there.
 
 Faithful mapping (each setting recorded in `knobs`):

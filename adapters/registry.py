@@ -70,7 +70,8 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "rapier": ("adapters.rapier_engine", "RapierAdapter", {}),
     # PhysX 5 through ovphysx (pre-release, USD-authored scenes; adapters/physx_engine.py)
     "physx": ("adapters.physx_engine", "PhysXAdapter", {}),
-    # PhysX's projected Gauss-Seidel solver: static friction holds above mu_k (TGS: it does not)
+    # PhysX's projected Gauss-Seidel solver: static friction holds to about 0.42 for mu_s = 0.5, mu_k = 0.3
+    # (TGS: only to mu_k; adapters/physx_engine.py)
     "physx-pgs": ("adapters.physx_engine", "PhysXAdapter", {"name": "physx-pgs", "solver": "PGS"}),
     # Drake's contact models and discrete approximations as variants (adapters/drake_engine.py).
     # The plain name is Drake's own default configuration (MultibodyPlantConfig):
