@@ -68,6 +68,11 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "box2d": ("adapters.box2d_engine", "Box2DAdapter", {}),
     "box3d": ("adapters.box3d_engine", "Box3DAdapter", {}),  # Box3D through robox3d's C API
     "rapier": ("adapters.rapier_engine", "RapierAdapter", {}),
+    # PhysX 5 through ovphysx (pre-release, USD-authored scenes; adapters/physx_engine.py)
+    "physx": ("adapters.physx_engine", "PhysXAdapter", {}),
+    # PhysX's projected Gauss-Seidel solver: static friction holds to about 0.42 for mu_s = 0.5, mu_k = 0.3
+    # (TGS: only to mu_k; adapters/physx_engine.py)
+    "physx-pgs": ("adapters.physx_engine", "PhysXAdapter", {"name": "physx-pgs", "solver": "PGS"}),
     # Drake's contact models and discrete approximations as variants (adapters/drake_engine.py).
     # The plain name is Drake's own default configuration (MultibodyPlantConfig):
     # hydroelastic contact, Lagged approximation; point contact gives one point per pair,
@@ -88,7 +93,8 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
 }
 # The pip extra that installs each built-in engine's package (README, pyproject.toml).
 EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "mujoco-warp": "mujoco-warp", "pymunk": "pymunk", "dart": "dart",
-          "box2d": "box2d", "box3d": "box3d", "rapier": "rapier", "drake": "drake", "newton": "newton"}
+          "box2d": "box2d", "box3d": "box3d", "rapier": "rapier", "drake": "drake", "newton": "newton",
+          "physx": "physx"}
 
 
 class EngineError(ValueError):

@@ -1,0 +1,343 @@
+"""NVIDIA PhysX 5 behind the engine contract, through `ovphysx` (a pre-release wheel, 0.7.0:
+PhysX on the CPU, scenes authored as USD and populated through `ovstage`). The adapter
+writes each scene as a `.usda` text layer (no USD runtime needed), attaches it to a PhysX
+instance in CPU mode and steps it with `step_sync(dt)`; states come back through
+`read_sync` (float32 warp arrays), contact forces through a contact binding.
+
+PhysX is the first engine here with separate static and kinetic friction (`mu_s != mu_k`)
+per material, and a bounce threshold (restitution acts only above a closing speed).
+Measured (a 0.1 m box at rest on a slope, mu_s = 0.5, mu_k = 0.3, dt 1 ms): under TGS, the
+schema's default solver, it slides on tan(theta) = 0.4 at the acceleration of mu = 0.300
+(static friction holds only up to mu_k); under PGS it holds there (0.007 mm in 1 s) but
+slides at tan 0.48 (787 mm in 1 s, mu_k's slide): PGS holds to about 0.42, not mu_s.
+frictionType (patch, one- or two-directional) changes nothing there.
+
+Faithful mapping (each setting recorded in `knobs`):
+- pair materials through PhysX's combine modes: every body carries its own
+  `PhysicsMaterialAPI` material (static friction, dynamic friction, restitution) with
+  `frictionCombineMode` and `restitutionCombineMode` "max", the per-body values found by
+  adapters.combination (the max rule: static bodies 0, a dynamic body its pairs' value);
+- bounce threshold 0 (PhysX's SDK default 2 m/s takes all bounce from slower impacts; the
+  USD schema's default is 0 too), sleeping off (`disableSleeping`, sleep threshold 0),
+  linear and angular damping 0 (PhysX's default angular damping is 0.05 1/s), no CCD, no
+  stabilization, gyroscopic forces on (Euler's equations);
+- `timeStepsPerSecond` = 1/dt, so one `step_sync(dt)` is one PhysX step (PhysX's USD
+  default 60 steps a second would sub-step);
+- mass, diagonal inertia and centre of mass as the scene states them (`PhysicsMassAPI`);
+- solver: TGS (the schema's default) for `physx`, PGS for `physx-pgs`;
+  `Settings.iterations` = position iterations a step (schema default 16), velocity
+  iterations 1;
+- rotation held by locking the three rotational axes (`lockedRotAxis` = 7);
+- a plane is PhysX's infinite plane (`UsdGeom.Plane`, axis Z) turned onto the normal;
+- initial angular velocity in degrees per second (the UsdPhysics unit), read back in rad/s.
+
+Contact normal forces from ovphysx's contact binding (PhysX's contact report): per dynamic
+body (sensor) and partner (filter), the normal force of the last step.
+
+3D scenes only (2D scenes on locks are not mapped yet).
+"""
+from __future__ import annotations
+
+import itertools
+import math
+import os
+import tempfile
+from importlib import metadata
+
+import numpy as np
+
+from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
+from adapters.combination import per_body_values
+from adapters.frames import state_row, xyzw_to_wxyz
+from adapters.lazy import require
+from cases.scene import Body, Plane, Scene, pair_key
+
+require("ovphysx")  # not installed: ImportError now, so the registry reports it
+
+DEFAULT_POSITION_ITERATIONS = 16  # PhysxRigidBodyAPI's solverPositionIterationCount default
+VELOCITY_ITERATIONS = 1
+COMBINE = "max"
+SOLVERS = ("TGS", "PGS")  # physxScene:solverType: temporal Gauss-Seidel (the default), projected Gauss-Seidel
+_STAGES = itertools.count(1)
+_loaded = None
+
+
+def _load():
+    """Import ovphysx and ovstage, switch PhysX to the CPU and register the PhysX USD
+    schemas (once a process)."""
+    global _loaded
+    if _loaded is None:
+        import ovphysx
+        import ovstage
+        from ovphysx import PhysX
+        from ovphysx.samples.python_samples.schema_support import physx_schema_paths
+        from ovphysx.types import ObjectScope, SimObjectType
+        PhysX.set_cpu_mode(True)
+        ovstage.population.register_usd_schemas(
+            [*[str(p) for p in physx_schema_paths()], str(ovphysx.newton_schema_root())])
+        _loaded = (ovphysx, ovstage, PhysX, ObjectScope, SimObjectType)
+    return _loaded
+
+
+def _v(x) -> str:
+    return "(" + ", ".join(repr(float(c)) for c in x) + ")"
+
+
+def _plane_rotation(n) -> list[float]:
+    """Unit quaternion (w, x, y, z) turning +z onto the unit vector n."""
+    z = np.array([0.0, 0.0, 1.0])
+    n = np.asarray(n, float)
+    axis = np.cross(z, n)
+    s, c = np.linalg.norm(axis), float(z @ n)
+    if s < 1e-12:
+        return [1.0, 0.0, 0.0, 0.0] if c > 0 else [0.0, 1.0, 0.0, 0.0]
+    half = math.atan2(s, c) / 2.0
+    return [math.cos(half)] + list(axis / s * math.sin(half))
+
+
+class PhysXAdapter(Adapter):
+    name = "physx"
+    package = "ovphysx"
+    packages = ("ovphysx",)
+    # the pre-release the conformance battery ran on; 0.x: the next minor may change the API
+    supported = ">=0.7.0,<0.8"
+    capabilities = Capabilities(
+        dimensions=frozenset({3}),
+        shapes=frozenset({"sphere", "box", "plane"}),
+        native_restitution=True,
+        static_kinetic=True,    # PhysicsMaterialAPI staticFriction and dynamicFriction
+        contact_forces=True,
+        iterations=True,        # position iterations a step
+        float_bits=32,          # PhysX stores poses and velocities in single precision
+    )
+
+    def __init__(self, name: str = "physx", solver: str = "TGS"):
+        if solver not in SOLVERS:
+            raise ValueError(f"solver = {solver!r}: must be one of {', '.join(SOLVERS)}")
+        self.name, self.solver = name, solver
+
+    def version(self) -> str:
+        return metadata.version("ovphysx")
+
+    def build(self, scene: Scene, settings: Settings) -> Simulation:
+        reason = self.capabilities.cannot_run(scene)
+        if reason:
+            raise Unsupported(reason)
+        steps_per_second = 1.0 / settings.dt
+        if abs(steps_per_second - round(steps_per_second)) > 1e-9 * steps_per_second:
+            raise Unsupported(f"dt = {settings.dt}: PhysX's timeStepsPerSecond is a whole number, 1/dt is not")
+        _load()
+        return PhysXSimulation(scene, settings, self.solver)
+
+
+class PhysXSimulation(Simulation):
+    def __init__(self, scene: Scene, settings: Settings, solver: str):
+        ovphysx, ovstage, PhysX, self._scope, self._types = _load()
+        self._dt = settings.dt
+        self.iterations = DEFAULT_POSITION_ITERATIONS if settings.iterations is None else settings.iterations
+        effects = scene.effects
+        friction, restitution = "friction" in effects, "restitution" in effects
+        mats = {"staticFriction": per_body_values(scene, lambda m: m.mu_s if friction else 0.0, COMBINE, "mu_s"),
+                "dynamicFriction": per_body_values(scene, lambda m: m.mu_k_ if friction else 0.0, COMBINE, "mu_k"),
+                "restitution": per_body_values(scene, lambda m: m.e if restitution else 0.0, COMBINE, "e")}
+        gravity = np.asarray(scene.gravity if "gravity" in effects else (0.0, 0.0, 0.0), float)
+        g = float(np.linalg.norm(gravity))
+        self._order = [b.name for b in scene.dynamic_bodies]
+        self._paths = {b.name: f"/World/B{i}" for i, b in enumerate(scene.bodies)}
+        self.knobs = {
+            "PhysicsScene": {"gravity": gravity.tolist(), "timeStepsPerSecond": round(1.0 / self._dt),
+                             "bounceThreshold": 0.0, "disableSleeping": True, "enableCCD": False,
+                             "enableStabilization": False, "solverType": solver,
+                             "enableGPUDynamics": False, "broadphaseType": "MBP"},
+            "combineMode": {"friction": COMBINE, "restitution": COMBINE},
+            "solverPositionIterationCount": self.iterations,
+            "solverVelocityIterationCount": VELOCITY_ITERATIONS,
+            "contact_force": "contact binding: normal force matrix per dynamic body and partner",
+            "bodies": {},
+        }
+        lines = ['#usda 1.0', '(', '    defaultPrim = "World"', '    metersPerUnit = 1', '    upAxis = "Z"', ')',
+                 'def Xform "World"', '{',
+                 '    def PhysicsScene "PhysicsScene" (prepend apiSchemas = ["PhysxSceneAPI"])', '    {',
+                 f'        vector3f physics:gravityDirection = {_v(gravity / g if g > 0 else (0, 0, -1))}',
+                 f'        float physics:gravityMagnitude = {g!r}',
+                 '        bool physxScene:enableGPUDynamics = 0',
+                 '        uniform token physxScene:broadphaseType = "MBP"',
+                 '        float physxScene:bounceThreshold = 0',
+                 '        uniform bool physxScene:disableSleeping = 1',
+                 '        bool physxScene:enableCCD = 0',
+                 '        bool physxScene:enableStabilization = 0',
+                 f'        uniform token physxScene:solverType = "{solver}"',
+                 f'        uint physxScene:timeStepsPerSecond = {round(1.0 / self._dt)}',
+                 '    }']
+        for body in scene.bodies:
+            lines += self._body(body, {k: v[body.name] for k, v in mats.items()})
+        lines.append('}')
+        fd, self._file = tempfile.mkstemp(suffix=".usda", prefix="physval-physx-")
+        with os.fdopen(fd, "w") as f:
+            f.write("\n".join(lines) + "\n")
+        self._physx = PhysX()
+        self._stage = ovstage.Stage(f"physval-{next(_STAGES)}")
+        ovstage.population.open_usd(self._stage, self._file, ordinal=1, domains=ovstage.PopulationDomain.ALL)
+        self._stage.advance_write_floor(ordinal=1).wait()
+        self._physx.wait_task(self._physx.attach_ovstage(self._stage, read_ordinal=1))
+        self._binding = None
+        self._partners = [n for n in self._paths]
+        if self._order and len(scene.bodies) > 1:
+            # every dynamic body senses every other body (filters_per_sensor of them, flattened)
+            filters = []
+            static = {b.name for b in scene.bodies if b.static}
+            self._filter_names = []
+            for name in self._order:
+                others = [o for o in self._paths if o != name]
+                # a static body is its collider prim (no rigid body above it)
+                filters += [self._paths[o] + ("/Geom" if o in static else "") for o in others]
+                self._filter_names.append(others)
+            self._binding = self._physx.create_contact_binding(
+                sensor_patterns=[self._paths[n] for n in self._order], filter_patterns=filters,
+                filters_per_sensor=len(scene.bodies) - 1, max_contact_data_count=256)
+            self._matrix = np.zeros((len(self._order), len(scene.bodies) - 1, 3), np.float32)
+        self._start = {b.name: b.position for b in scene.dynamic_bodies}
+        self._rows = self._row_order()
+        self._stepped = False
+        self.effects = self._built_effects(scene, gravity, mats)
+
+    def _body(self, body: Body, mat: dict) -> list[str]:
+        path = self._paths[body.name]
+        name = path.rsplit("/", 1)[1]
+        record: dict = {"material": dict(mat)}
+        s = body.shape
+        if isinstance(s, Plane):
+            n = np.asarray(s.normal, float)
+            position, orientation = s.offset * n, _plane_rotation(n)
+        else:
+            position, orientation = body.position, body.orientation
+        apis = ["PhysicsRigidBodyAPI", "PhysicsMassAPI", "PhysxRigidBodyAPI", "PhysxContactReportAPI"] if body.dynamic else []
+        out = [f'    def Material "{name}Mat" (prepend apiSchemas = ["PhysicsMaterialAPI", "PhysxMaterialAPI"])', '    {',
+               f'        float physics:staticFriction = {mat["staticFriction"]!r}',
+               f'        float physics:dynamicFriction = {mat["dynamicFriction"]!r}',
+               f'        float physics:restitution = {mat["restitution"]!r}',
+               f'        uniform token physxMaterial:frictionCombineMode = "{COMBINE}"',
+               f'        uniform token physxMaterial:restitutionCombineMode = "{COMBINE}"',
+               '    }',
+               f'    def Xform "{name}"' + (f' (prepend apiSchemas = {apis!r})'.replace("'", '"') if apis else ''), '    {',
+               f'        double3 xformOp:translate = {_v(position)}',
+               f'        quatd xformOp:orient = {_v(orientation)}',
+               '        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:orient"]']
+        if body.dynamic:
+            ix, iy, iz = body.principal_inertia
+            w = np.degrees(np.asarray(body.angular_velocity if body.rotates else (0.0, 0.0, 0.0), float))
+            locked = 0 if body.rotates else 7
+            out += [f'        float physics:mass = {float(body.mass)!r}',
+                    f'        float3 physics:diagonalInertia = {_v((ix, iy, iz))}',
+                    '        point3f physics:centerOfMass = (0, 0, 0)',
+                    '        quatf physics:principalAxes = (1, 0, 0, 0)',
+                    f'        vector3f physics:velocity = {_v(body.velocity)}',
+                    f'        vector3f physics:angularVelocity = {_v(w)}',
+                    '        float physxContactReport:threshold = 0',
+                    '        float physxRigidBody:linearDamping = 0',
+                    '        float physxRigidBody:angularDamping = 0',
+                    '        float physxRigidBody:sleepThreshold = 0',
+                    '        bool physxRigidBody:enableCCD = 0',
+                    '        bool physxRigidBody:enableGyroscopicForces = 1',
+                    f'        int physxRigidBody:lockedRotAxis = {locked}',
+                    f'        int physxRigidBody:solverPositionIterationCount = {self.iterations}',
+                    f'        int physxRigidBody:solverVelocityIterationCount = {VELOCITY_ITERATIONS}']
+            record.update(mass=float(body.mass), diagonalInertia=[ix, iy, iz], linearDamping=0.0, angularDamping=0.0,
+                          sleepThreshold=0.0, lockedRotAxis=locked, enableGyroscopicForces=True)
+        else:
+            record["static"] = True
+        if s.kind == "sphere":
+            geom = ['        def Sphere "Geom" (prepend apiSchemas = ["PhysicsCollisionAPI", "MaterialBindingAPI"])',
+                    '        {', f'            double radius = {float(s.radius)!r}']
+            record["sphere"] = {"radius": s.radius}
+        elif s.kind == "box":
+            geom = ['        def Cube "Geom" (prepend apiSchemas = ["PhysicsCollisionAPI", "MaterialBindingAPI"])',
+                    '        {', '            double size = 2',
+                    f'            float3 xformOp:scale = {_v(s.half_extents)}',
+                    '            uniform token[] xformOpOrder = ["xformOp:scale"]']
+            record["cube"] = {"half_extents": list(s.half_extents)}
+        else:
+            geom = ['        def Plane "Geom" (prepend apiSchemas = ["PhysicsCollisionAPI", "MaterialBindingAPI"])',
+                    '        {', '            uniform token axis = "Z"']
+            record["plane"] = {"normal": list(s.normal), "offset": s.offset}
+        out += geom + [f'            rel material:binding:physics = <{path}Mat>', '        }', '    }']
+        self.knobs["bodies"][body.name] = record
+        return out
+
+    def _built_effects(self, scene: Scene, gravity, mats) -> frozenset[str]:
+        fx = set()
+        if np.any(gravity != 0.0):
+            fx.add("gravity")
+        if scene.contact_pairs():
+            fx.add("contact")
+            if any(v > 0 for v in mats["restitution"].values()):
+                fx.add("restitution")
+            if any(v > 0 for k in ("staticFriction", "dynamicFriction") for v in mats[k].values()):
+                fx.add("friction")
+        if any(b.rotates for b in scene.dynamic_bodies):
+            fx.add("rotation")
+        return frozenset(fx)
+
+    # --- stepping and reading -------------------------------------------------------------
+
+    def _read_raw(self, names) -> dict:
+        with self._physx.read_sync(self._types.RIGID_BODY, names, scope=self._scope.ALL) as r:
+            return {i: g.tensors[0].numpy().copy() for i, g in enumerate(r.groups)}
+
+    def _row_order(self) -> list[int]:
+        """The read's rows in scene order, matched by the start positions."""
+        if not self._order:
+            return []
+        pos = self._read_raw(["position"])[0].astype(float)
+        rows = []
+        for name in self._order:
+            want = self._body_position(name)
+            rows.append(int(np.argmin(np.linalg.norm(pos - want, axis=1))))
+        if len(set(rows)) != len(rows):
+            raise Unsupported("two dynamic bodies start at one position: the adapter cannot tell PhysX's rows apart")
+        return rows
+
+    def _body_position(self, name):
+        return np.asarray(self._start[name], float)
+
+    def step(self) -> None:
+        self._physx.step_sync(self._dt)
+        self._stepped = True
+
+    def _state(self) -> tuple[np.ndarray, ...]:
+        if not self._order:
+            z = np.zeros((0, 3), np.float32)
+            return z, np.zeros((0, 4), np.float32), z, z
+        with self._physx.read_sync(self._types.RIGID_BODY, ["position", "orientation", "linearVelocity",
+                                                            "angularVelocity"], scope=self._scope.ALL) as r:
+            out = [g.tensors[0].numpy()[self._rows].copy() for g in r.groups]
+        return tuple(out)
+
+    def states(self) -> dict[str, np.ndarray]:
+        p, q, v, w = self._state()
+        return {name: state_row(p[i], xyzw_to_wxyz(q[i]), v[i], w[i]) for i, name in enumerate(self._order)}
+
+    def contact_forces(self) -> dict[tuple[str, str], float]:
+        if self._binding is None or not self._stepped:
+            return {}
+        self._binding.read_normal_force_matrix(self._matrix)
+        out = {}
+        for i, name in enumerate(self._order):
+            for j, other in enumerate(self._filter_names[i]):
+                f = float(np.linalg.norm(self._matrix[i, j]))
+                key = pair_key(name, other)
+                if f > 0.0 and key not in out:
+                    out[key] = f
+        return out
+
+    def close(self) -> None:
+        physx, self._physx = getattr(self, "_physx", None), None
+        if physx is None:
+            return
+        if self._binding is not None:
+            self._binding.destroy()
+            self._binding = None
+        physx.wait_task(physx.detach_ovstage())
+        self._stage.destroy()
+        physx.destroy()
+        os.unlink(self._file)
