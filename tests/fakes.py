@@ -78,6 +78,17 @@ class OtherFake(FakeAdapter):
         super().__init__("fake-2")
 
 
+class OnDemandFake(FakeAdapter):
+    """A stand-in engine too slow for any default run, `fake-slow` (`--adapter
+    tests/fakes.py:OnDemandFake`): every run is left out unless --on-demand."""
+
+    def __init__(self):
+        super().__init__("fake-slow")
+
+    def on_demand(self, scene):
+        return "a stand-in for an engine that takes minutes a run"
+
+
 class CrashingFake(FakeAdapter):
     """A stand-in engine whose every run raises in its first step, `fake-crash`
     (`--adapter tests/fakes.py:CrashingFake`)."""

@@ -144,3 +144,13 @@ def test_chromium_is_found_where_ci_installs_it():
     """.ci/run installs Debian's chromium before the test command, so CI runs the browser test."""
     ci = (Path(__file__).resolve().parent.parent / ".ci" / "run").read_text()
     assert "apt-get install -y chromium chromium-driver" in ci
+
+
+def test_a_run_with_every_job_left_out_writes_an_empty_report(tmp_path):
+    """Every job on demand (Newton's runs, say): the run reports nothing to judge instead of
+    failing on an empty scorecard."""
+    out = tmp_path / "out"
+    fakes = Path(__file__).parent / "fakes.py"
+    assert main(["run", "--adapter", f"{fakes}:OnDemandFake", "--engines", "fake-slow", "--cases",
+                 "central_impact[e=0.5,m=1:1]", "--quiet", "--out", str(out)]) == 0
+    assert (out / "report.html").is_file() and "0 checks" in (out / "report.md").read_text()

@@ -72,6 +72,8 @@ def _status_class(text) -> str:
 def scorecard_table(card: pd.DataFrame, engine_href) -> dict:
     """Engines as rows, effects as columns; each cell its grade (coloured), within/judged and
     the worst error in tolerances, as in report.md."""
+    if card.empty:  # a run with no rows (every job left out, e.g. on demand): no grades
+        return {"id": "scorecard", "columns": ["engine"], "rows": [], "filter": False}
     effects = [e for e in scorecard.EFFECTS if (card[card.effect == e].grade != "-").any()]
     rows = []
     for engine, mine in card.groupby("engine", sort=False):
