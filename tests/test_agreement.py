@@ -37,10 +37,21 @@ class Pairing(NamedTuple):
     engine: str
 
 
+def _on_demand(engine: str, fam, variant) -> bool:
+    """A run its engine declares too slow for a default run (Adapter.on_demand: Newton's
+    solvers): the pairing runs with `pytest -m slow`, as the run's checks do."""
+    from adapters.registry import EngineError, get
+    try:
+        return get(engine).on_demand(fam.scene(variant.params)) is not None
+    except EngineError:
+        return False
+
+
 def pytest_generate_tests(metafunc):
     if "pairing" in metafunc.fixturenames:
         engines = [e for e in selected_engines(metafunc.config)[0] if not e.startswith(REFERENCE)]
-        params = [pytest.param(Pairing(name, v.id, e), id=f"{name}[{v.id}]-{e}")
+        params = [pytest.param(Pairing(name, v.id, e), id=f"{name}[{v.id}]-{e}",
+                               marks=[pytest.mark.slow] if _on_demand(e, fam, v) else [])
                   for name, fam in _families().items() for v in fam.variants for e in engines]
         metafunc.parametrize("pairing", params)
 
