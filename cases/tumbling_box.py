@@ -143,9 +143,9 @@ def energy_dissipated(p) -> float:
     return M * G * (release_height(p) - HALF)
 
 
-def ground_impulse(duration: float) -> float:
+def ground_impulse(duration: float, m: float = M) -> float:
     """integral F_n dt = m g T: at rest at both ends, weight and ground the only vertical forces."""
-    return M * G * duration
+    return m * G * duration
 
 
 # --- scene ----------------------------------------------------------------------------------
@@ -195,11 +195,21 @@ def expect(p, dt) -> list[Check]:
               f"flat on the lowest face to within {PENETRATION * 1e3:g} mm across it ({tilt:.2g} rad); any other face gives <= 0"),
         Check("rest_height", "m", HALF, PENETRATION, "abs",
               f"resting on a face; {PENETRATION * 1e3:g} mm (0.05 % of the box) is a solver's stabilising depth"),
-        Check("energy_dissipated", "J", energy_dissipated(p), M * G * PENETRATION + 0.5 * M * (G * dt) ** 2, "abs",
-              f"m g times the {PENETRATION * 1e3:g} mm rest-depth allowance, plus the kinetic energy of the g dt rest-speed allowance"),
+        *settling_checks(M, energy_dissipated(p), T_run, dt),
+    ]
+
+
+def settling_checks(m: float, dissipated: float, T_run: float, dt: float) -> list[Check]:
+    """The checks of a body of mass m that ends at rest on the ground (this family and
+    brick_tumble): every joule above rest dissipated, the fastest point at rest within one
+    step of gravity, and the ground's impulse m g T over the run."""
+    return [
+        Check("energy_dissipated", "J", dissipated, m * G * PENETRATION + 0.5 * m * (G * dt) ** 2, "abs",
+              f"m g times the {PENETRATION * 1e3:g} mm rest-depth allowance, plus the kinetic energy of the g dt "
+              "rest-speed allowance"),
         Check("rest_speed", "m/s", 0.0, G * dt, "abs",
               f"fastest point over the last {REST:g} s; g dt: one step of gravity a contact has not yet cancelled"),
-        Check("ground_impulse", "N s", ground_impulse(T_run), M * G * dt, "abs",
+        Check("ground_impulse", "N s", ground_impulse(T_run, m), m * G * dt, "abs",
               "m g dt: the momentum m v_end of the g dt rest-speed allowance"),
     ]
 
