@@ -50,7 +50,7 @@ from importlib import metadata
 import numpy as np
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
-from adapters.frames import state_row, wxyz_to_xyzw, xyzw_to_wxyz
+from adapters.frames import state_row, wxyz_to_xyzw, xyzw_to_wxyz, z_to
 from adapters.impulse_split import acting_pairs, split_impulses
 from adapters.lazy import require
 from cases.scene import Body, Plane, Scene, pair_key
@@ -101,17 +101,6 @@ def _vec(v):
 def _quat(q_wxyz, target) -> None:
     x, y, z, w = wxyz_to_xyzw(q_wxyz)
     target.v.x, target.v.y, target.v.z, target.s = x, y, z, w
-
-
-def _plane_rotation(n) -> list[float]:
-    """Unit quaternion (w, x, y, z) turning +z onto the unit vector n."""
-    n = np.asarray(n, float)
-    axis = np.cross([0.0, 0.0, 1.0], n)
-    s, c = float(np.linalg.norm(axis)), float(n[2])
-    if s < 1e-12:
-        return [1.0, 0.0, 0.0, 0.0] if c > 0 else [0.0, 1.0, 0.0, 0.0]
-    half = math.atan2(s, c) / 2.0
-    return [math.cos(half)] + list(axis / s * math.sin(half))
 
 
 class Box3DAdapter(Adapter):
@@ -216,7 +205,7 @@ class Box3DSimulation(Simulation):
         if isinstance(s, Plane):
             n = np.asarray(s.normal, float)
             foot = self._centre - (self._centre @ n - s.offset) * n  # the plane's point under the bodies
-            position, orientation = foot - PLANE_HALF_DEPTH * n, _plane_rotation(n)
+            position, orientation = foot - PLANE_HALF_DEPTH * n, z_to(n)
             half = (PLANE_HALF_WIDTH, PLANE_HALF_WIDTH, PLANE_HALF_DEPTH)
         else:
             position, orientation = body.position, body.orientation

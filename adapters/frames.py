@@ -1,6 +1,8 @@
 """Orientation conversions shared by adapters. The scene's quaternions are (w, x, y, z)."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -12,6 +14,18 @@ def wxyz_to_xyzw(q) -> list[float]:
 def xyzw_to_wxyz(q) -> list[float]:
     x, y, z, w = q
     return [w, x, y, z]
+
+
+def z_to(n) -> list[float]:
+    """Unit quaternion (w, x, y, z) turning +z onto the unit vector n (a plane's frame: its
+    normal along the frame's z); -z is a half turn about x."""
+    n = np.asarray(n, float)
+    axis = np.cross([0.0, 0.0, 1.0], n)
+    s, c = float(np.linalg.norm(axis)), float(n[2])
+    if s < 1e-12:
+        return [1.0, 0.0, 0.0, 0.0] if c > 0 else [0.0, 1.0, 0.0, 0.0]
+    half = math.atan2(s, c) / 2.0
+    return [math.cos(half)] + [float(a) for a in axis / s * math.sin(half)]
 
 
 def state_row(pos, quat_wxyz, vel, omega_world) -> np.ndarray:

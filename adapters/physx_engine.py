@@ -39,7 +39,6 @@ body (sensor) and partner (filter), the normal force of the last step.
 from __future__ import annotations
 
 import itertools
-import math
 import os
 import tempfile
 from importlib import metadata
@@ -48,7 +47,7 @@ import numpy as np
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
-from adapters.frames import state_row, xyzw_to_wxyz
+from adapters.frames import state_row, xyzw_to_wxyz, z_to
 from adapters.lazy import require
 from cases.scene import Body, Plane, Scene, pair_key
 
@@ -81,18 +80,6 @@ def _load():
 
 def _v(x) -> str:
     return "(" + ", ".join(repr(float(c)) for c in x) + ")"
-
-
-def _plane_rotation(n) -> list[float]:
-    """Unit quaternion (w, x, y, z) turning +z onto the unit vector n."""
-    z = np.array([0.0, 0.0, 1.0])
-    n = np.asarray(n, float)
-    axis = np.cross(z, n)
-    s, c = np.linalg.norm(axis), float(z @ n)
-    if s < 1e-12:
-        return [1.0, 0.0, 0.0, 0.0] if c > 0 else [0.0, 1.0, 0.0, 0.0]
-    half = math.atan2(s, c) / 2.0
-    return [math.cos(half)] + list(axis / s * math.sin(half))
 
 
 class PhysXAdapter(Adapter):
@@ -208,7 +195,7 @@ class PhysXSimulation(Simulation):
         s = body.shape
         if isinstance(s, Plane):
             n = np.asarray(s.normal, float)
-            position, orientation = s.offset * n, _plane_rotation(n)
+            position, orientation = s.offset * n, z_to(n)
         else:
             position, orientation = body.position, body.orientation
         apis = ["PhysicsRigidBodyAPI", "PhysicsMassAPI", "PhysxRigidBodyAPI", "PhysxContactReportAPI"] if body.dynamic else []

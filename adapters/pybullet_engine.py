@@ -71,7 +71,7 @@ import numpy as np
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
-from adapters.frames import state_row, wxyz_to_xyzw, xyzw_to_wxyz
+from adapters.frames import state_row, wxyz_to_xyzw, xyzw_to_wxyz, z_to
 from cases.scene import Body, Scene, pair_key
 from cases.trajectory import ContactPoint
 
@@ -362,15 +362,7 @@ def _ground_box(plane) -> tuple[list, list, list]:
     the origin, its z axis along n."""
     n = np.asarray(plane.normal, float)
     centre = (plane.offset - GROUND_HALF_THICKNESS) * n
-    z = np.array([0.0, 0.0, 1.0])
-    axis = np.cross(z, n)
-    s, c = float(np.linalg.norm(axis)), float(z @ n)
-    if s < 1e-12:  # n along +z or -z
-        quat = [0.0, 0.0, 0.0, 1.0] if c > 0 else [1.0, 0.0, 0.0, 0.0]
-    else:
-        half = math.atan2(s, c) / 2.0
-        quat = list(axis / s * math.sin(half)) + [math.cos(half)]
-    return [GROUND_HALF_WIDTH, GROUND_HALF_WIDTH, GROUND_HALF_THICKNESS], list(centre), quat
+    return [GROUND_HALF_WIDTH, GROUND_HALF_WIDTH, GROUND_HALF_THICKNESS], list(centre), wxyz_to_xyzw(z_to(n))
 
 
 class PyBulletSimulation(Simulation):
