@@ -226,15 +226,19 @@ class FrictionCone(Fault):
         return sim
 
 
-class _PyramidSolver:
-    """The reference's sequential impulses (reference_impl/sequential_impulses.py) with a
-    per-row friction clamp in the fixed tangent basis: the rest of the module as it is."""
+class _SolverWrapper:
+    """The reference's solver module as it is, but for the `solve` a subclass plants."""
 
     def __init__(self, module):
         self._module = module
 
     def __getattr__(self, name):
         return getattr(self._module, name)
+
+
+class _PyramidSolver(_SolverWrapper):
+    """The reference's sequential impulses (reference_impl/sequential_impulses.py) with a
+    per-row friction clamp in the fixed tangent basis: the rest of the module as it is."""
 
     def solve(self, contacts, bodies, dt, config):
         from reference_impl import contact as rc
@@ -380,15 +384,13 @@ class RestitutionThreshold(Fault):
         return sim
 
 
-class _ThresholdSolver:
+class _ThresholdSolver(_SolverWrapper):
     """The reference's solver with each slow approaching contact's restitution target
     (contact.normal_target: -e vn0) replaced by 0."""
 
     def __init__(self, module, speed: float):
-        self._module, self._speed = module, speed
-
-    def __getattr__(self, name):
-        return getattr(self._module, name)
+        super().__init__(module)
+        self._speed = speed
 
     def solve(self, contacts, bodies, dt, config):
         for c in contacts:
