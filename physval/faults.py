@@ -23,6 +23,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from adapters.base import Adapter, Settings, Simulation
+from cases.overlap import rotation_matrix
 from cases.scene import Box, Rect, Scene
 
 ENGINES = ("reference", "mujoco", "pybullet")  # the engines faults are written for
@@ -336,14 +337,6 @@ class InertiaAxes(Fault):
         return replace(scene, bodies=tuple(body(b) for b in scene.bodies))
 
 
-def _rotate(q, v):
-    """v turned by the unit quaternion q = (w, x, y, z)."""
-    w, x, y, z = q
-    u = np.array((x, y, z))
-    v = np.asarray(v, dtype=float)
-    return tuple(float(c) for c in v + 2.0 * np.cross(u, np.cross(u, v) + w * v))
-
-
 class AngularVelocityFrame(Fault):
     """Start angular velocity read in the body frame where the scene gives it in the
     world frame (the two agree for a body that starts unrotated).
@@ -357,7 +350,8 @@ class AngularVelocityFrame(Fault):
         def body(b):
             if b.static or not any(b.angular_velocity):
                 return b
-            return replace(b, angular_velocity=_rotate(b.orientation, b.angular_velocity))
+            w = rotation_matrix(b.orientation) @ np.asarray(b.angular_velocity, float)
+            return replace(b, angular_velocity=tuple(float(c) for c in w))
         return replace(scene, bodies=tuple(body(b) for b in scene.bodies))
 
 
