@@ -513,6 +513,20 @@ class FaultySimulation(Simulation):
 
 # --- running faulty engines -----------------------------------------------------------------
 
+def plant_in(adapter: Adapter, name: str) -> FaultyAdapter:
+    """`adapter` with the fault `name` planted (physval.core.context.Context.planted: how
+    worker processes build the faulty engine); EngineError where it cannot be planted."""
+    from adapters.registry import EngineError
+    fault = by_name(name)
+    try:
+        kind = engine_kind(adapter)
+    except NotPlantable as exc:
+        raise EngineError(f"fault {name!r} cannot be planted in {adapter.name}: {exc}") from None
+    if kind not in fault.kinds:
+        raise EngineError(f"fault {name!r} has no meaning in {adapter.name}")
+    return FaultyAdapter(adapter, fault)
+
+
 def jobs_of(families: dict[str, list], engine: str) -> list:
     """Jobs of the given variants (family name -> variants) on `engine`, at the family's
     dt and the adapter's default iterations (where known-deviation bands hold)."""
@@ -520,11 +534,19 @@ def jobs_of(families: dict[str, list], engine: str) -> list:
     return [Job(name, v, engine) for name, variants in families.items() for v in variants]
 
 
-def verdicts(engine: str, fault: Fault, jobs: list) -> list[dict]:
-    """The verdict rows of `jobs` (all on `engine`) run in this process on the engine with
-    `fault` planted, judged by the harness as the engine itself (its name, its bands)."""
-    from physval.core import Context, execute
+def verdicts(fault: Fault, jobs: list, execution=None, ctx=None) -> list[dict]:
+    """The verdict rows of `jobs` run on their engines with `fault` planted, judged by the
+    harness as the engine itself (its name, its bands): in worker processes through the
+    core's loop given an `execution` (physval.core.session.Execution), else in this process
+    (the tests' fast set, where a worker's start would cost more than the jobs)."""
+    from physval.core import Context, execute, run_jobs
     from physval.core.context import Resolver
-    resolver = Resolver(Context())
-    resolver.provide(engine, adapter=FaultyAdapter(resolver.adapter(engine), fault))
-    return [row for job in jobs for row in execute(job, resolver).rows]
+    ctx = replace(ctx or Context(), planted=fault.name)
+    if execution is None:
+        resolver = Resolver(ctx)
+        return [row for job in jobs for row in execute(job, resolver).rows]
+    res = run_jobs(jobs, ctx, execution.workers, execution.scheduler, execution.job_timeout, execution.start_method,
+                   progress=execution.progress, label=f"faults: {fault.name}")
+    if res.interrupted:
+        raise KeyboardInterrupt(res.interrupted)
+    return res.ordered(jobs)

@@ -87,7 +87,7 @@ def rows(engine: str, fault_name: str, which: str = "fast") -> tuple[dict, ...]:
     if not installed(engine):
         pytest.skip(f"{engine} is not installed")
     jobs = fast_jobs(engine) if which == "fast" else full_jobs(engine)
-    return tuple(faults.verdicts(engine, faults.by_name(fault_name), jobs))
+    return tuple(faults.verdicts(faults.by_name(fault_name), jobs))
 
 
 def families_with(found, status: tuple[str, ...]) -> set[str]:

@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import argparse
+import os
+from dataclasses import replace
 
 from physval.core.executor import START_METHODS
 from physval.core.selection import select_variants
@@ -23,6 +25,9 @@ def add_parser(sub) -> None:
                     help="faults only: these families or variants (the --cases grammar; default: every family "
                          "but the robustness ones)")
     bn.add_argument("--out", default="reports/bench", metavar="DIR", help="output folder (default: reports/bench)")
+    bn.add_argument("--workers", type=options.positive_int, default=os.cpu_count() or 1, metavar="N",
+                    help="faults only: worker processes for the planted engines' jobs (default: one per core; "
+                         "the timings run one at a time)")
     bn.add_argument("--scheduler", metavar="ADDRESS", help=argparse.SUPPRESS)
     bn.add_argument("--job-timeout", type=options.seconds_or_off, default=1800.0, metavar="S",
                     help="per-job time limit (default 1800 s; the 55-box pyramid is slow on pure-Python engines)")
@@ -58,7 +63,7 @@ def run(args) -> int:
         from physval.faults import ENGINES
         chosen = select_variants(ctx.resolver().families, args.cases) if args.cases else None
         sections["faults"] = fault_matrix(engines if args.engines else [e for e in engines if e in ENGINES], ctx,
-                                          progress=not args.quiet, families=chosen)
+                                          replace(execution, workers=args.workers), families=chosen)
     write(out, sections)
     print(f"wrote {out / 'bench.md'}")
     return 0

@@ -22,6 +22,7 @@ class Context:
     adapters: tuple[str, ...] = ()     # --adapter module:Class specs
     known_files: tuple[str, ...] = ()  # --known files (deviations a user expects)
     broken: tuple = ()                 # cases.registry.Problem of each user file the dry run refused
+    planted: str = ""                  # a fault of physval.faults planted in every engine (bench faults)
 
     def resolver(self) -> "Resolver":
         return _resolver(self)
@@ -71,13 +72,21 @@ class Resolver:
         if name not in self._adapters:
             engine_caches()  # before any engine starts, in every process that runs jobs
             try:
-                self._adapters[name] = registry.get(name, self.ctx.adapters)
+                self._adapters[name] = self._planted(registry.get(name, self.ctx.adapters))
             except registry.EngineError as exc:
                 self._adapters[name] = exc
         found = self._adapters[name]
         if isinstance(found, Exception):
             raise found
         return found
+
+    def _planted(self, adapter: Adapter) -> Adapter:
+        """The adapter with the Context's planted fault, under the engine's own name (so its
+        bands judge it); EngineError where the fault has no meaning or no way in."""
+        if not self.ctx.planted:
+            return adapter
+        from physval.faults import plant_in
+        return plant_in(adapter, self.ctx.planted)
 
     def known(self, engine: str) -> list[deviations.Deviation]:
         """The entries for this engine of its own deviation file, then of the user's --known files."""

@@ -20,7 +20,6 @@ engines are timed side by side in the same conditions.
 from __future__ import annotations
 
 import math
-import sys
 import time
 from pathlib import Path
 
@@ -218,44 +217,44 @@ def faults_note() -> str:
     return FAULTS_NOTE + "\n\n" + "\n".join(f"- `{f.name}`: {f.summary}" for f in faults.FAULTS)
 
 
-def fault_matrix(engines: list[str], ctx: Context, progress: bool = True,
+def fault_matrix(engines: list[str], ctx: Context, execution: Execution,
                  families: dict[str, list] | None = None) -> pd.DataFrame:
     """Fault x family detection counts for every engine of `engines` that faults are
     written for, over `families` (name -> variants; default: the default variants of every
-    family but the robustness ones). Jobs run in this process (physval.faults.verdicts),
-    so the planted wrapper takes the engine's name and bands without being registered as
-    an engine."""
+    family but the robustness ones). Each fault's jobs run in worker processes that build
+    the engine with the fault planted (physval.faults.verdicts), under the engine's own
+    name, so its bands judge it."""
     from physval import faults
     resolver = ctx.resolver()
     if families is None:
         families = {n: f.variants for n, f in resolver.families.items() if "robustness" not in f.tags}
-    out = []
+    kinds = {}
     for engine in engines:
         try:
-            kind = faults.engine_kind(resolver.adapter(engine))
+            kinds[engine] = faults.engine_kind(resolver.adapter(engine))
         except Exception:
             continue  # not installed, or no faults written for it
-        jobs = faults.jobs_of(families, engine)
-        for fault in (faults.NONE, *faults.FAULTS):
-            if kind not in fault.kinds:
-                continue  # no meaning there (e.g. a restitution threshold in MuJoCo, which has no e)
-            if progress:
-                print(f"physval bench: faults: {engine}, {fault.name}", file=sys.stderr)
-            rows = faults.verdicts(engine, fault, jobs)
+    out = []
+    for fault in (faults.NONE, *faults.FAULTS):
+        # the engines the fault has a meaning in (a restitution threshold has none in MuJoCo, which has no e)
+        mine = [e for e, kind in kinds.items() if kind in fault.kinds]
+        rows = faults.verdicts(fault, [j for e in mine for j in faults.jobs_of(families, e)], execution, ctx)
+        for engine in mine:
             row = {"engine": engine, "fault": fault.name}
             broken = {}
             for name in families:
-                mine = [r for r in rows if r["case"] == name]
-                row[name] = sum(r["status"] == "fail" for r in mine)
-                n = sum(r["status"] in ("error", "unstable") for r in mine)
+                found = [r for r in rows if r["case"] == name and r["engine"] == engine]
+                row[name] = sum(r["status"] == "fail" for r in found)
+                n = sum(r["status"] in ("error", "unstable") for r in found)
                 if n:
                     broken[name] = n
             row["families flagging"] = sum(row[name] > 0 for name in families)
             row["total fails"] = sum(row[name] for name in families)
-            row["checks"] = len(rows)
+            row["checks"] = sum(r["engine"] == engine for r in rows)
             row["not measured (error/unstable)"] = ", ".join(f"{k}: {v}" for k, v in broken.items())
             out.append(row)
-    return pd.DataFrame(out)
+    order = {e: i for i, e in enumerate(kinds)}
+    return pd.DataFrame(out).sort_values("engine", key=lambda c: c.map(order), kind="stable")
 
 
 # --- report and command ---------------------------------------------------------------------
