@@ -66,3 +66,57 @@ def test_the_run_report_opens_with_the_scorecard(tmp_path):
     first = report.index("\n## ", report.index("## Contents") + 1)
     assert report[first:].startswith("\n## Scorecard")
     assert "| reference | **A** 2/2 |" in report.replace("  ", "").replace(" |", " |")
+
+
+def _beside(out):
+    """Readings of sweep, stress and real as those commands write them, with values chosen
+    so each cell's text can be worked out by hand."""
+    (out / "sweep").mkdir(parents=True)
+    (out / "stress").mkdir()
+    (out / "real").mkdir()
+    pd.DataFrame([{"case": "central_impact", "variant": "drop,e=0.5", "engine": "reference",
+                   "reach_cost_us_per_sim_s": 2000.0},
+                  {"case": "bounce_series", "variant": "e=0.5", "engine": "reference", "reach_cost_us_per_sim_s": 500.0},
+                  {"case": "central_impact", "variant": "drop,e=0.5", "engine": "mujoco",
+                   "reach_cost_us_per_sim_s": math.nan}]).to_csv(out / "sweep" / "sweep_summary.csv", index=False)
+    pd.DataFrame([{"engine": "reference", "scene": "a", "status": "deterministic"},
+                  {"engine": "reference", "scene": "b", "status": "differs"}]).to_csv(
+        out / "stress" / "determinism.csv", index=False)
+    pd.DataFrame([{"engine": "reference", "param_set": "nominal", "corner_mean_median": 0.30},
+                  {"engine": "reference", "param_set": "fitted", "corner_mean_median": 0.25},
+                  {"engine": "mujoco", "param_set": "nominal", "corner_mean_median": 0.20},
+                  {"engine": "noise floor", "param_set": "", "corner_mean_median": 0.001}]).to_csv(
+        out / "real" / "real_summary.csv", index=False)
+
+
+def test_the_other_readings_beside_a_run_fill_their_columns(tmp_path):
+    """The sweep's cost (the dearest swept variant of the effect's families at its cheapest
+    setting), the real tier's error at the fitted parameters with its rank (the noise floor
+    is not an engine), and the share of scenes that repeat bit for bit."""
+    _beside(tmp_path)
+    beside = scorecard.companions(tmp_path)
+    assert len(beside.sources) == 3
+    df = pd.concat([_checks(("pass", 0.2)), _checks(("pass", 0.3)).assign(engine="mujoco")])
+    df = df.assign(engine=df.engine.replace({"e": "reference"}))
+    card = scorecard.measure(df, beside).set_index(["engine", "effect"])
+    assert card.loc[("reference", "restitution"), "cost"] == "reaches tolerance at 2 ms per sim s"
+    assert card.loc[("mujoco", "restitution"), "cost"] == "0/1 swept variants reach tolerance"
+    assert card.loc[("reference", scorecard.REAL), "text"] == "0.25 cube widths, rank 2/2"
+    assert card.loc[("mujoco", scorecard.REAL), "text"] == "0.2 cube widths, rank 1/2"
+    assert card.loc[("reference", scorecard.DETERMINISM), "grade"] == "C"
+    assert card.loc[("mujoco", scorecard.DETERMINISM), "grade"] == "-"
+
+
+def test_the_run_report_shows_the_readings_beside_it(tmp_path):
+    from physval.cli import main
+    out = tmp_path / "out"
+    _beside(out)
+    assert main(["run", "--cases", "central_impact[drop,e=0.5]", "--engines", "reference", "--quiet",
+                 "--readings", "none", "--out", str(out)]) == 0
+    report = (out / "report.md").read_text()
+    card = report[report.index("## Scorecard"):report.index("\n## ", report.index("## Scorecard") + 1)]
+    assert "real-world error" in card and "determinism" in card
+    assert "**A** 2/2; reaches tolerance at 2 ms per sim s" in card
+    assert "0.25 cube widths, rank 2/2" in card and "**C** 1/2 scenes repeat bit for bit" in card
+    html = (out / "report.html").read_text()
+    assert "0.25 cube widths, rank 2/2" in html

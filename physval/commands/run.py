@@ -137,6 +137,8 @@ def run(args) -> int:
         if part is None:  # interrupted
             return 130
         engine_wide[name] = part
+    from physval.readings import scorecard
+    engine_wide["beside"] = scorecard.companions(out)  # what sweep, stress and real left in their folders under out
     from physval.core.deviations import stale_entries
     from physval.reportkit import frame, status_counts
     df = frame(rows, COLUMNS)

@@ -284,7 +284,8 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
     plots = out / "plots"
     deviations, deviation_page = deviation_sections(df, list(stale))
     from physval.readings import scorecard
-    sections = [scorecard.section(scorecard.measure(df)), "\n".join(vanished_section(df)),
+    beside = engine_wide.get("beside") if engine_wide else None  # the sweep, stress and real readings found beside
+    sections = [scorecard.section(scorecard.measure(df, beside), beside), "\n".join(vanished_section(df)),
                 "\n".join(summary_sections(df, plots)),
                 "\n".join(deviations),
                 "\n".join(problems_section(df)),
@@ -307,7 +308,7 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
                       "unsupported.md": "\n".join(["# Unsupported runs", ""] + unsupported_section(df)[2:])},
                 {f"{name}.md": text for name, text in family_pages.items()})
     write_atomic(out / "report.md", "\n".join(head + [contents(sections)] + sections))
-    site.write(out, df, families, command)
+    site.write(out, df, families, command, beside=beside)
 
 
 def write_pages(out: Path, pages: dict[str, str], family_pages: dict[str, str]) -> None:

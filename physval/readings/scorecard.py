@@ -12,10 +12,21 @@ A cell's grade, from its checks (a reader can recompute it from results.csv):
     -  no check of this effect ran on the engine (unsupported, or not selected)
 
 beside the counts (within tolerance / all judged) and the worst error in tolerances.
+
+Three columns come from the other commands' readings where the run's output folder holds
+them (`companions`): each effect's cell adds the cost at which the engine reaches the
+tolerance on that effect's families (from `physval sweep`, in sweep/), *real-world error*
+is the median corner error against the measured cube tosses with the engine's rank (from
+`physval real`, in real/), *determinism* whether every repeated scene repeated bit for bit
+(from `physval stress`, in stress/: A, else C).
 """
 from __future__ import annotations
 
+import math
+import time
+from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -44,6 +55,7 @@ EFFECTS = {
     "stability": (("robustness_*", "*"),),
     "adapter contract": (("conformance", "*"),),
 }
+REAL, DETERMINISM = "real-world error", "determinism"  # columns from the real and stress readings
 CLOSE = 10.0  # tolerances: a known deviation within this many is graded B, beyond it C
 JUDGED = ("pass", "fail", "deviation", "unstable", "error")
 
@@ -64,9 +76,72 @@ def grade(checks: pd.DataFrame) -> str:
     return "B" if devs.over_tol.max() <= CLOSE else "C"
 
 
-def measure(df: pd.DataFrame) -> pd.DataFrame:
+@dataclass
+class Companions:
+    """The readings of other commands found beside a run: `physval sweep`'s summary (case,
+    variant, engine, reach_cost_us_per_sim_s), `physval stress`'s determinism (engine,
+    status) and `physval real`'s summary (engine, param_set, corner_mean_median), each with
+    the file it came from (a sentence of the legend)."""
+    sweep: pd.DataFrame | None = None
+    determinism: pd.DataFrame | None = None
+    real: pd.DataFrame | None = None
+    sources: list[str] = field(default_factory=list)
+
+
+def companions(out: Path) -> Companions:
+    """The sweep, stress and real readings in sweep/, stress/ and real/ under `out` (the
+    commands' default folders beside a run's), whichever exist."""
+    found = Companions()
+    for attr, path, command in (("sweep", "sweep/sweep_summary.csv", "sweep"),
+                                ("determinism", "stress/determinism.csv", "stress"),
+                                ("real", "real/real_summary.csv", "real")):
+        file = Path(out) / path
+        if file.is_file():
+            setattr(found, attr, pd.read_csv(file))
+            when = time.strftime("%Y-%m-%d", time.gmtime(file.stat().st_mtime))
+            found.sources.append(f"`physval {command}` of {when} ({path})")
+    return found
+
+
+def reach_cost(sweep: pd.DataFrame | None, engine: str, families: list[str]) -> str:
+    """The cost at which `engine` reaches the tolerance on every swept variant of `families`
+    (the dearest variant's cheapest setting), or how many variants never reach it."""
+    if sweep is None:
+        return ""
+    mine = sweep[(sweep.engine == engine) & sweep.case.isin(families)]
+    if not len(mine):
+        return ""
+    cost = pd.to_numeric(mine.reach_cost_us_per_sim_s, errors="coerce")
+    reached = cost[np.isfinite(cost)]
+    if len(reached) < len(mine):
+        return f"{len(reached)}/{len(mine)} swept variants reach tolerance"
+    return f"reaches tolerance at {fmt(reached.max() / 1e3)} ms per sim s"
+
+
+def real_error(real: pd.DataFrame | None, engine: str) -> str:
+    """The median corner error (cube widths) at the engine's fitted parameters (nominal
+    where not fitted) and its rank among the real tier's engines."""
+    if real is None:
+        return ""
+    real = real[real.engine != "noise floor"]
+    best = {}
+    for e, part in real.groupby("engine", sort=False):
+        sets = part.set_index("param_set").corner_mean_median
+        value = sets.get("fitted", sets.get("nominal", math.nan))
+        if math.isfinite(value):
+            best[e] = value
+    if engine not in best:
+        return ""
+    rank = sorted(best.values()).index(best[engine]) + 1
+    return f"{fmt(best[engine])} cube widths, rank {rank}/{len(best)}"
+
+
+def measure(df: pd.DataFrame, beside: Companions | None = None) -> pd.DataFrame:
     """One row per (engine, effect): grade, checks within tolerance, checks judged, known
-    deviations, failures, worst error in tolerances, and the families behind them."""
+    deviations, failures, worst error in tolerances, the families behind them, and from the
+    readings `beside` the run the cost of reaching the tolerance (`cost`) and the text of
+    the real-world and determinism columns (`text`)."""
+    beside = beside or Companions()
     judged = df[df.status.isin(JUDGED)]
     rows = []
     effects = {k: effect_of(*k) for k in set(zip(judged.case, judged.metric))}
@@ -81,41 +156,82 @@ def measure(df: pd.DataFrame) -> pd.DataFrame:
             else:
                 part = mine[np.array([effect in effects[(c, m)] for c, m in zip(mine.case, mine.metric)], dtype=bool)
                             & ~integrator]
+            families = sorted(part.case.unique())
             rows.append({"engine": engine, "effect": effect, "grade": grade(part),
                          "within": int((part.status == "pass").sum()), "judged": len(part),
                          "deviations": int((part.status == "deviation").sum()),
                          "failures": int(part.status.isin(["fail", "unstable", "error"]).sum()),
                          "worst": float(part.over_tol.max()) if len(part) else float("nan"),
-                         "families": ", ".join(sorted(part.case.unique()))})
+                         "families": ", ".join(families),
+                         "cost": reach_cost(beside.sweep, engine, families) if effect != INTEGRATION else "",
+                         "text": ""})
+        rows += [_companion(engine, REAL, "", real_error(beside.real, engine)),
+                 _determinism(engine, beside.determinism)]
     return pd.DataFrame(rows)
 
 
-def cell(r) -> str:
-    if r.grade == "-":
+def _companion(engine: str, effect: str, grade_: str, text: str) -> dict:
+    return {"engine": engine, "effect": effect, "grade": grade_ if text else "-", "within": 0, "judged": 0,
+            "deviations": 0, "failures": 0, "worst": float("nan"), "families": "", "cost": "", "text": text}
+
+
+def _determinism(engine: str, det: pd.DataFrame | None) -> dict:
+    mine = det[det.engine == engine] if det is not None else ()
+    if not len(mine):
+        return _companion(engine, DETERMINISM, "", "")
+    same = int((mine.status == "deterministic").sum())
+    return _companion(engine, DETERMINISM, "A" if same == len(mine) else "C",
+                      f"{same}/{len(mine)} scenes repeat bit for bit")
+
+
+def cell(r, bold: bool = True) -> str:
+    """A cell's text: the grade (in bold in markdown), the counts, the worst error, the cost."""
+    if r.grade == "-" and not r.text:
         return "-"
-    return f"**{r.grade}** {r.within}/{r.judged}" + (f", worst {fmt(r.worst)} tol" if r.grade != "A" else "")
+    g = f"**{r.grade}**" if bold and r.grade else r.grade
+    if r.text:
+        return f"{g} {r.text}".strip()
+    text = f"{g} {r.within}/{r.judged}" + (f", worst {fmt(r.worst)} tol" if r.grade != "A" else "")
+    return text + (f"; {r.cost}" if r.cost else "")
 
 
-def section(card: pd.DataFrame) -> str:
+def legend(beside: Companions | None = None) -> str:
+    """How to read the scorecard (the markdown and the HTML share it)."""
+    text = ("Each cell grades the checks of one physical effect on one engine: **A** every check within its "
+            "tolerance; **B** no failure, the known deviations within 10 tolerances; **C** no failure, a known "
+            "deviation beyond 10 tolerances; **F** a check failed, blew up or raised; - nothing of it ran. Beside "
+            "the grade: checks within tolerance / checks judged, and the worst error in tolerances. Checks whose "
+            "tolerance is an integration scheme's error bound (a second-order rotation step) measure the "
+            "engine's integrator, not its physics: they are graded under *integration order* only.")
+    if beside is not None and beside.sources:
+        text += (" From the readings beside this run (" + "; ".join(beside.sources) + "): after the counts, the "
+                 "cost at which the engine reaches the tolerance on every swept variant of the effect's families "
+                 "(the dearest variant at its cheapest setting, wall time per simulated second); *real-world "
+                 "error*, the median over test tosses of the mean corner error against the measured cube tosses "
+                 "(cube widths) at the engine's fitted parameters, and its rank; *determinism*, how many of the "
+                 "stress scenes repeated bit for bit (A all, C not all).")
+    return text
+
+
+def section(card: pd.DataFrame, beside: Companions | None = None) -> str:
     """The scorecard as markdown: a table of grades and, below it, how to read it."""
     if not len(card):
         return ""
     shown = card.assign(cell=[cell(r) for r in card.itertuples()])
     table = shown.pivot(index="engine", columns="effect", values="cell")
-    table = table.loc[list(dict.fromkeys(card.engine)), [e for e in EFFECTS if e in table.columns]]
+    table = table.loc[list(dict.fromkeys(card.engine)), [e for e in columns() if e in table.columns]]
     table = table.loc[:, (table != "-").any(axis=0)]
     families = sorted({f for fs in card.families for f in fs.split(", ") if f})
     return "\n".join([
-        "## Scorecard", "",
-        "Each cell grades the checks of one physical effect on one engine: **A** every check within its "
-        "tolerance; **B** no failure, the known deviations within 10 tolerances; **C** no failure, a known "
-        "deviation beyond 10 tolerances; **F** a check failed, blew up or raised; - nothing of it ran. Beside the "
-        "grade: checks within tolerance / checks judged, and the worst error in tolerances. Checks whose "
-        "tolerance is an integration scheme's error bound (a second-order rotation step) measure the "
-        "engine's integrator, not its physics: they are graded under *integration order* only. The effects' "
-        "families: " + ", ".join(f"[{f}](families/{f}.md)" for f in families) + " (`physval.readings.scorecard."
+        "## Scorecard", "", legend(beside) + " The effects' families: "
+        + ", ".join(f"[{f}](families/{f}.md)" for f in families) + " (`physval.readings.scorecard."
         "EFFECTS` says which family and metric tests which effect).", "",
         md_table(table.reset_index()), ""])
+
+
+def columns() -> list[str]:
+    """The scorecard's columns in order: the effects, then the other commands' readings."""
+    return [*EFFECTS, REAL, DETERMINISM]
 
 
 def by_family(df: pd.DataFrame) -> str:

@@ -28,10 +28,6 @@ from physval.reportkit import (STATUS_MARK, deviation_summary, deviation_table, 
 SITE = "html"            # the folder beside report.html holding the family and engine pages
 FILTER_FROM = 8          # rows: a table this long gets a filter box
 
-SCORECARD_LEGEND = ("Each cell grades the checks of one physical effect on one engine: A every check within its "
-                    "tolerance; B no failure, the known deviations within 10 tolerances; C no failure, a known "
-                    "deviation beyond 10 tolerances; F a check failed, blew up or raised; - nothing of it ran. Beside "
-                    "the grade: checks within tolerance / checks judged, and the worst error in tolerances.")
 SUMMARY_LEGEND = ("Each cell: status counts and the worst error in units of tolerance (below 1: within tolerance). "
                   "pass: within the tolerance; FAIL: outside it, or a known deviation that left its recorded band; "
                   "dev: a known engine shortfall within its band; n/a: the engine cannot represent the scene; "
@@ -70,22 +66,21 @@ def _status_class(text) -> str:
 
 
 def scorecard_table(card: pd.DataFrame, engine_href) -> dict:
-    """Engines as rows, effects as columns; each cell its grade (coloured), within/judged and
-    the worst error in tolerances, as in report.md."""
+    """Engines as rows, effects (and the other commands' readings) as columns; each cell
+    its grade (coloured) and the text of report.md's cell."""
     if card.empty:  # a run with no rows (every job left out, e.g. on demand): no grades
         return {"id": "scorecard", "columns": ["engine"], "rows": [], "filter": False}
-    effects = [e for e in scorecard.EFFECTS if (card[card.effect == e].grade != "-").any()]
+    shown = [e for e in scorecard.columns() if (card[card.effect == e].apply(scorecard.cell, axis=1) != "-").any()]
     rows = []
     for engine, mine in card.groupby("engine", sort=False):
         by = {r.effect: r for r in mine.itertuples()}
         line = [_cell(engine, engine_href(engine))]
-        for e in effects:
+        for e in shown:
             r = by[e]
-            text = "-" if r.grade == "-" else \
-                f"{r.grade} {r.within}/{r.judged}" + (f", worst {fmt(r.worst)} tol" if r.grade != "A" else "")
-            line.append({"text": text, "href": "", "cls": f"g-{r.grade}" if r.grade != "-" else ""})
+            line.append({"text": scorecard.cell(r, bold=False), "href": "",
+                         "cls": f"g-{r.grade}" if r.grade not in ("-", "") else ""})
         rows.append(line)
-    return {"id": "scorecard", "columns": ["engine"] + effects, "rows": rows, "filter": False}
+    return {"id": "scorecard", "columns": ["engine"] + shown, "rows": rows, "filter": False}
 
 
 def problems(df: pd.DataFrame) -> pd.DataFrame:
@@ -102,7 +97,8 @@ def _pages_in(folder: Path, keep: set[str]) -> None:
             old.unlink()
 
 
-def write(out: Path, df: pd.DataFrame, families: dict, command: str = "", interrupted: str = "") -> Path:
+def write(out: Path, df: pd.DataFrame, families: dict, command: str = "", interrupted: str = "",
+          beside: scorecard.Companions | None = None) -> Path:
     """report.html in `out` and its pages in out/html/; returns report.html's path.
     `interrupted`: what an interrupted run is missing, said on every page (its plots, drawn
     when the run completes, are not shown: those in the folder may be an earlier run's)."""
@@ -122,7 +118,7 @@ def write(out: Path, df: pd.DataFrame, families: dict, command: str = "", interr
     def family_href(root):
         return lambda f: f"{root}{SITE}/families/{slug(f)}.html"
 
-    card = scorecard.measure(df)
+    card = scorecard.measure(df, beside)
     runs = df.groupby(["case", "variant", "engine"]).ngroups if len(df) else 0
     counts = f"{len(df)} checks from {runs} runs: {status_counts(df)}."
 
@@ -144,7 +140,7 @@ def write(out: Path, df: pd.DataFrame, families: dict, command: str = "", interr
                                for e in engines])
     pages = {out / "report.html": env.get_template("index.html").render(
         title="physval report", root="", command=command, intro=INTRO, counts=counts,
-        scorecard_legend=SCORECARD_LEGEND, summary_legend=SUMMARY_LEGEND,
+        scorecard_legend=scorecard.legend(beside).replace("**", ""), summary_legend=SUMMARY_LEGEND,
         scorecard=scorecard_table(card, engine_href("")), summaries=summaries,
         families=table("families", index, links={"family": family_href("")}),
         engines=table("engines", per_engine, links={"engine": engine_href("")}),
