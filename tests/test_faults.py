@@ -11,6 +11,7 @@ faults` writes it as a table.
 from __future__ import annotations
 
 import functools
+import os
 
 import pytest
 
@@ -18,6 +19,7 @@ from adapters import registry
 from physval import faults
 from physval.core import Context, Job, execute
 from physval.core.context import Resolver
+from physval.core.session import Execution
 
 ENGINES = ("reference", "mujoco", "pybullet")
 
@@ -86,8 +88,10 @@ def full_jobs(engine: str) -> list[Job]:
 def rows(engine: str, fault_name: str, which: str = "fast") -> tuple[dict, ...]:
     if not installed(engine):
         pytest.skip(f"{engine} is not installed")
-    jobs = fast_jobs(engine) if which == "fast" else full_jobs(engine)
-    return tuple(faults.verdicts(faults.by_name(fault_name), jobs))
+    if which == "fast":  # in this process: a worker's start would cost more than the jobs
+        return tuple(faults.verdicts(faults.by_name(fault_name), fast_jobs(engine)))
+    return tuple(faults.verdicts(faults.by_name(fault_name), full_jobs(engine),
+                                 Execution(workers=os.cpu_count() or 1, progress=False)))
 
 
 def families_with(found, status: tuple[str, ...]) -> set[str]:
