@@ -74,7 +74,7 @@ import pyb2d3 as b2
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.combination import per_body_values
-from adapters.frames import planar_states, state_row
+from adapters.frames import planar_states, require_turn_about_y, state_row
 from adapters.impulse_split import acting_pairs, split_impulses
 from cases.scene import Body, Circle, Plane, Scene, pair_key, quat_about_y
 
@@ -150,10 +150,8 @@ def _rot(angle: float):
 
 def _angle(body: Body) -> float:
     """Box2D angle of a 2D body: minus its rotation about scene +y (see module docstring)."""
-    w, x, y, z = body.orientation
-    if abs(x) > 1e-12 or abs(z) > 1e-12:
-        raise Unsupported(f"body {body.name!r}: orientation {body.orientation} is not a rotation "
-                          "about y, which a 2D engine cannot represent")
+    require_turn_about_y(body, "which a 2D engine cannot represent")
+    w, _, y, _ = body.orientation
     return -2.0 * math.atan2(y, w)
 
 

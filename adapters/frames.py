@@ -5,6 +5,8 @@ import math
 
 import numpy as np
 
+from adapters.base import Unsupported
+
 
 def wxyz_to_xyzw(q) -> list[float]:
     w, x, y, z = q
@@ -14,6 +16,14 @@ def wxyz_to_xyzw(q) -> list[float]:
 def xyzw_to_wxyz(q) -> list[float]:
     x, y, z, w = q
     return [w, x, y, z]
+
+
+def require_turn_about_y(body, why: str) -> None:
+    """Unsupported unless the 2D body's orientation (w, x, y, z) is a rotation about y alone,
+    the only orientation a body in the x-z plane has; `why`: what the engine could not do."""
+    w, x, y, z = body.orientation
+    if abs(x) > 1e-12 or abs(z) > 1e-12:
+        raise Unsupported(f"2D body {body.name!r}: orientation {body.orientation} is not a rotation about y, {why}")
 
 
 def z_to(n) -> list[float]:

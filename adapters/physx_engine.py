@@ -34,7 +34,12 @@ Faithful mapping (each setting recorded in `knobs`):
 Contact normal forces from ovphysx's contact binding (PhysX's contact report): per dynamic
 body (sensor) and partner (filter), the normal force of the last step.
 
-3D scenes only (2D scenes on locks are not mapped yet).
+2D scenes are embedded in the x-z plane on PhysX's own locks: every dynamic body has its y
+translation locked (`lockedPosAxis` = 2) and its rotations about x and z (`lockedRotAxis`
+= 5; 7 where it may not turn at all), so it slides in the plane and turns about y; a disc is
+a sphere of its radius (the same contacts in the plane, as in the MuJoCo adapter) and a
+rectangle a box as deep along y as its x half-extent (the depth only spreads the contact
+points, symmetrically about y = 0). Its mass and inertia are the scene's.
 """
 from __future__ import annotations
 
@@ -47,7 +52,7 @@ import numpy as np
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
-from adapters.frames import state_row, xyzw_to_wxyz, z_to
+from adapters.frames import require_turn_about_y, state_row, xyzw_to_wxyz, z_to
 from adapters.lazy import require
 from cases.scene import Body, Plane, Scene, pair_key
 
@@ -89,8 +94,8 @@ class PhysXAdapter(Adapter):
     # the pre-release the conformance battery ran on; 0.x: the next minor may change the API
     supported = ">=0.7.0,<0.8"
     capabilities = Capabilities(
-        dimensions=frozenset({3}),
-        shapes=frozenset({"sphere", "box", "plane"}),
+        dimensions=frozenset({2, 3}),
+        shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
         native_restitution=True,
         static_kinetic=True,    # PhysicsMaterialAPI staticFriction and dynamicFriction
         contact_forces=True,
@@ -156,6 +161,7 @@ class PhysXSimulation(Simulation):
                  f'        uniform token physxScene:solverType = "{solver}"',
                  f'        uint physxScene:timeStepsPerSecond = {round(1.0 / self._dt)}',
                  '    }']
+        self._planar = scene.dimension == 2
         for body in scene.bodies:
             lines += self._body(body, {k: v[body.name] for k, v in mats.items()})
         lines.append('}')
@@ -214,6 +220,10 @@ class PhysXSimulation(Simulation):
             ix, iy, iz = body.principal_inertia
             w = np.degrees(np.asarray(body.angular_velocity if body.rotates else (0.0, 0.0, 0.0), float))
             locked = 0 if body.rotates else 7
+            moves = 0
+            if self._planar:  # in the x-z plane, turning about y only (module notes)
+                require_turn_about_y(body, "so it cannot turn about y only")
+                locked, moves = (5 if body.rotates else 7), 2
             out += [f'        float physics:mass = {float(body.mass)!r}',
                     f'        float3 physics:diagonalInertia = {_v((ix, iy, iz))}',
                     '        point3f physics:centerOfMass = (0, 0, 0)',
@@ -227,22 +237,25 @@ class PhysXSimulation(Simulation):
                     '        bool physxRigidBody:enableCCD = 0',
                     '        bool physxRigidBody:enableGyroscopicForces = 1',
                     f'        int physxRigidBody:lockedRotAxis = {locked}',
+                    f'        int physxRigidBody:lockedPosAxis = {moves}',
                     f'        int physxRigidBody:solverPositionIterationCount = {self.iterations}',
                     f'        int physxRigidBody:solverVelocityIterationCount = {VELOCITY_ITERATIONS}']
             record.update(mass=float(body.mass), diagonalInertia=[ix, iy, iz], linearDamping=0.0, angularDamping=0.0,
-                          sleepThreshold=0.0, lockedRotAxis=locked, enableGyroscopicForces=True)
+                          sleepThreshold=0.0, lockedRotAxis=locked, lockedPosAxis=moves,
+                          enableGyroscopicForces=True)
         else:
             record["static"] = True
-        if s.kind == "sphere":
+        if s.kind in ("sphere", "circle"):  # a disc: a sphere of its radius (module notes)
             geom = ['        def Sphere "Geom" (prepend apiSchemas = ["PhysicsCollisionAPI", "MaterialBindingAPI"])',
                     '        {', f'            double radius = {float(s.radius)!r}']
             record["sphere"] = {"radius": s.radius}
-        elif s.kind == "box":
+        elif s.kind in ("box", "rect"):  # a rectangle: a box as deep along y as its x half-extent
+            half = s.half_extents if s.kind == "box" else (s.half_extents[0], s.half_extents[0], s.half_extents[1])
             geom = ['        def Cube "Geom" (prepend apiSchemas = ["PhysicsCollisionAPI", "MaterialBindingAPI"])',
                     '        {', '            double size = 2',
-                    f'            float3 xformOp:scale = {_v(s.half_extents)}',
+                    f'            float3 xformOp:scale = {_v(half)}',
                     '            uniform token[] xformOpOrder = ["xformOp:scale"]']
-            record["cube"] = {"half_extents": list(s.half_extents)}
+            record["cube"] = {"half_extents": list(half)}
         else:
             geom = ['        def Plane "Geom" (prepend apiSchemas = ["PhysicsCollisionAPI", "MaterialBindingAPI"])',
                     '        {', '            uniform token axis = "Z"']

@@ -71,7 +71,7 @@ import numpy as np
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
-from adapters.frames import state_row, wxyz_to_xyzw, xyzw_to_wxyz, z_to
+from adapters.frames import require_turn_about_y, state_row, wxyz_to_xyzw, xyzw_to_wxyz, z_to
 from cases.scene import Body, Scene, pair_key
 from cases.trajectory import ContactPoint
 
@@ -349,10 +349,7 @@ def _collision_shape(body: Body, client: int, ground: str = "plane") -> tuple[in
 
 def _planar_joints(body: Body) -> list[str]:
     """Joints that keep a 2D body in the x-z plane: slide along x and z, turn about y."""
-    w, x, y, z = body.orientation
-    if abs(x) > 1e-12 or abs(z) > 1e-12:
-        raise Unsupported(f"2D body {body.name!r}: orientation {body.orientation} is not a "
-                          "rotation about y, so it cannot turn about y only")
+    require_turn_about_y(body, "so it cannot turn about y only")
     return ["prismatic x", "prismatic z"] + (["revolute y"] if body.rotates else [])
 
 

@@ -44,7 +44,7 @@ except ImportError:  # pragma: no cover - depends on the installed Pymunk
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
-from adapters.frames import planar_states, state_row
+from adapters.frames import planar_states, require_turn_about_y, state_row
 from cases.scene import Body, Circle, Plane, Scene, pair_key, quat_about_y
 from cases.trajectory import ContactPoint
 
@@ -131,10 +131,8 @@ class PymunkAdapter(Adapter):
 
 def _angle(body: Body) -> float:
     """Pymunk angle of a 2D body: minus its rotation about scene +y (see module docstring)."""
-    w, x, y, z = body.orientation
-    if abs(x) > 1e-12 or abs(z) > 1e-12:
-        raise Unsupported(f"body {body.name!r}: orientation {body.orientation} is not a rotation "
-                          "about y, which a 2D engine cannot represent")
+    require_turn_about_y(body, "which a 2D engine cannot represent")
+    w, _, y, _ = body.orientation
     return -2.0 * math.atan2(y, w)
 
 

@@ -66,7 +66,7 @@ import rapier3d as r
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.combination import RULES as COMBINE, per_body_values
-from adapters.frames import state_row
+from adapters.frames import require_turn_about_y, state_row
 from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
 
 DEFAULT_SUBSTEPS = 4  # Rapier's own default num_solver_iterations, stated
@@ -153,10 +153,7 @@ def _collider(body: Body) -> tuple[r.ColliderBuilder, dict]:
 def _planar_locks(body: Body, frictional: bool) -> r.LockedAxes:
     """A 2D body turns about y only, and moves in the x-z plane unless the scene has
     friction (which Rapier would then drop: module notes)."""
-    w, x, y, z = body.orientation
-    if abs(x) > 1e-12 or abs(z) > 1e-12:
-        raise Unsupported(f"2D body {body.name!r}: orientation {body.orientation} is not a rotation "
-                          "about y, so it cannot turn about y only")
+    require_turn_about_y(body, "so it cannot turn about y only")
     locks = r.LockedAxes.ROTATION_LOCKED_X | r.LockedAxes.ROTATION_LOCKED_Z
     return locks if frictional else locks | r.LockedAxes.TRANSLATION_LOCKED_Y
 
