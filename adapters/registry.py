@@ -90,6 +90,7 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "newton-semi-implicit": ("adapters.newton_engine", "NewtonAdapter", {"solver": "semi-implicit"}),
     "newton-featherstone": ("adapters.newton_engine", "NewtonAdapter", {"solver": "featherstone"}),
     "newton-vbd": ("adapters.newton_engine", "NewtonAdapter", {"solver": "vbd"}),
+    "newton-mujoco": ("adapters.newton_engine", "NewtonAdapter", {"solver": "mujoco"}),
 }
 # The pip extra that installs each built-in engine's package (README, pyproject.toml).
 EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "mujoco-warp": "mujoco-warp", "pymunk": "pymunk", "dart": "dart",
