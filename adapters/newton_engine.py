@@ -16,12 +16,29 @@ solvers, each its own engine configuration (adapters/registry.py):
 - `newton-vbd`: SolverVBD's rigid bodies (augmented-Lagrangian vertex block descent, the
   compliant-ALM contact path). No restitution of any kind (its contacts end plastic): a
   pair with e > 0 is unsupported.
+- `newton-mujoco`: SolverMuJoCo, which converts the Newton model into an MjModel (MjSpec:
+  Newton bodies, joints and shapes become MuJoCo bodies, joints and geoms) and steps it with
+  MuJoCo Warp (its default backend; `use_mujoco_cpu` would step MuJoCo C instead). The scene's
+  contact is MuJoCo's own model of it, as adapters/mujoco_engine.py writes it: one explicit
+  `<pair>` per body pair of the scene (`newton.solvers.mujoco.add_contact_pair`) with the
+  MuJoCo adapter's solref (e mapped onto the contact spring-damper over `contact_steps`
+  steps), solimp, solreffriction, friction and condim, and every geom in collision group 0
+  (contype = conaffinity = 0), so it collides through its pairs alone and Newton's per-shape
+  materials (mu, ke, kd, which SolverMuJoCo turns into geom friction and solref, combined by
+  MuJoCo's max and solmix rules) are never read. The options are the MuJoCo adapter's:
+  elliptic cone, impratio 100, Euler (Newton's default is implicitfast), Newton solver,
+  100 iterations, tolerance 1e-8, 50 line-search iterations; sleeping off; no inactive weld
+  per free body (`kinematic_switchable_roots=False`, a kinematic switch the scenes never use).
+  A body held from rotating stands on three sliders (a D6 joint of three linear axes, as
+  Featherstone). Contacts come from MuJoCo's collision detection; their forces from the
+  CONTACT_F observable (exported into a `newton.Contacts` of SolverMuJoCo's capacity). The
+  step is recorded as two Warp graphs and replayed (`_capture`). mujoco_warp is not a
+  dependency of newton: Newton's `sim` extra pins mujoco-warp ~=3.17.0 with mujoco ~=3.17.0,
+  which would replace this project's MuJoCo 4; SolverMuJoCo runs on mujoco-warp 4.0.0 and
+  mujoco 4.0.0 (it warns of the mismatch), which this project's `newton` extra installs.
 
-Not here: SolverMuJoCo needs mujoco_warp, not installed with newton (Newton's `sim` extra
-pins mujoco-warp ~=3.17.0 with mujoco ~=3.17.0, which would replace this project's mujoco
-4.0.0; MuJoCo Warp is adapted on its own); SolverKamino (Disney Research's constrained
-dynamics solver, present in 1.8.0) is not adapted yet; SolverSteel, Style3D and
-ImplicitMPM are cloth, soft-body and granular solvers.
+Not here: SolverKamino (Disney Research's constrained dynamics solver, present in 1.8.0) is
+not adapted yet; SolverSteel, Style3D and ImplicitMPM are cloth, soft-body and granular solvers.
 
 Float32. Warp stores positions, orientations and velocities in single precision.
 
@@ -46,7 +63,7 @@ which leaves e = exp(-zeta ...) of that zeta. Friction: ft = kf vt up to mu fn, 
 creep below the Coulomb limit at speed F_t / kf; kf = m_pair / dt shared by the points the
 same way (one step relaxes the slip), the largest the explicit step takes.
 
-Contact forces: XPBD and VBD report each contact's force (SolverBase.ObservableKind.CONTACT_F,
+Contact forces: XPBD, VBD and MuJoCo report each contact's force (SolverBase.ObservableKind.CONTACT_F,
 requested every step); `contact_forces` sums the normal components per pair. The penalty
 solvers report none (Capabilities.contact_forces False).
 """
@@ -184,6 +201,7 @@ class NewtonAdapter(Adapter):
                 0.5, 1000.0, 2.0, "contact stiffness as a duration in steps n: ke = m (pi / (n dt))^2")
 
     def _init_mujoco(self) -> None:
+        require("mujoco_warp")  # SolverMuJoCo's default backend, not a dependency of newton itself
         from adapters.mujoco_engine import MuJoCoAdapter
         mj = MuJoCoAdapter.capabilities
         self.capabilities = Capabilities(
@@ -214,6 +232,8 @@ class NewtonAdapter(Adapter):
                 "10-60 s on first use")
 
     def version(self) -> str:
+        if self.solver == "mujoco":  # MuJoCo Warp steps the model: its release is part of the engine's
+            return f"{metadata.version('newton')} (mujoco-warp {metadata.version('mujoco-warp')})"
         return metadata.version("newton")
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
