@@ -37,8 +37,16 @@ solvers, each its own engine configuration (adapters/registry.py):
   which would replace this project's MuJoCo 4; SolverMuJoCo runs on mujoco-warp 4.0.0 and
   mujoco 4.0.0 (it warns of the mismatch), which this project's `newton` extra installs.
 
-Not here: SolverKamino (Disney Research's constrained dynamics solver, present in 1.8.0) is
-not adapted yet; SolverSteel, Style3D and ImplicitMPM are cloth, soft-body and granular solvers.
+Not here: SolverKamino (Disney Research's constrained multibody solver, beta in 1.8.0: an NCP of
+hard frictional contacts with restitutive impacts) runs free bodies on the CPU, but too slowly to
+adapt here. Measured on a ball dropped on the ground with e = 0.5 (its step recorded as a Warp
+graph, as newton-mujoco's; 20 s to build and 20 s of compiling on first use): the default PADMM
+backend (proximal ADMM, up to 200 iterations) costs 67 ms a step in free flight and 59 ms in
+contact, and bounces the ball at 1.43 m/s after a 2.81 m/s impact (0.51, 2.6 mm deep); the core
+families' 97 000 steps would take 1.5-1.8 hours on one core, twice that for `physval known`. The
+LOX backend costs 1.3 ms a step in flight and 5.1 ms in contact, but leaves the ground at 0.10 m/s
+(its implicit restitution is off by default, `contact_implicit_restitution`; not tried).
+SolverSteel, Style3D and ImplicitMPM are cloth, soft-body and granular solvers.
 
 Float32. Warp stores positions, orientations and velocities in single precision.
 
@@ -221,13 +229,19 @@ class NewtonAdapter(Adapter):
     # Warp launches a dozen kernels or more a step on the CPU: for one body 5.5-9 ms a step
     # with XPBD, 1.4 ms semi-implicit, 3.9 ms Featherstone, 2.2 ms VBD (measured on 2 shared
     # cores; a 5-box stack: XPBD 1.9 ms, MuJoCo 14 us), and each solver compiles 10-60 s on
-    # first use (kept in the kernel cache, adapters/warp_support.py). Newton is left out of the default sweep, stress
+    # first use (kept in the kernel cache, adapters/warp_support.py). SolverMuJoCo, its step
+    # replayed as a Warp graph: 53 us a step for a ball, 0.40 ms for a 5-box stack (MuJoCo Warp
+    # alone: 27 us, 0.29 ms); 84 s to build the first scene with an empty kernel cache, 9.5 s
+    # with a full one (Warp's and Newton's start), 0.7 s each scene after. Newton is left out of the default sweep, stress
     # battery, benchmarks and readings (`slow`), and every run of it is on demand: it runs
     # when named with --on-demand (physval run) or in `pytest -m slow`, so the test suite
     # stays within its 10 minutes on a machine where Newton is installed.
     slow = True
 
     def on_demand(self, scene: Scene) -> str | None:
+        if self.solver == "mujoco":
+            return ("Newton's SolverMuJoCo takes 0.05-0.4 ms a step on the CPU, 10 s to start a process and "
+                    "about 80 s of compiling on first use")
         return ("Newton takes 1.4-9 ms a step on the CPU (Warp kernel launches) and compiles each solver "
                 "10-60 s on first use")
 
@@ -501,7 +515,8 @@ class NewtonSimulation(Simulation):
         """SolverMuJoCo's step recorded as two Warp graphs (on the CPU an operation stream Warp
         replays in C++, as adapters/mujoco_warp_engine.py does for mujoco_warp.step): state 0
         into state 1 and back. Recording runs nothing (the state stays the start state); a
-        replay is bit for bit the step, at 0.47 ms instead of 19 ms for a 5-box stack."""
+        replay is bit for bit the step (tests/test_newton_mujoco_mapping.py), at 0.40-0.47 ms instead
+        of 19 ms a step for a 5-box stack, 53 us for a ball."""
         wp, graphs = self._wp, []
         for a, b in ((self._s0, self._s1), (self._s1, self._s0)):
             wp.capture_begin("cpu")
