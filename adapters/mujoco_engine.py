@@ -458,6 +458,29 @@ def scene_mjcf(scene: Scene, settings: Settings, iterations: int, n: float,
 
 # --- the simulation -------------------------------------------------------------------------
 
+def model_effects(m, knobs: dict) -> frozenset[str]:
+    """What a compiled MjModel simulates (its flags, pairs and joints), `knobs` the pair
+    knobs scene_mjcf wrote: for every implementation that steps such a model (MuJoCo C here,
+    Newton's SolverMuJoCo in adapters/newton_engine.py)."""
+    _import_mujoco()
+    fx = set()
+    if not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY and np.any(m.opt.gravity != 0):
+        fx.add("gravity")
+    if m.npair and not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT:
+        fx.add("contact")
+        if any(p["e"] > 0 for p in knobs["pair"].values()):
+            fx.add("restitution")
+        if np.any(m.pair_dim > 1):
+            fx.add("friction")
+        if np.any(m.pair_dim >= 4):  # realised at >= mjMINMU even where the scene says 0
+            fx.add("torsional_friction")
+        if np.any(m.pair_dim == 6):
+            fx.add("rolling_resistance")
+    if np.any(np.isin(m.jnt_type, (mujoco.mjtJoint.mjJNT_FREE, mujoco.mjtJoint.mjJNT_HINGE))):
+        fx.add("rotation")
+    return frozenset(fx)
+
+
 class MuJoCoSimulation(Simulation):
     def __init__(self, scene: Scene, model: mujoco.MjModel, knobs: dict, iterations: int):
         self.knobs = knobs
@@ -509,23 +532,7 @@ class MuJoCoSimulation(Simulation):
         self.effects = self._built_effects(knobs)
 
     def _built_effects(self, knobs: dict) -> frozenset[str]:
-        m = self._model
-        fx = set()
-        if not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY and np.any(m.opt.gravity != 0):
-            fx.add("gravity")
-        if m.npair and not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT:
-            fx.add("contact")
-            if any(p["e"] > 0 for p in knobs["pair"].values()):
-                fx.add("restitution")
-            if np.any(m.pair_dim > 1):
-                fx.add("friction")
-            if np.any(m.pair_dim >= 4):  # realised at >= mjMINMU even where the scene says 0
-                fx.add("torsional_friction")
-            if np.any(m.pair_dim == 6):
-                fx.add("rolling_resistance")
-        if np.any(np.isin(m.jnt_type, (mujoco.mjtJoint.mjJNT_FREE, mujoco.mjtJoint.mjJNT_HINGE))):
-            fx.add("rotation")
-        return frozenset(fx)
+        return model_effects(self._model, knobs)
 
     def step(self) -> None:
         mujoco.mj_step(self._model, self._data)

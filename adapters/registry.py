@@ -90,6 +90,7 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "newton-semi-implicit": ("adapters.newton_engine", "NewtonAdapter", {"solver": "semi-implicit"}),
     "newton-featherstone": ("adapters.newton_engine", "NewtonAdapter", {"solver": "featherstone"}),
     "newton-vbd": ("adapters.newton_engine", "NewtonAdapter", {"solver": "vbd"}),
+    "newton-mujoco": ("adapters.newton_engine", "NewtonAdapter", {"solver": "mujoco"}),
 }
 # The pip extra that installs each built-in engine's package (README, pyproject.toml).
 EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "mujoco-warp": "mujoco-warp", "pymunk": "pymunk", "dart": "dart",
@@ -200,13 +201,12 @@ def get(name: str, adapters: tuple[str, ...] = ()) -> Adapter:
     spec = known[name]
     if spec.origin == "built-in":
         module, cls = spec.target.split(":")
-        try:
-            mod = importlib.import_module(module)
+        try:  # an adapter may require a package of its own configuration (newton-mujoco: mujoco_warp)
+            return getattr(importlib.import_module(module), cls)(**spec.kwargs)
         except ImportError as exc:
             extra = EXTRAS.get(name) or EXTRAS.get(name.split("-")[0], name.split("-")[0])
             raise EngineError(f"engine {name!r} is not installed ({exc.name or exc}): "
                               f"pip install '.[{extra}]'") from None
-        return getattr(mod, cls)(**spec.kwargs)
     adapter = _make(spec.target, spec.kwargs)
     if adapter.name != name:
         raise EngineError(f"{spec.origin} {name!r} = {spec.target} makes an adapter named {adapter.name!r}: "

@@ -32,6 +32,9 @@ def add_parser(sub) -> None:
     p.add_argument("--adapter", action="append", metavar="MODULE:CLASS",
                    help="also use this engine adapter (repeatable)")
     p.add_argument("--full", action="store_true", help="also the families' full grids")
+    p.add_argument("--on-demand", action="store_true",
+                   help="also the runs an engine declares too slow for a default run (Newton's solvers: "
+                        "physval parity mujoco newton-mujoco --on-demand)")
     from physval.readings.parity import PARTED
     p.add_argument("--parted", type=options.positive_float, default=PARTED, metavar="FRACTION",
                    help=f"two trajectories part where a state differs by more than FRACTION of the job's scale "
@@ -61,7 +64,7 @@ def run(args) -> int:
     out = options.output_folder(args.out)
     options.check_scheduler(args.scheduler)
     traj = out / "trajectories"
-    jobs, _ = plan(chosen, engines, resolver, True)
+    jobs, _ = plan(chosen, engines, resolver, True, on_demand=args.on_demand)
     jobs = [with_saving(j, traj) for j in jobs]
     keys = cache_keys(ctx, engines)
     store = RowStore(out / "results.csv", COLUMNS, knobs_file=out / KNOBS_FILE)
