@@ -99,10 +99,10 @@ def test_the_other_readings_beside_a_run_fill_their_columns(tmp_path):
     df = pd.concat([_checks(("pass", 0.2)), _checks(("pass", 0.3)).assign(engine="mujoco")])
     df = df.assign(engine=df.engine.replace({"e": "reference"}))
     card = scorecard.measure(df, beside).set_index(["engine", "effect"])
-    assert card.loc[("reference", "restitution"), "cost"] == "reaches tolerance at 2 ms per sim s"
-    assert card.loc[("mujoco", "restitution"), "cost"] == "0/1 swept variants reach tolerance"
-    assert card.loc[("reference", scorecard.REAL), "text"] == "0.25 cube widths, rank 2/2"
-    assert card.loc[("mujoco", scorecard.REAL), "text"] == "0.2 cube widths, rank 1/2"
+    assert card.loc[("reference", "restitution"), "cost"] == "tol at 2 ms/s"
+    assert card.loc[("mujoco", "restitution"), "cost"] == "tol in 0/1 swept"
+    assert card.loc[("reference", scorecard.REAL), "text"] == "0.25, rank 2/2"
+    assert card.loc[("mujoco", scorecard.REAL), "text"] == "0.2, rank 1/2"
     assert card.loc[("reference", scorecard.DETERMINISM), "grade"] == "C"
     assert card.loc[("mujoco", scorecard.DETERMINISM), "grade"] == "-"
 
@@ -116,7 +116,7 @@ def test_the_run_report_shows_the_readings_beside_it(tmp_path):
     report = (out / "report.md").read_text()
     card = report[report.index("## Scorecard"):report.index("\n## ", report.index("## Scorecard") + 1)]
     assert "real-world error" in card and "determinism" in card
-    assert "**A** 2/2; reaches tolerance at 2 ms per sim s" in card
-    assert "0.25 cube widths, rank 2/2" in card and "**C** 1/2 scenes repeat bit for bit" in card
+    assert "**A** 2/2; tol at 2 ms/s" in card
+    assert "0.25, rank 2/2" in card and "**C** 1/2 repeat" in card
     html = (out / "report.html").read_text()
-    assert "0.25 cube widths, rank 2/2" in html
+    assert "0.25, rank 2/2" in html

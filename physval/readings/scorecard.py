@@ -114,8 +114,8 @@ def reach_cost(sweep: pd.DataFrame | None, engine: str, families: list[str]) -> 
     cost = pd.to_numeric(mine.reach_cost_us_per_sim_s, errors="coerce")
     reached = cost[np.isfinite(cost)]
     if len(reached) < len(mine):
-        return f"{len(reached)}/{len(mine)} swept variants reach tolerance"
-    return f"reaches tolerance at {fmt(reached.max() / 1e3)} ms per sim s"
+        return f"tol in {len(reached)}/{len(mine)} swept"
+    return f"tol at {fmt(reached.max() / 1e3)} ms/s"
 
 
 def real_error(real: pd.DataFrame | None, engine: str) -> str:
@@ -133,7 +133,7 @@ def real_error(real: pd.DataFrame | None, engine: str) -> str:
     if engine not in best:
         return ""
     rank = sorted(best.values()).index(best[engine]) + 1
-    return f"{fmt(best[engine])} cube widths, rank {rank}/{len(best)}"
+    return f"{fmt(best[engine])}, rank {rank}/{len(best)}"
 
 
 def measure(df: pd.DataFrame, beside: Companions | None = None) -> pd.DataFrame:
@@ -181,7 +181,7 @@ def _determinism(engine: str, det: pd.DataFrame | None) -> dict:
         return _companion(engine, DETERMINISM, "", "")
     same = int((mine.status == "deterministic").sum())
     return _companion(engine, DETERMINISM, "A" if same == len(mine) else "C",
-                      f"{same}/{len(mine)} scenes repeat bit for bit")
+                      f"{same}/{len(mine)} repeat")
 
 
 def cell(r, bold: bool = True) -> str:
@@ -204,12 +204,13 @@ def legend(beside: Companions | None = None) -> str:
             "tolerance is an integration scheme's error bound (a second-order rotation step) measure the "
             "engine's integrator, not its physics: they are graded under *integration order* only.")
     if beside is not None and beside.sources:
-        text += (" From the readings beside this run (" + "; ".join(beside.sources) + "): after the counts, the "
-                 "cost at which the engine reaches the tolerance on every swept variant of the effect's families "
-                 "(the dearest variant at its cheapest setting, wall time per simulated second); *real-world "
-                 "error*, the median over test tosses of the mean corner error against the measured cube tosses "
-                 "(cube widths) at the engine's fitted parameters, and its rank; *determinism*, how many of the "
-                 "stress scenes repeated bit for bit (A all, C not all).")
+        text += (" From the readings beside this run (" + "; ".join(beside.sources) + "): after the counts, "
+                 "*tol at X ms/s* is the cost at which the engine reaches the tolerance on every swept variant of "
+                 "the effect's families (the dearest variant at its cheapest setting, in milliseconds of wall time "
+                 "per simulated second; *tol in k/n swept*: only k of the n variants reach it at any setting); "
+                 "*real-world error* is the median over test tosses of the mean corner error against the measured "
+                 "cube tosses, in cube widths, at the engine's fitted parameters, and its rank; *determinism*, how "
+                 "many of the stress scenes repeated bit for bit (A all, C not all).")
     return text
 
 
