@@ -749,6 +749,18 @@ def _ci(stat: tuple[float, float, float, int]) -> str:
     return "-" if not n else f"{med:+.3f} [{lo:+.3f}, {hi:+.3f}] (n={n})"
 
 
+def ranking(summ: pd.DataFrame) -> list[tuple[str, str, float]]:
+    """(engine, parameter set, median mean corner error) in rank order: each engine at its
+    fitted parameters, at the nominal ones where it was not fitted; an error that is not
+    finite ranks last."""
+    sets = {p: summ[summ.param_set == p].set_index("engine") for p in ("fitted", "nominal")}
+    out = []
+    for engine in dict.fromkeys(summ[summ.engine != "noise floor"].engine):
+        which = "fitted" if engine in sets["fitted"].index else "nominal"
+        out.append((engine, which, float(sets[which].loc[engine, "corner_mean_median"])))
+    return sorted(out, key=lambda r: r[2] if math.isfinite(r[2]) else math.inf)
+
+
 def section(summ: pd.DataFrame, fits: dict[str, dict], skipped: dict[str, str], notes: dict,
             scores: pd.DataFrame) -> str:
     """The report section in markdown: ranking, fitted against nominal parameters, fitted
@@ -759,16 +771,16 @@ def section(summ: pd.DataFrame, fits: dict[str, dict], skipped: dict[str, str], 
     nom = summ[summ.param_set == "nominal"].set_index("engine")
     shaken = summ[summ.param_set == "start noise"].set_index("engine")
     floor = summ[summ.engine == "noise floor"]
-    engines = list(dict.fromkeys(summ[summ.engine != "noise floor"].engine))
+    ranked = ranking(summ)
+    order = [engine for engine, _, _ in ranked]
+    ranked_at = {engine: which for engine, which, _ in ranked}
 
     def best(engine) -> str:
-        return "fitted" if engine in fitted.index else "nominal"
+        return ranked_at[engine]
 
     def best_set(engine):
         return (fitted if best(engine) == "fitted" else nom).loc[engine]
 
-    order = sorted(engines, key=lambda e: (best_set(e)["corner_mean_median"]
-                                           if math.isfinite(best_set(e)["corner_mean_median"]) else math.inf))
     h1, h2 = (f"{h:g}s" for h in HORIZONS)
     lines += ["## Ranking (test split)", "",
               "Ranked by the median over test tosses of each toss's mean corner error (the RMS distance between "

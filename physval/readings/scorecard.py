@@ -118,22 +118,15 @@ def reach_cost(sweep: pd.DataFrame | None, engine: str, families: list[str]) -> 
     return f"tol at {fmt(reached.max() / 1e3)} ms/s"
 
 
-def real_error(real: pd.DataFrame | None, engine: str) -> str:
-    """The median corner error (cube widths) at the engine's fitted parameters (nominal
-    where not fitted) and its rank among the real tier's engines."""
+def real_errors(real: pd.DataFrame | None) -> dict[str, str]:
+    """Per engine of the real tier: its median corner error (cube widths) at the parameters
+    the real report ranks it by, and that rank (physval.readings.real.ranking)."""
     if real is None:
-        return ""
-    real = real[real.engine != "noise floor"]
-    best = {}
-    for e, part in real.groupby("engine", sort=False):
-        sets = part.set_index("param_set").corner_mean_median
-        value = sets.get("fitted", sets.get("nominal", math.nan))
-        if math.isfinite(value):
-            best[e] = value
-    if engine not in best:
-        return ""
-    rank = sorted(best.values()).index(best[engine]) + 1
-    return f"{fmt(best[engine])}, rank {rank}/{len(best)}"
+        return {}
+    from physval.readings.real import ranking
+    ranked = ranking(real)
+    return {engine: f"{fmt(value)}, rank {rank}/{len(ranked)}"
+            for rank, (engine, _, value) in enumerate(ranked, 1) if math.isfinite(value)}
 
 
 def measure(df: pd.DataFrame, beside: Companions | None = None) -> pd.DataFrame:
@@ -142,6 +135,7 @@ def measure(df: pd.DataFrame, beside: Companions | None = None) -> pd.DataFrame:
     readings `beside` the run the cost of reaching the tolerance (`cost`) and the text of
     the real-world and determinism columns (`text`)."""
     beside = beside or Companions()
+    real = real_errors(beside.real)
     judged = df[df.status.isin(JUDGED)]
     rows = []
     effects = {k: effect_of(*k) for k in set(zip(judged.case, judged.metric))}
@@ -165,7 +159,7 @@ def measure(df: pd.DataFrame, beside: Companions | None = None) -> pd.DataFrame:
                          "families": ", ".join(families),
                          "cost": reach_cost(beside.sweep, engine, families) if effect != INTEGRATION else "",
                          "text": ""})
-        rows += [_companion(engine, REAL, "", real_error(beside.real, engine)),
+        rows += [_companion(engine, REAL, "", real.get(engine, "")),
                  _determinism(engine, beside.determinism)]
     return pd.DataFrame(rows)
 

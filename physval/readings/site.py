@@ -70,15 +70,15 @@ def scorecard_table(card: pd.DataFrame, engine_href) -> dict:
     its grade (coloured) and the text of report.md's cell."""
     if card.empty:  # a run with no rows (every job left out, e.g. on demand): no grades
         return {"id": "scorecard", "columns": ["engine"], "rows": [], "filter": False}
-    shown = [e for e in scorecard.columns() if (card[card.effect == e].apply(scorecard.cell, axis=1) != "-").any()]
+    card = card.assign(cell=[scorecard.cell(r, bold=False) for r in card.itertuples()])
+    shown = [e for e in scorecard.columns() if (card[card.effect == e].cell != "-").any()]
     rows = []
     for engine, mine in card.groupby("engine", sort=False):
         by = {r.effect: r for r in mine.itertuples()}
         line = [_cell(engine, engine_href(engine))]
         for e in shown:
             r = by[e]
-            line.append({"text": scorecard.cell(r, bold=False), "href": "",
-                         "cls": f"g-{r.grade}" if r.grade not in ("-", "") else ""})
+            line.append({"text": r.cell, "href": "", "cls": f"g-{r.grade}" if r.grade not in ("-", "") else ""})
         rows.append(line)
     return {"id": "scorecard", "columns": ["engine"] + shown, "rows": rows, "filter": False}
 
