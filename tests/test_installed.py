@@ -153,10 +153,14 @@ def _sh(args, **kw) -> subprocess.CompletedProcess:
 def installed(tmp_path_factory) -> Installed:
     base = tmp_path_factory.mktemp("installed")
     wheels = base / "wheels"
-    built = _sh([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(ROOT)])
+    # built from a copy of the source: setuptools builds in build/ beside pyproject.toml, and two
+    # test workers building in the checkout at once collide there ("File exists"); the copy also
+    # leaves the checkout without a build/ that a user's later `pip install .` would reuse
+    source = base / "source"
+    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(".git", "build", "*.egg-info", "__pycache__",
+                                                                "reports", ".pytest_cache"))
+    built = _sh([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(source)])
     assert built.returncode == 0, built.stderr[-2000:]
-    # the build leaves build/ in the checkout; a user's later `pip install .` would reuse it
-    shutil.rmtree(ROOT / "build", ignore_errors=True)
     (wheel,) = wheels.glob("physval-*.whl")
     venv = base / "venv"
     assert _sh([sys.executable, "-m", "venv", "--system-site-packages", str(venv)]).returncode == 0
