@@ -287,6 +287,21 @@ def test_the_command_fits_scores_and_writes_the_report(tmp_path):
     assert set(params["mujoco"]) == {"mu", "e", "contact_steps"}
 
 
+def test_an_engine_given_its_own_fit_limit_is_fitted_within_it(tmp_path):
+    """--fit-limit ENGINE=S: the budget of the engines the glob matches; the last match wins,
+    a plain S holds for the rest."""
+    from physval.commands.real import FIT_LIMIT, fit_limit
+    limits = [(None, 150.0), ("reference*", 900.0), ("reference-lemke", 1200.0)]
+    assert [fit_limit(e, limits) for e in ("mujoco", "reference-pgs", "reference-lemke")] == [150, 900, 1200]
+    assert fit_limit("mujoco", []) == FIT_LIMIT
+    # a budget too small for even one toss leaves that engine nominal, and says whose budget it was
+    out = tmp_path / "real"
+    assert _cli("--engines", "mujoco", "--limit", "2", "--horizon", "0.15", "--generations", "0", "--popsize", "2",
+                "--bootstrap", "10", "--fit-limit", "1e9", "--fit-limit", "mujoco=1e-6", "--out", str(out),
+                "--no-cache") == 0
+    assert "its --fit-limit 1e-06 s" in (out / "real_report.md").read_text()
+
+
 def test_any_toss_file_is_scored_with_saved_parameters(tmp_path, synthetic_file):
     params = tmp_path / "params.json"
     params.write_text(json.dumps({"mujoco": {**real.nominal("mujoco"), **TRUTH}}))
@@ -306,6 +321,8 @@ def test_any_toss_file_is_scored_with_saved_parameters(tmp_path, synthetic_file)
     (("--params", "/nonexistent.json"), "cannot read"),
     (("--limit", "0"), "must be >= 1"),
     (("--horizon", "-1"), "must be a finite number > 0"),
+    (("--fit-limit", "=900"), "give an engine name or glob before '='"),
+    (("--fit-limit", "reference*=none"), "'none' is not a number"),
 ])
 def test_bad_input_exits_with_2(argv, message, capsys, tmp_path):
     assert _cli(*argv, "--out", str(tmp_path)) == 2

@@ -69,12 +69,33 @@ def add_parser(sub) -> None:
                    help=f"differential evolution generations after the first (default {GENERATIONS})")
     p.add_argument("--bootstrap", type=options.positive_int, default=BOOTSTRAP, metavar="N",
                    help=f"resamples of the training tosses for the parameters' spread (default {BOOTSTRAP})")
-    p.add_argument("--fit-limit", type=options.positive_float, default=FIT_LIMIT, metavar="S",
+    p.add_argument("--fit-limit", type=_fit_limit, action="append", default=[], metavar="[ENGINE=]S",
                    help=f"CPU seconds per engine for its fit: slower engines fit on an evenly spread subset of the "
-                        f"training tosses (at least {MIN_FIT_TOSSES}; else nominal only); default {FIT_LIMIT:g}")
+                        f"training tosses (at least {MIN_FIT_TOSSES}; else nominal only); default {FIT_LIMIT:g}. "
+                        f"ENGINE=S (a name or glob; repeatable) sets the budget of those engines alone, e.g. "
+                        f"'reference*=900' for the pure-Python formulations")
     p.add_argument("--score-limit", type=options.positive_float, default=SCORE_LIMIT, metavar="S",
                    help=f"score an evenly spread subset of the test tosses on engines that would take longer than "
                         f"S CPU seconds per parameter set over all of them (default {SCORE_LIMIT:g})")
+
+
+def _fit_limit(text: str) -> tuple[str | None, float]:
+    """--fit-limit's value: (engine glob or None for every engine, CPU seconds)."""
+    engine, _, seconds = text.rpartition("=")
+    if _ and not engine:
+        raise argparse.ArgumentTypeError(f"{text!r}: give an engine name or glob before '=' (ENGINE=S)")
+    return (engine or None), options.positive_float(seconds)
+
+
+def fit_limit(engine: str, limits: list[tuple[str | None, float]]) -> float:
+    """The fit budget of `engine`: the last ENGINE=S whose glob matches it, else the last
+    plain S, else FIT_LIMIT."""
+    from fnmatch import fnmatchcase
+    for pattern in (lambda glob: glob is not None and fnmatchcase(engine, glob), lambda glob: glob is None):
+        chosen = [seconds for glob, seconds in limits if pattern(glob)]
+        if chosen:
+            return chosen[-1]
+    return FIT_LIMIT
 
 
 def _fit_plan(engine: str, nominal_rows: list[dict], train: list[int], args, ctx) -> tuple[str, list[int], int]:
@@ -91,14 +112,15 @@ def _fit_plan(engine: str, nominal_rows: list[dict], train: list[int], args, ctx
     per_toss = float(np.median([r["elapsed_cpu"] for r in nominal_rows]))
     evaluations = args.popsize * len(fitted_names(engine, ctx)) * (args.generations + 1)
     estimate = per_toss * evaluations * len(train)
-    if estimate <= args.fit_limit:
+    limit = fit_limit(engine, args.fit_limit)
+    if estimate <= limit:
         return "", list(train), 1
-    every = math.ceil(estimate / args.fit_limit)
+    every = math.ceil(estimate / limit)
     part = list(train[::every])
     if len(part) < MIN_FIT_TOSSES:
         return (f"one toss costs {per_toss:.2g} CPU s, so even {MIN_FIT_TOSSES} training tosses x {evaluations} "
                 f"parameter sets would take {per_toss * evaluations * MIN_FIT_TOSSES / 3600:.2g} h "
-                f"(> --fit-limit {args.fit_limit:g} s)"), [], every
+                f"(> its --fit-limit {limit:g} s)"), [], every
     return "", part, every
 
 
@@ -332,8 +354,15 @@ def _fit_text(args, do_fit) -> str:
             + ", ".join(f"{n} [{t.low:g}, {t.high:g}]" for n, t in NEUTRAL.items())
             + "; engine-specific ones in their adapter's range (MuJoCo's contact_steps: the contact lasts about "
             "that many steps; its solref follows from it and e). An engine whose fit over the whole training split "
-            f"would cost more than {args.fit_limit:g} CPU s (estimated from its nominal tosses) fits on every k-th "
-            f"training toss, if that leaves at least {MIN_FIT_TOSSES}." + spread)
+            f"would cost more than {_limits_text(args.fit_limit)} (estimated from its nominal tosses) fits on every "
+            f"k-th training toss, if that leaves at least {MIN_FIT_TOSSES}." + spread)
+
+
+def _limits_text(limits: list[tuple[str | None, float]]) -> str:
+    """--fit-limit in words: 'S CPU s' and the engines given budgets of their own."""
+    own = {glob: seconds for glob, seconds in limits if glob is not None}
+    text = f"{fit_limit('', [(g, s) for g, s in limits if g is None]):g} CPU s"
+    return text + "".join(f" ({glob}: {seconds:g} CPU s)" for glob, seconds in own.items())
 
 
 def _noise_text(noise: pd.DataFrame, n: int, tilt: float) -> str:
