@@ -76,6 +76,7 @@ NARROWED = {
     "physval bench step": Narrowed("--engines mujoco", needs=("mujoco",)),
     "physval bench sweep-workers": Narrowed("--engines mujoco", needs=("mujoco",)),
     "physval bench pgs": Narrowed(),
+    "physval bench compile": Narrowed("--engines reference-hooke"),
     "physval bench faults": Narrowed('--engines mujoco --cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
     # an engine's CI gate (exit 1 only if a check falls under --fail-on)
     "physval run --engines mujoco --junitxml physval.xml --fail-on fail,error,unstable,changed": Narrowed(

@@ -9,8 +9,9 @@ from physval.core.executor import START_METHODS
 from physval.core.selection import select_variants
 from physval.core.session import Execution
 from physval.readings import bench
-from physval.readings.bench import (WHAT, fault_matrix, overhead, pgs_scaling, steps_side_by_side, sweep_workers,
-                                     write)
+from physval.readings.bench import (WHAT, compile_cost, fault_matrix, overhead, pgs_scaling, steps_side_by_side,
+                                     sweep_workers, write)
+from adapters import registry
 from physval.commands import options
 
 
@@ -52,6 +53,11 @@ def run(args) -> int:
     if "step" in what:
         say("step time side by side")
         sections["step"] = steps_side_by_side(engines, ctx, execution)
+    if "compile" in what:
+        say("the reference formulations' compilation, cold and cached")
+        named = options.engines_of(args, ctx) if args.engines else [
+            e for e in registry.engine_names(ctx.adapters) if e.startswith("reference")]
+        sections["compile"] = compile_cost(named, ctx, execution)
     if "sweep-workers" in what:
         say("the same sweep with 1 and with 2 workers")
         sections["sweep-workers"] = sweep_workers([e for e in engines if e in ("reference", "pybullet", "mujoco")], ctx)

@@ -5,8 +5,11 @@ machine is noisy; absolute times are for orientation only). Never a pass/fail te
   step of the core's full recorded step (physval.core.record.simulate: stepping, reading
   the states, contact forces where the case reads them) against a bare loop of
   `Simulation.step()`, as a ratio;
-- `step`: wall time per step of the same scenes on every engine, as ratios to the
-  reference (a 5-box stack and a 55-box, 10-layer pyramid);
+- `step`: wall time per step of the same scenes on every engine, as ratios to MuJoCo's
+  (a 5-box stack and a 55-box, 10-layer pyramid);
+- `compile`: the reference formulations' numba compilation: each formulation's first step
+  in a fresh worker process with an empty numba cache (cold: compiling) and again with that
+  cache filled (cached: loading), beside its later steps compiled and uncompiled;
 - `sweep-workers`: the same small sweep with 1 and with 2 local workers (throughput ratio);
 - `pgs`: the reference's projected Gauss-Seidel, cost of one sweep against the number of
   contacts (doubling the contacts should at most about double the time);
@@ -31,7 +34,7 @@ from physval.core import Context, Job, Probe, run_jobs, simulate
 from physval.core.session import Execution
 from physval.reportkit import md_table, write_atomic
 
-WHAT = ("overhead", "step", "sweep-workers", "pgs", "faults")
+WHAT = ("overhead", "step", "compile", "sweep-workers", "pgs", "faults")
 
 
 # --- overhead: the core's recorded step against a bare step ----------------------------------
@@ -174,12 +177,98 @@ def steps_side_by_side(engines: list[str], ctx: Context, execution: Execution, s
             first = (res.rows.get(job.key) or [{}])[0] if job else {}
             row[f"{e} us/step"] = float(first["wall_per_sim_s"]) * 1e-3 * 1e6 if first.get("wall_per_sim_s") \
                 not in (None, "") else math.nan
-        ref = row.get("reference us/step")
+        base = STEP_BASELINE if math.isfinite(row.get(f"{STEP_BASELINE} us/step", math.nan)) else None
         for e in engines:
-            if e != "reference" and ref and math.isfinite(ref):
-                row[f"reference / {e}"] = ref / row[f"{e} us/step"]
+            if base and e != base:
+                row[f"{e} / {base}"] = row[f"{e} us/step"] / row[f"{base} us/step"]
         out.append(row)
     return pd.DataFrame(out)
+
+
+# the engine every other's step is set against: the fastest widely used engine that runs every
+# scene here (the ratios the reference formulations' targets are stated in)
+STEP_BASELINE = "mujoco"
+
+
+# --- compilation: the reference formulations' numba cache, cold and warm ------------------------
+
+# the scene each formulation is timed on: the 5-box stack, else (a formulation without
+# friction or impulses) the first Newton's cradle variant it represents
+COMPILE_SCENES = (("robustness_stacks", {"structure": "stack", "n": 5, "dim": 3, "T": 0.1}), ("newtons_cradle", None))
+class StepTimes(Probe):
+    """The run's stepping time, then the same scene rebuilt and stepped again in the same
+    process. In a fresh process numba compiles (or loads from its cache) a function at its
+    first call, in whichever step first calls it (a contact's first step, say): the first
+    run pays it, the second does not. `extra_s`: first minus second; `step_s`: the second
+    run's mean step."""
+
+    def __init__(self, job: Job):
+        pass
+
+    def after(self, run, sim, rebuild) -> dict:
+        with rebuild() as again:
+            t0 = time.perf_counter()
+            for _ in range(run.steps):
+                again.step()
+            warm = time.perf_counter() - t0
+        return {"extra_s": run.wall_s - warm, "step_s": warm / run.steps}
+
+
+def compile_cost(engines: list[str], ctx: Context, execution: Execution) -> pd.DataFrame:
+    """Per reference formulation in `engines`: its first step in a fresh worker process
+    (spawned, so nothing is compiled or imported beforehand) with an empty numba cache
+    (cold), then again with the cache that run filled (cached), and the mean of its later
+    steps compiled and with NUMBA_DISABLE_JIT=1 (the same code as Python)."""
+    import os
+    import tempfile
+    resolver = ctx.resolver()
+    out = []
+    for e in engines:
+        adapter = resolver.adapter(e)
+        if not e.startswith("reference"):
+            continue
+        job = _compile_job(e, adapter, resolver)
+        if job is None:
+            continue
+        row = {"formulation": e, "scene": job.variant.test_id}
+        with tempfile.TemporaryDirectory(prefix="physval-numba-") as cache:
+            for label, env in (("cold", {"NUMBA_CACHE_DIR": cache}), ("cached", {"NUMBA_CACHE_DIR": cache}),
+                               ("plain Python", {"NUMBA_DISABLE_JIT": "1"})):
+                saved = {k: os.environ.get(k) for k in env}
+                os.environ.update(env)
+                try:
+                    res = run_jobs([job], ctx, 1, None, execution.job_timeout, "spawn", progress=False,
+                                   label=f"bench compile {e} {label}")
+                finally:
+                    for k, v in saved.items():
+                        os.environ.pop(k) if v is None else os.environ.__setitem__(k, v)
+                first = (res.rows.get(job.key) or [{}])[0]
+                if label == "plain Python":
+                    row["plain Python ms/step"] = float(first.get("step_s") or math.nan) * 1e3
+                else:
+                    row[{"cold": "compiling s", "cached": "loading the cache s"}[label]] = \
+                        float(first.get("extra_s") or math.nan)
+                    if label == "cached":
+                        row["compiled ms/step"] = float(first.get("step_s") or math.nan) * 1e3
+        row["plain / compiled"] = row["plain Python ms/step"] / row["compiled ms/step"]
+        out.append(row)
+    return pd.DataFrame(out)
+
+
+def _compile_job(engine: str, adapter, resolver) -> Job | None:
+    """The job on the first of COMPILE_SCENES the formulation builds (a formulation refuses
+    what it cannot represent when it builds the world; building steps nothing)."""
+    from adapters.base import Settings, Unsupported
+    for name, params in COMPILE_SCENES:
+        fam = resolver.family(name)
+        for v in ([Variant(fam.name, fam.variant_id(params), params)] if params else fam.variants):
+            dt = 1e-3 if params else fam.dt_for(v.params)
+            try:
+                adapter.build(fam.scene(v.params), Settings(dt=dt)).close()
+            except Unsupported:
+                continue
+            return Job(fam.name, v, engine, dt, probe="physval.readings.bench:StepTimes")
+    return None
 
 
 # --- sweep throughput ---------------------------------------------------------------------
@@ -283,12 +372,22 @@ def write(out: Path, sections: dict[str, pd.DataFrame]) -> None:
 def _note(name: str) -> str:
     if name == "faults":
         return faults_note()
-    return {"overhead": OVERHEAD_NOTE, "step": STEP_NOTE, "sweep-workers": SWEEP_WORKERS_NOTE, "pgs": PGS_NOTE}[name]
+    return {"overhead": OVERHEAD_NOTE, "step": STEP_NOTE, "compile": COMPILE_NOTE, "sweep-workers": SWEEP_WORKERS_NOTE,
+            "pgs": PGS_NOTE}[name]
 
 
 STEP_NOTE = ("Minimum over 2 repeats of the mean wall time per step over 20 steps at dt = 1e-3 (10 warm-up "
-             "steps; the 55-box pyramid costs up to 0.5 s a step (DART), and Lemke's dense tableau outlasts a 150 s job); `reference / X` is how "
-             "many times slower the reference is.")
+             "steps; the 55-box pyramid costs up to 0.5 s a step (DART)); each engine at its own default "
+             f"iterations (the reference's: up to 200 sweeps, to 1e-10 m/s). `X / {STEP_BASELINE}` is how many "
+             f"times {STEP_BASELINE}'s step X's takes. An empty cell: the engine cannot represent the scene "
+             "(friction, for the force formulation and compliant contact) or outlasts the job's time limit.")
+COMPILE_NOTE = ("Each reference formulation run in a freshly spawned worker process, first with an empty numba "
+                "cache (`compiling s`: the run's stepping time less that of the same run repeated in the same "
+                "process, i.e. numba compiling each function at its first call) and then with the cache that run "
+                "left (`loading the cache s`, the same measure), beside the repeated run's mean step compiled "
+                "and as plain Python (NUMBA_DISABLE_JIT=1: the same functions, uncompiled). Scene: the 5-box stack at dt = 1e-3 for "
+                "0.1 s, or the first Newton's cradle variant for a formulation that cannot represent it "
+                "(friction). A run in a process that has already compiled or loaded a function pays neither.")
 SWEEP_WORKERS_NOTE = ("central_impact's sweep points on reference, pybullet and mujoco, one timing repeat each; "
                       "throughput relative to one worker.")
 
