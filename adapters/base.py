@@ -257,12 +257,13 @@ class Adapter(ABC):
         return Path(where).parent / "xfails" / f"{self.name}.txt" if where else None
 
     # In a default run (no cases named), an engine runs every family unless it names the
-    # tags it runs (e.g. the slow pure-Python formulations: {"core", "conformance"}; they
-    # also run the variants whose compliant contact law they model).
+    # tags it runs (e.g. Drake's approximations other than its default and MuJoCo Warp:
+    # {"core", "conformance"}; they also run the variants whose compliant contact law they
+    # model).
     default_tags: frozenset[str] | None = None
-    # An engine that steps in pure Python (the reference's other formulations) is left out
-    # of the default sweep, stress battery, benchmarks and engine-wide readings: it runs
-    # there when named.
+    # An engine whose step costs many times a compiled engine's (the reference's other
+    # formulations) is left out of the default sweep, stress battery, benchmarks and
+    # engine-wide readings, which repeat each scene many times: it runs there when named.
     slow: bool = False
 
     def on_demand(self, scene: Scene) -> str | None:

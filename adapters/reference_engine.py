@@ -67,10 +67,10 @@ class ReferenceAdapter(Adapter):
         self.formulation = formulation
         self.params = dict(params or {})  # formulation settings (Config.params)
         self.name = name or ("reference" if formulation == "si" else f"reference-{formulation}")
-        # the formulations other than the default are pure Python and slow: in a default
-        # run they take the core families and the conformance battery (and the compliant
-        # variants whose contact law they model); named, they run everything
-        self.default_tags = None if formulation == "si" else frozenset({"core", "conformance"})
+        # every formulation runs every family it can represent in a default run (their
+        # inner loops are compiled: all seven over all families cost ~260 CPU s); `slow`
+        # keeps the formulations other than the default out of the readings that repeat a
+        # scene many times (sweeps, stress, bench) unless named
         self.slow = formulation != "si"
         self.capabilities = replace(self.capabilities, impact_model=IMPACT_MODEL.get(formulation, "simultaneous"))
         if formulation != "si":  # only the sequential impulses have torque rows

@@ -66,6 +66,12 @@ SLOW_IN_THE_SUITE = {
     ("reference-newton-coulomb", "resting_blocks[[]n=[345]]*"):
         "pairwise impulses run all 200 sweeps each step on a resting stack: 25-77 s each on 2 shared cores",
     ("reference-lemke", "resting_blocks[[]n=[45]]*"): "a dense pivoting tableau per step: 14-19 s each",
+    # the formulations' heaviest runs outside the core families (measured on 2 shared cores)
+    ("reference-lemke", "bounce_series*"): "a pivoting tableau on every step of 40 bounces: 12 s",
+    ("reference-force", "bounce_series*"): "two Lemke solves a step over 40 bounces: 10 s",
+    ("reference-newton-coulomb", "bounce_series*"): "the pairwise loop over 40 bounces: 4-5 s each",
+    ("reference-newton-coulomb", "stack_forces*"): "all 200 pairwise sweeps a step on a resting stack: 1-4 s each",
+    ("reference-newton-coulomb", "stack_strike*"): "all 200 pairwise sweeps a step on a resting stack: 1-2 s each",
     # MuJoCo Warp steps MuJoCo's own model (tests/test_mujoco_warp_mapping.py; `physval parity`):
     # its conformance battery stays in the suite, its core families (53 jobs, 1-2 min on 2 cores
     # with Warp's per-process start) run with -m slow and in every `physval run`

@@ -262,7 +262,7 @@ def _installed(ctx, engine: str) -> bool:
 
 
 def fast_engines(ctx) -> list[str]:
-    """The installed engines that do not step in pure Python (Adapter.slow): what sweeps,
+    """The installed engines but the slower reference formulations (Adapter.slow): what sweeps,
     the stress battery, benchmarks and engine-wide readings take unless engines are named."""
     from adapters import registry
     return [e for e in registry.engine_names(ctx.adapters) if _installed(ctx, e) and not ctx.resolver().adapter(e).slow]

@@ -73,7 +73,7 @@ def add_parser(sub) -> None:
                    help=f"CPU seconds per engine for its fit: slower engines fit on an evenly spread subset of the "
                         f"training tosses (at least {MIN_FIT_TOSSES}; else nominal only); default {FIT_LIMIT:g}. "
                         f"ENGINE=S (a name or glob; repeatable) sets the budget of those engines alone, e.g. "
-                        f"'reference*=900' for the pure-Python formulations")
+                        f"'reference*=900' for the reference's formulations")
     p.add_argument("--score-limit", type=options.positive_float, default=SCORE_LIMIT, metavar="S",
                    help=f"score an evenly spread subset of the test tosses on engines that would take longer than "
                         f"S CPU seconds per parameter set over all of them (default {SCORE_LIMIT:g})")

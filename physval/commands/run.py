@@ -30,8 +30,8 @@ same command resumes)."""
 
 HELP_CASES = ("case families or variants: NAME, a glob, or NAME[VARIANT] (an exact variant id or a glob), "
               "space- or comma-separated, e.g. 'central_impact[drop,e=0.5]' (default: every family)")
-HELP_ENGINES = ("engines: names or globs, e.g. 'reference-*' (default: every installed engine; the slow "
-                "pure-Python reference formulations then run the core families only)")
+HELP_ENGINES = ("engines: names or globs, e.g. 'reference-*' (default: every installed engine; Drake's "
+                "approximations other than 'drake' and MuJoCo Warp then run the core families only)")
 
 
 def add_parser(sub) -> None:
@@ -128,7 +128,7 @@ def run(args) -> int:
     from physval.core.session import Execution
     from physval.readings import effective, laws
     # the engines users run, with the reference at its default formulation; the slow
-    # pure-Python formulations (Adapter.slow) are read when named
+    # slower formulations (Adapter.slow) are read when named
     wide = engines if args.engines is not None else [e for e in engines if e in options.fast_engines(ctx)]
     for name in readings:
         say(f"engine-wide reading: {name} (cached per engine version)")

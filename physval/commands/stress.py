@@ -37,7 +37,7 @@ def add_parser(subparsers):
                     "section), stability_map.csv, determinism.csv and plots/ into --out.")
     options.add_selection(p, "robustness scenes: families or FAMILY[VARIANT] (globs allowed), e.g. "
                          "'robustness_stacks' or 'robustness_pile[6^3*]' (default: every robustness family)",
-                      "engines (default: every installed engine but the slow pure-Python formulations, "
+                      "engines (default: every installed engine but the reference's slower formulations, "
                       "which run when named)")
     p.add_argument("--long", action="store_true",
                    help="also run the long variants (the full grids: 60 s rest, 20-box stacks, 210-box pyramids, "

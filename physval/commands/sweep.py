@@ -25,7 +25,7 @@ def add_parser(sub) -> None:
                "  physval sweep --cases incline_threshold --engines reference,mujoco --workers 2\n"
                "  physval sweep --scheduler tcp://127.0.0.1:8786  on a running Dask cluster")
     options.add_selection(sw, "case families or variants (default: the families tagged core)",
-                      "engines (default: every installed engine but the slow pure-Python formulations; name "
+                      "engines (default: every installed engine but the reference's slower formulations; name "
                       "reference-pgs, reference-spook, ... to sweep those)")
     sw.add_argument("--full", action="store_true", help="the whole dt x iterations grid instead of two axes")
     sw.add_argument("--repeats", type=options.positive_int, default=REPEATS, metavar="N",

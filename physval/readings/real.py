@@ -52,7 +52,7 @@ What it does, per engine (every registered 3D engine that is installed):
    is resampled with replacement BOOTSTRAP times, and each resample picks its best among
    the parameter sets the fit evaluated (their per-toss losses are kept), at no further
    simulation cost. An engine whose fit over the whole training split would cost more
-   than `--fit-limit` CPU seconds (the pure-Python reference formulations, DART) fits on
+   than `--fit-limit` CPU seconds (the reference formulations, DART) fits on
    an evenly spread subset of it; one that would need fewer than MIN_FIT_TOSSES tosses for
    that, or fails on most tosses, is scored at the nominal parameters only. Likewise an
    engine too slow for the whole test split (`--score-limit`) scores an even subset.
