@@ -48,9 +48,20 @@ def test_a_difference_is_counted_in_the_wider_tolerance_of_the_two():
     t = parity.checks(df, "a", "b").set_index("metric")
     assert t.difference["x"] == pytest.approx(0.5)   # 0.05 m of the wider, 0.1 m, tolerance
     assert t.difference["r"] == pytest.approx(0.5)   # 0.1 of 10 % of |2|
-    assert pd.isna(t.difference["u"]) and t.verdicts_differ["u"] and not t.verdicts_differ["x"]
+    # a scene one engine cannot represent is no verdict of that engine: counted apart
+    assert pd.isna(t.difference["u"]) and t.one_engine_only["u"] and not t.verdicts_differ["u"]
+    assert not t.verdicts_differ["x"] and not t.one_engine_only["x"]
     fam = parity.families(t.reset_index(), parity.parting([], parity.PARTED)).iloc[0]
-    assert fam["verdicts differ"] == 1 and fam["largest |diff| (tol)"] == pytest.approx(0.5)
+    assert fam["verdicts differ"] == 0 and fam["one engine only"] == 1
+    assert fam["largest |diff| (tol)"] == pytest.approx(0.5)
+
+
+def test_a_verdict_differs_where_both_engines_ran_the_scene():
+    rows = [{"case": "f", "variant": "v", "engine": e, "metric": "x", "status": s, "measured": m, "expected": 2.0,
+             "tolerance": 0.1, "tolerance_kind": "abs", "reason": ""}
+            for e, s, m in (("a", "pass", 2.0), ("b", "fail", 2.5))]
+    t = parity.checks(pd.DataFrame(rows), "a", "b").iloc[0]
+    assert t.verdicts_differ and not t.one_engine_only and t.difference == pytest.approx(5.0)
 
 
 def test_the_harness_keeps_warps_kernel_cache_in_its_own_folder(monkeypatch, tmp_path):

@@ -57,7 +57,11 @@ def checks(rows: pd.DataFrame, a: str, b: str) -> pd.DataFrame:
     both = df.status_a.isin(JUDGED) & df.status_b.isin(JUDGED)
     diff = (pd.to_numeric(df.measured_b, errors="coerce") - pd.to_numeric(df.measured_a, errors="coerce")) / df.tol
     df["difference"] = diff.where(both & (df.tol > 0))
-    df["verdicts_differ"] = df.status_a.ne(df.status_b)
+    # a scene only one engine can represent (a 3D variant against a 2D engine) is no verdict
+    # of the other: counted apart, not as a verdict that differs
+    one = df.status_a.eq("unsupported") ^ df.status_b.eq("unsupported")
+    df["one_engine_only"] = one
+    df["verdicts_differ"] = df.status_a.ne(df.status_b) & ~one
     return df.drop(columns="tol").reset_index(drop=True)
 
 
@@ -74,7 +78,8 @@ def parting(jobs: list[tuple[str, str, Path, Path]], threshold: float) -> pd.Dat
 
 
 def families(table: pd.DataFrame, parts: pd.DataFrame) -> pd.DataFrame:
-    """Per family: checks compared, verdicts that differ, the median and largest |difference|
+    """Per family: checks compared, those of scenes only one engine represents, verdicts that
+    differ (both ran the scene), the median and largest |difference|
     in tolerances (and the check of the largest), jobs compared, how many part and the
     earliest and median parting time."""
     out = []
@@ -84,6 +89,7 @@ def families(table: pd.DataFrame, parts: pd.DataFrame) -> pd.DataFrame:
         worst = t.loc[d.idxmax()] if d.notna().any() else None
         parted = p[p.parted_step.notna()]
         out.append({"family": case, "checks": len(t), "judged on both": int(d.notna().sum()),
+                    "one engine only": int(t.one_engine_only.sum()),
                     "verdicts differ": int(t.verdicts_differ.sum()),
                     "median |diff| (tol)": float(d.median()) if d.notna().any() else np.nan,
                     "largest |diff| (tol)": float(d.max()) if d.notna().any() else np.nan,
@@ -110,7 +116,9 @@ def write(folder: Path, table: pd.DataFrame, parts: pd.DataFrame, a: str, b: str
         f"by more than {threshold:.2g} of the job's scale (physval.readings.parity).", "",
         f"{len(table)} checks on both engines, {judged} judged on both: median |difference| "
         f"{fmt(float(d.median())) if judged else '-'} tolerances, {int((d > 1).sum())} differ by more than one "
-        f"tolerance, {int(table.verdicts_differ.sum())} verdicts differ. "
+        f"tolerance, {int(table.verdicts_differ.sum())} verdicts differ"
+        + (f" ({int(table.one_engine_only.sum())} more checks are of scenes only one engine can represent)"
+           if table.one_engine_only.any() else "") + ". "
         f"{int(parts.steps.notna().sum())} trajectory pairs: {len(parted)} part.", "",
         "## Per family", "", md_table(fams.map(fmt) if hasattr(fams, "map") else fams.applymap(fmt)), "",
         "## The largest differences", ""]
