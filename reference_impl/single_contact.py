@@ -183,23 +183,30 @@ def pairwise_loop(a, b, point, n, ra_n, rb_n, tangents, n_tangents, e, mu_s, mu_
                   x, inv_mass, inv_I, v, w, Pn, Pt, iterations, tolerance, slop):
     """The sweeps of solve, in place on the bodies' v, w and the contacts' impulses Pn, Pt
     (the world's contact j: its bodies a[j], b[j], pushed along n[j] on b)."""
-    u_start = np.array([_normal_velocity(v, w, a[j], b[j], n[j], ra_n[j], rb_n[j]) for j in range(len(a))])
+    C = len(a)
+    u_start = np.array([_normal_velocity(v, w, a[j], b[j], n[j], ra_n[j], rb_n[j]) for j in range(C)])
+    # each contact's arms and collision matrix K (note 004): positions do not move during
+    # the loop, so they are computed once; our body a is the world's b (pushed along +n,
+    # see the module docstring)
+    r_a, r_b, K = np.empty((C, 3)), np.empty((C, 3)), np.empty((C, 3, 3))
+    for j in range(C):
+        A, B = a[j], b[j]
+        r_a[j], r_b[j] = point[j] - x[A], point[j] - x[B]
+        K[j] = (_body_collision_matrix(inv_mass[B], inv_I[B], r_b[j])
+                + _body_collision_matrix(inv_mass[A], inv_I[A], r_a[j]))
+    u = np.empty(3)
     for _ in range(iterations):
         worst = 0.0
-        for j in range(len(a)):
+        for j in range(C):
             u_n = _normal_velocity(v, w, a[j], b[j], n[j], ra_n[j], rb_n[j])
             goal = newton_target(e[j], depth[j], target[j], u_n, u_start[j], slop)
             if u_n >= goal - tolerance or u_n >= 0.0:  # met, or no approach to reverse
                 continue
             worst = max(worst, goal - u_n)
             A, B = a[j], b[j]
-            r_a, r_b = point[j] - x[A], point[j] - x[B]
-            # our body a is the world's b (pushed along +n, see the module docstring)
-            K = (_body_collision_matrix(inv_mass[B], inv_I[B], r_b)
-                 + _body_collision_matrix(inv_mass[A], inv_I[A], r_a))
-            u = (v[B] + np.cross(w[B], r_b)) - (v[A] + np.cross(w[A], r_a))
-            p = _newton_coulomb_impulse(K, u, n[j], -goal / u_n, mu_s[j], mu_k[j])
-            for body, r, sign in ((B, r_b, 1.0), (A, r_a, -1.0)):
+            _point_velocity_difference(u, v[B], w[B], r_b[j], v[A], w[A], r_a[j])
+            p = _newton_coulomb_impulse(K[j], u, n[j], -goal / u_n, mu_s[j], mu_k[j])
+            for body, r, sign in ((B, r_b[j], 1.0), (A, r_a[j], -1.0)):  # +p on our a, -p on our b
                 dv = sign * inv_mass[body] * p
                 dw = sign * inv_I[body] @ np.cross(r, p)
                 for k in range(3):
@@ -211,6 +218,15 @@ def pairwise_loop(a, b, point, n, ra_n, rb_n, tangents, n_tangents, e, mu_s, mu_
                 Pt[j, k] += p[0] * d[0] + p[1] * d[1] + p[2] * d[2]
         if worst == 0.0:
             break
+
+
+@njit
+def _point_velocity_difference(u, v_a, w_a, r_a, v_b, w_b, r_b) -> None:
+    """u = (v_a + w_a x r_a) - (v_b + w_b x r_b): the relative velocity of the contact
+    points (note 004), written into u."""
+    u[0] = (v_a[0] + (w_a[1] * r_a[2] - w_a[2] * r_a[1])) - (v_b[0] + (w_b[1] * r_b[2] - w_b[2] * r_b[1]))
+    u[1] = (v_a[1] + (w_a[2] * r_a[0] - w_a[0] * r_a[2])) - (v_b[1] + (w_b[2] * r_b[0] - w_b[0] * r_b[2]))
+    u[2] = (v_a[2] + (w_a[0] * r_a[1] - w_a[1] * r_a[0])) - (v_b[2] + (w_b[0] * r_b[1] - w_b[1] * r_b[0]))
 
 
 @njit
