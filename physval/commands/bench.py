@@ -45,31 +45,29 @@ def run(args) -> int:
         raise options.UsageError(f"unknown benchmark {unknown[0]!r}: choose from {', '.join(WHAT)}")
     out = options.output_folder(args.out)
     execution = Execution(1, None, args.job_timeout, args.start_method, not args.quiet)
-    sections = {}
     say = options.teller(args, "physval bench")
-    if "overhead" in what:
-        say("the core's recorded step against a bare step")
-        sections["overhead"] = overhead(engines, ctx, execution)
-    if "step" in what:
-        say("step time side by side")
-        sections["step"] = steps_side_by_side(engines, ctx, execution)
-    if "compile" in what:
-        say("the reference formulations' compilation, cold and cached")
-        named = options.engines_of(args, ctx) if args.engines else [
-            e for e in registry.engine_names(ctx.adapters) if e.startswith("reference")]
-        sections["compile"] = compile_cost(named, ctx, execution)
-    if "sweep-workers" in what:
-        say("the same sweep with 1 and with 2 workers")
-        sections["sweep-workers"] = sweep_workers([e for e in engines if e in ("reference", "pybullet", "mujoco")], ctx)
-    if "pgs" in what:
-        say("PGS sweep cost against contact count")
-        sections["pgs"] = pgs_scaling()
-    if "faults" in what:
-        say("planted faults: the detection matrix")
+
+    def faults():
         from physval.faults import ENGINES
         chosen = select_variants(ctx.resolver().families, args.cases) if args.cases else None
-        sections["faults"] = fault_matrix(engines if args.engines else [e for e in engines if e in ENGINES], ctx,
-                                          replace(execution, workers=args.workers), families=chosen)
-    write(out, sections)
+        return fault_matrix(engines if args.engines else [e for e in engines if e in ENGINES], ctx,
+                            replace(execution, workers=args.workers), families=chosen)
+
+    benchmarks = {
+        "overhead": ("the core's recorded step against a bare step", lambda: overhead(engines, ctx, execution)),
+        "step": ("step time side by side", lambda: steps_side_by_side(engines, ctx, execution)),
+        "compile": ("the reference formulations' compilation, cold and cached", lambda: compile_cost(
+            options.engines_of(args, ctx) if args.engines else registry.engine_names(ctx.adapters), ctx, execution)),
+        "sweep-workers": ("the same sweep with 1 and with 2 workers", lambda: sweep_workers(
+            [e for e in engines if e in ("reference", "pybullet", "mujoco")], ctx)),
+        "pgs": ("PGS sweep cost against contact count", pgs_scaling),
+        "faults": ("planted faults: the detection matrix", faults),
+    }
+    sections = {}
+    for name in WHAT:
+        if name in what:
+            say(benchmarks[name][0])
+            sections[name] = benchmarks[name][1]()
+            write(out, sections)  # after each: a later benchmark that fails keeps what was measured
     print(f"wrote {out / 'bench.md'}")
     return 0
