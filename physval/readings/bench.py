@@ -152,7 +152,8 @@ STEP_SCENES = (("5-box stack", {"structure": "stack", "n": 5}), ("10-layer pyram
 
 def steps_side_by_side(engines: list[str], ctx: Context, execution: Execution, steps: int = 20) -> pd.DataFrame:
     """Minimum over 2 repeats of the wall time per step over `steps` steps at dt = 1e-3
-    after 10 warm-up steps, on robustness_stacks' scenes; ratios to the reference."""
+    after 10 warm-up steps, on robustness_stacks' scenes, one row an installed engine;
+    ratios to STEP_BASELINE's step."""
     from physval.readings.sweep import Timing  # noqa: F401  (the probe the jobs name)
     resolver = ctx.resolver()
     fam = resolver.family("robustness_stacks")
@@ -169,18 +170,20 @@ def steps_side_by_side(engines: list[str], ctx: Context, execution: Execution, s
                                    probe_args=(("repeats", 2),), warmup=10)
     res = run_jobs(list(jobs.values()), ctx, 1, execution.scheduler, execution.job_timeout, execution.start_method,
                    progress=execution.progress, label="bench step")
+    us = {}
+    for key, job in jobs.items():
+        first = (res.rows.get(job.key) or [{}])[0]
+        us[key] = float(first["wall_per_sim_s"]) * 1e-3 * 1e6 if first.get("wall_per_sim_s") not in (None, "") \
+            else math.nan
     out = []
-    for label, _ in STEP_SCENES:
-        row = {"scene": label}
-        for e in engines:
-            job = jobs.get((label, e))
-            first = (res.rows.get(job.key) or [{}])[0] if job else {}
-            row[f"{e} us/step"] = float(first["wall_per_sim_s"]) * 1e-3 * 1e6 if first.get("wall_per_sim_s") \
-                not in (None, "") else math.nan
-        base = STEP_BASELINE if math.isfinite(row.get(f"{STEP_BASELINE} us/step", math.nan)) else None
-        for e in engines:
-            if base and e != base:
-                row[f"{e} / {base}"] = row[f"{e} us/step"] / row[f"{base} us/step"]
+    for e in engines:  # one row an engine: its step on each scene and that step in baseline steps
+        if not any((label, e) in jobs for label, _ in STEP_SCENES):
+            continue  # not installed
+        row = {"engine": e}
+        for label, _ in STEP_SCENES:
+            mine, base = us.get((label, e), math.nan), us.get((label, STEP_BASELINE), math.nan)
+            row[f"{label} us/step"] = mine
+            row[f"{label} / {STEP_BASELINE}"] = mine / base
         out.append(row)
     return pd.DataFrame(out)
 
@@ -377,9 +380,11 @@ def _note(name: str) -> str:
 
 STEP_NOTE = ("Minimum over 2 repeats of the mean wall time per step over 20 steps at dt = 1e-3 (10 warm-up "
              "steps; the 55-box pyramid costs up to 0.5 s a step (DART)); each engine at its own default "
-             f"iterations (the reference's: up to 200 sweeps, to 1e-10 m/s). `X / {STEP_BASELINE}` is how many "
-             f"times {STEP_BASELINE}'s step X's takes. An empty cell: the engine cannot represent the scene "
-             "(friction, for the force formulation and compliant contact) or outlasts the job's time limit.")
+             f"iterations (the reference's: up to 200 sweeps, to 1e-10 m/s). `/ {STEP_BASELINE}` is how many "
+             f"times {STEP_BASELINE}'s step the engine's takes. An empty cell: the engine cannot represent the scene "
+             "(friction, for the force formulation and compliant contact) or outlasts the job's time limit "
+             "(Lemke's dense tableau on the pyramid: over 200 s for 30 steps). An engine that runs 2D scenes only "
+             "(Pymunk, Box2D) steps the in-plane stack and pyramid, so its ratio is not like for like.")
 COMPILE_NOTE = ("Each reference formulation run in a freshly spawned worker process, first with an empty numba "
                 "cache (`compiling s`: the run's stepping time less that of the same run repeated in the same "
                 "process, i.e. numba compiling each function at its first call) and then with the cache that run "
