@@ -81,8 +81,8 @@ def add_parser(sub) -> None:
 
 def _fit_limit(text: str) -> tuple[str | None, float]:
     """--fit-limit's value: (engine glob or None for every engine, CPU seconds)."""
-    engine, _, seconds = text.rpartition("=")
-    if _ and not engine:
+    engine, equals, seconds = text.rpartition("=")
+    if equals and not engine:
         raise argparse.ArgumentTypeError(f"{text!r}: give an engine name or glob before '=' (ENGINE=S)")
     return (engine or None), options.positive_float(seconds)
 
@@ -360,9 +360,10 @@ def _fit_text(args, do_fit) -> str:
 
 def _limits_text(limits: list[tuple[str | None, float]]) -> str:
     """--fit-limit in words: 'S CPU s' and the engines given budgets of their own."""
+    plain = [seconds for glob, seconds in limits if glob is None]
     own = {glob: seconds for glob, seconds in limits if glob is not None}
-    text = f"{fit_limit('', [(g, s) for g, s in limits if g is None]):g} CPU s"
-    return text + "".join(f" ({glob}: {seconds:g} CPU s)" for glob, seconds in own.items())
+    return f"{plain[-1] if plain else FIT_LIMIT:g} CPU s" + "".join(
+        f" ({glob}: {seconds:g} CPU s)" for glob, seconds in own.items())
 
 
 def _noise_text(noise: pd.DataFrame, n: int, tilt: float) -> str:

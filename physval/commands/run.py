@@ -127,8 +127,8 @@ def run(args) -> int:
     engine_wide = {}
     from physval.core.session import Execution
     from physval.readings import effective, laws
-    # the engines users run, with the reference at its default formulation; the slow
-    # slower formulations (Adapter.slow) are read when named
+    # the engines users run, with the reference at its default formulation; its other
+    # formulations (Adapter.slow) are read when named
     wide = engines if args.engines is not None else [e for e in engines if e in options.fast_engines(ctx)]
     for name in readings:
         say(f"engine-wide reading: {name} (cached per engine version)")
