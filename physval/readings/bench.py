@@ -7,9 +7,9 @@ machine is noisy; absolute times are for orientation only). Never a pass/fail te
   `Simulation.step()`, as a ratio;
 - `step`: wall time per step of the same scenes on every engine, as ratios to MuJoCo's
   (a 5-box stack and a 55-box, 10-layer pyramid);
-- `compile`: the reference formulations' numba compilation: each formulation's first step
-  in a fresh worker process with an empty numba cache (cold: compiling) and again with that
-  cache filled (cached: loading), beside its later steps compiled and uncompiled;
+- `compile`: the reference formulations' numba compilation: each formulation's run in a
+  fresh worker process with an empty numba cache (cold: compiling) and again with that
+  cache filled (cached: loading), beside its step compiled and uncompiled;
 - `sweep-workers`: the same small sweep with 1 and with 2 local workers (throughput ratio);
 - `pgs`: the reference's projected Gauss-Seidel, cost of one sweep against the number of
   contacts (doubling the contacts should at most about double the time);
@@ -218,10 +218,11 @@ class StepTimes(Probe):
 
 
 def compile_cost(engines: list[str], ctx: Context, execution: Execution) -> pd.DataFrame:
-    """Per reference formulation in `engines`: its first step in a fresh worker process
-    (spawned, so nothing is compiled or imported beforehand) with an empty numba cache
-    (cold), then again with the cache that run filled (cached), and the mean of its later
-    steps compiled and with NUMBA_DISABLE_JIT=1 (the same code as Python)."""
+    """Per reference formulation in `engines`: one run in a fresh worker process (spawned,
+    so nothing is compiled or imported beforehand) with an empty numba cache (cold), then
+    one with the cache that run filled (cached), each less the same run repeated in its
+    process (StepTimes); and the repeated run's mean step compiled and with
+    NUMBA_DISABLE_JIT=1 (the same code as Python)."""
     import os
     import tempfile
     resolver = ctx.resolver()
@@ -243,7 +244,10 @@ def compile_cost(engines: list[str], ctx: Context, execution: Execution) -> pd.D
                                    label=f"bench compile {e} {label}")
                 finally:
                     for k, v in saved.items():
-                        os.environ.pop(k) if v is None else os.environ.__setitem__(k, v)
+                        if v is None:
+                            del os.environ[k]
+                        else:
+                            os.environ[k] = v
                 first = (res.rows.get(job.key) or [{}])[0]
                 if label == "plain Python":
                     row["plain Python ms/step"] = float(first.get("step_s") or math.nan) * 1e3
