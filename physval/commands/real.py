@@ -91,11 +91,13 @@ def fit_limit(engine: str, limits: list[tuple[str | None, float]]) -> float:
     """The fit budget of `engine`: the last ENGINE=S whose glob matches it, else the last
     plain S, else FIT_LIMIT."""
     from fnmatch import fnmatchcase
-    for pattern in (lambda glob: glob is not None and fnmatchcase(engine, glob), lambda glob: glob is None):
-        chosen = [seconds for glob, seconds in limits if pattern(glob)]
-        if chosen:
-            return chosen[-1]
-    return FIT_LIMIT
+    own = [seconds for glob, seconds in limits if glob is not None and fnmatchcase(engine, glob)]
+    return (own or _plain(limits))[-1]
+
+
+def _plain(limits: list[tuple[str | None, float]]) -> list[float]:
+    """The plain --fit-limit values given, or the default."""
+    return [seconds for glob, seconds in limits if glob is None] or [FIT_LIMIT]
 
 
 def _fit_plan(engine: str, nominal_rows: list[dict], train: list[int], args, ctx) -> tuple[str, list[int], int]:
@@ -360,9 +362,8 @@ def _fit_text(args, do_fit) -> str:
 
 def _limits_text(limits: list[tuple[str | None, float]]) -> str:
     """--fit-limit in words: 'S CPU s' and the engines given budgets of their own."""
-    plain = [seconds for glob, seconds in limits if glob is None]
     own = {glob: seconds for glob, seconds in limits if glob is not None}
-    return f"{plain[-1] if plain else FIT_LIMIT:g} CPU s" + "".join(
+    return f"{_plain(limits)[-1]:g} CPU s" + "".join(
         f" ({glob}: {seconds:g} CPU s)" for glob, seconds in own.items())
 
 

@@ -198,6 +198,8 @@ STEP_BASELINE = "mujoco"
 # the scene each formulation is timed on: the 5-box stack, else (a formulation without
 # friction or impulses) the first Newton's cradle variant it represents
 COMPILE_SCENES = (("robustness_stacks", {"structure": "stack", "n": 5, "dim": 3, "T": 0.1}), ("newtons_cradle", None))
+
+
 class StepTimes(Probe):
     """The run's stepping time, then the same scene rebuilt and stepped again in the same
     process. In a fresh process numba compiles (or loads from its cache) a function at its
@@ -223,7 +225,6 @@ def compile_cost(engines: list[str], ctx: Context, execution: Execution) -> pd.D
     one with the cache that run filled (cached), each less the same run repeated in its
     process (StepTimes); and the repeated run's mean step compiled and with
     NUMBA_DISABLE_JIT=1 (the same code as Python)."""
-    import os
     import tempfile
     resolver = ctx.resolver()
     out = []
@@ -233,32 +234,25 @@ def compile_cost(engines: list[str], ctx: Context, execution: Execution) -> pd.D
         job = _compile_job(e, resolver.adapter(e), resolver)
         if job is None:
             continue
-        row = {"formulation": e, "scene": job.variant.test_id}
         with tempfile.TemporaryDirectory(prefix="physval-numba-") as cache:
-            for label, env in (("cold", {"NUMBA_CACHE_DIR": cache}), ("cached", {"NUMBA_CACHE_DIR": cache}),
-                               ("plain Python", {"NUMBA_DISABLE_JIT": "1"})):
-                saved = {k: os.environ.get(k) for k in env}
-                os.environ.update(env)
-                try:
-                    res = run_jobs([job], ctx, 1, None, execution.job_timeout, "spawn", progress=False,
-                                   label=f"bench compile {e} {label}")
-                finally:
-                    for k, v in saved.items():
-                        if v is None:
-                            del os.environ[k]
-                        else:
-                            os.environ[k] = v
-                first = (res.rows.get(job.key) or [{}])[0]
-                if label == "plain Python":
-                    row["plain Python ms/step"] = float(first.get("step_s") or math.nan) * 1e3
-                else:
-                    row[{"cold": "compiling s", "cached": "loading the cache s"}[label]] = \
-                        float(first.get("extra_s") or math.nan)
-                    if label == "cached":
-                        row["compiled ms/step"] = float(first.get("step_s") or math.nan) * 1e3
-        row["plain / compiled"] = row["plain Python ms/step"] / row["compiled ms/step"]
-        out.append(row)
+            cold, cached = (_in_fresh_worker(job, ctx, execution, {"NUMBA_CACHE_DIR": cache}) for _ in range(2))
+        plain = _in_fresh_worker(job, ctx, execution, {"NUMBA_DISABLE_JIT": "1"})
+        out.append({"formulation": e, "scene": job.variant.test_id, "compiling s": cold["extra_s"],
+                    "loading the cache s": cached["extra_s"], "compiled ms/step": cached["step_s"] * 1e3,
+                    "plain Python ms/step": plain["step_s"] * 1e3,
+                    "plain / compiled": plain["step_s"] / cached["step_s"]})
     return pd.DataFrame(out)
+
+
+def _in_fresh_worker(job: Job, ctx: Context, execution: Execution, env: dict[str, str]) -> dict[str, float]:
+    """StepTimes' readings of `job` run in a newly spawned worker that sees `env` in its
+    environment (NaN where the job gave none)."""
+    import os
+    from unittest import mock
+    with mock.patch.dict(os.environ, env):  # the spawned worker inherits it; restored after
+        res = run_jobs([job], ctx, 1, None, execution.job_timeout, "spawn", progress=False, label="bench compile")
+    first = (res.rows.get(job.key) or [{}])[0]
+    return {k: float(first.get(k) or math.nan) for k in ("extra_s", "step_s")}
 
 
 def _compile_job(engine: str, adapter, resolver) -> Job | None:
