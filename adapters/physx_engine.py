@@ -62,21 +62,27 @@ DEFAULT_POSITION_ITERATIONS = 16  # PhysxRigidBodyAPI's solverPositionIterationC
 VELOCITY_ITERATIONS = 1
 COMBINE = "max"
 SOLVERS = ("TGS", "PGS")  # physxScene:solverType: temporal Gauss-Seidel (the default), projected Gauss-Seidel
+# PhysX's CPU dispatcher threads: 0 steps each scene on the calling thread. physval runs one
+# job a worker process, so its worker threads only wait on each other: measured on 12 scenes
+# of stacks, tumbles and drops (1000 steps each, a state read every step), 11.3 s with the
+# default pool against 3.9 s on the calling thread, every state bit for bit the same.
+CPU_THREADS = 0
 _STAGES = itertools.count(1)
 _loaded = None
 
 
 def _load():
-    """Import ovphysx and ovstage, switch PhysX to the CPU and register the PhysX USD
-    schemas (once a process)."""
+    """Import ovphysx and ovstage, switch PhysX to the CPU on CPU_THREADS worker threads and
+    register the PhysX USD schemas (once a process)."""
     global _loaded
     if _loaded is None:
         import ovphysx
         import ovstage
         from ovphysx import PhysX
         from ovphysx.samples.python_samples.schema_support import physx_schema_paths
-        from ovphysx.types import ObjectScope, SimObjectType
+        from ovphysx.types import GlobalConfigKey, ObjectScope, SimObjectType
         PhysX.set_cpu_mode(True)
+        ovphysx.set_global_config(GlobalConfigKey.NUM_THREADS, CPU_THREADS)
         ovstage.population.register_usd_schemas(
             [*[str(p) for p in physx_schema_paths()], str(ovphysx.newton_schema_root())])
         _loaded = (ovphysx, ovstage, PhysX, ObjectScope, SimObjectType)
@@ -141,6 +147,7 @@ class PhysXSimulation(Simulation):
                              "bounceThreshold": 0.0, "disableSleeping": True, "enableCCD": False,
                              "enableStabilization": False, "solverType": solver,
                              "enableGPUDynamics": False, "broadphaseType": "MBP"},
+            "numThreads": CPU_THREADS,
             "combineMode": {"friction": COMBINE, "restitution": COMBINE},
             "solverPositionIterationCount": self.iterations,
             "solverVelocityIterationCount": VELOCITY_ITERATIONS,
