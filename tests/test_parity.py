@@ -41,7 +41,7 @@ def test_parity_of_an_engine_with_itself_is_bad_input(tmp_path, capsys):
 
 def test_a_difference_is_counted_in_the_wider_tolerance_of_the_two():
     def row(engine, metric, measured, status="pass", kind="abs"):
-        return {"case": "f", "variant": "v", "engine": engine, "metric": metric, "status": status,
+        return {"case": "f", "variant": "v", "engine": engine, "engine_version": "1", "metric": metric, "status": status,
                 "measured": measured, "expected": 2.0, "tolerance": 0.1, "tolerance_kind": kind, "reason": ""}
     df = pd.DataFrame([row("a", "x", 2.0), {**row("b", "x", 2.05), "tolerance": 0.05}, row("a", "r", 2.0, kind="rel"),
                        row("b", "r", 2.1, kind="rel"), row("a", "u", 2.0), row("b", "u", float("nan"), "unsupported")])
@@ -57,11 +57,51 @@ def test_a_difference_is_counted_in_the_wider_tolerance_of_the_two():
 
 
 def test_a_verdict_differs_where_both_engines_ran_the_scene():
-    rows = [{"case": "f", "variant": "v", "engine": e, "metric": "x", "status": s, "measured": m, "expected": 2.0,
+    rows = [{"case": "f", "variant": "v", "engine": e, "engine_version": "1", "metric": "x", "status": s, "measured": m,
+             "expected": 2.0,
              "tolerance": 0.1, "tolerance_kind": "abs", "reason": ""}
             for e, s, m in (("a", "pass", 2.0), ("b", "fail", 2.5))]
     t = parity.checks(pd.DataFrame(rows), "a", "b").iloc[0]
     assert t.verdicts_differ and not t.one_engine_only and t.difference == pytest.approx(5.0)
+
+
+def test_the_findings_group_differing_verdicts_by_the_recorded_cause():
+    """Each verdict that differs is told once under the cause the deviating engine's deviation
+    file records (its measured suffix dropped), with the engine that passes; the parting
+    sentence names the first pair to part."""
+    def row(engine, variant, status, measured, reason=""):
+        return {"case": "f", "variant": variant, "engine": engine, "engine_version": "1", "metric": "x",
+                "status": status, "measured": measured, "expected": 1.0, "tolerance": 0.1, "tolerance_kind": "abs",
+                "reason": reason}
+    cause = "float32 heights: no arc is found [measured 0.3 m in the recorded band 0.2-0.4]"
+    rows = [row("a", v, "pass", 1.0) for v in ("v1", "v2", "v3")]
+    rows += [row("b", "v1", "deviation", 0.3, cause), row("b", "v2", "deviation", 0.35, cause), row("b", "v3", "pass", 1.0)]
+    table = parity.checks(pd.DataFrame(rows), "a", "b")
+    parts = pd.DataFrame([{"case": "f", "variant": "v2", "steps": 100, "parted_step": 7, "parted_time": 0.007,
+                           "first_to_part": "ball velocity[2]"},
+                          {"case": "f", "variant": "v1", "steps": 100, "parted_step": 3, "parted_time": 0.003,
+                           "first_to_part": "ball velocity[0]"},
+                          {"case": "f", "variant": "v3", "steps": 100}]).assign(parted_at=1e-3)
+    text, causes = parity.findings(table, parts)
+    assert "2 verdicts differ" in text and "2 checks differ by more than one tolerance" in text
+    assert "f[v1]:x, -7 tolerances" in text  # the largest move: 0.7 of a 0.1 tolerance
+    assert "2 of 3 trajectory pairs part" in text and "the first is f[v1], at step 3" in text
+    assert causes == ["f: 2 checks pass on a and deviate (known) on b; recorded cause: float32 heights: no arc is found"]
+
+
+def test_a_run_reports_the_parity_pairs_found_beside_it(tmp_path, monkeypatch):
+    """`physval parity` writes into reports/parity/ENGINE-PORT by default, and `physval run`
+    into reports/ reads every pair there into report.md and report.html."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["parity", "reference", "reference-pgs", "--cases", "central_impact[e=0.5,m=1:3]", "--workers", "1",
+                 "--quiet"]) == 0
+    assert (tmp_path / "reports/parity/reference-reference-pgs/parity.csv").is_file()
+    assert main(["run", "--engines", "reference", "--cases", "central_impact[e=0.5,m=1:3]", "--workers", "1",
+                 "--quiet"]) == 0
+    report = (tmp_path / "reports/report.md").read_text()
+    assert "## Implementation parity" in report and "**reference-pgs against reference.** Of " in report
+    assert "(parity/reference-reference-pgs/parity.md)" in report and (tmp_path / "reports/plots/parity.png").is_file()
+    assert "reference-pgs against reference" in (tmp_path / "reports/report.html").read_text()
 
 
 def test_the_harness_keeps_warps_kernel_cache_in_its_own_folder(monkeypatch, tmp_path):

@@ -9,9 +9,12 @@ from physval.commands import options
 
 EPILOG = """examples:
   physval parity mujoco mujoco-warp --cases central_impact resting_blocks
-  physval parity mujoco mujoco-warp --out reports/parity --workers 2
+  physval parity mujoco mujoco-warp --workers 2     (into reports/parity/mujoco-mujoco-warp)
 exit codes: 0 completed (differences are a result); 2 bad input; 130 interrupted (finished
 jobs kept in --out; the same command resumes)."""
+
+
+OUT = "reports/parity/ENGINE-PORT"  # the default --out: one folder a pair, where `physval run` reads it
 
 
 def add_parser(sub) -> None:
@@ -22,7 +25,8 @@ def add_parser(sub) -> None:
                     "trajectory, and report per family each check's difference (PORT minus ENGINE) in units of "
                     "the check's tolerance (at the narrower float width of the two), the verdicts that differ, and the step at which each pair of "
                     "trajectories parts (some state differs by more than --parted of the job's scale). Writes parity.md, parity.csv, parting.csv, the run's "
-                    "results.csv and trajectories/ into --out.")
+                    "results.csv and trajectories/ into --out; `physval run` puts each pair found in reports/parity/ "
+                    "into its report.")
     p.add_argument("engine", metavar="ENGINE", help="the original engine (e.g. mujoco)")
     p.add_argument("port", metavar="PORT", help="its port (e.g. mujoco-warp)")
     p.add_argument("--cases", nargs="+", metavar="SPEC",
@@ -39,7 +43,7 @@ def add_parser(sub) -> None:
     p.add_argument("--parted", type=options.positive_float, default=PARTED, metavar="FRACTION",
                    help=f"two trajectories part where a state differs by more than FRACTION of the job's scale "
                         f"(default {PARTED:g}: 1 mm on a scene of a metre, above float32 rounding)")
-    options.add_execution(p, "reports/parity")
+    options.add_execution(p, OUT)
 
 
 def run(args) -> int:
@@ -61,7 +65,8 @@ def run(args) -> int:
         options.engines_of(argparse.Namespace(engines=[name]), ctx)  # unknown or not installed: one line, exit 2
     if args.engine == args.port:
         raise options.UsageError(f"ENGINE and PORT are both {args.engine!r}: name two engines")
-    out = options.output_folder(args.out)
+    out = options.output_folder(OUT.replace("ENGINE-PORT", f"{args.engine}-{args.port}") if args.out == OUT
+                                else args.out)
     options.check_scheduler(args.scheduler)
     traj = out / "trajectories"
     jobs, _ = plan(chosen, engines, resolver, True, on_demand=args.on_demand)

@@ -16,21 +16,29 @@ rounding of the battery's runs does not reach, so a pair that parts there behave
 differently, not merely rounds differently.
 
 `checks` joins a run's rows of the two engines, `parting` their saved trajectories;
-`families` sums both up per family; `write` writes parity.md, parity.csv (every check) and parting.csv (every
-job).
+`families` sums both up per family; `findings` says what the two readings show in words (the
+verdicts that differ grouped by the cause recorded in the deviating engine's deviation file,
+where the trajectories part first); `write` writes parity.md, parity.csv (every check, with
+both engines' names and releases) and parting.csv (every job) into one folder a pair
+(reports/parity/ENGINE-PORT). `beside` reads those folders back beside a run, and `section`
+is the run report's "Implementation parity": each pair's findings, a table and a plot.
 """
 from __future__ import annotations
 
 from pathlib import Path
 
+import re
+from dataclasses import dataclass
+
 import numpy as np
 import pandas as pd
 
 from physval.readings import divergence
-from physval.reportkit import fmt, heading, md_table, write_atomic, write_csv
+from physval.reportkit import fmt, heading, md_table, pyplot, save_figure, write_atomic, write_csv
 
 JUDGED = ("pass", "fail", "deviation")
 SHOWN = 25  # rows of the largest-moves table (every check is in parity.csv)
+CAUSE_CHARS = 150  # a recorded cause is quoted up to this many characters (its whole text is in parity.csv)
 
 
 PARTED = 1e-3  # of the job's scales (the module's docstring)
@@ -47,11 +55,14 @@ def checks(rows: pd.DataFrame, a: str, b: str) -> pd.DataFrame:
     """One row per check run on both engines: both statuses and values, and the port's
     difference in the check's tolerance at the narrower float width (`difference`, NaN where
     either was not judged)."""
-    keep = ["case", "variant", "metric", "status", "measured", "expected", "tolerance", "tolerance_kind", "reason"]
+    keep = ["engine", "engine_version", "case", "variant", "metric", "status", "measured", "expected", "tolerance",
+            "tolerance_kind", "reason"]
     left = rows[rows.engine == a][keep].assign(tol=lambda d: _tolerance(d))
     right = rows[rows.engine == b][keep].assign(tol=lambda d: _tolerance(d)).drop(columns=["expected",
                                                                                           "tolerance_kind"])
     df = left.merge(right, on=["case", "variant", "metric"], suffixes=("_a", "_b"))
+    df = df[["engine_a", "engine_version_a", "engine_b", "engine_version_b"]
+            + [c for c in df.columns if not c.startswith("engine")]]
     df["tol"] = np.fmax(df.tol_a, df.tol_b)  # at the narrower float width (NaN only where both are)
     df = df.rename(columns={"tolerance_a": "tolerance"}).drop(columns=["tol_a", "tol_b", "tolerance_b"])
     both = df.status_a.isin(JUDGED) & df.status_b.isin(JUDGED)
@@ -66,7 +77,8 @@ def checks(rows: pd.DataFrame, a: str, b: str) -> pd.DataFrame:
 
 
 def parting(jobs: list[tuple[str, str, Path, Path]], threshold: float) -> pd.DataFrame:
-    """(case, variant, trajectory of A, of B) -> where each pair parts (divergence.parting)."""
+    """(case, variant, trajectory of A, of B) -> where each pair parts (divergence.parting),
+    with the threshold it parts at (`parted_at`, of the job's scale)."""
     out = []
     for case, variant, path_a, path_b in jobs:
         if path_a.is_file() and path_b.is_file():
@@ -74,7 +86,7 @@ def parting(jobs: list[tuple[str, str, Path, Path]], threshold: float) -> pd.Dat
         else:
             out.append({"case": case, "variant": variant, "note": "no trajectory from both engines"})
     return pd.DataFrame(out, columns=["case", "variant", "job", "steps", "parted_step", "parted_time",
-                                      "first_to_part", "body", "column", "largest", "note"])
+                                      "first_to_part", "body", "column", "largest", "note"]).assign(parted_at=threshold)
 
 
 def families(table: pd.DataFrame, parts: pd.DataFrame) -> pd.DataFrame:
@@ -100,26 +112,91 @@ def families(table: pd.DataFrame, parts: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(out)
 
 
+def _cause(reason) -> str:
+    """A deviation file's recorded cause without the measured value the verdict appends,
+    cut to CAUSE_CHARS at a word."""
+    text = re.sub(r"\s*\[measured.*$", "", reason, flags=re.S).strip() if isinstance(reason, str) else ""
+    if not text:
+        return "no recorded cause"
+    return text if len(text) <= CAUSE_CHARS else text[:CAUSE_CHARS].rsplit(" ", 1)[0] + " ..."
+
+
+def differing(table: pd.DataFrame) -> pd.DataFrame:
+    """The verdicts that differ, grouped: which engine leaves `pass` (the port where both
+    left it), with what status and for what recorded cause; how many checks, in which families."""
+    rows = []
+    for r in table[table.verdicts_differ].itertuples():
+        port_left = r.status_b != "pass"
+        rows.append({"engine": r.engine_b if port_left else r.engine_a,
+                     "other": r.engine_a if port_left else r.engine_b,
+                     "status": r.status_b if port_left else r.status_a,
+                     "cause": _cause(r.reason_b if port_left else r.reason_a), "family": r.case})
+    if not rows:
+        return pd.DataFrame(columns=["engine", "other", "status", "cause", "checks", "families"])
+    return (pd.DataFrame(rows).groupby(["engine", "other", "status", "cause"], sort=False)
+            .agg(checks=("family", "size"), families=("family", lambda f: ", ".join(sorted(set(f)))))
+            .reset_index().sort_values("checks", ascending=False, kind="stable"))
+
+
+def findings(table: pd.DataFrame, parts: pd.DataFrame) -> tuple[str, list[str]]:
+    """What a pair's parity shows, in words: one paragraph (how far the checks move, the
+    largest move, where the trajectories part) and one sentence per cause of the verdicts
+    that differ."""
+    a, b = table.engine_a.iloc[0], table.engine_b.iloc[0]
+    d = table.difference.abs()
+    judged = int(d.notna().sum())
+    text = (f"Of {len(table)} checks run on both, {judged} were judged on both: the median difference is "
+            f"{fmt(float(d.median())) if judged else '-'} tolerances, {int((d > 1).sum())} checks differ by more than one "
+            f"tolerance and {int(table.verdicts_differ.sum())} verdicts differ")
+    if table.one_engine_only.any():
+        text += f" ({int(table.one_engine_only.sum())} more checks are of scenes only one of the two can represent)"
+    text += "."
+    if judged:
+        top = table.loc[d.idxmax()]
+        text += (f" The largest difference is {top.case}[{top.variant}]:{top.metric}, {fmt(float(top.difference))} "
+                 f"tolerances ({a} {fmt(float(top.measured_a))}, {b} {fmt(float(top.measured_b))}, expected "
+                 f"{fmt(float(top.expected))}).")
+    ran = parts[parts.steps.notna()]
+    parted = ran[ran.parted_step.notna()].sort_values("parted_time", kind="stable")
+    at = fmt(float(parts.parted_at.iloc[0])) if len(parts) else fmt(PARTED)
+    if len(parted):
+        first = parted.iloc[0]
+        whole = sorted(c for c, g in ran.groupby("case") if g.parted_step.notna().all())
+        text += (f" {len(parted)} of {len(ran)} trajectory pairs part (a state differs by more than {at} of the job's "
+                 f"scale); the first is {first.case}[{first.variant}], at step {int(first.parted_step)} "
+                 f"({fmt(float(first.parted_time))} s, {first.first_to_part} first)"
+                 + (f"; every pair of {', '.join(whole)} parts" if whole else "") + ".")
+    elif len(ran):
+        text += f" None of the {len(ran)} trajectory pairs part (by more than {at} of the job's scale)."
+    verbs = {"deviation": "deviate{s} (known)", "fail": "fail{s}"}
+    causes = []
+    for g in differing(table).itertuples():
+        one = g.checks == 1
+        verb = verbs.get(g.status, "are {status}" if not one else "is {status}").format(s="s" if one else "",
+                                                                                         status=g.status)
+        causes.append(f"{g.families}: {g.checks} check{'' if one else 's'} pass{'es' if one else ''} on {g.other} "
+                      f"and {verb} on {g.engine}; recorded cause: {g.cause}")
+    return text, causes
+
+
 def write(folder: Path, table: pd.DataFrame, parts: pd.DataFrame, a: str, b: str, threshold: float,
           command: str = "", versions: dict | None = None) -> list[Path]:
     """parity.md, parity.csv and parting.csv in `folder`."""
     fams = families(table, parts)
     d = table.difference.abs()
-    judged = int(d.notna().sum())
     parted = parts[parts.parted_step.notna()]
     lines = heading(f"Implementation parity: {a} and {b}", command)
     if versions:
         lines += ["Releases: " + "; ".join(f"{e} {v}" for e, v in versions.items()), ""]
+    text, causes = findings(table, parts) if len(table) else ("No check ran on both engines.", [])
     lines += [
         f"The same scenes on both engines. Each check's difference is {b}'s value minus {a}'s in units of "
         f"the check's tolerance (the wider of the two engines', at the narrower float width); a trajectory pair parts at the first step where some state differs "
-        f"by more than {threshold:.2g} of the job's scale (physval.readings.parity).", "",
-        f"{len(table)} checks on both engines, {judged} judged on both: median |difference| "
-        f"{fmt(float(d.median())) if judged else '-'} tolerances, {int((d > 1).sum())} differ by more than one "
-        f"tolerance, {int(table.verdicts_differ.sum())} verdicts differ"
-        + (f" ({int(table.one_engine_only.sum())} more checks are of scenes only one engine can represent)"
-           if table.one_engine_only.any() else "") + ". "
-        f"{int(parts.steps.notna().sum())} trajectory pairs: {len(parted)} part.", "",
+        f"by more than {threshold:.2g} of the job's scale (physval.readings.parity).", "", text, ""]
+    if causes:
+        lines += ["The verdicts that differ, by the cause recorded in the deviating engine's deviation file:", ""]
+        lines += [f"- {c}" for c in causes] + [""]
+    lines += [
         "## Per family", "", md_table(fams.map(fmt) if hasattr(fams, "map") else fams.applymap(fmt)), "",
         "## The largest differences", ""]
     top = table[d.notna()].assign(size=d).sort_values("size", ascending=False).head(SHOWN)
@@ -142,3 +219,85 @@ def write(folder: Path, table: pd.DataFrame, parts: pd.DataFrame, a: str, b: str
     write_csv(table, folder / "parity.csv")
     write_csv(parts, folder / "parting.csv")
     return [folder / "parity.md", folder / "parity.csv", folder / "parting.csv"]
+
+
+PARITY_DIR = "parity"  # beside a run's report: one folder a pair, the parity command's default
+LEGEND = ("An engine and its port on the same scenes (`physval parity ENGINE PORT`, read from "
+          f"{PARITY_DIR}/ beside this run): each check's difference, the port's value minus the original's, in "
+          "units of the check's tolerance; the verdicts that differ, with the cause recorded in the deviating "
+          "engine's deviation file; and where the two trajectories of a job part. Each pair's page has every family.")
+
+
+@dataclass
+class Pair:
+    """One pair's parity reading found beside a run: its folder (relative to the run's), both
+    engines' names and releases, every check (`checks`) and every trajectory pair (`parting`)."""
+    folder: Path
+    a: str
+    b: str
+    versions: dict[str, str]
+    table: pd.DataFrame
+    parts: pd.DataFrame
+
+
+def beside(out: Path) -> list[Pair]:
+    """The parity readings in parity/*/ under a run's folder (readings written before the
+    engines' names were kept in parity.csv are passed over)."""
+    pairs = []
+    for file in sorted((Path(out) / PARITY_DIR).glob("*/parity.csv")):
+        table = pd.read_csv(file)
+        if "engine_a" not in table.columns or not len(table):
+            continue
+        parts_file = file.with_name("parting.csv")
+        parts = pd.read_csv(parts_file) if parts_file.is_file() else parting([], PARTED)
+        a, b = table.engine_a.iloc[0], table.engine_b.iloc[0]
+        pairs.append(Pair(file.parent.relative_to(out), a, b, {a: str(table.engine_version_a.iloc[0]),
+                                                                b: str(table.engine_version_b.iloc[0])}, table, parts))
+    return pairs
+
+
+def overview(pairs: list[Pair]) -> pd.DataFrame:
+    """One row a pair: its checks and trajectories in numbers."""
+    rows = []
+    for p in pairs:
+        d, ran = p.table.difference.abs(), p.parts[p.parts.steps.notna()]
+        rows.append({"port": p.b, "original": p.a, "releases": f"{p.versions[p.b]}; {p.versions[p.a]}",
+                     "judged on both": int(d.notna().sum()), "median |diff| (tol)": fmt(float(d.median())),
+                     "beyond 1 tol": int((d > 1).sum()), "verdicts differ": int(p.table.verdicts_differ.sum()),
+                     "one engine only": int(p.table.one_engine_only.sum()),
+                     "trajectories part": f"{int(ran.parted_step.notna().sum())} of {len(ran)}",
+                     "details": (p.folder / "parity.md").as_posix()})
+    return pd.DataFrame(rows)
+
+
+def plot(pairs: list[Pair], path: Path) -> None:
+    """Each pair's share of checks whose difference is within x tolerances (log x)."""
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(7.5, 4.2), layout="constrained")
+    for p in pairs:
+        d = np.sort(p.table.difference.abs().dropna().to_numpy())
+        if len(d):
+            ax.step(np.clip(d, 1e-8, None), np.arange(1, len(d) + 1) / len(d), where="post",
+                    label=f"{p.b} against {p.a} ({len(d)} checks)")
+    ax.axvline(1.0, color="grey", ls="--", lw=1)
+    ax.set_xscale("log")
+    ax.set_xlabel("|port's value - original's| in the check's tolerances (1e-8 and below drawn at 1e-8)")
+    ax.set_ylabel("share of checks judged on both")
+    ax.set_title("Implementation parity: how far the port moves each check", fontsize=10)
+    ax.legend(fontsize=8, loc="lower right")
+    save_figure(fig, path)
+
+
+def section(pairs: list[Pair], out: Path) -> str:
+    """The run report's "Implementation parity": the pairs' numbers, a plot and each pair's
+    findings in words."""
+    plot(pairs, Path(out) / "plots" / "parity.png")
+    table = overview(pairs)
+    table["details"] = [f"[{d}]({d})" for d in table.details]
+    lines = ["## Implementation parity", "", LEGEND, "", md_table(table), "", "![parity](plots/parity.png)", ""]
+    for p in pairs:
+        text, causes = findings(p.table, p.parts)
+        lines += [f"**{p.b} against {p.a}.** {text}", ""]
+        if causes:
+            lines += ["Where the verdicts differ:", ""] + [f"- {c}" for c in causes] + [""]
+    return "\n".join(lines)

@@ -297,6 +297,9 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
     agree = agreement.measure(df, {n for n, f in families.items() if f.cross_engine})
     if len(agree):
         sections.append(agreement.section(agree, out))
+    if beside is not None and beside.parity:
+        from physval.readings import parity
+        sections.append(parity.section(beside.parity, out))
     if "laws" in engine_wide:
         sections.append(laws.section(engine_wide["laws"], out))
     family_index, family_pages = family_sections(df, families, plots)

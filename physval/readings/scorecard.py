@@ -81,17 +81,20 @@ class Companions:
     """The readings of other commands found beside a run: `physval sweep`'s summary (case,
     variant, engine, reach_cost_us_per_sim_s), `physval stress`'s determinism (engine,
     status) and `physval real`'s summary (engine, param_set, corner_mean_median), each with
-    the file it came from (a sentence of the legend)."""
+    the file it came from (a sentence of the legend); and `physval parity`'s pairs (a report
+    section of their own, not in the scorecard)."""
     sweep: pd.DataFrame | None = None
     determinism: pd.DataFrame | None = None
     real: pd.DataFrame | None = None
     sources: list[str] = field(default_factory=list)
+    parity: list = field(default_factory=list)
 
 
 def companions(out: Path) -> Companions:
-    """The sweep, stress and real readings in sweep/, stress/ and real/ under `out` (the
-    commands' default folders beside a run's), whichever exist."""
-    found = Companions()
+    """The sweep, stress, real and parity readings in sweep/, stress/, real/ and parity/ under
+    `out` (the commands' default folders beside a run's), whichever exist."""
+    from physval.readings import parity
+    found = Companions(parity=parity.beside(out))
     for attr, path, command in (("sweep", "sweep/sweep_summary.csv", "sweep"),
                                 ("determinism", "stress/determinism.csv", "stress"),
                                 ("real", "real/real_summary.csv", "real")):

@@ -1,6 +1,6 @@
 """report.html: a run's report as a static site beside report.md, opened from disk (no
 server, no network): the index (scorecard, summary, families, engines, failures,
-environment), one page per family (what it checks, where its closed form comes from, every
+implementation parity, environment), one page per family (what it checks, where its closed form comes from, every
 tolerance with its reason, its heat map, the measured values) and one page per engine (its
 scorecard row, known deviations with cause and band, failures, unsupported runs, knobs).
 Every table sorts (click a heading) and the long ones filter (a box above them); a few
@@ -83,6 +83,20 @@ def scorecard_table(card: pd.DataFrame, engine_href) -> dict:
     return {"id": "scorecard", "columns": ["engine"] + shown, "rows": rows, "filter": False}
 
 
+def parity_block(pairs: list, plot: str) -> dict | None:
+    """The index's "Implementation parity": the pairs' table (each linking its parity.md), the
+    plot and each pair's findings (physval.readings.parity)."""
+    if not pairs:
+        return None
+    from physval.readings import parity
+    found = []
+    for p in pairs:
+        text, causes = parity.findings(p.table, p.parts)
+        found.append({"title": f"{p.b} against {p.a}", "text": text, "causes": causes})
+    return {"legend": parity.LEGEND.replace("`", ""), "plot": plot, "pairs": found,
+            "table": table("parity", parity.overview(pairs), links={"details": lambda d: d})}
+
+
 def problems(df: pd.DataFrame) -> pd.DataFrame:
     bad = df[df.status.isin(["fail", "unstable", "error"])]
     return pd.DataFrame({"status": bad.status, "engine": bad.engine, "family": bad.case, "variant": bad.variant,
@@ -145,6 +159,7 @@ def write(out: Path, df: pd.DataFrame, families: dict, command: str = "", interr
         families=table("families", index, links={"family": family_href("")}),
         engines=table("engines", per_engine, links={"engine": engine_href("")}),
         problems=table("problems", problems(df), links={"family": family_href(""), "engine": engine_href("")}),
+        parity=parity_block(beside.parity if beside else [], plot("parity", "")),
         environment=table("environment", environment(engine_versions(df))))}
 
     root = "../../"
