@@ -120,3 +120,12 @@ def test_the_run_report_shows_the_readings_beside_it(tmp_path):
     assert "0.25, rank 2/2" in card and "**C** 1/2 repeat" in card
     html = (out / "report.html").read_text()
     assert "0.25, rank 2/2" in html
+
+
+def test_the_worst_of_a_zero_tolerance_check_is_its_value_not_infinity():
+    """A count or a yes/no allows no error (tolerance 0, error in tolerances infinite): the
+    cell names the check's value against the one asked instead of 'inf tol'."""
+    part = _checks(("pass", 0.5), ("deviation", math.inf), ("deviation", 40.0)).assign(
+        metric=["v1_after", "slides", "v1_after"], measured=[1.0, 1.0, 2.0], expected=[1.0, 0.0, 1.0])
+    assert scorecard.worst_of(part) == "worst slides 1 for 0"
+    assert scorecard.worst_of(part.iloc[[0, 2]]) == "worst 40 tol"

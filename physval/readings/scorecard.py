@@ -159,6 +159,7 @@ def measure(df: pd.DataFrame, beside: Companions | None = None) -> pd.DataFrame:
                          "deviations": int((part.status == "deviation").sum()),
                          "failures": int(part.status.isin(["fail", "unstable", "error"]).sum()),
                          "worst": float(part.over_tol.max()) if len(part) else float("nan"),
+                         "worst_text": worst_of(part),
                          "families": ", ".join(families),
                          "cost": reach_cost(beside.sweep, engine, families) if effect != INTEGRATION else "",
                          "text": ""})
@@ -167,9 +168,22 @@ def measure(df: pd.DataFrame, beside: Companions | None = None) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def worst_of(part: pd.DataFrame) -> str:
+    """The worst error in tolerances; where that is a check that allows no error at all (a
+    count or a yes/no, tolerance 0: its error in tolerances is infinite), that check's value
+    against the one asked instead."""
+    if not len(part):
+        return ""
+    worst = part.loc[part.over_tol.idxmax()]
+    if np.isinf(worst.over_tol):
+        return f"worst {worst.metric} {fmt(worst.measured)} for {fmt(worst.expected)}"
+    return f"worst {fmt(worst.over_tol)} tol"
+
+
 def _companion(engine: str, effect: str, grade_: str, text: str) -> dict:
     return {"engine": engine, "effect": effect, "grade": grade_ if text else "-", "within": 0, "judged": 0,
-            "deviations": 0, "failures": 0, "worst": float("nan"), "families": "", "cost": "", "text": text}
+            "deviations": 0, "failures": 0, "worst": float("nan"), "worst_text": "", "families": "", "cost": "",
+            "text": text}
 
 
 def _determinism(engine: str, det: pd.DataFrame | None) -> dict:
@@ -188,7 +202,7 @@ def cell(r, bold: bool = True) -> str:
     g = f"**{r.grade}**" if bold and r.grade else r.grade
     if r.text:
         return f"{g} {r.text}".strip()
-    text = f"{g} {r.within}/{r.judged}" + (f", worst {fmt(r.worst)} tol" if r.grade != "A" else "")
+    text = f"{g} {r.within}/{r.judged}" + (f", {r.worst_text}" if r.grade != "A" else "")
     return text + (f"; {r.cost}" if r.cost else "")
 
 
@@ -197,7 +211,8 @@ def legend(beside: Companions | None = None) -> str:
     text = ("Each cell grades the checks of one physical effect on one engine: **A** every check within its "
             "tolerance; **B** no failure, the known deviations within 10 tolerances; **C** no failure, a known "
             "deviation beyond 10 tolerances; **F** a check failed, blew up or raised; - nothing of it ran. Beside "
-            "the grade: checks within tolerance / checks judged, and the worst error in tolerances. Checks whose "
+            "the grade: checks within tolerance / checks judged, and the worst error in tolerances (where the worst is a "
+            "check that allows no error, a count or a yes/no, its value against the one asked). Checks whose "
             "tolerance is an integration scheme's error bound (a second-order rotation step) measure the "
             "engine's integrator, not its physics: they are graded under *integration order* only.")
     if beside is not None and beside.sources:
@@ -248,12 +263,13 @@ def by_family(df: pd.DataFrame) -> str:
             part = mine[mine.case == fam]
             g = grade(part)
             line[fam] = "-" if g == "-" else f"**{g}** {int((part.status == 'pass').sum())}/{len(part)}" + (
-                f", worst {fmt(part.over_tol.max())} tol" if g != "A" else "")
+                f", {worst_of(part)}" if g != "A" else "")
         rows.append(line)
     return "\n".join([
         "## Scorecard", "",
         "Each cell grades one family's checks on one engine: **A** every check within its tolerance; **B** no "
         "failure, the known deviations within 10 tolerances; **C** no failure, a known deviation beyond 10 "
         "tolerances; **F** a check failed, blew up or raised; - nothing of it ran. Beside the grade: checks within "
-        "tolerance / checks judged, and the worst error in tolerances.", "",
+        "tolerance / checks judged, and the worst error in tolerances (where the worst is a check that allows no "
+        "error, a count or a yes/no, its value against the one asked).", "",
         md_table(pd.DataFrame(rows)), ""])
