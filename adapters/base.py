@@ -268,8 +268,16 @@ class Adapter(ABC):
 
     def on_demand(self, scene: Scene) -> str | None:
         """Why a scene takes this engine too long for a default run (minutes), or None:
-        such runs happen only when the case or the engine is named."""
+        such runs happen only when asked (--on-demand), unless `deferred` keeps them."""
         return None
+
+    def deferred(self, scene: Scene, tags: frozenset[str]) -> str | None:
+        """Why the run of `scene` (of a family with `tags`) waits for --on-demand, or None:
+        the engine declares it on demand, and the family is none of the engine's default
+        families (`default_tags`), which every run takes."""
+        if self.default_tags is not None and tags & self.default_tags:
+            return None
+        return self.on_demand(scene)
 
     def options_in_force(self, settings: Settings) -> dict[str, float]:
         """Every tunable's value for this build: its default unless `settings.options`

@@ -226,24 +226,27 @@ class NewtonAdapter(Adapter):
         # the MuJoCo adapter's contact time scale n (its solref and solreffriction)
         self.tunables = dict(MuJoCoAdapter.tunables)
 
-    # Warp launches a dozen kernels or more a step on the CPU: for one body 5.5-9 ms a step
-    # with XPBD, 1.4 ms semi-implicit, 3.9 ms Featherstone, 2.2 ms VBD (measured on 2 shared
-    # cores; a 5-box stack: XPBD 1.9 ms, MuJoCo 14 us), and each solver compiles 10-60 s on
-    # first use (kept in the kernel cache, adapters/warp_support.py). SolverMuJoCo, its step
-    # replayed as a Warp graph: 53 us a step for a ball, 0.40 ms for a 5-box stack (MuJoCo Warp
-    # alone: 27 us, 0.29 ms); 84 s to build the first scene with an empty kernel cache, 9.5 s
-    # with a full one (Warp's and Newton's start), 0.7 s each scene after. Newton is left out of the default sweep, stress
-    # battery, benchmarks and readings (`slow`), and every run of it is on demand: it runs
-    # when named with --on-demand (physval run) or in `pytest -m slow`, so the test suite
-    # stays within its 10 minutes on a machine where Newton is installed.
+    # Warp launches a dozen kernels or more a step on the CPU: the median step over the core
+    # families' runs (quiet 2 cores) is 1.8 ms with XPBD, 0.44 ms semi-implicit, 0.66 ms
+    # Featherstone, 2.3 ms VBD and 23 us for SolverMuJoCo (its step replayed as a Warp graph;
+    # MuJoCo C 14 us on a 5-box stack), and each solver compiles 10-60 s on first use (kept in
+    # the kernel cache, adapters/warp_support.py; SolverMuJoCo 84 s to build its first scene
+    # with an empty cache, 9.5 s with a full one, 0.7 s each scene after). So every default run
+    # takes Newton's conformance battery and core families (375 runs of the five
+    # configurations: 230 s on 2 cores with a warm kernel cache), the other families run on
+    # demand (--on-demand), and Newton is left out of the default sweep, stress battery,
+    # benchmarks and readings (`slow`), which repeat each scene many times. The test suite runs
+    # Newton with `pytest -m slow` (tests/conftest.py), so it stays within its 10 minutes on a
+    # machine where Newton is installed.
+    default_tags = frozenset({"core", "conformance"})
     slow = True
 
     def on_demand(self, scene: Scene) -> str | None:
         if self.solver == "mujoco":
-            return ("Newton's SolverMuJoCo takes 0.05-0.4 ms a step on the CPU, 10 s to start a process and "
-                    "about 80 s of compiling on first use")
-        return ("Newton takes 1.4-9 ms a step on the CPU (Warp kernel launches) and compiles each solver "
-                "10-60 s on first use")
+            return ("Newton's SolverMuJoCo takes 10 s to start a process and about 80 s of compiling on first "
+                    "use; beyond the core families its runs are on demand")
+        return ("Newton takes 0.4-2.3 ms a step on the CPU (Warp kernel launches) and compiles each solver "
+                "10-60 s on first use; beyond the core families its runs are on demand")
 
     def version(self) -> str:
         if self.solver == "mujoco":  # MuJoCo Warp steps the model: its release is part of the engine's

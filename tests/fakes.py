@@ -89,6 +89,16 @@ class OnDemandFake(FakeAdapter):
         return "a stand-in for an engine that takes minutes a run"
 
 
+class CoreOnDemandFake(OnDemandFake):
+    """A stand-in engine slow beyond its core families, `fake-core` (`--adapter
+    tests/fakes.py:CoreOnDemandFake`): as Newton's solvers, the core families run in every
+    run, the others only with --on-demand."""
+    default_tags = frozenset({"core"})
+
+    def __init__(self):
+        FakeAdapter.__init__(self, "fake-core")
+
+
 class CrashingFake(FakeAdapter):
     """A stand-in engine whose every run raises in its first step, `fake-crash`
     (`--adapter tests/fakes.py:CrashingFake`)."""

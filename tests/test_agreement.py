@@ -38,11 +38,12 @@ class Pairing(NamedTuple):
 
 
 def _on_demand(engine: str, fam, variant) -> bool:
-    """A run its engine declares too slow for a default run (Adapter.on_demand: Newton's
-    solvers): the pairing runs with `pytest -m slow`, as the run's checks do."""
+    """A run its engine declares too slow for a default run (Adapter.deferred: Newton's
+    solvers outside the core families): the pairing runs with `pytest -m slow`, as the run's
+    checks do."""
     from adapters.registry import EngineError, get
     try:
-        return get(engine).on_demand(fam.scene(variant.params)) is not None
+        return get(engine).deferred(fam.scene(variant.params), fam.tags) is not None
     except EngineError:
         return False
 

@@ -6,6 +6,8 @@ filter narrows a table and a heading sorts it, and the index is photographed. Wi
 without a browser."""
 from __future__ import annotations
 
+import csv
+
 import shutil
 import time
 from html.parser import HTMLParser
@@ -144,6 +146,19 @@ def test_chromium_is_found_where_ci_installs_it():
     """.ci/run installs Debian's chromium before the test command, so CI runs the browser test."""
     ci = (Path(__file__).resolve().parent.parent / ".ci" / "run").read_text()
     assert "apt-get install -y chromium chromium-driver" in ci
+
+
+def test_runs_declared_on_demand_wait_only_outside_the_engines_default_families(tmp_path):
+    """An engine slow beyond its default families (Newton's solvers) runs those families in
+    every run, named or not; its other runs wait for --on-demand."""
+    fakes = Path(__file__).parent / "fakes.py"
+    cases = ["central_impact[e=0.5,m=1:1]", "slide_to_stop[mu=0.5,v0=2]"]
+    for extra, ran in (([], {"central_impact"}), (["--on-demand"], {"central_impact", "slide_to_stop"})):
+        out = tmp_path / f"out{len(extra)}"
+        assert main(["run", "--adapter", f"{fakes}:CoreOnDemandFake", "--engines", "fake-core", "--cases", *cases,
+                     "--quiet", "--out", str(out), *extra]) == 0
+        rows = list(csv.DictReader(open(out / "results.csv")))
+        assert {r["case"] for r in rows} == ran
 
 
 def test_a_run_with_every_job_left_out_writes_an_empty_report(tmp_path):

@@ -77,7 +77,7 @@ def run(args) -> int:
             for name, a in engines.items():
                 if isinstance(a, Exception):
                     continue
-                why = a.capabilities.cannot_run(scene, fam.needs_of(v.params)) or a.on_demand(scene)
+                why = a.capabilities.cannot_run(scene, fam.needs_of(v.params)) or a.deferred(scene, fam.tags)
                 (skips.append(f"{name}: {why}") if why else runs.append(name))
             print(f"    runs on: {', '.join(runs) or 'none'}")
             for s in skips:

@@ -89,7 +89,7 @@ def run(args) -> int:
             fam = families[fam_name]
             for v in variants:
                 if adapter.capabilities.cannot_run(fam.scene(v.params), fam.needs_of(v.params)) is None \
-                        and (args.on_demand or not adapter.on_demand(fam.scene(v.params))):
+                        and (args.on_demand or not adapter.deferred(fam.scene(v.params), fam.tags)):
                     jobs.append(Job(fam_name, v, engine))
         repeats = []
         for k in range(args.repeat):

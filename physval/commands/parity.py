@@ -37,8 +37,8 @@ def add_parser(sub) -> None:
                    help="also use this engine adapter (repeatable)")
     p.add_argument("--full", action="store_true", help="also the families' full grids")
     p.add_argument("--on-demand", action="store_true",
-                   help="also the runs an engine declares too slow for a default run (Newton's solvers: "
-                        "physval parity mujoco newton-mujoco --on-demand)")
+                   help="also the runs an engine declares too slow for a default run (Newton's solvers beyond "
+                        "their core families: physval parity mujoco newton-mujoco --on-demand)")
     from physval.readings.parity import PARTED
     p.add_argument("--parted", type=options.positive_float, default=PARTED, metavar="FRACTION",
                    help=f"two trajectories part where a state differs by more than FRACTION of the job's scale "

@@ -1,5 +1,6 @@
 """Which jobs a run holds: each selected variant on each selected engine, less what an
-engine's defaults leave out (families outside its default tags, runs it declares on demand).
+engine's defaults leave out (families outside its default tags, runs it declares on demand
+outside them).
 """
 from __future__ import annotations
 
@@ -10,7 +11,8 @@ def plan(chosen: dict, engines: list[str], resolver, engines_named: bool, dt=Non
          on_demand: bool = False) -> tuple[list[Job], list[Job]]:
     """(jobs to run, jobs left out as on demand). An engine with `default_tags` runs only
     families with one of those tags (and the variants whose compliant contact law it
-    models), unless it was named; a job the adapter declares on demand runs only when asked."""
+    models), unless it was named; a job the adapter declares on demand runs only when asked,
+    unless its family is one of the default ones (Adapter.deferred)."""
     jobs, later = [], []
     for name, variants in chosen.items():
         fam = resolver.family(name)
@@ -29,7 +31,7 @@ def plan(chosen: dict, engines: list[str], resolver, engines_named: bool, dt=Non
                     laws = scene.contact_laws
                     if not (laws and laws <= adapter.capabilities.contact_laws):
                         continue
-                if not on_demand and adapter.on_demand(scene):
+                if not on_demand and adapter.deferred(scene, fam.tags):
                     later.append(job)
                     continue
                 jobs.append(job)

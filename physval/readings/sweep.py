@@ -83,7 +83,7 @@ def points(chosen: dict, engines: list[str], resolver, full: bool = False, dts=D
             its = list(iterations) if adapter.capabilities.iterations else []
             for v in variants:
                 scene = fam.scene(v.params)
-                if adapter.capabilities.cannot_run(scene, fam.needs_of(v.params)) or adapter.on_demand(scene):
+                if adapter.capabilities.cannot_run(scene, fam.needs_of(v.params)) or adapter.deferred(scene, fam.tags):
                     continue
                 grid = {(dt, None) for dt in dts}
                 grid |= {(dt, it) for dt in dts for it in its} if full else {(fam.dt_for(v.params), it) for it in its}
