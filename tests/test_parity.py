@@ -74,8 +74,9 @@ def test_the_findings_group_differing_verdicts_by_the_recorded_cause():
                 "status": status, "measured": measured, "expected": 1.0, "tolerance": 0.1, "tolerance_kind": "abs",
                 "reason": reason}
     cause = "float32 heights: no arc is found [measured 0.3 m in the recorded band 0.2-0.4]"
-    rows = [row("a", v, "pass", 1.0) for v in ("v1", "v2", "v3")]
-    rows += [row("b", "v1", "deviation", 0.3, cause), row("b", "v2", "deviation", 0.35, cause), row("b", "v3", "pass", 1.0)]
+    rows = [row("a", v, "pass", 1.0) for v in ("v1", "v2", "v3")] + [row("a", "v4", "deviation", 1.2, "slow")]
+    rows += [row("b", "v1", "deviation", 0.3, cause), row("b", "v2", "deviation", 0.35, cause), row("b", "v3", "pass", 1.0),
+             row("b", "v4", "fail", 1.5)]
     table = parity.checks(pd.DataFrame(rows), "a", "b")
     parts = pd.DataFrame([{"case": "f", "variant": "v2", "steps": 100, "parted_step": 7, "parted_time": 0.007,
                            "first_to_part": "ball velocity[2]"},
@@ -83,10 +84,11 @@ def test_the_findings_group_differing_verdicts_by_the_recorded_cause():
                            "first_to_part": "ball velocity[0]"},
                           {"case": "f", "variant": "v3", "steps": 100}]).assign(parted_at=1e-3)
     text, causes = parity.findings(table, parts)
-    assert "2 verdicts differ" in text and "2 checks differ by more than one tolerance" in text
+    assert "3 verdicts differ" in text and "3 checks differ by more than one tolerance" in text
     assert "f[v1]:x, -7 tolerances" in text  # the largest move: 0.7 of a 0.1 tolerance
     assert "2 of 3 trajectory pairs part" in text and "the first is f[v1], at step 3" in text
-    assert causes == ["f: 2 checks pass on a and deviate (known) on b; recorded cause: float32 heights: no arc is found"]
+    assert causes == ["f: 2 checks pass on a and deviate (known) on b; recorded cause: float32 heights: no arc is found",
+                      "f: 1 check deviates (known) on a and fails on b; recorded cause: no recorded cause"]
 
 
 def test_a_run_reports_the_parity_pairs_found_beside_it(tmp_path, monkeypatch):

@@ -25,10 +25,9 @@ is the run report's "Implementation parity": each pair's findings, a table and a
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import re
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -122,20 +121,30 @@ def _cause(reason) -> str:
 
 
 def differing(table: pd.DataFrame) -> pd.DataFrame:
-    """The verdicts that differ, grouped: which engine leaves `pass` (the port where both
-    left it), with what status and for what recorded cause; how many checks, in which families."""
+    """The verdicts that differ, grouped: the engine that leaves `pass` (the port where both
+    left it), its status, the other's status and the recorded cause; how many checks, in which
+    families."""
     rows = []
     for r in table[table.verdicts_differ].itertuples():
         port_left = r.status_b != "pass"
         rows.append({"engine": r.engine_b if port_left else r.engine_a,
-                     "other": r.engine_a if port_left else r.engine_b,
                      "status": r.status_b if port_left else r.status_a,
+                     "other": r.engine_a if port_left else r.engine_b,
+                     "other_status": r.status_a if port_left else r.status_b,
                      "cause": _cause(r.reason_b if port_left else r.reason_a), "family": r.case})
+    keys = ["engine", "status", "other", "other_status", "cause"]
     if not rows:
-        return pd.DataFrame(columns=["engine", "other", "status", "cause", "checks", "families"])
-    return (pd.DataFrame(rows).groupby(["engine", "other", "status", "cause"], sort=False)
+        return pd.DataFrame(columns=keys + ["checks", "families"])
+    return (pd.DataFrame(rows).groupby(keys, sort=False)
             .agg(checks=("family", "size"), families=("family", lambda f: ", ".join(sorted(set(f)))))
             .reset_index().sort_values("checks", ascending=False, kind="stable"))
+
+
+def _verb(status: str, n: int) -> str:
+    """What `n` checks of a status do, as a verb ("pass", "deviate (known)", "fail")."""
+    one = n == 1
+    return {"pass": "passes" if one else "pass", "deviation": "deviates (known)" if one else "deviate (known)",
+            "fail": "fails" if one else "fail"}.get(status, f"{'is' if one else 'are'} {status}")
 
 
 def findings(table: pd.DataFrame, parts: pd.DataFrame) -> tuple[str, list[str]]:
@@ -168,14 +177,9 @@ def findings(table: pd.DataFrame, parts: pd.DataFrame) -> tuple[str, list[str]]:
                  + (f"; every pair of {', '.join(whole)} parts" if whole else "") + ".")
     elif len(ran):
         text += f" None of the {len(ran)} trajectory pairs part (by more than {at} of the job's scale)."
-    verbs = {"deviation": "deviate{s} (known)", "fail": "fail{s}"}
-    causes = []
-    for g in differing(table).itertuples():
-        one = g.checks == 1
-        verb = verbs.get(g.status, "are {status}" if not one else "is {status}").format(s="s" if one else "",
-                                                                                         status=g.status)
-        causes.append(f"{g.families}: {g.checks} check{'' if one else 's'} pass{'es' if one else ''} on {g.other} "
-                      f"and {verb} on {g.engine}; recorded cause: {g.cause}")
+    causes = [f"{g.families}: {g.checks} check{'' if g.checks == 1 else 's'} {_verb(g.other_status, g.checks)} on "
+              f"{g.other} and {_verb(g.status, g.checks)} on {g.engine}; recorded cause: {g.cause}"
+              for g in differing(table).itertuples()]
     return text, causes
 
 
