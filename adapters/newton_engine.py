@@ -232,8 +232,8 @@ class NewtonAdapter(Adapter):
     # MuJoCo C 14 us on a 5-box stack), and each solver compiles 10-60 s on first use (kept in
     # the kernel cache, adapters/warp_support.py; SolverMuJoCo 84 s to build its first scene
     # with an empty cache, 9.5 s with a full one, 0.7 s each scene after). So every default run
-    # takes Newton's conformance battery and core families (375 runs of the five
-    # configurations: 230 s on 2 cores with a warm kernel cache), the other families run on
+    # takes Newton's conformance battery and core families (365 runs of the five
+    # configurations, 431 s of stepping on 2 cores with a warm kernel cache), the others on
     # demand (--on-demand), and Newton is left out of the default sweep, stress battery,
     # benchmarks and readings (`slow`), which repeat each scene many times. The test suite runs
     # Newton with `pytest -m slow` (tests/conftest.py), so it stays within its 10 minutes on a
