@@ -226,9 +226,9 @@ class NewtonAdapter(Adapter):
         # the MuJoCo adapter's contact time scale n (its solref and solreffriction)
         self.tunables = dict(MuJoCoAdapter.tunables)
 
-    # Warp launches a dozen kernels or more a step on the CPU: the median step over the core
-    # families' runs (quiet 2 cores) is 1.8 ms with XPBD, 0.44 ms semi-implicit, 0.66 ms
-    # Featherstone, 2.3 ms VBD and 23 us for SolverMuJoCo (its step replayed as a Warp graph;
+    # Warp launches a dozen kernels or more a step on the CPU: the median step over the default
+    # run's core families (2 cores) is 1.85 ms with XPBD, 0.45 ms semi-implicit, 0.68 ms
+    # Featherstone, 2.6 ms VBD and 23 us for SolverMuJoCo (its step replayed as a Warp graph;
     # MuJoCo C 14 us on a 5-box stack), and each solver compiles 10-60 s on first use (kept in
     # the kernel cache, adapters/warp_support.py; SolverMuJoCo 84 s to build its first scene
     # with an empty cache, 9.5 s with a full one, 0.7 s each scene after). So every default run
@@ -245,7 +245,7 @@ class NewtonAdapter(Adapter):
         if self.solver == "mujoco":
             return ("Newton's SolverMuJoCo takes 10 s to start a process and about 80 s of compiling on first "
                     "use; beyond the core families its runs are on demand")
-        return ("Newton takes 0.4-2.3 ms a step on the CPU (Warp kernel launches) and compiles each solver "
+        return ("Newton takes 0.4-2.6 ms a step on the CPU (Warp kernel launches) and compiles each solver "
                 "10-60 s on first use; beyond the core families its runs are on demand")
 
     def version(self) -> str:

@@ -80,7 +80,7 @@ SLOW_IN_THE_SUITE = {
     ("mujoco-warp", "resting_blocks*"): "MuJoCo's model on Warp's CPU kernels: 1-3 s a job",
     # Newton's five configurations run their conformance battery and core families in every
     # `physval run` (365 jobs, 431 s of stepping on 2 cores with a warm kernel cache), here with -m slow
-    ("newton-*", "*"): "Warp's CPU kernels, 0.4-2.3 ms a step, and 10-60 s of compiling a solver in an empty cache",
+    ("newton-*", "*"): "Warp's CPU kernels, 0.4-2.6 ms a step, and 10-60 s of compiling a solver in an empty cache",
 }
 
 
