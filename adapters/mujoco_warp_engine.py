@@ -59,6 +59,15 @@ CONTACTS_PER_PAIR = 8
 CONTACTS_PER_BODY = 48
 
 
+def contact_capacity(model, ndyn: int) -> tuple[int, int]:
+    """(nconmax, njmax) of one world of `model` (an MjModel whose contacts come from its pairs)
+    with `ndyn` dynamic bodies: CONTACTS_PER_PAIR a pair, at most CONTACTS_PER_BODY a dynamic
+    body, at least 16; and a contact's rows (its pair's condim, the elliptic cone) for each."""
+    nconmax = max(16, min(CONTACTS_PER_PAIR * model.npair, CONTACTS_PER_BODY * ndyn))
+    rows = int(model.pair_dim.max()) if model.npair else 1
+    return nconmax, nconmax * rows
+
+
 class ContactOverflow(RuntimeError):
     """More contacts in one step than the buffer the adapter allotted."""
 
@@ -88,10 +97,7 @@ class MuJoCoWarpSimulation(MuJoCoSimulation):
             if model.opt.disableflags & bit:
                 model.opt.disableflags &= ~bit
                 cleared[flag] = why
-        ndyn = len(scene.dynamic_bodies)
-        nconmax = max(16, min(CONTACTS_PER_PAIR * model.npair, CONTACTS_PER_BODY * ndyn))
-        rows = int(model.pair_dim.max()) if model.npair else 1  # rows of a contact (elliptic cone: condim)
-        njmax = nconmax * rows
+        nconmax, njmax = contact_capacity(model, len(scene.dynamic_bodies))
         with wp.ScopedDevice(device):
             try:
                 self._wm = mjw.put_model(model)

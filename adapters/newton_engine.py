@@ -431,11 +431,19 @@ class NewtonSimulation(Simulation):
         options.update(integrator=options["integrator"].lower(), solver=options["solver"].lower())
         # kinematic_switchable_roots=False: no inactive weld per free body (a kinematic switch
         # the scenes never use); contacts from MuJoCo's own collision detection
+        # the contact buffer MuJoCo Warp gets from the `mujoco-warp` adapter's sizing (Newton's
+        # own default, 256, drops the contacts of a 55-box pyramid with a warning); a step that
+        # needs more raises (ContactOverflow in `step`)
+        from adapters.mujoco_warp_engine import contact_capacity
+        nconmax, njmax = contact_capacity(mj_model, len(scene.dynamic_bodies))
         self._solver = newton.solvers.SolverMuJoCo(
             model, **options, disable_contacts="contact" not in scene.effects, use_mujoco_contacts=True,
-            kinematic_switchable_roots=False, enable_sleeping=False)
+            kinematic_switchable_roots=False, enable_sleeping=False, nconmax=nconmax, njmax=njmax)
+        data = self._solver.mjw_data
+        self._nacon, self._naconmax = data.nacon.numpy(), int(data.naconmax)
         m = self._solver.mj_model
         self.knobs.update(
+            nconmax=nconmax, njmax=njmax,
             backend="mujoco_warp (SolverMuJoCo's default; use_mujoco_cpu False)", use_mujoco_contacts=True,
             kinematic_switchable_roots=False, enable_sleeping=False, mujoco_option=options,
             mujoco_pair=mj_knobs["pair"], restitution_map=mj_knobs["restitution_map"],
@@ -534,6 +542,10 @@ class NewtonSimulation(Simulation):
             self._wp.capture_launch(self._graphs[0])
             self._graphs.reverse()
             self._s0, self._s1 = self._s1, self._s0
+            if self._nacon[0] > self._naconmax:  # graphs: SolverMuJoCo, whose buffer this is
+                from adapters.mujoco_warp_engine import ContactOverflow
+                raise ContactOverflow(f"{int(self._nacon[0])} contacts in one step, more than the "
+                                      f"{self._naconmax} allotted (CONTACTS_PER_BODY)")
             return
         s0 = self._s0
         s0.clear_forces()

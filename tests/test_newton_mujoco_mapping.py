@@ -70,3 +70,23 @@ def test_the_replayed_graph_is_solver_mujocos_own_step(adapter):
         a.write_state(ra)
         b.write_state(rb)
         assert np.array_equal(ra, rb)
+
+
+def test_a_pyramid_keeps_every_contact(adapter):
+    """MuJoCo Warp's contact buffer is sized as the mujoco-warp adapter sizes its own
+    (CONTACTS_PER_PAIR a pair, at most CONTACTS_PER_BODY a body): Newton's default of 256
+    contacts dropped some of a 55-box pyramid's (a warning, then an IndexError reading the
+    forces); now its steps keep every contact and read every force."""
+    from adapters.mujoco_warp_engine import contact_capacity
+    fam = builtin_families()["robustness_stacks"]
+    params = {"structure": "pyramid", "n": 10, "dim": 3, "T": 0.03}
+    sim = adapter.build(fam.scene(params), Settings(dt=1e-3))
+    nconmax, _ = contact_capacity(sim._solver.mj_model, 55)
+    assert sim.knobs["nconmax"] == nconmax > 256
+    most = 0
+    for _ in range(40):  # the boxes settle onto more corners: over 256 contacts within 40 steps
+        sim.step()
+        most = max(most, int(sim._nacon[0]))
+    assert 256 < most <= sim._naconmax
+    forces = sim.contact_forces()
+    assert sum(forces.values()) > 0.9 * 55 * 9.81 * min(b.mass for b in fam.scene(params).dynamic_bodies)
