@@ -376,3 +376,17 @@ def test_a_partial_bench_run_keeps_the_other_sections_and_says_so(tmp_path):
     md = (tmp_path / "bench.md").read_text()
     assert "## overhead" in md and "## pgs" in md
     assert "From an earlier `physval bench pgs`" in md and "From an earlier `physval bench overhead`" not in md
+
+
+def test_bench_step_says_why_an_engine_has_no_time(tmp_path):
+    """An engine that cannot run a bench scene (the force formulation has no friction, which
+    the stacks ask for) gets no time, and its row says why, from the run's own verdict."""
+    import csv
+
+    from physval.cli import main
+    assert main(["bench", "step", "--engines", "reference", "reference-force", "--out", str(tmp_path),
+                 "--quiet"]) == 0
+    rows = {r["engine"]: r for r in csv.DictReader(open(tmp_path / "bench_step.csv"))}
+    assert rows["reference"]["no time because"] == "" and float(rows["reference"]["5-box stack us/step"]) > 0
+    assert rows["reference-force"]["5-box stack us/step"] == ""
+    assert rows["reference-force"]["no time because"].startswith("5-box stack: unsupported: ")

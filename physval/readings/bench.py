@@ -170,11 +170,13 @@ def steps_side_by_side(engines: list[str], ctx: Context, execution: Execution, s
                                    probe_args=(("repeats", 2),), warmup=10)
     res = run_jobs(list(jobs.values()), ctx, 1, execution.scheduler, execution.job_timeout, execution.start_method,
                    progress=execution.progress, label="bench step")
-    us = {}
+    us, why = {}, {}
     for key, job in jobs.items():
         first = (res.rows.get(job.key) or [{}])[0]
-        us[key] = float(first["wall_per_sim_s"]) * 1e-3 * 1e6 if first.get("wall_per_sim_s") not in (None, "") \
-            else math.nan
+        timed = first.get("wall_per_sim_s") not in (None, "")
+        us[key] = float(first["wall_per_sim_s"]) * 1e-3 * 1e6 if timed else math.nan
+        if not timed:  # the run's own verdict says why it has no time
+            why[key] = f"{first.get('status', 'error')}: {first.get('reason', 'no row')}"[:160]
     out = []
     for e in engines:  # one row an engine: its step on each scene and that step in baseline steps
         if not any((label, e) in jobs for label, _ in STEP_SCENES):
@@ -184,6 +186,8 @@ def steps_side_by_side(engines: list[str], ctx: Context, execution: Execution, s
             mine, base = us.get((label, e), math.nan), us.get((label, STEP_BASELINE), math.nan)
             row[f"{label} us/step"] = mine
             row[f"{label} / {STEP_BASELINE}"] = mine / base
+        row["no time because"] = "; ".join(f"{label}: {why[(label, e)]}" for label, _ in STEP_SCENES
+                                           if (label, e) in why)
         out.append(row)
     return pd.DataFrame(out)
 
@@ -379,9 +383,10 @@ def _note(name: str) -> str:
 STEP_NOTE = ("Minimum over 2 repeats of the mean wall time per step over 20 steps at dt = 1e-3 (10 warm-up "
              "steps; the 55-box pyramid costs up to 0.5 s a step (DART)); each engine at its own default "
              f"iterations (the reference's: up to 200 sweeps, to 1e-10 m/s). `/ {STEP_BASELINE}` is how many "
-             f"times {STEP_BASELINE}'s step the engine's takes. An empty cell: the engine cannot represent the scene "
-             "(friction, for the force formulation and compliant contact) or outlasts the job's time limit "
-             "(Lemke's dense tableau on the pyramid: over 200 s for 30 steps). An engine that runs 2D scenes only "
+             f"times {STEP_BASELINE}'s step the engine's takes. An empty cell: the run's verdict says why (`no time "
+             "because`): the engine cannot represent the scene (friction, for the force formulation and compliant "
+             "contact; contact forces, which the stack's checks read), it blew up, or it outlasted the job's time "
+             "limit (Lemke's dense tableau on the pyramid: over 200 s for 30 steps). An engine that runs 2D scenes only "
              "(Pymunk, Box2D) steps the in-plane stack and pyramid, so its ratio is not like for like.")
 COMPILE_NOTE = ("Each reference formulation run in a freshly spawned worker process, first with an empty numba "
                 "cache (`compiling s`: the run's stepping time less that of the same run repeated in the same "
