@@ -129,3 +129,15 @@ def test_the_worst_of_a_zero_tolerance_check_is_its_value_not_infinity():
         metric=["v1_after", "slides", "v1_after"], measured=[1.0, 1.0, 2.0], expected=[1.0, 0.0, 1.0])
     assert scorecard.worst_of(part) == "worst slides 1 for 0"
     assert scorecard.worst_of(part.iloc[[0, 2]]) == "worst 40 tol"
+
+
+def test_determinism_counts_only_the_scenes_an_engine_ran():
+    """A 2D engine cannot run the 3D stress scenes: they are no repeat it missed, so an
+    engine that repeats every scene it ran is graded A (was C, '2/4 repeat')."""
+    det = pd.DataFrame([{"engine": "pymunk", "scene": "a,2D", "status": "deterministic"},
+                        {"engine": "pymunk", "scene": "b,3D", "status": "unsupported"},
+                        {"engine": "dart", "scene": "a,2D", "status": "deterministic"},
+                        {"engine": "dart", "scene": "b,3D", "status": "differs"}])
+    pymunk, dart = (scorecard._determinism(e, det) for e in ("pymunk", "dart"))
+    assert (pymunk["grade"], pymunk["text"]) == ("A", "1/1 repeat")
+    assert (dart["grade"], dart["text"]) == ("C", "1/2 repeat")

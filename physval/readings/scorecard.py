@@ -187,7 +187,9 @@ def _companion(engine: str, effect: str, grade_: str, text: str) -> dict:
 
 
 def _determinism(engine: str, det: pd.DataFrame | None) -> dict:
-    mine = det[det.engine == engine] if det is not None else ()
+    """How many of the stress scenes the engine ran repeated bit for bit (a scene it cannot
+    represent, a 3D one for a 2D engine, is no repeat it missed)."""
+    mine = det[(det.engine == engine) & (det.status != "unsupported")] if det is not None else ()
     if not len(mine):
         return _companion(engine, DETERMINISM, "", "")
     same = int((mine.status == "deterministic").sum())
