@@ -147,36 +147,46 @@ def _verb(status: str, n: int) -> str:
             "fail": "fails" if one else "fail"}.get(status, f"{'is' if one else 'are'} {status}")
 
 
+def counts(table: pd.DataFrame, parts: pd.DataFrame) -> dict:
+    """A pair's parity in numbers: checks run on both and judged on both, the median
+    |difference| in tolerances, checks beyond one tolerance, verdicts that differ, checks of
+    scenes only one engine represents, trajectory pairs compared and those that part."""
+    d, ran = table.difference.abs(), parts[parts.steps.notna()]
+    return {"checks": len(table), "judged": int(d.notna().sum()), "median": float(d.median()),
+            "beyond": int((d > 1).sum()), "differ": int(table.verdicts_differ.sum()),
+            "one_only": int(table.one_engine_only.sum()), "jobs": len(ran),
+            "parted": int(ran.parted_step.notna().sum())}
+
+
 def findings(table: pd.DataFrame, parts: pd.DataFrame) -> tuple[str, list[str]]:
     """What a pair's parity shows, in words: one paragraph (how far the checks move, the
     largest move, where the trajectories part) and one sentence per cause of the verdicts
     that differ."""
     a, b = table.engine_a.iloc[0], table.engine_b.iloc[0]
-    d = table.difference.abs()
-    judged = int(d.notna().sum())
-    text = (f"Of {len(table)} checks run on both, {judged} were judged on both: the median difference is "
-            f"{fmt(float(d.median())) if judged else '-'} tolerances, {int((d > 1).sum())} checks differ by more than one "
-            f"tolerance and {int(table.verdicts_differ.sum())} verdicts differ")
-    if table.one_engine_only.any():
-        text += f" ({int(table.one_engine_only.sum())} more checks are of scenes only one of the two can represent)"
+    n = counts(table, parts)
+    text = (f"Of {n['checks']} checks run on both, {n['judged']} were judged on both: the median difference is "
+            f"{fmt(n['median']) if n['judged'] else '-'} tolerances, {n['beyond']} checks differ by more than one "
+            f"tolerance and {n['differ']} verdicts differ")
+    if n["one_only"]:
+        text += f" ({n['one_only']} more checks are of scenes only one of the two can represent)"
     text += "."
-    if judged:
-        top = table.loc[d.idxmax()]
+    if n["judged"]:
+        top = table.loc[table.difference.abs().idxmax()]
         text += (f" The largest difference is {top.case}[{top.variant}]:{top.metric}, {fmt(float(top.difference))} "
                  f"tolerances ({a} {fmt(float(top.measured_a))}, {b} {fmt(float(top.measured_b))}, expected "
                  f"{fmt(float(top.expected))}).")
     ran = parts[parts.steps.notna()]
     parted = ran[ran.parted_step.notna()].sort_values("parted_time", kind="stable")
     at = fmt(float(parts.parted_at.iloc[0])) if len(parts) else fmt(PARTED)
-    if len(parted):
+    if n["parted"]:
         first = parted.iloc[0]
         whole = sorted(c for c, g in ran.groupby("case") if g.parted_step.notna().all())
-        text += (f" {len(parted)} of {len(ran)} trajectory pairs part (a state differs by more than {at} of the job's "
-                 f"scale); the first is {first.case}[{first.variant}], at step {int(first.parted_step)} "
+        text += (f" {n['parted']} of {n['jobs']} trajectory pairs part (a state differs by more than {at} of the "
+                 f"job's scale); the first is {first.case}[{first.variant}], at step {int(first.parted_step)} "
                  f"({fmt(float(first.parted_time))} s, {first.first_to_part} first)"
                  + (f"; every pair of {', '.join(whole)} parts" if whole else "") + ".")
-    elif len(ran):
-        text += f" None of the {len(ran)} trajectory pairs part (by more than {at} of the job's scale)."
+    elif n["jobs"]:
+        text += f" None of the {n['jobs']} trajectory pairs part (by more than {at} of the job's scale)."
     causes = [f"{g.families}: {g.checks} check{'' if g.checks == 1 else 's'} {_verb(g.other_status, g.checks)} on "
               f"{g.other} and {_verb(g.status, g.checks)} on {g.engine}; recorded cause: {g.cause}"
               for g in differing(table).itertuples()]
@@ -264,12 +274,11 @@ def overview(pairs: list[Pair]) -> pd.DataFrame:
     """One row a pair: its checks and trajectories in numbers."""
     rows = []
     for p in pairs:
-        d, ran = p.table.difference.abs(), p.parts[p.parts.steps.notna()]
+        n = counts(p.table, p.parts)
         rows.append({"port": p.b, "original": p.a, "releases": f"{p.versions[p.b]}; {p.versions[p.a]}",
-                     "judged on both": int(d.notna().sum()), "median |diff| (tol)": fmt(float(d.median())),
-                     "beyond 1 tol": int((d > 1).sum()), "verdicts differ": int(p.table.verdicts_differ.sum()),
-                     "one engine only": int(p.table.one_engine_only.sum()),
-                     "trajectories part": f"{int(ran.parted_step.notna().sum())} of {len(ran)}",
+                     "judged on both": n["judged"], "median |diff| (tol)": fmt(n["median"]),
+                     "beyond 1 tol": n["beyond"], "verdicts differ": n["differ"], "one engine only": n["one_only"],
+                     "trajectories part": f"{n['parted']} of {n['jobs']}",
                      "details": (p.folder / "parity.md").as_posix()})
     return pd.DataFrame(rows)
 
