@@ -169,10 +169,12 @@ class MuJoCoWarpSimulation(MuJoCoSimulation):
 class MuJoCoWarpAdapter(MuJoCoAdapter):
     name = "mujoco-warp"
     package = "mujoco-warp"
-    # 4.0.0, the release that runs here (it needs mujoco >= 3.13 and pins Warp through it);
-    # the 4.x API (put_model, put_data, step, get_data_into) is the one this adapter calls.
-    supported = ">=4.0.0,<5"
-    packages = ("mujoco-warp",)
+    # MuJoCo Warp is released with MuJoCo, one release number for both: `physval versions`
+    # installs the pair. 3.13.0 is the oldest on which the conformance battery passes with
+    # today's Warp (measured with 1.19.0): 3.11-3.12 have no contact adhesion to read forces
+    # with, 3.10 does not compile on this Warp, 3.5 has put_data without njmax_nnz.
+    supported = ">=3.13.0,<5"
+    packages = ("mujoco-warp", "mujoco")
     capabilities = Capabilities(
         dimensions=MuJoCoAdapter.capabilities.dimensions,
         shapes=MuJoCoAdapter.capabilities.shapes,

@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def _releases() -> list[tuple[str, str]]:
-    """(engine, pip requirement) of the releases to test: for each engine whose adapter
+    """(engine, pip requirements) of the releases to test: for each engine whose adapter
     declares a range (one engine per package), the oldest supported and the newest on the
     registry inside the range, unless PHYSVAL_RELEASES names requirements."""
     adapters = {}
@@ -46,7 +46,8 @@ def _releases() -> list[tuple[str, str]]:
     out = []
     for name, a in adapters.items():
         (oldest,) = [s.version for s in SpecifierSet(a.supported) if s.operator == ">="]
-        out += [(name, f"{a.package}=={oldest}"), (name, f"{a.package}{a.supported}")]
+        # the oldest as `physval versions` installs it (MuJoCo Warp with the MuJoCo of its release)
+        out += [(name, " ".join(a.release_requirements(oldest))), (name, f"{a.package}{a.supported}")]
     return out
 
 
@@ -59,13 +60,15 @@ def test_the_conformance_battery_passes_on_the_release(engine, requirement, tmp_
     venv = tmp_path / "venv"
     _run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], check=True)
     python = str(venv / "bin" / "python")
-    pip = _run([python, "-m", "pip", "install", "--quiet", "--upgrade", "--disable-pip-version-check", requirement])
+    pip = _run([python, "-m", "pip", "install", "--quiet", "--upgrade", "--disable-pip-version-check",
+                *requirement.split()])
     if pip.returncode:
         pytest.skip(f"pip cannot install {requirement}: {(pip.stderr.strip().splitlines() or ['?'])[-1]}")
-    package = Requirement(requirement).name
+    engine_requirement = Requirement(requirement.split()[0])  # its partners are pinned beside it
+    package = engine_requirement.name
     installed = _run([python, "-c", f"from importlib.metadata import version; print(version({package!r}))"],
                      cwd=ROOT, check=True).stdout.strip()
-    assert Requirement(requirement).specifier.contains(installed, prereleases=True)  # the venv's own release
+    assert engine_requirement.specifier.contains(installed, prereleases=True)  # the venv's own release
     battery = _run([python, "-m", "pytest", "-n", "0", "-q", "-p", "no:cacheprovider", "tests/test_cases.py",
                     "-k", "test_conformance", "--engine", engine], cwd=ROOT)
     summary = (battery.stdout.strip().splitlines() or [""])[-1]

@@ -32,6 +32,9 @@ def cache(tmp_path_factory):
     (["fake-release", "1.1.1", "3.0.0"], "iniconfig 3.0.0 is outside the supported range >=1.1.1,<3 of adapter "
                                          "fake-release"),
     (["fake-release", "1.0", "2.0.0"], "iniconfig 1.0 is outside the supported range"),
+    # the package names the engine too (as `newton` names newton-xpbd, newton-vbd, ...)
+    (["iniconfig", "1.1.1", "3.0.0"], "iniconfig 3.0.0 is outside the supported range >=1.1.1,<3 of adapter "
+                                      "fake-release"),
     (["fake-release", "2.0.0"], "name at least two releases to compare"),
     (["fake-release", "2.0.0", "2.0"], "releases 2.0.0 2.0: each release once"),
     (["fake-release", "2.0.0", "latest"], "Invalid version: 'latest'"),

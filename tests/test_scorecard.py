@@ -131,6 +131,15 @@ def test_the_worst_of_a_zero_tolerance_check_is_its_value_not_infinity():
     assert scorecard.worst_of(part.iloc[[0, 2]]) == "worst 40 tol"
 
 
+def test_a_run_whose_every_job_failed_still_gets_its_report(tmp_path):
+    """Every job of a release raised (no check has an error to rank): the report is written and
+    its scorecard counts the failures (it once stopped at the worst of no errors at all)."""
+    rows = _checks(("error", math.nan), ("error", math.nan)).assign(metric=["v1_after", "v2_after"])
+    assert scorecard.worst_of(rows) == ""
+    card = scorecard.measure(rows.assign(variant="v", expected=1.0, measured=math.nan), scorecard.Companions())
+    assert (card[card.effect == "contact"].failures == 2).all()
+
+
 def test_determinism_counts_only_the_scenes_an_engine_ran():
     """A 2D engine cannot run the 3D stress scenes: they are no repeat it missed, so an
     engine that repeats every scene it ran is graded A (was C, '2/4 repeat')."""

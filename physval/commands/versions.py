@@ -16,6 +16,7 @@ from physval.readings.compare import changed, summary_line
 EPILOG = """examples:
   physval versions mujoco 3.3.7 3.12.0 4.0.0 --cases resting_blocks
   physval versions pymunk 7.0.0 7.3.1 --engines pymunk --save-trajectories
+  physval versions newton 1.7.0 1.8.0 --engines newton-xpbd --cases conformance
 exit codes: 0 nothing changed between the releases; 1 something changed; 2 bad input (an
 unknown engine or release, a release outside the adapter's supported range, a release pip
 cannot install); 130 interrupted (the same command resumes: environments and finished jobs
@@ -31,7 +32,8 @@ def add_parser(sub) -> None:
                     "this very physval; then `physval compare` of each consecutive pair of releases (sorted) and of "
                     "the first and the last. Writes OUT/ENGINE/RELEASE/ (each run), OUT/ENGINE/compare/A-vs-B/ and "
                     "OUT/ENGINE/versions.md.")
-    vs.add_argument("engine", metavar="ENGINE", help="the engine whose releases to run (e.g. mujoco)")
+    vs.add_argument("engine", metavar="ENGINE", help="the engine whose releases to run (e.g. mujoco), or the package "
+                                                     "its configurations share (e.g. newton)")
     vs.add_argument("releases", nargs="+", metavar="RELEASE", help="two or more releases of its package (e.g. 3.3.7)")
     options.add_selection(vs, "case families or variants, the grammar of `physval run --cases` (default: every "
                               "family the engine runs)",
@@ -66,6 +68,23 @@ def releases_of(adapter, texts: list[str]) -> list[str]:
         if problem:
             raise options.UsageError(problem)
     return sorted(texts, key=parsed.get)
+
+
+def engine_of(name: str, ctx) -> str:
+    """ENGINE as named: an engine, or the package its configurations share (`newton`:
+    newton-xpbd, newton-vbd, ...), for which the first of them stands."""
+    from adapters import registry
+    names = registry.engine_names(ctx.adapters)
+    if name in names:
+        return name
+    resolver = ctx.resolver()
+    for candidate in names:
+        try:
+            if resolver.adapter(candidate).package == name:
+                return candidate
+        except Exception:  # not installed here
+            continue
+    return name  # unknown: the resolver says so, with the engines to choose from
 
 
 def configurations(engine: str, ctx) -> list[str]:
@@ -128,9 +147,10 @@ def run(args) -> int:
     from physval.readings import versions
     ctx = options.context_of(args)
     resolver = ctx.resolver()
-    adapter = resolver.adapter(args.engine)  # EngineError: unknown, or not installed here
+    engine = engine_of(args.engine, ctx)
+    adapter = resolver.adapter(engine)  # EngineError: unknown, or not installed here
     releases = releases_of(adapter, args.releases)
-    known = configurations(args.engine, ctx)
+    known = configurations(engine, ctx)
     engines = select_engines(args.engines, known, known)
     if args.cases:
         select_variants(resolver.families, args.cases)  # a spec that selects nothing stops here

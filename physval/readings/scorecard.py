@@ -171,8 +171,9 @@ def measure(df: pd.DataFrame, beside: Companions | None = None) -> pd.DataFrame:
 def worst_of(part: pd.DataFrame) -> str:
     """The worst error in tolerances; where that is a check that allows no error at all (a
     count or a yes/no, tolerance 0: its error in tolerances is infinite), that check's value
-    against the one asked instead."""
-    if not len(part):
+    against the one asked instead. Checks without an error (a job that raised or blew up) have
+    none to show: their count is the failures column's."""
+    if not part.over_tol.notna().any():
         return ""
     worst = part.loc[part.over_tol.idxmax()]
     if np.isinf(worst.over_tol):
