@@ -16,6 +16,11 @@ solvers, each its own engine configuration (adapters/registry.py):
 - `newton-vbd`: SolverVBD's rigid bodies (augmented-Lagrangian vertex block descent, the
   compliant-ALM contact path). No restitution of any kind (its contacts end plastic): a
   pair with e > 0 is unsupported.
+- `newton-kamino`: SolverKamino (Disney Research's constrained multibody solver, beta in
+  1.8.0): every hard frictional contact of a step in one nonlinear complementarity problem,
+  with restitutive impacts, solved by its LOX backend (below). Maximal coordinates, as XPBD;
+  a body held from rotating gets its inertia times HELD_INERTIA_SCALE (LOX refuses a
+  singular one).
 - `newton-mujoco`: SolverMuJoCo, which converts the Newton model into an MjModel (MjSpec:
   Newton bodies, joints and shapes become MuJoCo bodies, joints and geoms) and steps it with
   MuJoCo Warp (its default backend; `use_mujoco_cpu` would step MuJoCo C instead). The scene's
@@ -37,15 +42,15 @@ solvers, each its own engine configuration (adapters/registry.py):
   which would replace this project's MuJoCo 4; SolverMuJoCo runs on mujoco-warp 4.0.0 and
   mujoco 4.0.0 (it warns of the mismatch), which this project's `newton` extra installs.
 
-Not here: SolverKamino (Disney Research's constrained multibody solver, beta in 1.8.0: an NCP of
-hard frictional contacts with restitutive impacts) runs free bodies on the CPU, but too slowly to
-adapt here. Measured on a ball dropped on the ground with e = 0.5 (its step recorded as a Warp
-graph, as newton-mujoco's; 20 s to build and 20 s of compiling on first use): the default PADMM
-backend (proximal ADMM, up to 200 iterations) costs 67 ms a step in free flight and 59 ms in
-contact, and bounces the ball at 1.43 m/s after a 2.81 m/s impact (0.51, 2.6 mm deep); the core
-families' 97 000 steps would take 1.5-1.8 hours on one core, twice that for `physval known`. The
-LOX backend costs 1.3 ms a step in flight and 5.1 ms in contact, but leaves the ground at 0.10 m/s
-(its implicit restitution is off by default, `contact_implicit_restitution`; not tried).
+Kamino's backend. Measured on a ball dropped on the ground with e = 0.5 (its step recorded as
+a Warp graph; 20 s to build and 20 s of compiling on first use): the default PADMM backend
+(proximal ADMM, up to 200 iterations) costs 67 ms a step in free flight and 59 ms in contact
+(the core families' 97 000 steps: 1.5-1.8 hours on one core); LOX costs 1.3 ms in flight and
+5.1 ms in contact. LOX's implicit restitution is off by default, and without it the ball leaves
+the ground at 0.10 m/s where e = 0.5 asks 1.4; with it (`contact_implicit_restitution`, switched
+on where a pair has e > 0) at 0.49978 of the approach speed. So newton-kamino is LOX with
+implicit restitution; its step and Newton's collision detection are recorded as two Warp graphs
+and replayed (`_capture`): unrecorded, 9 ms a step in flight and 29 ms in contact.
 SolverSteel, Style3D and ImplicitMPM are cloth, soft-body and granular solvers.
 
 Float32. Warp stores positions, orientations and velocities in single precision.
@@ -71,7 +76,7 @@ which leaves e = exp(-zeta ...) of that zeta. Friction: ft = kf vt up to mu fn, 
 creep below the Coulomb limit at speed F_t / kf; kf = m_pair / dt shared by the points the
 same way (one step relaxes the slip), the largest the explicit step takes.
 
-Contact forces: XPBD, VBD and MuJoCo report each contact's force (SolverBase.ObservableKind.CONTACT_F,
+Contact forces: XPBD, VBD, Kamino and MuJoCo report each contact's force (SolverBase.ObservableKind.CONTACT_F,
 requested every step); `contact_forces` sums the normal components per pair. The penalty
 solvers report none (Capabilities.contact_forces False).
 """
@@ -91,7 +96,7 @@ from cases.scene import Body, Box, Plane, Scene, Sphere, pair_key
 require("newton")
 require("warp")
 
-SOLVERS = ("xpbd", "semi-implicit", "featherstone", "vbd", "mujoco")
+SOLVERS = ("xpbd", "semi-implicit", "featherstone", "vbd", "mujoco", "kamino")
 # penalty solvers: the stiffest pair's contact lasts this many steps (as the MuJoCo mapping's
 # 16). At 10 the explicit step's damping takes more than the model says: e = 0.5 maps to
 # 0.395 between two balls (0.434 at 16 steps, 0.474 at 40)
@@ -113,8 +118,12 @@ VBD_ITERATIONS = 10  # Newton's default (newton:maxSolverIterations absent)
 # from rotating gets its moments times this (1e9 left 2.5e-8 rad/s of spin from sliding friction; float32 holds 1e15 I)
 HELD_INERTIA_SCALE = 1e15
 VBD_FRICTION_EPSILON = 1e-2  # m/s, Newton's default friction smoothing speed
+KAMINO_ITERATIONS = 16  # LOX's default max_iterations (it stops earlier at its 1e-5 tolerances)
 # The rule each solver combines a pair's two shape values by, per quantity (module notes).
-MU_RULE = {"xpbd": "mean", "semi-implicit": "mean", "featherstone": "mean", "vbd": "geometric"}
+MU_RULE = {"xpbd": "mean", "semi-implicit": "mean", "featherstone": "mean", "vbd": "geometric", "kamino": "mean"}
+# solvers with a restitution coefficient of their own, combined by the arithmetic mean (Kamino:
+# its restitution_mix_mode set to "average", its default "min")
+RESTITUTION = ("xpbd", "kamino")
 # solvers stepping joint coordinates: a body held from rotating is a body on three sliders
 GENERALIZED = ("featherstone", "mujoco")
 # SolverMuJoCo's options by the names of the MJCF <option> the MuJoCo adapter writes (scene_mjcf)
@@ -188,16 +197,17 @@ class NewtonAdapter(Adapter):
         self.capabilities = Capabilities(
             dimensions=frozenset({3}),  # 2D scenes would need planar joints: not adapted
             shapes=frozenset({"sphere", "box", "plane"}),
-            native_restitution=solver == "xpbd",
+            native_restitution=solver in RESTITUTION,
             static_kinetic=False,  # one mu per shape
             contact_forces=not penalty,
-            iterations=solver in ("xpbd", "vbd"),
+            iterations=solver in ("xpbd", "vbd", "kamino"),
             # penalty contacts and VBD's finite-stiffness ALM contacts act over several steps;
             # XPBD projects every contact of a step in one iterative solve (Gauss-Seidel within
             # a body pair, averaged across pairs): declared simultaneous. Measured once on
             # column_impact's strike, a ball striking a row of two keeps 1.0 of 2.0 kg m/s,
             # which neither model predicts: a deviation to record with Newton's entries
-            impact_model="simultaneous" if solver == "xpbd" else "compliant",
+            # Kamino solves one complementarity problem of every hard contact of the step
+            impact_model="simultaneous" if solver in ("xpbd", "kamino") else "compliant",
             contact_torques=frozenset({"rolling_resistance", "torsional_friction"}) if solver == "xpbd" else frozenset(),
             float_bits=32,
         )
@@ -307,12 +317,15 @@ class NewtonSimulation(Simulation):
             mu = per_shape(scene, lambda m: m.mu_s, mu_rule, "friction")
             shape = {b.name: {"mu": mu[b.name], "restitution": 0.0, "mu_torsional": 0.0, "mu_rolling": 0.0,
                               "ka": 0.0, "margin": 0.0} for b in scene.bodies}
-            if solver == "xpbd":
+            if solver in RESTITUTION:
                 e = per_shape(scene, lambda m: m.e, "mean", "restitution")
+                for b in scene.bodies:
+                    shape[b.name]["restitution"] = e[b.name]
+            if solver == "xpbd":
                 dt_ = per_shape(scene, lambda m: m.torsional_friction, "mean", "torsional friction")
                 dr = per_shape(scene, lambda m: m.rolling_resistance, "mean", "rolling resistance")
                 for b in scene.bodies:
-                    shape[b.name].update(restitution=e[b.name], mu_torsional=dt_[b.name], mu_rolling=dr[b.name])
+                    shape[b.name].update(mu_torsional=dt_[b.name], mu_rolling=dr[b.name])
             m_min = min((reduced_mass(a, b) for a, b in pairs), default=1.0)
             if penalty or solver == "vbd":
                 n = tuning["contact_steps"]
@@ -348,11 +361,11 @@ class NewtonSimulation(Simulation):
         if solver == "vbd":
             builder.color()
         model = builder.finalize(device="cpu")
-        if self._still:  # held from rotating: no inverse inertia (VBD reads the inertia itself: made huge)
-            inv = model.body_inv_inertia.numpy()
-            inv[self._still] = 0.0
+        if self._still:  # held from rotating: no inverse inertia (VBD reads the inertia itself: made huge;
+            inv = model.body_inv_inertia.numpy()  # Kamino's LOX refuses a singular one: both made extreme)
+            inv[self._still] = inv[self._still] / HELD_INERTIA_SCALE if solver == "kamino" else 0.0
             model.body_inv_inertia.assign(inv)
-            if solver == "vbd":
+            if solver in ("vbd", "kamino"):
                 inertia = model.body_inertia.numpy()
                 inertia[self._still] *= HELD_INERTIA_SCALE
                 model.body_inertia.assign(inertia)
@@ -375,6 +388,9 @@ class NewtonSimulation(Simulation):
             self.knobs.update(angular_damping=0.0, update_mass_matrix_interval=1)
         elif solver == "mujoco":
             iterations = self._mujoco_solver(newton, model, scene, *mujoco)
+        elif solver == "kamino":
+            iterations = KAMINO_ITERATIONS if settings.iterations is None else settings.iterations
+            self._solver = self._kamino_solver(newton, model, iterations)
         else:
             iterations = VBD_ITERATIONS if settings.iterations is None else settings.iterations
             self._solver = newton.solvers.SolverVBD(model, iterations=iterations,
@@ -407,7 +423,7 @@ class NewtonSimulation(Simulation):
         if not penalty:
             self._observables = self._solver.observables(
                 kinds={self._solver.ObservableKind.CONTACT_F}, contacts=self._contacts)
-        self._graphs = self._capture() if solver == "mujoco" else None
+        self._graphs = self._capture() if solver in ("mujoco", "kamino") else None
         self._order = [b.name for b in scene.bodies if b.dynamic]
         self._rows = [self._index[n] for n in self._order]
         if solver == "mujoco":
@@ -415,6 +431,25 @@ class NewtonSimulation(Simulation):
             self.effects = model_effects(self._solver.mj_model, mujoco[1])
         else:
             self.effects = self._built_effects(scene, shape, solver)
+
+    def _kamino_solver(self, newton, model, iterations: int):
+        """SolverKamino with its LOX backend (PADMM, the default, costs 59-67 ms a step for one
+        ball: module notes), restitution by LOX's implicit restitution (off by default: without
+        it a ball meant to leave at e = 0.5 leaves the ground at 0.10 m/s), the pair's mu and e
+        by the arithmetic mean of the shapes' (restitution's default rule is the minimum)."""
+        # Newton 1.8 exports SolverKamino, not the configurations it takes
+        from newton._src.solvers.kamino.config import LOXSolverConfig, MaterialManagerConfig
+        restitution = any(m.e > 0 for m in self._pairs.values())
+        lox = LOXSolverConfig(max_iterations=iterations, contact_implicit_restitution=restitution)
+        materials = MaterialManagerConfig(friction_mix_mode="average", restitution_mix_mode="average")
+        config = newton.solvers.SolverKamino.Config(dynamics_solver="lox", lox=lox, materials=materials)
+        self.knobs.update(dynamics_solver="lox", max_iterations=iterations, contact_implicit_restitution=restitution,
+                          friction_mix_mode="average", restitution_mix_mode="average",
+                          lox_defaults={k: getattr(lox, k) for k in ("position_tolerance", "velocity_tolerance",
+                                                                      "contact_compliance", "fixed_iterations")},
+                          integrator=config.integrator, angular_velocity_damping=config.angular_velocity_damping,
+                          collision="Newton's CollisionPipeline (use_collision_detector False)")
+        return newton.solvers.SolverKamino(model, config)
 
     def _add_pairs(self, builder, mj_knobs: dict) -> None:
         """MuJoCo's explicit pairs, each as the MuJoCo adapter writes it (adapters/mujoco_engine.py,
@@ -511,14 +546,14 @@ class NewtonSimulation(Simulation):
         for a, b in self._pairs:
             if COMBINE[MU_RULE[solver]](shape[a]["mu"], shape[b]["mu"]) > 0:
                 fx.add("friction")
+            if solver in RESTITUTION and mean(shape[a]["restitution"], shape[b]["restitution"]) > 0:
+                fx.add("restitution")
             if solver == "xpbd":
-                if mean(shape[a]["restitution"], shape[b]["restitution"]) > 0:
-                    fx.add("restitution")
                 if mean(shape[a]["mu_torsional"], shape[b]["mu_torsional"]) > 0:
                     fx.add("torsional_friction")
                 if mean(shape[a]["mu_rolling"], shape[b]["mu_rolling"]) > 0:
                     fx.add("rolling_resistance")
-            elif solver != "vbd" and self._pairs[(a, b)].e > 0:
+            elif solver not in ("vbd", "kamino") and self._pairs[(a, b)].e > 0:
                 fx.add("restitution")  # mapped onto the damper
         if any(b.dynamic and b.rotates for b in scene.bodies):
             fx.add("rotation")
@@ -527,15 +562,19 @@ class NewtonSimulation(Simulation):
     # --- the contract -------------------------------------------------------------------
 
     def _capture(self) -> list:
-        """SolverMuJoCo's step recorded as two Warp graphs (on the CPU an operation stream Warp
-        replays in C++, as adapters/mujoco_warp_engine.py does for mujoco_warp.step): state 0
-        into state 1 and back. Recording runs nothing (the state stays the start state); a
-        replay is bit for bit the step (tests/test_newton_mujoco_mapping.py), at 0.40-0.47 ms instead
-        of 19 ms a step for a 5-box stack, 53 us for a ball."""
+        """SolverMuJoCo's step (SolverKamino's, with Newton's collision detection) recorded as
+        two Warp graphs (on the CPU an operation stream Warp replays in C++, as
+        adapters/mujoco_warp_engine.py does for mujoco_warp.step): state 0 into state 1 and
+        back. Recording runs nothing (the state stays the start state); a replay is bit for bit
+        the step (tests/test_newton_mujoco_mapping.py), at 0.40-0.47 ms instead of 19 ms a step
+        for a 5-box stack, 53 us for a ball."""
         wp, graphs = self._wp, []
         for a, b in ((self._s0, self._s1), (self._s1, self._s0)):
             wp.capture_begin("cpu")
             try:
+                if self._pipeline is not None:  # Kamino: Newton's collision detection, recorded with the step
+                    a.clear_forces()
+                    self._pipeline.collide(a, self._contacts)
                 self._solver.step(a, b, self._control, self._contacts, self._dt, observables=self._observables)
             finally:
                 graphs.append(wp.capture_end("cpu"))
@@ -546,7 +585,7 @@ class NewtonSimulation(Simulation):
             self._wp.capture_launch(self._graphs[0])
             self._graphs.reverse()
             self._s0, self._s1 = self._s1, self._s0
-            if self._nacon[0] > self._naconmax:  # graphs: SolverMuJoCo, whose buffer this is
+            if self._solver_name == "mujoco" and self._nacon[0] > self._naconmax:  # SolverMuJoCo's own buffer
                 from adapters.mujoco_warp_engine import ContactOverflow
                 raise ContactOverflow(f"{int(self._nacon[0])} contacts in one step, more than the "
                                       f"{self._naconmax} allotted (CONTACTS_PER_BODY)")

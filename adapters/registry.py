@@ -91,6 +91,7 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "newton-featherstone": ("adapters.newton_engine", "NewtonAdapter", {"solver": "featherstone"}),
     "newton-vbd": ("adapters.newton_engine", "NewtonAdapter", {"solver": "vbd"}),
     "newton-mujoco": ("adapters.newton_engine", "NewtonAdapter", {"solver": "mujoco"}),
+    "newton-kamino": ("adapters.newton_engine", "NewtonAdapter", {"solver": "kamino"}),
 }
 # The pip extra that installs each built-in engine's package (README, pyproject.toml).
 EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "mujoco-warp": "mujoco-warp", "pymunk": "pymunk", "dart": "dart",
