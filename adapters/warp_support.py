@@ -31,7 +31,9 @@ def init_warp():
     import warp as wp
     if wp.config.kernel_cache_dir is None:  # Warp's default: not configured yet in this process
         wp.config.kernel_cache_dir = str(warp_cache_dir())
-        wp.config.enable_backward = False
-        wp.config.log_level = 30  # warnings and errors only (default 20: info, a line per module)
+    # every call: another engine may have started Warp with its defaults in this worker first
+    # (ovphysx does, for its array views), after which a Newton job logged every module it loaded
+    wp.config.enable_backward = False
+    wp.config.log_level = 30  # warnings and errors only (default 20: info, a line per module)
     wp.init()  # once per process; later calls return at once
     return wp
