@@ -242,12 +242,12 @@ class NewtonAdapter(Adapter):
 
     # Warp launches a dozen kernels or more a step on the CPU: the median step over the default
     # run's core families (2 cores) is 1.85 ms with XPBD, 0.45 ms semi-implicit, 0.68 ms
-    # Featherstone, 2.6 ms VBD and 23 us for SolverMuJoCo (its step replayed as a Warp graph;
-    # MuJoCo C 14 us on a 5-box stack), and each solver compiles 10-60 s on first use (kept in
+    # Featherstone, 2.6 ms VBD, 0.56 ms Kamino and 23 us for SolverMuJoCo (Kamino's and its steps
+    # replayed as Warp graphs; MuJoCo C 14 us on a 5-box stack), and each solver compiles 10-60 s on first use (kept in
     # the kernel cache, adapters/warp_support.py; SolverMuJoCo 84 s to build its first scene
     # with an empty cache, 9.5 s with a full one, 0.7 s each scene after). So every default run
-    # takes Newton's conformance battery and core families (365 runs of the five
-    # configurations, 431 s of stepping on 2 cores with a warm kernel cache), the others on
+    # takes Newton's conformance battery and core families (438 runs of the six
+    # configurations, 487 s of stepping on 2 cores with a warm kernel cache), the others on
     # demand (--on-demand), and Newton is left out of the default sweep, stress battery,
     # benchmarks and readings (`slow`), which repeat each scene many times. The test suite runs
     # Newton with `pytest -m slow` (tests/conftest.py), so it stays within its 10 minutes on a
