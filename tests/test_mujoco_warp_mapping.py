@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 
 from adapters import registry
-from adapters.base import Settings
-from cases.registry import builtin_families
+from tests.helpers import variant_scene
 
 pytestmark = pytest.mark.engine("mujoco-warp")
 
@@ -22,10 +21,7 @@ def adapter():
 
 
 def _built(adapter, family: str, variant: str):
-    fam = builtin_families()[family]
-    v = next(v for v in fam.variants if v.id == variant)
-    scene = fam.scene(v.params)
-    settings = Settings(dt=fam.dt_for(v.params))
+    scene, settings = variant_scene(family, variant)
     return scene, settings, adapter.build(scene, settings)
 
 

@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 
 from adapters import registry
-from adapters.base import Settings
-from cases.registry import builtin_families
+from tests.helpers import variant_scene
 
 pytestmark = [pytest.mark.engine("newton-kamino"), pytest.mark.slow]
 
@@ -23,15 +22,9 @@ def adapter():
         pytest.skip(str(exc))
 
 
-def _scene(family: str, variant: str):
-    fam = builtin_families()[family]
-    v = next(v for v in fam.variants if v.id == variant)
-    return fam.scene(v.params), Settings(dt=fam.dt_for(v.params))
-
-
 @pytest.mark.parametrize("variant, restitution", [("drop,e=0.5", True), ("drop,e=0.0", False)])
 def test_implicit_restitution_is_on_where_the_scene_asks_for_it(adapter, variant, restitution):
-    sim = adapter.build(*_scene("central_impact", variant))
+    sim = adapter.build(*variant_scene("central_impact", variant))
     assert sim.knobs["dynamics_solver"] == "lox"
     assert sim.knobs["contact_implicit_restitution"] is restitution
     assert ("restitution" in sim.effects) is restitution
@@ -39,7 +32,7 @@ def test_implicit_restitution_is_on_where_the_scene_asks_for_it(adapter, variant
 
 
 def test_a_body_held_from_rotating_has_a_huge_inertia_not_a_singular_one(adapter):
-    scene, settings = _scene("conformance", "locked_rotation_stays_locked,3D")
+    scene, settings = variant_scene("conformance", "locked_rotation_stays_locked,3D")
     sim = adapter.build(scene, settings)
     held = sim._still[0]
     inverse = sim._model.body_inv_inertia.numpy()[held]
@@ -47,7 +40,7 @@ def test_a_body_held_from_rotating_has_a_huge_inertia_not_a_singular_one(adapter
 
 
 def test_the_replayed_graph_is_the_unrecorded_step(adapter):
-    scene, settings = _scene("resting_blocks", "n=3")  # contacts from the first step
+    scene, settings = variant_scene("resting_blocks", "n=3")  # contacts from the first step
     a, b = adapter.build(scene, settings), adapter.build(scene, settings)
     ra, rb = np.zeros(13 * 3), np.zeros(13 * 3)
     for _ in range(200):

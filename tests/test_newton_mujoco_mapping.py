@@ -11,6 +11,7 @@ import pytest
 from adapters import registry
 from adapters.base import Settings
 from cases.registry import builtin_families
+from tests.helpers import variant_scene
 
 pytestmark = [pytest.mark.engine("newton-mujoco"), pytest.mark.slow]
 
@@ -23,17 +24,11 @@ def adapter():
         pytest.skip(str(exc))
 
 
-def _scene(family: str, variant: str):
-    fam = builtin_families()[family]
-    v = next(v for v in fam.variants if v.id == variant)
-    return fam.scene(v.params), Settings(dt=fam.dt_for(v.params))
-
-
 @pytest.mark.parametrize("family, variant", [("central_impact", "drop,e=0.5"), ("incline_threshold", "mu=0.5,theta=atan(mu_s)+1deg"),
                                              ("resting_blocks", "n=3")])
 def test_the_compiled_model_is_the_mujoco_adapters(adapter, family, variant):
     import mujoco
-    scene, settings = _scene(family, variant)
+    scene, settings = variant_scene(family, variant)
     sim = adapter.build(scene, settings)
     ours = sim._solver.mj_model
     theirs = registry.get("mujoco").build(scene, settings)._model
@@ -60,7 +55,7 @@ def test_the_compiled_model_is_the_mujoco_adapters(adapter, family, variant):
 
 
 def test_the_replayed_graph_is_solver_mujocos_own_step(adapter):
-    scene, settings = _scene("central_impact", "drop,e=0.5")
+    scene, settings = variant_scene("central_impact", "drop,e=0.5")
     a, b = adapter.build(scene, settings), adapter.build(scene, settings)
     ra, rb = np.zeros(13), np.zeros(13)
     for _ in range(600):  # the fall and the impact
