@@ -70,36 +70,32 @@ def releases_of(adapter, texts: list[str]) -> list[str]:
     return sorted(texts, key=parsed.get)
 
 
-def engine_of(name: str, ctx) -> str:
-    """ENGINE as named: an engine, or the package its configurations share (`newton`:
-    newton-xpbd, newton-vbd, ...), for which the first of them stands."""
+def packages(ctx) -> dict[str, str]:
+    """Each engine installed here, and the package its adapter installs."""
     from adapters import registry
-    names = registry.engine_names(ctx.adapters)
-    if name in names:
-        return name
-    resolver = ctx.resolver()
-    for candidate in names:
+    resolver, found = ctx.resolver(), {}
+    for name in registry.engine_names(ctx.adapters):
         try:
-            if resolver.adapter(candidate).package == name:
-                return candidate
+            found[name] = resolver.adapter(name).package
         except Exception:  # not installed here
             continue
-    return name  # unknown: the resolver says so, with the engines to choose from
+    return found
+
+
+def engine_of(name: str, ctx) -> str:
+    """ENGINE as named: an engine, or the package its configurations share (`newton`:
+    newton-xpbd, newton-vbd, ...), for which the first of them stands; an unknown name is
+    returned as it is, for the resolver to say so with the engines to choose from."""
+    from adapters import registry
+    if name in registry.engine_names(ctx.adapters):
+        return name
+    return next((e for e, package in packages(ctx).items() if package == name), name)
 
 
 def configurations(engine: str, ctx) -> list[str]:
     """The engines whose adapter installs the same package as `engine`'s."""
-    from adapters import registry
-    resolver = ctx.resolver()
-    package = resolver.adapter(engine).package
-    found = []
-    for name in registry.engine_names(ctx.adapters):
-        try:
-            if resolver.adapter(name).package == package:
-                found.append(name)
-        except Exception:
-            continue
-    return found
+    package = ctx.resolver().adapter(engine).package
+    return [e for e, p in packages(ctx).items() if p == package]
 
 
 def run_command(args, engines: list[str], out: Path) -> list[str]:
