@@ -192,7 +192,7 @@ def deviation_files(root: Path) -> str:
     opening comment and its entries (pattern and cause) under a heading of its own."""
     from physval.core.deviations import parse  # the one reader of the format
 
-    files = sorted((root / "adapters" / "xfails").glob("*.txt"))
+    files = sorted((root / "adapters" / "xfails").glob("*.txt"), key=lambda p: p.stem)
     if not files:
         raise ValueError("no adapters/xfails/*.txt")
     summary = ["| engine | entries | bands |", "|:--|--:|--:|"]
