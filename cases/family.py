@@ -1,7 +1,7 @@
 """The case format: a family is a scene builder, a parameter grid, observables, closed-form
 expectations and tolerances (each with a one-line reason). One file per family under
 `cases/`, exporting `FAMILY`; users add families the same way from `--cases-dir DIR`
-(docs/writing_cases.md walks through one).
+(docs/extend/writing_cases.md walks through one).
 
 How physval uses a family, per variant (one `params` dict of the grid) and engine:
 

@@ -1,4 +1,4 @@
-"""The worked example of docs/writing_cases.md as files, so tests run exactly what the
+"""The worked example of docs/extend/writing_cases.md as files, so tests run exactly what the
 guide shows (a code block is found by its first line, e.g. '# my_cases/pair_drop.py')."""
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import re
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-GUIDE = ROOT / "docs" / "writing_cases.md"
+GUIDE = ROOT / "docs" / "extend" / "writing_cases.md"
 
 
 def block(first_line: str) -> str:

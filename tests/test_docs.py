@@ -1,4 +1,4 @@
-"""docs/writing_cases.md does what it says: its worked family passes `physval check-case`
+"""docs/extend/writing_cases.md does what it says: its worked family passes `physval check-case`
 and runs on the reference with every check passing, and its `--known` walk-through turns
 the model difference a user records for MuJoCo into `deviation`, listed in the report as
 the user's own."""
