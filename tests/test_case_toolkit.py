@@ -86,6 +86,20 @@ def test_check_case_stops_a_broken_family_with_one_line(tmp_path, capsys, broken
     assert "runs on" not in captured.out
 
 
+@pytest.mark.parametrize("call", ['traj.pos("nobody")', "np.linalg.inv(np.zeros((2, 2)))"],
+                         ids=["in physval's trajectory", "in numpy"])
+def test_check_case_names_the_file_and_line_where_the_observer_raised(tmp_path, capsys, call):
+    """The line of the user's own file, not the innermost frame (physval's Trajectory, numpy)."""
+    path = write_example(tmp_path)
+    text = path.read_text().replace("def observe(traj, p):\n",
+                                    f"def observe(traj, p):\n    import numpy as np\n    {call}\n")
+    path.write_text(text)
+    line = text.splitlines().index(f"    {call}") + 1
+    assert main(["check-case", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "observe() raised" in err and err.endswith(f", at {path}:{line}") and err.count("\n") == 0, err
+
+
 def test_check_case_of_a_file_that_is_not_python_is_one_line(tmp_path, capsys):
     (tmp_path / "notes.txt").write_text("x")
     assert main(["check-case", str(tmp_path / "notes.txt")]) == 2
