@@ -301,7 +301,8 @@ class Box2DSimulation(Simulation):
             "linear_slop": 0.005,             # B2_LINEAR_SLOP (b2_lengthUnitsPerMeter = 1), not settable per world
             "speculative_distance": 0.02,     # 4 linear slops: contacts found this far apart
             "warm_starting": True,            # Box2D's default; pyb2d3 does not expose the switch
-            "contact_force": "momentum: J_i = m (v' - v) - m g dt per body, split over the touching pairs",
+            "contact_force": ("momentum: J_i = m (v' - v) - m g dt per body, split over the touching pairs "
+                              "along their normals (adapters/impulse_split.py)"),
             "bodies": {},
         }
 

@@ -192,7 +192,8 @@ class Box3DSimulation(Simulation):
             "speculative": True,  # Box3D's default: contacts found before they touch
             "warm_starting": True,  # Box3D's default
             "pair": {"|".join(k): {"friction": v[0], "restitution": v[1]} for k, v in _PAIRS[self._key].items()},
-            "contact_force": "momentum: J_i = m (v' - v) - m g dt per body, split over the pairs with manifold points",
+            "contact_force": ("momentum: J_i = m (v' - v) - m g dt per body, split over the pairs with manifold "
+                              "points along their normals (adapters/impulse_split.py)"),
             "bodies": {},
         }
         self._planar = scene.dimension == 2
