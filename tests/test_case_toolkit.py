@@ -90,7 +90,8 @@ def test_check_case_names_the_file_and_line_where_the_observer_raised(tmp_path, 
     """The line of the user's own file, not the innermost frame (here numpy's)."""
     path = write_example(tmp_path)
     call = "np.linalg.inv(np.zeros((2, 2)))"
-    text = path.read_text().replace("def observe(traj, p):\n", f"def observe(traj, p):\n    import numpy as np\n    {call}\n")
+    text = path.read_text().replace("def observe(traj, p):\n",
+                                    f"def observe(traj, p):\n    import numpy as np\n    {call}\n")
     path.write_text(text)
     line = text.splitlines().index(f"    {call}") + 1
     assert main(["check-case", str(path)]) == 2

@@ -104,7 +104,8 @@ def _dart(sim, record) -> dict:
     secondary = solver.getSecondaryBoxedLcpSolver()
     return {("World.setTimeStep",): world.getTimeStep(),
             ("BoxedLcpConstraintSolver.setBoxedLcpSolver",): type(solver.getBoxedLcpSolver()).__name__,
-            ("BoxedLcpConstraintSolver.setSecondaryBoxedLcpSolver",): None if secondary is None else type(secondary).__name__,
+            ("BoxedLcpConstraintSolver.setSecondaryBoxedLcpSolver",):
+                None if secondary is None else type(secondary).__name__,
             ("ConstraintSolver.setSplitImpulseEnabled",): solver.isSplitImpulseEnabled()}
 
 
