@@ -19,7 +19,7 @@ from typing import Mapping
 import numpy as np
 
 from cases.family import UNIT_ROUNDOFF
-from cases.scene import (CONTACT_TORQUES, IMPACT_MODEL_NEED, IMPACT_MODELS,  # noqa: F401 (re-exported)
+from cases.scene import (CONTACT_TORQUES, EFFECTS, IMPACT_MODEL_NEED, IMPACT_MODELS,  # noqa: F401 (re-exported)
                          RESTITUTION_LAW_NEED, RESTITUTION_LAWS, Scene)
 from cases.trajectory import ContactPoint
 
@@ -77,6 +77,9 @@ class Capabilities:
     # Settings.iterations counts sub-steps, each a whole velocity and position update: the
     # round-off a check allows is counted per sub-step (Simulation.iterations of them a step).
     substeps: bool = False
+    # (effect, reason) for effects of cases.scene.EFFECTS the engine has the values for but
+    # does not simulate (a solver that drops the rows): said when a scene asks for one
+    why_not: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self):
         if self.impact_model is not None and self.impact_model not in IMPACT_MODELS:
@@ -86,6 +89,9 @@ class Capabilities:
             raise ValueError(f"contact_torques = {sorted(unknown)}: must be among {', '.join(CONTACT_TORQUES)}")
         if self.restitution_law not in RESTITUTION_LAWS:
             raise ValueError(f"restitution_law = {self.restitution_law!r}: must be one of {', '.join(RESTITUTION_LAWS)}")
+        unknown = {effect for effect, _ in self.why_not} - set(EFFECTS)
+        if unknown:
+            raise ValueError(f"why_not names {sorted(unknown)}: must be among {', '.join(EFFECTS)}")
         if self.float_bits not in UNIT_ROUNDOFF:
             raise ValueError(f"float_bits = {self.float_bits!r}: must be one of {', '.join(map(str, UNIT_ROUNDOFF))}")
 
@@ -114,8 +120,8 @@ class Capabilities:
                 a, b = next((a, b) for a, b in scene.contact_pairs()
                             if scene.material_of(a.name, b.name).torque(effect) > 0)
                 d = scene.material_of(a.name, b.name).torque(effect)
-                return (f"{effect.replace('_', ' ')} = {d:g} m for {a.name}/{b.name}: the engine has no "
-                        f"{effect.replace('_', ' ')}")
+                why = dict(self.why_not).get(effect, f"the engine has no {effect.replace('_', ' ')}")
+                return f"{effect.replace('_', ' ')} = {d:g} m for {a.name}/{b.name}: {why}"
         laws = scene.contact_laws - self.contact_laws
         if laws:
             return (f"compliant contact ({', '.join(sorted(laws))} law) asked for: the engine does not "

@@ -161,11 +161,6 @@ class ReferenceSimulation(Simulation):
             "stick_speed": config.stick_speed,
             "margin": config.margin,
             "params": dict(config.params),
-            "friction_cone": "disc |Pt| <= mu Pn (isotropic)",
-            "contact_torques": "rolling: disc |Pr| <= rolling Pn about the tangent axes; torsion: "
-                               "|Pq| <= torsion Pn about n (lever arms in m, sequential impulses only)",
-            "restitution": "v_n+ = -e v_n at the start of the step (before gravity)",
-            "depenetration": "split impulse on pseudo-velocities",
             "integrator": "symplectic Euler: velocity, then position",
             "gravity": list(world.gravity),
             "material": asdict(world.material),
@@ -177,9 +172,9 @@ class ReferenceSimulation(Simulation):
             "bodies": {body.name: {"static": body.static, "can_rotate": body.can_rotate}
                        for body in world.bodies},
         }
-        own = getattr(world.solver, "knobs", None)  # what the formulation in force does
-        if own:
-            self._knobs.update(own(config))
+        # what the formulation in force does (its friction set, restitution, depenetration):
+        # described by that formulation alone, so the record names the solver that runs
+        self._knobs.update(world.solver.knobs(config))
         self.effects = self._built_effects(scene)
 
     def _built_effects(self, scene: Scene) -> frozenset[str]:

@@ -327,13 +327,44 @@ def raised(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
+def raised_where(exc: BaseException) -> str:
+    """', at FILE:LINE' of the innermost frame of the exception's traceback in the user's
+    own code: outside physval's packages (cases, adapters, physval, reference_impl) and the
+    Python installation (the standard library, site-packages), so an observer that hands
+    numpy an empty window is named at its own line, not numpy's; the innermost frame if
+    none is; '' without a traceback. FILE is relative to the working directory if inside it."""
+    import sys
+    import sysconfig
+    import traceback
+    from pathlib import Path
+    frames = traceback.extract_tb(exc.__traceback__) if exc.__traceback__ else []
+    if not frames:
+        return ""
+    own = [Path(sys.modules[name].__file__).resolve().parent for name in ("cases", "adapters", "physval",
+                                                                         "reference_impl") if name in sys.modules]
+    libraries = {Path(sysconfig.get_paths()[key]).resolve() for key in ("stdlib", "platstdlib", "purelib", "platlib")}
+
+    def users(frame) -> bool:
+        path = Path(frame.filename).resolve()
+        return not any(path.is_relative_to(root) for root in own + list(libraries))
+
+    frame = next((f for f in reversed(frames) if users(f)), frames[-1])
+    path = Path(frame.filename)
+    try:
+        path = path.resolve().relative_to(Path.cwd())
+    except ValueError:
+        pass
+    return f", at {path}:{frame.lineno}"
+
+
 @contextmanager
 def user_code(where: str, doing: str, rule: str, error: type[Exception] = CaseError):
     """Run code physval did not write (a family's functions, a user's file, an adapter):
     any exception it raises becomes one `error` line, '`where`: `doing` Type: message
-    (`rule`)', an exit (SystemExit) and every other BaseException included, so that no
-    user code ends physval's process by raising; only Ctrl-C passes. A CaseError or
-    SceneError (the family's own complaint, already one line) becomes '`where`: message'."""
+    (`rule`), at FILE:LINE' (`raised_where`), an exit (SystemExit) and every other
+    BaseException included, so that no user code ends physval's process by raising; only
+    Ctrl-C passes. A CaseError or SceneError (the family's own complaint, already one line)
+    becomes '`where`: message'."""
     from cases.scene import SceneError
     try:
         yield
@@ -342,4 +373,4 @@ def user_code(where: str, doing: str, rule: str, error: type[Exception] = CaseEr
     except (CaseError, SceneError) as exc:
         raise error(f"{where}: {exc}") from None
     except BaseException as exc:
-        raise error(f"{where}: {doing} {raised(exc)} ({rule})") from None
+        raise error(f"{where}: {doing} {raised(exc)} ({rule}){raised_where(exc)}") from None

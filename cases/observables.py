@@ -108,14 +108,16 @@ def free_arc_start(z: np.ndarray, k: int, g: float, dt: float, run: int = 6) -> 
 
 
 def arc_apex(t: np.ndarray, z: np.ndarray, g: float) -> float:
-    """Apex height of the parabola z = a + b t - g t^2 / 2 fitted to free-flight samples.
+    """Apex height of the parabola z = a + b t - g t^2 / 2 fitted to free-flight samples
+    (g > 0).
 
     Positions only: every explicit Euler integrator (velocity first or position first)
     keeps the second difference of z at exactly -g dt^2 in free flight, so its samples lie
     on such a parabola and the apex is exact in discrete time, while v^2/2 + g z of the
-    sampled velocity drifts by g dt v / 2 depending on the integrator."""
-    b, a = np.polyfit(t - t[0], z + 0.5 * g * (t - t[0]) ** 2, 1)
-    return float(a + b * b / (2.0 * g))
+    sampled velocity drifts by g dt v / 2 depending on the integrator. A parabola needs two
+    samples: with fewer (a window past the run's end, a one-step run) the highest sample's
+    height, or 0 with none, a finite number that fails by its size (`arc_vertex`)."""
+    return arc_vertex(t, z, g)[1]
 
 
 def window_samples(traj: Trajectory, t0: float, t1: float = math.inf, least: int = 1) -> np.ndarray:
@@ -128,8 +130,8 @@ def window_samples(traj: Trajectory, t0: float, t1: float = math.inf, least: int
     inside = np.flatnonzero(traj.after(t0) & (traj.t <= t1 + 1e-12))
     if inside.size >= least:
         return inside
-    end = max(int(np.count_nonzero(traj.t <= t1 + 1e-12)), least)
-    return np.arange(end - least, end)
+    end = min(max(int(np.count_nonzero(traj.t <= t1 + 1e-12)), least), len(traj.t))
+    return np.arange(max(end - least, 0), end)  # a run shorter than `least` samples: all of it
 
 
 def window_mean(traj: Trajectory, values: np.ndarray, t0: float) -> float:
@@ -140,8 +142,16 @@ def window_mean(traj: Trajectory, values: np.ndarray, t0: float) -> float:
 
 def arc_vertex(t: np.ndarray, z: np.ndarray, g: float) -> tuple[float, float]:
     """(time, height) of the vertex of the parabola z = a + b t - g t^2 / 2 fitted to
-    free-flight samples: the fit of `arc_apex`, with the apex time as well. The arc meets
-    height 0 at time +- sqrt(2 height / g) from its vertex."""
+    free-flight samples (g > 0): the fit of `arc_apex`, with the apex time as well. The arc
+    meets height 0 at time +- sqrt(2 height / g) from its vertex. With fewer than two
+    samples (or all at one time) no parabola is fitted: the highest sample, or (0, 0)
+    with none, so a reading over a window that holds too little is a finite number."""
+    t, z = np.asarray(t, float), np.asarray(z, float)
+    if t.size == 0:
+        return 0.0, 0.0
+    if t.size < 2 or np.ptp(t) == 0.0:
+        k = int(np.argmax(z))
+        return float(t[k]), float(z[k])
     tau = t - t[0]
     b, a = np.polyfit(tau, z + 0.5 * g * tau**2, 1)
     return float(t[0] + b / g), float(a + b * b / (2.0 * g))
@@ -151,8 +161,11 @@ def rate(traj: Trajectory, values: np.ndarray, t0: float, t1: float = math.inf) 
     """Slope (per second) of the least-squares line through per-sample values over
     [t0, t1]: an acceleration from velocities, a creep speed from positions. A line needs
     two samples: a window holding fewer is widened back to the two ending where it ends
-    (`window_samples`; the last step's slope if t0 lies past the run's end)."""
+    (`window_samples`; the last step's slope if t0 lies past the run's end); 0 on a run of
+    a single sample (no step: nothing changed)."""
     k = window_samples(traj, t0, t1, least=2)
+    if k.size < 2:
+        return 0.0
     return float(np.polyfit(traj.t[k], values[k], 1)[0])
 
 

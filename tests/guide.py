@@ -30,3 +30,13 @@ def write_known(folder: Path) -> Path:
     path = folder / "my_known.txt"
     path.write_text(block("# my_known.txt"))
     return path
+
+
+def section(heading: str) -> str:
+    """The guide's text under the heading line `heading` (its '#'s included), up to the next
+    heading of the same or a higher level."""
+    text = GUIDE.read_text()
+    level = len(heading) - len(heading.lstrip("#"))
+    found = re.search(r"^" + re.escape(heading) + r"\n(.*?)(?=^#{1," + str(level) + r"} |\Z)", text, re.S | re.M)
+    assert found, f"{GUIDE.name}: no heading {heading!r}"
+    return found.group(1)
