@@ -180,11 +180,11 @@ def _outward_triangles(points: np.ndarray) -> np.ndarray:
     return tri
 
 
-def _polyhedron_moments(points: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+def _polyhedron_moments(points: np.ndarray, tri: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
     """Volume, first moment (3,) and second moment (3, 3) (the integrals of 1, x, x x^T)
-    of the solid convex hull of `points`: a sum over signed tetrahedra (origin, a, b, c), one
-    per outward face triangle (Tonon 2004; Mirtich 1996: see Hull)."""
-    tri = _outward_triangles(points)
+    of the solid polyhedron with corners `points` and outward face triangles `tri`: a sum
+    over signed tetrahedra (origin, a, b, c), one per face triangle (Tonon 2004; Mirtich
+    1996: see Hull)."""
     a, b, c = points[tri[:, 0]], points[tri[:, 1]], points[tri[:, 2]]
     v = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0  # signed volumes
     s = a + b + c
@@ -250,7 +250,7 @@ def principal_frame(vertices) -> tuple[tuple, tuple[float, float, float], tuple[
         area, first, _ = _polygon_moments(points)
         c = first / area
         return _as_tuples(points - c), (float(c[0]), 0.0, float(c[1])), (1.0, 0.0, 0.0, 0.0)
-    volume, first, second = _polyhedron_moments(points)
+    volume, first, second = _polyhedron_moments(points, _outward_triangles(points))
     c = first / volume
     about_c = second - volume * np.outer(c, c)  # parallel-axis theorem for the second moment
     _, axes = np.linalg.eigh(_inertia_tensor(about_c))  # columns: principal axes, moments ascending
@@ -442,7 +442,7 @@ class Hull:
     def mass_properties(self) -> tuple[float, np.ndarray, np.ndarray]:
         """(volume m^3, first moment m^4 (3,), second moment m^5 (3, 3): the integrals of
         1, x and x x^T over the solid in the body frame)."""
-        return _polyhedron_moments(np.asarray(self.vertices, dtype=float))
+        return _polyhedron_moments(np.asarray(self.vertices, dtype=float), self.faces)
 
     @cached_property
     def faces(self) -> np.ndarray:
@@ -456,7 +456,7 @@ class Hull:
 
     def validate(self, where: str) -> None:
         points = _corners(self.vertices, f"{where}.vertices", 3)
-        volume, first, second = _polyhedron_moments(points)
+        volume, first, second = self.mass_properties
         size = float(np.ptp(points, axis=0).max())
         if not volume > FLAT * size**3:
             raise SceneError(f"{where}.vertices = {_brief(self.vertices)}: must span a volume "

@@ -18,7 +18,6 @@ from cases.overlap import exact, penetration, rotation_matrix
 from cases.scene import (SHAPE_KINDS, Body, Box, Capsule, Circle, Cylinder, Hull, Mesh, Plane, Polygon, Rect, Scene,
                          SceneError, Sphere, ground, principal_frame, quat_about_y)
 
-RNG = np.random.default_rng(36)
 # Mass properties computed in float64 from a handful of terms agree with closed forms to a
 # few units of round-off; 1e-12 relative leaves room for the sums over hundreds of faces.
 ROUNDOFF = 1e-12
@@ -34,16 +33,22 @@ def prism(n: int, radius: float, half: float, phase: float = 0.0):
     return [(radius * math.cos(a), radius * math.sin(a), z) for z in (-half, half) for a in t]
 
 
-def unit_quaternion():
-    q = RNG.normal(size=4)
+@pytest.fixture
+def rng():
+    """Each test its own draws, the same whichever tests run."""
+    return np.random.default_rng(36)
+
+
+def unit_quaternion(rng):
+    q = rng.normal(size=4)
     return tuple(q / np.linalg.norm(q))
 
 
 # --- mass properties -----------------------------------------------------------------------
 
-def test_a_hull_of_a_box_has_the_box_inertia():
+def test_a_hull_of_a_box_has_the_box_inertia(rng):
     for _ in range(5):
-        a, b, c = RNG.uniform(0.01, 2.0, 3)
+        a, b, c = rng.uniform(0.01, 2.0, 3)
         hull = Hull(box_corners(a, b, c))
         hull.validate("hull")
         assert hull.mass_properties[0] == pytest.approx(8 * a * b * c, rel=ROUNDOFF)
@@ -127,8 +132,8 @@ def test_a_square_polygon_is_a_rect_and_a_regular_polygon_its_closed_form():
     assert gon.inertia(m)[0] == pytest.approx(m * r * r * (2 + math.cos(2 * math.pi / n)) / 6, rel=ROUNDOFF)
 
 
-def test_principal_frame_moves_a_point_set_into_its_body_frame():
-    points = RNG.normal(size=(40, 3)) * (0.3, 0.2, 0.1)
+def test_principal_frame_moves_a_point_set_into_its_body_frame(rng):
+    points = rng.normal(size=(40, 3)) * (0.3, 0.2, 0.1)
     points = points[ConvexHull(points).vertices] + (1.0, -2.0, 0.5)
     body_points, centre, q = principal_frame(points)
     hull = Hull(body_points)
@@ -139,7 +144,7 @@ def test_principal_frame_moves_a_point_set_into_its_body_frame():
     tensor_world = R @ np.diag(hull.inertia(1.0)) @ R.T
     ix, iy, iz = hull.inertia(1.0)
     assert ix <= iy <= iz and np.allclose(np.linalg.eigvalsh(tensor_world), (ix, iy, iz), rtol=1e-12)
-    flat = RNG.normal(size=(30, 2))
+    flat = rng.normal(size=(30, 2))
     flat = flat[ConvexHull(flat).vertices] + (3.0, -1.0)
     polygon_points, centre2, q2 = principal_frame(flat)
     Polygon(polygon_points).validate("polygon")
@@ -240,13 +245,13 @@ def _body(name, shape, position, orientation=(1.0, 0.0, 0.0, 0.0), static=False)
                 static=static)
 
 
-def test_a_box_as_a_hull_overlaps_as_the_box():
+def test_a_box_as_a_hull_overlaps_as_the_box(rng):
     for _ in range(40):
-        h = RNG.uniform(0.05, 0.3, 3)
-        pose = dict(position=RNG.normal(size=3) * 0.2, orientation=unit_quaternion())
+        h = rng.uniform(0.05, 0.3, 3)
+        pose = dict(position=rng.normal(size=3) * 0.2, orientation=unit_quaternion(rng))
         box, hull = _body("a", Box(tuple(h)), **pose), _body("a", Hull(box_corners(*h)), **pose)
-        other = RNG.choice([Sphere(0.15), Box((0.1, 0.2, 0.15)), Plane((0.6, 0.0, 0.8), 0.05)])
-        b = _body("b", other, RNG.normal(size=3) * 0.2, unit_quaternion(), static=other.kind == "plane")
+        other = rng.choice([Sphere(0.15), Box((0.1, 0.2, 0.15)), Plane((0.6, 0.0, 0.8), 0.05)])
+        b = _body("b", other, rng.normal(size=3) * 0.2, unit_quaternion(rng), static=other.kind == "plane")
         assert penetration(hull, b) == pytest.approx(penetration(box, b), abs=1e-12)
 
 
@@ -258,28 +263,28 @@ def _segment_distance(p0, p1, q0, q1) -> float:
     return math.sqrt(max(best.fun, 0.0))
 
 
-def test_capsules_and_spheres_overlap_by_their_radii_less_the_core_distance():
+def test_capsules_and_spheres_overlap_by_their_radii_less_the_core_distance(rng):
     for _ in range(30):
-        caps = [Capsule(RNG.uniform(0.05, 0.2), RNG.uniform(0.02, 0.3)) for _ in range(2)]
-        bodies = [_body(n, c, RNG.normal(size=3) * 0.15, unit_quaternion()) for n, c in zip("ab", caps)]
+        caps = [Capsule(rng.uniform(0.05, 0.2), rng.uniform(0.02, 0.3)) for _ in range(2)]
+        bodies = [_body(n, c, rng.normal(size=3) * 0.15, unit_quaternion(rng)) for n, c in zip("ab", caps)]
         ends = [(np.asarray(b.position) - rotation_matrix(b.orientation)[:, 2] * b.shape.half_length,
                  np.asarray(b.position) + rotation_matrix(b.orientation)[:, 2] * b.shape.half_length) for b in bodies]
         expect = caps[0].radius + caps[1].radius - _segment_distance(*ends[0], *ends[1])
         # L-BFGS-B stops within ~1e-14 m^2 of the least squared distance: 1e-7 m at distances over 1e-7 m
         assert penetration(*bodies) == pytest.approx(max(0.0, expect), abs=1e-7)
-        sphere = _body("s", Sphere(0.1), RNG.normal(size=3) * 0.15)
+        sphere = _body("s", Sphere(0.1), rng.normal(size=3) * 0.15)
         centre = np.asarray(sphere.position)
         expect = 0.1 + caps[0].radius - _segment_distance(*ends[0], centre, centre)
         assert penetration(bodies[0], sphere) == pytest.approx(max(0.0, expect), abs=1e-7)
 
 
-def test_a_capsule_against_a_box_overlaps_by_its_radius_less_the_core_distance():
+def test_a_capsule_against_a_box_overlaps_by_its_radius_less_the_core_distance(rng):
     """The segment's distance to the box by minimising over (t, a point of the box): convex."""
     h = np.array([0.2, 0.1, 0.15])
-    box = _body("box", Box(tuple(h)), (0, 0, 0), unit_quaternion())
+    box = _body("box", Box(tuple(h)), (0, 0, 0), unit_quaternion(rng))
     R = rotation_matrix(box.orientation)
     for _ in range(30):
-        cap = _body("c", Capsule(0.1, 0.15), RNG.normal(size=3) * 0.25, unit_quaternion())
+        cap = _body("c", Capsule(0.1, 0.15), rng.normal(size=3) * 0.25, unit_quaternion(rng))
         axis = rotation_matrix(cap.orientation)[:, 2] * 0.15
         p0, p1 = R.T @ (np.asarray(cap.position) - axis), R.T @ (np.asarray(cap.position) + axis)
         f = lambda x: float(np.sum((p0 + x[0] * (p1 - p0) - x[1:])**2))  # noqa: E731
@@ -291,11 +296,11 @@ def test_a_capsule_against_a_box_overlaps_by_its_radius_less_the_core_distance()
         assert penetration(cap, box) == pytest.approx(max(0.0, 0.1 - distance), abs=1e-7)
 
 
-def test_a_cylinder_against_a_plane_and_a_sphere_is_exact():
+def test_a_cylinder_against_a_plane_and_a_sphere_is_exact(rng):
     for _ in range(20):
-        cyl = _body("c", Cylinder(0.12, 0.2), RNG.normal(size=3) * 0.1, unit_quaternion())
+        cyl = _body("c", Cylinder(0.12, 0.2), rng.normal(size=3) * 0.1, unit_quaternion(rng))
         R = rotation_matrix(cyl.orientation)
-        n = RNG.normal(size=3)
+        n = rng.normal(size=3)
         n /= np.linalg.norm(n)
         plane = _body("p", Plane(tuple(n), 0.05), (0, 0, 0), static=True)
         def height(t, z):  # of the rim point at angle t on the end z, along n
@@ -308,7 +313,7 @@ def test_a_cylinder_against_a_plane_and_a_sphere_is_exact():
                                     options=dict(xatol=1e-10))
             lowest = min(lowest, found.fun)  # a smooth minimum: 1e-10 rad off costs 0.12 * 1e-20 m
         assert penetration(cyl, plane) == pytest.approx(max(0.0, 0.05 - lowest), abs=1e-14)
-        centre = RNG.normal(size=3) * 0.25
+        centre = rng.normal(size=3) * 0.25
         local = R.T @ (centre - np.asarray(cyl.position))
         rho, z = math.hypot(local[0], local[1]), local[2]
         if rho < 0.12 and abs(z) < 0.2:  # the centre inside: the nearer of the side and the caps
@@ -319,7 +324,7 @@ def test_a_cylinder_against_a_plane_and_a_sphere_is_exact():
 
 
 @pytest.mark.parametrize("other", ["box", "cylinder", "hull", "capsule"])
-def test_a_cylinder_pair_lies_between_its_inscribed_and_circumscribed_prisms(other):
+def test_a_cylinder_pair_lies_between_its_inscribed_and_circumscribed_prisms(other, rng):
     """Depth grows with the solid (A in A' gives depth(A) <= depth(A')), so a cylinder's depth
     lies between those of the n-gon prisms inscribed in it and drawn about it (circumradius
     r / cos(pi / n)), hulls measured exactly; the local search must land in that interval
@@ -331,8 +336,8 @@ def test_a_cylinder_pair_lies_between_its_inscribed_and_circumscribed_prisms(oth
               "capsule": Capsule(0.05, 0.1)}
     found = 0
     for _ in range(8):
-        pose = dict(position=RNG.normal(size=3) * 0.1, orientation=unit_quaternion())
-        b = _body("b", shapes[other], RNG.normal(size=3) * 0.1, unit_quaternion())
+        pose = dict(position=rng.normal(size=3) * 0.1, orientation=unit_quaternion(rng))
+        b = _body("b", shapes[other], pose["position"] + rng.normal(size=3) * 0.08, unit_quaternion(rng))
         lo = penetration(_body("a", inner, **pose), b if other != "cylinder" else
                          _body("b", Hull(prism(n, 0.08, 0.1)), b.position, b.orientation))
         hi = penetration(_body("a", outer, **pose), b if other != "cylinder" else
@@ -344,7 +349,7 @@ def test_a_cylinder_pair_lies_between_its_inscribed_and_circumscribed_prisms(oth
     assert not exact("cylinder", other) and exact("cylinder", "sphere") and exact("cylinder", "plane")
 
 
-def test_a_flat_mesh_ground_overlaps_as_the_plane():
+def test_a_flat_mesh_ground_overlaps_as_the_plane(rng):
     """A body over the inside of a flat two-triangle ground, away from its diagonal, sinks
     into it as into the plane z = 0."""
     floor = _body("floor", Mesh([(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], [(0, 1, 2), (0, 2, 3)]), (0, 0, 0),
@@ -353,7 +358,7 @@ def test_a_flat_mesh_ground_overlaps_as_the_plane():
     shapes = [Sphere(0.1), Box((0.1, 0.05, 0.08)), Capsule(0.05, 0.1), Cylinder(0.06, 0.1), Hull(prism(6, 0.1, 0.05))]
     for shape in shapes:
         for depth in (0.0, 0.01):
-            q = unit_quaternion()
+            q = unit_quaternion(rng)
             body = _body("x", shape, (0.8, -0.8, 0.0), q)  # find its lowest point, then place it
             below = penetration(body, plane)
             body = _body("x", shape, (0.8, -0.8, below - depth), q)
@@ -373,13 +378,13 @@ def test_the_start_check_refuses_what_it_cannot_vouch_for_and_passes_contact():
     Scene(bodies=(ground(), Body("p", Polygon(SQUARE), mass=1.0, position=(0, 0, 0.1))), dimension=2)
 
 
-def test_polygons_overlap_as_rects_in_2d():
+def test_polygons_overlap_as_rects_in_2d(rng):
     for _ in range(30):
-        a, c = RNG.uniform(0.05, 0.2, 2)
+        a, c = rng.uniform(0.05, 0.2, 2)
         corners = [(a, c), (-a, c), (-a, -c), (a, -c)]
-        pose = dict(position=(RNG.normal() * 0.2, 0.0, RNG.normal() * 0.2), orientation=quat_about_y(RNG.uniform(0, 6)))
-        other = _body("o", RNG.choice([Circle(0.1), Rect((0.1, 0.15))]), (RNG.normal() * 0.2, 0.0, RNG.normal() * 0.2),
-                      quat_about_y(RNG.uniform(0, 6)))
+        pose = dict(position=(rng.normal() * 0.2, 0.0, rng.normal() * 0.2), orientation=quat_about_y(rng.uniform(0, 6)))
+        other = _body("o", rng.choice([Circle(0.1), Rect((0.1, 0.15))]), (rng.normal() * 0.2, 0.0, rng.normal() * 0.2),
+                      quat_about_y(rng.uniform(0, 6)))
         assert penetration(_body("p", Polygon(corners), **pose), other) == \
             pytest.approx(penetration(_body("r", Rect((a, c)), **pose), other), abs=1e-12)
 
