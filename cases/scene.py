@@ -421,8 +421,9 @@ class Hull:
     the origin span signed tetrahedra, whose volumes a.(b x c)/6 and second moments
     V/20 (a a^T + b b^T + c c^T + s s^T), s = a + b + c, sum to the solid's (Tonon 2004,
     J. Math. Stat. 1(1), "Explicit exact formulas for the 3-D tetrahedron inertia tensor in
-    terms of its vertex coordinates"; the divergence-theorem form of Mirtich 1996, J. Graphics
-    Tools 1(2), "Fast and accurate computation of polyhedral mass properties"). Exact to
+    terms of its vertex coordinates"; the same integrals Mirtich 1996, J. Graphics Tools 1(2),
+    "Fast and accurate computation of polyhedral mass properties", reduces to the faces by
+    the divergence theorem). Exact to
     rounding for the polyhedron; a hull that approximates a curved solid differs from it by
     its facets (a regular n-gon prism inscribed in a cylinder: I_z smaller by the relative
     amount (1 - cos(2 pi / n)) / 3).
@@ -446,7 +447,7 @@ class Hull:
 
     @cached_property
     def faces(self) -> np.ndarray:
-        """The hull's faces as triangles (m, 3) of indices into `vertices`, each wound
+        """The hull's faces as triangles (F, 3) of indices into `vertices`, each wound
         counterclockwise seen from outside (its normal by the right-hand rule points out)."""
         return _outward_triangles(np.asarray(self.vertices, dtype=float))
 
