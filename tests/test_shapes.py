@@ -264,7 +264,7 @@ def _segment_distance(p0, p1, q0, q1) -> float:
 
 
 def test_capsules_and_spheres_overlap_by_their_radii_less_the_core_distance(rng):
-    for _ in range(30):
+    for _ in range(15):
         caps = [Capsule(rng.uniform(0.05, 0.2), rng.uniform(0.02, 0.3)) for _ in range(2)]
         bodies = [_body(n, c, rng.normal(size=3) * 0.15, unit_quaternion(rng)) for n, c in zip("ab", caps)]
         ends = [(np.asarray(b.position) - rotation_matrix(b.orientation)[:, 2] * b.shape.half_length,
@@ -283,7 +283,7 @@ def test_a_capsule_against_a_box_overlaps_by_its_radius_less_the_core_distance(r
     h = np.array([0.2, 0.1, 0.15])
     box = _body("box", Box(tuple(h)), (0, 0, 0), unit_quaternion(rng))
     R = rotation_matrix(box.orientation)
-    for _ in range(30):
+    for _ in range(15):
         cap = _body("c", Capsule(0.1, 0.15), rng.normal(size=3) * 0.25, unit_quaternion(rng))
         axis = rotation_matrix(cap.orientation)[:, 2] * 0.15
         p0, p1 = R.T @ (np.asarray(cap.position) - axis), R.T @ (np.asarray(cap.position) + axis)
@@ -335,7 +335,7 @@ def test_a_cylinder_pair_lies_between_its_inscribed_and_circumscribed_prisms(oth
     shapes = {"box": Box((0.12, 0.08, 0.1)), "cylinder": Cylinder(0.08, 0.1), "hull": Hull(prism(5, 0.1, 0.08)),
               "capsule": Capsule(0.05, 0.1)}
     found = 0
-    for _ in range(8):
+    for _ in range(6):
         pose = dict(position=rng.normal(size=3) * 0.1, orientation=unit_quaternion(rng))
         b = _body("b", shapes[other], pose["position"] + rng.normal(size=3) * 0.08, unit_quaternion(rng))
         lo = penetration(_body("a", inner, **pose), b if other != "cylinder" else
