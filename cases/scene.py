@@ -355,7 +355,18 @@ class Rect:
 
 
 @dataclass(frozen=True)
-class Capsule:
+class _AlongZ:
+    """A solid of revolution about its body's z axis: `radius` and `half_length` in m."""
+    radius: float
+    half_length: float
+
+    def validate(self, where: str) -> None:
+        _positive(self.radius, f"{where}.radius")
+        _positive(self.half_length, f"{where}.half_length")
+
+
+@dataclass(frozen=True)
+class Capsule(_AlongZ):
     """A capsule (3D scenes): the points within `radius` m of the segment from
     (0, 0, -half_length) to (0, 0, +half_length) on its body's z axis. The body's position is
     the segment's midpoint, its centre of mass; body z is its axis (the symmetry axis), and
@@ -368,8 +379,6 @@ class Capsule:
       I_x = I_y = m_c (r^2/4 + h^2/3) + m_h (2/5 r^2 + h^2 + 3/4 h r)
     (each cap's centroid lies 3r/8 past its end of the segment; parallel-axis theorem).
     Validated: radius > 0, half_length > 0 (a capsule of no length is a Sphere)."""
-    radius: float
-    half_length: float
     kind = "capsule"
     dimension = 3
 
@@ -380,21 +389,15 @@ class Capsule:
         across = m_c * (r * r / 4.0 + h * h / 3.0) + m_h * (0.4 * r * r + h * h + 0.75 * h * r)
         return (across, across, 0.5 * m_c * r * r + 0.4 * m_h * r * r)
 
-    def validate(self, where: str) -> None:
-        _positive(self.radius, f"{where}.radius")
-        _positive(self.half_length, f"{where}.half_length")
-
 
 @dataclass(frozen=True)
-class Cylinder:
+class Cylinder(_AlongZ):
     """A solid circular cylinder (3D scenes) of `radius` m whose axis is its body's z axis,
     with flat ends at z = -half_length and z = +half_length. The body's position is its
     centre (of mass); body z is the symmetry axis, and any two axes across it are principal.
     Default inertia of a solid cylinder of uniform density:
       I_z = m r^2 / 2,   I_x = I_y = m (r^2/4 + h^2/3)  (h = half_length).
     Validated: radius > 0, half_length > 0."""
-    radius: float
-    half_length: float
     kind = "cylinder"
     dimension = 3
 
@@ -402,10 +405,6 @@ class Cylinder:
         r, h = self.radius, self.half_length
         across = m * (r * r / 4.0 + h * h / 3.0)
         return (across, across, 0.5 * m * r * r)
-
-    def validate(self, where: str) -> None:
-        _positive(self.radius, f"{where}.radius")
-        _positive(self.half_length, f"{where}.half_length")
 
 
 @dataclass(frozen=True)
