@@ -314,6 +314,10 @@ def _below_plane(plane, body) -> float:
     offset = plane.shape.offset
     if body.shape.kind in ("sphere", "circle"):
         return float(offset - n @ np.asarray(body.position, dtype=float) + body.shape.radius)
+    if body.shape.kind == "box":  # the common case, without its corners: |R^T n| . h below the centre
+        R = rotation_matrix(body.orientation)
+        reach_down = np.abs(R.T @ n) @ np.asarray(body.shape.half_extents, dtype=float)
+        return float(offset - n @ np.asarray(body.position, dtype=float) + reach_down)
     if body.shape.kind == "mesh":
         R = rotation_matrix(body.orientation)
         world = np.asarray(body.position, dtype=float) + np.asarray(body.shape.vertices, dtype=float) @ R.T
