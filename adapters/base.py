@@ -20,7 +20,7 @@ import numpy as np
 
 from cases.family import UNIT_ROUNDOFF
 from cases.scene import (CONTACT_TORQUES, EFFECTS, IMPACT_MODEL_NEED, IMPACT_MODELS,  # noqa: F401 (re-exported)
-                         RESTITUTION_LAW_NEED, RESTITUTION_LAWS, Scene)
+                         RESTITUTION_LAW_NEED, RESTITUTION_LAWS, SHAPE_KINDS, Scene)
 from cases.trajectory import ContactPoint
 
 
@@ -54,7 +54,10 @@ class Settings:
 @dataclass(frozen=True)
 class Capabilities:
     dimensions: frozenset[int]        # 2, 3 or both (3D engines embed 2D scenes in the x-z plane)
-    shapes: frozenset[str]            # kinds from cases.scene: sphere, box, plane, circle, rect
+    # The shape kinds the engine represents (cases.scene.SHAPE_KINDS: sphere, box, plane,
+    # circle, rect, capsule, cylinder, hull, polygon, mesh); a scene with another kind is
+    # `unsupported` (cannot_run names it).
+    shapes: frozenset[str]
     native_restitution: bool          # a restitution coefficient exists (else e is mapped, e.g. onto a spring-damper)
     static_kinetic: bool              # separate mu_s and mu_k
     contact_forces: bool              # normal forces can be read out
@@ -82,6 +85,9 @@ class Capabilities:
     why_not: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self):
+        unknown = set(self.shapes) - set(SHAPE_KINDS)
+        if unknown:
+            raise ValueError(f"shapes = {sorted(unknown)}: must be among {', '.join(SHAPE_KINDS)}")
         if self.impact_model is not None and self.impact_model not in IMPACT_MODELS:
             raise ValueError(f"impact_model = {self.impact_model!r}: must be one of {', '.join(IMPACT_MODELS)} or None")
         unknown = set(self.contact_torques) - set(CONTACT_TORQUES)
@@ -156,8 +162,7 @@ class Capabilities:
         torques = f"; contact torques: {','.join(sorted(self.contact_torques))}" if self.contact_torques else ""
         restitution = f"; restitution: {self.restitution_law}"
         floats = f"; float{self.float_bits}" + (", sub-steps" if self.substeps else "")
-        return (f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags) + laws + impacts
-                + torques + restitution + floats)
+        return f"{dims}; " + ", ".join(flags) + laws + impacts + torques + restitution + floats
 
 
 class Simulation(ABC):

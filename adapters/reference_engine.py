@@ -4,8 +4,9 @@
 (sequential impulses, the default, registered as "reference") or any other module of
 reference_impl with a `solve` (named "reference-<formulation>" unless `name` says
 otherwise), with `params` as its `Config.params`. The scene maps one to one: the
-engine has pair materials (e, mu_s, mu_k) and every shape of the vocabulary, so nothing
-is combined or approximated. It has no damping, sleeping or restitution threshold to
+engine has pair materials (e, mu_s, mu_k) and the shapes it declares (sphere, box, plane,
+circle, rect; a scene with another is `unsupported`), so nothing is combined or
+approximated. It has no damping, sleeping or restitution threshold to
 switch off; the knobs record every setting of `reference_impl.config.Config` in force.
 
 2D scenes (x-z plane) run as planar bodies: positions stay at y = 0, rotation about y only.

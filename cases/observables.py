@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from cases.overlap import penetration
+from cases.overlap import penetration, reach
 from cases.trajectory import POS, QUAT, Trajectory
 
 
@@ -250,15 +250,6 @@ def time_to_collapse(traj: Trajectory, names, sideways: float, down: float) -> f
     return float(traj.t[first]) if first < len(traj.t) else float(traj.t[-1])
 
 
-def _reach(shape) -> float:
-    """Radius of a sphere about the body's centre that holds its shape (inf for a plane)."""
-    if shape.kind in ("sphere", "circle"):
-        return shape.radius
-    if shape.kind in ("box", "rect"):
-        return float(np.linalg.norm(shape.half_extents))
-    return math.inf
-
-
 def deepest_overlap(traj: Trajectory, scene, t0: float, samples: int = 20) -> float:
     """Largest depth (m) by which any two bodies overlap, at `samples` sample times spread
     evenly from t0 to the end; exact per pair (cases.overlap: distances and separating
@@ -269,7 +260,7 @@ def deepest_overlap(traj: Trajectory, scene, t0: float, samples: int = 20) -> fl
     index = {b.name: i for i, b in enumerate(scene.bodies)}
     ia = np.array([index[a.name] for a, _ in pairs], dtype=int)
     ib = np.array([index[b.name] for _, b in pairs], dtype=int)
-    bound = np.array([_reach(a.shape) + _reach(b.shape) for a, b in pairs])
+    bound = np.array([reach(a.shape) + reach(b.shape) for a, b in pairs])
     deepest = 0.0
     for k in picks:
         now = [b if b.static else replace(b, position=tuple(traj.states[b.name][k, POS]),

@@ -79,7 +79,7 @@ def test_scene_structure():
         Scene(bodies=(Body("b", Sphere(0.1), mass=1.0), Body("b", Sphere(0.1), mass=1.0, position=(1, 0, 0))))
     with pytest.raises(SceneError, match="at least one dynamic body"):
         Scene(bodies=(ground(),))
-    with pytest.raises(SceneError, match="a plane must be static"):
+    with pytest.raises(SceneError, match=r"static = False: must be True for a plane"):
         Scene(bodies=(Body("p", Plane(), mass=1.0), Body("b", Sphere(0.1), mass=1.0, **BALL)))
     with pytest.raises(SceneError, match=r"pairs\[0\] names body 'x'"):
         Scene(bodies=(ground(), Body("b", Sphere(0.1), mass=1.0, **BALL)), pairs=(("x", "b", Material()),))
