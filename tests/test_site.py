@@ -71,17 +71,51 @@ def test_every_page_links_only_files_beside_it(site):
 
 
 def test_the_site_rebuilds_from_the_results_csv(site, tmp_path):
-    """`python3 -m physval.readings.site FOLDER` draws the same family and engine pages from
-    results.csv and knobs.json alone (the index differs only in its command and date)."""
-    from physval.readings.site import rebuild
+    """`python3 -m physval.readings.results FOLDER` draws the same report, family and engine
+    pages from results.csv and knobs.json alone (report.md differs only in its date)."""
+    from physval.readings.results import main
     copy = tmp_path / "copy"
     shutil.copytree(site, copy)
     for page in (copy / "html").rglob("*.html"):
         page.unlink()
-    rebuild(copy)
+    (copy / "report.html").unlink()
+    assert main([str(copy)]) == 0
     for page in (site / "html").rglob("*.html"):
         assert (copy / page.relative_to(site)).read_text() == page.read_text(), page.name
+    undated = [[line for line in (folder / "report.md").read_text().splitlines() if "date (UTC)" not in line]
+               for folder in (site, copy)]
+    assert undated[0] == undated[1]
     assert "Scorecard" in (copy / "report.html").read_text()
+
+
+class _Headings(HTMLParser):
+    """The h2 and h3 headings of a page, in order."""
+
+    def __init__(self):
+        super().__init__()
+        self.found, self._in = [], None
+
+    def handle_starttag(self, tag, attrs):
+        if tag in ("h2", "h3"):
+            self._in = [int(tag[1]), ""]
+
+    def handle_data(self, data):
+        if self._in is not None:
+            self._in[1] += data
+
+    def handle_endtag(self, tag):
+        if self._in is not None and tag == f"h{self._in[0]}":
+            self.found.append(tuple(self._in))
+            self._in = None
+
+
+def test_report_md_and_report_html_carry_the_same_sections_in_the_same_order(site):
+    from physval.report import titles
+    parser = _Headings()
+    parser.feed((site / "report.html").read_text())
+    md = titles((site / "report.md").read_text())
+    assert [t for _, t in md][:3] == ["Contents", "Scorecard", "Closest to physics"]
+    assert parser.found == md
 
 
 def _browser(tmp_path):

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from physval.core.tolerance import errors
-from physval.reportkit import fmt, md_table, pyplot, save_figure, write_atomic
+from physval.report import fmt, md_table, pyplot, save_figure, write_atomic
 
 REFERENCE = "reference"
 
