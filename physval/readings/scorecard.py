@@ -247,9 +247,9 @@ def worst_of(part: pd.DataFrame) -> str:
     return f"worst {fmt(worst.over_tol)} tol"
 
 
-def _companion(engine: str, effect: str, grade_: str, text: str) -> dict:
-    return {"engine": engine, "effect": effect, "grade": grade_ if text else "-", "within": 0, "judged": 0,
-            "share": math.nan, "miss": math.nan, "deviations": 0, "failures": 0, "worst": float("nan"),
+def _companion(engine: str, effect: str, grade_: str, text: str, within: int = 0, judged: int = 0) -> dict:
+    return {"engine": engine, "effect": effect, "grade": grade_ if text else "-", "within": within, "judged": judged,
+            "share": within / judged if judged else math.nan, "miss": math.nan, "deviations": 0, "failures": 0, "worst": float("nan"),
             "worst_text": "", "families": "", "ms_per_s": math.nan, "cost": "", "text": text}
 
 
@@ -260,7 +260,7 @@ def _determinism(engine: str, det: pd.DataFrame | None) -> dict:
     if not len(mine):
         return _companion(engine, DETERMINISM, "", "")
     same = int((mine.status == "deterministic").sum())
-    return _companion(engine, DETERMINISM, letter_of(same / len(mine)), f"{same}/{len(mine)} repeat")
+    return _companion(engine, DETERMINISM, letter_of(same / len(mine)), f"{same}/{len(mine)} repeat", same, len(mine))
 
 
 def miss_text(r) -> str:
@@ -371,13 +371,14 @@ def plot(card: pd.DataFrame, path: Path) -> None:
                 ax.text(j, i, "-", ha="center", va="center", fontsize=7, color="#888")
                 continue
             value[i, j] = ORDER.index(r.grade)
-            label = r.grade if effect == DETERMINISM else f"{r.grade} {r.within}/{r.judged}"
+            label = f"{r.grade} {r.within}/{r.judged}"
             ax.text(j, i, label, ha="center", va="center", fontsize=6.5)
     ax.imshow(value, cmap="RdYlGn_r", vmin=0, vmax=len(ORDER) - 1, aspect="auto", interpolation="nearest")
     ax.set_xticks(range(len(effects)), effects, rotation=30, ha="right", fontsize=8)
     ax.set_yticks(range(len(engines)), engines, fontsize=8)
-    ax.set_title("Scorecard: grade per effect (letter: share of checks within tolerance, A all, B >= 90 %, "
-                 "C >= 70 %, D >= 50 %; digit: decade of the typical miss in tolerances)", fontsize=8)
+    bands = ", ".join(f"{letter} >= {least * 100:.0f} %" for letter, least in SHARES[1:-1])
+    ax.set_title(f"Scorecard: grade per effect (letter: share of checks within tolerance, A all, {bands}; "
+                 "digit: decade of the typical miss in tolerances)", fontsize=8)
     save_figure(fig, path)
 
 
