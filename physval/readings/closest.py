@@ -33,30 +33,39 @@ def _named(r) -> str:
     return f"{r.engine} (**{r.grade}**, {r.within}/{r.judged} within{miss}{cost})"
 
 
+def _standing(r) -> tuple:
+    """What ties two engines: the same grade, counts and typical miss (none: A)."""
+    return r.grade, r.within, r.judged, "" if math.isnan(r.miss) else r.miss
+
+
 def answers(card: pd.DataFrame, aside: str = ASIDE) -> list[str]:
-    """One line per effect: the engine closest to physics on it and its cost, the engines
-    tied with it, and the next SHOWN of the ranking (engines named `aside` or
-    `aside-*` left out: the reference implementation and its formulations)."""
+    """One line per effect: the engine closest to physics on it and its cost (engines tied
+    with it at the same grade and counts, up to SHOWN, the cheapest first), then the next
+    SHOWN of the ranking; engines named `aside` or `aside-*` left out (the reference
+    implementation and its formulations)."""
     ranked = ranking(card)
     ranked = ranked[(ranked.engine != aside) & ~ranked.engine.str.startswith(aside + "-")]
     lines = []
     for effect, grp in ranked.groupby("effect", sort=False):
         rows = list(grp.itertuples())
         best = rows[0]
-        tied = [r for r in rows if (r.grade, r.within, r.judged) == (best.grade, best.within, best.judged)]
+        tied = [r for r in rows if _standing(r) == _standing(best)]
+        text = f"- **{effect}**: " + ", ".join(_named(r) for r in tied[:SHOWN])
+        if len(tied) > 1:
+            text += f" (tied{f', and {len(tied) - SHOWN} more' if len(tied) > SHOWN else ''})"
         rest = rows[len(tied):len(tied) + SHOWN]
-        text = f"- **{effect}**: " + ", ".join(_named(r) for r in tied) + (" (tied)" if len(tied) > 1 else "")
         if rest:
             text += "; then " + ", ".join(f"{r.engine} **{r.grade}**" for r in rest)
         lines.append(text)
     return lines
 
 
-INTRO = ("Which engine is closest to physics on each effect, and at what cost: the first of each effect's "
-                 "ranking (the scorecard's grade, then the share within tolerance, the typical miss, the checks "
-                 "judged), the reference implementation and its formulations aside, with its wall time per "
-                 "simulated second in this run (the median over the effect's runs of `wall_s / sim_s`). An engine "
-                 "is judged on the checks it can represent: a 2D engine on the 2D variants.")
+INTRO = ("Which engine is closest to physics on each effect, and at what cost: the first of each effect's ranking "
+         "(the scorecard's grade, then the share within tolerance, the typical miss, the checks judged, the cost), "
+         "the reference implementation and its formulations aside, with its wall time per simulated second in this "
+         "run (the median over the effect's runs of `wall_s / sim_s`; wall time, so a loaded machine inflates it: "
+         "compare engines within one run). An engine is judged on the checks it can represent: a 2D engine on the "
+         "2D variants.")
 
 
 def section(card: pd.DataFrame) -> str:

@@ -19,8 +19,9 @@ own kind, physval.readings.checks.frame):
 so a grade reads "B2": at least 90 % of the checks within tolerance, the typical miss
 between 10 and 100 tolerances; "-": no check of this effect ran on the engine
 (unsupported, or not selected). Grades order as A, B1, ..., B4, C1, ..., F4; engines of one
-grade order by the larger share, then the smaller typical miss, then the more checks
-judged: that is each effect's ranking (`ranking`). A failed check (outside its tolerance
+grade order by the larger share, then the smaller typical miss, the more checks judged and
+the smaller cost (`run_cost`): that is each effect's ranking (`rank_key`; the `rank`
+column of `measure`, physval.readings.closest). A failed check (outside its tolerance
 and no known deviation, or a deviation that left its band) is a miss like any other here;
 the cell counts it, and the report's failures section lists it.
 
@@ -112,12 +113,14 @@ def grade(checks: pd.DataFrame) -> str:
     return grade_of(float((judged.status == "pass").mean()), typical_miss(judged))
 
 
-def rank_key(grade_: str, within: int, judged: int, miss: float) -> tuple:
+def rank_key(grade_: str, within: int, judged: int, miss: float, cost: float = math.nan) -> tuple:
     """The order of a ranking: the grade, then the larger share, the smaller typical miss,
-    the more checks judged; ungraded cells last."""
-    if grade_ not in ORDER:
-        return (len(ORDER), 0.0, 0.0, 0)
-    return (ORDER.index(grade_), -within / judged, 0.0 if math.isnan(miss) else miss, -judged)
+    the more checks judged, the smaller cost (ms of wall time per simulated second); cells
+    without a grade last."""
+    if grade_ not in ORDER or not judged:
+        return (len(ORDER), 0.0, 0.0, 0, 0.0)
+    return (ORDER.index(grade_), -within / judged, 0.0 if math.isnan(miss) else miss, -judged,
+            math.inf if math.isnan(cost) else cost)
 
 
 @dataclass
@@ -229,7 +232,7 @@ def measure(df: pd.DataFrame, beside: Companions | None = None) -> pd.DataFrame:
     if len(card):
         card["rank"] = 0
         for _, grp in card.groupby("effect", sort=False):
-            order_ = sorted(grp.index, key=lambda i: rank_key(*card.loc[i, ["grade", "within", "judged", "miss"]]))
+            order_ = sorted(grp.index, key=lambda i: rank_key(*card.loc[i, ["grade", "within", "judged", "miss", "ms_per_s"]]))
             card.loc[order_, "rank"] = range(1, len(order_) + 1)
     return card
 
