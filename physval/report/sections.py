@@ -133,7 +133,9 @@ class Report:
         toc = [contents(done.markdown)] if self.contents and done.markdown else []
         write_atomic(Path(out) / f"{name}.md", "\n".join(head + toc + done.markdown))
         opening = ([f"Command: `{self.command}`", ""] if self.command else []) + list(self.opening)
-        parts = [html.markdown("\n".join(opening), "opening")] + [html.markdown(t, "contents") for t in toc]
+        # Python-Markdown nests a list item by 4 spaces (GitHub's markdown by 2, as `contents` writes them)
+        parts = [html.markdown("\n".join(opening), "opening")] + [
+            html.markdown(t.replace("\n  - ", "\n    - "), "contents") for t in toc]
         write_atomic(Path(out) / f"{name}.html", html.page(  # a section's HTML is markup, not text to escape
             "sections.html", title=self.title, root="", interrupted=self.interrupted,
             parts=[Markup(p) for p in parts + done.html]))
