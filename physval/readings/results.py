@@ -85,48 +85,60 @@ SUMMARY_LEGEND = (
     "exception, named in `results.csv`.")
 
 
+@dataclass
+class Group:
+    """One table of the summary: its title, engines, file name and family x engine matrix,
+    and the run's rows and plots folder (None: no heat map)."""
+    title: str
+    engines: list[str]
+    slug: str
+    matrix: pd.DataFrame
+    df: pd.DataFrame
+    plots: Path | None
+
+
 class Summary(Section):
     """Family x engine status counts and worst errors: the engines, then the reference
     formulations, each with its heat map (one family: its own page's heat map says it all)."""
 
-    def measure(self, run: Run) -> Run | None:
-        return run if len(run.df) else None
-
-    def groups(self, run: Run):
+    def measure(self, run: Run) -> list[Group]:
         several = run.df.case.nunique() > 1
-        for title, engines in engine_groups(run.df):
-            slug = "summary" if title == "Engines" else "summary_formulations"
-            yield title, engines, slug, several and run.plots is not None
+        return [Group(title, engines, "summary" if title == "Engines" else "summary_formulations",
+                      summary_matrix(run.df[run.df.engine.isin(engines)], engines), run.df,
+                      run.plots if several else None)
+                for title, engines in engine_groups(run.df)]
 
-    def markdown(self, run: Run) -> str:
+    def markdown(self, groups: list[Group]) -> str:
         lines = ["## Summary", "", SUMMARY_LEGEND, ""]
-        for title, engines, slug, drawn in self.groups(run):
-            lines += [f"### {title}", "", md_table(summary_matrix(run.df[run.df.engine.isin(engines)], engines)), ""]
-            if drawn:
-                plot_summary(run.df, engines, run.plots / f"{slug}.png", title)
-                lines += [f"![{title}](plots/{slug}.png)", ""]
+        for g in groups:
+            lines += [f"### {g.title}", "", md_table(g.matrix), ""]
+            if g.plots is not None:
+                plot_summary(g.df, g.engines, g.plots / f"{g.slug}.png", g.title)
+                lines += [f"![{g.title}](plots/{g.slug}.png)", ""]
         return "\n".join(lines)
 
-    def html(self, run: Run, html: Html) -> str:
+    def html(self, groups: list[Group], html: Html) -> str:
         parts = [html.markdown("\n".join(["## Summary", "", SUMMARY_LEGEND]), "summary")]
-        for title, engines, slug, drawn in self.groups(run):
-            matrix = summary_matrix(run.df[run.df.engine.isin(engines)], engines)
-            parts += [html.markdown(f"### {title}", "summary"),
-                      html.table(table(slug, matrix, links={"family": site.family_page},
-                                       classes={e: status_class for e in engines}))]
-            if drawn:
-                parts.append(f'<img class="plot" src="plots/{slug}.png" alt="{title}: worst error in tolerances">')
+        for g in groups:
+            parts += [html.markdown(f"### {g.title}", "summary"),
+                      html.table(table(g.slug, g.matrix, links={"family": site.family_page},
+                                       classes={e: status_class for e in g.engines}))]
+            if g.plots is not None:
+                parts.append(f'<img class="plot" src="plots/{g.slug}.png" alt="{g.title}: worst error in tolerances">')
         return "\n".join(parts)
 
 
-class SummaryTable(Summary):
+class SummaryTable(Section):
     """An interrupted run's summary: the matrix of every engine, without heading or plot."""
 
-    def markdown(self, run: Run) -> str:
-        return "\n".join([md_table(summary_matrix(run.df)), ""])
+    def measure(self, run: Run) -> pd.DataFrame:
+        return summary_matrix(run.df) if len(run.df) else None
 
-    def html(self, run: Run, html: Html) -> str:
-        return html.table(table("summary", summary_matrix(run.df), links={"family": site.family_page}))
+    def markdown(self, matrix: pd.DataFrame) -> str:
+        return "\n".join([md_table(matrix), ""])
+
+    def html(self, matrix: pd.DataFrame, html: Html) -> str:
+        return html.table(table("summary", matrix, links={"family": site.family_page}))
 
 
 VANISHED_TITLE = "Known deviations that vanished"
@@ -260,8 +272,8 @@ class Families(Section):
     """The index of families, one line each, linking each family's page (`family_page`),
     and each family's heat map."""
 
-    def measure(self, run: Run) -> Run | None:
-        return run if len(run.df) else None
+    def measure(self, run: Run) -> Run:
+        return run
 
     def markdown(self, run: Run) -> str:
         df, index = run.df, []
