@@ -169,6 +169,16 @@ def test_the_site_in_a_browser(site, tmp_path):
 
         driver.get((site / "report.html").as_uri())
         assert driver.find_element(By.ID, "scorecard").is_displayed()
+        # a click on an effect's heading orders the engines by their rank on it, the closest first
+        headings = driver.find_elements(By.CSS_SELECTOR, "#t-scorecard thead th")
+        column = [h.text for h in headings].index("restitution")
+        def ranks():
+            return [int(r.find_elements(By.TAG_NAME, "td")[column].get_attribute("data-key"))
+                    for r in driver.find_elements(By.CSS_SELECTOR, "#t-scorecard tbody tr")]
+        headings[column].click()
+        assert ranks() == sorted(ranks())
+        headings[column].click()  # descending: the farthest first (it reorders the rows the page opened with)
+        assert ranks() == sorted(ranks(), reverse=True)
         shot = tmp_path / "index.png"
         assert driver.save_screenshot(str(shot)) and shot.stat().st_size > 10_000
     finally:

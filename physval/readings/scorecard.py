@@ -285,17 +285,18 @@ def cell(r, bold: bool = True) -> str:
     return text + (f"; {r.cost}" if r.cost else "")
 
 
-def rule() -> str:
-    """The grading rule in words, from the constants that apply it."""
+def rule(of: str = "effect") -> str:
+    """The grading rule in words, from the constants that apply it; a cell grades one `of`."""
     letters = "; ".join(f"**{letter}** at least {least * 100:.0f} %" for letter, least in SHARES[1:-1])
     decades = ", ".join(f"{i} within {d:g}" for i, d in enumerate(DECADES, 1))
-    return (f"A cell's grade says how far the engine is from physics on that effect: its letter is the share of "
+    return (f"A cell's grade says how far the engine is from physics on that {of}: its letter is the share of "
             f"checks within tolerance (**A** all of them; {letters}; **{SHARES[-1][0]}** less), its digit the "
             f"decade of the typical miss, the median error of the checks that miss, in tolerances ({decades}, "
             f"{len(DECADES) + 1} beyond; a check that blew up or raised, or a count or yes/no that allows no "
-            f"error, misses by an infinite amount). So **B2** is at least 90 % within tolerance with misses of "
-            f"typically 10 to 100 tolerances; - nothing of it ran. Grades order A, B1, ..., "
-            f"{ORDER[-1]}; one grade's engines by the larger share, then the smaller miss.")
+            f"error, misses by an infinite amount). So **{SHARES[1][0]}2** is at least {SHARES[1][1] * 100:.0f} % "
+            f"within tolerance with misses of typically {DECADES[0]:g} to {DECADES[1]:g} tolerances; - nothing of "
+            f"it ran. Grades order A, {ORDER[1]}, ..., {ORDER[-1]}; one grade's engines by the larger share, then "
+            f"the smaller miss, the more checks judged, the smaller cost.")
 
 
 def legend(beside: Companions | None = None) -> str:
@@ -410,7 +411,7 @@ def by_family(df: pd.DataFrame) -> str:
                 f", typical miss {fmt(miss)} tol" if g != "A" else "")
         rows.append(line)
     return "\n".join([
-        "## Scorecard", "", "Each cell grades one family's checks on one engine. " + rule()
+        "## Scorecard", "", "Each cell grades one family's checks on one engine. " + rule("family")
         + " Beside the grade: checks within tolerance / checks judged, and the typical miss.", "",
         md_table(pd.DataFrame(rows)), ""])
 
