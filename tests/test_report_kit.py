@@ -90,3 +90,4 @@ def test_a_section_s_markdown_becomes_the_pages_html():
     assert '<table class="data" id="t-dev-1">' in out and '<table class="data" id="t-dev-2">' in out  # sortable
     assert 'data-table="t-dev-1"' in out and 'data-table="t-dev-2"' not in out  # a filter box on the long one
     assert "<details>" in out and "| c |" not in out  # markdown inside <details> is read as markdown
+    assert 'id="t-dev2-1"' in str(html.markdown(text, "dev"))  # another section of that name: other ids

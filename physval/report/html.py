@@ -53,6 +53,7 @@ class Html:
         self.env = jinja2.Environment(loader=jinja2.ChoiceLoader(loaders), autoescape=True, trim_blocks=True,
                                       lstrip_blocks=True, undefined=jinja2.StrictUndefined)
         self.links = links or (lambda href: href)
+        self.names: dict[str, int] = {}
 
     def page(self, template: str, **values) -> str:
         return self.env.get_template(template).render(**values)
@@ -64,8 +65,10 @@ class Html:
     def markdown(self, text: str, name: str = "md") -> Markup:
         """Markdown as HTML: headings get the ids `anchor` gives them (the markdown's table
         of contents links them), tables are the sortable tables of the pages (`name`-1,
-        `name`-2, ... as ids, a filter box on long ones), links pass through `links`, and
+        `name`-2, ... as ids, `name` numbered when it was used before; a filter box on long ones), links pass through `links`, and
         markdown inside a <details> block is read as markdown."""
+        self.names[name] = seen = self.names.get(name, 0) + 1  # two sections' tables never share an id
+        name = name if seen == 1 else f"{name}{seen}"
         md = markdown.Markdown(extensions=["tables", "md_in_html", "toc", _Extension(self.links, name)],
                                extension_configs={"toc": {"slugify": lambda value, separator: anchor(value)}})
         return Markup(md.convert(text.replace("<details>", '<details markdown="1">')))

@@ -83,9 +83,9 @@ def _empty(data) -> bool:
 
 
 def _name(section) -> str:
-    """A short name for the ids of a section's HTML tables."""
-    return anchor(type(section).__name__ if not isinstance(section, Reading)
-                  else section.module.__name__.rsplit(".", 1)[-1]) or "section"
+    """A short name for the ids of a section's HTML tables: its reading's, or its class's."""
+    module = getattr(section, "module", None)
+    return anchor(module.__name__.rsplit(".", 1)[-1] if module is not None else type(section).__name__) or "section"
 
 
 @dataclass
