@@ -7,6 +7,7 @@ without a browser."""
 from __future__ import annotations
 
 import csv
+import re
 
 import shutil
 import time
@@ -68,6 +69,13 @@ def test_every_page_links_only_files_beside_it(site):
             assert target.is_file(), f"{page.name}: {link}"
             if anchor:
                 assert f'id="{anchor}"' in target.read_text(), f"{page.name}: {link}"
+
+
+def test_no_two_elements_of_a_page_share_an_id(site):
+    """A filter box names its table by id: a page whose sections repeat an id filters the wrong one."""
+    for page in pages(site):
+        ids = re.findall(r' id="([^"]+)"', page.read_text())
+        assert len(ids) == len(set(ids)), (page.name, sorted({i for i in ids if ids.count(i) > 1}))
 
 
 def test_the_site_rebuilds_from_the_results_csv(site, tmp_path):
