@@ -30,6 +30,7 @@ class Counted(Section):
         return source.df
 
     def markdown(self, df) -> str:
+        self.rendered = getattr(self, "rendered", 0) + 1
         return "\n".join([f"## {self.title}", "", f"{len(df)} rows", ""])
 
 
@@ -55,10 +56,11 @@ def _source() -> Source:
 
 
 def test_a_reading_module_is_one_section_and_empty_sections_are_left_out():
-    source = _source()
-    done = render([Counted("First"), Empty(), _reading(), Counted("Last")], source, Html())
+    source, first = _source(), Counted("First")
+    done = render([first, Empty(), _reading(), Counted("Last")], source, Html())
     assert done.titles() == ["First", "Cost", "Last"]
     assert source.measured == ["First", "Last"]  # each measured once, for both renderings
+    assert first.rendered == 1  # and its markdown (with what it draws or writes) made once
     assert len(done.html) == len(done.markdown) == 3
     assert '<h2 id="cost">Cost</h2>' in done.html[1] and "<td>3</td>" in done.html[1].replace(' style="text-align: right;"', "")
     assert isinstance(as_section(_reading()), Reading)

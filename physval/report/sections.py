@@ -7,7 +7,10 @@ of the list.
     class Section:                        # or any object with the same methods
         def measure(self, source): ...    # what it shows (None, empty: the section is left out)
         def markdown(self, data) -> str   # its markdown, opening with its "## title"
-        def html(self, data, html) -> str # its HTML (default: its markdown as HTML)
+        def html(self, data, html) -> str # its HTML (None, the default: its markdown as HTML)
+
+A section's markdown is rendered once (drawing a plot, writing a CSV beside the report are
+done then, once), and it is its HTML unless `html` renders more (links, colours, sort keys).
 
 A reading module (physval/readings/: `measure(...)` -> rows, `section(rows)` -> markdown)
 is such an object as it is: `Reading(module)`, or the bare module in a report's list,
@@ -38,8 +41,8 @@ class Section:
     def markdown(self, data) -> str:
         raise NotImplementedError
 
-    def html(self, data, html: Html) -> str:
-        return html.markdown(self.markdown(data), _name(self))
+    def html(self, data, html: Html) -> str | None:
+        return None
 
 
 @dataclass(frozen=True)
@@ -56,10 +59,8 @@ class Reading(Section):
     def markdown(self, data) -> str:
         return self.module.section(data)
 
-    def html(self, data, html: Html) -> str:
-        if hasattr(self.module, "html"):
-            return self.module.html(data, html)
-        return super().html(data, html)
+    def html(self, data, html: Html) -> str | None:
+        return self.module.html(data, html) if hasattr(self.module, "html") else None
 
 
 def as_section(part) -> Section:
@@ -111,7 +112,8 @@ def render(parts: Sequence, source, html: Html) -> Rendered:
         if not text.strip():
             continue
         out.markdown.append(text)
-        out.html.append(section.html(data, html))
+        shown = section.html(data, html)
+        out.html.append(html.markdown(text, _name(section)) if shown is None else shown)
     return out
 
 
