@@ -65,10 +65,8 @@ class Run:
         return self.df.groupby(["case", "variant", "engine"]).ngroups if len(self.df) else 0
 
     def engine_page(self, engine: str) -> str:
+        """The link from report.html to an engine's page (the scorecard's engine names)."""
         return site.engine_page(engine)
-
-    def family_page(self, family: str) -> str:
-        return site.family_page(family)
 
 
 def html_link(href: str) -> str:
