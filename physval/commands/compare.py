@@ -69,7 +69,7 @@ def compare_runs(a, b, out: str, threshold: float, trajectories=None, command: s
     extra, parts, written = [], None, [folder / "compare.md", folder / "compare.csv", folder / "compare.png"]
     if trajectories:
         parts = divergence.measure(*trajectories)
-        from physval.reportkit import write_csv
+        from physval.report import write_csv
         write_csv(parts, folder / "trajectories.csv")
         written.append(folder / "trajectories.csv")
         drawn = divergence.plot(parts, *trajectories, folder / "trajectories.png", names)

@@ -30,7 +30,7 @@ from physval.core import deviations
 from physval.core import COLUMNS, Job
 from physval.core.session import Execution, run_stored
 from physval.core.store import cache_dir
-from physval.reportkit import write_atomic
+from physval.report import write_atomic
 
 
 def add_parser(sub) -> None:

@@ -56,7 +56,7 @@ def run(args) -> int:
     from physval.core.store import KNOBS_FILE, RowStore, cache_keys
     from physval.core.trajectories import file_name, with_saving
     from physval.readings import parity
-    from physval.reportkit import frame
+    from physval.readings.checks import frame
     ctx = options.context_of(args)
     resolver = ctx.resolver()
     chosen = options.cases_of(args, resolver, full=args.full)

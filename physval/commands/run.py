@@ -140,7 +140,7 @@ def run(args) -> int:
     from physval.readings import scorecard
     engine_wide["beside"] = scorecard.companions(out)  # what sweep, stress and real left in their folders under out
     from physval.core.deviations import stale_entries
-    from physval.reportkit import frame, status_counts
+    from physval.readings.checks import frame, status_counts
     df = frame(rows, COLUMNS)
     results.write_run_report(rows, out, families, command=options.command_line(), engine_wide=engine_wide,
                             stale=stale_entries(df, resolver))
@@ -176,7 +176,7 @@ def import_report_meanwhile(start_method: str) -> None:
         import threading
 
         def load():
-            from physval import reportkit  # noqa: F401 (pandas)
+            from physval import report  # noqa: F401 (pandas)
             from physval.readings import results  # noqa: F401 (matplotlib's users)
-            reportkit.pyplot()
+            report.pyplot()
         threading.Thread(target=load, name="import the report's modules", daemon=True).start()

@@ -10,7 +10,7 @@ from physval.core import COLUMNS, Job
 from physval.core.session import Execution, run_stored
 from physval.readings.robustness import (MAP, QUICK_MAP, TAG, determinism, stability_map,
                                          write_stress_report)
-from physval.reportkit import status_counts
+from physval.readings.checks import status_counts
 from physval.commands import options
 
 

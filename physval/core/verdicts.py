@@ -21,6 +21,7 @@ import math
 from typing import TYPE_CHECKING
 
 from cases.family import Check
+from physval.core.tolerance import errors, tolerance_units, within
 
 if TYPE_CHECKING:
     from physval.core import deviations
@@ -37,35 +38,6 @@ COLUMNS = ["case", "variant", "params", "engine", "engine_version", "dt", "itera
 # onto the closed form (a pass); `physval run --fail-on changed,vanished` gates on them
 CHANGED = "known deviation changed"
 VANISHED = "known deviation vanished"
-
-
-def errors(expected: float, measured: float) -> tuple[float, float]:
-    """(absolute, relative) error; relative is NaN when the expected value is 0."""
-    if measured is None or not math.isfinite(measured):
-        return math.nan, math.nan
-    abs_err = abs(measured - expected)
-    rel_err = abs_err / abs(expected) if expected != 0 else math.nan
-    return abs_err, rel_err
-
-
-def tolerance_units(expected: float, tolerance: float, kind: str) -> float:
-    """A check's tolerance in the check's own units: `tolerance` for an absolute one,
-    `tolerance * |expected|` for a relative one."""
-    return tolerance if kind == "abs" else tolerance * abs(expected)
-
-
-def within(check: Check, abs_err: float, rel_err: float) -> bool:
-    """True when the error the check's tolerance bounds is within it."""
-    err = abs_err if check.kind == "abs" else rel_err
-    return math.isfinite(err) and err <= check.tolerance
-
-
-def error_over_tolerance(check: Check, abs_err: float, rel_err: float) -> float:
-    """How many tolerances away the measurement is (1 = at the edge); for ranking."""
-    err = abs_err if check.kind == "abs" else rel_err
-    if not math.isfinite(err):
-        return math.inf
-    return err / check.tolerance if check.tolerance > 0 else (0.0 if err == 0 else math.inf)
 
 
 def judge(c: Check, value: float, engine: str, variant: str, entry: deviations.Deviation | None,

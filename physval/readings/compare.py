@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from physval.reportkit import fmt, heading, md_table, pyplot, save_figure, write_atomic, write_csv
+from physval.report import fmt, heading, md_table, pyplot, save_figure, write_atomic, write_csv
 
 KEY = ["case", "variant", "engine", "metric"]
 REQUIRED = KEY + ["expected", "measured", "tolerance", "tolerance_kind", "status"]

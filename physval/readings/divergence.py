@@ -21,7 +21,7 @@ import pandas as pd
 
 from cases.trajectory import OMEGA, POS, QUAT, VEL
 from physval.core.trajectories import load
-from physval.reportkit import fmt, md_table, pyplot, save_figure
+from physval.report import fmt, md_table, pyplot, save_figure
 
 PARTED = 1e-9
 G = 9.81  # m/s^2: the floor of the speed scale is sqrt(G L)

@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from physval.readings import divergence
-from physval.reportkit import fmt, heading, md_table, pyplot, save_figure, write_atomic, write_csv
+from physval.report import fmt, heading, md_table, pyplot, save_figure, write_atomic, write_csv
 
 JUDGED = ("pass", "fail", "deviation")
 SHOWN = 25  # rows of the largest-moves table (every check is in parity.csv)
