@@ -6,11 +6,14 @@ exit code 2 here, for every command alike."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import importlib
 import os
 import sys
 import time
+
+from physval.interrupts import sigterm_as_ctrl_c
 
 # A command's time counts from here (the interpreter's start is ~0.03 s earlier); main()
 # sets it again for each command after a process's first (scripts, tests).
@@ -83,14 +86,6 @@ def main(argv: list[str] | None = None) -> int:
         from physval.core.context import forget
         forget()
     _commands_run += 1
-    from adapters.base import SettingsError
-    from adapters.registry import EngineError
-    from cases.family import CaseError
-    from cases.scene import SceneError
-    from physval.commands.options import UsageError
-    from physval.core.deviations import DeviationFileError
-    from physval.core.selection import SelectionError
-    from physval.core.store import StoreError
     p = parser(argv)
     try:
         args = p.parse_args(argv)
@@ -100,15 +95,32 @@ def main(argv: list[str] | None = None) -> int:
         p.print_help()
         return 0
     args.started = STARTED
+    # what the command holds until it ends, however it ends (its output folder's lock)
+    args.held = contextlib.ExitStack()
+    with args.held, sigterm_as_ctrl_c():
+        try:
+            return _run(args)
+        except KeyboardInterrupt:  # Ctrl-C or SIGTERM (physval.interrupts), wherever it landed
+            print("physval: interrupted; files already written are complete", file=sys.stderr)
+            return 130
+
+
+def _run(args) -> int:
+    """The command's run(args), its bad input and the errors of the machine said in one line."""
+    from adapters.base import SettingsError
+    from adapters.registry import EngineError
+    from cases.family import CaseError
+    from cases.scene import SceneError
+    from physval.commands.options import UsageError
+    from physval.core.deviations import DeviationFileError
+    from physval.core.selection import SelectionError
+    from physval.core.store import StoreError
     try:
         return importlib.import_module(COMMANDS[args.command]).run(args)
     except (UsageError, CaseError, SceneError, SettingsError, EngineError, SelectionError, StoreError,
             DeviationFileError) as exc:
         print(f"physval: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("physval: interrupted; files already written are complete", file=sys.stderr)
-        return 130
     except BrokenPipeError:  # stdout's reader is gone: say nothing more there (Python's own advice)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141

@@ -376,3 +376,72 @@ def test_knobs_are_kept_once_per_engine_in_knobs_json_and_read_back_whole(tmp_pa
     (tmp_path / KNOBS_FILE).unlink()
     lost = RowStore(tmp_path / "results.csv", COLUMNS, knobs_file=tmp_path / KNOBS_FILE)
     assert lost.load(lambda row: "k") == 0  # a record it cannot find: the job runs again
+
+
+# --- one folder, one command at a time; an interrupt anywhere (issue 33) ---------------------
+
+R = ["--cases", "central_impact[drop,e=0.5]", "--engines", "reference", "--readings", "none", "--workers", "1",
+     "--quiet"]
+
+
+def test_a_second_run_into_a_folder_in_use_stops_at_once_naming_the_first(cases_dir, tmp_path):
+    """Two real processes into one --out: the second stops before any work with one line
+    naming the folder and the first's process id, and leaves the first's rows alone
+    (before: both exited 0, results.csv held one run's rows and the report the other's).
+    The lock goes with the first however it ends, and also when a command stops on bad input."""
+    from physval.files import LOCK_FILE
+    out = tmp_path / "out"
+    first = _start(cases_dir, out, nap=0.0, hang_from=2)
+    _wait_for_rows(out, 2, first)
+    rows_before = (out / "results.csv").read_text()
+    second = subprocess.run([sys.executable, "-m", "physval", "run", *R, "--out", str(out)], cwd=ROOT,
+                            capture_output=True, text=True, timeout=300)
+    (line,) = second.stderr.strip().splitlines()
+    assert second.returncode == 2 and line.startswith(f"physval: error: --out {out}: another physval command "
+                                                      f"(pid {first.pid}) is writing there"), second.stderr
+    assert (out / "results.csv").read_text() == rows_before
+    first.send_signal(signal.SIGTERM)
+    _, err = first.communicate(timeout=STOPS)
+    assert first.returncode == 130 and not (out / LOCK_FILE).exists(), err
+    assert main(["run", *R, "--scheduler", "tcp://127.0.0.1:1", "--out", str(out)]) == 2  # bad input, held first
+    assert not (out / LOCK_FILE).exists()
+    assert main(["run", *R, "--out", str(out)]) == 0
+    assert {r["case"] for r in csv.DictReader(open(out / "results.csv"))} == {"central_impact"}
+
+
+# Runs physval.cli.main with ARGS; the signal SIG comes when the finished report.md is being
+# moved into place (its temporary file written), as a user's Ctrl-C or a CI's SIGTERM would.
+SIGNAL_IN_THE_REPORT = textwrap.dedent("""
+    import os, signal, sys
+    from physval import files
+
+    class Os:
+        fired = False
+        def __getattr__(self, name):
+            return getattr(os, name)
+        def replace(self, src, dst):
+            if not Os.fired and str(dst).endswith("report.md"):
+                Os.fired = True
+                os.kill(os.getpid(), getattr(signal, sys.argv[1]))
+            return os.replace(src, dst)
+
+    files.os = Os()
+    from physval.cli import main
+    sys.exit(main(sys.argv[2:]))
+""")
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_an_interrupt_while_the_report_is_written_is_one_line_and_a_report_marked_incomplete(tmp_path, sig):
+    """Ctrl-C and SIGTERM alike, once the jobs are done: exit 130, one line, no temporary
+    file, the rows kept and the report marked incomplete (before: SIGTERM killed physval,
+    exit 143 with a .tmp file left and no report; Ctrl-C left no report)."""
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-c", SIGNAL_IN_THE_REPORT, sig, "run", *R, "--out", str(out)], cwd=ROOT,
+                          capture_output=True, text=True, timeout=300, preexec_fn=_as_from_a_terminal)
+    (line,) = proc.stderr.strip().splitlines()
+    assert proc.returncode == 130 and line.startswith(f"physval: interrupted ({sig}): 1 of 1 runs kept"), proc.stderr
+    assert "the report marked incomplete" in line
+    assert not [p.name for p in out.rglob("*") if p.name.startswith(".")], "no temporary file"
+    assert "INCOMPLETE" in (out / "report.md").read_text() and "INCOMPLETE" in (out / "report.html").read_text()
+    assert len(list(csv.DictReader(open(out / "results.csv")))) == 2

@@ -65,7 +65,7 @@ def run(args) -> int:
     if args.file and not Path(args.file).is_file():
         raise options.UsageError(f"--file {args.file!r}: not a file")
     options.check_scheduler(args.scheduler)
-    out = options.output_folder(args.out)
+    out = options.held(args, options.output_folder(args.out))
     families = resolver.families
     # every variant the engines can run (or the --cases), so that failing checks no entry
     # covers show up too; with a user's file, only the families it names

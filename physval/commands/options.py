@@ -193,6 +193,21 @@ def output_folder(text: str, option: str = "--out") -> Path:
     return out
 
 
+def held(args, folder: Path, option: str = "--out") -> Path:
+    """`folder` held by this command until it ends (physval.files.folder_lock, released by
+    the dispatcher however the command ends): another physval command writing there now
+    stops this one with one line naming the folder and that command's process id."""
+    from physval.files import FolderBusy, folder_lock
+    try:
+        args.held.enter_context(folder_lock(folder))
+    except FolderBusy as exc:
+        raise UsageError(f"{option} {folder}: another physval command (pid {exc.pid or 'unknown'}) is writing "
+                         "there; wait for it to end, or choose another folder") from None
+    except OSError as exc:
+        raise UsageError(f"{option} {folder}: cannot write there ({exc.strerror or exc})") from None
+    return folder
+
+
 def output_file(text: str, option: str) -> Path:
     """A file to write at the end, checked now: a name, not a folder, in a folder that can be
     written to (made if missing)."""

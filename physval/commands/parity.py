@@ -65,8 +65,8 @@ def run(args) -> int:
         options.engines_of(argparse.Namespace(engines=[name]), ctx)  # unknown or not installed: one line, exit 2
     if args.engine == args.port:
         raise options.UsageError(f"ENGINE and PORT are both {args.engine!r}: name two engines")
-    out = options.output_folder(OUT.replace("ENGINE-PORT", f"{args.engine}-{args.port}") if args.out == OUT
-                                else args.out)
+    out = options.held(args, options.output_folder(OUT.replace("ENGINE-PORT", f"{args.engine}-{args.port}")
+                                                   if args.out == OUT else args.out))
     options.check_scheduler(args.scheduler)
     traj = out / "trajectories"
     jobs, _ = plan(chosen, engines, resolver, True, on_demand=args.on_demand)

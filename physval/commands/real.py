@@ -198,7 +198,7 @@ def run(args) -> int:
         raise options.UsageError("no engine to score: " + "; ".join(f"{e}: {w}" for e, w in skipped.items()))
     given = read_params(args.params, registry.engine_names(ctx.adapters), ctx) if args.params else {}
     do_fit = not args.params and not args.nominal
-    out = options.output_folder(args.out)  # input checked: the folders, then the work
+    out = options.held(args, options.output_folder(args.out))  # input checked: the folders, then the work
     cache = None if args.no_cache else str(options.output_folder(args.cache or str(default_cache()), "--cache"))
     options.check_scheduler(args.scheduler)
 

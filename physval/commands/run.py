@@ -15,6 +15,7 @@ from physval.commands import options
 from physval.core import COLUMNS, run_jobs
 from physval.core.plan import plan
 from physval.core.store import KNOBS_FILE, RowStore, cache_keys
+from physval.interrupts import Terminated, held_off
 
 READINGS = ("effective", "laws")
 
@@ -78,6 +79,34 @@ def readings_of(text: str, cases_named: bool) -> list[str]:
 
 
 def run(args) -> int:
+    """The run; an interrupt (Ctrl-C or SIGTERM) once jobs have run, in them, in the
+    engine-wide readings or in the report, keeps the finished rows and leaves the report
+    marked incomplete (`incomplete`)."""
+    after = {}  # what an interrupted run keeps: its store, its finished jobs, its folder
+    try:
+        return _run(args, after)
+    except KeyboardInterrupt as exc:
+        if not after:
+            raise
+        return incomplete(after, "SIGTERM" if isinstance(exc, Terminated) else "SIGINT")
+
+
+def incomplete(after: dict, signal_name: str) -> int:
+    """The finished rows and the report marked incomplete, written with further interrupts
+    held off (a second Ctrl-C waits the second it takes); one line; exit code 130."""
+    from physval.readings import results
+    out, planned = after["out"], after["planned"]
+    with held_off():
+        rows = after["store"].finalize(after["keys"])
+        results.write_run_report(rows, out, after["families"], command=options.command_line(), complete=False,
+                                 planned=planned)
+    print(f"physval: interrupted ({signal_name}): {len(after['keys'])} of {planned} runs kept in "
+          f"{out / 'results.csv'}, the report marked incomplete; run the same command again to finish",
+          file=sys.stderr)
+    return 130
+
+
+def _run(args, after: dict) -> int:
     started = args.started
     if not args.scheduler:
         from physval.core.executor import start_fork_server
@@ -93,7 +122,7 @@ def run(args) -> int:
     readings = readings_of(args.readings, args.cases is not None)
     fail_on = fail_on_of(args.fail_on)
     junit = options.output_file(args.junitxml, "--junitxml") if args.junitxml is not None else None
-    out = options.output_folder(args.out)
+    out = options.held(args, options.output_folder(args.out))
     traj_dir = None if args.save_trajectories is None else options.output_folder(args.save_trajectories,
                                                                                   "--save-trajectories")
     options.check_scheduler(args.scheduler)
@@ -116,14 +145,11 @@ def run(args) -> int:
                    cache_key=lambda e: keys[e], progress=not args.quiet, label="run")
     t_jobs = time.monotonic() - t_jobs
     finished = [j for j in jobs if j.key in res.rows]
-    rows = store.finalize([j.key for j in finished])
-    from physval.readings import results
+    after.update(store=store, keys=[j.key for j in finished], out=out, families=families, planned=len(jobs))
     if not res.complete:
-        results.write_run_report(rows, out, families, command=options.command_line(), complete=False,
-                                planned=len(jobs))
-        print(f"physval: interrupted ({res.interrupted}): {len(finished)} of {len(jobs)} runs kept in "
-              f"{out / 'results.csv'}; run the same command again to finish", file=sys.stderr)
-        return 130
+        return incomplete(after, res.interrupted)
+    rows = store.finalize(after["keys"])
+    from physval.readings import results
     engine_wide = {}
     from physval.core.session import Execution
     from physval.readings import effective, laws
@@ -135,7 +161,7 @@ def run(args) -> int:
         module = {"effective": effective, "laws": laws}[name]
         part = module.measure(wide, ctx, families, execution=Execution.of(args))
         if part is None:  # interrupted
-            return 130
+            raise KeyboardInterrupt
         engine_wide[name] = part
     from physval.readings import scorecard
     engine_wide["beside"] = scorecard.companions(out)  # what sweep, stress and real left in their folders under out
