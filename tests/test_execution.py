@@ -445,3 +445,88 @@ def test_an_interrupt_while_the_report_is_written_is_one_line_and_a_report_marke
     assert not [p.name for p in out.rglob("*") if p.name.startswith(".")], "no temporary file"
     assert "INCOMPLETE" in (out / "report.md").read_text() and "INCOMPLETE" in (out / "report.html").read_text()
     assert len(list(csv.DictReader(open(out / "results.csv")))) == 2
+
+
+# --- resuming: a user's code is fingerprinted module by module, family by family (issue 33) ----
+
+# A family file that imports a helper module beside it (its folder put on the path by the
+# file itself, as a user without a package does); each family has one variant.
+USER_FAMILY = textwrap.dedent("""
+    import pathlib, sys
+    sys.path.insert(0, str(pathlib.Path(__file__).parent))
+    {imports}
+    from cases.family import CaseFamily, Check
+    from cases.scene import Body, Scene, Sphere
+    FAMILY = CaseFamily(
+        name={name!r}, summary="a ball falls", source="symplectic Euler", grid=({{"k": 0}},),
+        scene=lambda p: Scene(bodies=(Body("ball", Sphere(0.1), mass=1.0, position=(0, 0, 10), rotates=False),)),
+        duration=lambda p: 0.1, observe=lambda traj, p: {{"vz": float(traj.vel("ball")[-1, 2])}},
+        expect=lambda p, dt: [Check("vz", "m/s", -9.81 * round(0.1 / dt) * dt, 1e-9, "abs", "v_n = -g n dt")],
+        variant_id=lambda p: "k=0")
+""")
+ADAPTER_WITH_HELPER = textwrap.dedent("""
+    import pathlib, sys
+    sys.path.insert(0, str(pathlib.Path(__file__).parent))
+    from i33_engine_helper import NAME
+    from adapters.reference_engine import ReferenceAdapter
+
+    class Engine(ReferenceAdapter):
+        def __init__(self):
+            super().__init__(name=NAME)
+""")
+
+
+def _to_run(err: str) -> int:
+    """The number of runs left to run, from `physval run`'s first progress line."""
+    import re
+    m = re.search(r"^physval: \d+ runs \(.*?\), (\d+) to run", err, re.M)
+    assert m, err
+    return int(m[1])
+
+
+@pytest.fixture
+def restored_imports(monkeypatch):
+    """sys.path and the helper modules as they were: the user files put their folder on the
+    path of this process (physval imports them here too)."""
+    monkeypatch.setattr(sys, "path", list(sys.path))
+    before = set(sys.modules)
+    yield
+    for name in set(sys.modules) - before:
+        if name.startswith(("i33_", "physval_user_")):
+            del sys.modules[name]
+
+
+def test_a_change_in_a_helper_module_of_an_adapter_runs_its_jobs_again(tmp_path, capsys, restored_imports):
+    """An --adapter file's helper module is part of the resume key: an edit of the helper
+    alone runs the engine's jobs again (before: '0 to run', and stale rows)."""
+    (tmp_path / "engine.py").write_text(ADAPTER_WITH_HELPER)
+    helper = tmp_path / "i33_engine_helper.py"
+    helper.write_text('NAME = "reference-helped"\n')
+    argv = ["run", "--adapter", f"{tmp_path / 'engine.py'}:Engine", "--engines", "reference-helped", *R[:2],
+            "--readings", "none", "--workers", "1", "--out", str(tmp_path / "out")]
+    counts = []
+    for edit in ("", "", "\nTUNED = 2  # a constant the adapter may read\n"):
+        helper.write_text(helper.read_text() + edit)
+        assert main(argv) == 0
+        counts.append(_to_run(capsys.readouterr().err))
+    assert counts == [1, 0, 1]
+
+
+def test_a_change_in_one_user_family_runs_that_family_again_only(tmp_path, capsys, restored_imports):
+    """One fingerprint per --cases-dir family file and the user modules it imports: an edit
+    of one family's file, or of a helper only one family imports, runs that family's jobs
+    again and reuses the other's (before: every job of every user family ran again)."""
+    cases = tmp_path / "cases"
+    cases.mkdir()
+    (cases / "_i33_shared.py").write_text("G = 9.81\n")
+    (cases / "plain.py").write_text(USER_FAMILY.format(imports="", name="i33_plain"))
+    (cases / "helped.py").write_text(USER_FAMILY.format(imports="import _i33_shared", name="i33_helped"))
+    argv = ["run", "--cases-dir", str(cases), "--cases", "i33_plain,i33_helped", "--engines", "reference",
+            "--readings", "none", "--workers", "1", "--out", str(tmp_path / "out")]
+    counts = []
+    for edited in (None, None, "plain.py", "_i33_shared.py"):
+        if edited:
+            (cases / edited).write_text((cases / edited).read_text() + "\n# tuned\n")
+        assert main(argv) == 0
+        counts.append(_to_run(capsys.readouterr().err))
+    assert counts == [2, 0, 1, 1]

@@ -73,12 +73,12 @@ def run(args) -> int:
     jobs = [with_saving(j, traj) for j in jobs]
     keys = cache_keys(ctx, engines)
     store = RowStore(out / "results.csv", COLUMNS, knobs_file=out / KNOBS_FILE)
-    store.load(lambda row: keys.get(row["engine"], ""))
+    store.load(keys.of_row)
     say = options.teller(args)
     say(f"{len(jobs)} runs ({len(chosen)} families x 2 engines) -> {out}/")
     started = time.monotonic()
     res = run_jobs(jobs, ctx, args.workers, args.scheduler, args.job_timeout, args.start_method, store=store,
-                   cache_key=lambda e: keys[e], progress=not args.quiet, label="parity")
+                   cache_key=keys.of_job, progress=not args.quiet, label="parity")
     rows = store.finalize([j.key for j in jobs if j.key in res.rows])
     if not res.complete:
         print(f"physval: interrupted ({res.interrupted}): finished runs kept in {out / 'results.csv'}; run the "

@@ -132,7 +132,7 @@ def _run(args, after: dict) -> int:
         jobs = [with_saving(j, traj_dir) for j in jobs]
     keys = cache_keys(ctx, engines)
     store = RowStore(out / "results.csv", COLUMNS, knobs_file=out / KNOBS_FILE)
-    reused = store.load(lambda row: keys.get(row["engine"], ""))
+    reused = store.load(keys.of_row)
     say = options.teller(args)
     todo = sum(j.key not in store.rows for j in jobs)
     say(f"{len(jobs)} runs ({len(chosen)} families x {len(engines)} engines), {todo} to run"
@@ -142,7 +142,7 @@ def _run(args, after: dict) -> int:
     import_report_meanwhile(args.start_method or default_start_method())
     t_jobs = time.monotonic()
     res = run_jobs(jobs, ctx, args.workers, args.scheduler, args.job_timeout, args.start_method, store=store,
-                   cache_key=lambda e: keys[e], progress=not args.quiet, label="run")
+                   cache_key=keys.of_job, progress=not args.quiet, label="run")
     t_jobs = time.monotonic() - t_jobs
     finished = [j for j in jobs if j.key in res.rows]
     after.update(store=store, keys=[j.key for j in finished], out=out, families=families, planned=len(jobs))

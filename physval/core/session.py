@@ -91,7 +91,7 @@ def run_jobs(jobs: list[Job], ctx: Context = Context(), workers: int = 1, schedu
              job_timeout: float | None = DEFAULT_JOB_TIMEOUT, start_method: str | None = None,
              store: RowStore | None = None, cache_key=None, progress: bool = True, label: str = "run",
              on_outcome=None) -> Results:
-    """Run the jobs the store does not hold yet. `cache_key(engine) -> str` stamps stored
+    """Run the jobs the store does not hold yet. `cache_key(job) -> str` stamps stored
     rows (required with a store). `on_outcome(outcome)` sees each job as it finishes.
     Never raises on an interrupt: Results.interrupted says it stopped early."""
     res = Results()
@@ -114,7 +114,7 @@ def run_jobs(jobs: list[Job], ctx: Context = Context(), workers: int = 1, schedu
                 res.rows[outcome.job.key] = rows
                 res.ran += 1
                 if store is not None:
-                    store.append(outcome.job.key, rows, cache_key(outcome.job.engine))
+                    store.append(outcome.job.key, rows, cache_key(outcome.job))
                 if on_outcome is not None:
                     on_outcome(outcome)
                 bar.update(outcome.job.test_id)
@@ -150,9 +150,9 @@ def run_stored(jobs: list[Job], ctx: Context, path, columns: list[str], executio
     engines = list(dict.fromkeys(j.engine for j in jobs))
     keys = cache_keys(ctx, engines)
     store = RowStore(path, columns)
-    store.load(lambda row: keys.get(row["engine"], ""))
+    store.load(keys.of_row)
     res = run_jobs(jobs, ctx, execution.workers, execution.scheduler, execution.job_timeout, execution.start_method,
-                   store=store, cache_key=lambda e: keys[e], progress=execution.progress, label=label,
+                   store=store, cache_key=keys.of_job, progress=execution.progress, label=label,
                    on_outcome=on_outcome)
     return res, store
 
