@@ -455,3 +455,38 @@ def test_an_engine_with_an_unbounded_parameter_fits_the_others(tmp_path):
                 "--bootstrap", "2", "--out", str(out), "--no-cache") == 0
     params = json.loads((out / "params.json").read_text())["rapier"]
     assert params["contact_natural_frequency"] == math.inf
+
+
+# --- --params and what `physval real` writes (issue 33) ----------------------------------------
+
+def test_a_params_file_of_more_engines_than_the_run_takes_the_runs_and_names_the_rest(tmp_path, capsys):
+    """The parameters of engines outside the run (another selection, an engine not installed
+    here, as in the committed reports/real/params.json) are left out, named in one line
+    (before: exit 2, "engine 'mujoco-warp' is not installed", unless every extra was)."""
+    params = tmp_path / "params.json"
+    params.write_text(json.dumps({"mujoco": real.nominal("mujoco"), "pybullet": {"mu": 0.3},
+                                  "mujoco-warp": {"mu": 0.3, "e": 0.2}}))
+    assert _cli("--engines", "mujoco", "--params", str(params), "--limit", "1", "--horizon", "0.1", "--workers", "1",
+                "--out", str(tmp_path / "out"), "--no-cache") == 0
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line == (f"physval real: --params {params}: the parameters of 2 engine(s) outside this run left out: "
+                    "pybullet, mujoco-warp"), line
+    assert set(json.loads((tmp_path / "out" / "params.json").read_text())) == {"mujoco"}
+
+
+def test_the_params_json_a_fit_writes_is_taken_back_by_params_inf_included(tmp_path):
+    """A round trip: the fit holds an unbounded parameter at its default, inf, and writes
+    it so (JSON's Infinity); --params takes that file back (before: 'must be a number in
+    [1, inf]')."""
+    engine = next((e for e in ("box3d", "rapier") if registry.available(e)), None)
+    if engine is None:
+        pytest.skip("neither Box3D nor Rapier (the engines with an unbounded parameter) is installed")
+    fitted = tmp_path / "fit"
+    assert _cli("--engines", engine, "--limit", "1", "--horizon", "0.1", "--generations", "0", "--popsize", "1",
+                "--bootstrap", "2", "--workers", "1", "--out", str(fitted), "--no-cache") == 0
+    written = json.loads((fitted / "params.json").read_text())[engine]
+    assert math.inf in written.values(), written
+    again = tmp_path / "again"
+    assert _cli("--engines", engine, "--params", str(fitted / "params.json"), "--limit", "1", "--horizon", "0.1",
+                "--workers", "1", "--out", str(again), "--no-cache") == 0
+    assert json.loads((again / "params.json").read_text())[engine] == written
