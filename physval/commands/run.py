@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from pathlib import Path
 
 from physval.commands import options
 from physval.core import COLUMNS, run_jobs
@@ -123,6 +124,7 @@ def _run(args, after: dict) -> int:
     fail_on = fail_on_of(args.fail_on)
     junit = options.output_file(args.junitxml, "--junitxml") if args.junitxml is not None else None
     out = options.held(args, options.output_folder(args.out))
+    junit_beside(junit, out)
     traj_dir = None if args.save_trajectories is None else options.output_folder(args.save_trajectories,
                                                                                   "--save-trajectories")
     options.check_scheduler(args.scheduler)
@@ -185,9 +187,19 @@ def _run(args, after: dict) -> int:
     return 0
 
 
+def junit_beside(junit: Path | None, out: Path) -> None:
+    """--junitxml inside --out must be a *.xml file: the run writes none, so it cannot be
+    one of the run's own files (results.csv, the report), which it would overwrite after."""
+    if junit is not None and junit.resolve().is_relative_to(out.resolve()) and junit.suffix != ".xml":
+        raise options.UsageError(f"--junitxml {junit}: inside --out {out}, name a .xml file (e.g. {out / 'physval.xml'}): "
+                                 "the run's own files are there")
+
+
 def fail_on_of(text: str) -> set[str]:
     from physval.readings.junit import GATES
     names = {x.strip() for x in text.split(",") if x.strip()}
+    if text.strip() and not names:
+        raise options.UsageError(f"--fail-on {text!r}: names no category; choose from {', '.join(GATES)}")
     bad = sorted(names - set(GATES))
     if bad:
         raise options.UsageError(f"--fail-on {text!r}: {bad[0]!r} is not one of {', '.join(GATES)}")
