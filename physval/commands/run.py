@@ -167,6 +167,8 @@ def _run(args, after: dict) -> int:
         engine_wide[name] = part
     from physval.readings import scorecard
     engine_wide["beside"] = scorecard.companions(out)  # what sweep, stress and real left in their folders under out
+    for why in engine_wide["beside"].left_out:
+        print(f"physval: left out {why}", file=sys.stderr)
     from physval.core.deviations import stale_entries
     from physval.reportkit import frame, status_counts
     df = frame(rows, COLUMNS)
