@@ -200,6 +200,8 @@ def run(args) -> int:
         tosses = ct.load(source)
     except ct.TossError as exc:
         raise options.UsageError(f"--tosses {args.tosses}: {exc}") from None
+    except OSError as exc:
+        raise options.UsageError(f"--tosses {args.tosses}: cannot be read ({exc.strerror or exc})") from None
     from adapters import registry
     engines, skipped = engines_3d(options.engines_of(args, ctx) if args.engines else None, ctx)
     if not engines:

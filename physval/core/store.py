@@ -67,14 +67,20 @@ def unresolved(row: dict) -> bool:
     return bool(text) and not text.startswith("{")
 
 
+def whole_rows(text: str) -> str:
+    """A store's text without a last row cut short (a write stopped by a kill, a full disk):
+    every whole row ends with a newline."""
+    return text if text.endswith("\n") else text[:text.rfind("\n") + 1]
+
+
 def read_results(path) -> list[dict]:
     """The rows of a results.csv (or of the result folder holding one) as dicts of strings,
-    each row's knobs read from knobs.json beside it."""
+    each row's knobs read from knobs.json beside it; a last row cut short is no row."""
     path = Path(path)
     if path.is_dir():
         path = path / "results.csv"
     with open(path, newline="") as fh:
-        rows = list(csv.DictReader(fh))
+        rows = list(csv.DictReader(io.StringIO(whole_rows(fh.read()))))
     return expand_knobs(rows, read_knobs(path.with_name(KNOBS_FILE)))
 
 
@@ -143,9 +149,7 @@ class RowStore:
         return how many. The file is rewritten without cut-short or stale jobs."""
         if not self.path.exists() or not self.path.stat().st_size:
             return 0
-        text = self.path.read_text()
-        if not text.endswith("\n"):  # a write cut short by a kill: drop the tail
-            text = text[:text.rfind("\n") + 1]
+        text = whole_rows(self.path.read_text())  # a write cut short by a kill: its tail dropped
         by_job = defaultdict(list)
         records = read_knobs(self.knobs_file) if self.knobs_file is not None else {}
         for r in expand_knobs(list(csv.DictReader(io.StringIO(text))), records):
