@@ -362,11 +362,17 @@ def test_a_run_survives_a_family_that_crashes(source, tmp_path):
     ("import os\nfrom adapters.reference_engine import ReferenceAdapter\n"
      "class Engine(ReferenceAdapter):\n    def __init__(self):\n        os.kill(os.getpid(), 11)\n",
      "killed by signal SIGSEGV"),
-], ids=["import-sys_exit", "import-os_exit", "constructor-segfault"])
+    ("from adapters.reference_engine import ReferenceAdapter\n"
+     "class Engine(ReferenceAdapter):\n    def __init__(self):\n        super().__init__(name='reference-mine')\n"
+     "    def version(self):\n        raise RuntimeError('no release here')\n",
+     "version() raised RuntimeError: no release here (an adapter's version() must return its engine's release as a "
+     "string)"),
+], ids=["import-sys_exit", "import-os_exit", "constructor-segfault", "version-raises"])
 @pytest.mark.parametrize("command", [["list", "--engines"], ["run", "--engines", "reference", "--quiet"]],
                          ids=["list", "run"])
 def test_an_adapter_file_that_exits_or_crashes_is_one_line(adapter, message, command, tmp_path):
-    """An --adapter file is imported and made in a worker first (before: exit 0 and no word)."""
+    """An --adapter file is imported and made, and gives its version, in a worker first
+    (before: exit 0 and no word; a version() that raised: a traceback after the dry run)."""
     (tmp_path / "engine.py").write_text(adapter)
     target = f"{tmp_path / 'engine.py'}:Engine"
     out = ["--out", str(tmp_path / "out")] if command[0] == "run" else []
@@ -497,3 +503,18 @@ def test_an_unreadable_family_file_is_left_out_and_the_good_families_run(tmp_pat
     got = _as_a_user(*run)  # every family: the one that cannot be read stops it
     (line,) = got.stderr.strip().splitlines()
     assert got.returncode == 2 and str(cases / "secret.py") in line and "Permission denied" in line, got.stderr
+
+
+@pytest.mark.parametrize("folder, message", [("missing", "no such folder"),
+                                             ("empty", "no results.csv in this folder")])
+def test_the_report_rebuilt_from_a_folder_without_results_is_one_line(tmp_path, folder, message):
+    """`python3 -m physval.readings.site FOLDER` (README): exit 2 and one line (before: a
+    traceback, FileNotFoundError)."""
+    import subprocess
+    import sys
+    (tmp_path / "empty").mkdir()
+    got = subprocess.run([sys.executable, "-m", "physval.readings.site", str(tmp_path / folder)], cwd=ROOT,
+                         capture_output=True, text=True, timeout=120)
+    (line,) = got.stderr.strip().splitlines()
+    assert got.returncode == 2 and line.startswith(f"python -m physval.readings.site: error: {tmp_path / folder}: "
+                                                   f"{message}"), got.stderr

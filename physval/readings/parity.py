@@ -213,7 +213,7 @@ def write(folder: Path, table: pd.DataFrame, parts: pd.DataFrame, a: str, b: str
     lines += [
         "## Per family", "", md_table(fams.map(fmt) if hasattr(fams, "map") else fams.applymap(fmt)), "",
         "## The largest differences", ""]
-    top = table[d.notna()].assign(size=d).sort_values("size", ascending=False).head(SHOWN)
+    top = table.assign(size=d)[d.notna()].sort_values("size", ascending=False).head(SHOWN)  # none: no row
     lines += [md_table(pd.DataFrame({
         "check": top.case + "[" + top.variant + "]:" + top.metric, f"{a}": top.measured_a, f"{b}": top.measured_b,
         "expected": top.expected, "difference (tol)": top.difference.map(fmt),

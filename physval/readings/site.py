@@ -209,4 +209,14 @@ def rebuild(folder: Path) -> Path:
 
 
 if __name__ == "__main__":
-    print(f"wrote {rebuild(Path(sys.argv[1] if len(sys.argv) > 1 else 'reports'))}")
+    folder = Path(sys.argv[1] if len(sys.argv) > 1 else "reports")
+    try:
+        found = (folder / "results.csv").is_file()
+    except OSError as exc:
+        found, why = False, f"cannot be read ({exc.strerror})"
+    else:
+        why = "no such folder" if not folder.is_dir() else "no results.csv in this folder (a `physval run --out` folder holds one)"
+    if not found:
+        print(f"python -m physval.readings.site: error: {folder}: {why}", file=sys.stderr)
+        sys.exit(2)
+    print(f"wrote {rebuild(folder)}")
