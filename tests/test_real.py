@@ -490,3 +490,11 @@ def test_the_params_json_a_fit_writes_is_taken_back_by_params_inf_included(tmp_p
     assert _cli("--engines", engine, "--params", str(fitted / "params.json"), "--limit", "1", "--horizon", "0.1",
                 "--workers", "1", "--out", str(again), "--no-cache") == 0
     assert json.loads((again / "params.json").read_text())[engine] == written
+
+
+def test_a_fit_limit_for_no_engine_of_the_run_stops_before_any_work(tmp_path, capsys):
+    """Before: taken in silence (a typo in the glob gave the engine the default budget)."""
+    assert _cli("--engines", "mujoco", "--fit-limit", "mujco=60", "--out", str(tmp_path / "out")) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line == "physval: error: --fit-limit mujco=60: 'mujco' matches none of this run's engines (mujoco)"
+    assert not (tmp_path / "out").exists()

@@ -206,6 +206,11 @@ def run(args) -> int:
     engines, skipped = engines_3d(options.engines_of(args, ctx) if args.engines else None, ctx)
     if not engines:
         raise options.UsageError("no engine to score: " + "; ".join(f"{e}: {w}" for e, w in skipped.items()))
+    from fnmatch import fnmatchcase
+    for glob, seconds in args.fit_limit:  # a budget for no engine of the run is a typo or a wrong selection
+        if glob is not None and not any(fnmatchcase(e, glob) for e in engines):
+            raise options.UsageError(f"--fit-limit {glob}={seconds:g}: {glob!r} matches none of this run's engines "
+                                     f"({', '.join(engines)})")
     given = read_params(args.params, engines, registry.engine_names(ctx.adapters), ctx) if args.params else {}
     do_fit = not args.params and not args.nominal
     out = options.held(args, options.output_folder(args.out))  # input checked: the folders, then the work
