@@ -42,10 +42,13 @@ EPILOG = """examples:
   physval COMMAND --help                        each command's options
 exit codes: 0 the command completed (failing physics is a result, not a crash); 1 (compare,
 versions) something changed between the runs, (run) a check fell under --fail-on; 2 bad
-input; 74 the disk is full (finished jobs are kept; the same command resumes once there is
-space); 130 interrupted (finished jobs are kept; the same command resumes); 141 the reader
+input; 74 the disk is full or the file system refused a write (finished jobs are kept; the
+same command resumes once it can write); 130 interrupted (finished jobs are kept; the same command resumes); 141 the reader
 of the output went away (e.g. `physval list | head`), as a shell reports SIGPIPE."""
 DISK_FULL = 74  # EX_IOERR of sysexits.h: an error while doing I/O on a file
+# the file system's refusals mid-run (a read-only remount, a folder made unwritable, a failing
+# disk): exit DISK_FULL too, one line, finished jobs kept
+REFUSED = (errno.EROFS, errno.EIO, errno.EACCES, errno.EPERM)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -125,11 +128,13 @@ def _run(args) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
     except OSError as exc:
-        if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+        if exc.errno not in (errno.ENOSPC, errno.EDQUOT) + REFUSED:
             raise
         # every finished job's rows were written before this one (each job is one write, and
         # a job cut short in its write is run again): nothing is lost but the time
-        where = f" writing {exc.filename}" if exc.filename else ""
-        print(f"physval: error: the disk is full ({exc.strerror}{where}); the rows of finished jobs are "
-              "kept: free space and run the same command again to resume", file=sys.stderr)
+        where = f" at {exc.filename}" if exc.filename else ""
+        what, fix = (("the disk is full", "free space") if exc.errno not in REFUSED else
+                     ("the file system refused a write", "make the folder writable again"))
+        print(f"physval: error: {what} ({exc.strerror}{where}); the rows of finished jobs are kept: {fix} and run "
+              "the same command again to resume", file=sys.stderr)
         return DISK_FULL

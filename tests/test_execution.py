@@ -530,3 +530,33 @@ def test_a_change_in_one_user_family_runs_that_family_again_only(tmp_path, capsy
         assert main(argv) == 0
         counts.append(_to_run(capsys.readouterr().err))
     assert counts == [2, 0, 1, 1]
+
+
+def test_a_read_only_remount_mid_run_is_one_line_keeps_the_rows_and_resumes(tmp_path, monkeypatch, capsys):
+    """The file system turns read-only before the third job's write (as a remount does): exit
+    74 with one line naming it, the two finished jobs kept, and the same command runs the
+    rest once it can write (before: a traceback)."""
+    import errno
+    import os
+    from physval.core import store as store_module
+    appends = []
+
+    def read_only_open(path, mode="r", **kw):
+        if "a" in mode:
+            appends.append(path)
+            if len(appends) >= 3:
+                raise OSError(errno.EROFS, os.strerror(errno.EROFS), str(path))
+        return open(path, mode, **kw)
+
+    out = tmp_path / "out"
+    argv = ["run", "--cases", "central_impact[e=0.5,m=1:*]", "--engines", "reference", "--workers", "1",
+            "--quiet", "--out", str(out)]
+    monkeypatch.setattr(store_module, "open", read_only_open, raising=False)
+    assert main(argv) == 74
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line == (f"physval: error: the file system refused a write (Read-only file system at {out / 'results.csv'}); "
+                    "the rows of finished jobs are kept: make the folder writable again and run the same command "
+                    "again to resume"), line
+    monkeypatch.undo()
+    assert main(argv) == 0
+    assert "(2 runs now, 2 reused" in capsys.readouterr().out

@@ -27,8 +27,8 @@ EPILOG = """examples:
   physval run --cases-dir my_cases --cases second_bounce
   physval run --engines mujoco --junitxml physval.xml --fail-on fail,error,unstable,changed   an engine's CI gate
 exit codes: 0 the run completed (failing physics is a result); 1 a check fell under --fail-on;
-2 bad input; 74 the disk is full and 130 interrupted (finished jobs are kept in both; the
-same command resumes)."""
+2 bad input; 74 the disk is full or read-only and 130 interrupted (finished jobs are kept
+in both; the same command resumes)."""
 
 HELP_CASES = ("case families or variants: NAME, a glob, or NAME[VARIANT] (an exact variant id or a glob), "
               "space- or comma-separated, e.g. 'central_impact[drop,e=0.5]' (default: every family)")
