@@ -211,3 +211,34 @@ def test_determinism_counts_only_the_scenes_an_engine_ran():
     pymunk, dart = (scorecard._determinism(e, det) for e in ("pymunk", "dart"))
     assert (pymunk["grade"], pymunk["text"]) == ("A", "1/1 repeat")
     assert (dart["grade"], dart["text"]) == ("D", "1/2 repeat")
+
+
+EMPTY, FOREIGN, BINARY = "", "a,b\n1,2\n", "\x00\xff junk"
+
+
+@pytest.mark.parametrize("path, content", [
+    ("sweep/sweep_summary.csv", EMPTY), ("sweep/sweep_summary.csv", FOREIGN), ("stress/determinism.csv", EMPTY),
+    ("real/real_summary.csv", FOREIGN), ("real/real_summary.csv", BINARY),
+    ("parity/mujoco-mujoco-warp/parity.csv", FOREIGN), ("parity/mujoco-mujoco-warp/parting.csv", EMPTY),
+])
+def test_a_damaged_file_beside_a_run_costs_its_column_not_the_report(tmp_path, capsys, path, content):
+    """An empty, foreign or binary companion file under --out: skipped with one line naming
+    it, the report written with the others (before: a traceback after every job, and the
+    same on every rerun, since the file stays)."""
+    from physval.cli import main
+    out = tmp_path / "out"
+    _beside(out)
+    if path.startswith("parity/"):  # a good parity reading, then the damaged file in it
+        pair = out / "parity" / "mujoco-mujoco-warp"
+        pair.mkdir(parents=True)
+        pd.DataFrame([{"case": "central_impact", "engine_a": "mujoco", "engine_b": "mujoco-warp",
+                       "engine_version_a": "4.0.0", "engine_version_b": "4.0.0", "difference": 0.1,
+                       "verdicts_differ": False, "one_engine_only": False}]).to_csv(pair / "parity.csv", index=False)
+    (out / path).parent.mkdir(parents=True, exist_ok=True)
+    (out / path).write_bytes(content.encode("latin-1"))
+    argv = ["run", "--cases", "central_impact[drop,e=0.5]", "--engines", "reference", "--quiet", "--readings", "none",
+            "--workers", "1", "--out", str(out)]
+    assert main(argv) == 0
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"physval: left out {out / path}: ") and "`physval " in line, line
+    assert "## Scorecard" in (out / "report.md").read_text()

@@ -57,7 +57,7 @@ def run(args) -> int:
     families = {n: f for n, f in resolver.families.items() if TAG in f.tags}
     chosen = options.cases_of(args, resolver, families, full=args.long)
     engines = options.engines_of(args, ctx, options.fast_engines(ctx))
-    out = options.output_folder(args.out)
+    out = options.held(args, options.output_folder(args.out))
     options.check_scheduler(args.scheduler)
     execution = Execution.of(args)
     jobs = [Job(f, v, e) for f, vs in chosen.items() for v in vs for e in engines]

@@ -448,9 +448,15 @@ def previous_command(report: Path) -> str:
 
 def main(argv: list[str]) -> int:
     folder = Path(argv[0] if argv else "reports")
-    if not (folder / "results.csv").is_file():
-        print(f"physval: {folder / 'results.csv'}: no such file (FOLDER: a folder `physval run` wrote)",
-              file=sys.stderr)
+    try:
+        found = (folder / "results.csv").is_file()
+    except OSError as exc:
+        found, why = False, f"cannot be read ({exc.strerror})"
+    else:
+        why = ("no such folder" if not folder.is_dir()
+               else "no results.csv in this folder (FOLDER: a folder `physval run --out` wrote)")
+    if not found:
+        print(f"python -m physval.readings.results: error: {folder}: {why}", file=sys.stderr)
         return 2
     report = rebuild(folder)
     print(f"wrote {report}, {report.with_suffix('.html')}, {folder / 'plots'}/")

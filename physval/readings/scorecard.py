@@ -135,22 +135,47 @@ class Companions:
     real: pd.DataFrame | None = None
     sources: list[str] = field(default_factory=list)
     parity: list = field(default_factory=list)
+    left_out: list[str] = field(default_factory=list)  # files found but not usable: one line each, why
+
+
+# each companion: (attribute, file under a run's folder, the command that writes it, the columns read)
+COMPANIONS = (("sweep", "sweep/sweep_summary.csv", "sweep", ("case", "engine", "reach_cost_us_per_sim_s")),
+              ("determinism", "stress/determinism.csv", "stress", ("engine", "status")),
+              ("real", "real/real_summary.csv", "real", ("engine", "param_set", "corner_mean_median")))
 
 
 def companions(out: Path) -> Companions:
     """The sweep, stress, real and parity readings in sweep/, stress/, real/ and parity/ under
-    `out` (the commands' default folders beside a run's), whichever exist."""
+    `out` (the commands' default folders beside a run's), whichever exist. A file that
+    cannot be read as the table its command writes (empty, damaged, another program's) is
+    left out and named in `left_out`, so that it costs its column, not the report."""
     from physval.readings import parity
-    found = Companions(parity=parity.beside(out))
-    for attr, path, command in (("sweep", "sweep/sweep_summary.csv", "sweep"),
-                                ("determinism", "stress/determinism.csv", "stress"),
-                                ("real", "real/real_summary.csv", "real")):
+    left_out = []
+    found = Companions(parity=parity.beside(out, left_out), left_out=left_out)
+    for attr, path, command, columns in COMPANIONS:
         file = Path(out) / path
         if file.is_file():
-            setattr(found, attr, pd.read_csv(file))
+            table = companion_table(file, command, columns)
+            if isinstance(table, str):
+                left_out.append(f"{file}: {table}")
+                continue
+            setattr(found, attr, table)
             when = time.strftime("%Y-%m-%d", time.gmtime(file.stat().st_mtime))
             found.sources.append(f"`physval {command}` of {when} ({path})")
     return found
+
+
+def companion_table(file: Path, command: str, columns) -> pd.DataFrame | str:
+    """The table another command wrote in `file`, or why it cannot be used: it cannot be
+    read as CSV, or lacks one of `columns`."""
+    try:
+        table = pd.read_csv(file)
+    except (OSError, ValueError) as exc:  # pandas' EmptyDataError and ParserError are ValueErrors
+        return f"cannot be read as the table `physval {command}` writes ({type(exc).__name__}: {exc})"
+    missing = [c for c in columns if c not in table.columns]
+    if missing:
+        return f"not the table `physval {command}` writes (no {', '.join(missing)} column)"
+    return table
 
 
 def reach_cost(sweep: pd.DataFrame | None, engine: str, families: list[str]) -> str:
