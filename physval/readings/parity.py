@@ -264,7 +264,7 @@ def beside(out: Path, left_out: list[str] | None = None) -> list[Pair]:
     """The parity readings in parity/*/ under a run's folder. One whose parity.csv or
     parting.csv cannot be read as `physval parity` writes them (empty, damaged, written
     before the engines' names were kept) is passed over, and named in `left_out`."""
-    from physval.readings.scorecard import companion_table
+    from physval.report import companion_table
     left_out = [] if left_out is None else left_out
     pairs = []
     for file in sorted((Path(out) / PARITY_DIR).glob("*/parity.csv")):

@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from physval.report import Html, Section, fmt, md_table, pyplot, rows_table, save_figure
+from physval.report import Html, Section, companion_table, fmt, md_table, pyplot, rows_table, save_figure
 from physval.report import cell as html_cell
 
 INTEGRATION = "integration order"
@@ -165,17 +165,6 @@ def companions(out: Path) -> Companions:
     return found
 
 
-def companion_table(file: Path, command: str, columns) -> pd.DataFrame | str:
-    """The table another command wrote in `file`, or why it cannot be used: it cannot be
-    read as CSV, or lacks one of `columns`."""
-    try:
-        table = pd.read_csv(file)
-    except (OSError, ValueError) as exc:  # pandas' EmptyDataError and ParserError are ValueErrors
-        return f"cannot be read as the table `physval {command}` writes ({type(exc).__name__}: {exc})"
-    missing = [c for c in columns if c not in table.columns]
-    if missing:
-        return f"not the table `physval {command}` writes (no {', '.join(missing)} column)"
-    return table
 
 
 def reach_cost(sweep: pd.DataFrame | None, engine: str, families: list[str]) -> str:

@@ -1,5 +1,5 @@
-"""Markdown pieces: a report's heading, tables, numbers, anchors and table of contents, and
-a frame written as CSV."""
+"""Markdown pieces: a report's heading, tables, numbers, anchors and table of contents; a
+frame written as CSV, and another command's CSV read back."""
 from __future__ import annotations
 
 import math
@@ -60,3 +60,15 @@ def contents(sections: list[str], level: int = 2) -> str:
 
 def write_csv(df: pd.DataFrame, path: Path, columns: list[str] | None = None) -> None:
     write_atomic(path, (df[columns] if columns else df).to_csv(index=False))
+
+def companion_table(file: Path, command: str, columns) -> pd.DataFrame | str:
+    """The table another command wrote in `file`, or why it cannot be used: it cannot be
+    read as CSV, or lacks one of `columns`."""
+    try:
+        table = pd.read_csv(file)
+    except (OSError, ValueError) as exc:  # pandas' EmptyDataError and ParserError are ValueErrors
+        return f"cannot be read as the table `physval {command}` writes ({type(exc).__name__}: {exc})"
+    missing = [c for c in columns if c not in table.columns]
+    if missing:
+        return f"not the table `physval {command}` writes (no {', '.join(missing)} column)"
+    return table
