@@ -11,5 +11,5 @@ from physval.report.sections import Reading, Rendered, Report, Section, as_secti
 from physval.report.text import anchor, companion_table, contents, fmt, heading, md_table, titles, write_csv
 
 __all__ = ["write_atomic", "environment", "MARKERS", "engine_styles", "pyplot", "save_figure", "Html", "cell",
-           "rows_table", "table", "Reading", "Rendered", "Report", "Section", "as_section", "render", "anchor", "companion_table",
-           "contents", "fmt", "heading", "md_table", "titles", "write_csv"]
+           "rows_table", "table", "Reading", "Rendered", "Report", "Section", "as_section", "render", "anchor",
+           "companion_table", "contents", "fmt", "heading", "md_table", "titles", "write_csv"]
