@@ -108,6 +108,11 @@ class PymunkAdapter(Adapter):
         # touching is struck one pair per step instead: the sequential outcome (measured:
         # a Newton's cradle of three, e = 1, ends at 0, 0, 1).
         impact_model="simultaneous",
+        # Settings.threads: Space(threaded=True) with that many threads (Chipmunk's threaded
+        # solver, Linux and macOS; it uses at most 2)
+        modes=frozenset({"threads"}),
+        why_not=(("save_restore", "a pickled Space restarts without Chipmunk's cached arbiters, whose "
+                                  "accumulated impulses warm-start the next step: no whole state to save"),),
     )
 
     def __init__(self, name: str = "pymunk", collision_slop: float = COLLISION_SLOP):
@@ -145,7 +150,10 @@ class PymunkSimulation(Simulation):
     def __init__(self, scene: Scene, settings: Settings, collision_slop: float = COLLISION_SLOP):
         self._dt = settings.dt
         self.iterations = DEFAULT_ITERATIONS if settings.iterations is None else settings.iterations
-        space = pymunk.Space()
+        threads = settings.threads or 1
+        space = pymunk.Space(threaded=threads > 1)
+        if threads > 1:
+            space.threads = threads
         space.iterations = self.iterations
         space.collision_slop = collision_slop
         # (1 - beta)**(1/dt) underflows below dt = 3e-4 s: floored at the smallest normal
@@ -158,6 +166,7 @@ class PymunkSimulation(Simulation):
         gx, gz = float(scene.gravity[0]), float(scene.gravity[2])
         space.gravity = (gx, gz)
         self.knobs = {
+            "threads": threads,  # Space(threaded=True).threads when above 1 (default: unthreaded)
             "iterations": self.iterations,
             "collision_slop": collision_slop,
             "collision_bias": collision_bias,

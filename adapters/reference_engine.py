@@ -13,6 +13,7 @@ switch off; the knobs record every setting of `reference_impl.config.Config` in 
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import asdict, replace
 
 import numpy as np
@@ -61,6 +62,11 @@ class ReferenceAdapter(Adapter):
         # the default formulation's torque rows (reference_impl/sequential_impulses.py); the
         # others have none and report such pairs unsupported
         contact_torques=frozenset({"rolling_resistance", "torsional_friction"}),
+        # a whole state: the bodies' and the warm-start cache (ReferenceSimulation.save_state);
+        # a batch of worlds: n worlds of the scene stepped in turn (ReferenceBatch), which
+        # share nothing but the process and its compiled loops
+        modes=frozenset({"save_restore", "worlds"}),
+        why_not=(("threads", "the reference steps on one thread: it has no pool"),),
     )
 
     def __init__(self, formulation: str = "si", name: str | None = None, params: dict | None = None):
@@ -90,6 +96,9 @@ class ReferenceAdapter(Adapter):
             raise Unsupported(reason)
         config = Config(formulation=self.formulation, params={**self.params, **_compliance_params(scene)},
                         iterations=settings.iterations or DEFAULT.iterations)
+        if settings.world is not None:
+            return ReferenceBatch([ReferenceSimulation(scene, settings.dt, config) for _ in range(settings.world[1])],
+                                  settings.world[0])
         return ReferenceSimulation(scene, settings.dt, config)
 
 
@@ -240,3 +249,55 @@ class ReferenceSimulation(Simulation):
 
     def close(self) -> None:
         """Nothing to free: the world is plain Python objects."""
+
+    # the "save_restore" mode (Capabilities.modes)
+
+    def save_state(self) -> dict:
+        """Every dynamic body's position, orientation and velocities, and the world's
+        warm-start cache (the impulses each contact feature carries into the next step):
+        all a step reads that the scene does not give."""
+        return {"bodies": [(list(b.x), list(b.q), list(b.v), list(b.w)) for b in self._dynamic],
+                "warm": copy.deepcopy(self._world._previous)}
+
+    def restore_state(self, state: dict) -> None:
+        for b, (x, q, v, w) in zip(self._dynamic, state["bodies"]):
+            b.x, b.q, b.v, b.w = list(x), list(q), list(v), list(w)
+            b.update_frame()
+        self._world._previous = copy.deepcopy(state["warm"])
+
+
+class ReferenceBatch(Simulation):
+    """A batch of n reference worlds of one scene, stepped in turn, reporting world `k`'s
+    bodies (the "worlds" mode: Settings.world = (k, n)). The reference has no batch of its
+    own: what the batch tests is that its worlds share nothing (no scratch of the compiled
+    loops, no module state), as the worlds of a GPU batch must not."""
+
+    def __init__(self, worlds: list[ReferenceSimulation], k: int):
+        self._worlds, self._k = worlds, k
+        self._shown = worlds[k]
+        self.iterations = self._shown.iterations
+        self.effects = self._shown.effects
+
+    @property
+    def knobs(self) -> dict:
+        return {**self._shown.knobs, "batch": {"world": self._k, "worlds": len(self._worlds)}}
+
+    def step(self) -> None:
+        for world in self._worlds:
+            world.step()
+
+    def states(self):
+        return self._shown.states()
+
+    def body_order(self) -> list[str]:
+        return self._shown.body_order()
+
+    def write_state(self, out: np.ndarray) -> None:
+        self._shown.write_state(out)
+
+    def contact_forces(self):
+        return self._shown.contact_forces()
+
+    def contact_points(self):
+        return self._shown.contact_points()
+
