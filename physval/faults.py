@@ -69,6 +69,10 @@ class Fault:
         engine may step in bulk)."""
         return None
 
+    def restored(self, state, kind: str):
+        """The state a restore (Simulation.restore_state) is given instead of the one saved."""
+        return state
+
     read_out = 1.0  # factor on every contact force the engine reports
 
     @property
@@ -417,11 +421,115 @@ FAULTS: tuple[Fault, ...] = (Restitution(), StaticFriction(), KineticFriction(),
 NONE = NoFault()
 
 
+
+# --- faults that break an invariance (cases.relations), each flagged by its relation --------------
+
+class PositionRoundoff(Fault):
+    """Positions kept in single precision: every body's position rounded to float32 after
+    each step, while the engine declares float64.
+
+    An engine that stores positions in float32 (or computes contact geometry in absolute
+    float32 coordinates) behind a double interface: its rounding is 6e-8 of the distance
+    from the origin, 6 mm at 100 km, where the scene is the same physics."""
+    name = "position round-off"
+    kinds = ("reference",)
+
+    def after_step(self, kind):
+        return _float32_positions
+
+
+def _float32_positions(sim, dt):
+    for b in _reference_worlds_bodies(sim):
+        b.x = [float(np.float32(c)) for c in b.x]
+
+
+def _reference_worlds_bodies(sim):
+    """The dynamic bodies of a reference simulation, or of every world of its batch."""
+    worlds = getattr(sim, "_worlds", None) or [sim]
+    return [b for w in worlds for b in w._dynamic]
+
+
+class UnconvergedSweep(Fault):
+    """One Gauss-Seidel sweep a step from zero impulses (no warm start, no least-squares
+    cold start): the contacts' impulses then depend on the order they are visited in, the
+    order the bodies were created in.
+
+    A solver left at one iteration (or an iteration count too small for a stack) and
+    started cold: each contact sees the impulses of those before it in the sweep, so a
+    stack built top-down stands otherwise than one built bottom-up."""
+    name = "unconverged sweep"
+    kinds = ("reference",)
+
+    def plant(self, sim, scene, kind):
+        world = sim._world
+        world.config = replace(world.config, iterations=1, warm_start=False)
+        return sim
+
+
+class WorldSeed(Fault):
+    """A batch whose world k starts perturbed by a seed drawn from k (1e-9 m per position
+    component), the world alone (or world 0) exact.
+
+    A batched engine that seeds its per-world noise (contact jitter, a randomised solver
+    order) with the world's index: world 3 of 4 is not the scene alone."""
+    name = "world seed"
+    kinds = ("reference",)
+    size = 1e-9  # m
+
+    def plant(self, sim, scene, kind):
+        for k, world in enumerate(getattr(sim, "_worlds", [])):
+            rng = np.random.default_rng(k)
+            for b in world._dynamic:
+                b.x = [c + (self.size * rng.standard_normal() if k else 0.0) for c in b.x]
+        return sim
+
+
+class ColdRestore(Fault):
+    """A restored state without its warm-start cache: the contacts of the step after a
+    restore start from zero impulses.
+
+    A snapshot of body poses and velocities taken for the whole state: the solver's
+    accumulated impulses, which it carries from step to step, are lost, so a resting stack
+    restored midway settles again."""
+    name = "cold restore"
+    kinds = ("reference",)
+
+    def restored(self, state, kind):
+        return {**state, "warm": {}}
+
+
+class ThreadOrder(Fault):
+    """With a thread pool, a sum taken in another order: planted as one rounding of the time
+    step (dt (1 + 2^-52)) whenever MuJoCo steps with a pool.
+
+    A parallel reduction that adds the threads' partial sums in the order they finish: the
+    result differs by roundings between a run on one thread and one on many."""
+    name = "thread order"
+    kinds = ("mujoco",)
+
+    def plant(self, sim, scene, kind):
+        if sim.knobs.get("mju_threadpool"):
+            sim._model.opt.timestep *= 1.0 + 2.0**-52
+        return sim
+
+
+# Each relation of cases.relations that a planted fault proves, and the fault: the fault must
+# make its relation's verdict `fail` on the relation's default scene, the plain wrapper not
+# (tests/test_invariance.py); "friction cone" is the catalogue's square cone in a fixed
+# tangent frame: a friction that depends on the direction of sliding.
+INVARIANCE_FAULTS: tuple[Fault, ...] = (PositionRoundoff(), UnconvergedSweep(), WorldSeed(), ColdRestore(),
+                                        ThreadOrder())
+PROVES = {"rotate_vertical": "friction cone", "translate_100000m": "position round-off",
+          "body_order": "unconverged sweep", "worlds": "world seed", "save_restore": "cold restore",
+          "threads": "thread order"}
+
+
 def by_name(name: str) -> Fault:
-    for f in (NONE, *FAULTS):
+    every = (NONE, *FAULTS, *INVARIANCE_FAULTS)
+    for f in every:
         if f.name == name:
             return f
-    raise KeyError(f"no fault {name!r}: choose from {', '.join(f.name for f in (NONE, *FAULTS))}")
+    raise KeyError(f"no fault {name!r}: choose from {', '.join(f.name for f in every)}")
 
 
 # --- the wrapper ----------------------------------------------------------------------------
@@ -461,15 +569,15 @@ class FaultyAdapter(Adapter):
         except BaseException:
             sim.close()
             raise
-        return FaultySimulation(sim, fault, settings.dt, fault.after_step(self.kind))
+        return FaultySimulation(sim, fault, settings.dt, fault.after_step(self.kind), self.kind)
 
 
 class FaultySimulation(Simulation):
     """The engine's simulation, passed through but for what the fault plants: a step
     after the engine's own (then stepped one step at a time) and the force read-out."""
 
-    def __init__(self, inner: Simulation, fault: Fault, dt: float, after_step=None):
-        self.inner, self.fault, self._dt, self._after = inner, fault, dt, after_step
+    def __init__(self, inner: Simulation, fault: Fault, dt: float, after_step=None, kind: str = ""):
+        self.inner, self.fault, self._dt, self._after, self._kind = inner, fault, dt, after_step, kind
         self.effects = inner.effects
         self.iterations = inner.iterations
         self.run = inner.run if after_step is None else None
@@ -508,6 +616,12 @@ class FaultySimulation(Simulation):
 
     def close(self) -> None:
         self.inner.close()
+
+    def save_state(self):
+        return self.inner.save_state()
+
+    def restore_state(self, state) -> None:
+        self.inner.restore_state(self.fault.restored(state, self._kind))
 
 
 
