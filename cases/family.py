@@ -90,6 +90,11 @@ class Check:
     within `tolerance + roundoff * k * u` (`at_precision`); `tolerance` alone is what a
     float64 engine is held to, with room for its round-off.
 
+    `roundoff_at` is, where rounding errors do not add up per sub-step (a flight's
+    positions: cases/roundoff.py), a function (float_bits, substeps) -> the part of the
+    tolerance rounding takes at that width, measured by stepping the motion in that
+    arithmetic with a stated factor; `at_precision` adds it as it adds `roundoff`.
+
     `measures` says what a miss shows (MEASURES): "physics" (the default), or "integrator"
     when the tolerance is the error bound of a time-stepping scheme of a stated order (a
     second-order rotation step, say) on motion whose physics conserves exactly, so that a
@@ -103,6 +108,7 @@ class Check:
     why: str
     roundoff: float = 0.0
     measures: str = "physics"
+    roundoff_at: Callable[[int, int], float] | None = None
 
     def __post_init__(self):
         if not isinstance(self.metric, str) or not self.metric:
@@ -121,17 +127,23 @@ class Check:
             raise CaseError(f"check {self.metric!r}: roundoff = {self.roundoff!r}: must be finite and >= 0")
         if not isinstance(self.why, str) or not self.why.strip():
             raise CaseError(f"check {self.metric!r}: why is empty: every tolerance needs its reason")
+        if self.roundoff_at is not None and not callable(self.roundoff_at):
+            raise CaseError(f"check {self.metric!r}: roundoff_at = {self.roundoff_at!r}: must be a function "
+                            "(float_bits, substeps) -> tolerance, or None")
 
 
     def at_precision(self, float_bits: int = 64, substeps: int = 1) -> "Check":
         """The check an engine computing with `float_bits` floats in `substeps` sub-steps a
         step is judged by: its round-off part added to the tolerance at that width."""
-        if not self.roundoff:
+        if not self.roundoff and self.roundoff_at is None:
             return self
         if float_bits not in UNIT_ROUNDOFF:
             raise CaseError(f"float_bits = {float_bits!r}: must be one of {sorted(UNIT_ROUNDOFF)}")
-        extra = self.roundoff * max(1, int(substeps)) * UNIT_ROUNDOFF[float_bits]
-        return replace(self, tolerance=self.tolerance + extra, roundoff=0.0)
+        k = max(1, int(substeps))
+        extra = self.roundoff * k * UNIT_ROUNDOFF[float_bits]
+        if self.roundoff_at is not None:
+            extra += float(self.roundoff_at(float_bits, k))
+        return replace(self, tolerance=self.tolerance + extra, roundoff=0.0, roundoff_at=None)
 
 
 @dataclass(frozen=True)
