@@ -16,7 +16,7 @@ from typing import Callable
 
 import numpy as np
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Catch, Check
 from cases.observables import free_flight_error, rate, window_mean
 from cases.roundoff import position_roundoff, uniform_motion_roundoff
 from cases.scene import Body, Material, Scene, ball, cube, ground
@@ -218,4 +218,12 @@ FAMILY = CaseFamily(
     variant_id=lambda p: f"{p['check']},{p['dim']}D",
     needs=lambda p: _probe(p).needs,
     tags=frozenset({"conformance"}),
+    catches=(
+        Catch("gravity", "free_fall_matches_discrete_closed_form,2D"),
+        Catch("time step", "free_fall_matches_discrete_closed_form,2D"),
+        Catch("damping", "nothing_damps_a_free_body,2D"),
+        Catch("friction off", "locked_rotation_stays_locked,2D"),
+        Catch("friction doubled", "locked_rotation_stays_locked,2D"),
+        Catch("force read-out", "resting_contact_carries_the_weight,2D"),
+    ),
 )

@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Catch, Check
 from cases.impact_laws import IMPULSE_OF_LAW, law_label, law_needs, law_of, newton_impulse, outcomes_differ, with_laws
 from cases.observables import first_impact
 from cases.scene import Body, Box, Material, Rect, Scene, ball
@@ -259,4 +259,13 @@ FAMILY = CaseFamily(
     needs=needs,
     variant_id=variant_id,
     full_grid=FULL_GRID,
+    catches=(
+        Catch("restitution off", "e=0.5"),
+        Catch("restitution doubled", "e=0.5"),
+        Catch("inertia", "e=0.5"),
+        Catch("friction off", "e=0.5,mu=1.0,slip=1"),
+        Catch("friction doubled", "e=0.5,mu=0.1,slip=1"),
+        Catch("restitution law", "e=0.5,mu=0.1,slip=1"),
+        Catch("restitution law", "e=0.5,mu=1.0,slip=1"),
+    ),
 )

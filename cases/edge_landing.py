@@ -65,7 +65,7 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check, plane_label
+from cases.family import CaseFamily, Catch, Check, plane_label
 from cases.impact_laws import IMPULSE_OF_LAW, law_label, law_needs, law_of, outcomes_differ, with_laws
 from cases.observables import first_impact
 from cases.scene import Body, Material, Scene, cube, ground, quat_about_y
@@ -295,4 +295,13 @@ FAMILY = CaseFamily(
     dt=DT,
     needs=needs,
     variant_id=variant_id,
+    catches=(
+        Catch("restitution off", "tilt=y,mu=0.0"),
+        Catch("restitution doubled", "tilt=y,mu=0.0"),
+        Catch("inertia", "tilt=y,mu=0.0"),
+        Catch("friction off", "tilt=y,mu=0.3"),
+        Catch("friction doubled", "tilt=y,mu=0.3"),
+        Catch("restitution law", "tilt=y,mu=0.3"),
+        Catch("restitution law", "tilt=y,mu=0.8"),
+    ),
 )

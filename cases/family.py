@@ -18,7 +18,7 @@ import json
 import math
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
-from typing import Callable
+from typing import Callable, NamedTuple
 
 from cases.scene import Scene
 from cases.trajectory import Trajectory
@@ -146,6 +146,19 @@ class Check:
         return replace(self, tolerance=self.tolerance + extra, roundoff=0.0, roundoff_at=None)
 
 
+class Catch(NamedTuple):
+    """A wrong answer a family must catch (CaseFamily.catches): `fault`, the name of a
+    planted fault (physval/faults.py: an effect off or doubled, an inertia swapped, another
+    combination rule or restitution law, ...), and `variant`, the id of the variant whose
+    checks show it. tests/test_catches.py plants each on that variant, on the reference
+    engine (or `engine`, a reference formulation where the variant needs one), and
+    requires a check to fail there (and none without the fault), so a family cannot claim
+    what it cannot see."""
+    fault: str
+    variant: str
+    engine: str = "reference"  # where it is planted: the reference, or a formulation that runs the variant
+
+
 @dataclass(frozen=True)
 class Variant:
     """One point of a family's grid: the `family` name, its readable `id` (the family's
@@ -201,6 +214,8 @@ class CaseFamily:
       the first variant).
     - `variant_id(params) -> str`: the readable id in test ids, reports and selections.
     - `tags`: labels from TAGS ("core", "robustness", "cross_engine", ...).
+    - `catches`: the wrong answers the family must catch (`Catch`: a planted fault's name
+      and the variant that shows it): what its docstring claims to test, as faults.
     """
     name: str
     summary: str
@@ -216,6 +231,7 @@ class CaseFamily:
     variant_id: Callable[[dict], str] = _default_id
     tags: frozenset[str] = frozenset()
     full_grid: tuple[dict, ...] = ()
+    catches: tuple[Catch, ...] = ()
 
     def dt_for(self, params: dict) -> float:
         """A variant's default time step (e.g. fine enough to sample a 1 ms compliant contact)."""
@@ -277,6 +293,12 @@ class CaseFamily:
         unknown = set(self.sweep_variants) - every
         if unknown:
             raise CaseError(f"{self.name}: sweep_variants names no variant: {sorted(unknown)}")
+        if not all(isinstance(c, tuple) and len(c) in (2, 3) and all(isinstance(x, str) for x in c)
+                   for c in self.catches):
+            raise CaseError(f"{self.name}: catches must be cases.family.Catch(fault, variant[, engine]) names")
+        unknown = {c[1] for c in self.catches} - every
+        if unknown:
+            raise CaseError(f"{self.name}: catches name no variant: {sorted(unknown)}")
 
     def validate_variant(self, v: Variant) -> tuple[Scene, float, list[Check]]:
         """Build the variant (its scene, dt, duration, needs and checks), each checked:

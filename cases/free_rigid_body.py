@@ -62,7 +62,7 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Catch, Check
 from cases.observables import free_flight_error
 from cases.roundoff import position_roundoff, velocity_roundoff
 from cases.overlap import rotation_matrix
@@ -273,4 +273,10 @@ FAMILY = CaseFamily(
     dt=DT,
     variant_id=variant_id,
     full_grid=FULL_GRID,
+    catches=(
+        Catch("inertia axes", "spin=5,wobble=2"),
+        Catch("angular velocity frame", "spin=5,wobble=2"),
+        Catch("gravity", "spin=5,2D"),
+        Catch("time step", "spin=5,2D"),
+    ),
 )

@@ -69,7 +69,7 @@ import math
 import numpy as np
 
 from cases.eccentric_impact import body_collision_matrix
-from cases.family import CaseFamily, Check, plane_label
+from cases.family import CaseFamily, Catch, Check, plane_label
 from cases.impact_laws import IMPULSE_OF_LAW, law_label, law_needs, law_of, outcomes_differ, with_laws
 from cases.observables import first_impact
 from cases.scene import Body, Box, Material, Rect, Scene, ball, ground
@@ -343,4 +343,16 @@ FAMILY = CaseFamily(
     dt=DT,
     needs=needs,
     variant_id=variant_id,
+    catches=(
+        Catch("inertia axes", "brick,edge,mu=0.0"),
+        Catch("inertia axes", "brick,corner,mu=0.0,vx=0,w=(3,0,5)"),
+        Catch("inertia", "brick,edge,mu=0.0"),
+        Catch("restitution off", "brick,edge,mu=0.0"),
+        Catch("restitution doubled", "brick,edge,mu=0.0"),
+        Catch("friction off", "brick,edge,mu=0.5,vx=1,w=(0,-2,0)"),
+        Catch("friction doubled", "brick,edge,mu=0.1,vx=1,w=(0,-4,0)"),
+        Catch("restitution law", "brick,edge,mu=0.1,vx=1,w=(0,-4,0)"),
+        Catch("restitution law", "brick,edge,mu=0.5,vx=1,w=(0,-2,0)"),
+        Catch("angular velocity frame", "brick,corner,mu=0.0,vx=0,w=(3,0,5)"),
+    ),
 )

@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.family import CaseFamily, Check, plane_label
+from cases.family import CaseFamily, Catch, Check, plane_label
 from cases.observables import settle_time
 from cases.scene import Body, Material, Scene, cube, ground
 from cases.slide_to_stop import G, HALF, stop_distance, stop_time
@@ -154,4 +154,12 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=variant_id,
+    catches=(
+        Catch("combine rule", "side,mu_a=0.5,mu_b=0.3,mu_ab=0.3"),
+        Catch("combine rule", "stack,mu_a=0.5,mu_b=0.5,mu_ab=0.3"),
+        Catch("pair materials", "side,mu_a=0.5,mu_b=0.3,mu_ab=0.3"),
+        Catch("pair materials", "stack,mu_a=0.5,mu_b=0.5,mu_ab=0.3"),
+        Catch("friction off", "side,mu_a=0.5,mu_b=0.3,mu_ab=0.3"),
+        Catch("friction doubled", "stack,mu_a=0.5,mu_b=0.5,mu_ab=0.3"),
+    ),
 )

@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 
 from cases.central_impact import velocities_after
-from cases.family import CaseError, CaseFamily, Check, impulse_roundoff, plane_label
+from cases.family import CaseError, CaseFamily, Catch, Check, impulse_roundoff, plane_label
 from cases.scene import Body, Material, Scene, ball
 
 R = 0.1        # ball radius, m
@@ -162,4 +162,12 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=variant_id,
+    catches=(
+        Catch("combine rule", "e12=0.7,e23=0.5,e13=0.7,m=1:1:1"),
+        Catch("combine rule", "e12=0.6,e23=0.6,e13=0.4,m=1:1:4,row=1-3-2"),
+        Catch("pair materials", "e12=0.7,e23=0.5,e13=0.7,m=1:1:1"),
+        Catch("pair materials", "e12=0.6,e23=0.6,e13=0.4,m=1:1:4,row=1-3-2"),
+        Catch("restitution off", "e12=0.7,e23=0.5,e13=0.7,m=1:1:1"),
+        Catch("restitution doubled", "e12=0.7,e23=0.5,e13=0.7,m=1:1:1"),
+    ),
 )

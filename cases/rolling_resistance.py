@@ -48,7 +48,7 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check, plane_label
+from cases.family import CaseFamily, Catch, Check, plane_label
 from cases.observables import rate
 from cases.rolling_incline import inertia_ratio
 from cases.scene import Body, Material, Scene, ball, ground, tilted_gravity
@@ -195,4 +195,11 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=variant_id,
+    catches=(
+        Catch("rolling resistance off", "d=0.005,flat,v0=0.7"),
+        Catch("rolling resistance doubled", "d=0.005,flat,v0=0.7"),
+        Catch("rolling radius", "d=0.005,flat,v0=0.7,R=0.05"),
+        Catch("contact torques", "d=0,flat,v0=0.7"),
+        Catch("friction off", "d=0.005,theta=10deg"),
+    ),
 )

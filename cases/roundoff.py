@@ -8,7 +8,7 @@ most half an ulp, u bin(x), bin(x) the power of two at or below |x|):
 - the velocity adds the same increment g h every sub-step. Within a binade of v the grid of
   floats does not change, so v + g h rounds the same way each time: the errors add up, a
   systematic drift, at most u bin(v) a sub-step (`velocity_roundoff` sums that over the
-  run, the binades v passes through included: 3.5 times the drift measured on Box3D and
+  run, the binades v passes through included: 2.4 to 5.2 times the drift measured on Box3D and
   Rapier, whose velocities a float32 emulation of v += g h reproduces to the last bit);
 - the position adds h v, which changes with v: its roundings, and the velocity's drift
   integrated, make an error that depends on the order in which an engine forms a

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Catch, Check
 from cases.observables import rate, settle_time
 from cases.scene import Body, Material, Scene, Sphere, ground
 
@@ -139,4 +139,9 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=variant_id,
+    catches=(
+        Catch("torsional friction off", "d_t=0.002,R=0.1,w0=5"),
+        Catch("torsional friction doubled", "d_t=0.002,R=0.1,w0=5"),
+        Catch("contact torques", "d_t=0,R=0.1,w0=5"),
+    ),
 )
