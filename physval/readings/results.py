@@ -148,8 +148,9 @@ _VANISHED_ENTRY = re.compile(rf"^{VANISHED}: (?P<entry>.*?) records ")
 
 
 def vanished_rows(df: pd.DataFrame) -> pd.DataFrame:
-    """The checks a known-deviation band records that now meet their closed form."""
-    return df[(df.status == "pass") & df.reason.astype(str).str.startswith(VANISHED)]
+    """The checks a known-deviation band records that now meet their closed form (a fail
+    where the measurement left the band, core.verdicts.judge)."""
+    return df[df.status.isin(("pass", "fail")) & df.reason.astype(str).str.startswith(VANISHED)]
 
 
 def vanished_section(df: pd.DataFrame) -> list[str]:
@@ -162,8 +163,9 @@ def vanished_section(df: pd.DataFrame) -> list[str]:
     entry = gone.reason.map(lambda r: m["entry"] if (m := _VANISHED_ENTRY.match(r)) else "")
     return [f"## {VANISHED_TITLE}", "",
             f"Checks a known-deviation band records that now meet their closed form ({len(gone)}): the engine or "
-            "its mapping changed. They pass; `physval known ENGINE --write` measures the engine's bands again (the "
-            "entry goes or narrows), `physval run --fail-on vanished` makes a run exit 1 on them.", "",
+            "its mapping changed. Each is a fail where the measurement left its band (a change shows as a fail, "
+            "whichever way it moved); `physval known ENGINE --write` measures the engine's bands again (the entry "
+            "goes or narrows), `physval run --fail-on vanished` makes a run exit 1 on them.", "",
             md_table(pd.DataFrame({
                 "engine": gone.engine, "check": gone.case + "[" + gone.variant + "]:" + gone.metric,
                 "expected": gone.expected.map(fmt), "measured": gone.measured.map(fmt),
@@ -271,8 +273,8 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
     head += [INTRO, "", f"{len(df)} checks from {runs} runs: {status_counts(df)}.", ""]
     from physval.readings import site
     if n_vanished := len(vanished_rows(df)):
-        head += [f"**Known deviations that vanished: {n_vanished}** (their checks now pass: the engine or its "
-                 f"mapping changed): [{VANISHED_TITLE.lower()}](#{anchor(VANISHED_TITLE)}).", ""]
+        head += [f"**Known deviations that vanished: {n_vanished}** (their checks are back within tolerance: the "
+                 f"engine or its mapping changed): [{VANISHED_TITLE.lower()}](#{anchor(VANISHED_TITLE)}).", ""]
     if not complete:
         body = [md_table(summary_matrix(df)), ""] if len(df) else []
         body += vanished_section(df) + problems_section(df)
