@@ -33,7 +33,8 @@ unsupported):
   direction through both phases), the sticking one's is not (the slip before the impact
   enters the compression impulse J_c = -K^-1 u, so e J_c . n is not the normal impulse
   that restores -e u_n). Each variant whose outcome differs by law is in the grid once per
-  law that gives another outcome (ids ending ",two_phase", ",poisson").
+  law that gives another outcome (ids ending ",two_phase"; ",poisson" in the full grid, as
+  no built-in engine declares Poisson's law).
   tests/test_closed_forms_impacts.py and tests/test_closed_forms_laws.py check the laws
   against the impulse-momentum equations solved phase by phase, and in impulse time.
 
@@ -49,7 +50,8 @@ from __future__ import annotations
 import numpy as np
 
 from cases.family import CaseFamily, Catch, Check
-from cases.impact_laws import IMPULSE_OF_LAW, law_label, law_needs, law_of, newton_impulse, outcomes_differ, with_laws
+from cases.impact_laws import (DEFAULT_GRID_LAWS, DEFAULT_LAW, IMPULSE_OF_LAW, law_label, law_needs, law_of,
+                               outcomes_differ, with_laws)
 from cases.observables import first_impact
 from cases.scene import Body, Box, Material, Rect, Scene, ball
 
@@ -241,8 +243,9 @@ def needs(p) -> frozenset[str]:
 
 
 # Each variant whose outcome depends on the restitution law also under each other law that
-# changes it (cases/impact_laws.py; ids end ",two_phase", ",poisson").
-GRID = with_laws(GRID, law_differs)
+# changes it (cases/impact_laws.py; ids end ",two_phase", ",poisson"): the laws built-in
+# engines declare in the grid, every law in the full grid.
+GRID = with_laws(GRID, law_differs, (DEFAULT_LAW, *DEFAULT_GRID_LAWS))
 FULL_GRID = with_laws(FULL_GRID, law_differs)
 
 

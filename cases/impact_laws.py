@@ -118,13 +118,20 @@ def law_label(p: dict) -> str:
     return f",{law_of(p)}" if law_of(p) != DEFAULT_LAW else ""
 
 
-def with_laws(grid, differs) -> tuple[dict, ...]:
+# The laws besides Newton's that a built-in engine declares (Box2D, Box3D, Rapier: the
+# two-phase law): their variants are in the default grids. Poisson's, which no built-in
+# engine declares, are in the full grids (--full), for a plug-in that does
+# (tests/test_closed_forms_laws.py keeps this list current).
+DEFAULT_GRID_LAWS = ("two_phase",)
+
+
+def with_laws(grid, differs, laws=RESTITUTION_LAWS) -> tuple[dict, ...]:
     """The grid, each variant whose outcome differs by law (differs(p, law): the closed
-    form under `law` is not Newton's) followed by one variant per such law."""
+    form under `law` is not Newton's) followed by one variant per such law of `laws`."""
     out = []
     for p in grid:
         out.append(p)
-        out += [dict(p, law=law) for law in RESTITUTION_LAWS if law != DEFAULT_LAW and differs(p, law)]
+        out += [dict(p, law=law) for law in laws if law != DEFAULT_LAW and differs(p, law)]
     return tuple(out)
 
 

@@ -47,7 +47,8 @@ restores -e u_n with friction on the whole impulse; the two-phase law (Box2D, Bo
 Rapier) applies friction to the compression impulse only and restitution without it;
 Poisson's law makes the restitution impulse e times the compression one. Each variant
 whose outcome depends on the law is in the grid once per law that changes it (ids ending
-",two_phase", ",poisson"), and an engine runs the one of the law it declares
+",two_phase"; ",poisson" in the full grid, as no built-in engine declares Poisson's law),
+and an engine runs the one of the law it declares
 (Capabilities.restitution_law; the others report unsupported), so it is judged by its
 own law and not by another's.
 
@@ -70,7 +71,8 @@ import numpy as np
 
 from cases.eccentric_impact import body_collision_matrix
 from cases.family import CaseFamily, Catch, Check, plane_label
-from cases.impact_laws import IMPULSE_OF_LAW, law_label, law_needs, law_of, outcomes_differ, with_laws
+from cases.impact_laws import (DEFAULT_GRID_LAWS, DEFAULT_LAW, IMPULSE_OF_LAW, law_label, law_needs, law_of,
+                               outcomes_differ, with_laws)
 from cases.observables import first_impact
 from cases.scene import Body, Box, Material, Rect, Scene, ball, ground
 from cases.tumbling_box import rotation
@@ -324,8 +326,10 @@ def needs(p) -> frozenset[str]:
 
 
 # Each variant whose outcome depends on the restitution law also under each other law that
-# changes it (cases/impact_laws.py; ids end ",two_phase", ",poisson").
-GRID = with_laws(GRID, law_differs)
+# changes it (cases/impact_laws.py; ids end ",two_phase", ",poisson"): the laws built-in
+# engines declare in the grid, every law in the full grid.
+FULL_GRID = with_laws(GRID, law_differs)
+GRID = with_laws(GRID, law_differs, (DEFAULT_LAW, *DEFAULT_GRID_LAWS))
 
 
 FAMILY = CaseFamily(
@@ -343,6 +347,7 @@ FAMILY = CaseFamily(
     dt=DT,
     needs=needs,
     variant_id=variant_id,
+    full_grid=FULL_GRID,
     catches=(
         Catch("inertia axes", "brick,edge,mu=0.0"),
         Catch("inertia axes", "brick,corner,mu=0.0,vx=0,w=(3,0,5)"),

@@ -17,10 +17,14 @@ Every pair of the three is a pair of the table an adapter undoes its engine's co
 rule for, so every pair must meet in some variant: in the row 1-2-3 balls 1 and 3 never
 touch, so each table also runs as the row 1-3-2 (ball 3 second: ball 1 strikes 3, then 3
 strikes 2; the same closed forms with the roles of 2 and 3 swapped), where they do. The
-pair that does not touch in a row is set to the larger of the two that do, and the larger
-squared is at most the smaller: then the max rule (Box2D, PhysX), the product (PyBullet,
-Pymunk, DART) and the arithmetic mean (Newton) can all express the table, so no engine
-reports unsupported a row it could run (tests/test_closed_forms_pairs.py). An adapter
+pair that does not touch in a row takes a value the engines' rules can express with the
+other two: the larger of the two that do (the max rule of Box2D and PhysX) or the smaller
+(Drake, which sums the pairs' dissipations), with the product (PyBullet, Pymunk, DART)
+and the arithmetic mean (Newton) expressing both. No value serves a max rule and Drake's
+at once (three balls in a row always leave one pair apart), so each row is in the grid
+in both classes, and every engine runs both rows of its class and sees every pair meet
+(tests/test_closed_forms_pairs.py); a variant of the other class it reports unsupported:
+its rule cannot give that table, whose third pair meets in the other row. An adapter
 that ignores the pair table runs every impact at the default; one that inverts the
 product rule where its engine combines by max gets other values on the pairs that meet;
 one that puts each pair's e on both bodies of a product rule gets e^2.
@@ -38,15 +42,21 @@ GAP = 0.1      # between neighbouring balls at the start, m
 V0 = 2.0       # speed of ball 1, m/s (every bounce above DART's 0.1 m/s threshold)
 BALLS = ("b1", "b2", "b3")
 
-# Grid: each table (the pair that does not touch at the larger of the two that do) in a
-# row: 1-2-3 with the hard impact first (3D, equal masses) and with a heavier middle ball
-# (2D); 1-3-2 with the soft impact first and a heavy ball 3 in the middle, so ball 1
-# bounces back (3D), and the hard impact first (2D).
+# Grid: in 3D and in 2D, each row (1-2-3 and 1-3-2) with the pair that does not touch at
+# the larger of the two that do (max rule: Box2D, PhysX; the larger squared at most the
+# smaller, for the product) and at the smaller (Drake, whose summed dissipations need it;
+# the larger at most twice the smaller, for the mean). 1-2-3 has the hard impact first;
+# 1-3-2 in 3D a heavy ball 3 in the middle, so ball 1 bounces back, and in 2D the soft
+# impact first.
 GRID = (
     {"e12": 0.7, "e23": 0.5, "e13": 0.7, "m": "1:1:1", "row": "1-2-3", "dim": 3},
+    {"e12": 0.7, "e23": 0.4, "e13": 0.4, "m": "1:1:1", "row": "1-2-3", "dim": 3},
     {"e12": 0.6, "e23": 0.6, "e13": 0.4, "m": "1:1:4", "row": "1-3-2", "dim": 3},
+    {"e12": 0.4, "e23": 0.4, "e13": 0.7, "m": "1:1:1", "row": "1-3-2", "dim": 3},
     {"e12": 0.5, "e23": 0.3, "e13": 0.5, "m": "1:2:1", "row": "1-2-3", "dim": 2},
+    {"e12": 0.7, "e23": 0.4, "e13": 0.4, "m": "1:1:1", "row": "1-2-3", "dim": 2},
     {"e12": 0.7, "e23": 0.5, "e13": 0.7, "m": "1:1:1", "row": "1-3-2", "dim": 2},
+    {"e12": 0.4, "e23": 0.4, "e13": 0.7, "m": "1:1:1", "row": "1-3-2", "dim": 2},
 )
 
 

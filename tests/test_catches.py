@@ -112,3 +112,19 @@ def test_oblique_landings_edge_and_corner_both_see_an_x_z_inertia_swap():
     z moments moves its outcome too (before, only the corner saw it)."""
     named = {(c[0], c[1].split(",")[1]) for c in FAMILIES["oblique_landing"].catches}
     assert {("inertia axes", "edge"), ("inertia axes", "corner")} <= named
+
+
+def test_a_contact_offset_planted_on_drake_leaves_pass():
+    """Drake's compliant landing leaves the cube's vz 8 tolerances off its closed form, a
+    recorded deviation; a 2 mm contact offset moves it back onto the closed form (the
+    impact comes 1 ms early). That is a change of the mapping, so it fails with the
+    deviation's 'vanished' reason (physval.core.verdicts.judge), where it used to pass,
+    and no recorded deviation of the variant passes."""
+    from adapters import registry
+    if not registry.available("drake"):
+        pytest.skip("drake is not installed")
+    variant = {v.id: v for v in FAMILIES["edge_landing"].variants}["tilt=y,mu=0.0"]
+    found = faults.verdicts(faults.by_name("contact offset"), [Job("edge_landing", variant, "drake")])
+    row = {r["metric"]: r for r in found}["vz_after"]
+    assert row["status"] == "fail" and row["reason"].startswith("known deviation vanished"), row["reason"]
+    assert not [r["metric"] for r in found if r["status"] == "pass" and r["band"]]

@@ -102,9 +102,9 @@ def edge(p):
             el.impact_impulse(el.lever(p), p["mu"], el.E, el.V_IN, laws.law_of(p)))
 
 
-CASES = ([(f"eccentric_impact[{v.id}]", eccentric, v.params) for v in ei.FAMILY.variants if v.params["mu"] > 0]
-         + [(f"oblique_landing[{v.id}]", oblique, v.params) for v in ol.FAMILY.variants if v.params["mu"] > 0]
-         + [(f"edge_landing[{v.id}]", edge, v.params) for v in el.FAMILY.variants if v.params["mu"] > 0])
+CASES = ([(f"eccentric_impact[{v.id}]", eccentric, v.params) for v in ei.FAMILY.all_variants if v.params["mu"] > 0]
+         + [(f"oblique_landing[{v.id}]", oblique, v.params) for v in ol.FAMILY.all_variants if v.params["mu"] > 0]
+         + [(f"edge_landing[{v.id}]", edge, v.params) for v in el.FAMILY.all_variants if v.params["mu"] > 0])
 
 
 @pytest.mark.parametrize("inputs,p", [(f, p) for _, f, p in CASES], ids=[i for i, _, _ in CASES])
@@ -121,11 +121,23 @@ def test_a_variant_without_its_own_law_variant_has_one_outcome_under_every_law(i
     if law != "newton":
         return
     fam = {"eccentric": ei, "oblique": ol, "edge": el}[inputs.__name__]
-    ids = {v.id for v in fam.FAMILY.variants}
+    ids = {v.id for v in fam.FAMILY.all_variants}
     for other in RESTITUTION_LAWS:
         has_variant = fam.variant_id(dict(p, law=other)) in ids
         same = np.allclose(laws.IMPULSE_OF_LAW[other](K, u, n, e, mu, mu), J, atol=1e-9 * np.linalg.norm(J))
         assert has_variant or same, f"{other}: a different impulse but no variant"
+
+
+def test_the_default_grids_hold_every_law_a_built_in_engine_declares():
+    """Law variants of the laws built-in engines declare are in the default grids
+    (impact_laws.DEFAULT_GRID_LAWS); the others (Poisson's) in the full grids only."""
+    from adapters import registry
+    declared = {registry.get(name).capabilities.restitution_law for name in registry.engine_names()
+                if registry.available(name)}
+    assert declared <= {laws.DEFAULT_LAW, *laws.DEFAULT_GRID_LAWS}, declared
+    for fam in (ei, ol, el):
+        in_grid = {laws.law_of(v.params) for v in fam.FAMILY.variants}
+        assert in_grid <= {laws.DEFAULT_LAW, *laws.DEFAULT_GRID_LAWS}
 
 
 @pytest.mark.parametrize("law", RESTITUTION_LAWS)

@@ -234,10 +234,33 @@ def test_every_pair_meets_in_some_row_of_each_dimension():
 
 
 @pytest.mark.parametrize("p", pre.GRID, ids=pre.variant_id)
-def test_the_max_rule_the_product_and_the_mean_express_every_table(p):
-    """The pair that does not meet sits at the larger of the two that do, whose square is
-    at most the smaller: no engine's restitution rule (max, product, mean) leaves a variant
-    unsupported that it could run."""
+def test_the_product_and_the_mean_express_every_table_and_max_or_drake_each(p):
+    """The pair that does not meet sits at the larger of the two that do (its square at
+    most the smaller) or at the smaller (the larger at most twice it): the product and the
+    mean express every table, the max rule the first class, Drake's summed dissipations
+    the second."""
+    from adapters.base import Unsupported
     from adapters.combination import per_body_values
-    for rule in ("max", "product", "mean"):
+    for rule in ("product", "mean"):
         per_body_values(pre.scene(p), lambda m: m.e, rule, "restitution")  # raises Unsupported if not
+    try:
+        per_body_values(pre.scene(p), lambda m: m.e, "max", "restitution")
+        by_max = True
+    except Unsupported:
+        by_max = False
+    touching = sorted(pre.pair_e(p, *pair) for pair in zip(pre.row(p), pre.row(p)[1:]))
+    apart = ({"e12", "e13", "e23"} - {"e" + "".join(sorted((a[1], b[1]))) for a, b in
+                                      zip(pre.row(p), pre.row(p)[1:])}).pop()
+    assert by_max == (p[apart] == touching[1])
+    assert p[apart] in touching
+
+
+def test_each_dimension_has_both_rows_in_both_classes():
+    for dim in (3, 2):
+        kinds = set()
+        for p in (q for q in pre.GRID if q["dim"] == dim):
+            touching = [pre.pair_e(p, *pair) for pair in zip(pre.row(p), pre.row(p)[1:])]
+            apart = [v for k, v in p.items() if k.startswith("e") and k[1:] not in
+                     {"".join(sorted((a[1], b[1]))) for a, b in zip(pre.row(p), pre.row(p)[1:])}][0]
+            kinds.add((p["row"], "max" if apart == max(touching) else "min"))
+        assert kinds == {(r, c) for r in ("1-2-3", "1-3-2") for c in ("max", "min")}, dim
