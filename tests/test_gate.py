@@ -55,15 +55,22 @@ def _known(tmp_path, engine: str, value: float) -> str:
 
 
 def test_a_deviation_that_vanished_is_named_and_can_gate(tmp_path, capsys):
-    """A band recorded where the reference now meets the closed form: the row passes, says
-    so in its reason, and --fail-on vanished trips."""
+    """A band recorded where the reference now meets the closed form: the measurement left
+    its band, so the row fails (a change of the engine or its mapping shows as a fail,
+    whichever way it moved: decision 8), says why in its reason, and --fail-on vanished
+    trips; a band that still holds the measurement (it straddles the tolerance) passes."""
     code = _run(tmp_path, "--engines", "reference", "--known", _known(tmp_path, "reference", 0.3),
                 "--fail-on", "vanished")
     (row,) = [r for r in _rows(tmp_path) if r["metric"] == "rebound_ratio"]
-    assert row["status"] == "pass" and row["reason"].startswith("known deviation vanished")
+    assert row["status"] == "fail" and row["reason"].startswith("known deviation vanished")
+    assert "outside the band" in row["reason"]
     assert code == 1 and "1 vanished" in capsys.readouterr().err
     assert _run(tmp_path, "--engines", "reference", "--known", _known(tmp_path, "reference", 0.3),
+                "--fail-on", "fail") == 1
+    assert _run(tmp_path, "--engines", "reference", "--known", _known(tmp_path, "reference", 0.5),
                 "--fail-on", "fail") == 0
+    (row,) = [r for r in _rows(tmp_path) if r["metric"] == "rebound_ratio"]
+    assert row["status"] == "pass" and row["reason"].startswith("known deviation vanished")
 
 
 def test_a_deviation_that_left_its_band_is_a_changed_fail(tmp_path):

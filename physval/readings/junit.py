@@ -28,7 +28,7 @@ def gate_of(row: dict) -> set[str]:
     out = {status}
     if status == "fail" and reason.startswith(CHANGED):
         out.add("changed")
-    if status == "pass" and reason.startswith(VANISHED):
+    if status in ("pass", "fail") and reason.startswith(VANISHED):
         out.add("vanished")
     return out
 

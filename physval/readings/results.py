@@ -144,8 +144,9 @@ _VANISHED_ENTRY = re.compile(rf"^{VANISHED}: (?P<entry>.*?) records ")
 
 
 def vanished_rows(df: pd.DataFrame) -> pd.DataFrame:
-    """The checks a known-deviation band records that now meet their closed form."""
-    return df[(df.status == "pass") & df.reason.astype(str).str.startswith(VANISHED)]
+    """The checks a known-deviation band records that now meet their closed form (a fail
+    where the measurement left the band, core.verdicts.judge)."""
+    return df[df.status.isin(("pass", "fail")) & df.reason.astype(str).str.startswith(VANISHED)]
 
 
 def vanished_section(df: pd.DataFrame) -> list[str]:
@@ -158,8 +159,9 @@ def vanished_section(df: pd.DataFrame) -> list[str]:
     entry = gone.reason.map(lambda r: m["entry"] if (m := _VANISHED_ENTRY.match(r)) else "")
     return [f"## {VANISHED_TITLE}", "",
             f"Checks a known-deviation band records that now meet their closed form ({len(gone)}): the engine or "
-            "its mapping changed. They pass; `physval known ENGINE --write` measures the engine's bands again (the "
-            "entry goes or narrows), `physval run --fail-on vanished` makes a run exit 1 on them.", "",
+            "its mapping changed. Each is a fail where the measurement left its band (a change shows as a fail, "
+            "whichever way it moved); `physval known ENGINE --write` measures the engine's bands again (the entry "
+            "goes or narrows), `physval run --fail-on vanished` makes a run exit 1 on them.", "",
             md_table(pd.DataFrame({
                 "engine": gone.engine, "check": gone.case + "[" + gone.variant + "]:" + gone.metric,
                 "expected": gone.expected.map(fmt), "measured": gone.measured.map(fmt),
@@ -178,8 +180,8 @@ def vanished_notice(df: pd.DataFrame) -> list[str]:
     """The report's opening line on known deviations that vanished (none: no line)."""
     if not (n := len(vanished_rows(df))):
         return []
-    return [f"**Known deviations that vanished: {n}** (their checks now pass: the engine or its mapping changed): "
-            f"[{VANISHED_TITLE.lower()}](#{anchor(VANISHED_TITLE)}).", ""]
+    return [f"**Known deviations that vanished: {n}** (their checks are back within tolerance: the engine or its "
+            f"mapping changed): [{VANISHED_TITLE.lower()}](#{anchor(VANISHED_TITLE)}).", ""]
 
 
 DEVIATIONS_INTRO = (
