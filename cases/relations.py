@@ -408,7 +408,7 @@ BOX_STACK = "stack_forces[n=4,light-heavy]"  # four boxes at rest on each other:
 SLIDE = "slide_to_stop[mu=0.5,v0=2,heading=22.5deg]"  # a box sliding off the world axes to a stop: the
 #   friction's direction, its stick at the end, resting contact with the ground (slops, margins), 708 steps
 SLIDE_2D = "slide_to_stop[mu=0.5,v0=2,2D]"  # the same in the x-z plane, for the 2D engines
-TRIO_2D = "pair_restitution[e12=0.7,e23=0.3,e13=0.3,m=1:1:1,2D]"  # three discs meeting with three pair
+TRIO_2D = "pair_restitution[e12=0.7,e23=0.4,e13=0.4,m=1:1:1,2D]"  # three discs meeting with three pair
 #   materials: the order of simultaneous impacts and of the pair table, for the 2D engines
 STACK_2D = "stack_forces[n=10,light-heavy,2D]"  # ten boxes: enough contacts for a thread pool to split
 SLIDING = (SLIDE, SLIDE_2D)
