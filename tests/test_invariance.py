@@ -332,3 +332,21 @@ def test_a_bad_relation_name_is_one_line_and_exit_2(tmp_path):
     assert proc.returncode == 2
     assert "--relations 'rotate_sideways': rotate_sideways is not a relation" in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_a_finite_ground_stands_under_a_scene_far_from_the_origin():
+    """Engines given a Plane as a finite box or segment centre it on the plane's point
+    nearest the origin: exactly there for a scene near it (the same bits as before the
+    battery), moved in whole cells under the bodies of a scene moved 1 km or 100 km, which
+    would otherwise slide off the ground's edge (measured before: DART's and PyBullet's
+    box ground 1 km away, Pymunk's segment 100 km away, the box fell through at step 1)."""
+    scene, _ = variant_scene("slide_to_stop", "mu=0.5,v0=2,heading=22.5deg")
+    plane = next(b for b in scene.bodies if b.static).shape
+    assert np.array_equal(plane.centre_under(scene, 100.0), plane.offset * np.asarray(plane.normal))
+    for relation in R.TRANSLATIONS[1:]:
+        moved = relation.transform(scene)
+        far = next(b for b in moved.bodies if b.static).shape
+        centre = far.centre_under(moved, 100.0)
+        assert abs(np.asarray(far.normal) @ centre - far.offset) < 1e-9 * far.offset  # on the plane
+        body = np.asarray(moved.body("box").position)
+        assert np.linalg.norm((body - centre) - ((body - centre) @ far.normal) * np.asarray(far.normal)) <= 100.0
