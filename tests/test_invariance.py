@@ -29,6 +29,7 @@ from physval.core import invariance
 from physval.core.context import Resolver
 from physval.core.deviations import parse
 from physval.core.plan import relation_jobs
+from physval.core.selection import select_variants
 from physval.readings import invariance as reading, scorecard
 from tests.fakes import FakeAdapter
 from tests.helpers import run_job, variant_scene
@@ -159,6 +160,37 @@ def test_a_relation_needing_a_mode_the_engine_lacks_is_unsupported_with_the_reas
                    adapter=FakeAdapter())
     assert row["status"] == "unsupported" and "thread pool" in row["reason"]
     assert row["metric"] == "invariance_threads" and row["measures"] == "invariance"
+
+
+def test_every_engine_meets_every_relation_it_can_represent_and_says_why_not_the_rest():
+    """For every installed engine (the registry's, plug-ins included) and every relation:
+    a default run plans it on a scene the engine can represent, and each planned job either
+    runs (the engine takes the transformed scene in the mode asked) or is refused with the
+    adapter's reason; a relation with no job has a reason for every scene it could have
+    taken. Planning and capabilities only: nothing is stepped."""
+    resolver = Context().resolver()
+    engines = [e for e in registry.engine_names() if registry.available(e)]
+    runs = 0
+    planned = relation_jobs([r.name for r in R.RELATIONS], engines, resolver, True)
+    transformed = {}
+    for engine in engines:
+        caps = resolver.adapter(engine).capabilities
+        for relation in R.RELATIONS:
+            jobs = [j for j in planned if j.engine == engine and j.relation == relation.name]
+            if not jobs:
+                for spec in (spec for group in relation.scenes for spec in group):
+                    (fam, (v, *_)), = select_variants(resolver.families, [spec]).items()
+                    scene = resolver.family(fam).scene(v.params)
+                    assert relation.applies(scene) or caps.cannot_run(scene), (engine, relation.name, spec)
+                continue
+            for job in jobs:
+                key = (job.family, job.variant.id, relation.name)
+                if key not in transformed:  # the same scenes for every engine: made once
+                    transformed[key] = relation.transform(resolver.family(job.family).scene(job.variant.params))
+                why = caps.cannot_run_as(relation.needs) or caps.cannot_run(transformed[key])
+                assert why is None or (isinstance(why, str) and len(why) > 10), (engine, relation.name, why)
+                runs += why is None
+    assert runs >= len(engines)  # every engine runs some relation
 
 
 # --- the core's judging ---------------------------------------------------------------------------
