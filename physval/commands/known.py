@@ -139,9 +139,9 @@ def run(args) -> int:
                       + (f", {len(redrawn)} re-measured" if redrawn else "")
                       + (f", {len(moved)} moved out of their band" if moved else ""))
         for e, b, _ in measured.too_wide(entries):
-            over = b.tolerances(measured.tolerance[(b.variant, b.metric)])
+            over = b.spread_tolerances(measured.tolerance[(b.variant, b.metric)])
             print(f"  line {e.line} {e.pattern}: [{b.variant}]:{b.metric} = {b.describe()} is {over:.3g} tolerances "
-                  f"wide over {args.repeat} repeats: if that spread is the engine's own, write '    # band: WHY' "
+                  f"wide over {args.repeat} repeats (beyond its rounding floor): if that spread is the engine's own, write '    # band: WHY' "
                   "under the entry (until then the check fails)")
         for note in measured.unsteady:
             print(f"  unsteady: {note}")
