@@ -360,7 +360,8 @@ def _mesh_asset(meshes: dict, name: str, vertices) -> str:
     MuJoCo keeps a mesh's vertices in float32 (mjModel.mesh_vert: 6e-8 of their size), and
     its compiler moves a mesh into its own centroid and principal axes and offsets the geom
     by as much, so the solid stays where the vertices put it."""
-    meshes[name] = {"name": name, "vertex": [float(c) for v in vertices for c in v], "maxhullvert": MAXHULLVERT}
+    meshes[name] = {"name": name, "vertex": [float(c) for v in vertices for c in v], "scale": [1.0, 1.0, 1.0],
+                    "maxhullvert": MAXHULLVERT}
     return name
 
 
@@ -530,8 +531,8 @@ def scene_mjcf(scene: Scene, settings: Settings, iterations: int, n: float,
     bodies = "".join(_body_xml(b, scene.dimension, knobs, ground, meshes) for b in scene.bodies)
     pairs = _pair_xml(scene, n, settings.dt, knobs, invweight, defaults)
     if meshes:
-        knobs["mesh"] = {"maxhullvert": MAXHULLVERT, "vertex": "the scene's points in the geom frame",
-                         "count": len(meshes)}
+        knobs["mesh"] = {"maxhullvert": MAXHULLVERT, "scale": [1.0, 1.0, 1.0],
+                         "vertex": "the scene's points in the geom frame", "count": len(meshes)}
     assets = "<asset>" + "".join(_element("mesh", m) for m in meshes.values()) + "</asset>" if meshes else ""
     xml = ('<mujoco model="physval">' + _element("compiler", compiler)
            + _element("option", option, _element("flag", flag)) + assets
