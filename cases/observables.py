@@ -73,17 +73,6 @@ def free_flight_error(x, x0, v0, gravity, t: np.ndarray, dt: float) -> float:
     return float(np.max(np.linalg.norm(r - c * b, axis=1)))
 
 
-def free_flight_roundoff(steps: int, dt: float, x_max: float, v_max: float, g: float) -> tuple[float, float]:
-    """(velocity, position) round-off of a free flight of `steps` steps, per unit round-off u
-    and sub-step (cases.family.Check.roundoff), for speeds up to v_max and positions up to
-    x_max. Each sub-step of h <= dt rounds v + g h (u |v|; g and h are stored rounded, and
-    their product rounds: 3 u g h) and x + h v (u |x| and u h |v|); the velocity's error then
-    moves the positions by up to T times it; the band's least-squares c (free_flight_error)
-    takes up to sum t_n T / sum t_n^2 = 3/2 of a position error into the residual: 2.5 times."""
-    v = steps * (v_max + 3.0 * g * dt)
-    return v, 2.5 * (steps * (x_max + dt * v_max) + steps * dt * v)
-
-
 def fall_gravity(z: np.ndarray, g: float, dt: float, band: float = 0.25) -> float:
     """The gravity a height z really falls with, from its positions: minus the median second
     difference / dt^2 over the samples within `band` of -g dt^2; g if none is. (Positions

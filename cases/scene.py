@@ -61,10 +61,11 @@ IMPACT_MODEL_NEED = "impact_model:"
 #   normal impulse);
 # "two_phase": a plastic impact with Coulomb friction (the Newton-Coulomb impulse at e = 0),
 #   then a normal impulse alone up to Newton's u_n+ = -e u_n-, without friction (Box2D and
-#   Rapier apply restitution in a pass of its own after the solve).
-# (Poisson's impulse restitution, the restitution impulse e times the compression one, is
-# no engine's law here; add it with a closed form when one declares it.)
-RESTITUTION_LAWS = ("newton", "two_phase")
+#   Rapier apply restitution in a pass of its own after the solve);
+# "poisson": Poisson's hypothesis, the restitution impulse e times the compression impulse,
+#   with Coulomb friction in both phases (no built-in engine declares it; a plug-in may).
+# The closed forms of all three: cases/impact_laws.py.
+RESTITUTION_LAWS = ("newton", "two_phase", "poisson")
 RESTITUTION_LAW_NEED = "restitution_law:"
 
 # Bodies may start this far inside each other: contact geometry built by hand is exact to

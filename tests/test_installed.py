@@ -6,9 +6,10 @@ hours is narrowed only by options appended to it (fewer engines, fewer cases, a 
 fit), never rewritten. A shown line that this file does not know fails the first test, so
 the documentation cannot grow a command nobody ran.
 
-The environment sees the machine's site packages (the engines and numpy, which pip would
-otherwise download again) but imports physval, cases, adapters and reference_impl from the
-wheel alone: the first test checks where they come from.
+The environment sees the site packages of the environment the tests run in (the engines and
+numpy, which pip would otherwise download again; in a virtual environment, as the README's
+test command makes one, those are the virtual environment's) but imports physval, cases,
+adapters and reference_impl from the wheel alone: the first test checks where they come from.
 """
 from __future__ import annotations
 
@@ -172,13 +173,13 @@ def installed(tmp_path_factory) -> Installed:
     # test workers building in the checkout at once collide there ("File exists"); the copy also
     # leaves the checkout without a build/ that a user's later `pip install .` would reuse
     source = base / "source"
-    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(".git", "build", "*.egg-info", "__pycache__",
-                                                                "reports", ".pytest_cache"))
+    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(".git", ".venv", "build", "*.egg-info",
+                                                                "__pycache__", "reports", ".pytest_cache"))
     built = _sh([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(source)])
     assert built.returncode == 0, built.stderr[-2000:]
     (wheel,) = wheels.glob("physval-*.whl")
     venv = base / "venv"
-    assert _sh([sys.executable, "-m", "venv", "--system-site-packages", str(venv)]).returncode == 0
+    _environment_beside_this_one(venv)
     inst = _sh([str(venv / "bin" / "pip"), "install", "-q", "--no-deps", "--ignore-installed", str(wheel)])
     assert inst.returncode == 0, inst.stderr[-2000:]
     user = base / "user"
@@ -187,6 +188,25 @@ def installed(tmp_path_factory) -> Installed:
     env |= {"PHYSVAL_CACHE_DIR": str(base / "cache"), "MPLBACKEND": "Agg", "PATH": f"{venv / 'bin'}:{env['PATH']}"}
     _user_files(user)
     return Installed(venv, user, env, wheel)
+
+
+def _environment_beside_this_one(venv: Path) -> None:
+    """A fresh virtual environment that sees this test run's own site packages behind its
+    own, through a .pth file listing them. `venv --system-site-packages` would expose the
+    base interpreter's packages instead, and inside a virtual environment (the README's
+    way, and the only way pip installs on Debian 12 or Ubuntu 24.04) those lack numpy, pandas
+    and the engines. The folders are listed as plain paths, so their own .pth files (an
+    editable install of this checkout among them) are not run: physval, cases, adapters and
+    reference_impl can come from the wheel alone."""
+    assert _sh([sys.executable, "-m", "venv", str(venv)]).returncode == 0
+    import site
+    import sysconfig
+    ours = site.getsitepackages() + ([site.getusersitepackages()] if site.ENABLE_USER_SITE else [])
+    ours += [sysconfig.get_path("purelib"), sysconfig.get_path("platlib")]
+    folders = [p for p in dict.fromkeys(ours) if Path(p).is_dir()]
+    where = _sh([str(venv / "bin" / "python"), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"])
+    assert where.returncode == 0, where.stderr
+    (Path(where.stdout.strip()) / "physval-tests-beside.pth").write_text("".join(f"{p}\n" for p in folders))
 
 
 def _user_files(user: Path) -> None:

@@ -11,7 +11,7 @@ from hypothesis import given, settings, strategies as st
 from cases import central_impact as ci
 from cases.observables import (arc_apex, arc_vertex, ballistic_steps, deepest_overlap, drift, energy_rise,
                                fall_gravity, first_impact, free_acceleration, free_arc_start, free_flight_error,
-                               free_flight_roundoff, impulse, mechanical_energy, momentum, point_speed_bound,
+                               impulse, mechanical_energy, momentum, point_speed_bound,
                                point_velocity, rate, rotations, settle_time, stack_readings, time_to_collapse,
                                window_mean, window_samples)
 from cases.trajectory import Trajectory
@@ -205,7 +205,6 @@ HELPER_CALLS = {
     "ballistic_steps": lambda tr, sc: ballistic_steps(tr, "box", sc.gravity),
     "first_impact": lambda tr, sc: first_impact(tr, "box", sc.gravity),
     "free_flight_error": lambda tr, sc: free_flight_error(tr.pos("box"), (0, 0, 1.0), (1.0, 0, 0), sc.gravity, tr.t, tr.dt),
-    "free_flight_roundoff": lambda tr, sc: free_flight_roundoff(len(tr.t) - 1, tr.dt, 1.0, 1.0, G),
     "fall_gravity": lambda tr, sc: fall_gravity(tr.pos("box")[:, 2], G, tr.dt),
     "free_arc_start": lambda tr, sc: free_arc_start(tr.pos("box")[:, 2], 0, G, tr.dt),
     "arc_apex": lambda tr, sc: arc_apex(tr.t[1:], tr.pos("box")[1:, 2], G),
