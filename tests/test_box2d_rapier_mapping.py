@@ -1,6 +1,8 @@
 """What the Box2D and Rapier adapters derive: per-shape materials that reproduce every pair
 under the engine's own mixing rule, the contact geometry and force split of the Box2D
-read-out, the Box2D angle convention, Rapier's planar locking, and the options.
+read-out, the Box2D angle convention, Rapier's planar locking, the options, and the shapes
+of the vocabulary as the engines' own (Box2D's polygons; Rapier's capsules, cylinders,
+convex polyhedra and triangle meshes).
 
 Each test skips cleanly when its engine's package is missing."""
 from __future__ import annotations
@@ -11,7 +13,9 @@ import numpy as np
 import pytest
 
 from adapters.base import Settings, SettingsError
-from cases.scene import Body, Material, Scene, ball, cube, ground, quat_about_y
+from cases.scene import (Body, Capsule, Cylinder, Hull, Material, Mesh, Polygon, Rect, Scene, ball, cube, ground,
+                         principal_frame, quat_about_y)
+from tests.shape_helpers import ON_ITS_SIDE, assert_same_points, landing, regular_polygon, settle
 
 G = 9.81
 
@@ -145,6 +149,66 @@ def test_box2d_stiffness_is_the_cap_and_options_are_checked(box2d):
         adapter.build(scene, Settings(dt=1e-3, options={"contact_stiffness": 1.0}))
     with pytest.raises(SettingsError, match="contact_push_speed"):
         adapter.build(scene, Settings(dt=1e-3, options={"contact_push_speed": -1.0}))
+
+
+@pytest.mark.engine("box2d")
+def test_box2d_polygon_is_its_corners_with_no_rounding(box2d):
+    """A pentagon's Box2D polygon has the scene's corners in the body frame (float32), radius
+    0, and the scene's mass and inertia; the contact geometry's outline is the same polygon."""
+    corners = regular_polygon(5, 0.1)
+    body = Body("p", Polygon(corners), mass=2.0, position=(0.0, 0.0, 0.5))
+    scene = Scene(bodies=(ground(), body), gravity=(0, 0, 0), dimension=2)
+    sim = box2d.Box2DAdapter().build(scene, Settings(dt=1e-3))
+    shape = sim._bodies["p"].shapes[0]
+    polygon = shape.polygon
+    assert polygon.radius == 0.0
+    built = np.asarray(polygon.vertices[:polygon.count], float)
+    assert_same_points(built, body.shape.corners, 1e-7)  # float32 at 0.1 m: 7e-9
+    assert sim._bodies["p"].mass == pytest.approx(2.0, rel=1e-7)
+    assert sim._bodies["p"].rotational_inertia() == pytest.approx(body.principal_inertia[1], rel=1e-6)
+    assert sim.knobs["bodies"]["p"]["polygon"]["radius"] == 0.0
+    assert sim._outlines["p"][0] == tuple(map(tuple, body.shape.corners))
+
+
+@pytest.mark.engine("box2d")
+def test_box2d_pentagon_rests_on_a_face_at_its_apothem(box2d):
+    """A regular pentagon (circumradius 0.1 m, 2 kg) placed on a face settles at the apothem
+    R cos(pi/5) above the ground (its centroid, the body frame's origin) and the ground
+    carries its weight. Tolerances: the rigid-limit push-out leaves g / (2 pi 1 kHz)^2 =
+    0.25 um of overlap and float32 places 0.08 m to 7e-9 m: 1e-6 m; the momentum read-out
+    is exact to float32 velocities: 1e-5 of the weight."""
+    r = 0.1
+    apothem = r * math.cos(math.pi / 5)
+    body = Body("p", Polygon(regular_polygon(5, r)), mass=2.0, position=(0.0, 0.0, apothem))
+    state, force = settle(box2d.Box2DAdapter(), body, 300, dimension=2)
+    assert state[2] == pytest.approx(apothem, abs=1e-6)
+    assert force == pytest.approx(2.0 * G, rel=1e-5)
+
+
+@pytest.mark.engine("box2d")
+def test_box2d_square_polygon_lands_as_the_rect(box2d):
+    """A square given as a Polygon and as a Rect, dropped tilted and sliding: the same Box2D
+    polygon (b2ComputeHull keeps b2MakeBox's corners and order), so the same trajectory to
+    float32 round-off (measured: bit for bit)."""
+    a = 0.1
+    square = Polygon(((-a, -a), (a, -a), (a, a), (-a, a)))
+    as_polygon, as_rect = (landing(box2d.Box2DAdapter(), shape, 2) for shape in (square, Rect((a, a))))
+    assert np.abs(as_polygon - as_rect).max() < 1e-6
+
+
+@pytest.mark.engine("box2d")
+def test_box2d_polygons_it_cannot_hold_are_unsupported(box2d):
+    """Nine corners (B2_MAX_POLYGON_VERTICES is 8) and a square with a corner cut 1 cm deep
+    (two corners 1.4 cm apart: b2ComputeHull welds corners closer than 2 cm) are unsupported,
+    said before any world is made."""
+    from adapters.base import Unsupported
+    nine = Polygon(regular_polygon(9, 0.1))
+    a, cut = 0.1, 0.01
+    points, _, _ = principal_frame([(-a, -a), (a, -a), (a, a - cut), (a - cut, a), (-a, a)])
+    for shape, why in ((nine, "at most 8"), (Polygon(points), "keeps 4 of its 5 corners")):
+        scene = Scene(bodies=(ground(), Body("p", shape, mass=1.0, position=(0, 0, 1.0))), dimension=2)
+        with pytest.raises(Unsupported, match=why):
+            box2d.Box2DAdapter().build(scene, Settings(dt=1e-3))
 
 
 # --- Rapier --------------------------------------------------------------------------------
