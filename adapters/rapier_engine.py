@@ -31,7 +31,7 @@ Float32. Rapier computes in single precision: positions, velocities, masses and 
 values are rounded to 2^-24 relative (6e-8); a body at 10 m is placed to 1e-6 m. Checks
 tighter than that measure the float, not the physics. Where it bites on shapes: a hull's or
 a mesh's corners are rounded to 6e-8 of their distance from the body origin (a mesh ground
-10 km wide places its far corners to 0.5 mm, each triangle's plane to that); Rapier's own
+10 km wide places its far corners to 0.24 mm, half the float32 spacing at 5 km); Rapier's own
 convex hull flattens plates thinner than 8.5e-4 of their size, which is why hulls are built
 from their faces (`_convex_mesh`: a 1 m plate 1e-5 m thick keeps its corners and rests at
 its half thickness; tests/test_box2d_rapier_mapping.py).
