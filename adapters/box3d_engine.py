@@ -33,7 +33,7 @@ Faithful mapping (each setting recorded in `knobs`):
   is unsupported; so is one thinner than HULL_THINNEST of its size, on which b3CreateHull
   can hang); Box3D has no cylinder, so a cylinder is the 42-sided prism inscribed in it
   (CYLINDER_SIDES, the finest a hull holds); a 2D polygon is the hull of its prism along y
-  (adapters/prisms.py); a static mesh is b3CreateMesh of its vertices and triangles (no
+  (adapters/solids.py); a static mesh is b3CreateMesh of its vertices and triangles (no
   welding, edges between triangles classified: MESH_IDENTIFY_EDGES), which Box3D's mesh
   contact keeps bodies MESH_REST_OFFSET (5 mm) away from;
 - the push-out spring at Box2D's cap, 1/8 of the sub-step rate (as adapters/box2d_engine.py:
@@ -67,7 +67,7 @@ from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, 
 from adapters.frames import state_row, wxyz_to_xyzw, xyzw_to_wxyz, z_to
 from adapters.impulse_split import OPEN_SPLIT, acting_pairs, split_impulses
 from adapters.lazy import require
-from adapters.prisms import cylinder_prism, embedded_half_depth, polygon_prism
+from adapters.solids import cylinder_prism, embedded_half_depth, polygon_prism
 from cases.scene import Body, Plane, Scene, pair_key
 
 require("robox3d")  # not installed: ImportError now, so the registry reports it
@@ -368,9 +368,9 @@ class Box3DSimulation(Simulation):
             record["cylinder_as_hull"] = {"sides": CYLINDER_SIDES, "radius": s.radius, "half_length": s.half_length,
                                           "corners": "on the rim (inscribed)",
                                           "apothem": s.radius * math.cos(math.pi / CYLINDER_SIDES)}
-        elif s.kind == "polygon":  # a prism along y (adapters/prisms.py)
+        elif s.kind == "polygon":  # a prism along y (adapters/solids.py)
             depth = embedded_half_depth(s.corners)
-            points = polygon_prism(s.corners, depth)
+            points = polygon_prism(s.corners, depth)[0]
             record["polygon_as_hull"] = {"corners": [[float(x), float(z)] for x, z in s.corners], "half_depth": depth}
         else:  # hull
             points = np.asarray(s.vertices, float)

@@ -32,7 +32,7 @@ Faithful mapping (each setting recorded in `knobs`):
 - a capsule is a `UsdGeom.Capsule` and a cylinder a `UsdGeom.Cylinder`, both along body z
   (axis Z, USD's height the core's 2 h); the cylinder is PhysX's exact convex-core cylinder
   (PxConvexCoreGeometry, margin 0: CYLINDER_CONVEX_CORE), not a faceted convex mesh;
-- a hull (and a 2D polygon, as its prism along y: adapters/prisms.py) is a `UsdGeom.Mesh`
+- a hull (and a 2D polygon, as its prism along y: adapters/solids.py) is a `UsdGeom.Mesh`
   of its corners and their hull's faces cooked as a convex hull (physics:approximation
   convexHull), the vertex limit their number (at most 255: else unsupported) and no
   minimum thickness (PhysX's default 1 mm would thicken a thinner plate);
@@ -65,7 +65,7 @@ from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupport
 from adapters.combination import per_body_values
 from adapters.frames import require_turn_about_y, state_row, xyzw_to_wxyz, z_to
 from adapters.lazy import require
-from adapters.prisms import embedded_half_depth, polygon_prism
+from adapters.solids import embedded_half_depth, polygon_prism
 from cases.scene import Body, Hull, Plane, Scene, pair_key
 
 require("ovphysx")  # not installed: ImportError now, so the registry reports it
@@ -314,8 +314,8 @@ class PhysXSimulation(Simulation):
         elif s.kind in ("hull", "polygon"):  # a cooked convex mesh of the corners and their hull's faces
             if s.kind == "hull":
                 points = np.asarray(s.vertices, float)
-            else:  # a prism along y (adapters/prisms.py)
-                points = polygon_prism(s.corners, embedded_half_depth(s.corners))
+            else:  # a prism along y (adapters/solids.py)
+                points = polygon_prism(s.corners, embedded_half_depth(s.corners))[0]
             faces = Hull(tuple(map(tuple, points))).faces  # the face routine only (as the Rapier adapter)
             geom = [collider.format("Mesh", ', "PhysicsMeshCollisionAPI", "PhysxConvexHullCollisionAPI"'), '        {',
                     *_mesh_arrays(points, faces), '            uniform token physics:approximation = "convexHull"',

@@ -24,7 +24,7 @@ with the implicit step on it tumbled differently from the Box (measured: its spi
 Shapes. A capsule is Rapier's capsule along z; a cylinder Rapier's cylinder (its axis y)
 turned onto body z (CYLINDER_TURN); a hull a convex polyhedron made from its corners and the
 faces of their hull (`_convex_mesh`); a 2D polygon the same of its prism along y
-(adapters/prisms.py); a static mesh a trimesh of its vertices and triangles with ghost-edge
+(adapters/solids.py); a static mesh a trimesh of its vertices and triangles with ghost-edge
 fixing (TRIMESH_FLAGS). No shape is rounded and no collider has a contact skin (0).
 
 Float32. Rapier computes in single precision: positions, velocities, masses and material
@@ -86,7 +86,7 @@ import rapier3d as r
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.combination import RULES as COMBINE, per_body_values
 from adapters.frames import require_turn_about_y, state_row
-from adapters.prisms import embedded_half_depth, polygon_prism
+from adapters.solids import embedded_half_depth, polygon_prism
 from cases.scene import Body, Box, Circle, Hull, Plane, Rect, Scene, Sphere, pair_key
 
 DEFAULT_SUBSTEPS = 4  # Rapier's own default num_solver_iterations, stated
@@ -191,9 +191,9 @@ def _collider(body: Body) -> tuple[r.ColliderBuilder, dict]:
     if s.kind in ("hull", "polygon"):
         if s.kind == "hull":
             points, record = np.asarray(s.vertices, float), {"convex_mesh": {"points": len(s.vertices)}}
-        else:  # a prism along y (adapters/prisms.py)
+        else:  # a prism along y (adapters/solids.py)
             depth = embedded_half_depth(s.corners)
-            points = polygon_prism(s.corners, depth)
+            points = polygon_prism(s.corners, depth)[0]
             record = {"convex_mesh": {"prism_of_corners": [[float(x), float(z)] for x, z in s.corners],
                                       "half_depth": depth}}
         return _convex_mesh(body, points), record

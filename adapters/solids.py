@@ -1,7 +1,10 @@
 """Solids an engine can take, made from scene shapes it has no native kind for.
 
 - A 2D `Polygon` in a 3D engine: the prism of its corners extruded along y (as a `Rect`
-  becomes a box), with its faces for engines that take triangles, `polygon_prism`.
+  becomes a box), with its faces for engines that take triangles, `polygon_prism`; as deep
+  as the adapter makes a rect (`embedded_half_depth` where that is its larger half-extent).
+- A `Cylinder` in an engine with no cylinder of its own: the regular prism inscribed in it,
+  `cylinder_prism`.
 - A static `Mesh` in an engine that collides with convex solids only (MuJoCo takes a mesh
   geom's convex hull, Drake's point contact a Mesh's): one convex prism per triangle, the
   triangle and its copy moved against its outward normal into the solid,
@@ -17,6 +20,8 @@
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 # How deep a triangle's prism reaches behind an open mesh (a ground): more than twice what a
@@ -27,6 +32,25 @@ PRISM_DEPTH = 0.1  # m
 # A ray from a corner that meets a triangle nearer than this fraction of the mesh's size, or
 # runs along it (|n . d| below it), is at the corner's own edge or face, not the far side.
 _GRAZE = 1e-9
+
+
+def embedded_half_depth(corners) -> float:
+    """Half the depth along y of a 2D polygon's prism: its largest |x| or |z| (a square of
+    half side a: a, as a 3D engine makes a Rect a box as deep as its larger half-extent).
+    The depth only spreads the contact points, symmetrically about y = 0."""
+    return float(np.abs(np.asarray(corners, dtype=float)).max())
+
+
+def cylinder_prism(radius: float, half_length: float, sides: int) -> np.ndarray:
+    """The corners (2 sides, 3) of the regular prism inscribed in a cylinder along z: each
+    end's corners on its rim at angles 2 pi k / sides from +x, the end at z = -half_length
+    first. Its flat sides lie radius cos(pi / sides) from the axis (the apothem)."""
+    angle = 2.0 * math.pi * np.arange(sides) / sides
+    rim = np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
+    out = np.empty((2 * sides, 3))
+    out[:, :2] = np.tile(rim, (2, 1))
+    out[:, 2] = np.repeat([-half_length, half_length], sides)
+    return out
 
 
 def polygon_prism(corners_xz, half_depth: float) -> tuple[np.ndarray, np.ndarray]:
