@@ -60,8 +60,9 @@ add_shape_cylinder with barrel_radius 0), a hull as a convex mesh of its corners
 triangle mesh (add_shape_mesh, counterclockwise from outside, Newton's back-face culling),
 every shape of density 0 and margin 0, the body's mass and inertia the scene's
 (compute_inertia False on meshes). newton-mujoco keeps to spheres, boxes and planes: its
-contact is the MuJoCo adapter's model of the scene, which has no such shapes yet. 2D scenes
-(and so polygons) are not adapted.
+contact is the MuJoCo adapter's pairs, whose geoms for the other shapes (a triangle prism per
+mesh triangle, a mesh geom per hull) Newton's conversion is not checked to reproduce
+(NEWTON_MUJOCO_SHAPES). 2D scenes (and so polygons) are not adapted.
 
 Float32. Warp stores positions, orientations and velocities in single precision.
 
@@ -111,6 +112,13 @@ SOLVERS = ("xpbd", "semi-implicit", "featherstone", "vbd", "mujoco", "kamino")
 # a cylinder along body z (Newton's own axis), a hull a convex mesh of its corners and faces, a
 # static mesh a triangle mesh (counterclockwise from outside, Newton's winding).
 SHAPES = frozenset({"sphere", "box", "plane", "capsule", "cylinder", "hull", "mesh"})
+# newton-mujoco's contact is the MuJoCo adapter's pairs, matched to the geoms Newton's conversion
+# makes of its own shapes: checked for spheres, boxes and planes only
+_PAIRS_UNCHECKED = ("not mapped: newton-mujoco's contact pairs come from the mujoco adapter, and that "
+                    "Newton's conversion makes this shape the geom those pairs name is not checked")
+NEWTON_MUJOCO_SHAPES = (("capsule", _PAIRS_UNCHECKED), ("cylinder", _PAIRS_UNCHECKED), ("hull", _PAIRS_UNCHECKED),
+                        ("mesh", "SolverMuJoCo makes a mesh a MuJoCo mesh geom, which MuJoCo collides as its convex "
+                                 "hull (the mujoco adapter's triangle prisms have no counterpart in Newton's model)"))
 # penalty solvers: the stiffest pair's contact lasts this many steps (as the MuJoCo mapping's
 # 16). At 10 the explicit step's damping takes more than the model says: e = 0.5 maps to
 # 0.395 between two balls (0.434 at 16 steps, 0.474 at 40)
@@ -245,10 +253,8 @@ class NewtonAdapter(Adapter):
         mj = MuJoCoAdapter.capabilities
         self.capabilities = Capabilities(
             dimensions=frozenset({3}),  # 2D scenes would need planar joints: not adapted
-            # the scene's contact is the MuJoCo adapter's model of it (its pairs), which takes no
-            # capsule, cylinder, hull or mesh yet; and SolverMuJoCo would make a mesh MuJoCo's
-            # convex hull of it (MuJoCo collides meshes as convex)
             shapes=frozenset({"sphere", "box", "plane"}),
+            why_not=NEWTON_MUJOCO_SHAPES,
             native_restitution=False,  # e mapped onto the pair's solref, as MuJoCo's adapter does
             static_kinetic=False,
             contact_forces=True,
