@@ -21,10 +21,9 @@ import pytest
 from adapters import registry
 from adapters.base import Settings
 from cases.scene import (Body, Box, Capsule, Cylinder, Hull, Material, Mesh, Polygon, Rect, Scene, Sphere, ground,
-                         pair_key, quat_about_y)
+                         pair_key)
+from tests.shape_helpers import DT, G, ON_ITS_SIDE
 
-G = 9.81
-DT = 1e-3
 STEPS = 500  # 0.5 s: every contact here has settled (the slowest, Drake's, lasts 16 steps)
 SETTLED = 100  # steps over which the contact forces are averaged (pybullet's MLCP solvers let a
 # resting box's contact force swing 2 % from step to step about its weight)
@@ -69,7 +68,6 @@ def _adapter(name: str):
 R, H = 0.05, 0.1  # capsule and cylinder radius and half-length, m
 HALF = 0.1  # box and hull half-extent, m
 BOX_CORNERS = tuple(itertools.product((-HALF, HALF), repeat=3))
-SIDE = quat_about_y(math.pi / 2)  # body z along world x: lying
 
 
 def _resting(dimension: int = 3) -> dict[str, tuple]:
@@ -78,8 +76,8 @@ def _resting(dimension: int = 3) -> dict[str, tuple]:
         return {"rect": (Rect((HALF, HALF)), HALF, (1.0, 0.0, 0.0, 0.0)),
                 "polygon": (Polygon(((-HALF, -HALF), (HALF, -HALF), (HALF, HALF), (-HALF, HALF))), HALF,
                             (1.0, 0.0, 0.0, 0.0))}
-    return {"capsule_side": (Capsule(R, H), R, SIDE), "capsule_end": (Capsule(R, H), H + R, (1.0, 0.0, 0.0, 0.0)),
-            "cylinder_side": (Cylinder(R, H), R, SIDE), "cylinder_end": (Cylinder(R, H), H, (1.0, 0.0, 0.0, 0.0)),
+    return {"capsule_side": (Capsule(R, H), R, ON_ITS_SIDE), "capsule_end": (Capsule(R, H), H + R, (1.0, 0.0, 0.0, 0.0)),
+            "cylinder_side": (Cylinder(R, H), R, ON_ITS_SIDE), "cylinder_end": (Cylinder(R, H), H, (1.0, 0.0, 0.0, 0.0)),
             "box": (Box((HALF,) * 3), HALF, (1.0, 0.0, 0.0, 0.0)),
             "hull": (Hull(BOX_CORNERS), HALF, (1.0, 0.0, 0.0, 0.0)),
             "ball": (Sphere(HALF), HALF, (1.0, 0.0, 0.0, 0.0))}
