@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from adapters.base import Settings
 from cases.scene import Body, Material, Scene, ground, quat_about_y
@@ -46,6 +47,18 @@ def settle(adapter, body: Body, steps: int, dimension: int = 3, ground_body: Bod
             if k >= steps - 100:
                 force += sim.contact_forces().get(tuple(sorted((under.name, body.name))), 0.0) / 100
         return sim.states()[body.name], force
+
+
+def assert_rests(adapter, shape, orientation, height: float, atol: float = 1e-6, rel: float = 1e-5) -> None:
+    """A 2 kg body of `shape` placed on the plane at `height` in `orientation` stays there
+    (within `atol`, m) without turning (1e-6), and the ground carries its weight (within
+    `rel` of m g) over the last 100 of 300 steps. The tolerances are the engine's: each test
+    says why."""
+    body = Body("b", shape, mass=2.0, position=(0.0, 0.0, height), orientation=orientation)
+    state, force = settle(adapter, body, 300)
+    assert state[2] == pytest.approx(height, abs=atol), f"rests at z = {state[2]}, but should at {height}"
+    assert np.allclose(state[3:7], orientation, atol=1e-6), f"turned to {state[3:7]}: it rolled or tipped"
+    assert force == pytest.approx(2.0 * G, rel=rel), f"the ground carries {force} N, but should carry m g"
 
 
 def landing(adapter, shape, dimension: int, steps: int = 600, settings: Settings = Settings(dt=DT)) -> np.ndarray:

@@ -15,7 +15,7 @@ import pytest
 from adapters.base import Settings, SettingsError
 from cases.scene import (Body, Capsule, Cylinder, Hull, Material, Mesh, Polygon, Rect, Scene, ball, cube, ground,
                          principal_frame, quat_about_y)
-from tests.shape_helpers import ON_ITS_SIDE, assert_same_points, landing, regular_polygon, settle
+from tests.shape_helpers import ON_ITS_SIDE, assert_rests, assert_same_points, landing, regular_polygon, settle
 
 G = 9.81
 
@@ -328,11 +328,7 @@ def test_rapier_capsule_and_cylinder_rest_at_their_height_with_their_weight(rapi
     Tolerances: the stiffest push-out Rapier is asked for (2 x 500 Hz against the ground)
     leaves g / (2 pi 1 kHz)^2 = 0.25 um of overlap, float32 places 0.1 m to 1e-8 m: 1e-6 m;
     the summed normal impulses balance gravity to float32: 1e-5 of the weight."""
-    body = Body("b", shape, mass=2.0, position=(0.0, 0.0, height), orientation=orientation)
-    state, force = settle(rapier.RapierAdapter(), body, 300)
-    assert state[2] == pytest.approx(height, abs=1e-6)
-    assert np.allclose(state[3:7], orientation, atol=1e-6)  # it did not roll or tip
-    assert force == pytest.approx(2.0 * G, rel=1e-5)
+    assert_rests(rapier.RapierAdapter(), shape, orientation, height)
 
 
 @pytest.mark.engine("rapier")

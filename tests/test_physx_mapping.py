@@ -15,7 +15,7 @@ import pytest
 
 from adapters.base import Settings
 from cases.scene import Body, Box, Capsule, Cylinder, Hull, Material, Mesh, Polygon, Rect, Scene, ground
-from tests.shape_helpers import G, ON_ITS_SIDE, landing, regular_polygon, settle
+from tests.shape_helpers import G, ON_ITS_SIDE, assert_rests, landing, regular_polygon, settle
 
 pytestmark = pytest.mark.engine("physx*")
 
@@ -75,11 +75,7 @@ def test_physx_capsule_and_cylinder_rest_at_their_height_with_their_weight(physx
     ground carries the weight (2 kg). Tolerances: PhysX's rigid contact leaves no overlap
     but float32 (0.15 m to 1e-8 m): 1e-6 m; the contact report's normal force is float32:
     1e-5 of the weight."""
-    body = Body("b", shape, mass=2.0, position=(0.0, 0.0, height), orientation=orientation)
-    state, force = settle(physx.PhysXAdapter(), body, 300)
-    assert state[2] == pytest.approx(height, abs=1e-6)
-    assert np.allclose(state[3:7], orientation, atol=1e-6)
-    assert force == pytest.approx(2.0 * G, rel=1e-5)
+    assert_rests(physx.PhysXAdapter(), shape, orientation, height)
 
 
 def test_physx_pentagon_and_thin_plate_rest_on_a_face(physx):
