@@ -81,7 +81,8 @@ class Capabilities:
     # round-off a check allows is counted per sub-step (Simulation.iterations of them a step).
     substeps: bool = False
     # (effect, reason) for effects of cases.scene.EFFECTS the engine has the values for but
-    # does not simulate (a solver that drops the rows): said when a scene asks for one
+    # does not simulate (a solver that drops the rows), and (shape kind, reason) for kinds of
+    # SHAPE_KINDS it does not represent: said when a scene asks for one
     why_not: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self):
@@ -95,9 +96,10 @@ class Capabilities:
             raise ValueError(f"contact_torques = {sorted(unknown)}: must be among {', '.join(CONTACT_TORQUES)}")
         if self.restitution_law not in RESTITUTION_LAWS:
             raise ValueError(f"restitution_law = {self.restitution_law!r}: must be one of {', '.join(RESTITUTION_LAWS)}")
-        unknown = {effect for effect, _ in self.why_not} - set(EFFECTS)
+        unknown = {name for name, _ in self.why_not} - set(EFFECTS) - (set(SHAPE_KINDS) - set(self.shapes))
         if unknown:
-            raise ValueError(f"why_not names {sorted(unknown)}: must be among {', '.join(EFFECTS)}")
+            raise ValueError(f"why_not names {sorted(unknown)}: must be among {', '.join(EFFECTS)} "
+                             f"or the shapes the engine lacks ({', '.join(sorted(set(SHAPE_KINDS) - set(self.shapes)))})")
         if self.float_bits not in UNIT_ROUNDOFF:
             raise ValueError(f"float_bits = {self.float_bits!r}: must be one of {', '.join(map(str, UNIT_ROUNDOFF))}")
 
@@ -114,7 +116,9 @@ class Capabilities:
             return f"{scene.dimension}D scene: the engine runs {dims} scenes only"
         kinds = {b.shape.kind for b in scene.bodies} - self.shapes
         if kinds:
-            return f"shape {', '.join(sorted(kinds))} not available in this engine"
+            why = dict(self.why_not)
+            return "; ".join(f"shape {kind} not available in this engine" + (f": {why[kind]}" if kind in why else "")
+                             for kind in sorted(kinds))
         if not self.static_kinetic:
             for a, b in scene.contact_pairs():
                 m = scene.material_of(a.name, b.name)

@@ -61,6 +61,9 @@ class ReferenceAdapter(Adapter):
         # the default formulation's torque rows (reference_impl/sequential_impulses.py); the
         # others have none and report such pairs unsupported
         contact_torques=frozenset({"rolling_resistance", "torsional_friction"}),
+        why_not=tuple((kind, "the reference's collision detection is closed-form for spheres, boxes and planes "
+                             "(circles and rects in 2D) only; it has no narrow phase for other shapes yet")
+                      for kind in ("capsule", "cylinder", "hull", "mesh", "polygon")),
     )
 
     def __init__(self, formulation: str = "si", name: str | None = None, params: dict | None = None):
