@@ -174,7 +174,7 @@ def test_capsules_and_cylinders_rest_at_their_size(engine):
 
 
 def _point_contact(engine: str) -> bool:
-    return getattr(registry.get(engine), "contact_model", None) == "point"
+    return getattr(_adapter(engine), "contact_model", None) == "point"
 
 
 # Drake's point contact gives a pair one point, its deepest: a box on the half-space rests
