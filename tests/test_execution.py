@@ -188,7 +188,7 @@ def _wait_for_busy_workers(cases_dir: Path, n: int, proc: subprocess.Popen, limi
 
 
 # s within which an interrupted run must have stopped: it stops its workers at once and writes
-# a report marked incomplete (about a second on an idle machine; README: "within 2 s"). The
+# a report marked incomplete (about a second on an idle machine; docs/use/running.md: "at once"). The
 # jobs it interrupts would run for an hour, so only a run that waited for them exceeds it.
 STOPS = 60
 
@@ -230,7 +230,8 @@ def test_every_child_exits_when_the_main_process_is_killed(cases_dir, tmp_path, 
     """SIGKILL leaves the main process no cleanup at all. Its two workers are in a job of
     10 minutes (so no job's end lets them notice), and under forkserver the fork server and
     the resource tracker are its children too: every descendant must be gone within STOPS
-    (README: within a second; the margin is for a loaded machine, the job's end is far later)."""
+    (docs/use/running.md: within a second; the margin is for a loaded machine, the job's end is far
+    later)."""
     psutil = pytest.importorskip("psutil")
     proc = _start(cases_dir, tmp_path / "out", nap=600.0, method=method)
     t0 = time.monotonic()
