@@ -40,10 +40,13 @@ SHAPES = {"cylinder": Cylinder(R, H), "capsule": Capsule(R, H)}
 PLANTED_ON = "mujoco"
 
 # Grid: mu = 0.2, where the cylinder rolls up to 31.0 deg and the capsule up to 32.4 deg:
-# well inside (20 deg: the cylinder needs 61 % of mu_s) and slipping (45 deg); 3D only (a
-# capsule has no 2D shape, and a cylinder on its side in 2D is rolling_incline's disc).
+# well inside (20 deg: the cylinder needs 61 % of mu_s) and slipping (45 deg); and the
+# cylinder 2 deg past its limit (33 deg: it needs 107 % of mu_s), where a body of the
+# sphere's k = 2/5 would still roll (up to 35.0 deg): the threshold comes from the same I.
+# 3D only (a capsule has no 2D shape; a cylinder on its side in 2D is rolling_incline's disc).
 GRID = tuple({"shape": shape, "theta_deg": theta, "mu_s": 0.2, "mu_k": 0.2}
-             for shape in SHAPES for theta in (20.0, 45.0))
+             for shape in SHAPES for theta in (20.0, 45.0)) + (
+    {"shape": "cylinder", "theta_deg": 33.0, "mu_s": 0.2, "mu_k": 0.2},)
 
 
 def inertia_ratio(shape: str, r: float = R, h: float = H) -> float:

@@ -47,13 +47,17 @@ def test_inertia_ratios_from_integrating_the_solids():
 def test_rolling_or_slipping_from_integrating_coulomb_friction(p):
     """Newton-Euler with Coulomb friction at the contact line integrated in time
     (tests/fakes.coulomb_on_plane) gives each variant's accelerations, and the grid brackets
-    each shape's rolling limit: 20 deg rolls, 45 deg slips."""
+    each shape's rolling limit: 20 deg rolls, 33 and 45 deg slip; at 33 deg a body of the
+    sphere's k = 2/5 would roll."""
     th, k = math.radians(p["theta_deg"]), rs.inertia_ratio(p["shape"])
     a, alpha = coulomb_on_plane(G * math.sin(th), G * math.cos(th), p["mu_s"], p["mu_k"], k, rs.R)
     checks = {c.metric: c for c in rs.expect(p, 1e-3)}
     assert checks["acceleration"].expected == pytest.approx(a, rel=1e-7)
     assert checks["angular_acceleration"].expected == pytest.approx(alpha, rel=1e-7)
     assert ri.rolls(th, p["mu_s"], k) == (p["theta_deg"] < 30.0)
+    if p["theta_deg"] == 33.0:
+        assert ri.rolls(th, p["mu_s"], 0.4)
+        assert abs(ri.acceleration(th, p["mu_s"], p["mu_k"], 0.4) - a) > 10 * checks["acceleration"].tolerance
 
 
 def test_the_capsule_is_told_from_the_cylinder_and_the_ball():
