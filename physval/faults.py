@@ -31,7 +31,7 @@ import numpy as np
 
 from adapters.base import Adapter, Settings, Simulation
 from cases.overlap import rotation_matrix
-from cases.scene import Box, Rect, Scene
+from cases.scene import Box, Capsule, Cylinder, Rect, Scene
 
 ENGINES = ("reference", "mujoco", "pybullet")  # the engines faults are written for
 
@@ -199,17 +199,19 @@ class TimeStep(Fault):
 
 
 class Inertia(Fault):
-    """Principal inertia x 2 for every box (3D) and rect (2D); spheres and discs unchanged.
+    """Principal inertia x 2 for every box (3D), rect (2D), capsule and cylinder; spheres
+    and discs unchanged.
 
     An inertia tensor computed from full extents where half extents were meant, or given
-    about the wrong point: lever-arm impacts then spin a box half as fast. A uniform factor
-    leaves torque-free rotation (Euler's equations) as it was."""
+    about the wrong point: lever-arm impacts then spin a box half as fast, and a cylinder
+    rolls down an incline with g sin / 2 instead of 2/3 g sin. A uniform factor leaves
+    torque-free rotation (Euler's equations) as it was."""
     name = "inertia"
     factor = 2.0
 
     def scene(self, scene, kind):
         def body(b):
-            if b.static or not isinstance(b.shape, (Box, Rect)):
+            if b.static or not isinstance(b.shape, (Box, Rect, Capsule, Cylinder)):
                 return b
             return replace(b, inertia=tuple(self.factor * i for i in b.principal_inertia))
         return replace(scene, bodies=tuple(body(b) for b in scene.bodies))
@@ -620,8 +622,10 @@ class ContactOffset(Fault):
         from cases.scene import Circle, Sphere
 
         def grown(s):
-            if isinstance(s, (Sphere, Circle)):
+            if isinstance(s, (Sphere, Circle, Capsule)):
                 return replace(s, radius=s.radius + self.offset)
+            if isinstance(s, Cylinder):
+                return replace(s, radius=s.radius + self.offset, half_length=s.half_length + self.offset)
             if isinstance(s, (Box, Rect)):
                 return replace(s, half_extents=tuple(h + self.offset for h in s.half_extents))
             return s
