@@ -158,7 +158,7 @@ class Capabilities:
                              "contact_points")
                  if getattr(self, f)]
         laws = f"; compliant contact: {','.join(sorted(self.contact_laws))}" if self.contact_laws else ""
-        impacts = f"; impacts: {self.impact_model}" if self.impact_model else ""
+        impacts = f"; impacts: {self.impact_model or 'none declared'}"
         torques = f"; contact torques: {','.join(sorted(self.contact_torques))}" if self.contact_torques else ""
         restitution = f"; restitution: {self.restitution_law}"
         floats = f"; float{self.float_bits}" + (", sub-steps" if self.substeps else "")
