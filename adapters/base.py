@@ -162,7 +162,7 @@ class Capabilities:
                              "contact_points")
                  if getattr(self, f)]
         laws = f"; compliant contact: {','.join(sorted(self.contact_laws))}" if self.contact_laws else ""
-        impacts = f"; impacts: {self.impact_model}" if self.impact_model else ""
+        impacts = f"; impacts: {self.impact_model or 'none declared'}"
         torques = f"; contact torques: {','.join(sorted(self.contact_torques))}" if self.contact_torques else ""
         restitution = f"; restitution: {self.restitution_law}"
         floats = f"; float{self.float_bits}" + (", sub-steps" if self.substeps else "")
@@ -222,6 +222,13 @@ class Simulation(ABC):
         `Capabilities.contact_points` implement it."""
         raise NotImplementedError(f"{type(self).__name__} does not report contact points")
 
+    def plant(self, change: str, size: float | None = None) -> "Simulation":
+        """The planted-fault hook (adapters/planting.py): make the engine-internal `change`
+        (a name of planting.CHANGES that the adapter lists in `plantable`) of `size` in
+        this built world, and return the simulation to step: this one, or one built anew.
+        Only an adapter's own code reaches into its engine this way."""
+        raise NotImplementedError(f"{type(self).__name__} makes no planted change ({change!r} asked)")
+
     def close(self) -> None:
         """Free the engine's resources; safe to call twice."""
 
@@ -255,6 +262,14 @@ class Adapter(ABC):
     # pins whatever else it needs, as mujoco 4.0.0 pins mujoco-core and mujoco-studio 4.0.0).
     packages: tuple[str, ...] = ()
     tunables: Mapping[str, Tunable] = {}  # Settings.options this adapter understands
+    # The engine-internal changes its simulations make for a planted fault (names of
+    # adapters/planting.py CHANGES, made by Simulation.plant): what no scene, setting or
+    # read-out can say, such as a square friction cone or a velocity damping.
+    plantable: frozenset[str] = frozenset()
+    # The engine whose recorded known-deviation bands judge this adapter, where that is not
+    # its own name: an engine with a planted fault named anew (adapters/planting.py Planted,
+    # a user's `--adapter` file), judged as the engine it plants in. None: its own name.
+    bands_of: str | None = None
 
     @abstractmethod
     def version(self) -> str:

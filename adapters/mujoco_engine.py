@@ -574,6 +574,7 @@ class MuJoCoSimulation(Simulation):
     def __init__(self, scene: Scene, model: mujoco.MjModel, knobs: dict, iterations: int):
         self.knobs = knobs
         self.iterations = iterations
+        self._scene = scene  # to build again after a planted change (plant)
         self._model = model
         self._data = d = mujoco.MjData(model)
         # per dynamic body: name, qpos address, dof address, and for bodies on joints other
@@ -810,6 +811,26 @@ class MuJoCoSimulation(Simulation):
     def close(self) -> None:
         self._model = self._data = None
 
+    # --- planted faults (adapters/planting.py) ------------------------------------------
+
+    def plant(self, change: str, size: float | None = None) -> Simulation:
+        """MuJoCo's planted changes (MuJoCoAdapter.plantable), each an edit of the compiled
+        model and a simulation of it built anew (a fresh MjData, so every quantity derived
+        from the model, e.g. how contact forces are decoded for the cone in force, is the
+        edited model's): "square friction cone" is cone = "pyramidal" (MuJoCo's own
+        default, which the adapter replaces by the elliptic cone); "velocity damping" is
+        joint damping on every degree of freedom, `size` times the dof's own mass or
+        inertia (dof_M0), so each decays at the same rate (a damping left in a model's
+        default class)."""
+        model = self._model
+        if change == "square friction cone":
+            model.opt.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
+        elif change == "velocity damping":
+            model.dof_damping[:] = size * model.dof_M0
+        else:
+            return super().plant(change, size)
+        return MuJoCoSimulation(self._scene, model, self.knobs, self.iterations)
+
 
 class MuJoCoAdapter(Adapter):
     name = "mujoco"
@@ -840,6 +861,7 @@ class MuJoCoAdapter(Adapter):
     # the rebound error ~ 1/n is large) to 50 (soft: depth ~ v n dt / pi, 15 mm at 1 m/s).
     tunables = {"contact_steps": Tunable(2.0, 50.0, float(CONTACT_STEPS),
                                          "contact duration in time steps (solref time scale n dt)")}
+    plantable = frozenset({"square friction cone", "velocity damping"})  # MuJoCoSimulation.plant
 
     def __init__(self, contact_steps: float = CONTACT_STEPS, ground: str = "plane", name: str | None = None,
                  defaults=()):

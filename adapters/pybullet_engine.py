@@ -198,6 +198,8 @@ class PyBulletAdapter(Adapter):
         impact_model="simultaneous",
         contact_torques=frozenset({"rolling_resistance", "torsional_friction"}),  # TORQUE_KNOBS
     )
+    # planted changes (PyBulletSimulation.plant)
+    plantable = frozenset({"square friction cone", "velocity damping", "restitution threshold"})
 
     def __init__(self, name: str = "pybullet", bodies: str = "auto", friction_anchor: bool = True,
                  ground: str = "plane", solver: str = "si"):
@@ -751,3 +753,24 @@ class PyBulletSimulation(Simulation):
             if p.isConnected(physicsClientId=self._client):
                 p.disconnect(physicsClientId=self._client)
             self._client = None
+
+    # --- planted faults (adapters/planting.py) ------------------------------------------
+
+    def plant(self, change: str, size: float | None = None) -> Simulation:
+        """PyBullet's planted changes (PyBulletAdapter.plantable), each a Bullet default the
+        adapter switches off, set back: "square friction cone" is enableConeFriction = 0
+        (Bullet's pair of independent friction rows); "velocity damping" is linearDamping =
+        angularDamping = `size` on every dynamic body (Bullet's default 0.04; it scales
+        velocities by (1 - c)^dt each step); "restitution threshold" is
+        restitutionVelocityThreshold = `size` (Bullet's default 0.2 m/s)."""
+        c = self._client
+        if change == "square friction cone":
+            p.setPhysicsEngineParameter(enableConeFriction=0, physicsClientId=c)
+        elif change == "velocity damping":
+            for _, uid, _ in self._dynamic:
+                p.changeDynamics(uid, -1, linearDamping=size, angularDamping=size, physicsClientId=c)
+        elif change == "restitution threshold":
+            p.setPhysicsEngineParameter(restitutionVelocityThreshold=size, physicsClientId=c)
+        else:
+            return super().plant(change, size)
+        return self

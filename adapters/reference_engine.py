@@ -13,12 +13,13 @@ switch off; the knobs record every setting of `reference_impl.config.Config` in 
 """
 from __future__ import annotations
 
-from dataclasses import asdict, replace
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.frames import state_row
+from adapters.planting import Passthrough
 from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
 from reference_impl import geometry
@@ -33,11 +34,14 @@ DEFAULT = Config()  # the engine's stated defaults (iterations: DEFAULT.iteratio
 # into a row of two touching ones (cases/column_impact.py): "si", "pgs", "lemke" and
 # "acceleration_lcp" solve one problem over all contacts, each contact's restitution on
 # its own approach velocity (both balls leave the ground at e v; the struck row leaves as
-# one body), exactly; "single_contact" aims at the same collision set but, sweeping pairs
-# and never taking an impulse back, falls short of it (the row's first contact parts at
-# half the speed Newton's law asks: a known deviation); "spook" solves one regularised
-# problem over all contacts per step (inelastic only); "compliant" contacts are springs.
-IMPACT_MODEL = {"compliant": "compliant"}  # every other formulation: "simultaneous"
+# one body), exactly; "single_contact" sweeps pairs with each contact's target fixed at the
+# step's start and never takes an impulse back, which passes an impact on pair by pair: the
+# sequential model's closed form, exactly, for touching balls landing (e = 1 and 0.5,
+# tests/test_declared_models.py) and for a row struck at e = 1; a pressed contact's target
+# is 0, so a row struck at e = 0.5 misses it (a known deviation); "spook" solves one
+# regularised problem over all contacts per step (inelastic only); "compliant" contacts are
+# springs.
+IMPACT_MODEL = {"compliant": "compliant", "single_contact": "sequential"}  # every other formulation: "simultaneous"
 
 
 # No run of a formulation is on demand (Adapter.on_demand): with their loops compiled
@@ -69,6 +73,8 @@ class ReferenceAdapter(Adapter):
     def __init__(self, formulation: str = "si", name: str | None = None, params: dict | None = None):
         find_formulation(formulation)  # an unknown name fails here, not mid-run
         self.formulation = formulation
+        # planted faults reach into the default formulation's solver only (ReferenceSimulation.plant)
+        self.plantable = PLANTABLE if formulation == "si" else frozenset()
         self.params = dict(params or {})  # formulation settings (Config.params)
         self.name = name or ("reference" if formulation == "si" else f"reference-{formulation}")
         # every formulation runs every family it can represent in a default run (their
@@ -243,3 +249,132 @@ class ReferenceSimulation(Simulation):
 
     def close(self) -> None:
         """Nothing to free: the world is plain Python objects."""
+
+    # --- planted faults (adapters/planting.py) ------------------------------------------
+
+    def plant(self, change: str, size: float | None = None) -> Simulation:
+        """The planted changes of the default formulation (ReferenceAdapter.plantable), in
+        the world's own material table and solver: the other formulations make none."""
+        world = self._world
+        if change == "kinetic friction":
+            def scaled(m):
+                return _UncheckedMaterial(m.e, m.mu_s, m.mu_k * size, m.rolling, m.torsion)
+            world.material = scaled(world.material)
+            world.pair_materials = {k: scaled(m) for k, m in world.pair_materials.items()}
+        elif change == "square friction cone":
+            world.solver = _PyramidSolver(world.solver)
+        elif change == "restitution threshold":
+            world.solver = _ThresholdSolver(world.solver, size)
+        elif change == "two-phase restitution":
+            world.solver = _TwoPhaseSolver(world.solver)
+        elif change == "velocity damping":
+            return _Damped(self, size)
+        else:
+            return super().plant(change, size)
+        return self
+
+
+PLANTABLE = frozenset({"kinetic friction", "square friction cone", "restitution threshold", "two-phase restitution",
+                       "velocity damping"})
+
+
+@dataclass(frozen=True)
+class _UncheckedMaterial:
+    """The world's material record without its mu_k <= mu_s check (the world only reads
+    these numbers): a planted kinetic friction above the static one."""
+    e: float
+    mu_s: float
+    mu_k: float
+    rolling: float
+    torsion: float
+
+    @property
+    def torques(self) -> bool:
+        return self.rolling > 0.0 or self.torsion > 0.0
+
+
+class _Damped(Passthrough):
+    """The world with v *= (1 - c dt) and w *= (1 - c dt) on every body after each step."""
+
+    def __init__(self, sim: ReferenceSimulation, c: float):
+        super().__init__(sim)
+        self._keep, self._dynamic = 1.0 - c * sim._dt, sim._dynamic
+
+    def step(self) -> None:
+        self.inner.step()
+        keep = self._keep
+        for b in self._dynamic:
+            b.v[:] = [keep * c for c in b.v]
+            b.w[:] = [keep * c for c in b.w]
+
+
+class _SolverWrapper:
+    """The world's solver module as it is, but for the `solve` a subclass plants."""
+
+    def __init__(self, module):
+        self._module = module
+
+    def __getattr__(self, name):
+        return getattr(self._module, name)
+
+
+class _PyramidSolver(_SolverWrapper):
+    """Sequential impulses (reference_impl/sequential_impulses.py) with a per-row friction
+    clamp, [-mu Pn, mu Pn] on each tangent row, both rows along the fixed tangent basis
+    (reference_impl.contact.tangent_basis) also while sliding: the rest of the module as it is."""
+
+    def solve(self, contacts, bodies, dt, config):
+        from reference_impl import contact as rc
+        for c in contacts:
+            if len(c.tangents) != 2:
+                continue
+            P = sum(np.asarray(row.d) * Pt for row, Pt in zip(c.tangents, c.Pt))  # warm start, world frame
+            ra = tuple(c.point[i] - c.a.x[i] for i in range(3))
+            rb = tuple(c.point[i] - c.b.x[i] for i in range(3))
+            t1 = rc.tangent_basis(c.n)
+            c.tangents = (rc.Row(c.a, c.b, ra, rb, t1), rc.Row(c.a, c.b, ra, rb, rc.cross(c.n, t1)))
+            c.Pt = [float(P @ np.asarray(row.d)) for row in c.tangents]
+        # sequential_impulses' own switch to the per-row clamp
+        return self._module.solve(contacts, bodies, dt,
+                                  replace(config, params={**config.params, "friction_set": "pyramid"}))
+
+
+class _ThresholdSolver(_SolverWrapper):
+    """The solver with each slow approaching contact's restitution target
+    (contact.normal_target: -e vn0) replaced by 0."""
+
+    def __init__(self, module, speed: float):
+        super().__init__(module)
+        self._speed = speed
+
+    def solve(self, contacts, bodies, dt, config):
+        for c in contacts:
+            if c.target is not None and -self._speed < c.vn0 < 0.0 and c.target > 0.0:
+                c.target = 0.0
+        return self._module.solve(contacts, bodies, dt, config)
+
+
+class _TwoPhaseSolver(_SolverWrapper):
+    """The solver targeting v_n+ = 0 on each bouncing contact, then pushing each one's
+    normal velocity up to its restitution target -e vn0 with normal impulses alone
+    (Gauss-Seidel over the normal rows): the two-phase law of Box2D's relax pass."""
+
+    def solve(self, contacts, bodies, dt, config):
+        bounce = [(c, c.target) for c in contacts if c.target is not None and c.target > 0.0]
+        for c, _ in bounce:
+            c.target = 0.0
+        stages = self._module.solve(contacts, bodies, dt, config)
+        for _ in range(config.iterations):  # restitution, normal rows only, Gauss-Seidel
+            largest = 0.0
+            for c, goal in bounce:
+                dv = goal - c.normal.velocity()
+                if dv > 0.0:
+                    P = c.normal.mass * dv
+                    c.normal.apply(P)
+                    c.Pn += P
+                    largest = max(largest, dv)
+            if largest <= config.tolerance:
+                break
+        for c, goal in bounce:
+            c.target = goal
+        return stages

@@ -1,21 +1,24 @@
 """Planted faults: the suite tests its own power (mutation testing of the engines, not of
 the code).
 
-A fault wraps an engine's adapter (`FaultyAdapter(inner, fault)`) and changes ONE thing in
-what the engine is given or reports: a material coefficient, gravity, the time step, an
-inertia, the friction cone, a damping, the force read-out. It never touches the harness,
-the cases or their closed forms: the wrapped engine carries the engine's own name, the
-engine's recorded known-deviation bands judge it, and every check the fault moves out of
-its tolerance (or out of its band) must come out `fail`. `tests/test_faults.py` asserts
-that every fault is flagged in at least two families and the unmodified wrapper (`NONE`)
-in none; `physval bench faults` writes the detection matrix (fault x family).
+Each fault of the catalogue changes ONE thing in what an engine is given or reports: a
+material coefficient, gravity, the time step, an inertia, the friction cone, a damping, the
+force read-out. It is planted at the adapter layer, through the documented hook of
+adapters/planting.py (`Planted(adapter, fault)`: the scene, the settings, an engine-internal
+change the adapter itself makes, or a wrapper of the built simulation), and never touches
+the harness, the cases or their closed forms: the planted engine carries the engine's own
+name, the engine's recorded known-deviation bands judge it, and every check the fault moves
+out of its tolerance (or out of its band) must come out `fail`. `tests/test_faults.py`
+asserts that every fault is flagged in at least two families and the unmodified wrapper
+(`NONE`) in none; `physval bench faults` writes the detection matrix (fault x family).
 
 Sizes are those of bugs that ship: a coefficient a few per cent off, 9.80 for 9.81, a time
 step 1 % off, an inertia tensor doubled, a square cone, the 0.04 damping PyBullet switches
-on by default, a force 5 % off. A fault planted in an engine's internals is written per
-engine: for the reference (its default formulation), MuJoCo and PyBullet (`ENGINES`);
-wrapping another engine raises `NotPlantable`, but for a fault that changes only the
-scene the engine is given (kinds "any"), which any engine can be handed.
+on by default, a force 5 % off. A fault that changes what any engine is given is planted in
+any engine; one that needs a change inside the engine (a square friction cone, a damping, a
+restitution threshold or law, a kinetic friction above the static one) is planted where the
+engine's adapter makes that change (`Adapter.plantable`: the reference's default
+formulation, MuJoCo and PyBullet make them today), and elsewhere cannot be (`why_not`).
 
 `WRONG_ANSWERS` are the plain wrong answers (an effect off or doubled, another restitution
 law, another combination rule, a radius written in, a contact offset) that the families
@@ -25,68 +28,20 @@ and shows a check fail.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
-from adapters.base import Adapter, Settings, Simulation
+from adapters.planting import Fault, NotPlantable, Passthrough, why_not  # noqa: F401 (the contract, re-exported)
 from cases.overlap import rotation_matrix
 from cases.scene import Box, Capsule, Cylinder, Rect, Scene
 
-ENGINES = ("reference", "mujoco", "pybullet")  # the engines faults are written for
+# The engines `physval bench faults` plants in by default: the plain configuration of each
+# engine whose adapter makes the engine-internal changes (Adapter.plantable).
+ENGINES = ("reference", "mujoco", "pybullet")
 
 
-class NotPlantable(Exception):
-    """The fault has no meaning in (or no way into) this engine; the message says why."""
-
-
-def engine_kind(adapter: Adapter, fault: "Fault | None" = None) -> str:
-    """Which engine an adapter drives ("reference", "mujoco", "pybullet"), by its class;
-    NotPlantable for any other (faults in engine internals are written per engine), unless
-    `fault` changes only what any engine is given (kinds "any": then "any")."""
-    kind = {"ReferenceAdapter": "reference", "MuJoCoAdapter": "mujoco",
-            "PyBulletAdapter": "pybullet"}.get(type(adapter).__name__)
-    if kind == "reference" and getattr(adapter, "formulation", "si") != "si":
-        kind = None if fault is None or "any" not in fault.kinds else "any"
-        if kind is None:
-            raise NotPlantable("faults are written for the reference's default formulation (si) only")
-    if kind is None:
-        if fault is not None and "any" in fault.kinds:
-            return "any"
-        raise NotPlantable(f"no faults are written for {type(adapter).__name__}")
-    return kind
-
-
-# --- the fault contract ---------------------------------------------------------------------
-
-class Fault:
-    """What a fault changes; every hook defaults to "nothing". `kind` is the engine."""
-    name = "none"
-    kinds = ENGINES  # the engines the fault has a meaning in (the others are left out of its row)
-
-    def scene(self, scene: Scene, kind: str) -> Scene:
-        """The scene the engine is given instead of the case's."""
-        return scene
-
-    def settings(self, settings: Settings) -> Settings:
-        """The settings the engine is built with instead of the harness's."""
-        return settings
-
-    def plant(self, sim: Simulation, scene: Scene, kind: str) -> Simulation:
-        """Edits to the built engine (returns the simulation to run: it or a new one)."""
-        return sim
-
-    def after_step(self, kind: str):
-        """A function (sim, dt) run after each of the engine's steps, or None (then the
-        engine may step in bulk)."""
-        return None
-
-    read_out = 1.0  # factor on every contact force the engine reports
-
-    @property
-    def summary(self) -> str:
-        return " ".join((self.__doc__ or "").split("\n\n")[0].split())
-
+# --- the catalogue ---------------------------------------------------------------------------
 
 class NoFault(Fault):
     """Nothing changed: the wrapper alone, which must give exactly the engine's verdicts."""
@@ -107,72 +62,48 @@ class Restitution(Fault):
     name = "restitution"
     factor = 1.1
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         return _scale_materials(scene, lambda m: replace(m, e=min(1.0, m.e * self.factor)))
 
 
-class _Friction(Fault):
-    """Shared by the static and kinetic friction faults. The reference has both
-    coefficients and takes the fault in the one named, through its own material table
-    (the case's scene vocabulary forbids mu_k > mu_s, a real engine's table does not);
-    MuJoCo and PyBullet have one coefficient, so there the fault scales it."""
-    factor = 1.0
-    which = ""  # "mu_s" or "mu_k"
-
-    def scene(self, scene, kind):
-        if kind == "reference":
-            return scene
-        f = self.factor
-        return _scale_materials(scene, lambda m: replace(m, mu_s=m.mu_s * f,
-                                                         mu_k=None if m.mu_k is None else m.mu_k * f))
-
-    def plant(self, sim, scene, kind):
-        if kind == "reference":
-            _reference_materials(sim, **{self.which: self.factor})
-        return sim
+def _both_scaled(m, f: float):
+    """The material with mu_s and mu_k (where given) x f."""
+    return replace(m, mu_s=m.mu_s * f, mu_k=None if m.mu_k is None else m.mu_k * f)
 
 
-class StaticFriction(_Friction):
-    """Static friction mu_s x 1.06 (MuJoCo, PyBullet: their one coefficient x 1.06).
+class StaticFriction(Fault):
+    """Static friction mu_s x 1.06 (an engine with one coefficient: it x 1.06).
 
     An engine that holds 6 % more than mu_s N before letting go: the break-away angle of
-    a box on an incline moves from atan(0.5) = 26.6 deg to 27.9 deg."""
+    a box on an incline moves from atan(0.5) = 26.6 deg to 27.9 deg. An engine with
+    separate coefficients keeps mu_k as the case gave it."""
     name = "static friction"
-    factor, which = 1.06, "mu_s"
+    factor = 1.06
+
+    def scene(self, scene, capabilities):
+        f = self.factor
+        if capabilities.static_kinetic:
+            return _scale_materials(scene, lambda m: replace(m, mu_s=m.mu_s * f, mu_k=m.mu_k_))
+        return _scale_materials(scene, lambda m: _both_scaled(m, f))
 
 
-class KineticFriction(_Friction):
-    """Kinetic friction mu_k x 1.05 (MuJoCo, PyBullet: their one coefficient x 1.05).
+class KineticFriction(Fault):
+    """Kinetic friction mu_k x 1.05 (an engine with one coefficient: it x 1.05).
 
     A sliding contact braked by 1.05 mu_k N: a box launched at 2 m/s with mu_k = 0.3 stops
-    3.2 cm short of its 68 cm."""
+    3.2 cm short of its 68 cm. An engine with separate coefficients takes it in its own
+    material table (the engine-internal change "kinetic friction"): the case's scene
+    vocabulary forbids mu_k > mu_s, a real engine's table does not."""
     name = "kinetic friction"
-    factor, which = 1.05, "mu_k"
+    factor = 1.05
 
+    def scene(self, scene, capabilities):
+        if capabilities.static_kinetic:
+            return scene
+        return _scale_materials(scene, lambda m: _both_scaled(m, self.factor))
 
-@dataclass(frozen=True)
-class _UncheckedMaterial:
-    """The reference world's material record without its mu_k <= mu_s check (the world
-    only reads these numbers)."""
-    e: float
-    mu_s: float
-    mu_k: float
-    rolling: float
-    torsion: float
-
-    @property
-    def torques(self) -> bool:
-        return self.rolling > 0.0 or self.torsion > 0.0
-
-
-def _reference_materials(sim, mu_s: float = 1.0, mu_k: float = 1.0) -> None:
-    """Scale the coefficients in the reference world's own material table."""
-    world = sim._world
-
-    def scaled(m):
-        return _UncheckedMaterial(m.e, m.mu_s * mu_s, m.mu_k * mu_k, m.rolling, m.torsion)
-    world.material = scaled(world.material)
-    world.pair_materials = {k: scaled(m) for k, m in world.pair_materials.items()}
+    def change(self, capabilities):
+        return ("kinetic friction", self.factor) if capabilities.static_kinetic else None
 
 
 class Gravity(Fault):
@@ -182,7 +113,7 @@ class Gravity(Fault):
     name = "gravity"
     g_used, g_asked = 9.80, 9.81
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         return replace(scene, gravity=tuple(g * self.g_used / self.g_asked for g in scene.gravity))
 
 
@@ -209,7 +140,7 @@ class Inertia(Fault):
     name = "inertia"
     factor = 2.0
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         def body(b):
             if b.static or not isinstance(b.shape, (Box, Rect, Capsule, Cylinder)):
                 return b
@@ -222,93 +153,31 @@ class FrictionCone(Fault):
     two tangent directions bounded by mu f_n on its own, so friction reaches sqrt(2) mu f_n
     at 45 deg to the frame's axes and does not oppose a slip at 22.5 deg.
 
-    MuJoCo: cone = "pyramidal" (MuJoCo's own default, which the adapter replaces by the
-    elliptic cone). PyBullet: enableConeFriction = 0 (Bullet's default pair of independent
-    friction rows). The reference: its sequential impulses clamp each tangent row to
-    [-mu Pn, mu Pn] instead of the disc, with both rows along the fixed tangent basis
+    An engine-internal change, each engine's own (its Simulation.plant): MuJoCo: cone =
+    "pyramidal" (MuJoCo's own default, which the adapter replaces by the elliptic cone).
+    PyBullet: enableConeFriction = 0 (Bullet's default pair of independent friction rows).
+    The reference: its sequential impulses clamp each tangent row to [-mu Pn, mu Pn]
+    instead of the disc, with both rows along the fixed tangent basis
     (reference_impl.contact.tangent_basis) also while sliding."""
     name = "friction cone"
 
-    def plant(self, sim, scene, kind):
-        if kind == "mujoco":
-            import mujoco
-            return _mujoco_rebuilt(sim, scene, lambda m: setattr(m.opt, "cone", mujoco.mjtCone.mjCONE_PYRAMIDAL))
-        if kind == "pybullet":
-            from adapters.pybullet_engine import p
-            p.setPhysicsEngineParameter(enableConeFriction=0, physicsClientId=sim._client)
-            return sim
-        sim._world.solver = _PyramidSolver(sim._world.solver)
-        return sim
-
-
-class _SolverWrapper:
-    """The reference's solver module as it is, but for the `solve` a subclass plants."""
-
-    def __init__(self, module):
-        self._module = module
-
-    def __getattr__(self, name):
-        return getattr(self._module, name)
-
-
-class _PyramidSolver(_SolverWrapper):
-    """The reference's sequential impulses (reference_impl/sequential_impulses.py) with a
-    per-row friction clamp in the fixed tangent basis: the rest of the module as it is."""
-
-    def solve(self, contacts, bodies, dt, config):
-        from reference_impl import contact as rc
-        for c in contacts:
-            if len(c.tangents) != 2:
-                continue
-            P = sum(np.asarray(row.d) * Pt for row, Pt in zip(c.tangents, c.Pt))  # warm start, world frame
-            ra = tuple(c.point[i] - c.a.x[i] for i in range(3))
-            rb = tuple(c.point[i] - c.b.x[i] for i in range(3))
-            t1 = rc.tangent_basis(c.n)
-            c.tangents = (rc.Row(c.a, c.b, ra, rb, t1), rc.Row(c.a, c.b, ra, rb, rc.cross(c.n, t1)))
-            c.Pt = [float(P @ np.asarray(row.d)) for row in c.tangents]
-        from dataclasses import replace  # sequential_impulses' own switch to the per-row clamp
-        return self._module.solve(contacts, bodies, dt,
-                                  replace(config, params={**config.params, "friction_set": "pyramid"}))
-
-
-def _mujoco_rebuilt(sim, scene, edit):
-    """A MuJoCo simulation of the same compiled model after edit(model): a fresh MjData,
-    so every quantity the simulation derives from the model (e.g. how it decodes contact
-    forces for the cone in force) is that of the edited model."""
-    from adapters.mujoco_engine import MuJoCoSimulation
-    model = sim._model
-    edit(model)
-    return MuJoCoSimulation(scene, model, sim.knobs, sim.iterations)
+    def change(self, capabilities):
+        return ("square friction cone", None)
 
 
 class Damping(Fault):
     """A velocity decay of c = 0.04 per second on every body's linear and angular velocity.
 
-    PyBullet: linearDamping = angularDamping = 0.04, its default, which the adapter
-    switches off (Bullet scales velocities by (1 - c)^dt each step). MuJoCo: joint damping
+    An engine-internal change, each engine's own (its Simulation.plant): PyBullet:
+    linearDamping = angularDamping = 0.04, its default, which the adapter switches off (Bullet scales velocities by (1 - c)^dt each step). MuJoCo: joint damping
     on every degree of freedom, c times the dof's own mass or inertia (dof_M0), so each
     decays at the same rate (a damping left in a model's default class). The reference:
     v *= (1 - c dt) and w *= (1 - c dt) after each step."""
     name = "damping"
     c = 0.04  # 1/s
 
-    def plant(self, sim, scene, kind):
-        if kind == "mujoco":
-            return _mujoco_rebuilt(sim, scene, lambda m: m.dof_damping.__setitem__(slice(None), self.c * m.dof_M0))
-        if kind == "pybullet":
-            from adapters.pybullet_engine import p
-            for _, uid, _ in sim._dynamic:
-                p.changeDynamics(uid, -1, linearDamping=self.c, angularDamping=self.c, physicsClientId=sim._client)
-        return sim
-
-    def after_step(self, kind):
-        return self._decay if kind == "reference" else None
-
-    def _decay(self, sim, dt):
-        keep = 1.0 - self.c * dt
-        for b in sim._dynamic:
-            b.v[:] = [keep * c for c in b.v]
-            b.w[:] = [keep * c for c in b.w]
+    def change(self, capabilities):
+        return ("velocity damping", self.c)
 
 
 class ForceReadout(Fault):
@@ -318,7 +187,26 @@ class ForceReadout(Fault):
     An impulse divided by a time step other than the one it was solved over, or summed
     over one point too many: the dynamics are right and the reported forces are not."""
     name = "force read-out"
-    read_out = 1.05
+    factor = 1.05
+
+    def simulation(self, sim):
+        return _ScaledForces(sim, self.factor)
+
+
+class _ScaledForces(Passthrough):
+    """The simulation with every contact force it reports x `factor`."""
+
+    def __init__(self, inner, factor: float):
+        super().__init__(inner)
+        self.factor = factor
+
+    def contact_forces(self):
+        k = self.factor
+        return {pair: k * f for pair, f in self.inner.contact_forces().items()}
+
+    def contact_points(self):
+        k = self.factor
+        return [replace(c, f_n=k * c.f_n, f_t=k * np.asarray(c.f_t)) for c in self.inner.contact_points()]
 
 
 class PairMaterials(Fault):
@@ -329,7 +217,7 @@ class PairMaterials(Fault):
     its own value): a block meant to slide on ice brakes like the rest of the scene."""
     name = "pair materials"
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         return replace(scene, pairs=())
 
 
@@ -342,7 +230,7 @@ class InertiaAxes(Fault):
     flat box then tumbles and lands like a tall one."""
     name = "inertia axes"
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         def body(b):
             if b.static or not isinstance(b.shape, Box):
                 return b
@@ -360,7 +248,7 @@ class AngularVelocityFrame(Fault):
     spins about its own tilted axis, and lands with the wrong spin at the contact."""
     name = "angular velocity frame"
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         def body(b):
             if b.static or not any(b.angular_velocity):
                 return b
@@ -375,36 +263,15 @@ class RestitutionThreshold(Fault):
 
     Bullet's default restitutionVelocityThreshold (0.2 m/s), which the adapter switches
     off; other engines ship the same with other numbers (Box2D's restitution threshold,
-    1 m/s). PyBullet: the parameter set back. The reference: its solver targets
-    v_n+ = 0 instead of -e v_n- on contacts approaching slower than the threshold. MuJoCo
-    has no restitution coefficient (its bounce is the contact's spring-damper): no
-    such threshold can be planted there."""
+    1 m/s). An engine-internal change: PyBullet: the parameter set back. The reference:
+    its solver targets v_n+ = 0 instead of -e v_n- on contacts approaching slower than the
+    threshold. MuJoCo has no restitution coefficient (its bounce is the contact's
+    spring-damper): its adapter makes no such change."""
     name = "restitution threshold"
     speed = 0.2  # m/s
-    kinds = ("reference", "pybullet")
 
-    def plant(self, sim, scene, kind):
-        if kind == "pybullet":
-            from adapters.pybullet_engine import p
-            p.setPhysicsEngineParameter(restitutionVelocityThreshold=self.speed, physicsClientId=sim._client)
-        elif kind == "reference":
-            sim._world.solver = _ThresholdSolver(sim._world.solver, self.speed)
-        return sim
-
-
-class _ThresholdSolver(_SolverWrapper):
-    """The reference's solver with each slow approaching contact's restitution target
-    (contact.normal_target: -e vn0) replaced by 0."""
-
-    def __init__(self, module, speed: float):
-        super().__init__(module)
-        self._speed = speed
-
-    def solve(self, contacts, bodies, dt, config):
-        for c in contacts:
-            if c.target is not None and -self._speed < c.vn0 < 0.0 and c.target > 0.0:
-                c.target = 0.0
-        return self._module.solve(contacts, bodies, dt, config)
+    def change(self, capabilities):
+        return ("restitution threshold", self.speed)
 
 
 class ContactTorques(Fault):
@@ -417,7 +284,7 @@ class ContactTorques(Fault):
     name = "contact torques"
     torsional, rolling = 5e-3, 1e-4  # m
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         def torques(m):
             if not m.frictional or m.rolling_resistance or m.torsional_friction:
                 return m
@@ -428,20 +295,19 @@ class ContactTorques(Fault):
 # --- wrong answers: an effect off or doubled, another law, another rule -------------------
 #
 # The plain wrong answers a family names in its `catches` (cases.family.Catch): each changes
-# what the engine is given (the scene), so it has a meaning in any engine ("any"), but for
-# the restitution law, written for the reference's solver. tests/test_catches.py plants
-# each on the variant its family names and shows a check fail.
+# what the engine is given (the scene), so it can be planted in any engine, but for the
+# restitution law, an engine-internal change (the reference's solver makes it).
+# tests/test_catches.py plants each on the variant its family names and shows a check fail.
 
 class _Materials(Fault):
-    """Every material (the default and each pair's) replaced by change(m): the base of the
+    """Every material (the default and each pair's) replaced by material(m): the base of the
     off and doubled faults below."""
-    kinds = ("any",)
 
-    def change(self, m):
+    def material(self, m):
         return m
 
-    def scene(self, scene, kind):
-        return _scale_materials(scene, self.change)
+    def scene(self, scene, capabilities):
+        return _scale_materials(scene, self.material)
 
 
 class RestitutionOff(_Materials):
@@ -451,7 +317,7 @@ class RestitutionOff(_Materials):
     DART's default restitution is 0): every impact is plastic."""
     name = "restitution off"
 
-    def change(self, m):
+    def material(self, m):
         return replace(m, e=0.0)
 
 
@@ -462,7 +328,7 @@ class RestitutionDoubled(_Materials):
     (e = 0.3 on both bodies of a sum): e = 0.5 becomes 1."""
     name = "restitution doubled"
 
-    def change(self, m):
+    def material(self, m):
         return replace(m, e=min(1.0, 2.0 * m.e))
 
 
@@ -473,7 +339,7 @@ class FrictionOff(_Materials):
     one switched off by a flag it forgot): every contact is frictionless."""
     name = "friction off"
 
-    def change(self, m):
+    def material(self, m):
         return replace(m, mu_s=0.0, mu_k=None)
 
 
@@ -484,7 +350,7 @@ class FrictionDoubled(_Materials):
     engine takes the friction angle's tangent of twice it): 0.3 becomes 0.6."""
     name = "friction doubled"
 
-    def change(self, m):
+    def material(self, m):
         return replace(m, mu_s=2.0 * m.mu_s, mu_k=None if m.mu_k is None else 2.0 * m.mu_k)
 
 
@@ -492,7 +358,7 @@ class RollingOff(_Materials):
     """Rolling resistance off: d_r = 0 in every material."""
     name = "rolling resistance off"
 
-    def change(self, m):
+    def material(self, m):
         return replace(m, rolling_resistance=0.0)
 
 
@@ -501,7 +367,7 @@ class RollingDoubled(_Materials):
     engine wants a diameter)."""
     name = "rolling resistance doubled"
 
-    def change(self, m):
+    def material(self, m):
         return replace(m, rolling_resistance=2.0 * m.rolling_resistance)
 
 
@@ -509,7 +375,7 @@ class TorsionOff(_Materials):
     """Torsional friction off: d_t = 0 in every material."""
     name = "torsional friction off"
 
-    def change(self, m):
+    def material(self, m):
         return replace(m, torsional_friction=0.0)
 
 
@@ -517,7 +383,7 @@ class TorsionDoubled(_Materials):
     """Torsional friction doubled: d_t x 2 in every material."""
     name = "torsional friction doubled"
 
-    def change(self, m):
+    def material(self, m):
         return replace(m, torsional_friction=2.0 * m.torsional_friction)
 
 
@@ -527,10 +393,9 @@ class RollingRadius(Fault):
     dimensionless mu_r = d_r / R with R = 0.1 m written in (and the engine multiplies back
     by the ball's own radius). Right for a 0.1 m ball, half the torque for a 0.05 m one."""
     name = "rolling radius"
-    kinds = ("any",)
     written_for = 0.1  # m
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         radii = [b.shape.radius for b in scene.bodies if b.dynamic and hasattr(b.shape, "radius")]
         if not radii:
             return scene
@@ -549,9 +414,8 @@ class CombineRule(Fault):
     cannot express the table the scene is given unchanged: that adapter would have
     reported it unsupported.)"""
     name = "combine rule"
-    kinds = ("any",)
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         from adapters.base import Unsupported
         from adapters.combination import per_body_values
         pairs = scene.contact_pairs()
@@ -578,35 +442,9 @@ class RestitutionLaw(Fault):
     The reference: its solver targets v_n+ = 0 on each bouncing contact, then pushes each
     one's normal velocity up to its restitution target -e vn0 with normal impulses alone."""
     name = "restitution law"
-    kinds = ("reference",)
 
-    def plant(self, sim, scene, kind):
-        sim._world.solver = _TwoPhaseSolver(sim._world.solver)
-        return sim
-
-
-class _TwoPhaseSolver(_SolverWrapper):
-    """The reference's solver with restitution moved after it, frictionless (RestitutionLaw)."""
-
-    def solve(self, contacts, bodies, dt, config):
-        bounce = [(c, c.target) for c in contacts if c.target is not None and c.target > 0.0]
-        for c, _ in bounce:
-            c.target = 0.0
-        stages = self._module.solve(contacts, bodies, dt, config)
-        for _ in range(config.iterations):  # restitution, normal rows only, Gauss-Seidel
-            largest = 0.0
-            for c, goal in bounce:
-                dv = goal - c.normal.velocity()
-                if dv > 0.0:
-                    P = c.normal.mass * dv
-                    c.normal.apply(P)
-                    c.Pn += P
-                    largest = max(largest, dv)
-            if largest <= config.tolerance:
-                break
-        for c, goal in bounce:
-            c.target = goal
-        return stages
+    def change(self, capabilities):
+        return ("two-phase restitution", None)
 
 
 class ContactOffset(Fault):
@@ -615,10 +453,9 @@ class ContactOffset(Fault):
     adapter leaves on. Bodies rest 2 mm above the surface, impacts happen 2 mm early, a
     rolling ball's contact point lies 2 mm further from its centre."""
     name = "contact offset"
-    kinds = ("any",)
     offset = 2e-3  # m
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         from cases.scene import Circle, Sphere
 
         def grown(s):
@@ -656,107 +493,12 @@ def by_name(name: str) -> Fault:
     raise KeyError(f"no fault {name!r}: choose from {', '.join(f.name for f in (NONE, *FAULTS, *WRONG_ANSWERS))}")
 
 
-# --- the wrapper ----------------------------------------------------------------------------
+# --- running planted engines -----------------------------------------------------------------
 
-class FaultyAdapter(Adapter):
-    """An engine's adapter with one planted fault. It carries the engine's name, its
-    capabilities and its known-deviation file, so the harness judges it as that engine."""
-
-    def __init__(self, inner: Adapter, fault: Fault = NONE):
-        self.kind = engine_kind(inner, fault)
-        self.inner, self.fault = inner, fault
-        self.name = inner.name
-        self.capabilities = inner.capabilities
-        self.package = inner.package
-        self.tunables = inner.tunables
-        self.default_tags = inner.default_tags
-        self.slow = inner.slow
-
-    def version(self) -> str:
-        return f"{self.inner.version()} (planted fault: {self.fault.name})"
-
-    def deviations_file(self):
-        return self.inner.deviations_file()
-
-    def on_demand(self, scene):
-        return self.inner.on_demand(scene)
-
-    def options_in_force(self, settings):
-        return self.inner.options_in_force(settings)
-
-    def build(self, scene: Scene, settings: Settings) -> Simulation:
-        fault = self.fault
-        given = fault.scene(scene, self.kind)
-        sim = self.inner.build(given, fault.settings(settings))
-        try:
-            sim = fault.plant(sim, given, self.kind)
-        except BaseException:
-            sim.close()
-            raise
-        return FaultySimulation(sim, fault, settings.dt, fault.after_step(self.kind))
-
-
-class FaultySimulation(Simulation):
-    """The engine's simulation, passed through but for what the fault plants: a step
-    after the engine's own (then stepped one step at a time) and the force read-out."""
-
-    def __init__(self, inner: Simulation, fault: Fault, dt: float, after_step=None):
-        self.inner, self.fault, self._dt, self._after = inner, fault, dt, after_step
-        self.effects = inner.effects
-        self.iterations = inner.iterations
-        self.run = inner.run if after_step is None else None
-
-    @property
-    def knobs(self) -> dict:
-        return {**self.inner.knobs, "planted_fault": self.fault.name}
-
-    def step(self) -> None:
-        self.inner.step()
-        if self._after is not None:
-            self._after(self.inner, self._dt)
-
-    def states(self):
-        return self.inner.states()
-
-    def body_order(self):
-        return self.inner.body_order()
-
-    def state_size(self):
-        return self.inner.state_size()
-
-    def write_state(self, out):
-        self.inner.write_state(out)
-
-    def decode_states(self, raw):
-        return self.inner.decode_states(raw)
-
-    def contact_forces(self):
-        k = self.fault.read_out
-        return {pair: k * f for pair, f in self.inner.contact_forces().items()}
-
-    def contact_points(self):
-        k = self.fault.read_out
-        return [replace(c, f_n=k * c.f_n, f_t=k * np.asarray(c.f_t)) for c in self.inner.contact_points()]
-
-    def close(self) -> None:
-        self.inner.close()
-
-
-
-# --- running faulty engines -----------------------------------------------------------------
-
-def plant_in(adapter: Adapter, name: str) -> FaultyAdapter:
-    """`adapter` with the fault `name` planted (physval.core.context.Context.planted: how
-    worker processes build the faulty engine); EngineError where it cannot be planted."""
-    from adapters.registry import EngineError
-    fault = by_name(name)
-    try:
-        kind = engine_kind(adapter, fault)
-    except NotPlantable as exc:
-        raise EngineError(f"fault {name!r} cannot be planted in {adapter.name}: {exc}") from None
-    if kind not in fault.kinds and "any" not in fault.kinds:
-        raise EngineError(f"fault {name!r} has no meaning in {adapter.name}")
-    return FaultyAdapter(adapter, fault)
+def plantable_in(engine: str, fault: Fault) -> str | None:
+    """Why `fault` cannot be planted in the engine named `engine`, or None."""
+    from adapters.registry import get
+    return why_not(get(engine), fault)
 
 
 def jobs_of(families: dict[str, list], engine: str) -> list:
@@ -767,13 +509,15 @@ def jobs_of(families: dict[str, list], engine: str) -> list:
 
 
 def verdicts(fault: Fault, jobs: list, execution=None, ctx=None) -> list[dict]:
-    """The verdict rows of `jobs` run on their engines with `fault` planted, judged by the
-    harness as the engine itself (its name, its bands): in worker processes through the
-    core's loop given an `execution` (physval.core.session.Execution), else in this process
-    (the tests' fast set, where a worker's start would cost more than the jobs)."""
+    """The verdict rows of `jobs` run on their engines with `fault` planted (the run's
+    Context carries it to every process, whose Resolver wraps each engine in
+    adapters.planting.Planted), judged by the harness as the engine itself (its name, its
+    bands): in worker processes through the core's loop given an `execution`
+    (physval.core.session.Execution), else in this process (the tests' fast set, where a
+    worker's start would cost more than the jobs)."""
     from physval.core import Context, execute, run_jobs
     from physval.core.context import Resolver
-    ctx = replace(ctx or Context(), planted=fault.name)
+    ctx = replace(ctx or Context(), planted=fault)
     if execution is None:
         resolver = Resolver(ctx)
         return [row for job in jobs for row in execute(job, resolver).rows]

@@ -3,13 +3,13 @@ of physval/faults.py and the variant that shows it), and each is planted there a
 a check fails with the fault, and none without it. So a family cannot claim what it
 cannot see: its docstring's claims are faults its checks are shown to fail.
 
-The faults are planted at the adapter layer (physval.faults.FaultyAdapter) on the
+The faults are planted at the adapter layer (adapters.planting.Planted) on the
 reference engine (or the reference formulation a variant needs), in this process: one
 variant per fault, each in well under a second of simulation but a few. A family whose
 shapes the reference cannot run yet (capsules and cylinders: its narrow phase is issue 36
 item 2) names an engine that represents them and passes the variant as it is; there only
-the faults that change what any engine is given (kinds "any"), or those written for that
-engine, can be planted, and the catch is skipped where that engine is not installed.
+the faults that engine can take (adapters.planting.why_not) can be planted, and the catch is
+skipped where that engine is not installed.
 """
 from __future__ import annotations
 
@@ -77,15 +77,13 @@ def test_each_wrong_answer_a_family_names_fails_a_check_there(name, catch):
 
 
 def test_every_catch_names_a_planted_fault_that_can_be_planted_there():
-    """Planted in the engine the catch names (EngineError says why it cannot be), where that
-    engine is installed; a fault of kinds "any" can be planted in every engine."""
+    """Plantable in the engine the catch names (planting.why_not says why it cannot be), where
+    that engine is installed."""
     from adapters import registry
     for name, catch in CATCHES:
         fault = faults.by_name(catch.fault)  # KeyError names the catalogue
         if registry.available(catch.engine):
-            faults.plant_in(registry.get(catch.engine), catch.fault)
-        else:
-            assert "any" in fault.kinds, (name, catch)
+            assert faults.plantable_in(catch.engine, fault) is None, (name, catch, faults.plantable_in(catch.engine, fault))
 
 
 def test_every_family_names_what_it_catches():

@@ -14,10 +14,11 @@ import json
 import math
 import traceback
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable
 
 from adapters.base import Settings, SettingsError, Unsupported
-from cases.family import CaseFamily, Check, Variant
+from cases.family import CaseFamily, Check, Variant, users_frame
 from cases.trajectory import TrajectoryError
 from physval.core import deviations
 from physval.core.context import Resolver
@@ -146,9 +147,19 @@ def at_recorded_settings(job: Job, family: CaseFamily) -> bool:
 # --- rows ----------------------------------------------------------------------------------
 
 def describe(exc: BaseException) -> str:
-    """'Type: first line of the message (at file:line)'."""
+    """'Type: first line of the message (at file:line)': the innermost frame of the user's
+    own code (a family of --cases-dir, an --adapter file; cases.family.users_frame) where
+    one is on the traceback, with the innermost frame beside it where that is another
+    (a helper the user's code called); else the innermost frame's file name."""
     where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
-    loc = f" (at {where.filename.rsplit('/', 1)[-1]}:{where.lineno})" if where else ""
+    inner = f"{where.filename.rsplit('/', 1)[-1]}:{where.lineno}" if where else ""
+    user = users_frame(exc)
+    if user is None:
+        loc = f" (at {inner})" if where else ""
+    elif (Path(user[0]).name, user[1]) == (Path(where.filename).name, where.lineno):
+        loc = f" (at {user[0]}:{user[1]})"
+    else:
+        loc = f" (at {user[0]}:{user[1]}, in {inner})"
     text = str(exc).splitlines()[0] if str(exc) else ""
     return f"{type(exc).__name__}: {text}{loc}"
 

@@ -302,7 +302,9 @@ FAULTS_NOTE = ("Each fault of physval/faults.py, one thing changed in what the e
                "bands. A cell counts the checks that `fail`; `families flagging` counts the families with at least "
                "one; `not measured` names the families where checks came out `error` or `unstable` instead (an "
                "observer that could not measure: a fault should give a sized fail). Engines: reference, mujoco and "
-               "pybullet unless --engines names others the faults are written for.")
+               "pybullet unless --engines names others; a fault that needs an engine-internal change (a square "
+               "friction cone, a damping, a restitution threshold) runs only on engines whose adapter makes it "
+               "(adapters/planting.py).")
 
 
 def faults_note() -> str:
@@ -312,25 +314,25 @@ def faults_note() -> str:
 
 def fault_matrix(engines: list[str], ctx: Context, execution: Execution,
                  families: dict[str, list] | None = None) -> pd.DataFrame:
-    """Fault x family detection counts for every engine of `engines` that faults are
-    written for, over `families` (name -> variants; default: the default variants of every
-    family but the robustness ones). Each fault's jobs run in worker processes that build
-    the engine with the fault planted (physval.faults.verdicts), under the engine's own
-    name, so its bands judge it."""
+    """Fault x family detection counts for every installed engine of `engines`, over
+    `families` (name -> variants; default: the default variants of every family but the
+    robustness ones). Each fault's jobs run in worker processes that build the engine with
+    the fault planted (physval.faults.verdicts: adapters.planting's hook), under the
+    engine's own name, so its bands judge it."""
     from physval import faults
     resolver = ctx.resolver()
     if families is None:
         families = {n: f.variants for n, f in resolver.families.items() if "robustness" not in f.tags}
-    kinds = {}
+    adapters = {}
     for engine in engines:
         try:
-            kinds[engine] = faults.engine_kind(resolver.adapter(engine))
+            adapters[engine] = resolver.adapter(engine)
         except Exception:
-            continue  # not installed, or no faults written for it
+            continue  # not installed
     out = []
     for fault in (faults.NONE, *faults.FAULTS):
-        # the engines the fault has a meaning in (a restitution threshold has none in MuJoCo, which has no e)
-        mine = [e for e, kind in kinds.items() if kind in fault.kinds]
+        # the engines it can be planted in (MuJoCo's adapter makes no restitution threshold: it has no e)
+        mine = [e for e, adapter in adapters.items() if faults.why_not(adapter, fault) is None]
         rows = faults.verdicts(fault, [j for e in mine for j in faults.jobs_of(families, e)], execution, ctx)
         for engine in mine:
             row = {"engine": engine, "fault": fault.name}
@@ -346,7 +348,7 @@ def fault_matrix(engines: list[str], ctx: Context, execution: Execution,
             row["checks"] = sum(r["engine"] == engine for r in rows)
             row["not measured (error/unstable)"] = ", ".join(f"{k}: {v}" for k, v in broken.items())
             out.append(row)
-    order = {e: i for i, e in enumerate(kinds)}
+    order = {e: i for i, e in enumerate(adapters)}
     return pd.DataFrame(out).sort_values("engine", key=lambda c: c.map(order), kind="stable")
 
 
