@@ -223,38 +223,18 @@ class FrictionCone(Fault):
             from adapters.pybullet_engine import p
             p.setPhysicsEngineParameter(enableConeFriction=0, physicsClientId=sim._client)
             return sim
-        sim._world.solver = _PyramidSolver(sim._world.solver)
-        return sim
+        return _reference_with(sim, friction_set="pyramid", tangents="fixed")
 
 
-class _SolverWrapper:
-    """The reference's solver module as it is, but for the `solve` a subclass plants."""
-
-    def __init__(self, module):
-        self._module = module
-
-    def __getattr__(self, name):
-        return getattr(self._module, name)
-
-
-class _PyramidSolver(_SolverWrapper):
-    """The reference's sequential impulses (reference_impl/sequential_impulses.py) with a
-    per-row friction clamp in the fixed tangent basis: the rest of the module as it is."""
-
-    def solve(self, contacts, bodies, dt, config):
-        from reference_impl import contact as rc
-        for c in contacts:
-            if len(c.tangents) != 2:
-                continue
-            P = sum(np.asarray(row.d) * Pt for row, Pt in zip(c.tangents, c.Pt))  # warm start, world frame
-            ra = tuple(c.point[i] - c.a.x[i] for i in range(3))
-            rb = tuple(c.point[i] - c.b.x[i] for i in range(3))
-            t1 = rc.tangent_basis(c.n)
-            c.tangents = (rc.Row(c.a, c.b, ra, rb, t1), rc.Row(c.a, c.b, ra, rb, rc.cross(c.n, t1)))
-            c.Pt = [float(P @ np.asarray(row.d)) for row in c.tangents]
-        from dataclasses import replace  # sequential_impulses' own switch to the per-row clamp
-        return self._module.solve(contacts, bodies, dt,
-                                  replace(config, params={**config.params, "friction_set": "pyramid"}))
+def _reference_with(sim, **params):
+    """The reference simulation `sim` with `params` added to its world's config.params:
+    its formulation's friction set, or a fault hook of its world (reference_impl/world.py,
+    Phases: "tangents", "restitution_threshold"). The world builds its compiled state again
+    at its next step."""
+    world = sim._world
+    world.config = replace(world.config, params={**world.config.params, **params})
+    world._state = None
+    return sim
 
 
 def _mujoco_rebuilt(sim, scene, edit):
@@ -374,23 +354,8 @@ class RestitutionThreshold(Fault):
             from adapters.pybullet_engine import p
             p.setPhysicsEngineParameter(restitutionVelocityThreshold=self.speed, physicsClientId=sim._client)
         elif kind == "reference":
-            sim._world.solver = _ThresholdSolver(sim._world.solver, self.speed)
+            return _reference_with(sim, restitution_threshold=self.speed)
         return sim
-
-
-class _ThresholdSolver(_SolverWrapper):
-    """The reference's solver with each slow approaching contact's restitution target
-    (contact.normal_target: -e vn0) replaced by 0."""
-
-    def __init__(self, module, speed: float):
-        super().__init__(module)
-        self._speed = speed
-
-    def solve(self, contacts, bodies, dt, config):
-        for c in contacts:
-            if c.target is not None and -self._speed < c.vn0 < 0.0 and c.target > 0.0:
-                c.target = 0.0
-        return self._module.solve(contacts, bodies, dt, config)
 
 
 class ContactTorques(Fault):
