@@ -34,7 +34,18 @@ constructor argument recorded in `knobs`; the plain "pybullet" keeps the choices
   point), so the plane stays the default;
 - `solver="dantzig"` / `"pgs"` ("pybullet-dantzig", "pybullet-pgs"): PyBullet's other
   constraint solvers (`SOLVERS`), the MLCP solver that bounds friction by a square and
-  ignores a Hooke contact's spring (adapters/xfails/pybullet-dantzig.txt, -pgs.txt).
+  ignores a Hooke contact's spring (adapters/xfails/pybullet-dantzig.txt, -pgs.txt), and
+  drops the rolling and spinning rows of 3D contacts, so those scenes are unsupported
+  (`MLCP_DROPS_TORQUES`).
+
+Shapes (`_collision_shape`): capsules and cylinders are Bullet's own, along the body's z;
+a hull is a btConvexHullShape of its corners, a 2D polygon the same of its prism along y, a
+static mesh a btBvhTriangleMeshShape of its triangles; each with the scene's mass and
+principal inertia (changeDynamics), never Bullet's from the shape. Bullet's collision margin
+would inflate hulls and triangles by 1 mm and round cylinder rims: those shapes get none
+(COLLISION_MARGIN). Bullet's own behaviour stays: a hull meets a box or another hull through
+GJK/EPA, one new manifold point a step (the persistent manifold keeps up to four), as a box
+meets a plane here; triangle seams give their own contacts (no internal-edge table).
 
 Compliant contact, Hooke's law F = k xi (cases.scene.Compliance "hooke"): changeDynamics
 contactStiffness and contactDamping set btCollisionObject::setContactStiffnessAndDamping;
@@ -72,6 +83,7 @@ import numpy as np
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
 from adapters.frames import require_turn_about_y, state_row, wxyz_to_xyzw, xyzw_to_wxyz, z_to
+from adapters.solids import polygon_prism
 from cases.scene import Body, Scene, pair_key
 from cases.trajectory import ContactPoint
 
@@ -122,7 +134,20 @@ LOCK_CREATION_MASS = 1e30  # see _add_body: a non-rotating maximal body is creat
 Z_TO_Y = [-math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5)]
 AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 GEOM_NAMES = {p.GEOM_SPHERE: "GEOM_SPHERE", p.GEOM_BOX: "GEOM_BOX", p.GEOM_PLANE: "GEOM_PLANE",
-              p.GEOM_CYLINDER: "GEOM_CYLINDER"}
+              p.GEOM_CYLINDER: "GEOM_CYLINDER", p.GEOM_CAPSULE: "GEOM_CAPSULE", p.GEOM_MESH: "GEOM_MESH"}
+# Bullet's collision margin. pybullet gives every shape it makes m_defaultCollisionMargin,
+# 1 mm (PhysicsServerCommandProcessor). Where it lies differs by shape: a hull's and a
+# triangle mesh's margin lies OUTSIDE their points (btConvexHullShape's and btTriangleShape's
+# support mapping add it), so with it a hull box rests 1 mm high on the plane and 2 mm high on
+# a triangle-mesh ground (measured); a box's and a cylinder's lies inside their extents and
+# rounds their edges and rims by 1 mm where GJK meets them (not in Bullet's box-box, sphere-box
+# and convex-plane routines); a sphere's and a capsule's margin is their radius (setMargin
+# leaves it). The shapes the scene vocabulary added last get COLLISION_MARGIN (`_no_margin`),
+# so a cylinder, a hull, a polygon and a mesh are the scene's; spheres, boxes, planes, circles
+# and rects keep pybullet's default, as they always ran here (a box's edges are therefore
+# rounded by 1 mm against a hull, a cylinder or a capsule).
+COLLISION_MARGIN = 0.0
+PYBULLET_DEFAULT_MARGIN = 0.001
 
 
 # Constraint solvers (setPhysicsEngineParameter constraintSolverType). "si" is pybullet's
@@ -137,6 +162,16 @@ GEOM_NAMES = {p.GEOM_SPHERE: "GEOM_SPHERE", p.GEOM_BOX: "GEOM_BOX", p.GEOM_PLANE
 # families (measured), while "dantzig" runs them.
 SOLVERS = {"si": p.CONSTRAINT_SOLVER_LCP_SI, "dantzig": p.CONSTRAINT_SOLVER_LCP_DANTZIG,
            "pgs": p.CONSTRAINT_SOLVER_LCP_PGS}
+# What the MLCP solvers do with the contact torques' rows, measured (pybullet 3.2.7, dt = 1e-3,
+# 50 steps, a 0.1 m, 1 kg ball on the plane, mu 0.5): btMultiBodyMLCPConstraintSolver takes the
+# contact and friction rows into its LCP and drops the rolling and spinning ones. In 3D a ball
+# rolling at 1 m/s with rolling resistance 0.005 m, or spinning at 10 rad/s with torsional
+# friction 0.005 m, keeps its speed to the last digit under both (the default solver slows them
+# to 0.9823 m/s and 9.387 rad/s, the closed forms' 0.9825 and 9.387). On the 2D planar joint
+# chain Dantzig's solver does apply the rolling rows (0.9838 m/s; 2D disc: 0.9836); there is no
+# spin about a normal in the x-z plane.
+MLCP_DROPS_TORQUES = ("pybullet's MLCP solvers (Dantzig, PGS) drop the rolling and spinning rows of a 3D "
+                      "contact: a ball rolls and spins on as if the pair had none (measured)")
 BODY_MODELS = ("auto", "rigid")
 GROUNDS = ("plane", "box")
 
@@ -148,7 +183,9 @@ class PyBulletAdapter(Adapter):
     supported = ">=3.2.7,<4"
     capabilities = Capabilities(
         dimensions=frozenset({2, 3}),
-        shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
+        # every kind (_collision_shape); meshes static, as the scene has them
+        shapes=frozenset({"sphere", "box", "plane", "circle", "rect", "capsule", "cylinder", "hull", "polygon",
+                          "mesh"}),
         native_restitution=True,
         static_kinetic=False,   # one lateralFriction per body
         contact_forces=True,
@@ -180,18 +217,31 @@ class PyBulletAdapter(Adapter):
                        "solver": solver}
         if bodies == "rigid":  # 2D bodies stay in their plane on joints, which need reduced coordinates
             self.capabilities = replace(self.capabilities, dimensions=frozenset({3}))
+        if solver != "si":  # the MLCP solvers: rolling rows only on Dantzig's 2D path (MLCP_DROPS_TORQUES)
+            self.capabilities = replace(
+                self.capabilities, contact_torques=frozenset({"rolling_resistance"} if solver == "dantzig" else ()),
+                why_not=tuple((effect, MLCP_DROPS_TORQUES) for effect in TORQUE_KNOBS))
 
     def version(self) -> str:
         return metadata.version("pybullet")
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
-        reason = self.capabilities.cannot_run(scene) or self._spin_without_roll(scene)
+        reason = self.capabilities.cannot_run(scene) or self._spin_without_roll(scene) or self._mlcp_torques(scene)
         if reason:
             raise Unsupported(reason)
         if self.config["solver"] == "pgs" and scene.dimension == 2:
             raise Unsupported("2D scene: pybullet's MLCP projected Gauss-Seidel leaves NaN in the state in the "
                               "first step a contact acts on the planar joint chain of a 2D body (SOLVERS)")
         return PyBulletSimulation(scene, settings, **self.config)
+
+    def _mlcp_torques(self, scene: Scene) -> str | None:
+        """Dantzig's MLCP applies rolling rows in 2D only (MLCP_DROPS_TORQUES)."""
+        if self.config["solver"] == "si" or scene.dimension == 2:
+            return None
+        for effect in TORQUE_KNOBS:
+            if effect in scene.effects:
+                return f"{effect.replace('_', ' ')} in a 3D scene: {MLCP_DROPS_TORQUES}"
+        return None
 
     def _spin_without_roll(self, scene: Scene) -> str | None:
         """Maximal coordinates (btSequentialImpulseConstraintSolver::convertContact) add a
@@ -326,7 +376,12 @@ def _torque_values(scene: Scene, friction: dict[str, float], effect: str) -> dic
 
 
 def _collision_shape(body: Body, client: int, ground: str = "plane") -> tuple[int, dict]:
-    """The engine shape of a body and the record of how it was made."""
+    """The engine shape of a body and the record of how it was made. Capsules and
+    cylinders are pybullet's btCapsuleShapeZ and btCylinderShapeZ, whose axis is the body's
+    z, as the scene's; `height` is the length of the cylindrical part (2 half_length). A
+    hull, a 2D polygon and a static mesh are GEOM_MESH shapes: from vertices alone a
+    btConvexHullShape of the corners, with indices a btBvhTriangleMeshShape (double-sided:
+    a triangle is met from either side), each inside a btCompoundShape (`_mesh_shape`)."""
     s = body.shape
     if s.kind == "plane" and ground == "box":
         half, _, _ = _ground_box(s)
@@ -340,11 +395,58 @@ def _collision_shape(body: Body, client: int, ground: str = "plane") -> tuple[in
     elif s.kind == "circle":  # a cylinder along y; its depth only spreads the contact points
         kw = dict(shapeType=p.GEOM_CYLINDER, radius=s.radius, height=2 * s.radius,
                   collisionFrameOrientation=Z_TO_Y)
-    else:  # rect: a box as deep along y as its larger half-extent
+    elif s.kind == "rect":  # a box as deep along y as its larger half-extent
         a, c = s.half_extents
         kw = dict(shapeType=p.GEOM_BOX, halfExtents=[a, max(a, c), c])
-    record = {**kw, "shapeType": GEOM_NAMES[kw["shapeType"]]}
+    elif s.kind == "capsule":  # its margin is its radius: nothing to clear
+        kw = dict(shapeType=p.GEOM_CAPSULE, radius=s.radius, height=2.0 * s.half_length)
+    elif s.kind == "cylinder":
+        kw = dict(shapeType=p.GEOM_CYLINDER, radius=s.radius, height=2.0 * s.half_length)
+        return _no_margin(client, p.createCollisionShape(physicsClientId=client, **kw),
+                          {**kw, "shapeType": "GEOM_CYLINDER"})
+    elif s.kind == "hull":
+        return _mesh_shape(client, s.vertices, what=f"{len(s.vertices)} corners of the scene's hull, body frame")
+    elif s.kind == "polygon":  # a prism as deep along y as its larger half-extent, as a rect
+        half_depth = float(np.ptp(s.corners, axis=0).max()) / 2.0
+        what = f"{len(s.corners)} corners of the scene's polygon at y = -+{half_depth:g} m, body frame"
+        return _mesh_shape(client, polygon_prism(s.corners, half_depth)[0], what=what)
+    else:  # mesh
+        return _mesh_shape(client, s.vertices, s.triangles,
+                           what=f"{len(s.vertices)} vertices of the scene's mesh, body frame")
+    margin = s.radius if s.kind in ("sphere", "capsule") else PYBULLET_DEFAULT_MARGIN
+    record = {**kw, "shapeType": GEOM_NAMES[kw["shapeType"]], "collisionMargin (pybullet's own)": margin}
     return p.createCollisionShape(physicsClientId=client, **kw), record
+
+
+def _mesh_shape(client: int, vertices, triangles=None, what: str = "") -> tuple[int, dict]:
+    """A GEOM_MESH shape of `vertices` (a convex hull) or of `triangles` over them (a static
+    triangle mesh), at meshScale 1, without collision margin (`_no_margin`).
+    GEOM_CONCAVE_INTERNAL_EDGE is not set: pybullet would build the edge table but adjusts
+    contacts by it only on bodies with CF_CUSTOM_MATERIAL_CALLBACK, which it never sets, so
+    seams between triangles give their own contacts, as in Bullet."""
+    kw = dict(shapeType=p.GEOM_MESH, vertices=[[float(c) for c in v] for v in vertices], meshScale=[1.0, 1.0, 1.0])
+    record = {"shapeType": "GEOM_MESH", "vertices": what, "meshScale": [1.0, 1.0, 1.0]}
+    if triangles is None:
+        record["engine shape"] = "btConvexHullShape of the vertices, in a btCompoundShape"
+    else:
+        kw["indices"] = [int(i) for t in triangles for i in t]
+        record.update(indices=f"{len(triangles)} triangles of the scene's mesh", flags=0,
+                      **{"engine shape": "btBvhTriangleMeshShape, in a btCompoundShape"})
+    return _no_margin(client, p.createCollisionShape(physicsClientId=client, **kw), record)
+
+
+def _no_margin(client: int, shape: int, record: dict) -> tuple[int, dict]:
+    """`shape` with collision margin COLLISION_MARGIN on itself and, for the btCompoundShape
+    pybullet wraps a GEOM_MESH in, on its children. changeDynamics' collisionMargin is the
+    one way to set it, and it reaches a compound's children only on a multibody's base; on a
+    link (a 2D body) it cannot be used at all: b3ChangeDynamicsInfoSetCollisionMargin resets
+    the call's linkIndex to -1, so every value of that call goes to the base (measured: a 2D
+    disc then bounces with e = 0). So the margin is cleared once on a throwaway base holding
+    the shape: the shape keeps it whatever body then holds it."""
+    holder = p.createMultiBody(0.0, shape, physicsClientId=client)
+    p.changeDynamics(holder, -1, collisionMargin=COLLISION_MARGIN, physicsClientId=client)
+    p.removeBody(holder, physicsClientId=client)
+    return shape, {**record, "collisionMargin (the shape's and a compound's children's)": COLLISION_MARGIN}
 
 
 def _planar_joints(body: Body) -> list[str]:

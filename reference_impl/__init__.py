@@ -64,11 +64,13 @@ Formulation interface -- one module per formulation:
   `contacts.warm` says which); whether to apply them is the formulation's choice.
 - It may set pseudo-velocities `bodies.vp`, `bodies.wp` (position correction that moves
   positions this step but is not kept as velocity).
+- `knobs(config) -> dict`, in Python: what the formulation does with the contacts (its
+  solver, friction set, restitution, depenetration, settings in force), for the record of
+  the run; only the formulation that runs describes itself.
 - Optional, in Python: `unsupported(world) -> str | None`, the reason the formulation
   cannot represent this world faithfully (adapters raise `Unsupported` with it);
-  `knobs(config) -> dict`, what it does, for the adapter's record; `CONTACT_TORQUES`
-  (it has torque rows) and `KEEP_LATE_CONTACTS` (it keeps the contacts that touch late in
-  the step: a force law must see them).
+  `CONTACT_TORQUES` (it has torque rows) and `KEEP_LATE_CONTACTS` (it keeps the contacts
+  that touch late in the step: a force law must see them).
 
 Contacts (`contact.Contacts`, a struct of arrays, row j the contact j) give every
 formulation the same pieces: for each contact its bodies `a`, `b` (indices into the

@@ -10,11 +10,13 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from pathlib import Path
 
 from physval.commands import options
 from physval.core import COLUMNS, run_jobs
 from physval.core.plan import plan
 from physval.core.store import KNOBS_FILE, RowStore, cache_keys
+from physval.interrupts import Terminated, held_off
 
 READINGS = ("effective", "laws")
 
@@ -25,8 +27,8 @@ EPILOG = """examples:
   physval run --cases-dir my_cases --cases second_bounce
   physval run --engines mujoco --junitxml physval.xml --fail-on fail,error,unstable,changed   an engine's CI gate
 exit codes: 0 the run completed (failing physics is a result); 1 a check fell under --fail-on;
-2 bad input; 74 the disk is full and 130 interrupted (finished jobs are kept in both; the
-same command resumes)."""
+2 bad input; 74 the disk is full or read-only and 130 interrupted (finished jobs are kept
+in both; the same command resumes)."""
 
 HELP_CASES = ("case families or variants: NAME, a glob, or NAME[VARIANT] (an exact variant id or a glob), "
               "space- or comma-separated, e.g. 'central_impact[drop,e=0.5]' (default: every family)")
@@ -78,6 +80,34 @@ def readings_of(text: str, cases_named: bool) -> list[str]:
 
 
 def run(args) -> int:
+    """The run; an interrupt (Ctrl-C or SIGTERM) once jobs have run, in them, in the
+    engine-wide readings or in the report, keeps the finished rows and leaves the report
+    marked incomplete (`incomplete`)."""
+    after = {}  # what an interrupted run keeps: its store, its finished jobs, its folder
+    try:
+        return _run(args, after)
+    except KeyboardInterrupt as exc:
+        if not after:
+            raise
+        return incomplete(after, "SIGTERM" if isinstance(exc, Terminated) else "SIGINT")
+
+
+def incomplete(after: dict, signal_name: str) -> int:
+    """The finished rows and the report marked incomplete, written with further interrupts
+    held off (a second Ctrl-C waits the second it takes); one line; exit code 130."""
+    from physval.readings import results
+    out, planned = after["out"], after["planned"]
+    with held_off():
+        rows = after["store"].finalize(after["keys"])
+        results.write_run_report(rows, out, after["families"], command=options.command_line(), complete=False,
+                                 planned=planned)
+    print(f"physval: interrupted ({signal_name}): {len(after['keys'])} of {planned} runs kept in "
+          f"{out / 'results.csv'}, the report marked incomplete; run the same command again to finish",
+          file=sys.stderr)
+    return 130
+
+
+def _run(args, after: dict) -> int:
     started = args.started
     if not args.scheduler:
         from physval.core.executor import start_fork_server
@@ -93,7 +123,8 @@ def run(args) -> int:
     readings = readings_of(args.readings, args.cases is not None)
     fail_on = fail_on_of(args.fail_on)
     junit = options.output_file(args.junitxml, "--junitxml") if args.junitxml is not None else None
-    out = options.output_folder(args.out)
+    out = options.held(args, options.output_folder(args.out))
+    junit_beside(junit, out)
     traj_dir = None if args.save_trajectories is None else options.output_folder(args.save_trajectories,
                                                                                   "--save-trajectories")
     options.check_scheduler(args.scheduler)
@@ -103,7 +134,7 @@ def run(args) -> int:
         jobs = [with_saving(j, traj_dir) for j in jobs]
     keys = cache_keys(ctx, engines)
     store = RowStore(out / "results.csv", COLUMNS, knobs_file=out / KNOBS_FILE)
-    reused = store.load(lambda row: keys.get(row["engine"], ""))
+    reused = store.load(keys.of_row)
     say = options.teller(args)
     todo = sum(j.key not in store.rows for j in jobs)
     say(f"{len(jobs)} runs ({len(chosen)} families x {len(engines)} engines), {todo} to run"
@@ -113,17 +144,14 @@ def run(args) -> int:
     import_report_meanwhile(args.start_method or default_start_method())
     t_jobs = time.monotonic()
     res = run_jobs(jobs, ctx, args.workers, args.scheduler, args.job_timeout, args.start_method, store=store,
-                   cache_key=lambda e: keys[e], progress=not args.quiet, label="run")
+                   cache_key=keys.of_job, progress=not args.quiet, label="run")
     t_jobs = time.monotonic() - t_jobs
     finished = [j for j in jobs if j.key in res.rows]
-    rows = store.finalize([j.key for j in finished])
-    from physval.readings import results
+    after.update(store=store, keys=[j.key for j in finished], out=out, families=families, planned=len(jobs))
     if not res.complete:
-        results.write_run_report(rows, out, families, command=options.command_line(), complete=False,
-                                planned=len(jobs))
-        print(f"physval: interrupted ({res.interrupted}): {len(finished)} of {len(jobs)} runs kept in "
-              f"{out / 'results.csv'}; run the same command again to finish", file=sys.stderr)
-        return 130
+        return incomplete(after, res.interrupted)
+    rows = store.finalize(after["keys"])
+    from physval.readings import results
     engine_wide = {}
     from physval.core.session import Execution
     from physval.readings import effective, laws
@@ -135,12 +163,14 @@ def run(args) -> int:
         module = {"effective": effective, "laws": laws}[name]
         part = module.measure(wide, ctx, families, execution=Execution.of(args))
         if part is None:  # interrupted
-            return 130
+            raise KeyboardInterrupt
         engine_wide[name] = part
     from physval.readings import scorecard
     engine_wide["beside"] = scorecard.companions(out)  # what sweep, stress and real left in their folders under out
+    for why in engine_wide["beside"].left_out:
+        print(f"physval: left out {why}", file=sys.stderr)
     from physval.core.deviations import stale_entries
-    from physval.reportkit import frame, status_counts
+    from physval.readings.checks import frame, status_counts
     df = frame(rows, COLUMNS)
     results.write_run_report(rows, out, families, command=options.command_line(), engine_wide=engine_wide,
                             stale=stale_entries(df, resolver))
@@ -159,9 +189,19 @@ def run(args) -> int:
     return 0
 
 
+def junit_beside(junit: Path | None, out: Path) -> None:
+    """--junitxml inside --out must be a *.xml file: the run writes none, so it cannot be
+    one of the run's own files (results.csv, the report), which it would overwrite after."""
+    if junit is not None and junit.resolve().is_relative_to(out.resolve()) and junit.suffix != ".xml":
+        raise options.UsageError(f"--junitxml {junit}: inside --out {out}, name a .xml file (e.g. {out / 'physval.xml'}): "
+                                 "the run's own files are there")
+
+
 def fail_on_of(text: str) -> set[str]:
     from physval.readings.junit import GATES
     names = {x.strip() for x in text.split(",") if x.strip()}
+    if text.strip() and not names:
+        raise options.UsageError(f"--fail-on {text!r}: names no category; choose from {', '.join(GATES)}")
     bad = sorted(names - set(GATES))
     if bad:
         raise options.UsageError(f"--fail-on {text!r}: {bad[0]!r} is not one of {', '.join(GATES)}")
@@ -176,7 +216,7 @@ def import_report_meanwhile(start_method: str) -> None:
         import threading
 
         def load():
-            from physval import reportkit  # noqa: F401 (pandas)
+            from physval import report  # noqa: F401 (pandas)
             from physval.readings import results  # noqa: F401 (matplotlib's users)
-            reportkit.pyplot()
+            report.pyplot()
         threading.Thread(target=load, name="import the report's modules", daemon=True).start()

@@ -4,20 +4,15 @@ Ctrl-C or SIGTERM with everything finished kept.
 """
 from __future__ import annotations
 
-import signal
 import sys
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 from physval.core.context import Context
 from physval.core.executor import DEFAULT_JOB_TIMEOUT, make_executor
 from physval.core.jobs import Call, CallResult, Job
 from physval.core.store import RowStore, cache_keys
-
-
-class Interrupted(KeyboardInterrupt):
-    """SIGTERM, handled like Ctrl-C."""
+from physval.interrupts import Terminated, sigterm_as_ctrl_c
 
 
 @dataclass
@@ -33,23 +28,6 @@ class Results:
 
     def ordered(self, jobs: list[Job]) -> list[dict]:
         return [r for j in jobs for r in self.rows.get(j.key, [])]
-
-
-@contextmanager
-def sigterm_as_interrupt():
-    """Within: SIGTERM raises Interrupted (so cleanup runs), as SIGINT raises KeyboardInterrupt."""
-    def handler(signum, frame):
-        raise Interrupted()
-
-    try:
-        old = signal.signal(signal.SIGTERM, handler)
-    except ValueError:  # not the main thread
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, old)
 
 
 class Progress:
@@ -91,7 +69,7 @@ def run_jobs(jobs: list[Job], ctx: Context = Context(), workers: int = 1, schedu
              job_timeout: float | None = DEFAULT_JOB_TIMEOUT, start_method: str | None = None,
              store: RowStore | None = None, cache_key=None, progress: bool = True, label: str = "run",
              on_outcome=None) -> Results:
-    """Run the jobs the store does not hold yet. `cache_key(engine) -> str` stamps stored
+    """Run the jobs the store does not hold yet. `cache_key(job) -> str` stamps stored
     rows (required with a store). `on_outcome(outcome)` sees each job as it finishes.
     Never raises on an interrupt: Results.interrupted says it stopped early."""
     res = Results()
@@ -106,7 +84,7 @@ def run_jobs(jobs: list[Job], ctx: Context = Context(), workers: int = 1, schedu
         return res
     bar = Progress(len(todo), label, progress)
     try:
-        with sigterm_as_interrupt(), make_executor(ctx, workers, scheduler, job_timeout, start_method) as ex:
+        with sigterm_as_ctrl_c(), make_executor(ctx, workers, scheduler, job_timeout, start_method) as ex:
             for outcome in ex.run(todo):
                 rows = [{**r, **outcome.extra} for r in outcome.rows]
                 # in memory first: an interrupt during the disk write must not leave a row
@@ -114,11 +92,11 @@ def run_jobs(jobs: list[Job], ctx: Context = Context(), workers: int = 1, schedu
                 res.rows[outcome.job.key] = rows
                 res.ran += 1
                 if store is not None:
-                    store.append(outcome.job.key, rows, cache_key(outcome.job.engine))
+                    store.append(outcome.job.key, rows, cache_key(outcome.job))
                 if on_outcome is not None:
                     on_outcome(outcome)
                 bar.update(outcome.job.test_id)
-    except Interrupted:
+    except Terminated:
         res.interrupted = "SIGTERM"
     except KeyboardInterrupt:
         res.interrupted = "SIGINT"
@@ -150,9 +128,9 @@ def run_stored(jobs: list[Job], ctx: Context, path, columns: list[str], executio
     engines = list(dict.fromkeys(j.engine for j in jobs))
     keys = cache_keys(ctx, engines)
     store = RowStore(path, columns)
-    store.load(lambda row: keys.get(row["engine"], ""))
+    store.load(keys.of_row)
     res = run_jobs(jobs, ctx, execution.workers, execution.scheduler, execution.job_timeout, execution.start_method,
-                   store=store, cache_key=lambda e: keys[e], progress=execution.progress, label=label,
+                   store=store, cache_key=keys.of_job, progress=execution.progress, label=label,
                    on_outcome=on_outcome)
     return res, store
 
@@ -166,7 +144,7 @@ def map_calls(fn, args, ctx: Context = Context(), execution: Execution = Executi
     results: list[CallResult | None] = [None] * len(calls)
     bar = Progress(len(calls), label, execution.progress)
     try:
-        with sigterm_as_interrupt(), make_executor(ctx, execution.workers, execution.scheduler,
+        with sigterm_as_ctrl_c(), make_executor(ctx, execution.workers, execution.scheduler,
                                                    execution.job_timeout, execution.start_method) as ex:
             for result in ex.run(calls):
                 results[result.call.tag] = result
