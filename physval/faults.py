@@ -544,32 +544,7 @@ class RestitutionLaw(Fault):
     kinds = ("reference",)
 
     def plant(self, sim, scene, kind):
-        sim._world.solver = _TwoPhaseSolver(sim._world.solver)
-        return sim
-
-
-class _TwoPhaseSolver(_SolverWrapper):
-    """The reference's solver with restitution moved after it, frictionless (RestitutionLaw)."""
-
-    def solve(self, contacts, bodies, dt, config):
-        bounce = [(c, c.target) for c in contacts if c.target is not None and c.target > 0.0]
-        for c, _ in bounce:
-            c.target = 0.0
-        stages = self._module.solve(contacts, bodies, dt, config)
-        for _ in range(config.iterations):  # restitution, normal rows only, Gauss-Seidel
-            largest = 0.0
-            for c, goal in bounce:
-                dv = goal - c.normal.velocity()
-                if dv > 0.0:
-                    P = c.normal.mass * dv
-                    c.normal.apply(P)
-                    c.Pn += P
-                    largest = max(largest, dv)
-            if largest <= config.tolerance:
-                break
-        for c, goal in bounce:
-            c.target = goal
-        return stages
+        return _reference_with(sim, restitution_law="two-phase")
 
 
 class ContactOffset(Fault):

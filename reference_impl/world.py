@@ -18,7 +18,8 @@ import numpy as np
 from reference_impl.broadphase import pairs as candidate_pairs
 from reference_impl.compiled import int_dict, njit, overload, structure
 from reference_impl.config import Config
-from reference_impl.contact import RB_D, Contact, Contacts, compact, contact_arrays, new_contacts, prepare
+from reference_impl.contact import (MASS, RB_D, Contact, Contacts, apply, compact, contact_arrays, new_contacts,
+                                    prepare, velocity)
 from reference_impl.geometry import MAX_PAIR_POINTS, narrow_phase, new_points
 from reference_impl.rigid_body import Bodies, RigidBody, integrate_position, new_bodies, speed_bound, stack
 from reference_impl.vectors import copy
@@ -75,12 +76,18 @@ class Phases(NamedTuple):
     stick_speed: float
     warm_start: bool
     keep_late: bool  # keep the contacts that touch late in the step (force laws need them)
-    # two departures from the notes that physval plants as faults (physval/faults.py), off
-    # unless config.params names them: "tangents": "fixed" keeps the tangent rows along
+    # three departures from the notes that physval plants as faults (physval/faults.py),
+    # off unless config.params names them: "tangents": "fixed" keeps the tangent rows along
     # contact.tangent_basis also while sliding; "restitution_threshold" (m/s) closes a
-    # contact approaching slower than it plastically (target 0 instead of -e vn0)
+    # contact approaching slower than it plastically (target 0 instead of -e vn0);
+    # "restitution_law": "two-phase" solves every contact plastically, then pushes each
+    # bouncing one up to -e vn0 with normal impulses alone (_restitution_after), sweeping
+    # at most config.iterations times until no velocity changes by more than config.tolerance
     fixed_tangents: bool
     restitution_threshold: float
+    two_phase: bool
+    iterations: int
+    tolerance: float
 
 
 @structure
@@ -156,7 +163,8 @@ class World:
         c = self.config
         phases = Phases(float(c.margin), float(c.slop), float(c.beta), float(c.stick_speed), bool(c.warm_start),
                         bool(getattr(self.solver, "KEEP_LATE_CONTACTS", False)),
-                        c.params.get("tangents", "slip") == "fixed", float(c.params.get("restitution_threshold", 0.0)))
+                        c.params.get("tangents", "slip") == "fixed", float(c.params.get("restitution_threshold", 0.0)),
+                        c.params.get("restitution_law", "newton") == "two-phase", int(c.iterations), float(c.tolerance))
         if self._state is None:
             features, contacts, pairs, impulses = int_dict(4), new_contacts(0), np.zeros((0, 2), np.int64), np.zeros(0)
         else:  # the last step's, for the warm start
@@ -276,7 +284,10 @@ def step(state, dt) -> int:
                     bodies.v[i, k] += g[k] * dt
 
     if len(contacts.a):  # solve the contacts with the configured formulation
-        ran |= solve(contacts, bodies, dt, state.settings) << SOLVER_SHIFT
+        if state.phases.two_phase:  # the planted fault of Phases
+            ran |= _two_phase(contacts, bodies, dt, state.settings, state.phases) << SOLVER_SHIFT
+        else:
+            ran |= solve(contacts, bodies, dt, state.settings) << SOLVER_SHIFT
 
     ran |= POSITIONS  # integrate positions (and orientations of the bodies that rotate)
     for i in range(N):
@@ -289,6 +300,35 @@ def step(state, dt) -> int:
 
     state.contacts = contacts
     state.pairs, state.impulses = _pair_impulses(contacts)
+    return ran
+
+
+@njit
+def _two_phase(contacts, bodies, dt, settings, phases) -> int:
+    """The two-phase law of Phases: the formulation solves with every bouncing contact's
+    target (> 0) set to 0; then each of them is pushed up to its target by normal impulses
+    alone, Gauss-Seidel in contact order, and its target set back."""
+    goals = contacts.target.copy()
+    for j in range(len(goals)):
+        if goals[j] > 0.0:
+            contacts.target[j] = 0.0
+    ran = solve(contacts, bodies, dt, settings)
+    for _ in range(phases.iterations):
+        largest = 0.0
+        for j in range(len(goals)):
+            if goals[j] > 0.0:
+                a, b, row = contacts.a[j], contacts.b[j], contacts.normal[j]
+                dv = goals[j] - velocity(row, bodies.v[a], bodies.w[a], bodies.v[b], bodies.w[b])
+                if dv > 0.0:
+                    P = row[MASS] * dv
+                    apply(row, P, bodies.v[a], bodies.w[a], bodies.v[b], bodies.w[b])
+                    contacts.Pn[j] += P
+                    largest = max(largest, dv)
+        if largest <= phases.tolerance:
+            break
+    for j in range(len(goals)):
+        if goals[j] > 0.0:
+            contacts.target[j] = goals[j]
     return ran
 
 
