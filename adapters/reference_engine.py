@@ -259,14 +259,14 @@ class ReferenceSimulation(Simulation):
         if change == "kinetic friction":
             def scaled(m):
                 return _UncheckedMaterial(m.e, m.mu_s, m.mu_k * size, m.rolling, m.torsion)
-            world.material = scaled(world.material)
             world.pair_materials = {k: scaled(m) for k, m in world.pair_materials.items()}
-        elif change == "square friction cone":
-            world.solver = _PyramidSolver(world.solver)
-        elif change == "restitution threshold":
-            world.solver = _ThresholdSolver(world.solver, size)
-        elif change == "two-phase restitution":
-            world.solver = _TwoPhaseSolver(world.solver)
+            world.configure(material=scaled(world.material))
+        elif change == "square friction cone":  # a per-row clamp on the fixed tangent basis
+            world.configure(friction_set="pyramid", tangents="fixed")
+        elif change == "restitution threshold":  # slow approaches target v_n+ = 0
+            world.configure(restitution_threshold=size)
+        elif change == "two-phase restitution":  # v_n+ = 0, then normal impulses up to -e v_n-
+            world.configure(restitution_law="two-phase")
         elif change == "velocity damping":
             return _Damped(self, size)
         else:
@@ -306,75 +306,3 @@ class _Damped(Passthrough):
         for b in self._dynamic:
             b.v[:] = [keep * c for c in b.v]
             b.w[:] = [keep * c for c in b.w]
-
-
-class _SolverWrapper:
-    """The world's solver module as it is, but for the `solve` a subclass plants."""
-
-    def __init__(self, module):
-        self._module = module
-
-    def __getattr__(self, name):
-        return getattr(self._module, name)
-
-
-class _PyramidSolver(_SolverWrapper):
-    """Sequential impulses (reference_impl/sequential_impulses.py) with a per-row friction
-    clamp, [-mu Pn, mu Pn] on each tangent row, both rows along the fixed tangent basis
-    (reference_impl.contact.tangent_basis) also while sliding: the rest of the module as it is."""
-
-    def solve(self, contacts, bodies, dt, config):
-        from reference_impl import contact as rc
-        for c in contacts:
-            if len(c.tangents) != 2:
-                continue
-            P = sum(np.asarray(row.d) * Pt for row, Pt in zip(c.tangents, c.Pt))  # warm start, world frame
-            ra = tuple(c.point[i] - c.a.x[i] for i in range(3))
-            rb = tuple(c.point[i] - c.b.x[i] for i in range(3))
-            t1 = rc.tangent_basis(c.n)
-            c.tangents = (rc.Row(c.a, c.b, ra, rb, t1), rc.Row(c.a, c.b, ra, rb, rc.cross(c.n, t1)))
-            c.Pt = [float(P @ np.asarray(row.d)) for row in c.tangents]
-        # sequential_impulses' own switch to the per-row clamp
-        return self._module.solve(contacts, bodies, dt,
-                                  replace(config, params={**config.params, "friction_set": "pyramid"}))
-
-
-class _ThresholdSolver(_SolverWrapper):
-    """The solver with each slow approaching contact's restitution target
-    (contact.normal_target: -e vn0) replaced by 0."""
-
-    def __init__(self, module, speed: float):
-        super().__init__(module)
-        self._speed = speed
-
-    def solve(self, contacts, bodies, dt, config):
-        for c in contacts:
-            if c.target is not None and -self._speed < c.vn0 < 0.0 and c.target > 0.0:
-                c.target = 0.0
-        return self._module.solve(contacts, bodies, dt, config)
-
-
-class _TwoPhaseSolver(_SolverWrapper):
-    """The solver targeting v_n+ = 0 on each bouncing contact, then pushing each one's
-    normal velocity up to its restitution target -e vn0 with normal impulses alone
-    (Gauss-Seidel over the normal rows): the two-phase law of Box2D's relax pass."""
-
-    def solve(self, contacts, bodies, dt, config):
-        bounce = [(c, c.target) for c in contacts if c.target is not None and c.target > 0.0]
-        for c, _ in bounce:
-            c.target = 0.0
-        stages = self._module.solve(contacts, bodies, dt, config)
-        for _ in range(config.iterations):  # restitution, normal rows only, Gauss-Seidel
-            largest = 0.0
-            for c, goal in bounce:
-                dv = goal - c.normal.velocity()
-                if dv > 0.0:
-                    P = c.normal.mass * dv
-                    c.normal.apply(P)
-                    c.Pn += P
-                    largest = max(largest, dv)
-            if largest <= config.tolerance:
-                break
-        for c, goal in bounce:
-            c.target = goal
-        return stages
