@@ -244,10 +244,7 @@ def execute(job: Job, resolver: Resolver) -> Outcome:
         adapter = resolver.adapter(job.engine)
     except Exception as exc:  # unknown or not installed
         return Outcome(job, rows_with("unsupported", str(exc)))
-    try:
-        base["engine_version"] = adapter.version()
-    except Exception:
-        base["engine_version"] = "unknown"
+    base["engine_version"] = resolver.version(job.engine)
     try:
         known = resolver.known(job.engine)
     except deviations.DeviationFileError as exc:  # a worker must not die of a bad file: its rows say why
