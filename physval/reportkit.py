@@ -26,7 +26,7 @@ from physval.files import write_atomic  # noqa: F401 (part of the kit)
 STATUS_MARK = {"pass": "pass", "fail": "FAIL", "deviation": "dev", "unsupported": "n/a",
                "unstable": "UNSTABLE", "error": "ERROR"}
 STATUSES = tuple(STATUS_MARK)
-NUMERIC = ("expected", "measured", "abs_error", "rel_error", "tolerance", "wall_s", "sim_s", "dt")
+NUMERIC = ("expected", "measured", "abs_error", "rel_error", "tolerance", "wall_s", "sim_s", "job_s", "dt")
 
 
 # --- files --------------------------------------------------------------------------------

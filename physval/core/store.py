@@ -133,9 +133,10 @@ class RowStore:
                 raise StoreError(f"{self.path}: not a file physval can resume (no {', '.join(missing)} column): "
                                  "choose another --out folder or remove the file")
 
-    def load(self, cache_key_of) -> int:
+    def load(self, cache_key_of, rewrite: bool = True) -> int:
         """Read finished jobs whose cache key is `cache_key_of(job rows' first row)`;
-        return how many. The file is rewritten without cut-short or stale jobs."""
+        return how many. The file is rewritten without cut-short or stale jobs (unless
+        `rewrite` is False: a look that changes nothing, as `physval run --plan`'s)."""
         if not self.path.exists() or not self.path.stat().st_size:
             return 0
         text = self.path.read_text()
@@ -152,7 +153,8 @@ class RowStore:
                 whole = False
             if whole and rows[0]["cache_key"] == cache_key_of(rows[0]):
                 self.rows[key] = rows
-        self._write([r for rows in self.rows.values() for r in rows])
+        if rewrite:
+            self._write([r for rows in self.rows.values() for r in rows])
         return len(self.rows)
 
     def append(self, key: str, rows: list[dict], cache_key: str) -> None:
@@ -218,19 +220,30 @@ def cache_keys(ctx, engines: list[str]) -> dict[str, str]:
     """Per engine: the fingerprint of the code that measures (with a user's case files and
     --known files, and the engine's own source and deviation file when they lie outside
     this project: a plug-in's, an --adapter's), and the engine's version."""
+    key = cache_key_of(ctx)
+    return {e: key(e) for e in engines}
+
+
+def cache_key_of(ctx):
+    """engine -> its cache key (as cache_keys), each found once, the project's fingerprint
+    read once: for stores whose engines are known only as their jobs come (a reading's
+    waves)."""
     resolver = ctx.resolver()
     fp = fingerprint([f for d in ctx.cases_dirs for f in sorted(Path(d).glob("*.py"))] + list(ctx.known_files))
-    out = {}
-    for e in engines:
-        try:
-            adapter = resolver.adapter(e)
-        except Exception:
-            out[e] = f"{fp}:not installed"
-            continue
-        own = [f for f in adapter_sources(adapter) + resolver.deviation_files(e)
-               if f.is_file() and not f.resolve().is_relative_to(ROOT) and str(f) not in ctx.known_files]
-        out[e] = f"{fp}{'+' + digest(own) if own else ''}:{adapter.version()}"
-    return out
+    found: dict[str, str] = {}
+
+    def key(e: str) -> str:
+        if e not in found:
+            try:
+                adapter = resolver.adapter(e)
+            except Exception:
+                found[e] = f"{fp}:not installed"
+                return found[e]
+            own = [f for f in adapter_sources(adapter) + resolver.deviation_files(e)
+                   if f.is_file() and not f.resolve().is_relative_to(ROOT) and str(f) not in ctx.known_files]
+            found[e] = f"{fp}{'+' + digest(own) if own else ''}:{resolver.version(e)}"
+        return found[e]
+    return key
 
 
 def adapter_sources(adapter) -> list[Path]:
