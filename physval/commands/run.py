@@ -1,9 +1,12 @@
 """`physval run`: the validation run. Every selected case variant on every selected engine,
-judged; the engine-wide readings when the whole library runs (or when asked); the report.
+judged; the engine-wide readings when the whole library runs (or when asked), whose jobs
+share the workers with the run's; the report, with where the time went (its Cost section).
+`--plan` predicts the cost before anything runs.
 
 Rows stream to `results.csv` as jobs finish. Run the same command again after an
-interrupt (or a crash of the machine) and no finished job is recomputed; a change of the
-code or of an engine's version makes its jobs run again.
+interrupt and no finished job is recomputed (after a crash of the machine, at most the
+jobs of its last second: physval.core.store.SYNC_EVERY); a change of the code or of an
+engine's version makes its jobs run again.
 """
 from __future__ import annotations
 
@@ -12,7 +15,7 @@ import sys
 import time
 
 from physval.commands import options
-from physval.core import COLUMNS, run_jobs
+from physval.core import COLUMNS
 from physval.core.plan import plan
 from physval.core.store import KNOBS_FILE, RowStore, cache_keys
 
@@ -51,6 +54,10 @@ def add_parser(sub) -> None:
                      help="engine-wide readings: effective (asked-vs-measured restitution and friction), laws "
                           "(physics-law residuals of the contact forces), all, none, or auto (default: all when no "
                           "--cases are named, else none); cached per engine version and reused")
+    run.add_argument("--plan", action="store_true",
+                     help="print what the run will cost, per engine and family, predicted from measured per-job costs "
+                          "(the last run in --out, else physval's table), against the default run's budget, and exit "
+                          "without running")
     run.add_argument("--save-trajectories", metavar="DIR",
                      help="also write each job's trajectory and contact forces (npz; physval.core.trajectories.load)")
     run.add_argument("--junitxml", metavar="FILE",
@@ -79,7 +86,7 @@ def readings_of(text: str, cases_named: bool) -> list[str]:
 
 def run(args) -> int:
     started = args.started
-    if not args.scheduler:
+    if not args.scheduler and not args.plan:
         from physval.core.executor import start_fork_server
         start_fork_server(args.start_method)  # loads in parallel with what follows
     ctx = options.context_of(args)  # user families dry-run in workers
@@ -102,51 +109,63 @@ def run(args) -> int:
         from physval.core.trajectories import with_saving
         jobs = [with_saving(j, traj_dir) for j in jobs]
     keys = cache_keys(ctx, engines)
+    from physval.readings import cost
+    model = cost.model_for(out)  # before the store drops the rows of changed code: their times still count
     store = RowStore(out / "results.csv", COLUMNS, knobs_file=out / KNOBS_FILE)
-    reused = store.load(lambda row: keys.get(row["engine"], ""))
+    reused = store.load(lambda row: keys.get(row["engine"], ""), rewrite=not args.plan)
+    # the engines users run, with the reference at its default formulation; its other
+    # formulations (Adapter.slow) are read when named
+    wide = engines if args.engines is not None else [e for e in engines if e in options.fast_engines(ctx)]
+    if args.plan:
+        return print_plan(jobs, store, resolver, out, args.workers, readings, wide, model)
     say = options.teller(args)
     todo = sum(j.key not in store.rows for j in jobs)
     say(f"{len(jobs)} runs ({len(chosen)} families x {len(engines)} engines), {todo} to run"
         + (f", {len(jobs) - todo} finished before" if reused and todo < len(jobs) else "")
-        + (f"; {len(later)} on-demand runs left out (--on-demand)" if later else "") + f" -> {out}/")
+        + (f"; {len(later)} on-demand runs left out (--on-demand)" if later else "") + f" -> {out}/"
+        + (f"; beside them the engine-wide readings: {', '.join(readings)} (cached per engine version)"
+           if readings else ""))
     from physval.core.executor import default_start_method
     import_report_meanwhile(args.start_method or default_start_method())
+    from physval.core.session import Execution, Stream, run_streams
+    from physval.readings import effective, laws
+    todo_jobs = [j for j in jobs if j.key not in store.rows]
+    main = Stream(cost.longest_first(todo_jobs, resolver, model) + [j for j in jobs if j.key in store.rows],
+                  store, lambda e: keys[e], "run")
+    wide_readings = {name: {"effective": effective, "laws": laws}[name].stream(wide, ctx, families) for name in readings}
     t_jobs = time.monotonic()
-    res = run_jobs(jobs, ctx, args.workers, args.scheduler, args.job_timeout, args.start_method, store=store,
-                   cache_key=lambda e: keys[e], progress=not args.quiet, label="run")
-    t_jobs = time.monotonic() - t_jobs
+    use = run_streams([main, *wide_readings.values()], ctx, Execution.of(args))
+    res = main.results
+    phases = cost.Phases(planning_s=t_jobs - started, pool_s=use.wall_s, workers=use.workers,
+                         jobs=main.spent.jobs, job_s=main.spent.job_s, run_s=main.spent.run_s,
+                         stepping_s=main.spent.stepping_s,
+                         reading_jobs=sum(r.spent.jobs for r in wide_readings.values()),
+                         reading_s=sum(r.spent.job_s for r in wide_readings.values()), worker_cpu_s=use.worker_cpu_s)
     finished = [j for j in jobs if j.key in res.rows]
     rows = store.finalize([j.key for j in finished])
     from physval.readings import results
-    if not res.complete:
+    interrupted = res.interrupted or next((r.results.interrupted for r in wide_readings.values()
+                                           if r.results.interrupted), "")
+    if interrupted:
         results.write_run_report(rows, out, families, command=options.command_line(), complete=False,
                                 planned=len(jobs))
-        print(f"physval: interrupted ({res.interrupted}): {len(finished)} of {len(jobs)} runs kept in "
+        print(f"physval: interrupted ({interrupted}): {len(finished)} of {len(jobs)} runs kept in "
               f"{out / 'results.csv'}; run the same command again to finish", file=sys.stderr)
         return 130
-    engine_wide = {}
-    from physval.core.session import Execution
-    from physval.readings import effective, laws
-    # the engines users run, with the reference at its default formulation; its other
-    # formulations (Adapter.slow) are read when named
-    wide = engines if args.engines is not None else [e for e in engines if e in options.fast_engines(ctx)]
-    for name in readings:
-        say(f"engine-wide reading: {name} (cached per engine version)")
-        module = {"effective": effective, "laws": laws}[name]
-        part = module.measure(wide, ctx, families, execution=Execution.of(args))
-        if part is None:  # interrupted
-            return 130
-        engine_wide[name] = part
+    engine_wide = {name: r.value for name, r in wide_readings.items()}
     from physval.readings import scorecard
     engine_wide["beside"] = scorecard.companions(out)  # what sweep, stress and real left in their folders under out
     from physval.core.deviations import stale_entries
     from physval.reportkit import frame, status_counts
     df = frame(rows, COLUMNS)
+    phases.report_started = time.monotonic()
     results.write_run_report(rows, out, families, command=options.command_line(), engine_wide=engine_wide,
-                            stale=stale_entries(df, resolver))
+                            stale=stale_entries(df, resolver), phases=phases)
+    t_report = time.monotonic() - phases.report_started
     total = time.monotonic() - started
-    print(f"{len(df)} checks: {status_counts(df)} ({res.ran} runs now, {res.reused} reused; {total:.1f} s, "
-          f"of which {t_jobs:.1f} s ({t_jobs / total:.0%}) in the selected runs)")
+    print(f"{len(df)} checks: {status_counts(df)} ({res.ran} runs now, {res.reused} reused; {total:.1f} s: "
+          f"{phases.planning_s:.1f} s planning, {use.wall_s:.1f} s jobs and readings on {use.workers} workers "
+          f"({_overhead_ms(phases):.1f} ms a job outside jobs), {t_report:.1f} s report)")
     print(f"wrote {out / 'results.csv'}, {out / KNOBS_FILE}, {out / 'report.md'}, {out / 'report.html'}, {out / 'plots'}/")
     from physval.readings import junit as junit_report
     if junit is not None:
@@ -156,6 +175,26 @@ def run(args) -> int:
         print(f"physval: --fail-on {args.fail_on}: " + ", ".join(f"{n} {g}" for g, n in sorted(tripped.items())),
               file=sys.stderr)
         return 1
+    return 0
+
+
+def _overhead_ms(p) -> float:
+    n = p.jobs + p.reading_jobs
+    return 1e3 * (p.pool_s * p.workers - p.job_s - p.reading_s) / n if n else 0.0
+
+
+def print_plan(jobs, store, resolver, out, workers: int, readings: list[str], wide: list[str], model) -> int:
+    """physval run --plan: the run's predicted cost, nothing run."""
+    from physval.readings import cost
+    todo = [j for j in jobs if j.key not in store.rows]
+    planned = cost.plan(todo, resolver, model)
+    note = ""
+    if len(todo) < len(jobs):
+        note = f"{len(jobs) - len(todo)} of {len(jobs)} jobs finished before (in {out / 'results.csv'}): not run again"
+    if readings:
+        note += ("; " if note else "") + (f"engine-wide readings ({', '.join(readings)}) on {len(wide)} engines: "
+                                          "cached per engine version, run beside the jobs where not cached")
+    print(cost.plan_text(planned, workers, model, note))
     return 0
 
 

@@ -237,20 +237,6 @@ def settings_section(df: pd.DataFrame) -> tuple[list[str], list[str]]:
     return ["## Engine settings", "", intro + " Every engine's: [knobs.md](knobs.md).", ""], page
 
 
-def cost_section(df: pd.DataFrame) -> list[str]:
-    timing = df.drop_duplicates(["case", "variant", "engine"])
-    steps = pd.to_numeric(timing.steps, errors="coerce")
-    timing = timing[steps > 0].assign(steps=steps[steps > 0])
-    if not len(timing):
-        return []
-    t = timing.groupby("engine", sort=False).apply(
-        lambda g: pd.Series({"runs": len(g), "steps": int(g.steps.sum()),
-                             "us per step (median over runs)": float(np.median(g.wall_s / g.steps) * 1e6)}),
-        include_groups=False).reset_index()
-    return ["## Cost", "", "Wall time of stepping only (scene construction excluded), all families "
-            "together; see `physval sweep` for error against cost.", "", md_table(t), ""]
-
-
 # --- the report --------------------------------------------------------------------------
 
 INTRO = ("physval runs analytic cases (closed-form answers with tolerances, each with its reason) on physics "
@@ -259,9 +245,12 @@ INTRO = ("physval runs analytic cases (closed-form answers with tolerances, each
 
 
 def write_run_report(rows: list[dict], out: Path, families: dict, command: str = "", complete: bool = True,
-                     planned: int | None = None, engine_wide: dict | None = None, stale: list[str] = ()) -> None:
+                     planned: int | None = None, engine_wide: dict | None = None, stale: list[str] = (),
+                     phases=None) -> None:
     """report.md and plots/ for the rows of a run; `complete` False: an interrupted run's
-    report (marked so, without plots). `stale`: notes on known-deviation entries."""
+    report (marked so, without plots). `stale`: notes on known-deviation entries.
+    `phases`: the run's time as physval run measured it (physval.readings.cost.Phases),
+    for the Cost section."""
     out = Path(out)
     df = frame(rows, COLUMNS)
     runs = df.groupby(["case", "variant", "engine"]).ngroups if len(df) else 0
@@ -304,12 +293,15 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
         sections.append(laws.section(engine_wide["laws"], out))
     family_index, family_pages = family_sections(df, families, plots)
     settings, knobs_page = settings_section(df)
-    sections += ["\n".join(family_index), "\n".join(settings), "\n".join(cost_section(df)),
+    cost_at = len(sections) + 2
+    sections += ["\n".join(family_index), "\n".join(settings), "",
                  "\n".join(["## Environment", "", md_table(environment(engine_versions(df))), ""])]
-    sections = [s for s in sections if s.strip()]
     write_pages(out, {"deviations.md": "\n".join(deviation_page), "knobs.md": "\n".join(knobs_page),
                       "unsupported.md": "\n".join(["# Unsupported runs", ""] + unsupported_section(df)[2:])},
                 {f"{name}.md": text for name, text in family_pages.items()})
+    from physval.readings import cost
+    sections[cost_at] = cost.section(cost.measure(rows, phases), out)  # last: its report time covers the rest
+    sections = [s for s in sections if s.strip()]
     write_atomic(out / "report.md", "\n".join(head + [contents(sections)] + sections))
     site.write(out, df, families, command, beside=beside)
 
