@@ -160,7 +160,7 @@ def run(args) -> int:
     df = frame(rows, COLUMNS)
     phases.report_started = time.monotonic()
     results.write_run_report(rows, out, families, command=options.command_line(), engine_wide=engine_wide,
-                            stale=stale_entries(df, resolver), phases=phases)
+                            stale=stale_entries(df, resolver), phases=phases, draw=draw_on_workers(ctx, args))
     t_report = time.monotonic() - phases.report_started
     total = time.monotonic() - started
     print(f"{len(df)} checks: {status_counts(df)} ({res.ran} runs now, {res.reused} reused; {total:.1f} s: "
@@ -176,6 +176,23 @@ def run(args) -> int:
               file=sys.stderr)
         return 1
     return 0
+
+
+def draw_on_workers(ctx, args):
+    """The report's heat maps drawn side by side on local workers (--workers, not a Dask
+    cluster: the files are written here), as jobs are: a plot that fails (or kills its
+    worker) stops the report with its reason."""
+    from physval.core.session import Execution, map_calls
+    from physval.readings.results import draw_here, drawn
+
+    def draw(drawings: list) -> None:
+        if args.workers <= 1 or len(drawings) <= 1:
+            return draw_here(drawings)
+        execution = Execution(args.workers, None, args.job_timeout, args.start_method, progress=False)
+        for r in map_calls(drawn, drawings, ctx, execution, label="plots"):
+            if r.error:
+                raise RuntimeError(f"drawing a plot of the report failed: {r.error}")
+    return draw
 
 
 def _overhead_ms(p) -> float:

@@ -126,7 +126,8 @@ def tolerance_reasons(df: pd.DataFrame, family: str) -> pd.DataFrame:
     return pd.DataFrame({"metric": sub.metric, "tolerance": sub.tolerance_kind, "why this size": sub.tolerance_reason})
 
 
-def summary_sections(df: pd.DataFrame, plots: Path) -> list[str]:
+def summary_sections(df: pd.DataFrame, plots: Path, drawings: list | None = None) -> list[str]:
+    """The summary tables; their heat maps drawn, or added to `drawings` (see draw)."""
     lines = ["## Summary", "",
              "Each cell: status counts and the worst error in units of tolerance (below 1: within tolerance). "
              "Statuses: **pass** within the tolerance; **FAIL** outside it, or a known deviation whose measured "
@@ -138,7 +139,7 @@ def summary_sections(df: pd.DataFrame, plots: Path) -> list[str]:
         slug = "summary" if title == "Engines" else "summary_formulations"
         lines += [f"### {title}", "", md_table(summary_matrix(df[df.engine.isin(engines)], engines)), ""]
         if several:
-            plot_summary(df, engines, plots / f"{slug}.png", title)
+            _draw_or_add(drawings, plot_summary, (df[df.engine.isin(engines)], engines, plots / f"{slug}.png", title))
             lines += [f"![{title}](plots/{slug}.png)", ""]
     return lines
 
@@ -191,17 +192,18 @@ def deviation_sections(df: pd.DataFrame, stale: list[str]) -> tuple[list[str], l
     return lines, page
 
 
-def family_sections(df: pd.DataFrame, families: dict, plots: Path) -> tuple[list[str], dict[str, str]]:
+def family_sections(df: pd.DataFrame, families: dict, plots: Path,
+                    drawings: list | None = None) -> tuple[list[str], dict[str, str]]:
     """(the report's index of families, one line each; {family: its page families/<name>.md}):
     what it checks, where its closed form comes from, every tolerance with its reason, the
-    heat map and the measured values."""
+    heat map (drawn, or added to `drawings`: see draw) and the measured values."""
     lines = ["## Families", "", "One page per family: what it checks, where its closed form comes from, every "
              "tolerance with its reason, a heat map of every check per engine, and the measured values.", ""]
     index, pages = [], {}
     for name in sorted(df.case.unique()):
         fam = families.get(name)
         mine = df[df.case == name]
-        plot_family(df, name, plots / f"{name}.png")
+        _draw_or_add(drawings, plot_family, (mine, name, plots / f"{name}.png"))
         page = [f"# {name}", "", "[back to the report](../report.md)", ""]
         if fam is not None:
             page += [f"{fam.summary[:1].upper() + fam.summary[1:]}." if fam.summary else "", "",
@@ -237,6 +239,28 @@ def settings_section(df: pd.DataFrame) -> tuple[list[str], list[str]]:
     return ["## Engine settings", "", intro + " Every engine's: [knobs.md](knobs.md).", ""], page
 
 
+# --- drawing the plots ----------------------------------------------------------------------
+
+def _draw_or_add(drawings: list | None, fn, args: tuple) -> None:
+    if drawings is None:
+        fn(*args)
+    else:
+        drawings.append((fn, args))
+
+
+def drawn(drawing: tuple) -> None:
+    """Draw one plot: (function, arguments); a module-level function, so a worker process
+    can draw it (physval.core.session.map_calls)."""
+    fn, args = drawing
+    fn(*args)
+
+
+def draw_here(drawings: list) -> None:
+    """Draw the plots one after the other in this process."""
+    for d in drawings:
+        drawn(d)
+
+
 # --- the report --------------------------------------------------------------------------
 
 INTRO = ("physval runs analytic cases (closed-form answers with tolerances, each with its reason) on physics "
@@ -246,11 +270,12 @@ INTRO = ("physval runs analytic cases (closed-form answers with tolerances, each
 
 def write_run_report(rows: list[dict], out: Path, families: dict, command: str = "", complete: bool = True,
                      planned: int | None = None, engine_wide: dict | None = None, stale: list[str] = (),
-                     phases=None) -> None:
+                     phases=None, draw=draw_here) -> None:
     """report.md and plots/ for the rows of a run; `complete` False: an interrupted run's
     report (marked so, without plots). `stale`: notes on known-deviation entries.
     `phases`: the run's time as physval run measured it (physval.readings.cost.Phases),
-    for the Cost section."""
+    for the Cost section. `draw(drawings)`: draws the summary and family heat maps, a list
+    of (function, arguments) (physval run draws them on its workers, side by side)."""
     out = Path(out)
     df = frame(rows, COLUMNS)
     runs = df.groupby(["case", "variant", "engine"]).ngroups if len(df) else 0
@@ -274,8 +299,9 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
     deviations, deviation_page = deviation_sections(df, list(stale))
     from physval.readings import scorecard
     beside = engine_wide.get("beside") if engine_wide else None  # the sweep, stress and real readings found beside
+    drawings: list = []
     sections = [scorecard.section(scorecard.measure(df, beside), beside), "\n".join(vanished_section(df)),
-                "\n".join(summary_sections(df, plots)),
+                "\n".join(summary_sections(df, plots, drawings)),
                 "\n".join(deviations),
                 "\n".join(problems_section(df)),
                 "\n".join(unsupported_counts(df))]
@@ -291,7 +317,8 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
         sections.append(parity.section(beside.parity, out))
     if "laws" in engine_wide:
         sections.append(laws.section(engine_wide["laws"], out))
-    family_index, family_pages = family_sections(df, families, plots)
+    family_index, family_pages = family_sections(df, families, plots, drawings)
+    draw(drawings)
     settings, knobs_page = settings_section(df)
     cost_at = len(sections) + 2
     sections += ["\n".join(family_index), "\n".join(settings), "",
