@@ -19,8 +19,8 @@ from typing import Mapping
 import numpy as np
 
 from cases.family import UNIT_ROUNDOFF
-from cases.scene import (CONTACT_TORQUES, IMPACT_MODEL_NEED, IMPACT_MODELS,  # noqa: F401 (re-exported)
-                         RESTITUTION_LAW_NEED, RESTITUTION_LAWS, Scene)
+from cases.scene import (CONTACT_TORQUES, EFFECTS, IMPACT_MODEL_NEED, IMPACT_MODELS,  # noqa: F401 (re-exported)
+                         RESTITUTION_LAW_NEED, RESTITUTION_LAWS, SHAPE_KINDS, Scene)
 from cases.trajectory import ContactPoint
 
 
@@ -54,7 +54,10 @@ class Settings:
 @dataclass(frozen=True)
 class Capabilities:
     dimensions: frozenset[int]        # 2, 3 or both (3D engines embed 2D scenes in the x-z plane)
-    shapes: frozenset[str]            # kinds from cases.scene: sphere, box, plane, circle, rect
+    # The shape kinds the engine represents (cases.scene.SHAPE_KINDS: sphere, box, plane,
+    # circle, rect, capsule, cylinder, hull, polygon, mesh); a scene with another kind is
+    # `unsupported` (cannot_run names it).
+    shapes: frozenset[str]
     native_restitution: bool          # a restitution coefficient exists (else e is mapped, e.g. onto a spring-damper)
     static_kinetic: bool              # separate mu_s and mu_k
     contact_forces: bool              # normal forces can be read out
@@ -77,8 +80,14 @@ class Capabilities:
     # Settings.iterations counts sub-steps, each a whole velocity and position update: the
     # round-off a check allows is counted per sub-step (Simulation.iterations of them a step).
     substeps: bool = False
+    # (effect, reason) for effects of cases.scene.EFFECTS the engine has the values for but
+    # does not simulate (a solver that drops the rows): said when a scene asks for one
+    why_not: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self):
+        unknown = set(self.shapes) - set(SHAPE_KINDS)
+        if unknown:
+            raise ValueError(f"shapes = {sorted(unknown)}: must be among {', '.join(SHAPE_KINDS)}")
         if self.impact_model is not None and self.impact_model not in IMPACT_MODELS:
             raise ValueError(f"impact_model = {self.impact_model!r}: must be one of {', '.join(IMPACT_MODELS)} or None")
         unknown = set(self.contact_torques) - set(CONTACT_TORQUES)
@@ -86,6 +95,9 @@ class Capabilities:
             raise ValueError(f"contact_torques = {sorted(unknown)}: must be among {', '.join(CONTACT_TORQUES)}")
         if self.restitution_law not in RESTITUTION_LAWS:
             raise ValueError(f"restitution_law = {self.restitution_law!r}: must be one of {', '.join(RESTITUTION_LAWS)}")
+        unknown = {effect for effect, _ in self.why_not} - set(EFFECTS)
+        if unknown:
+            raise ValueError(f"why_not names {sorted(unknown)}: must be among {', '.join(EFFECTS)}")
         if self.float_bits not in UNIT_ROUNDOFF:
             raise ValueError(f"float_bits = {self.float_bits!r}: must be one of {', '.join(map(str, UNIT_ROUNDOFF))}")
 
@@ -114,8 +126,8 @@ class Capabilities:
                 a, b = next((a, b) for a, b in scene.contact_pairs()
                             if scene.material_of(a.name, b.name).torque(effect) > 0)
                 d = scene.material_of(a.name, b.name).torque(effect)
-                return (f"{effect.replace('_', ' ')} = {d:g} m for {a.name}/{b.name}: the engine has no "
-                        f"{effect.replace('_', ' ')}")
+                why = dict(self.why_not).get(effect, f"the engine has no {effect.replace('_', ' ')}")
+                return f"{effect.replace('_', ' ')} = {d:g} m for {a.name}/{b.name}: {why}"
         laws = scene.contact_laws - self.contact_laws
         if laws:
             return (f"compliant contact ({', '.join(sorted(laws))} law) asked for: the engine does not "
@@ -150,8 +162,7 @@ class Capabilities:
         torques = f"; contact torques: {','.join(sorted(self.contact_torques))}" if self.contact_torques else ""
         restitution = f"; restitution: {self.restitution_law}"
         floats = f"; float{self.float_bits}" + (", sub-steps" if self.substeps else "")
-        return (f"{dims}; shapes {','.join(sorted(self.shapes))}; " + ", ".join(flags) + laws + impacts
-                + torques + restitution + floats)
+        return f"{dims}; " + ", ".join(flags) + laws + impacts + torques + restitution + floats
 
 
 class Simulation(ABC):

@@ -48,20 +48,23 @@ dynamic body in a step other than gravity is a contact impulse (damping is 0, no
 force acts), so body i took J_i = m_i (v_i' - v_i) - m_i g dt from its contacts, exactly
 to float32 round-off. The pairs in contact are the engine's own (begin/end-touch events:
 the contacts the solver had in the step). Each pair's impulse P_ab (on a, -P_ab on b)
-solves sum_pairs(i) +-P = J_i; where the contact graph (all static bodies one node) is a
-forest, as in stacks, chains and single contacts, that split is unique and is the
-engine's. Box2D's contacts include speculative ones up to 2 cm apart; one that would
-close a cycle and is more than ACTING_GAP (adapters.impulse_split) apart after the step took nothing and is left
-out (a millimetre box's ground contact when it rests on another box). Where a cycle
-remains (a box touching two others that touch each other) only sums are determined (what
-a body takes from all its contacts, what all static bodies give): the least-norm split is
-returned and `knobs` says so. The split is worked out when `contact_forces` is asked, from
-a snapshot the step keeps, so the timed step holds only the engine's work and the
-snapshot. The normal force of a pair
-is P_ab . n / dt with n the pair's contact normal from b into a before the step (the
-geometry Box2D found its contacts from): the plane's normal, the line of centres, or the
-separating axis of least penetration (as b2CollidePolygons chooses it). No contact points
-(`Capabilities.contact_points` is False): their positions and per-point impulses are not
+solves sum_pairs(i) +-P = J_i, with P_ab along the pair's contact normal n (from b into a)
+on a frictionless pair and n lambda + t tau on a frictional one (adapters.impulse_split).
+Where the contact graph (all static bodies one node) is a forest, as in stacks, chains and
+single contacts, that split is unique and is the engine's; where a cycle remains the
+normals decide it (a disc in a V-groove of two frictionless lines: each takes
+m g / (2 cos alpha), exactly). Box2D's contacts include speculative ones up to 2 cm apart;
+one that would close a cycle and is more than ACTING_GAP (adapters.impulse_split) apart
+after the step took nothing and is left out (a millimetre box's ground contact when it
+rests on another box). Where friction acts around a cycle (a wedged disc, a box pressed
+against a wall) momentum alone leaves the normal impulses open (friction can carry part
+of the load or squeeze): the split with the least friction is returned and `knobs`
+("pair_split") says so. The split is worked out when `contact_forces` is asked, from a
+snapshot the step keeps, so the timed step holds only the engine's work and the snapshot.
+The normal force of a pair is lambda / dt with n the pair's contact normal before the step
+(the geometry Box2D found its contacts from): the plane's normal, the line of centres, or
+the separating axis of least penetration (as b2CollidePolygons chooses it). No contact
+points (`Capabilities.contact_points` is False): their positions and per-point impulses are not
 exposed.
 """
 from __future__ import annotations
@@ -75,7 +78,7 @@ import pyb2d3 as b2
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.combination import per_body_values
 from adapters.frames import planar_states, require_turn_about_y, state_row
-from adapters.impulse_split import acting_pairs, split_impulses
+from adapters.impulse_split import OPEN_SPLIT, acting_pairs, split_impulses
 from cases.scene import Body, Circle, Plane, Scene, pair_key, quat_about_y
 
 DEFAULT_SUBSTEPS = 4  # Box2D's recommended sub-step count (b2World_Step documentation)
@@ -298,7 +301,8 @@ class Box2DSimulation(Simulation):
             "linear_slop": 0.005,             # B2_LINEAR_SLOP (b2_lengthUnitsPerMeter = 1), not settable per world
             "speculative_distance": 0.02,     # 4 linear slops: contacts found this far apart
             "warm_starting": True,            # Box2D's default; pyb2d3 does not expose the switch
-            "contact_force": "momentum: J_i = m (v' - v) - m g dt per body, split over the touching pairs",
+            "contact_force": ("momentum: J_i = m (v' - v) - m g dt per body, split over the touching pairs "
+                              "along their normals (adapters/impulse_split.py)"),
             "bodies": {},
         }
 
@@ -322,7 +326,7 @@ class Box2DSimulation(Simulation):
         self._pending = None
         self._gaps_after: dict = {}  # pair -> (poses, contact_gap) after the last step read
         self._forces: dict[tuple[str, str], float] | None = {}
-        self.knobs["pair_split"] = "unique (forest)"
+        self.knobs["pair_split"] = "unique"
         self.effects = self._built_effects(friction, restitution)
 
     def _add(self, body: Body, mu: float, e: float) -> None:
@@ -457,9 +461,9 @@ class Box2DSimulation(Simulation):
         gx, gy = self._gravity * self._dt
         J = {n: (self._mass[n] * (after[n][4] - before[n][4] - gx), self._mass[n] * (after[n][5] - before[n][5] - gy))
              for n in self._bodies}
-        P, ambiguous = split_impulses(J, pairs)
-        if ambiguous:
-            self.knobs["pair_split"] = "least-norm where the contact graph has a cycle"
+        P, open_ = split_impulses(J, pairs, normals, {key: self._pairs[key].mu_s > 0.0 for key in pairs})
+        if open_:
+            self.knobs["pair_split"] = OPEN_SPLIT
         return {key: (p[0] * normals[key][0] + p[1] * normals[key][1]) / self._dt for key, p in P.items()}
 
     # --- the contract -------------------------------------------------------------------

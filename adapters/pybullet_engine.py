@@ -34,7 +34,9 @@ constructor argument recorded in `knobs`; the plain "pybullet" keeps the choices
   point), so the plane stays the default;
 - `solver="dantzig"` / `"pgs"` ("pybullet-dantzig", "pybullet-pgs"): PyBullet's other
   constraint solvers (`SOLVERS`), the MLCP solver that bounds friction by a square and
-  ignores a Hooke contact's spring (adapters/xfails/pybullet-dantzig.txt, -pgs.txt).
+  ignores a Hooke contact's spring (adapters/xfails/pybullet-dantzig.txt, -pgs.txt), and
+  drops the rolling and spinning rows of 3D contacts, so those scenes are unsupported
+  (`MLCP_DROPS_TORQUES`).
 
 Compliant contact, Hooke's law F = k xi (cases.scene.Compliance "hooke"): changeDynamics
 contactStiffness and contactDamping set btCollisionObject::setContactStiffnessAndDamping;
@@ -137,6 +139,16 @@ GEOM_NAMES = {p.GEOM_SPHERE: "GEOM_SPHERE", p.GEOM_BOX: "GEOM_BOX", p.GEOM_PLANE
 # families (measured), while "dantzig" runs them.
 SOLVERS = {"si": p.CONSTRAINT_SOLVER_LCP_SI, "dantzig": p.CONSTRAINT_SOLVER_LCP_DANTZIG,
            "pgs": p.CONSTRAINT_SOLVER_LCP_PGS}
+# What the MLCP solvers do with the contact torques' rows, measured (pybullet 3.2.7, dt = 1e-3,
+# 50 steps, a 0.1 m, 1 kg ball on the plane, mu 0.5): btMultiBodyMLCPConstraintSolver takes the
+# contact and friction rows into its LCP and drops the rolling and spinning ones. In 3D a ball
+# rolling at 1 m/s with rolling resistance 0.005 m, or spinning at 10 rad/s with torsional
+# friction 0.005 m, keeps its speed to the last digit under both (the default solver slows them
+# to 0.9823 m/s and 9.387 rad/s, the closed forms' 0.9825 and 9.387). On the 2D planar joint
+# chain Dantzig's solver does apply the rolling rows (0.9838 m/s; 2D disc: 0.9836); there is no
+# spin about a normal in the x-z plane.
+MLCP_DROPS_TORQUES = ("pybullet's MLCP solvers (Dantzig, PGS) drop the rolling and spinning rows of a 3D "
+                      "contact: a ball rolls and spins on as if the pair had none (measured)")
 BODY_MODELS = ("auto", "rigid")
 GROUNDS = ("plane", "box")
 
@@ -180,18 +192,31 @@ class PyBulletAdapter(Adapter):
                        "solver": solver}
         if bodies == "rigid":  # 2D bodies stay in their plane on joints, which need reduced coordinates
             self.capabilities = replace(self.capabilities, dimensions=frozenset({3}))
+        if solver != "si":  # the MLCP solvers: rolling rows only on Dantzig's 2D path (MLCP_DROPS_TORQUES)
+            self.capabilities = replace(
+                self.capabilities, contact_torques=frozenset({"rolling_resistance"} if solver == "dantzig" else ()),
+                why_not=tuple((effect, MLCP_DROPS_TORQUES) for effect in TORQUE_KNOBS))
 
     def version(self) -> str:
         return metadata.version("pybullet")
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
-        reason = self.capabilities.cannot_run(scene) or self._spin_without_roll(scene)
+        reason = self.capabilities.cannot_run(scene) or self._spin_without_roll(scene) or self._mlcp_torques(scene)
         if reason:
             raise Unsupported(reason)
         if self.config["solver"] == "pgs" and scene.dimension == 2:
             raise Unsupported("2D scene: pybullet's MLCP projected Gauss-Seidel leaves NaN in the state in the "
                               "first step a contact acts on the planar joint chain of a 2D body (SOLVERS)")
         return PyBulletSimulation(scene, settings, **self.config)
+
+    def _mlcp_torques(self, scene: Scene) -> str | None:
+        """Dantzig's MLCP applies rolling rows in 2D only (MLCP_DROPS_TORQUES)."""
+        if self.config["solver"] == "si" or scene.dimension == 2:
+            return None
+        for effect in TORQUE_KNOBS:
+            if effect in scene.effects:
+                return f"{effect.replace('_', ' ')} in a 3D scene: {MLCP_DROPS_TORQUES}"
+        return None
 
     def _spin_without_roll(self, scene: Scene) -> str | None:
         """Maximal coordinates (btSequentialImpulseConstraintSolver::convertContact) add a

@@ -4,8 +4,9 @@
 (sequential impulses, the default, registered as "reference") or any other module of
 reference_impl with a `solve` (named "reference-<formulation>" unless `name` says
 otherwise), with `params` as its `Config.params`. The scene maps one to one: the
-engine has pair materials (e, mu_s, mu_k) and every shape of the vocabulary, so nothing
-is combined or approximated. It has no damping, sleeping or restitution threshold to
+engine has pair materials (e, mu_s, mu_k) and the shapes it declares (sphere, box, plane,
+circle, rect; a scene with another is `unsupported`), so nothing is combined or
+approximated. It has no damping, sleeping or restitution threshold to
 switch off; the knobs record every setting of `reference_impl.config.Config` in force.
 
 2D scenes (x-z plane) run as planar bodies: positions stay at y = 0, rotation about y only.
@@ -161,11 +162,6 @@ class ReferenceSimulation(Simulation):
             "stick_speed": config.stick_speed,
             "margin": config.margin,
             "params": dict(config.params),
-            "friction_cone": "disc |Pt| <= mu Pn (isotropic)",
-            "contact_torques": "rolling: disc |Pr| <= rolling Pn about the tangent axes; torsion: "
-                               "|Pq| <= torsion Pn about n (lever arms in m, sequential impulses only)",
-            "restitution": "v_n+ = -e v_n at the start of the step (before gravity)",
-            "depenetration": "split impulse on pseudo-velocities",
             "integrator": "symplectic Euler: velocity, then position",
             "gravity": list(world.gravity),
             "material": asdict(world.material),
@@ -177,9 +173,9 @@ class ReferenceSimulation(Simulation):
             "bodies": {body.name: {"static": body.static, "can_rotate": body.can_rotate}
                        for body in world.bodies},
         }
-        own = getattr(world.solver, "knobs", None)  # what the formulation in force does
-        if own:
-            self._knobs.update(own(config))
+        # what the formulation in force does (its friction set, restitution, depenetration):
+        # described by that formulation alone, so the record names the solver that runs
+        self._knobs.update(world.solver.knobs(config))
         self.effects = self._built_effects(scene)
 
     def _built_effects(self, scene: Scene) -> frozenset[str]:

@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Catch, Check
 from cases.central_impact import rebound_tolerance
 from cases.observables import arc_vertex, ballistic_steps, fall_gravity, free_arc_start, settle_time
 from cases.scene import Body, Material, Scene, ball, ground
@@ -234,4 +234,9 @@ FAMILY = CaseFamily(
     dt=DT,
     variant_id=variant_id,
     full_grid=FULL_GRID,
+    catches=(
+        Catch("restitution off", "e=0.5,2D"),
+        Catch("restitution doubled", "e=0.5,2D"),
+        Catch("gravity", "e=0.5,2D"),
+    ),
 )

@@ -1,11 +1,17 @@
 """Brick tumble: a brick (half-sides a < b < c) lying on its largest face, released tilted
 a little above the ground, lands on an edge or a corner, tumbles and comes to rest.
 
-FIRST TO TEST: tumbling to rest with distinct principal moments and a release off the
-principal axes. tumbling_box drops a cube (equal moments, equal barriers over every
-edge); here the moments are m (b^2 + c^2) / 3, ... (0.0167, 0.0142, 0.0042 kg m^2 for
-0.05, 0.1, 0.2 m), and the diagonal tilt turns the brick about an axis that is no
-principal axis, so the tumble couples all three.
+What it tests: the rest state that energy and the brick's shape allow, for a body with
+three different half-sides (tumbling_box drops a cube, whose barriers over every edge are
+equal; here each face has its own rest height and each edge its own barrier), after a
+tumble that couples all three axes (the diagonal tilt turns the brick about an axis that
+is no principal axis). What it does not see: the closed form below is an invariant of the
+inertia tensor, of the restitution and of the friction, so an engine with any of those
+wrong (x and z moments swapped, e = 0, mu = 0: measured, every check passes) still ends
+on the a-face at height a with every joule above it gone. The impact of a brick with
+distinct moments is judged in oblique_landing. What it catches (`catches`): collision
+geometry larger than the body (a contact offset: the rest height and the energy) and
+contact forces read wrong (the ground's impulse).
 
 Which face ends down (the argument of cases/tumbling_box.py, for three half-sides). With
 n = R^T e_z the world's up direction in the body frame, the lowest vertex lies
@@ -43,7 +49,7 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check, plane_label
+from cases.family import CaseFamily, Catch, Check, plane_label
 from cases.oblique_landing import quat_about, quat_mul
 from cases.observables import impulse, mechanical_energy, point_speed_bound, rotations
 from cases.scene import Body, Box, Material, Rect, Scene, ground
@@ -172,4 +178,8 @@ FAMILY = CaseFamily(
     dt=1e-3,
     needs=frozenset({"contact_forces"}),
     variant_id=variant_id,
+    catches=(
+        Catch("force read-out", "tilt=y,e=0.3,mu=0.8"),
+        Catch("contact offset", "tilt=y,e=0.3,mu=0.8"),
+    ),
 )

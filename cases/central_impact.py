@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from cases.family import IMPACT_ROUNDINGS, CaseFamily, Check, impulse_roundoff, plane_label
+from cases.family import IMPACT_ROUNDINGS, CaseFamily, Catch, Check, impulse_roundoff, plane_label
 from cases.observables import arc_apex, fall_gravity, first_impact, free_arc_start
 from cases.scene import Body, Material, Scene, ball, ground
 
@@ -233,4 +233,9 @@ FAMILY = CaseFamily(
     sweep_variants=("e=0.5,m=1:3", "drop,e=0.5", "drop,e=0.5,2D"),  # what `physval sweep` varies dt and iterations on
     variant_id=variant_id,
     tags=frozenset({"core"}),
+    catches=(
+        Catch("restitution off", "e=0.5,m=1:3"),
+        Catch("restitution doubled", "e=0.5,m=1:3"),
+        Catch("restitution", "e=0.5,m=1:3"),
+    ),
 )

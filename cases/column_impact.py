@@ -54,7 +54,7 @@ from __future__ import annotations
 import math
 
 
-from cases.family import IMPACT_ROUNDINGS, CaseFamily, Check, impulse_roundoff, plane_label
+from cases.family import IMPACT_ROUNDINGS, CaseFamily, Catch, Check, impulse_roundoff, plane_label
 from cases.scene import Body, Material, Scene, ball, ground
 
 R = 0.1          # ball radius, m
@@ -259,4 +259,8 @@ FAMILY = CaseFamily(
     dt=1e-3,
     needs=needs,
     variant_id=variant_id,
+    catches=(
+        Catch("restitution off", "landing,m=1:0.1,e=0.5,simultaneous"),
+        Catch("restitution doubled", "strike,row=2,e=0.5,simultaneous"),
+    ),
 )

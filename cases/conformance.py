@@ -16,8 +16,9 @@ from typing import Callable
 
 import numpy as np
 
-from cases.family import CaseFamily, Check
-from cases.observables import free_flight_error, free_flight_roundoff, rate, window_mean
+from cases.family import CaseFamily, Catch, Check
+from cases.observables import free_flight_error, rate, window_mean
+from cases.roundoff import position_roundoff, uniform_motion_roundoff
 from cases.scene import Body, Material, Scene, ball, cube, ground
 from cases.trajectory import Trajectory
 
@@ -59,11 +60,11 @@ def free_fall_matches_discrete_closed_form(dim: int) -> Probe:
                 "continuous_error": abs(z[-1] - (z0 - G * traj.t[-1] ** 2 / 2))}
 
     def expect(dt):
-        _, round_x = free_flight_roundoff(max(1, round(T / dt)), dt, z0, G * T, G)
         return [Check("discrete_error", "m", 0.0, 1e-9, "abs",
                       "a consistent one-step integrator's free flight (c in [-1/2, 1/2]) is exact to round-off: "
-                      "1e-9 m in float64; 2.5 u (|z| + h |v|) a sub-step plus T times the velocity's "
-                      "u (|v| + 3 g h) at the engine's float width", round_x),
+                      "1e-9 m in float64; at the engine's float width 3 times the error of this fall stepped in "
+                      "that arithmetic (cases/roundoff.py)",
+                      roundoff_at=position_roundoff(max(1, round(T / dt)), dt, [z0], [0.0], [-G])),
                 Check("continuous_error", "m", 0.0, G * T * dt, "abs",
                       "first-order time stepping: every consistent step is within g T dt / 2 of g t^2 / 2")]
     return Probe(scene, T, measure, expect)
@@ -97,10 +98,11 @@ def a_slow_body_does_not_fall_asleep(dim: int) -> Probe:
 
     def expect(dt):
         d = v * T
-        # each sub-step rounds x + h v (u (|x| + h v), |x| <= d); v itself is stored rounded (u v, T long)
-        roundoff = (max(1, round(T / dt)) * (d + dt * v) + T * v) / d
+        # each sub-step adds the same h v: within a binade of x it rounds the same way, half an
+        # ulp of x a sub-step; v itself is stored rounded (cases/roundoff.py)
+        roundoff = uniform_motion_roundoff(max(1, round(T / dt)), dt, d, v) / d
         return [Check("distance", "m", d, 1e-6, "rel",
-                      "uniform motion is integrated exactly (1e-6 in float64; u (|x| + h v) a sub-step at the "
+                      "uniform motion is integrated exactly (1e-6 in float64; half an ulp of x a sub-step at the "
                       "engine's float width); a sleeping body stops", roundoff)]
     return Probe(scene, T, measure, expect)
 
@@ -216,4 +218,12 @@ FAMILY = CaseFamily(
     variant_id=lambda p: f"{p['check']},{p['dim']}D",
     needs=lambda p: _probe(p).needs,
     tags=frozenset({"conformance"}),
+    catches=(
+        Catch("gravity", "free_fall_matches_discrete_closed_form,2D"),
+        Catch("time step", "free_fall_matches_discrete_closed_form,2D"),
+        Catch("damping", "nothing_damps_a_free_body,2D"),
+        Catch("friction off", "locked_rotation_stays_locked,2D"),
+        Catch("friction doubled", "locked_rotation_stays_locked,2D"),
+        Catch("force read-out", "resting_contact_carries_the_weight,2D"),
+    ),
 )

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 
-from cases.family import CaseFamily, Check, plane_label
+from cases.family import CaseFamily, Catch, Check, plane_label
 from cases.observables import rate
 from cases.scene import Body, Material, Scene, cube, ground, tilted_gravity
 
@@ -109,4 +109,7 @@ FAMILY = CaseFamily(
     dt=1e-3,
     variant_id=variant_id,
     full_grid=FULL_GRID,
+    catches=(
+        Catch("friction off", "mu=0.5,theta=0.99atan(mu),2D"),
+    ),
 )

@@ -19,15 +19,24 @@ keep it if |J_t| <= mu_s J_n, else slide along t = u_t / |u_t| with
 Frictionless (mu = 0): j = -(1 + e) u_n / n^T K n (note 001, "Frictionless Impact").
 
 With friction and e > 0 the outcome depends on the restitution law the engine declares
-(cases.scene.RESTITUTION_LAWS; each such variant needs "restitution_law:<law>", and an
-engine that declares the other law reports it unsupported):
+(cases.scene.RESTITUTION_LAWS, closed forms in cases/impact_laws.py; each such variant
+needs "restitution_law:<law>", and an engine that declares another law reports it
+unsupported):
 - "newton": the Newton-Coulomb impulse above, friction acting on the whole normal impulse;
 - "two_phase": a plastic impact with friction, J_c = the Newton-Coulomb impulse at e = 0,
   which leaves u_c = u + K J_c with u_c . n = 0; then a normal impulse alone, j_r n with
   j_r = -e u_n / n^T K n, so that u'_n = -e u_n (Newton's law on the approach before the
   impact) and friction acts on J_c only: J = J_c + j_r n. A sliding ball's friction impulse
-  is then 1/(1 + e) of the Newton-Coulomb one. tests/test_closed_forms_impacts.py checks
-  both laws against the impulse-momentum equations solved as linear systems, phase by phase.
+  is then 1/(1 + e) of the Newton-Coulomb one;
+- "poisson": J_c as for two_phase, then a restitution impulse of normal part e J_c . n
+  under Coulomb friction: the sliding strike's impulse is Newton's (the slip keeps its
+  direction through both phases), the sticking one's is not (the slip before the impact
+  enters the compression impulse J_c = -K^-1 u, so e J_c . n is not the normal impulse
+  that restores -e u_n). Each variant whose outcome differs by law is in the grid once per
+  law that gives another outcome (ids ending ",two_phase"; ",poisson" in the full grid, as
+  no built-in engine declares Poisson's law).
+  tests/test_closed_forms_impacts.py and tests/test_closed_forms_laws.py check the laws
+  against the impulse-momentum equations solved phase by phase, and in impulse time.
 
 Every variant lies in the x-z plane (the rod turns about y), where the note's sliding
 direction (that of the slip before the impact) is also the direction of the slip after
@@ -40,7 +49,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Catch, Check
+from cases.impact_laws import (DEFAULT_GRID_LAWS, DEFAULT_LAW, IMPULSE_OF_LAW, law_label, law_needs, law_of,
+                               outcomes_differ, with_laws)
 from cases.observables import first_impact
 from cases.scene import Body, Box, Material, Rect, Scene, ball
 
@@ -69,22 +80,6 @@ FULL_GRID = GRID + tuple({"e": e, "mu": mu, "v_t": vt, "dim": dim}
                          for mu, vt in ((0.0, 0.0), (0.3, -1.0), (0.5, -1.0)))
 
 
-def law_matters(p) -> bool:
-    """Friction and restitution together: the restitution laws give different impulses."""
-    return p["mu"] > 0.0 and p["e"] > 0.0
-
-
-def law_of(p) -> str:
-    """The variant's restitution law (cases.scene.RESTITUTION_LAWS; "newton" unless named)."""
-    return p.get("law", "newton")
-
-
-# Each variant whose outcome depends on the restitution law also in the two-phase law's
-# closed form (its id ends ",two_phase"; the others are Newton's).
-GRID = GRID + tuple(dict(p, law="two_phase") for p in GRID if law_matters(p))
-FULL_GRID = FULL_GRID + tuple(dict(p, law="two_phase") for p in FULL_GRID if law_matters(p))
-
-
 # --- closed form --------------------------------------------------------------------------
 
 def cross_matrix(r) -> np.ndarray:
@@ -97,23 +92,6 @@ def body_collision_matrix(M: float, I_inv: np.ndarray, r) -> np.ndarray:
     """K_i = 1/M_i 1 - r_i* I_i^-1 r_i* (note 004, "The collision matrix")."""
     r_star = cross_matrix(r)
     return np.eye(3) / M - r_star @ I_inv @ r_star
-
-
-def newton_coulomb_impulse(K, u, n, e: float, mu_s: float, mu_k: float) -> np.ndarray:
-    """J on body 2 (note 004, "Newton Coulomb impulses for rigid bodies"); frictionless
-    (mu = 0) the sliding impulse with no tangential part (note 001, "Frictionless Impact")."""
-    u_n = u @ n
-    u_t = u - u_n * n
-    if mu_s > 0.0:
-        J = np.linalg.solve(K, -e * u_n * n - u)    # sticking: u' = -e u_n n
-        J_n = J @ n
-        if np.linalg.norm(J - J_n * n) <= mu_s * J_n:
-            return J
-    if mu_k > 0.0 and not np.linalg.norm(u_t) > 0.0:
-        raise ValueError("sliding friction without slip: the note's direction t is undefined")
-    t = u_t / np.linalg.norm(u_t) if mu_k > 0.0 else np.zeros(3)  # sliding along the slip
-    j = -(1.0 + e) * u_n / (n @ K @ (n - mu_k * t))
-    return j * (n - mu_k * t)
 
 
 def inverse_inertia(body: Body, dim: int) -> np.ndarray:
@@ -134,18 +112,6 @@ def setup(p, shift=(0.0, 0.0, 0.0)) -> dict:
             "r_1": np.array([R - a_1, 0.0, 0.0]), "r_2": np.array([-A + a_2, 0.0, D + b_]),
             "n": np.array([1.0, 0.0, 0.0]),
             "v_1": np.array(b.velocity), "w_1": np.zeros(3), "v_2": np.zeros(3), "w_2": np.zeros(3)}
-
-
-def two_phase_impulse(K, u, n, e: float, mu_s: float, mu_k: float) -> np.ndarray:
-    """J on body 2 by the two-phase law (module docstring): the Newton-Coulomb impulse of a
-    plastic impact, then a frictionless normal impulse up to u'_n = -e u_n."""
-    J_c = newton_coulomb_impulse(K, u, n, 0.0, mu_s, mu_k)
-    u_c = u + K @ J_c
-    j_r = (-e * (u @ n) - u_c @ n) / (n @ K @ n)
-    return J_c + max(j_r, 0.0) * n
-
-
-IMPULSE_OF_LAW = {"newton": newton_coulomb_impulse, "two_phase": two_phase_impulse}
 
 
 def velocities_after(p, shift=(0.0, 0.0, 0.0)) -> dict[str, np.ndarray]:
@@ -179,6 +145,17 @@ def scene(p) -> Scene:
 
 def duration(p) -> float:
     return 0.03  # the impact is the first step; MuJoCo's soft contact takes ~16 more
+
+
+def law_differs(p, law: str) -> bool:
+    """The closed form under `law` is not Newton's (beyond round-off of the approach speed)."""
+    newton = {k: v for k, v in p.items() if k != "law"}
+    return outcomes_differ(closed_form(dict(newton, law=law)), closed_form(newton), float(np.hypot(V_X, p["v_t"])))
+
+
+def law_matters(p) -> bool:
+    """The restitution laws give this variant different outcomes."""
+    return any(law_differs(p, law) for law in IMPULSE_OF_LAW if law != "newton")
 
 
 # --- observables --------------------------------------------------------------------------
@@ -257,13 +234,19 @@ def strike_dt(p) -> float:
 def variant_id(p) -> str:
     plane = ",2D" if p["dim"] == 2 else ""
     rough = f",mu={p['mu']},slip={-p['v_t']:g}" if p["mu"] > 0 else ""
-    law = f",{law_of(p)}" if law_of(p) != "newton" else ""
-    return f"e={p['e']}{rough}{law}{plane}"
+    return f"e={p['e']}{rough}{law_label(p)}{plane}"
 
 
 def needs(p) -> frozenset[str]:
     """The restitution law, where it changes the outcome (adapters.base Capabilities.restitution_law)."""
-    return frozenset({f"restitution_law:{law_of(p)}"}) if law_matters(p) else frozenset()
+    return law_needs(p, law_matters(p))
+
+
+# Each variant whose outcome depends on the restitution law also under each other law that
+# changes it (cases/impact_laws.py; ids end ",two_phase", ",poisson"): the laws built-in
+# engines declare in the grid, every law in the full grid.
+GRID = with_laws(GRID, law_differs, (DEFAULT_LAW, *DEFAULT_GRID_LAWS))
+FULL_GRID = with_laws(FULL_GRID, law_differs)
 
 
 FAMILY = CaseFamily(
@@ -279,4 +262,13 @@ FAMILY = CaseFamily(
     needs=needs,
     variant_id=variant_id,
     full_grid=FULL_GRID,
+    catches=(
+        Catch("restitution off", "e=0.5"),
+        Catch("restitution doubled", "e=0.5"),
+        Catch("inertia", "e=0.5"),
+        Catch("friction off", "e=0.5,mu=1.0,slip=1"),
+        Catch("friction doubled", "e=0.5,mu=0.1,slip=1"),
+        Catch("restitution law", "e=0.5,mu=0.1,slip=1"),
+        Catch("restitution law", "e=0.5,mu=1.0,slip=1"),
+    ),
 )

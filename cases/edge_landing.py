@@ -26,6 +26,16 @@ about any other axis. The ratio |p_t| / p_n of the sticking impulse does not dep
 or v_in: 0.40 for the edge (tilt 15 deg), 0.65 for the corner (12 deg), so mu = 0.3
 slides and mu = 0.8 sticks.
 
+That is Newton's restitution law with friction on the whole impulse. With friction and
+e > 0 the engines' laws differ here, because K couples the normal and the slide
+direction (cases/impact_laws.py): the two-phase law (Box2D, Box3D, Rapier) applies
+friction to the compression impulse only and restitution without it, which leaves the
+cube sliding faster and spinning harder. Each frictional variant is in the grid once more
+under that law (ids ending ",two_phase"), and an engine runs the one of the law it
+declares (Capabilities.restitution_law; the other reports unsupported). Poisson's law is
+Newton's here: the cube lands without slip, so both phases stick (or slide along the same
+direction) and e times the compression impulse is the impulse that restores e v_in.
+
 The approach: the cube starts GAP = 1 mm above the ground moving down at the speed that
 brings it to V_IN = 2 m/s at the touch (that of a 0.20 m drop), so the run is 30 ms. The
 time-stepping error of the outcome is about g dt / v_in (a contact found a step late, the
@@ -55,7 +65,8 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check, plane_label
+from cases.family import CaseFamily, Catch, Check, plane_label
+from cases.impact_laws import IMPULSE_OF_LAW, law_label, law_needs, law_of, outcomes_differ, with_laws
 from cases.observables import first_impact
 from cases.scene import Body, Material, Scene, cube, ground, quat_about_y
 from cases.tumbling_box import corners, rotation
@@ -138,20 +149,12 @@ def collision_matrix(r) -> np.ndarray:
     return np.eye(3) / M - r_star @ r_star / I
 
 
-def impact_impulse(r, mu: float, e: float, v_in: float) -> np.ndarray:
-    """The Newton-Coulomb impulse p on the cube (note 004): sticking if it lies in the
-    cone, else sliding against the slip it leaves (module docstring)."""
-    K = collision_matrix(r)
+def impact_impulse(r, mu: float, e: float, v_in: float, law: str = "newton") -> np.ndarray:
+    """The impulse p on the cube by restitution law `law` (cases/impact_laws.py; Newton's,
+    note 004: sticking if it lies in the cone, else sliding against the slip it leaves,
+    module docstring)."""
     n = np.array([0.0, 0.0, 1.0])
-    u = -v_in * n
-    p = np.linalg.solve(K, e * v_in * n - u)
-    p_n = float(p @ n)
-    p_t = p - p_n * n
-    if np.linalg.norm(p_t) <= mu * p_n:
-        return p
-    t = -p_t / np.linalg.norm(p_t)
-    j = (1.0 + e) * v_in / float(n @ K @ (n - mu * t))
-    return j * (n - mu * t)
+    return IMPULSE_OF_LAW[law](collision_matrix(r), -v_in * n, n, e, mu, mu)
 
 
 def impact_speed() -> float:
@@ -166,7 +169,7 @@ def after_impact(p, depth: float = 0.0) -> dict[str, float]:
     may put the contact point anywhere between the corner and the ground's surface)."""
     r = lever(p) + np.array([0.0, 0.0, depth])
     v_in = impact_speed()
-    P = impact_impulse(r, p["mu"], E, v_in)
+    P = impact_impulse(r, p["mu"], E, v_in, law_of(p))
     v = np.array([0.0, 0.0, -v_in]) + P / M
     w = np.cross(r, P) / I
     return {"v_slide_after": float(v @ slide_direction(p)), "vz_after": float(v[2]),
@@ -175,9 +178,20 @@ def after_impact(p, depth: float = 0.0) -> dict[str, float]:
 
 
 def sticks(p) -> bool:
-    """Whether the impact sticks: the sticking impulse inside the friction cone."""
+    """Whether the impact sticks: Newton's sticking impulse inside the friction cone."""
     P = impact_impulse(lever(p), math.inf, E, impact_speed())
     return bool(np.linalg.norm(P[:2]) <= p["mu"] * P[2])
+
+
+def law_differs(p, law: str) -> bool:
+    """The closed form under `law` is not Newton's (beyond round-off of the impact speed)."""
+    newton = {k: v for k, v in p.items() if k != "law"}
+    return outcomes_differ(after_impact(dict(newton, law=law)), after_impact(newton), V_IN)
+
+
+def law_matters(p) -> bool:
+    """The restitution laws give this variant different outcomes."""
+    return any(law_differs(p, law) for law in IMPULSE_OF_LAW if law != "newton")
 
 
 # --- scene ----------------------------------------------------------------------------------
@@ -253,7 +267,18 @@ def expect(p, dt) -> list[Check]:
 
 
 def variant_id(p) -> str:
-    return f"tilt={p['tilt']},mu={p['mu']}{plane_label(p)}"
+    return f"tilt={p['tilt']},mu={p['mu']}{law_label(p)}{plane_label(p)}"
+
+
+def needs(p) -> frozenset[str]:
+    """The restitution law, where it changes the outcome (adapters.base Capabilities.restitution_law)."""
+    return law_needs(p, law_matters(p))
+
+
+# Each variant whose outcome depends on the restitution law also under each other law that
+# changes it (cases/impact_laws.py: the two-phase law; Poisson's is Newton's for a body
+# landing without slip or spin, which sticks or slides the same way in both phases).
+GRID = with_laws(GRID, law_differs)
 
 
 FAMILY = CaseFamily(
@@ -268,5 +293,15 @@ FAMILY = CaseFamily(
     observe=observe,
     expect=expect,
     dt=DT,
+    needs=needs,
     variant_id=variant_id,
+    catches=(
+        Catch("restitution off", "tilt=y,mu=0.0"),
+        Catch("restitution doubled", "tilt=y,mu=0.0"),
+        Catch("inertia", "tilt=y,mu=0.0"),
+        Catch("friction off", "tilt=y,mu=0.3"),
+        Catch("friction doubled", "tilt=y,mu=0.3"),
+        Catch("restitution law", "tilt=y,mu=0.3"),
+        Catch("restitution law", "tilt=y,mu=0.8"),
+    ),
 )

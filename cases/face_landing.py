@@ -43,7 +43,7 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check, plane_label
+from cases.family import CaseFamily, Catch, Check, plane_label
 from cases.observables import arc_apex, first_impact, free_arc_start, rotations
 from cases.scene import Body, Material, Scene, cube, ground
 
@@ -153,4 +153,8 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=variant_id,
+    catches=(
+        Catch("restitution off", "e=0.5,mu=0.0"),
+        Catch("restitution doubled", "e=0.5,mu=0.0"),
+    ),
 )

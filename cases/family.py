@@ -1,7 +1,7 @@
 """The case format: a family is a scene builder, a parameter grid, observables, closed-form
 expectations and tolerances (each with a one-line reason). One file per family under
 `cases/`, exporting `FAMILY`; users add families the same way from `--cases-dir DIR`
-(docs/writing_cases.md walks through one).
+(docs/extend/writing_cases.md walks through one).
 
 How physval uses a family, per variant (one `params` dict of the grid) and engine:
 
@@ -18,7 +18,7 @@ import json
 import math
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
-from typing import Callable
+from typing import Callable, NamedTuple
 
 from cases.scene import Scene
 from cases.trajectory import Trajectory
@@ -90,6 +90,11 @@ class Check:
     within `tolerance + roundoff * k * u` (`at_precision`); `tolerance` alone is what a
     float64 engine is held to, with room for its round-off.
 
+    `roundoff_at` is, where rounding errors do not add up per sub-step (a flight's
+    positions: cases/roundoff.py), a function (float_bits, substeps) -> the part of the
+    tolerance rounding takes at that width, measured by stepping the motion in that
+    arithmetic with a stated factor; `at_precision` adds it as it adds `roundoff`.
+
     `measures` says what a miss shows (MEASURES): "physics" (the default), or "integrator"
     when the tolerance is the error bound of a time-stepping scheme of a stated order (a
     second-order rotation step, say) on motion whose physics conserves exactly, so that a
@@ -103,6 +108,7 @@ class Check:
     why: str
     roundoff: float = 0.0
     measures: str = "physics"
+    roundoff_at: Callable[[int, int], float] | None = None
 
     def __post_init__(self):
         if not isinstance(self.metric, str) or not self.metric:
@@ -121,17 +127,36 @@ class Check:
             raise CaseError(f"check {self.metric!r}: roundoff = {self.roundoff!r}: must be finite and >= 0")
         if not isinstance(self.why, str) or not self.why.strip():
             raise CaseError(f"check {self.metric!r}: why is empty: every tolerance needs its reason")
+        if self.roundoff_at is not None and not callable(self.roundoff_at):
+            raise CaseError(f"check {self.metric!r}: roundoff_at = {self.roundoff_at!r}: must be a function "
+                            "(float_bits, substeps) -> tolerance, or None")
 
 
     def at_precision(self, float_bits: int = 64, substeps: int = 1) -> "Check":
         """The check an engine computing with `float_bits` floats in `substeps` sub-steps a
         step is judged by: its round-off part added to the tolerance at that width."""
-        if not self.roundoff:
+        if not self.roundoff and self.roundoff_at is None:
             return self
         if float_bits not in UNIT_ROUNDOFF:
             raise CaseError(f"float_bits = {float_bits!r}: must be one of {sorted(UNIT_ROUNDOFF)}")
-        extra = self.roundoff * max(1, int(substeps)) * UNIT_ROUNDOFF[float_bits]
-        return replace(self, tolerance=self.tolerance + extra, roundoff=0.0)
+        k = max(1, int(substeps))
+        extra = self.roundoff * k * UNIT_ROUNDOFF[float_bits]
+        if self.roundoff_at is not None:
+            extra += float(self.roundoff_at(float_bits, k))
+        return replace(self, tolerance=self.tolerance + extra, roundoff=0.0, roundoff_at=None)
+
+
+class Catch(NamedTuple):
+    """A wrong answer a family must catch (CaseFamily.catches): `fault`, the name of a
+    planted fault (physval/faults.py: an effect off or doubled, an inertia swapped, another
+    combination rule or restitution law, ...), and `variant`, the id of the variant whose
+    checks show it. tests/test_catches.py plants each on that variant, on the reference
+    engine (or `engine`, a reference formulation where the variant needs one), and
+    requires a check to fail there (and none without the fault), so a family cannot claim
+    what it cannot see."""
+    fault: str
+    variant: str
+    engine: str = "reference"  # where it is planted: the reference, or a formulation that runs the variant
 
 
 @dataclass(frozen=True)
@@ -189,6 +214,8 @@ class CaseFamily:
       the first variant).
     - `variant_id(params) -> str`: the readable id in test ids, reports and selections.
     - `tags`: labels from TAGS ("core", "robustness", "cross_engine", ...).
+    - `catches`: the wrong answers the family must catch (`Catch`: a planted fault's name
+      and the variant that shows it): what its docstring claims to test, as faults.
     """
     name: str
     summary: str
@@ -204,6 +231,7 @@ class CaseFamily:
     variant_id: Callable[[dict], str] = _default_id
     tags: frozenset[str] = frozenset()
     full_grid: tuple[dict, ...] = ()
+    catches: tuple[Catch, ...] = ()
 
     def dt_for(self, params: dict) -> float:
         """A variant's default time step (e.g. fine enough to sample a 1 ms compliant contact)."""
@@ -265,6 +293,12 @@ class CaseFamily:
         unknown = set(self.sweep_variants) - every
         if unknown:
             raise CaseError(f"{self.name}: sweep_variants names no variant: {sorted(unknown)}")
+        if not all(isinstance(c, tuple) and len(c) in (2, 3) and all(isinstance(x, str) for x in c)
+                   for c in self.catches):
+            raise CaseError(f"{self.name}: catches must be cases.family.Catch(fault, variant[, engine]) names")
+        unknown = {c[1] for c in self.catches} - every
+        if unknown:
+            raise CaseError(f"{self.name}: catches name no variant: {sorted(unknown)}")
 
     def validate_variant(self, v: Variant) -> tuple[Scene, float, list[Check]]:
         """Build the variant (its scene, dt, duration, needs and checks), each checked:
@@ -327,13 +361,44 @@ def raised(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
+def raised_where(exc: BaseException) -> str:
+    """', at FILE:LINE' of the innermost frame of the exception's traceback in the user's
+    own code: outside physval's packages (cases, adapters, physval, reference_impl) and the
+    Python installation (the standard library, site-packages), so an observer that hands
+    numpy an empty window is named at its own line, not numpy's; the innermost frame if
+    none is; '' without a traceback. FILE is relative to the working directory if inside it."""
+    import sys
+    import sysconfig
+    import traceback
+    from pathlib import Path
+    frames = traceback.extract_tb(exc.__traceback__) if exc.__traceback__ else []
+    if not frames:
+        return ""
+    own = [Path(sys.modules[name].__file__).resolve().parent for name in ("cases", "adapters", "physval",
+                                                                         "reference_impl") if name in sys.modules]
+    libraries = {Path(sysconfig.get_paths()[key]).resolve() for key in ("stdlib", "platstdlib", "purelib", "platlib")}
+
+    def users(frame) -> bool:
+        path = Path(frame.filename).resolve()
+        return not any(path.is_relative_to(root) for root in own + list(libraries))
+
+    frame = next((f for f in reversed(frames) if users(f)), frames[-1])
+    path = Path(frame.filename)
+    try:
+        path = path.resolve().relative_to(Path.cwd())
+    except ValueError:
+        pass
+    return f", at {path}:{frame.lineno}"
+
+
 @contextmanager
 def user_code(where: str, doing: str, rule: str, error: type[Exception] = CaseError):
     """Run code physval did not write (a family's functions, a user's file, an adapter):
     any exception it raises becomes one `error` line, '`where`: `doing` Type: message
-    (`rule`)', an exit (SystemExit) and every other BaseException included, so that no
-    user code ends physval's process by raising; only Ctrl-C passes. A CaseError or
-    SceneError (the family's own complaint, already one line) becomes '`where`: message'."""
+    (`rule`), at FILE:LINE' (`raised_where`), an exit (SystemExit) and every other
+    BaseException included, so that no user code ends physval's process by raising; only
+    Ctrl-C passes. A CaseError or SceneError (the family's own complaint, already one line)
+    becomes '`where`: message'."""
     from cases.scene import SceneError
     try:
         yield
@@ -342,4 +407,4 @@ def user_code(where: str, doing: str, rule: str, error: type[Exception] = CaseEr
     except (CaseError, SceneError) as exc:
         raise error(f"{where}: {exc}") from None
     except BaseException as exc:
-        raise error(f"{where}: {doing} {raised(exc)} ({rule})") from None
+        raise error(f"{where}: {doing} {raised(exc)} ({rule}){raised_where(exc)}") from None

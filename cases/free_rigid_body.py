@@ -62,8 +62,9 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check
-from cases.observables import free_flight_error, free_flight_roundoff
+from cases.family import CaseFamily, Catch, Check
+from cases.observables import free_flight_error
+from cases.roundoff import position_roundoff, velocity_roundoff
 from cases.overlap import rotation_matrix
 from cases.scene import Body, Box, Rect, Scene
 
@@ -213,15 +214,19 @@ def expect(p, dt) -> list[Check]:
     T = duration(p)
     scale = float(np.linalg.norm(X0)) + float(np.linalg.norm(V0)) * T + G * T * T
     v_max = float(np.linalg.norm(V0)) + G * T
-    round_v, round_x = free_flight_roundoff(max(1, round(T / dt)), dt, scale, v_max, G)
+    steps = max(1, round(T / dt))
+    body = _body(p)
     checks = [
         Check("com_velocity_error", "m/s", 0.0, 1e-9 * v_max, "abs",
               "v += g dt (or g h per sub-step) is exact in every consistent integrator, to round-off: "
-              "1e-9 of the speed in float64, u (|v| + 3 g h) a sub-step at the engine's float width", round_v),
+              "1e-9 of the speed in float64; at the engine's float width half an ulp of v a sub-step (a constant "
+              "increment rounds the same way throughout a binade, cases/roundoff.py)",
+              velocity_roundoff(steps, dt, body.velocity, (0.0, 0.0, -G))),
         Check("com_position_error", "m", 0.0, 1e-9 * scale, "abs",
               "free flight is a consistent one-step integrator's (x0 + v0 t + g t^2/2 + c g dt t, "
-              "|c| <= 1/2: Euler either way, sub-stepped, exact), to round-off: 1e-9 of the reach in float64, "
-              "2.5 u (|x| + h |v|) a sub-step plus T times the velocity's at the engine's float width", round_x),
+              "|c| <= 1/2: Euler either way, sub-stepped, exact), to round-off: 1e-9 of the reach in float64; at "
+              "the engine's float width 3 times the error of this flight stepped in that arithmetic "
+              "(cases/roundoff.py)", roundoff_at=position_roundoff(steps, dt, X0, body.velocity, (0.0, 0.0, -G))),
     ]
     if p["dim"] == 2:
         exact = "a spin about a principal axis is constant: exact in any integrator, to round-off"
@@ -268,4 +273,10 @@ FAMILY = CaseFamily(
     dt=DT,
     variant_id=variant_id,
     full_grid=FULL_GRID,
+    catches=(
+        Catch("inertia axes", "spin=5,wobble=2"),
+        Catch("angular velocity frame", "spin=5,wobble=2"),
+        Catch("gravity", "spin=5,2D"),
+        Catch("time step", "spin=5,2D"),
+    ),
 )

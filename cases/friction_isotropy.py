@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Catch, Check
 from cases.observables import rate
 from cases.scene import Body, Material, Scene, cube, ground
 
@@ -118,4 +118,9 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=lambda p: f"mu={p['mu']}",
+    catches=(
+        Catch("friction cone", "mu=0.5"),
+        Catch("friction doubled", "mu=0.5"),
+        Catch("friction off", "mu=0.5"),
+    ),
 )

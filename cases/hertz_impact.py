@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Catch, Check
 from cases.scene import Body, Compliance, Material, Scene, Sphere
 
 E_STEEL, NU_STEEL, RHO_STEEL = 200e9, 0.3, 7850.0   # Pa, -, kg/m^3
@@ -198,4 +198,8 @@ FAMILY = CaseFamily(
     dt=lambda p: compliant_dt(p) if "law" in p else 1e-3,
     needs=lambda p: frozenset({"contact_forces"}) if "law" in p else frozenset(),  # contact duration, peak force
     variant_id=variant_id,
+    catches=(
+        Catch("restitution off", "r=0.1:0.1"),
+        Catch("contact offset", "r=0.1:0.1,hertz", "reference-hertz"),
+    ),
 )

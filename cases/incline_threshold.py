@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check, friction_label, plane_label
+from cases.family import CaseFamily, Catch, Check, friction_label, plane_label
 from cases.observables import rate, window_mean
 from cases.scene import Body, Material, Scene, cube, ground, tilted_gravity
 
@@ -143,4 +143,10 @@ FAMILY = CaseFamily(
     sweep_variants=("mu=0.5,theta=atan(mu_s)+1deg", "mu=0.5,theta=atan(mu_s)-1deg", "mu=0.5,theta=atan(mu_s)+1deg,2D"),  # what `physval sweep` varies dt and iterations on
     variant_id=variant_id,
     tags=frozenset({"core"}),
+    catches=(
+        Catch("static friction", "mu=0.5,theta=atan(mu_s)+1deg"),
+        Catch("friction off", "mu=0.5,theta=atan(mu_s)-10deg"),
+        Catch("friction doubled", "mu=0.5,theta=atan(mu_s)+10deg"),
+        Catch("kinetic friction", "mu=0.5,theta=atan(mu_s)+10deg"),
+    ),
 )

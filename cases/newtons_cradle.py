@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from cases.family import IMPACT_ROUNDINGS, CaseFamily, Check, impulse_roundoff
+from cases.family import IMPACT_ROUNDINGS, CaseFamily, Catch, Check, impulse_roundoff
 from cases.scene import Body, Compliance, Material, Scene, ball
 
 R = 0.1       # ball radius, m
@@ -196,4 +196,8 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=variant_id,
+    catches=(
+        Catch("restitution off", "k=1"),
+        Catch("restitution off", "k=1,2D"),
+    ),
 )

@@ -9,7 +9,10 @@ body turned off its principal axes, passes them all (free_rigid_body alone sees 
 free flight). The brick has half-sides (0.05, 0.1, 0.2) m: moments m (b^2 + c^2) / 3 and
 so on, 0.0167, 0.0142, 0.0042 kg m^2; the corner pose turns it 30 deg about z and 20 deg
 about y, so no principal axis lies along the world's and its world inertia
-I_w = R diag(I) R^T is full. (2) Impacts with slip and spin at the contact on the
+I_w = R diag(I) R^T is full. The edge pose turns it a quarter about z first, so the edge
+it lands on runs along its x axis and the impact turns it about x: an engine that swaps
+the x and z moments (0.0167 for 0.0042) turns it four times as fast (the 2D rect is that
+pose's cross-section, half-sides b and c). (2) Impacts with slip and spin at the contact on the
 ground: the brick lands on its edge moving sideways and spinning, the ball lands sliding
 (or spinning back) along a direction off the axes; before, only eccentric_impact (a
 ball on a free rod) had a sliding impact, and edge_landing drops its cube without spin.
@@ -24,18 +27,30 @@ Newton-Coulomb: try sticking, u' = -e u_n n, J = K^-1 (u' - u), kept if |J_t| <=
 else slide along the slip t = u_t / |u_t| with J = j (n - mu t), j = -(1 + e) u_n /
 n^T K (n - mu t). Then v' = v + J / m, w' = w + I_w^-1 (r x J), and the angular momentum
 about the centre L' = I_w w' = I_w w + r x J.
-Which regime, and why the note's law is the law here: the sliding variants are those
-where the slip keeps its direction through the impact (the brick on its edge moves in
-the x-z plane it is symmetric about; the ball's K is 1/m + R^2/I on the tangent plane
+Which regime, and why the note's friction law is the law here: the sliding variants are
+those where the slip keeps its direction through the impact (the brick on its edge moves
+in the x-z plane it is symmetric about; the ball's K is 1/m + R^2/I on the tangent plane
 and 1/m along n, uncoupled), so friction opposes the slip before, during and after the
 impact and every Coulomb law (the note's, the LCP's maximal dissipation, the impact
 integrated in impulse time) gives the same impulse. The grid's slips are chosen so the
 sliding ones do not stop (slip after along the slip before) and the sticking ones hold
 inside the cone with room (|J_t| / J_n < mu / sqrt 2, so a friction pyramid holds them
-too); tests/test_closed_forms_impacts.py checks both and solves the impulse-momentum
+too); tests/test_closed_forms_landings.py checks both and solves the impulse-momentum
 equations by another route. A corner of the turned brick has a coupled K: there the
-slip direction turns during a sliding impact and the laws differ, so the corner is
-landed frictionless and sticking only.
+slip direction turns during a sliding impact and the friction laws differ, so the corner
+is landed frictionless and sticking only.
+
+Which restitution law (cases/impact_laws.py): with friction and e > 0 the engines' laws
+differ where K couples n to the tangent plane (the brick) or a slip is there to oppose
+(every frictional landing here but the ball's sticking one). Newton's law (the note's)
+restores -e u_n with friction on the whole impulse; the two-phase law (Box2D, Box3D,
+Rapier) applies friction to the compression impulse only and restitution without it;
+Poisson's law makes the restitution impulse e times the compression one. Each variant
+whose outcome depends on the law is in the grid once per law that changes it (ids ending
+",two_phase"; ",poisson" in the full grid, as no built-in engine declares Poisson's law),
+and an engine runs the one of the law it declares
+(Capabilities.restitution_law; the others report unsupported), so it is judged by its
+own law and not by another's.
 
 The bodies start touching (the contact point at z = 0) and there is no gravity: the
 impact is the first step's, with exact geometry, and nothing but the impulse acts.
@@ -54,8 +69,10 @@ import math
 
 import numpy as np
 
-from cases.eccentric_impact import body_collision_matrix, newton_coulomb_impulse
-from cases.family import CaseFamily, Check, plane_label
+from cases.eccentric_impact import body_collision_matrix
+from cases.family import CaseFamily, Catch, Check, plane_label
+from cases.impact_laws import (DEFAULT_GRID_LAWS, DEFAULT_LAW, IMPULSE_OF_LAW, law_label, law_needs, law_of,
+                               outcomes_differ, with_laws)
 from cases.observables import first_impact
 from cases.scene import Body, Box, Material, Rect, Scene, ball, ground
 from cases.tumbling_box import rotation
@@ -66,13 +83,14 @@ R = 0.1                      # the ball's radius, m
 V = 1.0                      # approach speed of the centre along -n, m/s
 E = 0.5                      # restitution: the body leaves the ground and is read in free flight
 TILT, YAW = 20.0, 30.0       # deg: the brick's tilt about y (edge, corner) and yaw about z first (corner)
+EDGE_TURN = 90.0             # deg about z before the tilt (edge): the landing edge along the brick's x axis
 DT = 1e-4                    # s: a contact found a step late moves the lever by w dt (expect)
 T = 0.03                     # s: the impact in the first step; MuJoCo's soft contact takes ~20 more
 
-# Grid (the sticking ratio |J_t| / J_n of each, tests/test_closed_forms_impacts.py). Brick on
-# its edge (3D and 2D): frictionless (moves I_y into the outcome); sliding, slip 1.8 m/s
-# along x from 1 m/s and a spin of -4 rad/s about y, mu = 0.1 (0.23 needed to stick); and
-# sticking, slip 1.4 m/s, mu = 0.5 (0.17 needed). Turned brick on a corner (3D):
+# Grid (the sticking ratio |J_t| / J_n of each, tests/test_closed_forms_landings.py). Brick on
+# its edge (3D and 2D): frictionless (moves I_x into the outcome); sliding, slip 1.9 m/s
+# along x from 1 m/s and a spin of -4 rad/s about y, mu = 0.1 (0.41 needed to stick); and
+# sticking, slip 1.4 m/s, mu = 0.5 (0.32 needed). Turned brick on a corner (3D):
 # frictionless with spin about x and z, and sticking, slip 0.9 m/s along x, mu = 0.8 (0.32
 # needed). Ball (3D and 2D): sliding with a slip off the axes (1, 0.4) m/s, mu = 0.1 (0.21
 # needed), and sticking with backspin (slip -0.5 m/s), mu = 0.3 (0.10 needed).
@@ -104,18 +122,25 @@ def quat_about(axis, angle: float) -> tuple[float, float, float, float]:
 
 
 def orientation(p) -> tuple[float, float, float, float]:
-    """Edge: TILT about y; corner: YAW about z, then TILT about the world's y; ball: none."""
+    """Edge (3D): a quarter turn about z (the brick's x axis along the world's y), then TILT
+    about the world's y, so the edge it lands on runs along its x axis; corner: YAW about z,
+    then TILT about the world's y; 2D rect: TILT about y; ball: none."""
     if p["body"] == "ball":
         return (1.0, 0.0, 0.0, 0.0)
     tilt = quat_about((0.0, 1.0, 0.0), math.radians(TILT))
-    return tilt if p["pose"] == "edge" else quat_mul(tilt, quat_about((0.0, 0.0, 1.0), math.radians(YAW)))
+    if p["dim"] == 2:
+        return tilt
+    turn = EDGE_TURN if p["pose"] == "edge" else YAW
+    return quat_mul(tilt, quat_about((0.0, 0.0, 1.0), math.radians(turn)))
 
 
 def vertices(dim: int) -> np.ndarray:
-    """The brick's body-frame vertices (2D: the rect's four in the x-z plane)."""
+    """The brick's body-frame vertices (2D: the rect's four in the x-z plane, half-sides
+    b and c: the 3D edge pose's cross-section)."""
     a, b, c = SIDES
-    ys = (-b, b) if dim == 3 else (0.0,)
-    return np.array([(x, y, z) for x in (-a, a) for y in ys for z in (-c, c)])
+    if dim == 2:
+        return np.array([(x, 0.0, z) for x in (-b, b) for z in (-c, c)])
+    return np.array([(x, y, z) for x in (-a, a) for y in (-b, b) for z in (-c, c)])
 
 
 def lever(p, q=None) -> np.ndarray:
@@ -130,7 +155,8 @@ def lever(p, q=None) -> np.ndarray:
 
 def principal_inertia(p) -> np.ndarray:
     """The body-frame principal moments: the brick's m (b^2 + c^2) / 3, ... (the rect's
-    m (a^2 + c^2) / 3 about y is the brick's I_y); the ball's 2/5 m R^2, the disc's m R^2 / 2."""
+    m (b^2 + c^2) / 3 about y is the brick's I_x, the moment its edge landing turns it
+    about); the ball's 2/5 m R^2, the disc's m R^2 / 2."""
     return np.array(_body(p).principal_inertia)
 
 
@@ -158,12 +184,12 @@ def start_velocity(p) -> np.ndarray:
 
 
 def impulse(p, q=None, depth: float = 0.0) -> np.ndarray:
-    """The Newton-Coulomb impulse J on the body (module docstring), at orientation q, the
-    contact point `depth` above the lowest point (see expect)."""
+    """The impulse J on the body by the variant's restitution law (module docstring), at
+    orientation q, the contact point `depth` above the lowest point (see expect)."""
     r, I_inv = lever(p, q) + depth * N, inverse_inertia(p, q)
     K = body_collision_matrix(M, I_inv, r)
     u = start_velocity(p) + np.cross(np.array(p["w"]), r)
-    return newton_coulomb_impulse(K, u, N, E, p["mu"], p["mu"])
+    return IMPULSE_OF_LAW[law_of(p)](K, u, N, E, p["mu"], p["mu"])
 
 
 def after_impact(p, q=None, depth: float = 0.0) -> dict[str, float]:
@@ -191,9 +217,25 @@ def _metrics(p, v, L, u) -> dict[str, float]:
 
 
 def sticks(p) -> bool:
-    """Whether the sticking impulse lies in the friction cone."""
-    J = impulse({**p, "mu": math.inf})
+    """Whether Newton's sticking impulse lies in the friction cone."""
+    J = impulse({**p, "mu": math.inf, "law": "newton"})
     return bool(np.linalg.norm(J[:2]) <= p["mu"] * J[2])
+
+
+def approach_speed(p) -> float:
+    """|v| + |w| |r|: the scale of the contact point's speed (tolerances, law_differs)."""
+    return float(np.linalg.norm(start_velocity(p)) + np.linalg.norm(p["w"]) * np.linalg.norm(lever(p)))
+
+
+def law_differs(p, law: str) -> bool:
+    """The closed form under `law` is not Newton's (beyond round-off)."""
+    newton = {k: v for k, v in p.items() if k != "law"}
+    return outcomes_differ(after_impact(dict(newton, law=law)), after_impact(newton), approach_speed(p))
+
+
+def law_matters(p) -> bool:
+    """The restitution laws give this variant different outcomes."""
+    return any(law_differs(p, law) for law in IMPULSE_OF_LAW if law != "newton")
 
 
 # --- scene ----------------------------------------------------------------------------------
@@ -203,7 +245,7 @@ def _body(p) -> Body:
     if p["body"] == "ball":
         shape = ball(R, dim)
     else:
-        shape = Box(SIDES) if dim == 3 else Rect((SIDES[0], SIDES[2]))
+        shape = Box(SIDES) if dim == 3 else Rect((SIDES[1], SIDES[2]))
     height = R if p["body"] == "ball" else -float(lever(p)[2])  # the contact point at z = 0
     return Body("body", shape, mass=M, position=(0.0, 0.0, height), orientation=orientation(p),
                 velocity=tuple(float(x) for x in start_velocity(p)), angular_velocity=tuple(p["w"]))
@@ -254,8 +296,7 @@ def expect(p, dt) -> list[Check]:
     # depth, bounds what this does to each metric.
     depth = abs(after_impact(p)["contact_rebound"]) / E * dt  # the approach |u_n| dt
     shifted = [after_impact(p, step_rotation(p, dt, s), d) for s in (-1.0, 0.0, 1.0) for d in (0.0, depth)]
-    speed = float(np.linalg.norm(start_velocity(p)) + np.linalg.norm(p["w"]) * np.linalg.norm(lever(p)))
-    tol_v = 1e-6 * speed
+    tol_v = 1e-6 * approach_speed(p)
     why_step = (f", plus the lever turned by one step of spin ({np.linalg.norm(p['w']) * dt:.2g} rad) and raised "
                 f"by one step's overlap ({depth * 1e3:.2g} mm)")
     checks = []
@@ -276,7 +317,19 @@ def expect(p, dt) -> list[Check]:
 def variant_id(p) -> str:
     w = ",".join(f"{x:g}" for x in p["w"])
     motion = f",vx={p['vx']:g},w=({w})" if p["vx"] or any(p["w"]) else ""
-    return f"{p['body']},{p['pose']},mu={p['mu']}{motion}{plane_label(p)}"
+    return f"{p['body']},{p['pose']},mu={p['mu']}{motion}{law_label(p)}{plane_label(p)}"
+
+
+def needs(p) -> frozenset[str]:
+    """The restitution law, where it changes the outcome (adapters.base Capabilities.restitution_law)."""
+    return law_needs(p, law_matters(p))
+
+
+# Each variant whose outcome depends on the restitution law also under each other law that
+# changes it (cases/impact_laws.py; ids end ",two_phase", ",poisson"): the laws built-in
+# engines declare in the grid, every law in the full grid.
+FULL_GRID = with_laws(GRID, law_differs)
+GRID = with_laws(GRID, law_differs, (DEFAULT_LAW, *DEFAULT_GRID_LAWS))
 
 
 FAMILY = CaseFamily(
@@ -292,5 +345,19 @@ FAMILY = CaseFamily(
     observe=observe,
     expect=expect,
     dt=DT,
+    needs=needs,
     variant_id=variant_id,
+    full_grid=FULL_GRID,
+    catches=(
+        Catch("inertia axes", "brick,edge,mu=0.0"),
+        Catch("inertia axes", "brick,corner,mu=0.0,vx=0,w=(3,0,5)"),
+        Catch("inertia", "brick,edge,mu=0.0"),
+        Catch("restitution off", "brick,edge,mu=0.0"),
+        Catch("restitution doubled", "brick,edge,mu=0.0"),
+        Catch("friction off", "brick,edge,mu=0.5,vx=1,w=(0,-2,0)"),
+        Catch("friction doubled", "brick,edge,mu=0.1,vx=1,w=(0,-4,0)"),
+        Catch("restitution law", "brick,edge,mu=0.1,vx=1,w=(0,-4,0)"),
+        Catch("restitution law", "brick,edge,mu=0.5,vx=1,w=(0,-2,0)"),
+        Catch("angular velocity frame", "brick,corner,mu=0.0,vx=0,w=(3,0,5)"),
+    ),
 )

@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from cases.overlap import penetration
+from cases.overlap import penetration, reach
 from cases.trajectory import POS, QUAT, Trajectory
 
 
@@ -73,17 +73,6 @@ def free_flight_error(x, x0, v0, gravity, t: np.ndarray, dt: float) -> float:
     return float(np.max(np.linalg.norm(r - c * b, axis=1)))
 
 
-def free_flight_roundoff(steps: int, dt: float, x_max: float, v_max: float, g: float) -> tuple[float, float]:
-    """(velocity, position) round-off of a free flight of `steps` steps, per unit round-off u
-    and sub-step (cases.family.Check.roundoff), for speeds up to v_max and positions up to
-    x_max. Each sub-step of h <= dt rounds v + g h (u |v|; g and h are stored rounded, and
-    their product rounds: 3 u g h) and x + h v (u |x| and u h |v|); the velocity's error then
-    moves the positions by up to T times it; the band's least-squares c (free_flight_error)
-    takes up to sum t_n T / sum t_n^2 = 3/2 of a position error into the residual: 2.5 times."""
-    v = steps * (v_max + 3.0 * g * dt)
-    return v, 2.5 * (steps * (x_max + dt * v_max) + steps * dt * v)
-
-
 def fall_gravity(z: np.ndarray, g: float, dt: float, band: float = 0.25) -> float:
     """The gravity a height z really falls with, from its positions: minus the median second
     difference / dt^2 over the samples within `band` of -g dt^2; g if none is. (Positions
@@ -108,14 +97,16 @@ def free_arc_start(z: np.ndarray, k: int, g: float, dt: float, run: int = 6) -> 
 
 
 def arc_apex(t: np.ndarray, z: np.ndarray, g: float) -> float:
-    """Apex height of the parabola z = a + b t - g t^2 / 2 fitted to free-flight samples.
+    """Apex height of the parabola z = a + b t - g t^2 / 2 fitted to free-flight samples
+    (g > 0).
 
     Positions only: every explicit Euler integrator (velocity first or position first)
     keeps the second difference of z at exactly -g dt^2 in free flight, so its samples lie
     on such a parabola and the apex is exact in discrete time, while v^2/2 + g z of the
-    sampled velocity drifts by g dt v / 2 depending on the integrator."""
-    b, a = np.polyfit(t - t[0], z + 0.5 * g * (t - t[0]) ** 2, 1)
-    return float(a + b * b / (2.0 * g))
+    sampled velocity drifts by g dt v / 2 depending on the integrator. A parabola needs two
+    samples: with fewer (a window past the run's end, a one-step run) the highest sample's
+    height, or 0 with none, a finite number that fails by its size (`arc_vertex`)."""
+    return arc_vertex(t, z, g)[1]
 
 
 def window_samples(traj: Trajectory, t0: float, t1: float = math.inf, least: int = 1) -> np.ndarray:
@@ -128,8 +119,8 @@ def window_samples(traj: Trajectory, t0: float, t1: float = math.inf, least: int
     inside = np.flatnonzero(traj.after(t0) & (traj.t <= t1 + 1e-12))
     if inside.size >= least:
         return inside
-    end = max(int(np.count_nonzero(traj.t <= t1 + 1e-12)), least)
-    return np.arange(end - least, end)
+    end = min(max(int(np.count_nonzero(traj.t <= t1 + 1e-12)), least), len(traj.t))
+    return np.arange(max(end - least, 0), end)  # a run shorter than `least` samples: all of it
 
 
 def window_mean(traj: Trajectory, values: np.ndarray, t0: float) -> float:
@@ -140,8 +131,16 @@ def window_mean(traj: Trajectory, values: np.ndarray, t0: float) -> float:
 
 def arc_vertex(t: np.ndarray, z: np.ndarray, g: float) -> tuple[float, float]:
     """(time, height) of the vertex of the parabola z = a + b t - g t^2 / 2 fitted to
-    free-flight samples: the fit of `arc_apex`, with the apex time as well. The arc meets
-    height 0 at time +- sqrt(2 height / g) from its vertex."""
+    free-flight samples (g > 0): the fit of `arc_apex`, with the apex time as well. The arc
+    meets height 0 at time +- sqrt(2 height / g) from its vertex. With fewer than two
+    samples (or all at one time) no parabola is fitted: the highest sample, or (0, 0)
+    with none, so a reading over a window that holds too little is a finite number."""
+    t, z = np.asarray(t, float), np.asarray(z, float)
+    if t.size == 0:
+        return 0.0, 0.0
+    if t.size < 2 or np.ptp(t) == 0.0:
+        k = int(np.argmax(z))
+        return float(t[k]), float(z[k])
     tau = t - t[0]
     b, a = np.polyfit(tau, z + 0.5 * g * tau**2, 1)
     return float(t[0] + b / g), float(a + b * b / (2.0 * g))
@@ -151,8 +150,11 @@ def rate(traj: Trajectory, values: np.ndarray, t0: float, t1: float = math.inf) 
     """Slope (per second) of the least-squares line through per-sample values over
     [t0, t1]: an acceleration from velocities, a creep speed from positions. A line needs
     two samples: a window holding fewer is widened back to the two ending where it ends
-    (`window_samples`; the last step's slope if t0 lies past the run's end)."""
+    (`window_samples`; the last step's slope if t0 lies past the run's end); 0 on a run of
+    a single sample (no step: nothing changed)."""
     k = window_samples(traj, t0, t1, least=2)
+    if k.size < 2:
+        return 0.0
     return float(np.polyfit(traj.t[k], values[k], 1)[0])
 
 
@@ -237,15 +239,6 @@ def time_to_collapse(traj: Trajectory, names, sideways: float, down: float) -> f
     return float(traj.t[first]) if first < len(traj.t) else float(traj.t[-1])
 
 
-def _reach(shape) -> float:
-    """Radius of a sphere about the body's centre that holds its shape (inf for a plane)."""
-    if shape.kind in ("sphere", "circle"):
-        return shape.radius
-    if shape.kind in ("box", "rect"):
-        return float(np.linalg.norm(shape.half_extents))
-    return math.inf
-
-
 def deepest_overlap(traj: Trajectory, scene, t0: float, samples: int = 20) -> float:
     """Largest depth (m) by which any two bodies overlap, at `samples` sample times spread
     evenly from t0 to the end; exact per pair (cases.overlap: distances and separating
@@ -256,7 +249,7 @@ def deepest_overlap(traj: Trajectory, scene, t0: float, samples: int = 20) -> fl
     index = {b.name: i for i, b in enumerate(scene.bodies)}
     ia = np.array([index[a.name] for a, _ in pairs], dtype=int)
     ib = np.array([index[b.name] for _, b in pairs], dtype=int)
-    bound = np.array([_reach(a.shape) + _reach(b.shape) for a, b in pairs])
+    bound = np.array([reach(a.shape) + reach(b.shape) for a, b in pairs])
     deepest = 0.0
     for k in picks:
         now = [b if b.static else replace(b, position=tuple(traj.states[b.name][k, POS]),

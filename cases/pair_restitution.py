@@ -5,7 +5,7 @@ pair (`Scene.pairs`), so an engine is judged on each pair's coefficient.
 Balls 1, 2, 3 (masses m1, m2, m3, frictionless, held from rotating, no gravity) lie on the
 x axis with gaps between them; ball 1 moves at v0 towards 2 and 3, which rest. Ball 1
 hits ball 2 (pair e12), then ball 2 hits ball 3 (pair e23). Each impact is a central
-impact of two bodies alone (the third is a gap away, the impacts 59-192 ms apart where a
+impact of two bodies alone (the third is a gap away, the impacts 59-179 ms apart where a
 compliant contact lasts 16 steps, 16 ms), so the impact model (simultaneous or sequential) plays no part; each keeps
 momentum and obeys Newton's law v2' - v1' = -e (v2 - v1):
     v1' = (m1 - e12 m2) v0 / (m1 + m2),        u = v2' = m1 (1 + e12) v0 / (m1 + m2),
@@ -13,19 +13,28 @@ momentum and obeys Newton's law v2' - v1' = -e (v2 - v1):
 and the row stays as it is when v1' <= v2'' <= v3'' (no third impact; `impacts` checks
 this for each variant, tests/test_closed_forms_pairs.py against an event-driven run).
 
-Balls 1 and 3 never touch; their pair (the scene's default material) takes e13, which is
-a parameter of the grid: min(e12, e23) lets the product and min rules express the pair
-table (and Drake's sums of dissipations), max(e12, e23) the max rule (Box2D), with the
-middle ball's value non-neutral either way, so the variants test how an adapter undoes
-its engine's combination rule. An adapter that ignores the pair table runs every impact
-at e13; one that puts each pair's e on both bodies of a product rule gets e^2.
+Every pair of the three is a pair of the table an adapter undoes its engine's combination
+rule for, so every pair must meet in some variant: in the row 1-2-3 balls 1 and 3 never
+touch, so each table also runs as the row 1-3-2 (ball 3 second: ball 1 strikes 3, then 3
+strikes 2; the same closed forms with the roles of 2 and 3 swapped), where they do. The
+pair that does not touch in a row takes a value the engines' rules can express with the
+other two: the larger of the two that do (the max rule of Box2D and PhysX) or the smaller
+(Drake, which sums the pairs' dissipations), with the product (PyBullet, Pymunk, DART)
+and the arithmetic mean (Newton) expressing both. No value serves a max rule and Drake's
+at once (three balls in a row always leave one pair apart), so each row is in the grid
+in both classes, and every engine runs both rows of its class and sees every pair meet
+(tests/test_closed_forms_pairs.py); a variant of the other class it reports unsupported:
+its rule cannot give that table, whose third pair meets in the other row. An adapter
+that ignores the pair table runs every impact at the default; one that inverts the
+product rule where its engine combines by max gets other values on the pairs that meet;
+one that puts each pair's e on both bodies of a product rule gets e^2.
 """
 from __future__ import annotations
 
 import math
 
 from cases.central_impact import velocities_after
-from cases.family import CaseError, CaseFamily, Check, impulse_roundoff, plane_label
+from cases.family import CaseError, CaseFamily, Catch, Check, impulse_roundoff, plane_label
 from cases.scene import Body, Material, Scene, ball
 
 R = 0.1        # ball radius, m
@@ -33,44 +42,67 @@ GAP = 0.1      # between neighbouring balls at the start, m
 V0 = 2.0       # speed of ball 1, m/s (every bounce above DART's 0.1 m/s threshold)
 BALLS = ("b1", "b2", "b3")
 
-# Grid: the hard impact first and the soft one second, and the reverse with a heavier
-# middle ball (so ball 1 bounces back and the row does not meet again); 2D variants,
-# one with the end pair at max(e12, e23) for the max rule of Box2D.
+# Grid: in 3D and in 2D, each row (1-2-3 and 1-3-2) with the pair that does not touch at
+# the larger of the two that do (max rule: Box2D, PhysX; the larger squared at most the
+# smaller, for the product) and at the smaller (Drake, whose summed dissipations need it;
+# the larger at most twice the smaller, for the mean). 1-2-3 has the hard impact first;
+# 1-3-2 in 3D a heavy ball 3 in the middle, so ball 1 bounces back, and in 2D the soft
+# impact first.
 GRID = (
-    {"e12": 0.7, "e23": 0.3, "e13": 0.3, "m": "1:1:1", "dim": 3},
-    {"e12": 0.3, "e23": 0.8, "e13": 0.3, "m": "1:4:1", "dim": 3},
-    {"e12": 0.7, "e23": 0.3, "e13": 0.3, "m": "1:1:1", "dim": 2},
-    {"e12": 0.5, "e23": 0.3, "e13": 0.5, "m": "1:2:1", "dim": 2},
+    {"e12": 0.7, "e23": 0.5, "e13": 0.7, "m": "1:1:1", "row": "1-2-3", "dim": 3},
+    {"e12": 0.7, "e23": 0.4, "e13": 0.4, "m": "1:1:1", "row": "1-2-3", "dim": 3},
+    {"e12": 0.6, "e23": 0.6, "e13": 0.4, "m": "1:1:4", "row": "1-3-2", "dim": 3},
+    {"e12": 0.4, "e23": 0.4, "e13": 0.7, "m": "1:1:1", "row": "1-3-2", "dim": 3},
+    {"e12": 0.5, "e23": 0.3, "e13": 0.5, "m": "1:2:1", "row": "1-2-3", "dim": 2},
+    {"e12": 0.7, "e23": 0.4, "e13": 0.4, "m": "1:1:1", "row": "1-2-3", "dim": 2},
+    {"e12": 0.7, "e23": 0.5, "e13": 0.7, "m": "1:1:1", "row": "1-3-2", "dim": 2},
+    {"e12": 0.4, "e23": 0.4, "e13": 0.7, "m": "1:1:1", "row": "1-3-2", "dim": 2},
 )
 
 
 def masses(p) -> tuple[float, float, float]:
+    """(m1, m2, m3) of the balls b1, b2, b3."""
     m1, m2, m3 = (float(m) for m in p["m"].split(":"))
     return m1, m2, m3
+
+
+def row(p) -> tuple[str, str, str]:
+    """The balls along +x: b1 first, then the one it strikes, then the last."""
+    return tuple(f"b{i}" for i in p.get("row", "1-2-3").split("-"))
+
+
+def pair_e(p, a: str, b: str) -> float:
+    return p["e" + "".join(sorted((a[1], b[1])))]
 
 
 # --- closed forms ---------------------------------------------------------------------
 
 def impacts(m1, m2, m3, e12, e23, v0):
-    """Velocities of the three balls after the impacts 1-2 then 2-3 (note 001, central
-    impact, twice), and whether the row then stays apart (no third impact)."""
+    """Velocities of three balls in a row after the impacts first-second, then
+    second-third (note 001, central impact, twice), and whether the row then stays apart
+    (no third impact)."""
     v1, u = velocities_after(m1, m2, v0, 0.0, e12)
     v2, v3 = velocities_after(m2, m3, u, 0.0, e23)
     return (v1, v2, v3), v1 <= v2 <= v3
 
 
 def final_velocities(p) -> tuple[float, float, float]:
-    v, separate = impacts(*masses(p), p["e12"], p["e23"], V0)
+    """(v1, v2, v3) of the balls b1, b2, b3 after both impacts."""
+    first, mid, last = row(p)
+    m = dict(zip(BALLS, masses(p)))
+    v, separate = impacts(m[first], m[mid], m[last], pair_e(p, first, mid), pair_e(p, mid, last), V0)
     if not separate:
-        raise CaseError(f"pair_restitution {variant_id(p)}: balls 1 and 2 meet again after the second impact; "
+        raise CaseError(f"pair_restitution {variant_id(p)}: the row meets again after the second impact; "
                         "the closed form covers two impacts only")
-    return v
+    by_name = dict(zip((first, mid, last), v))
+    return tuple(by_name[n] for n in BALLS)
 
 
 def impact_times(p) -> tuple[float, float]:
-    """When ball 1 meets ball 2, and ball 2 meets ball 3 (s)."""
-    m1, m2, _ = masses(p)
-    _, u = velocities_after(m1, m2, V0, 0.0, p["e12"])
+    """When ball 1 meets the second ball of the row, and that one the third (s)."""
+    first, mid, _ = row(p)
+    m = dict(zip(BALLS, masses(p)))
+    _, u = velocities_after(m[first], m[mid], V0, 0.0, pair_e(p, first, mid))
     t1 = GAP / V0
     return t1, t1 + GAP / u
 
@@ -79,11 +111,12 @@ def impact_times(p) -> tuple[float, float]:
 
 def scene(p) -> Scene:
     dim = p.get("dim", 3)
-    bodies = tuple(Body(name, ball(R, dim), mass=m, position=(i * (2 * R + GAP), 0.0, 0.0),
-                        velocity=(V0 if i == 0 else 0.0, 0.0, 0.0), rotates=False)
-                   for i, (name, m) in enumerate(zip(BALLS, masses(p))))
+    place = {name: i for i, name in enumerate(row(p))}
+    bodies = tuple(Body(name, ball(R, dim), mass=m, position=(place[name] * (2 * R + GAP), 0.0, 0.0),
+                        velocity=(V0 if name == "b1" else 0.0, 0.0, 0.0), rotates=False)
+                   for name, m in zip(BALLS, masses(p)))
     return Scene(bodies=bodies, gravity=(0.0, 0.0, 0.0),
-                 material=Material(e=p["e13"]),  # b1-b3: never touch
+                 material=Material(e=p["e13"]),
                  pairs=(("b1", "b2", Material(e=p["e12"])), ("b2", "b3", Material(e=p["e23"]))),
                  dimension=dim)
 
@@ -123,12 +156,14 @@ def expect(p, dt) -> list[Check]:
 
 
 def variant_id(p) -> str:
-    return f"e12={p['e12']},e23={p['e23']},e13={p['e13']},m={p['m']}{plane_label(p)}"
+    order = f",row={p['row']}" if p.get("row", "1-2-3") != "1-2-3" else ""
+    return f"e12={p['e12']},e23={p['e23']},e13={p['e13']},m={p['m']}{order}{plane_label(p)}"
 
 
 FAMILY = CaseFamily(
     name="pair_restitution",
-    summary="a row of three balls, e12 != e23: two central impacts in turn, each with its own pair's e",
+    summary="a row of three balls, each pair its own e: two central impacts in turn, each with its own pair's e, "
+            "every pair meeting in some row",
     source="note 001 (CG3 II.5), central impact with a coefficient of restitution, per pair of bodies",
     grid=GRID,
     scene=scene,
@@ -137,4 +172,12 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=variant_id,
+    catches=(
+        Catch("combine rule", "e12=0.7,e23=0.5,e13=0.7,m=1:1:1"),
+        Catch("combine rule", "e12=0.6,e23=0.6,e13=0.4,m=1:1:4,row=1-3-2"),
+        Catch("pair materials", "e12=0.7,e23=0.5,e13=0.7,m=1:1:1"),
+        Catch("pair materials", "e12=0.6,e23=0.6,e13=0.4,m=1:1:4,row=1-3-2"),
+        Catch("restitution off", "e12=0.7,e23=0.5,e13=0.7,m=1:1:1"),
+        Catch("restitution doubled", "e12=0.7,e23=0.5,e13=0.7,m=1:1:1"),
+    ),
 )

@@ -10,7 +10,7 @@ indeterminate and is not checked. Bodies at rest do not penetrate and do not dri
 from __future__ import annotations
 
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Catch, Check
 from cases.observables import stack_readings
 from cases.scene import Body, Material, Scene, cube, ground
 
@@ -86,4 +86,8 @@ FAMILY = CaseFamily(
     variant_id=lambda p: f"n={p['n']}" + (",2D" if p.get("dim", 3) == 2 else ""),
     needs=frozenset({"contact_forces"}),
     tags=frozenset({"core"}),
+    catches=(
+        Catch("force read-out", "n=1,2D"),
+        Catch("contact offset", "n=1,2D"),
+    ),
 )

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 
-from cases.family import CaseFamily, Check, friction_label, plane_label
+from cases.family import CaseFamily, Catch, Check, friction_label, plane_label
 from cases.observables import rate
 from cases.scene import Body, Material, Scene, ball, ground, tilted_gravity
 
@@ -121,4 +121,10 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=variant_id,
+    catches=(
+        Catch("friction off", "theta=20deg,mu=0.2"),
+        Catch("friction doubled", "theta=45deg,mu=0.2"),
+        Catch("kinetic friction", "theta=45deg,mu_s=0.2,mu_k=0.1"),
+        Catch("contact offset", "theta=20deg,mu=0.2"),
+    ),
 )

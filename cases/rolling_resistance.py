@@ -29,7 +29,12 @@ Rolling, a = R alpha, so F = k m a + d N / R, and
 - d = 0 (the control): a rolling ball on the flat keeps its speed for good. An engine
   whose contact dissipates while rolling (a damper in the normal direction that the
   rolling ball's contact keeps loading and unloading, regularised friction rows) shows
-  a deceleration the scene did not ask for.
+  a deceleration the scene did not ask for; so does one that switches on a rolling
+  resistance of its own (MuJoCo's condim 6 brings 1e-4 m): the control is judged tightly
+  enough to see a tenth of that (CONTROL_LEVER).
+- two radii: d is a lever arm; an engine whose coefficient is the dimensionless
+  mu_r = d / R needs the ball's own radius to convert it, and a conversion with a radius
+  of its own passes a single radius. The 0.05 m ball decelerates twice as fast.
 Friction needed to roll: |F| = (k m |a| + d N / R) stays far below mu_s N for mu_s = 0.5
 (0.2 % to 15 % of it on this grid): the ball never slips.
 
@@ -43,12 +48,12 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check, plane_label
+from cases.family import CaseFamily, Catch, Check, plane_label
 from cases.observables import rate
 from cases.rolling_incline import inertia_ratio
 from cases.scene import Body, Material, Scene, ball, ground, tilted_gravity
 
-R = 0.1      # radius, m
+R = 0.1      # radius, m (a variant's "R" when it has one)
 G = 9.81
 MU = 0.5     # sliding friction: ample to keep every variant rolling
 FIT_FROM = 0.1   # accelerations are fitted from here on, after the contact's start-up, s
@@ -56,19 +61,32 @@ T = 1.0          # simulated time of the incline and control variants, s
 AFTER_STOP = 0.3  # simulated time past the stop on the flat, s
 ACC_TOL = 0.01    # m/s^2, as cases/rolling_incline.py: 0.1 % of g
 HELD_TOL = 1e-3   # m a held ball may move in T
+# The control (d = 0) is judged against the smallest rolling resistance it must see: a
+# tenth of the smallest lever arm an engine switches on by default (MuJoCo's condim-6
+# rolling friction, 1e-4 m), which decelerates a rolling ball of radius R at
+# (d / R) g / (1 + k), 7e-4 m/s^2 for the 0.1 m ball: MuJoCo's default lands at 10
+# tolerances (at 0.7 under ACC_TOL). Engines that roll freely measure 3e-5 m/s^2 at most.
+CONTROL_LEVER = 1e-5  # m
 
 # Grid: d = 5 mm (mu_r = d / R = 0.05) on the flat from 0.7 m/s (stops in about 2 s), the
-# same without resistance (the control), on a 10 deg incline (tan 10 deg = 0.18 > 0.05:
-# rolls down slower than without resistance) and a 2 deg one (tan = 0.035 < 0.05: held at
-# rest); the flat pair again as discs for the 2D engines.
+# same on a ball of half the radius (mu_r = 0.1: twice the deceleration, so a conversion
+# to mu_r with a radius of its own is seen), the same without resistance (the control), on
+# a 10 deg incline (tan 10 deg = 0.18 > 0.05: rolls down slower than without resistance)
+# and a 2 deg one (tan = 0.035 < 0.05: held at rest); the flat pair again as discs for the
+# 2D engines.
 GRID = (
     {"d": 0.005, "theta_deg": 0.0, "v0": 0.7, "dim": 3},
+    {"d": 0.005, "theta_deg": 0.0, "v0": 0.7, "R": 0.05, "dim": 3},
     {"d": 0.0, "theta_deg": 0.0, "v0": 0.7, "dim": 3},
     {"d": 0.005, "theta_deg": 10.0, "v0": 0.0, "dim": 3},
     {"d": 0.005, "theta_deg": 2.0, "v0": 0.0, "dim": 3},
     {"d": 0.005, "theta_deg": 0.0, "v0": 0.7, "dim": 2},
     {"d": 0.0, "theta_deg": 0.0, "v0": 0.7, "dim": 2},
 )
+
+
+def radius(p) -> float:
+    return p.get("R", R)
 
 
 # --- closed forms ---------------------------------------------------------------------
@@ -95,23 +113,23 @@ def stops(p) -> bool:
 
 def held(p) -> bool:
     """The incline variants where the resistance holds the ball at rest (tan <= d / R)."""
-    return p["theta_deg"] > 0.0 and acceleration(math.radians(p["theta_deg"]), p["d"], 0.4) == 0.0
+    return p["theta_deg"] > 0.0 and acceleration(math.radians(p["theta_deg"]), p["d"], 0.4, radius(p)) == 0.0
 
 
 # --- scene ----------------------------------------------------------------------------
 
 def scene(p) -> Scene:
     dim = p.get("dim", 3)
-    v0 = p["v0"]
-    body = Body("ball", ball(R, dim), mass=1.0, position=(0, 0, R), velocity=(v0, 0, 0),
-                angular_velocity=(0, v0 / R, 0))  # rolling: the contact point is at rest
+    v0, r = p["v0"], radius(p)
+    body = Body("ball", ball(r, dim), mass=1.0, position=(0, 0, r), velocity=(v0, 0, 0),
+                angular_velocity=(0, v0 / r, 0))  # rolling: the contact point is at rest
     return Scene(bodies=(ground(), body), gravity=tilted_gravity(math.radians(p["theta_deg"]), G),
                  material=Material(e=0.0, mu_s=MU, rolling_resistance=p["d"]), dimension=dim)
 
 
 def duration(p) -> float:
     if stops(p):
-        return stop_time(p["v0"], p["d"], inertia_ratio(p.get("dim", 3))) + AFTER_STOP
+        return stop_time(p["v0"], p["d"], inertia_ratio(p.get("dim", 3)), radius(p)) + AFTER_STOP
     return T
 
 
@@ -120,7 +138,7 @@ def duration(p) -> float:
 def observe(traj, p) -> dict:
     vx = traj.vel("ball")[:, 0]
     if stops(p):  # fitted well before the stop, where the deceleration is uniform
-        t1 = 0.8 * stop_time(p["v0"], p["d"], inertia_ratio(p.get("dim", 3)))
+        t1 = 0.8 * stop_time(p["v0"], p["d"], inertia_ratio(p.get("dim", 3)), radius(p))
         x = traj.pos("ball")[:, 0]
         return {"acceleration": rate(traj, vx, FIT_FROM, t1), "stop_distance": float(x[-1] - x[0])}
     if held(p):  # a creep at constant speed has no acceleration: read the distance too
@@ -132,17 +150,22 @@ def observe(traj, p) -> dict:
 # --- expectations ---------------------------------------------------------------------
 
 def expect(p, dt) -> list[Check]:
-    k = inertia_ratio(p.get("dim", 3))
-    a = acceleration(math.radians(p["theta_deg"]), p["d"], k)
-    why = ("symplectic Euler is exact for constant acceleration (the torque impulse d N dt is exact each step); "
-           "0.01 m/s^2 is 0.1 % of g")
+    k, r = inertia_ratio(p.get("dim", 3)), radius(p)
+    a = acceleration(math.radians(p["theta_deg"]), p["d"], k, r)
     if p["d"] == 0.0:
-        why = "no rolling resistance asked: nothing may slow a rolling ball; 0.01 m/s^2 is 0.1 % of g"
-    checks = [Check("acceleration", "m/s^2", a, ACC_TOL, "abs", why)]
+        tol = -acceleration(0.0, CONTROL_LEVER, k, r)
+        checks = [Check("acceleration", "m/s^2", a, tol, "abs",
+                        f"no rolling resistance asked: nothing may slow a rolling ball; {tol:.2g} m/s^2 is what a "
+                        f"lever of {CONTROL_LEVER:g} m would do, a tenth of the least an engine adds by default "
+                        "(MuJoCo's 1e-4 m)")]
+    else:
+        checks = [Check("acceleration", "m/s^2", a, ACC_TOL, "abs",
+                        "symplectic Euler is exact for constant acceleration (the torque impulse d N dt is exact "
+                        "each step); 0.01 m/s^2 is 0.1 % of g")]
     if stops(p):
         v0 = p["v0"]
         reach = v0 * v0 / (2.0 * a * a) * ACC_TOL  # d(v0^2 / 2a) = v0^2 / (2 a^2) da
-        checks.append(Check("stop_distance", "m", stop_distance(v0, p["d"], k), reach + v0 * dt / 2, "abs",
+        checks.append(Check("stop_distance", "m", stop_distance(v0, p["d"], k, r), reach + v0 * dt / 2, "abs",
                             f"the deceleration's 0.01 m/s^2 carried to v0^2 / (2 a) ({reach:.2g} m), plus "
                             "v0 dt / 2 for a position update with the new or the old velocity"))
     if held(p):
@@ -155,7 +178,8 @@ def expect(p, dt) -> list[Check]:
 def variant_id(p) -> str:
     where = "flat" if p["theta_deg"] == 0.0 else f"theta={p['theta_deg']:g}deg"
     start = f",v0={p['v0']:g}" if p["v0"] else ""
-    return f"d={p['d']:g},{where}{start}{plane_label(p)}"
+    size = f",R={radius(p):g}" if radius(p) != R else ""
+    return f"d={p['d']:g},{where}{start}{size}{plane_label(p)}"
 
 
 FAMILY = CaseFamily(
@@ -171,4 +195,11 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=variant_id,
+    catches=(
+        Catch("rolling resistance off", "d=0.005,flat,v0=0.7"),
+        Catch("rolling resistance doubled", "d=0.005,flat,v0=0.7"),
+        Catch("rolling radius", "d=0.005,flat,v0=0.7,R=0.05"),
+        Catch("contact torques", "d=0,flat,v0=0.7"),
+        Catch("friction off", "d=0.005,theta=10deg"),
+    ),
 )

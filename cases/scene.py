@@ -9,16 +9,21 @@ Conventions (SI units throughout):
 - orientation as a unit quaternion (w, x, y, z), body to world;
 - angular velocity in the world frame, rad/s;
 - a 2D scene (`dimension=2`) lies in the x-z plane: y and the rotations about x and z
-  stay zero, and its shapes are `Circle` and `Rect`.
+  stay zero, and its shapes are `Circle`, `Rect`, `Polygon` and `Plane`;
+- a body's position and orientation are those of its body frame: the centre of mass and
+  principal axes of its shape (each shape's docstring says where they lie), so `inertia`
+  holds three principal moments.
 """
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
-from cases.overlap import penetration
+from cases.overlap import exact, may_touch, penetration
 
 # The physics a scene can call for (Scene.effects, derived from the scene; an adapter
 # simulates these and nothing more, and reports what it simulated in Simulation.effects):
@@ -56,10 +61,11 @@ IMPACT_MODEL_NEED = "impact_model:"
 #   normal impulse);
 # "two_phase": a plastic impact with Coulomb friction (the Newton-Coulomb impulse at e = 0),
 #   then a normal impulse alone up to Newton's u_n+ = -e u_n-, without friction (Box2D and
-#   Rapier apply restitution in a pass of its own after the solve).
-# (Poisson's impulse restitution, the restitution impulse e times the compression one, is
-# no engine's law here; add it with a closed form when one declares it.)
-RESTITUTION_LAWS = ("newton", "two_phase")
+#   Rapier apply restitution in a pass of its own after the solve);
+# "poisson": Poisson's hypothesis, the restitution impulse e times the compression impulse,
+#   with Coulomb friction in both phases (no built-in engine declares it; a plug-in may).
+# The closed forms of all three: cases/impact_laws.py.
+RESTITUTION_LAWS = ("newton", "two_phase", "poisson")
 RESTITUTION_LAW_NEED = "restitution_law:"
 
 # Bodies may start this far inside each other: contact geometry built by hand is exact to
@@ -89,6 +95,170 @@ def _positive(value: float, where: str) -> float:
     if not value > 0:
         raise SceneError(f"{where} = {value!r}: must be > 0")
     return float(value)
+
+
+# --- geometry of the point-set shapes (Hull, Polygon, Mesh) --------------------------------
+
+# A hull, polygon or triangle thinner than this fraction of its size is flat to rounding
+# (float64 coordinates carry 1e-16 of the size; a real plate is far thicker than 1e-12).
+FLAT = 1e-12
+# A hull's centre of mass and off-diagonal inertia (a polygon's centroid) must vanish to this
+# fraction of its size (of the tensor's trace): points typed by hand or made with sin and cos
+# are exact to ~1e-16, and a frame that is off by design is off by far more than 1e-9.
+FRAME_TOLERANCE = 1e-9
+
+
+def _as_tuples(value, kind=float):
+    """`value` as a tuple of tuples of `kind` (hashable, for a frozen shape); as given if it
+    is not a sequence of sequences of real numbers (validate() then names the field)."""
+    try:
+        rows = tuple(tuple(row) for row in value)
+    except TypeError:
+        return value
+    numbers_only = all(isinstance(c, numbers.Real) and not isinstance(c, bool) for row in rows for c in row)
+    if not numbers_only or (kind is int and not all(float(c).is_integer() for row in rows for c in row)):
+        return value
+    return tuple(tuple(kind(c) for c in row) for row in rows)
+
+
+def _brief(value, most: int = 3) -> str:
+    """repr of `value`, its first `most` items and a count if it is longer."""
+    if isinstance(value, (tuple, list)) and len(value) > most:
+        return "(" + ", ".join(repr(v) for v in value[:most]) + f", ... ({len(value)} in all))"
+    return repr(value)
+
+
+def _points(value, where: str, dim: int, least: int) -> np.ndarray:
+    """`value` as an (n, dim) array of finite coordinates, n >= least, or SceneError."""
+    what = "(x, y, z)" if dim == 3 else "(x, z)"
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise SceneError(f"{where} = {_brief(value)}: must be a sequence of {what} points in m") from None
+    if array.ndim != 2 or array.shape[1] != dim:
+        raise SceneError(f"{where} = {_brief(value)}: must be a sequence of {what} points in m")
+    if len(array) < least:
+        raise SceneError(f"{where} = {_brief(value)}: must be at least {least} points")
+    if not np.all(np.isfinite(array)):
+        raise SceneError(f"{where} = {_brief(value)}: must be finite (no NaN or infinity)")
+    return array
+
+
+def _corners(value, where: str, dim: int) -> np.ndarray:
+    """The points of a Hull (dim 3) or Polygon (dim 2) as an array, checked to be the
+    distinct corners of a convex hull of full dimension."""
+    from scipy.spatial import ConvexHull, QhullError
+    points = _points(value, where, dim, least=dim + 1)
+    _, first, count = np.unique(points, axis=0, return_index=True, return_counts=True)
+    if np.any(count > 1):
+        k = min(set(range(len(points))) - set(first))
+        i = int(np.flatnonzero(np.all(points == points[k], axis=1))[0])
+        raise SceneError(f"{where}[{k}] = {tuple(points[k])}: must differ from every other point "
+                         f"(it repeats {where.rsplit('.', 1)[-1]}[{i}])")
+    try:
+        hull = ConvexHull(points)
+    except QhullError:
+        flat = "coplanar" if dim == 3 else "collinear"
+        raise SceneError(f"{where} = {_brief(value)}: must span {'a volume' if dim == 3 else 'an area'} "
+                         f"(the points are {flat})") from None
+    inside = sorted(set(range(len(points))) - set(hull.vertices.tolist()))
+    if inside:
+        k = inside[0]
+        raise SceneError(f"{where}[{k}] = {tuple(float(c) for c in points[k])}: must be a corner of the convex "
+                         "hull of the points (it lies inside it or on its boundary: the shape is given by its "
+                         "corners" + (", and a polygon must be convex)" if dim == 2 else ")"))
+    return points
+
+
+def _outward_triangles(points: np.ndarray) -> np.ndarray:
+    """The faces of the convex hull of `points` (3D) as triangles wound outward."""
+    from scipy.spatial import ConvexHull
+    hull = ConvexHull(points)
+    tri = hull.simplices.copy()
+    a, b, c = points[tri[:, 0]], points[tri[:, 1]], points[tri[:, 2]]
+    inward = np.einsum("ij,ij->i", np.cross(b - a, c - a), hull.equations[:, :3]) < 0
+    tri[inward] = tri[inward][:, [0, 2, 1]]
+    return tri
+
+
+def _polyhedron_moments(points: np.ndarray, tri: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """Volume, first moment (3,) and second moment (3, 3) (the integrals of 1, x, x x^T)
+    of the solid polyhedron with corners `points` and outward face triangles `tri`: a sum
+    over signed tetrahedra (origin, a, b, c), one per face triangle (Tonon 2004; Mirtich
+    1996: see Hull)."""
+    a, b, c = points[tri[:, 0]], points[tri[:, 1]], points[tri[:, 2]]
+    v = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0  # signed volumes
+    s = a + b + c
+    first = (v[:, None] * s).sum(axis=0) / 4.0  # tetrahedron centroid (0 + a + b + c) / 4
+    outer = lambda x: np.einsum("i,ij,ik->jk", v, x, x)  # noqa: E731
+    second = (outer(a) + outer(b) + outer(c) + outer(s)) / 20.0
+    return float(v.sum()), first, second
+
+
+def _inertia_tensor(second: np.ndarray) -> np.ndarray:
+    """The inertia tensor per unit density from the second moment C = integral of x x^T:
+    I = tr(C) 1 - C."""
+    return np.trace(second) * np.eye(3) - second
+
+
+def _ordered(points: np.ndarray) -> np.ndarray:
+    """The corners of a convex polygon (n, 2) counterclockwise (scipy's 2D hull order)."""
+    from scipy.spatial import ConvexHull
+    return points[ConvexHull(points).vertices]
+
+
+def _polygon_moments(points: np.ndarray) -> tuple[float, np.ndarray, float]:
+    """Area, first moment (x, z) and polar second moment about the origin of the convex
+    polygon with corners `points` (any order): Green's theorem over its edges, corners
+    counterclockwise (scipy's 2D hull order)."""
+    p = _ordered(points)
+    q = np.roll(p, -1, axis=0)
+    cross = p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]
+    area = cross.sum() / 2.0
+    first = ((p + q) * cross[:, None]).sum(axis=0) / 6.0
+    polar = (cross * (p[:, 0]**2 + p[:, 0] * q[:, 0] + q[:, 0]**2
+                      + p[:, 1]**2 + p[:, 1] * q[:, 1] + q[:, 1]**2)).sum() / 12.0
+    return float(area), first, float(polar)
+
+
+def _principal(where: str, vertices, centre: np.ndarray, tensor: np.ndarray, size: float) -> None:
+    """SceneError unless the centre of mass is at the origin and the inertia tensor diagonal."""
+    if np.linalg.norm(centre) > FRAME_TOLERANCE * size:
+        raise SceneError(f"{where}.vertices = {_brief(vertices)}: must have their centre of mass at the origin "
+                         f"(it is at {_brief(tuple(float(c) for c in centre))} m): "
+                         "cases.scene.principal_frame moves them there")
+    off = np.abs(tensor - np.diag(np.diag(tensor))).max()
+    if off > FRAME_TOLERANCE * np.trace(tensor):
+        raise SceneError(f"{where}.vertices = {_brief(vertices)}: must be given in the principal axes (the "
+                         f"inertia tensor has off-diagonal terms {off / np.trace(tensor):.3g} of its trace): "
+                         "cases.scene.principal_frame rotates them there")
+
+
+def principal_frame(vertices) -> tuple[tuple, tuple[float, float, float], tuple[float, float, float, float]]:
+    """Move a Hull's (3D) or Polygon's (2D) point set into its body frame.
+
+    Returns (points, centre, rotation): the points in the body frame (a Hull's centre of
+    mass at the origin and principal axes along x, y, z in increasing order of moment; a
+    Polygon's centroid at the origin, unrotated), the centre of mass in the points' frame as
+    (x, y, z) m (y = 0 for a polygon), and the rotation from the body frame to the points'
+    frame as a unit quaternion (w, x, y, z) (identity for a polygon). A solid whose points
+    were meant at pose (p, q) therefore has the body pose position = p + R(q) centre,
+    orientation = q * rotation. The input is not validated here: the shape is, when made
+    into a scene."""
+    from scipy.spatial.transform import Rotation
+    points = np.asarray(vertices, dtype=float)
+    if points.ndim == 2 and points.shape[1] == 2:
+        area, first, _ = _polygon_moments(points)
+        c = first / area
+        return _as_tuples(points - c), (float(c[0]), 0.0, float(c[1])), (1.0, 0.0, 0.0, 0.0)
+    volume, first, second = _polyhedron_moments(points, _outward_triangles(points))
+    c = first / volume
+    about_c = second - volume * np.outer(c, c)  # parallel-axis theorem for the second moment
+    _, axes = np.linalg.eigh(_inertia_tensor(about_c))  # columns: principal axes, moments ascending
+    if np.linalg.det(axes) < 0:
+        axes[:, 2] = -axes[:, 2]
+    x, y, z, w = Rotation.from_matrix(axes).as_quat()
+    return _as_tuples((points - c) @ axes), tuple(float(v) for v in c), (float(w), float(x), float(y), float(z))
 
 
 # --- shapes -------------------------------------------------------------------------------
@@ -185,7 +355,236 @@ class Rect:
             _positive(h, f"{where}.half_extents.{axis}")
 
 
-Shape = Sphere | Box | Plane | Circle | Rect
+@dataclass(frozen=True)
+class _AlongZ:
+    """A solid of revolution about its body's z axis: `radius` and `half_length` in m."""
+    radius: float
+    half_length: float
+
+    def validate(self, where: str) -> None:
+        _positive(self.radius, f"{where}.radius")
+        _positive(self.half_length, f"{where}.half_length")
+
+
+@dataclass(frozen=True)
+class Capsule(_AlongZ):
+    """A capsule (3D scenes): the points within `radius` m of the segment from
+    (0, 0, -half_length) to (0, 0, +half_length) on its body's z axis. The body's position is
+    the segment's midpoint, its centre of mass; body z is its axis (the symmetry axis), and
+    any two axes across it are principal. Overall length 2 (half_length + radius).
+
+    Default inertia of a solid capsule of uniform density, from its cylinder (mass m_c) and
+    its two hemispherical caps (mass m_h in all), the mass shared by volume
+    (2 h pi r^2 against 4/3 pi r^3):
+      I_z = m_c r^2 / 2 + 2/5 m_h r^2,
+      I_x = I_y = m_c (r^2/4 + h^2/3) + m_h (2/5 r^2 + h^2 + 3/4 h r)
+    (each cap's centroid lies 3r/8 past its end of the segment; parallel-axis theorem).
+    Validated: radius > 0, half_length > 0 (a capsule of no length is a Sphere)."""
+    kind = "capsule"
+    dimension = 3
+
+    def inertia(self, m: float) -> tuple[float, float, float]:
+        r, h = self.radius, self.half_length
+        v_cyl, v_caps = 2.0 * h * math.pi * r * r, 4.0 / 3.0 * math.pi * r**3
+        m_c, m_h = m * v_cyl / (v_cyl + v_caps), m * v_caps / (v_cyl + v_caps)
+        across = m_c * (r * r / 4.0 + h * h / 3.0) + m_h * (0.4 * r * r + h * h + 0.75 * h * r)
+        return (across, across, 0.5 * m_c * r * r + 0.4 * m_h * r * r)
+
+
+@dataclass(frozen=True)
+class Cylinder(_AlongZ):
+    """A solid circular cylinder (3D scenes) of `radius` m whose axis is its body's z axis,
+    with flat ends at z = -half_length and z = +half_length. The body's position is its
+    centre (of mass); body z is the symmetry axis, and any two axes across it are principal.
+    Default inertia of a solid cylinder of uniform density:
+      I_z = m r^2 / 2,   I_x = I_y = m (r^2/4 + h^2/3)  (h = half_length).
+    Validated: radius > 0, half_length > 0."""
+    kind = "cylinder"
+    dimension = 3
+
+    def inertia(self, m: float) -> tuple[float, float, float]:
+        r, h = self.radius, self.half_length
+        across = m * (r * r / 4.0 + h * h / 3.0)
+        return (across, across, 0.5 * m * r * r)
+
+
+@dataclass(frozen=True)
+class Hull:
+    """A convex polyhedron (3D scenes): the convex hull of `vertices`, its corners (x, y, z)
+    in m in the body frame, in any order. The body frame is the hull's principal frame: its
+    centre of mass (uniform density) at the origin and its principal axes along x, y, z, as
+    for a Box. A point set given in another frame is refused; `principal_frame(vertices)`
+    moves it there and returns the shift and the rotation to put into the body's pose.
+
+    Default inertia of the solid hull at uniform density, by the polyhedral mass-property
+    integral: the hull's faces (scipy.spatial.ConvexHull, triangulated, wound outward) and
+    the origin span signed tetrahedra, whose volumes a.(b x c)/6 and second moments
+    V/20 (a a^T + b b^T + c c^T + s s^T), s = a + b + c, sum to the solid's (Tonon 2004,
+    J. Math. Stat. 1(1), "Explicit exact formulas for the 3-D tetrahedron inertia tensor in
+    terms of its vertex coordinates"; the same integrals Mirtich 1996, J. Graphics Tools 1(2),
+    "Fast and accurate computation of polyhedral mass properties", reduces to the faces by
+    the divergence theorem). Exact to
+    rounding for the polyhedron; a hull that approximates a curved solid differs from it by
+    its facets (a regular n-gon prism inscribed in a cylinder: I_z smaller by the relative
+    amount (1 - cos(2 pi / n)) / 3).
+
+    Validated: at least 4 points, finite, none repeated; spanning a volume (not coplanar);
+    every point a corner of their hull (none inside it or on a face or an edge: a Hull is
+    given by its corners, so engines that take a vertex list get the same solid); the centre
+    of mass at the origin and the inertia tensor diagonal, both to 1e-9 of the hull's size."""
+    vertices: tuple[tuple[float, float, float], ...]
+    kind = "hull"
+    dimension = 3
+
+    def __post_init__(self):
+        object.__setattr__(self, "vertices", _as_tuples(self.vertices))
+
+    @cached_property
+    def mass_properties(self) -> tuple[float, np.ndarray, np.ndarray]:
+        """(volume m^3, first moment m^4 (3,), second moment m^5 (3, 3): the integrals of
+        1, x and x x^T over the solid in the body frame)."""
+        return _polyhedron_moments(np.asarray(self.vertices, dtype=float), self.faces)
+
+    @cached_property
+    def faces(self) -> np.ndarray:
+        """The hull's faces as triangles (F, 3) of indices into `vertices`, each wound
+        counterclockwise seen from outside (its normal by the right-hand rule points out)."""
+        return _outward_triangles(np.asarray(self.vertices, dtype=float))
+
+    def inertia(self, m: float) -> tuple[float, float, float]:
+        volume, _, second = self.mass_properties
+        return tuple(float(i) for i in np.diag(_inertia_tensor(second)) * m / volume)
+
+    def validate(self, where: str) -> None:
+        points = _corners(self.vertices, f"{where}.vertices", 3)
+        volume, first, second = self.mass_properties
+        size = float(np.ptp(points, axis=0).max())
+        if not volume > FLAT * size**3:
+            raise SceneError(f"{where}.vertices = {_brief(self.vertices)}: must span a volume "
+                             "(the points are coplanar)")
+        _principal(where, self.vertices, first / volume, _inertia_tensor(second), size)
+
+
+@dataclass(frozen=True)
+class Polygon:
+    """A convex polygon in a 2D scene (x-z plane): the convex hull of `vertices`, its corners
+    (x, z) in m in the body frame, in any order; 3D engines embed it as a prism along y, as
+    a Rect. The body's position is its centroid (the origin of the vertices): a 2D body
+    turns about y only, so no axes need aligning; `principal_frame(vertices)` moves a point
+    set there. Default inertia about y, the only axis a 2D body turns about: m J / A, with
+    the area A and polar area moment J about the centroid of the polygon (Green's theorem
+    over its edges: A = 1/2 sum c_i, J = 1/12 sum c_i (x_i^2 + x_i x_i+1 + x_i+1^2 + z_i^2 +
+    z_i z_i+1 + z_i+1^2), c_i = x_i z_i+1 - x_i+1 z_i, corners counterclockwise).
+
+    Validated: at least 3 points, finite, none repeated; spanning an area (not collinear);
+    every point a corner (the polygon is convex, no point on an edge); the centroid at the
+    origin to 1e-9 of the polygon's size."""
+    vertices: tuple[tuple[float, float], ...]
+    kind = "polygon"
+    dimension = 2
+
+    def __post_init__(self):
+        object.__setattr__(self, "vertices", _as_tuples(self.vertices))
+
+    @cached_property
+    def mass_properties(self) -> tuple[float, np.ndarray, float]:
+        """(area m^2, first moment m^3 (x, z), polar second moment m^4 about the origin)."""
+        return _polygon_moments(np.asarray(self.vertices, dtype=float))
+
+    @cached_property
+    def corners(self) -> np.ndarray:
+        """The corners (n, 2) in order around the polygon, counterclockwise in (x, z)
+        coordinates (from +x towards +z)."""
+        return _ordered(np.asarray(self.vertices, dtype=float))
+
+    def inertia(self, m: float) -> tuple[float, float, float]:
+        area, _, polar = self.mass_properties
+        i = m * polar / area  # about y, the only axis a 2D body turns about
+        return (i, i, i)
+
+    def validate(self, where: str) -> None:
+        points = _corners(self.vertices, f"{where}.vertices", 2)
+        area, first, _ = _polygon_moments(points)
+        size = float(np.ptp(points, axis=0).max())
+        if not area > FLAT * size**2:
+            raise SceneError(f"{where}.vertices = {_brief(self.vertices)}: must span an area "
+                             "(the points are collinear)")
+        centroid = first / area
+        if np.linalg.norm(centroid) > FRAME_TOLERANCE * size:
+            raise SceneError(f"{where}.vertices = {_brief(self.vertices)}: must have their centroid at the "
+                             f"origin (it is at x, z = {_brief(tuple(float(c) for c in centroid))} m): "
+                             "cases.scene.principal_frame moves them there")
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """A static triangle mesh (3D scenes): a ground or an obstacle, never a dynamic body (it
+    has no mass properties). `vertices` are points (x, y, z) in m in the body frame (the
+    body's position and orientation place it); `triangles` are index triples into
+    `vertices`, each wound counterclockwise seen from the side the other bodies are on (its
+    normal by the right-hand rule points out of the solid). The mesh need not be closed (a
+    ground is an open surface) or convex.
+
+    Validated: at least one triangle; finite vertices; indices whole numbers in
+    [0, len(vertices)); every triangle of area > 0 (its cross product larger than 1e-12 of its
+    longest edge squared); manifold edges (each edge in at most two triangles), and the two
+    triangles at an edge wound alike (they run along it in opposite directions)."""
+    vertices: tuple[tuple[float, float, float], ...]
+    triangles: tuple[tuple[int, int, int], ...]
+    kind = "mesh"
+    dimension = 3
+
+    def __post_init__(self):
+        object.__setattr__(self, "vertices", _as_tuples(self.vertices))
+        object.__setattr__(self, "triangles", _as_tuples(self.triangles, int))
+
+    def inertia(self, m: float):
+        raise SceneError("a mesh is static: it has no inertia")
+
+    def validate(self, where: str) -> None:
+        points = _points(self.vertices, f"{where}.vertices", 3, least=3)
+        try:
+            tri = np.asarray(self.triangles)
+            ok = tri.ndim == 2 and tri.shape[1] == 3 and len(tri) > 0 and np.all(tri == np.round(tri))
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise SceneError(f"{where}.triangles = {_brief(self.triangles)}: must be one or more "
+                             "triples of vertex indices")
+        tri = tri.astype(int)
+        for k, t in enumerate(tri):
+            if t.min() < 0 or t.max() >= len(points):
+                raise SceneError(f"{where}.triangles[{k}] = {tuple(map(int, t))}: must index vertices "
+                                 f"0..{len(points) - 1}")
+        a, b, c = points[tri[:, 0]], points[tri[:, 1]], points[tri[:, 2]]
+        twice_area = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+        longest = np.max([np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1),
+                          np.linalg.norm(a - c, axis=1)], axis=0)
+        for k in np.flatnonzero(~(twice_area > FLAT * longest**2)):
+            raise SceneError(f"{where}.triangles[{k}] = {tuple(map(int, tri[k]))}: must have an area > 0 "
+                             "(its corners repeat or are collinear)")
+        seen: dict[tuple[int, int], int] = {}  # directed edge -> triangle
+        users: dict[tuple[int, int], int] = {}  # undirected edge -> number of triangles
+        for k, t in enumerate(tri):
+            for i, j in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0])):
+                i, j = int(i), int(j)
+                key = (min(i, j), max(i, j))
+                users[key] = users.get(key, 0) + 1
+                if users[key] > 2:
+                    raise SceneError(f"{where}.triangles[{k}] = {tuple(map(int, t))}: must leave each edge in at "
+                                     f"most two triangles (the edge {key} is in a third: the mesh is not manifold)")
+                if (i, j) in seen:
+                    raise SceneError(f"{where}.triangles[{k}] = {tuple(map(int, t))}: must be wound as its "
+                                     f"neighbour triangles[{seen[(i, j)]}] (both run along the edge ({i}, {j}) "
+                                     "the same way; each should be counterclockwise seen from outside)")
+                seen[(i, j)] = k
+
+
+# Every shape of the vocabulary; Capabilities.shapes names their kinds.
+SHAPES = (Sphere, Box, Plane, Circle, Rect, Capsule, Cylinder, Hull, Polygon, Mesh)
+SHAPE_KINDS = tuple(s.kind for s in SHAPES)
+STATIC_ONLY = ("plane", "mesh")  # kinds only a static body may have
+Shape = Sphere | Box | Plane | Circle | Rect | Capsule | Cylinder | Hull | Polygon | Mesh
 
 
 # --- materials and bodies -----------------------------------------------------------------
@@ -300,7 +699,11 @@ class Body:
     """A rigid body of the scene, in its start state.
 
     - `name`: unique in the scene; trajectories, contact forces and pairs use it;
-    - `shape`: Sphere, Box, Plane (static only) in 3D; Circle, Rect, Plane in 2D;
+    - `shape`: Sphere, Box, Capsule, Cylinder, Hull, Plane and Mesh (these two static only)
+      in 3D; Circle, Rect, Polygon and Plane in 2D. `position` and `orientation` place the
+      shape's body frame: its centre of mass and principal axes (a Box's and a Hull's x, y, z;
+      a Capsule's and a Cylinder's axis along z); a Plane's and a Mesh's frame is where
+      their normal and offset, or vertices, are given;
     - `mass`: kg, > 0 for a dynamic body, None for a static one;
     - `inertia`: principal moments (kg m^2) in the body frame; None: the shape's solid
       default (see each shape);
@@ -336,9 +739,9 @@ class Body:
     def validate(self, where: str) -> None:
         if not isinstance(self.name, str) or not self.name:
             raise SceneError(f"{where}.name = {self.name!r}: must be a non-empty string")
-        if not isinstance(self.shape, (Sphere, Box, Plane, Circle, Rect)):
+        if not isinstance(self.shape, SHAPES):
             raise SceneError(f"{where}.shape = {self.shape!r}: must be a shape of cases.scene "
-                             "(Sphere, Box, Plane, Circle, Rect)")
+                             f"({', '.join(s.__name__ for s in SHAPES)})")
         self.shape.validate(f"{where}.shape")
         _finite(self.position, f"{where}.position", (3,))
         q = _finite(self.orientation, f"{where}.orientation", (4,))
@@ -346,8 +749,9 @@ class Body:
             raise SceneError(f"{where}.orientation = {self.orientation!r}: must be a unit quaternion (w, x, y, z)")
         _finite(self.velocity, f"{where}.velocity", (3,))
         _finite(self.angular_velocity, f"{where}.angular_velocity", (3,))
-        if self.shape.kind == "plane" and not self.static:
-            raise SceneError(f"{where}.static = False: a plane must be static")
+        if self.shape.kind in STATIC_ONLY and not self.static:
+            raise SceneError(f"{where}.static = False: must be True for a {self.shape.kind} (a static ground "
+                             "or obstacle)")
         if not isinstance(self.static, bool) or not isinstance(self.rotates, bool):
             raise SceneError(f"{where}: static and rotates must be True or False")
         if not self.rotates and any(w != 0.0 for w in self.angular_velocity):
@@ -380,8 +784,8 @@ class Scene:
     - `material`: the Material of every pair not named in `pairs`;
     - `pairs`: per-pair overrides (body a, body b, Material), unordered; an engine whose
       per-body combination rule cannot express the pair table reports `unsupported`;
-    - `dimension`: 3, or 2 for a scene in the x-z plane (Circle, Rect, Plane; y, and
-      rotations about x and z, stay zero), which the 2D engines run too;
+    - `dimension`: 3, or 2 for a scene in the x-z plane (Circle, Rect, Polygon, Plane; y,
+      and rotations about x and z, stay zero), which the 2D engines run too;
     - `allowed_overlap`: m the bodies may start inside each other (default 1 um: contact
       built by hand is exact to rounding); a scene that starts deeper on purpose says so;
     - `effects`: derived, not given: the physics the scene calls for (EFFECTS).
@@ -476,8 +880,9 @@ class Scene:
             names.add(body.name)
             dim = body.shape.dimension
             if dim is not None and dim != self.dimension:
+                kinds = {d: ", ".join(s.kind for s in SHAPES if s.dimension in (d, None)) for d in (2, 3)}
                 raise SceneError(f"{where}({body.name}).shape = {body.shape.kind}: a {dim}D shape "
-                                 f"in a {self.dimension}D scene (2D: circle, rect, plane; 3D: sphere, box, plane)")
+                                 f"in a {self.dimension}D scene (2D: {kinds[2]}; 3D: {kinds[3]})")
         self.material.validate("material")
         for j, (a, b, mat) in enumerate(self.pairs):
             for n in (a, b):
@@ -486,10 +891,13 @@ class Scene:
             mat.validate(f"pairs[{j}]({a},{b})")
         if self.dimension == 2:
             self._validate_planar()
-        for a, b in self.contact_pairs():
-            depth = penetration(a, b)
+        pairs = self.contact_pairs()
+        for (a, b), near in zip(pairs, may_touch(pairs)):
+            depth = penetration(a, b) if near else 0.0
             if depth > self.allowed_overlap:
-                raise SceneError(f"bodies {a.name!r} and {b.name!r} start {depth:.3g} m inside each other: "
+                bound = "" if exact(a.shape.kind, b.shape.kind) else \
+                    f" (at most: cases.overlap bounds a {a.shape.kind}-{b.shape.kind} pair's depth from above)"
+                raise SceneError(f"bodies {a.name!r} and {b.name!r} start {depth:.3g} m inside each other{bound}: "
                                  f"allowed_overlap is {self.allowed_overlap:.3g} m")
 
     def _validate_planar(self) -> None:

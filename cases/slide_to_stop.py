@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.family import CaseFamily, Check, friction_label, plane_label
+from cases.family import CaseFamily, Catch, Check, friction_label, plane_label
 from cases.observables import settle_time
 from cases.scene import Body, Material, Scene, cube, ground
 
@@ -133,4 +133,10 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=variant_id,
+    catches=(
+        Catch("kinetic friction", "mu=0.5,v0=2"),
+        Catch("friction off", "mu=0.5,v0=2"),
+        Catch("friction doubled", "mu=0.5,v0=2"),
+        Catch("friction cone", "mu=0.5,v0=2,heading=22.5deg"),
+    ),
 )

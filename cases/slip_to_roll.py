@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.family import CaseFamily, Check, plane_label
+from cases.family import CaseFamily, Catch, Check, plane_label
 from cases.observables import point_velocity, settle_time
 from cases.scene import Body, Material, Scene, ball, ground
 
@@ -122,4 +122,8 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=variant_id,
+    catches=(
+        Catch("friction off", "v0=2,w0=0,mu=0.2"),
+        Catch("friction doubled", "v0=2,w0=0,mu=0.2"),
+    ),
 )

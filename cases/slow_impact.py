@@ -19,7 +19,7 @@ overlap of up to v dt). The velocity is read when the ball flies free again
 """
 from __future__ import annotations
 
-from cases.family import CaseFamily, Check, plane_label
+from cases.family import CaseFamily, Catch, Check, plane_label
 from cases.observables import first_impact
 from cases.scene import Body, Material, Scene, ball, ground
 
@@ -77,4 +77,9 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=DT,
     variant_id=variant_id,
+    catches=(
+        Catch("restitution threshold", "v=0.1"),
+        Catch("restitution off", "v=0.5"),
+        Catch("restitution doubled", "v=0.5"),
+    ),
 )

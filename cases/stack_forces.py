@@ -14,7 +14,7 @@ convergence"). Measured: the reference's 200 sweeps leave a 2D 10-box 10:1 stack
 """
 from __future__ import annotations
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Catch, Check
 from cases.observables import stack_readings
 from cases.scene import Body, Material, Scene, cube, ground
 
@@ -115,4 +115,8 @@ FAMILY = CaseFamily(
     variant_id=variant_id,
     needs=frozenset({"contact_forces"}),
     full_grid=FULL_GRID,
+    catches=(
+        Catch("force read-out", "n=4,light-heavy"),
+        Catch("contact offset", "n=4,light-heavy"),
+    ),
 )

@@ -34,7 +34,7 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check, plane_label
+from cases.family import CaseFamily, Catch, Check, plane_label
 from cases.observables import impulse, mechanical_energy, window_samples
 from cases.scene import Body, Material, Scene, ball, cube, ground
 
@@ -184,4 +184,8 @@ FAMILY = CaseFamily(
     variant_id=variant_id,
     tags=frozenset({"cross_engine"}),
     full_grid=FULL_GRID,
+    catches=(
+        Catch("force read-out", "n=3,m=2.0,h=0.5"),
+        Catch("contact offset", "n=3,m=2.0,h=0.5"),
+    ),
 )

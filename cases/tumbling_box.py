@@ -46,7 +46,7 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check, plane_label
+from cases.family import CaseFamily, Catch, Check, plane_label
 from cases.observables import impulse, mechanical_energy, point_speed_bound, rotations
 from cases.scene import Body, Material, Scene, cube, ground, quat_about_y
 
@@ -232,4 +232,8 @@ FAMILY = CaseFamily(
     variant_id=variant_id,
     tags=frozenset({"cross_engine"}),
     full_grid=FULL_GRID,
+    catches=(
+        Catch("force read-out", "tilt=y,e=0.3,mu=0.3"),
+        Catch("contact offset", "tilt=y,e=0.3,mu=0.3"),
+    ),
 )

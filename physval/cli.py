@@ -6,11 +6,14 @@ exit code 2 here, for every command alike."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import importlib
 import os
 import sys
 import time
+
+from physval.interrupts import sigterm_as_ctrl_c
 
 # A command's time counts from here (the interpreter's start is ~0.03 s earlier); main()
 # sets it again for each command after a process's first (scripts, tests).
@@ -39,10 +42,13 @@ EPILOG = """examples:
   physval COMMAND --help                        each command's options
 exit codes: 0 the command completed (failing physics is a result, not a crash); 1 (compare,
 versions) something changed between the runs, (run) a check fell under --fail-on; 2 bad
-input; 74 the disk is full (finished jobs are kept; the same command resumes once there is
-space); 130 interrupted (finished jobs are kept; the same command resumes); 141 the reader
+input; 74 the disk is full or the file system refused a write (finished jobs are kept; the
+same command resumes once it can write); 130 interrupted (finished jobs are kept; the same command resumes); 141 the reader
 of the output went away (e.g. `physval list | head`), as a shell reports SIGPIPE."""
 DISK_FULL = 74  # EX_IOERR of sysexits.h: an error while doing I/O on a file
+# the file system's refusals mid-run (a read-only remount, a folder made unwritable, a failing
+# disk): exit DISK_FULL too, one line, finished jobs kept
+REFUSED = (errno.EROFS, errno.EIO, errno.EACCES, errno.EPERM)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -83,14 +89,6 @@ def main(argv: list[str] | None = None) -> int:
         from physval.core.context import forget
         forget()
     _commands_run += 1
-    from adapters.base import SettingsError
-    from adapters.registry import EngineError
-    from cases.family import CaseError
-    from cases.scene import SceneError
-    from physval.commands.options import UsageError
-    from physval.core.deviations import DeviationFileError
-    from physval.core.selection import SelectionError
-    from physval.core.store import StoreError
     p = parser(argv)
     try:
         args = p.parse_args(argv)
@@ -100,24 +98,43 @@ def main(argv: list[str] | None = None) -> int:
         p.print_help()
         return 0
     args.started = STARTED
+    # what the command holds until it ends, however it ends (its output folder's lock)
+    args.held = contextlib.ExitStack()
+    with args.held, sigterm_as_ctrl_c():
+        try:
+            return _run(args)
+        except KeyboardInterrupt:  # Ctrl-C or SIGTERM (physval.interrupts), wherever it landed
+            print("physval: interrupted; files already written are complete", file=sys.stderr)
+            return 130
+
+
+def _run(args) -> int:
+    """The command's run(args), its bad input and the errors of the machine said in one line."""
+    from adapters.base import SettingsError
+    from adapters.registry import EngineError
+    from cases.family import CaseError
+    from cases.scene import SceneError
+    from physval.commands.options import UsageError
+    from physval.core.deviations import DeviationFileError
+    from physval.core.selection import SelectionError
+    from physval.core.store import StoreError
     try:
         return importlib.import_module(COMMANDS[args.command]).run(args)
     except (UsageError, CaseError, SceneError, SettingsError, EngineError, SelectionError, StoreError,
             DeviationFileError) as exc:
         print(f"physval: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("physval: interrupted; files already written are complete", file=sys.stderr)
-        return 130
     except BrokenPipeError:  # stdout's reader is gone: say nothing more there (Python's own advice)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
     except OSError as exc:
-        if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+        if exc.errno not in (errno.ENOSPC, errno.EDQUOT) + REFUSED:
             raise
         # every finished job's rows were written before this one (each job is one write, and
         # a job cut short in its write is run again): nothing is lost but the time
-        where = f" writing {exc.filename}" if exc.filename else ""
-        print(f"physval: error: the disk is full ({exc.strerror}{where}); the rows of finished jobs are "
-              "kept: free space and run the same command again to resume", file=sys.stderr)
+        where = f" at {exc.filename}" if exc.filename else ""
+        what, fix = (("the disk is full", "free space") if exc.errno not in REFUSED else
+                     ("the file system refused a write", "make the folder writable again"))
+        print(f"physval: error: {what} ({exc.strerror}{where}); the rows of finished jobs are kept: {fix} and run "
+              "the same command again to resume", file=sys.stderr)
         return DISK_FULL

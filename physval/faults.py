@@ -14,7 +14,14 @@ Sizes are those of bugs that ship: a coefficient a few per cent off, 9.80 for 9.
 step 1 % off, an inertia tensor doubled, a square cone, the 0.04 damping PyBullet switches
 on by default, a force 5 % off. A fault planted in an engine's internals is written per
 engine: for the reference (its default formulation), MuJoCo and PyBullet (`ENGINES`);
-wrapping another engine raises `NotPlantable`.
+wrapping another engine raises `NotPlantable`, but for a fault that changes only the
+scene the engine is given (kinds "any"), which any engine can be handed.
+
+`WRONG_ANSWERS` are the plain wrong answers (an effect off or doubled, another restitution
+law, another combination rule, a radius written in, a contact offset) that the families
+name in their `catches` (cases.family.Catch): each family declares which of them, and of
+FAULTS, it must catch and on which variant, and tests/test_catches.py plants each there
+and shows a check fail.
 """
 from __future__ import annotations
 
@@ -33,15 +40,20 @@ class NotPlantable(Exception):
     """The fault has no meaning in (or no way into) this engine; the message says why."""
 
 
-def engine_kind(adapter: Adapter) -> str:
+def engine_kind(adapter: Adapter, fault: "Fault | None" = None) -> str:
     """Which engine an adapter drives ("reference", "mujoco", "pybullet"), by its class;
-    NotPlantable for any other (faults in engine internals are written per engine)."""
+    NotPlantable for any other (faults in engine internals are written per engine), unless
+    `fault` changes only what any engine is given (kinds "any": then "any")."""
     kind = {"ReferenceAdapter": "reference", "MuJoCoAdapter": "mujoco",
             "PyBulletAdapter": "pybullet"}.get(type(adapter).__name__)
-    if kind is None:
-        raise NotPlantable(f"no faults are written for {type(adapter).__name__}")
     if kind == "reference" and getattr(adapter, "formulation", "si") != "si":
-        raise NotPlantable("faults are written for the reference's default formulation (si) only")
+        kind = None if fault is None or "any" not in fault.kinds else "any"
+        if kind is None:
+            raise NotPlantable("faults are written for the reference's default formulation (si) only")
+    if kind is None:
+        if fault is not None and "any" in fault.kinds:
+            return "any"
+        raise NotPlantable(f"no faults are written for {type(adapter).__name__}")
     return kind
 
 
@@ -411,17 +423,233 @@ class ContactTorques(Fault):
         return _scale_materials(scene, torques)
 
 
+# --- wrong answers: an effect off or doubled, another law, another rule -------------------
+#
+# The plain wrong answers a family names in its `catches` (cases.family.Catch): each changes
+# what the engine is given (the scene), so it has a meaning in any engine ("any"), but for
+# the restitution law, written for the reference's solver. tests/test_catches.py plants
+# each on the variant its family names and shows a check fail.
+
+class _Materials(Fault):
+    """Every material (the default and each pair's) replaced by change(m): the base of the
+    off and doubled faults below."""
+    kinds = ("any",)
+
+    def change(self, m):
+        return m
+
+    def scene(self, scene, kind):
+        return _scale_materials(scene, self.change)
+
+
+class RestitutionOff(_Materials):
+    """Restitution off: e = 0 in every material.
+
+    An adapter that sets the engine's restitution from a field it never fills (Bullet's and
+    DART's default restitution is 0): every impact is plastic."""
+    name = "restitution off"
+
+    def change(self, m):
+        return replace(m, e=0.0)
+
+
+class RestitutionDoubled(_Materials):
+    """Restitution doubled: e x 2 in every material (at most 1).
+
+    A pair's e applied to each body of a rule that adds or multiplies them the other way
+    (e = 0.3 on both bodies of a sum): e = 0.5 becomes 1."""
+    name = "restitution doubled"
+
+    def change(self, m):
+        return replace(m, e=min(1.0, 2.0 * m.e))
+
+
+class FrictionOff(_Materials):
+    """Friction off: mu_s = mu_k = 0 in every material.
+
+    An adapter that maps friction onto a field the engine ignores at this contact type (or
+    one switched off by a flag it forgot): every contact is frictionless."""
+    name = "friction off"
+
+    def change(self, m):
+        return replace(m, mu_s=0.0, mu_k=None)
+
+
+class FrictionDoubled(_Materials):
+    """Friction doubled: mu_s and mu_k x 2 in every material.
+
+    A pair's mu set on both bodies of a rule that adds them (or mu_s given where the
+    engine takes the friction angle's tangent of twice it): 0.3 becomes 0.6."""
+    name = "friction doubled"
+
+    def change(self, m):
+        return replace(m, mu_s=2.0 * m.mu_s, mu_k=None if m.mu_k is None else 2.0 * m.mu_k)
+
+
+class RollingOff(_Materials):
+    """Rolling resistance off: d_r = 0 in every material."""
+    name = "rolling resistance off"
+
+    def change(self, m):
+        return replace(m, rolling_resistance=0.0)
+
+
+class RollingDoubled(_Materials):
+    """Rolling resistance doubled: d_r x 2 in every material (a lever arm given where the
+    engine wants a diameter)."""
+    name = "rolling resistance doubled"
+
+    def change(self, m):
+        return replace(m, rolling_resistance=2.0 * m.rolling_resistance)
+
+
+class TorsionOff(_Materials):
+    """Torsional friction off: d_t = 0 in every material."""
+    name = "torsional friction off"
+
+    def change(self, m):
+        return replace(m, torsional_friction=0.0)
+
+
+class TorsionDoubled(_Materials):
+    """Torsional friction doubled: d_t x 2 in every material."""
+    name = "torsional friction doubled"
+
+    def change(self, m):
+        return replace(m, torsional_friction=2.0 * m.torsional_friction)
+
+
+class RollingRadius(Fault):
+    """Rolling resistance converted with a radius of its own: the engine is handed
+    d_r R / 0.1 m for a ball of radius R, as an adapter that turns the lever arm into the
+    dimensionless mu_r = d_r / R with R = 0.1 m written in (and the engine multiplies back
+    by the ball's own radius). Right for a 0.1 m ball, half the torque for a 0.05 m one."""
+    name = "rolling radius"
+    kinds = ("any",)
+    written_for = 0.1  # m
+
+    def scene(self, scene, kind):
+        radii = [b.shape.radius for b in scene.bodies if b.dynamic and hasattr(b.shape, "radius")]
+        if not radii:
+            return scene
+        ratio = radii[0] / self.written_for
+        return _scale_materials(scene, lambda m: replace(m, rolling_resistance=m.rolling_resistance * ratio))
+
+
+class CombineRule(Fault):
+    """Pair overrides computed for the product rule, combined by the max rule: each body
+    gets the per-body values whose products give the scene's pairs
+    (adapters.combination.per_body_values), and the engine combines two bodies' values by
+    taking the larger, as Box2D's restitution and PhysX's friction and restitution do.
+
+    An adapter that undoes another engine's rule than its own: a pair table of restitution
+    0.5, 0.3, 0.5 reaches the engine as 0.91 for the first pair. (Where the product rule
+    cannot express the table the scene is given unchanged: that adapter would have
+    reported it unsupported.)"""
+    name = "combine rule"
+    kinds = ("any",)
+
+    def scene(self, scene, kind):
+        from adapters.base import Unsupported
+        from adapters.combination import per_body_values
+        pairs = scene.contact_pairs()
+        if len(pairs) < 2:
+            return scene
+        try:
+            e = per_body_values(scene, lambda m: m.e, "product", "restitution")
+            mu = per_body_values(scene, lambda m: m.mu_s, "product", "friction")
+        except Unsupported:
+            return scene
+        table = []
+        for a, b in pairs:
+            m = scene.material_of(a.name, b.name)
+            table.append((a.name, b.name, replace(m, e=min(1.0, max(e[a.name], e[b.name])),
+                                                  mu_s=max(mu[a.name], mu[b.name]), mu_k=None)))
+        return replace(scene, pairs=tuple(table))
+
+
+class RestitutionLaw(Fault):
+    """The two-phase restitution law where the engine declares Newton's: friction acts on a
+    plastic impact, then restitution is applied without friction (Box2D's, Box3D's and
+    Rapier's relax pass after the solve).
+
+    The reference: its solver targets v_n+ = 0 on each bouncing contact, then pushes each
+    one's normal velocity up to its restitution target -e vn0 with normal impulses alone."""
+    name = "restitution law"
+    kinds = ("reference",)
+
+    def plant(self, sim, scene, kind):
+        sim._world.solver = _TwoPhaseSolver(sim._world.solver)
+        return sim
+
+
+class _TwoPhaseSolver(_SolverWrapper):
+    """The reference's solver with restitution moved after it, frictionless (RestitutionLaw)."""
+
+    def solve(self, contacts, bodies, dt, config):
+        bounce = [(c, c.target) for c in contacts if c.target is not None and c.target > 0.0]
+        for c, _ in bounce:
+            c.target = 0.0
+        stages = self._module.solve(contacts, bodies, dt, config)
+        for _ in range(config.iterations):  # restitution, normal rows only, Gauss-Seidel
+            largest = 0.0
+            for c, goal in bounce:
+                dv = goal - c.normal.velocity()
+                if dv > 0.0:
+                    P = c.normal.mass * dv
+                    c.normal.apply(P)
+                    c.Pn += P
+                    largest = max(largest, dv)
+            if largest <= config.tolerance:
+                break
+        for c, goal in bounce:
+            c.target = goal
+        return stages
+
+
+class ContactOffset(Fault):
+    """Contact 2 mm early: every dynamic body's collision shape 2 mm larger than the body
+    (its mass and inertia kept), as an engine's contact offset or collision margin that an
+    adapter leaves on. Bodies rest 2 mm above the surface, impacts happen 2 mm early, a
+    rolling ball's contact point lies 2 mm further from its centre."""
+    name = "contact offset"
+    kinds = ("any",)
+    offset = 2e-3  # m
+
+    def scene(self, scene, kind):
+        from cases.scene import Circle, Sphere
+
+        def grown(s):
+            if isinstance(s, (Sphere, Circle)):
+                return replace(s, radius=s.radius + self.offset)
+            if isinstance(s, (Box, Rect)):
+                return replace(s, half_extents=tuple(h + self.offset for h in s.half_extents))
+            return s
+
+        def body(b):
+            if b.static:
+                return b
+            return replace(b, shape=grown(b.shape), inertia=b.principal_inertia)
+        return replace(scene, bodies=tuple(body(b) for b in scene.bodies),
+                       allowed_overlap=scene.allowed_overlap + 2.0 * self.offset)
+
+
 FAULTS: tuple[Fault, ...] = (Restitution(), StaticFriction(), KineticFriction(), Gravity(), TimeStep(), Inertia(),
                              FrictionCone(), Damping(), ForceReadout(), PairMaterials(), InertiaAxes(),
                              AngularVelocityFrame(), RestitutionThreshold(), ContactTorques())
+# The plain wrong answers families name in their catches (beside FAULTS, the bug-sized
+# faults the bench's detection matrix and tests/test_faults.py run on every family).
+WRONG_ANSWERS: tuple[Fault, ...] = (RestitutionOff(), RestitutionDoubled(), FrictionOff(), FrictionDoubled(),
+                                    RollingOff(), RollingDoubled(), TorsionOff(), TorsionDoubled(), RollingRadius(),
+                                    CombineRule(), RestitutionLaw(), ContactOffset())
 NONE = NoFault()
 
 
 def by_name(name: str) -> Fault:
-    for f in (NONE, *FAULTS):
+    for f in (NONE, *FAULTS, *WRONG_ANSWERS):
         if f.name == name:
             return f
-    raise KeyError(f"no fault {name!r}: choose from {', '.join(f.name for f in (NONE, *FAULTS))}")
+    raise KeyError(f"no fault {name!r}: choose from {', '.join(f.name for f in (NONE, *FAULTS, *WRONG_ANSWERS))}")
 
 
 # --- the wrapper ----------------------------------------------------------------------------
@@ -431,7 +659,7 @@ class FaultyAdapter(Adapter):
     capabilities and its known-deviation file, so the harness judges it as that engine."""
 
     def __init__(self, inner: Adapter, fault: Fault = NONE):
-        self.kind = engine_kind(inner)
+        self.kind = engine_kind(inner, fault)
         self.inner, self.fault = inner, fault
         self.name = inner.name
         self.capabilities = inner.capabilities
@@ -519,10 +747,10 @@ def plant_in(adapter: Adapter, name: str) -> FaultyAdapter:
     from adapters.registry import EngineError
     fault = by_name(name)
     try:
-        kind = engine_kind(adapter)
+        kind = engine_kind(adapter, fault)
     except NotPlantable as exc:
         raise EngineError(f"fault {name!r} cannot be planted in {adapter.name}: {exc}") from None
-    if kind not in fault.kinds:
+    if kind not in fault.kinds and "any" not in fault.kinds:
         raise EngineError(f"fault {name!r} has no meaning in {adapter.name}")
     return FaultyAdapter(adapter, fault)
 

@@ -66,6 +66,9 @@ Formulation interface -- one module per formulation, one function:
   positions this step but is not kept as velocity).
 - It returns the names of the stages it ran (e.g. ("warm_start", "velocity", "friction",
   "position")); the world appends them to `world.stages`.
+- `knobs(config) -> dict`: what the formulation does with the contacts (its solver,
+  friction set, restitution, depenetration, settings in force), for the record of the
+  run; only the formulation that runs describes itself.
 - Optional: `unsupported(world) -> str | None`, the reason the formulation cannot
   represent this world faithfully (adapters raise `Unsupported` with it).
 

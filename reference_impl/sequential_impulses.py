@@ -263,3 +263,17 @@ def _least_squares_start(contacts) -> None:
         norm, limit = math.sqrt(sum(x * x for x in Pt)), c.mu * c.Pn
         c.Pt = [x * limit / norm for x in Pt] if norm > limit else Pt
         k += 1 + len(c.tangents)
+
+
+def knobs(config) -> dict:
+    """What this formulation does with the world's contacts, for the adapter's record."""
+    pyramid = config.params.get("friction_set", "disc") == "pyramid"
+    return {"solver": "sequential impulses: accumulated, clamped row impulses swept in contact order (note 001)",
+            "friction_set": ("pyramid: |Pt_k| <= mu Pn on each tangent row" if pyramid
+                             else "disc: |Pt| <= mu Pn (isotropic)"),
+            "contact_torques": "rolling: disc |Pr| <= rolling Pn about the tangent axes; torsion: "
+                               "|Pq| <= torsion Pn about n (lever arms in m)",
+            "restitution": "v_n+ = -e vn0, vn0 at the start of the step (before gravity)",
+            "depenetration": "split impulse: sweeps on pseudo-velocities",
+            "cold_start": f"least-squares impulses when no contact is warm (up to {config.cold_start_rows} rows)",
+            "iterations": config.iterations, "tolerance": config.tolerance, "warm_start": config.warm_start}

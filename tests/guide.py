@@ -1,4 +1,4 @@
-"""The worked example of docs/writing_cases.md as files, so tests run exactly what the
+"""The worked example of docs/extend/writing_cases.md as files, so tests run exactly what the
 guide shows (a code block is found by its first line, e.g. '# my_cases/pair_drop.py')."""
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import re
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-GUIDE = ROOT / "docs" / "writing_cases.md"
+GUIDE = ROOT / "docs" / "extend" / "writing_cases.md"
 
 
 def block(first_line: str) -> str:
@@ -30,3 +30,13 @@ def write_known(folder: Path) -> Path:
     path = folder / "my_known.txt"
     path.write_text(block("# my_known.txt"))
     return path
+
+
+def section(heading: str) -> str:
+    """The guide's text under the heading line `heading` (its '#'s included), up to the next
+    heading of the same or a higher level."""
+    text = GUIDE.read_text()
+    level = len(heading) - len(heading.lstrip("#"))
+    found = re.search(r"^" + re.escape(heading) + r"\n(.*?)(?=^#{1," + str(level) + r"} |\Z)", text, re.S | re.M)
+    assert found, f"{GUIDE.name}: no heading {heading!r}"
+    return found.group(1)

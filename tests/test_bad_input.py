@@ -79,7 +79,7 @@ def test_scene_structure():
         Scene(bodies=(Body("b", Sphere(0.1), mass=1.0), Body("b", Sphere(0.1), mass=1.0, position=(1, 0, 0))))
     with pytest.raises(SceneError, match="at least one dynamic body"):
         Scene(bodies=(ground(),))
-    with pytest.raises(SceneError, match="a plane must be static"):
+    with pytest.raises(SceneError, match=r"static = False: must be True for a plane"):
         Scene(bodies=(Body("p", Plane(), mass=1.0), Body("b", Sphere(0.1), mass=1.0, **BALL)))
     with pytest.raises(SceneError, match=r"pairs\[0\] names body 'x'"):
         Scene(bodies=(ground(), Body("b", Sphere(0.1), mass=1.0, **BALL)), pairs=(("x", "b", Material()),))
@@ -362,11 +362,17 @@ def test_a_run_survives_a_family_that_crashes(source, tmp_path):
     ("import os\nfrom adapters.reference_engine import ReferenceAdapter\n"
      "class Engine(ReferenceAdapter):\n    def __init__(self):\n        os.kill(os.getpid(), 11)\n",
      "killed by signal SIGSEGV"),
-], ids=["import-sys_exit", "import-os_exit", "constructor-segfault"])
+    ("from adapters.reference_engine import ReferenceAdapter\n"
+     "class Engine(ReferenceAdapter):\n    def __init__(self):\n        super().__init__(name='reference-mine')\n"
+     "    def version(self):\n        raise RuntimeError('no release here')\n",
+     "version() raised RuntimeError: no release here (an adapter's version() must return its engine's release as a "
+     "string)"),
+], ids=["import-sys_exit", "import-os_exit", "constructor-segfault", "version-raises"])
 @pytest.mark.parametrize("command", [["list", "--engines"], ["run", "--engines", "reference", "--quiet"]],
                          ids=["list", "run"])
 def test_an_adapter_file_that_exits_or_crashes_is_one_line(adapter, message, command, tmp_path):
-    """An --adapter file is imported and made in a worker first (before: exit 0 and no word)."""
+    """An --adapter file is imported and made, and gives its version, in a worker first
+    (before: exit 0 and no word; a version() that raised: a traceback after the dry run)."""
     (tmp_path / "engine.py").write_text(adapter)
     target = f"{tmp_path / 'engine.py'}:Engine"
     out = ["--out", str(tmp_path / "out")] if command[0] == "run" else []
@@ -419,3 +425,96 @@ def test_a_broken_file_leaves_the_other_families_of_its_folder_runnable(tmp_path
         got = _physval_process(*run, *(["--cases", spec] if spec else []))
         lines = got.stderr.strip().splitlines()
         assert got.returncode == 2 and len(lines) == 1 and str(cases / f) in lines[0], (spec, got.stderr)
+
+
+# --- paths the file system refuses (issue 33) ------------------------------------------------
+
+R = ["--cases", "central_impact[drop,e=0.5]", "--engines", "reference", "--readings", "none", "--workers", "1",
+     "--quiet"]
+
+
+def _as_a_user(*args, timeout=300):
+    """`python3 -m physval ARGS` as a user whom file permissions bind: root reads whatever
+    the permissions say, so as root the process runs without the capabilities that let it
+    (setpriv drops CAP_DAC_OVERRIDE and CAP_DAC_READ_SEARCH from its bounding set)."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+    prefix = []
+    if os.geteuid() == 0:
+        if shutil.which("setpriv") is None:
+            pytest.skip("as root, a file cannot be made unreadable without setpriv (util-linux)")
+        prefix = ["setpriv", "--bounding-set", "-dac_override,-dac_read_search"]
+    return subprocess.run([*prefix, sys.executable, "-m", "physval", *args], cwd=ROOT, capture_output=True,
+                          text=True, timeout=timeout)
+
+
+@pytest.fixture
+def unreadable(tmp_path):
+    """A folder nobody may list or enter, with a results.csv and a family file in it."""
+    folder = tmp_path / "unreadable"
+    folder.mkdir()
+    (folder / "results.csv").write_text("case\n")
+    (folder / "mine.py").write_text(_user_case())
+    folder.chmod(0)
+    yield folder
+    folder.chmod(0o755)
+
+
+@pytest.mark.parametrize("args, option", [
+    (lambda u, t: ["run", *R, "--out", str(u / "out")], "--out {u}/out: cannot write there (Permission denied)"),
+    (lambda u, t: ["compare", str(u), str(u), "--out", str(t / "cmp")], "{u}: cannot be read (Permission denied)"),
+    (lambda u, t: ["run", *R, "--cases-dir", str(u), "--out", str(t / "out")],
+     "--cases-dir '{u}': cannot be read (Permission denied)"),
+    (lambda u, t: ["run", *R, "--known", str(u / "known.txt"), "--out", str(t / "out")],
+     "--known '{u}/known.txt': cannot be read (Permission denied)"),
+], ids=["out-inside", "compare", "cases-dir-inside", "known-inside"])
+def test_a_path_the_system_refuses_is_one_line_and_exit_2(unreadable, tmp_path, args, option):
+    """Before: a traceback (PermissionError from a check that only asked whether it exists)."""
+    got = _as_a_user(*args(unreadable, tmp_path))
+    (line,) = got.stderr.strip().splitlines()
+    assert got.returncode == 2 and line == f"physval: error: {option.format(u=unreadable)}", got.stderr
+
+
+def test_an_out_folder_name_too_long_is_one_line_and_exit_2(tmp_path):
+    out = tmp_path / ("x" * 300)
+    got = _physval("run", *R, "--out", str(out))
+    (line,) = got.stderr.strip().splitlines()
+    assert got.returncode == 2 and line == f"physval: error: --out {out}: cannot write there (File name too long)"
+
+
+def test_an_unreadable_family_file_is_left_out_and_the_good_families_run(tmp_path):
+    """Before: the resume key read every file of the folder, a traceback after the dry run
+    had left the file out."""
+    cases = tmp_path / "cases"
+    cases.mkdir()
+    (cases / "good.py").write_text(_user_case(name="good"))
+    (cases / "secret.py").write_text(_user_case(name="secret"))
+    (cases / "secret.py").chmod(0)
+    run = ["run", "--cases-dir", str(cases), "--engines", "reference", "--readings", "none", "--workers", "1",
+           "--quiet", "--out", str(tmp_path / "out")]
+    got = _as_a_user(*run, "--cases", "good")
+    (line,) = got.stderr.strip().splitlines()
+    assert got.returncode == 0 and line.startswith(f"physval: left out {cases / 'secret.py'}: cannot be loaded: "
+                                                   "PermissionError"), got.stderr
+    import csv
+    assert {r["case"] for r in csv.DictReader(open(tmp_path / "out" / "results.csv"))} == {"good"}
+    got = _as_a_user(*run)  # every family: the one that cannot be read stops it
+    (line,) = got.stderr.strip().splitlines()
+    assert got.returncode == 2 and str(cases / "secret.py") in line and "Permission denied" in line, got.stderr
+
+
+@pytest.mark.parametrize("folder, message", [("missing", "no such folder"),
+                                             ("empty", "no results.csv in this folder")])
+def test_the_report_rebuilt_from_a_folder_without_results_is_one_line(tmp_path, folder, message):
+    """`python3 -m physval.readings.results FOLDER` (docs: reading the report): exit 2 and one line (before: a
+    traceback, FileNotFoundError)."""
+    import subprocess
+    import sys
+    (tmp_path / "empty").mkdir()
+    got = subprocess.run([sys.executable, "-m", "physval.readings.results", str(tmp_path / folder)], cwd=ROOT,
+                         capture_output=True, text=True, timeout=120)
+    (line,) = got.stderr.strip().splitlines()
+    assert got.returncode == 2 and line.startswith(f"python -m physval.readings.results: error: {tmp_path / folder}: "
+                                                   f"{message}"), got.stderr

@@ -96,3 +96,24 @@ def test_box3d_2d_bodies_stay_in_their_plane(box3d):
     assert s[1] == 0.0 and s[8] == 0.0  # y, vy
     assert s[4] == 0.0 and s[6] == 0.0  # the quaternion turns about y only
     assert s[10] == 0.0 and s[12] == 0.0  # no spin about x or z
+
+
+@pytest.mark.engine("box3d")
+@pytest.mark.parametrize("e", (1.0, 0.5))
+def test_box3d_touching_balls_land_one_impact_at_a_time(box3d, e):
+    """The declared impact model, as measured (IMPACT_MODEL_MEASURED): a 0.1 kg ball resting
+    on a 1 kg one (touching, no overlap), both landing at 2 m/s, gravity off. The landing
+    step bounces the bottom ball alone; the next resolves the pair as an impact of its own:
+    the sequential model's closed form (cases/column_impact.py), not the simultaneous
+    one's (both at e V)."""
+    from cases.column_impact import sequential_velocities
+    assert box3d.Box3DAdapter.capabilities.impact_model == "sequential"
+    v = 2.0
+    bottom = Body("bottom", ball(0.1, 3), mass=1.0, position=(0, 0, 0.1), velocity=(0, 0, -v))
+    top = Body("top", ball(0.1, 3), mass=0.1, position=(0, 0, 0.3), velocity=(0, 0, -v))
+    scene = Scene(bodies=(ground(), bottom, top), gravity=(0, 0, 0), material=Material(e=e))
+    s = _run(box3d.Box3DAdapter().build(scene, Settings(dt=1e-3)), 5)
+    (v_top, v_bottom, _), _ = sequential_velocities([0.1, 1.0, float("inf")], [v, v, 0.0], e)
+    # float32 velocities of a few m/s, three impacts: 1e-5 m/s
+    assert s["top"][9] == pytest.approx(-v_top, abs=1e-5)
+    assert s["bottom"][9] == pytest.approx(-v_bottom, abs=1e-5)

@@ -86,6 +86,45 @@ def test_check_case_stops_a_broken_family_with_one_line(tmp_path, capsys, broken
     assert "runs on" not in captured.out
 
 
+def test_check_case_names_the_file_and_line_where_the_observer_raised(tmp_path, capsys):
+    """The line of the user's own file, not the innermost frame (here numpy's)."""
+    path = write_example(tmp_path)
+    call = "np.linalg.inv(np.zeros((2, 2)))"
+    text = path.read_text().replace("def observe(traj, p):\n",
+                                    f"def observe(traj, p):\n    import numpy as np\n    {call}\n")
+    path.write_text(text)
+    line = text.splitlines().index(f"    {call}") + 1
+    assert main(["check-case", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "observe() raised LinAlgError" in err and err.endswith(f", at {path}:{line}") and err.count("\n") == 0, err
+
+
+def test_user_code_names_the_users_line_past_physvals_own_frames(tmp_path):
+    """An observer asking physval's Trajectory for a body it does not have: the TrajectoryError is
+    raised in cases/trajectory.py, the line named is the observer's."""
+    import importlib.util
+
+    from cases.family import CaseError, user_code
+    path = tmp_path / "observer.py"
+    path.write_text("def observe(traj):\n    return traj.pos('nobody')\n")
+    spec = importlib.util.spec_from_file_location("observer_under_test", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    traj = falling_box_trajectory()
+    with pytest.raises(CaseError) as exc:
+        with user_code("mine.py: fam[v]", "observe() raised", "the rule"):
+            module.observe(traj)
+    assert str(exc.value).startswith("mine.py: fam[v]: observe() raised TrajectoryError")
+    assert str(exc.value).endswith(f"(the rule), at {path}:2")
+
+
+def falling_box_trajectory():
+    from cases.trajectory import Trajectory
+    states = np.zeros((2, 13))
+    states[:, 3] = 1.0
+    return Trajectory(dt=1e-3, t=np.array([0.0, 1e-3]), states={"box": states})
+
+
 def test_check_case_of_a_file_that_is_not_python_is_one_line(tmp_path, capsys):
     (tmp_path / "notes.txt").write_text("x")
     assert main(["check-case", str(tmp_path / "notes.txt")]) == 2

@@ -19,6 +19,7 @@ from cases import free_rigid_body as fr
 from cases import hertz_impact as hi
 from cases import newtons_cradle as nc
 from cases import stack_forces as sf
+from cases.impact_laws import newton_impulse
 from cases.observables import free_flight_error
 
 
@@ -30,14 +31,15 @@ def cross_matrix(r) -> np.ndarray:
 # --- eccentric impact ---------------------------------------------------------------------
 
 def impulse_momentum(M_1, I_1, M_2, I_2, r_1, r_2, v_1, v_2, n, e, mu, planar, w_1=None, w_2=None,
-                     target=None):
+                     target=None, normal_impulse=None):
     """Post-impact (v_1, w_1, v_2, w_2, J) from the impulse-momentum equations of both
     bodies and the contact law, as one linear system (no collision matrix): unknowns
     v_1', w_1', v_2', w_2', J (and the sliding magnitude j). Bodies start spinning at w_1,
     w_2 (default none). Sticking: u' = target n, target = -e u_n unless given. Sliding (if
     sticking needs |J_t| > mu J_n): n . u' = target and J = j (n - mu t), t along the slip
-    before the impact. A planar body keeps w_x = w_z = 0 (its x and z inertia rows are
-    replaced by w = 0)."""
+    before the impact. Given `normal_impulse` P, the normal row is n . J = P instead of the
+    normal velocity (Poisson's restitution phase). A planar body keeps w_x = w_z = 0 (its
+    x and z inertia rows are replaced by w = 0)."""
     w_1 = np.zeros(3) if w_1 is None else np.asarray(w_1, float)
     w_2 = np.zeros(3) if w_2 is None else np.asarray(w_2, float)
     I_1, I_2 = np.diag(I_1), np.diag(I_2)
@@ -67,6 +69,11 @@ def impulse_momentum(M_1, I_1, M_2, I_2, r_1, r_2, v_1, v_2, n, e, mu, planar, w
         else:
             A[12], b[12] = n @ U, target
             A[13:16, JJ], A[13:16, 15] = np.eye(3), -(n - mu * t)                         # J - j (n - mu t) = 0
+        if normal_impulse is not None:  # n . J = P in place of the normal velocity row
+            A[12], b[12] = 0.0, normal_impulse
+            A[12, JJ] = n
+            if sticking:  # the sticking rows: only the tangential velocity vanishes
+                A[13:15], b[13:15] = np.linalg.svd(np.outer(n, n))[0][:, 1:].T @ U, 0.0
         return np.linalg.solve(A, b)
 
     x = solve(True)
@@ -90,6 +97,16 @@ def from_scene(p):
                 planar=p["dim"] == 2)
 
 
+def poisson(**inputs):
+    """Poisson's law phase by phase: the plastic impact with friction, then from the
+    velocities it leaves an impact whose normal impulse is e times the first's."""
+    e = inputs["e"]
+    v_1, w_1, v_2, w_2, J_c = impulse_momentum(**{**inputs, "e": 0.0})
+    v_1, w_1, v_2, w_2, J_r = impulse_momentum(**{**inputs, "v_1": v_1, "v_2": v_2}, w_1=w_1, w_2=w_2,
+                                               normal_impulse=e * (J_c @ inputs["n"]))
+    return v_1, w_1, v_2, w_2, J_c + J_r
+
+
 def two_phase(**inputs):
     """The two-phase law phase by phase: the impulse-momentum system of a plastic impact
     with friction, then, from the velocities it leaves, one of a frictionless impact whose
@@ -104,7 +121,7 @@ def two_phase(**inputs):
 
 @pytest.mark.parametrize("p", ei.FULL_GRID, ids=ei.variant_id)
 def test_eccentric_impact_solves_the_impulse_momentum_equations(p):
-    law = two_phase if ei.law_of(p) == "two_phase" else impulse_momentum
+    law = {"two_phase": two_phase, "poisson": poisson, "newton": impulse_momentum}[ei.law_of(p)]
     v_1, w_1, v_2, w_2, J = law(**from_scene(p))
     after = ei.velocities_after(p)
     for got, want in ((after["v_1"], v_1), (after["w_1"], w_1), (after["v_2"], v_2), (after["w_2"], w_2),
@@ -128,7 +145,7 @@ def test_newton_coulomb_impulse_against_the_linear_system(m1, m2, e, mu, d, vt, 
         vt = 1e-3  # the note's sliding direction needs slip
         v_1[2] = vt
     K = ei.body_collision_matrix(m1, I_1_inv, r_1) + ei.body_collision_matrix(m2, I_2_inv, r_2)
-    J = ei.newton_coulomb_impulse(K, -v_1, n, e, mu, mu)
+    J = newton_impulse(K, -v_1, n, e, mu, mu)
     *_, J_ref = impulse_momentum(m1, I_1, m2, I_2, r_1, r_2, v_1, np.zeros(3), n, e, mu, dim == 2)
     assert J == pytest.approx(J_ref, abs=1e-9)
 

@@ -31,11 +31,13 @@ def world_inertia(p) -> np.ndarray:
     return R @ np.diag(I) @ R.T
 
 
-def kkt_impact(p):
-    """(v', w', J) from M x' = M x + G^T J with G = [1, -r*] (u = v + w x r), solved as a
-    saddle-point system in the six velocities and the impulse. Sticking: G x' = -e u_n n.
-    Sliding: n . G x' = -e u_n and J = j (n - mu t), t along the slip before. A 2D body
-    keeps w_x = w_z = 0 (rows replaced)."""
+def kkt_phase(p, x, mu: float, target: float | None = None, normal_impulse: float | None = None):
+    """(v', w', J) of one impact phase from generalised velocities x = (v, w): M x' = M x +
+    G^T J with G = [1, -r*] (u = v + w x r), solved as a saddle-point system in the six
+    velocities and the impulse. Sticking: G x' = target n (or, given `normal_impulse` P:
+    no tangential slip and n . J = P). Sliding (sticking outside the cone): the same normal
+    condition and J = j (n - mu t), t along the slip before the phase (none: against the
+    sticking impulse's tangential part). A 2D body keeps w_x = w_z = 0 (rows replaced)."""
     n = np.array([0.0, 0.0, 1.0])
     r = ol.lever(p)
     I_w = world_inertia(p) if p["dim"] == 3 else np.diag([1.0, ol._body(p).principal_inertia[1], 1.0])
@@ -43,10 +45,8 @@ def kkt_impact(p):
     Mg[:3, :3], Mg[3:, 3:] = ol.M * np.eye(3), I_w
     rx = np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
     G = np.hstack([np.eye(3), -rx])
-    x = np.concatenate([ol.start_velocity(p), p["w"]])
     u = G @ x
-    u_n = u[2]
-    t = (u - u_n * n) / max(np.linalg.norm(u - u_n * n), 1e-300)
+    u_t = u - u[2] * n
 
     def planar(A, b):
         if p["dim"] == 2:
@@ -56,53 +56,60 @@ def kkt_impact(p):
                 b[i] = 0.0
         return A, b
 
-    # sticking: [M -G^T; G 0] [x'; J] = [M x; u']
+    # sticking: [M -G^T; G 0] [x'; J] = [M x; u']  (Poisson: the normal row n . J = P)
     A = np.zeros((9, 9))
     A[:6, :6], A[:6, 6:], A[6:, :6] = Mg, -G.T, G
-    b = np.concatenate([Mg @ x, -ol.E * u_n * n])
+    b = np.concatenate([Mg @ x, (target or 0.0) * n])
+    if normal_impulse is not None:
+        A[8, :], b[8] = 0.0, normal_impulse
+        A[8, 8] = 1.0
     if p["dim"] == 2:  # the planar body: its contact point moves in x-z; keep y rows out
         A[7, :] = 0.0
         A[7, 7] = 1.0
         b[7] = 0.0
     sol = np.linalg.solve(*planar(A, b))
     J = sol[6:]
-    if p["mu"] == 0.0 or np.linalg.norm(J[:2]) > p["mu"] * J[2]:
-        d = n - p["mu"] * t if p["mu"] > 0 else n
+    if mu == 0.0 or np.linalg.norm(J[:2]) > mu * J[2]:
+        slip = u_t if np.linalg.norm(u_t) > 0 else -(J - J[2] * n)
+        t = slip / max(np.linalg.norm(slip), 1e-300)
+        d = n - mu * t if mu > 0 else n
         A = np.zeros((7, 7))
         A[:6, :6], A[:6, 6] = Mg, -G.T @ d
-        A[6, :6] = n @ G
-        b = np.concatenate([Mg @ x, [-ol.E * u_n]])
+        if normal_impulse is None:
+            A[6, :6], b = n @ G, np.concatenate([Mg @ x, [target]])
+        else:
+            A[6, 6], b = 1.0, np.concatenate([Mg @ x, [normal_impulse]])
         sol = np.linalg.solve(*planar(A, b))
         J = sol[6] * d
     return sol[:3], sol[3:6], J
 
 
-@pytest.mark.parametrize("p", VARIANTS, ids=IDS)
-def test_oblique_landing_solves_the_impulse_momentum_equations(p):
-    v, w, J = kkt_impact(p)
-    assert ol.impulse(p) == pytest.approx(J, abs=1e-12)
-    cf = ol.after_impact(p)
-    I_w = world_inertia(p) if p["dim"] == 3 else np.diag([0.0, ol._body(p).principal_inertia[1], 0.0])
-    L = I_w @ w
-    for k, x in (("vx", v[0]), ("vz", v[2]), ("Ly", L[1])):
-        assert cf[k] == pytest.approx(x, abs=1e-12)
-    if p["dim"] == 3:
-        for k, x in (("vy", v[1]), ("Lx", L[0]), ("Lz", L[2])):
-            assert cf[k] == pytest.approx(x, abs=1e-12)
-    r = ol.lever(p)
-    assert cf["contact_rebound"] == pytest.approx((v + np.cross(w, r))[2], abs=1e-12)
-    assert cf["contact_rebound"] == pytest.approx(-ol.E * (ol.start_velocity(p) + np.cross(p["w"], r))[2], abs=1e-12)
-    # no energy created
-    I0 = world_inertia(p) if p["dim"] == 3 else np.diag([0.0, ol._body(p).principal_inertia[1], 0.0])
-    x0, w0 = ol.start_velocity(p), np.array(p["w"])
-    assert 0.5 * ol.M * v @ v + 0.5 * w @ I0 @ w <= 0.5 * ol.M * x0 @ x0 + 0.5 * w0 @ I0 @ w0 + 1e-12
+def kkt_impact(p):
+    """(v', w', J) by the variant's restitution law, phase by phase (cases/impact_laws.py):
+    Newton: one phase to -e u_n; two-phase: a plastic phase with friction, then a
+    frictionless one to -e u_n; Poisson: the plastic phase, then one whose normal impulse is
+    e times the first's."""
+    x = np.concatenate([ol.start_velocity(p), p["w"]])
+    u_n = (ol.start_velocity(p) + np.cross(p["w"], ol.lever(p)))[2]
+    law = p.get("law", "newton")
+    if law == "newton":
+        return kkt_phase(p, x, p["mu"], target=-ol.E * u_n)
+    v, w, J_c = kkt_phase(p, x, p["mu"], target=0.0)
+    x = np.concatenate([v, w])
+    if law == "two_phase":
+        v, w, J_r = kkt_phase(p, x, 0.0, target=-ol.E * u_n)
+    else:
+        v, w, J_r = kkt_phase(p, x, p["mu"], normal_impulse=ol.E * J_c[2])
+    return v, w, J_c + J_r
 
 
-@pytest.mark.parametrize("p", VARIANTS, ids=IDS)
+@pytest.mark.parametrize("p", [p for p in VARIANTS if "law" not in p],
+                         ids=[i for i, p in zip(IDS, VARIANTS) if "law" not in p])
 def test_regimes_are_unambiguous(p):
     """Sliding variants keep the slip's direction through the impact (so the note's law,
     the LCP's and the impact integrated in impulse time agree) and do not come near to
-    sticking; sticking variants hold inside the inscribed friction pyramid."""
+    sticking; sticking variants hold inside the inscribed friction pyramid. (The other
+    laws' variants: tests/test_closed_forms_laws.py integrates them in impulse time.)"""
     if p["mu"] == 0.0:
         return
     r = ol.lever(p)
@@ -124,7 +131,7 @@ def test_the_ball_obeys_the_textbook_sliding_impact():
     """A sliding ball: J_n = (1 + e) m V, the slip drops by mu J_n (1/m + R^2 / I) along
     itself, the centre's tangential velocity by mu J_n / m, the spin by R mu J_n / I."""
     for p in VARIANTS:
-        if p["body"] != "ball" or ol.sticks(p):
+        if p["body"] != "ball" or ol.sticks(p) or "law" in p:  # Newton's law
             continue
         I = ol._body(p).principal_inertia[1]
         u = ol.start_velocity(p) + np.cross(p["w"], ol.lever(p))

@@ -32,12 +32,15 @@ def test_rolling_resistance_from_integrating_newton_euler(p):
     """Newton-Euler for the ball with Coulomb friction at the contact point and the rolling
     torque bounded by d N (tests/fakes.coulomb_on_plane): whether it rolls, is held, and how
     fast it changes speed come out of the integration and match the family's closed form."""
-    th, k = math.radians(p["theta_deg"]), inertia_ratio(p["dim"])
-    start = (p["v0"], p["v0"] / rr.R)
-    a, alpha = coulomb_on_plane(G * math.sin(th), G * math.cos(th), rr.MU, rr.MU, k, rr.R, rolling=p["d"],
-                                start=start)
-    assert rr.acceleration(th, p["d"], k) == pytest.approx(a, abs=1e-7)
-    assert alpha == pytest.approx(a / rr.R, abs=1e-6)  # it rolls (or stays) without slipping
+    th, k, r = math.radians(p["theta_deg"]), inertia_ratio(p["dim"]), rr.radius(p)
+    start = (p["v0"], p["v0"] / r)
+    span = min(1.0, 0.8 * rr.stop_time(p["v0"], p["d"], k, r)) if rr.stops(p) else 1.0  # fitted before a stop
+    a, alpha = coulomb_on_plane(G * math.sin(th), G * math.cos(th), rr.MU, rr.MU, k, r, rolling=p["d"],
+                                start=start, duration=span)
+    assert rr.acceleration(th, p["d"], k, r) == pytest.approx(a, abs=1e-7)
+    assert alpha == pytest.approx(a / r, abs=1e-6)  # it rolls (or stays) without slipping
+    checks = {c.metric: c for c in rr.expect(p, 1e-3)}
+    assert checks["acceleration"].expected == pytest.approx(a, abs=1e-7)
 
 
 @given(st.floats(0.1, 3.0), st.floats(1e-4, 0.02), st.sampled_from([0.4, 0.5]))
@@ -68,9 +71,9 @@ def test_d_zero_is_the_rolling_incline_and_the_grid_never_slips():
     for th in (0.1, 0.3):
         assert rr.acceleration(th, 0.0, 0.4) == pytest.approx(ri.acceleration(th, 0.5, 0.5, 0.4))
     for p in rr.GRID:  # friction needed to roll, k m |a| + d N / R, within mu_s N
-        th, k = math.radians(p["theta_deg"]), inertia_ratio(p["dim"])
-        a = rr.acceleration(th, p["d"], k)
-        needed = abs(k * a + p["d"] * G * math.cos(th) / rr.R) if a else G * math.sin(th)
+        th, k, r = math.radians(p["theta_deg"]), inertia_ratio(p["dim"]), rr.radius(p)
+        a = rr.acceleration(th, p["d"], k, r)
+        needed = abs(k * a + p["d"] * G * math.cos(th) / r) if a else G * math.sin(th)
         assert needed < rr.MU * G * math.cos(th)
 
 
@@ -86,6 +89,22 @@ def test_rolling_readings_of_an_exact_euler_run(order):
     got = rr.observe(traj, p)
     for check in rr.expect(p, dt):
         assert abs(got[check.metric] - check.expected) <= check.tolerance, check.metric
+
+
+def test_the_controls_see_the_torques_engines_add_by_default():
+    """MuJoCo's condim-6 defaults, a rolling lever of 1e-4 m and a torsional one of 1e-5 m,
+    land at 10 tolerances of each control (they landed at 0.70 and 0.98 before), and a
+    rolling ball whose lever is converted with the wrong radius misses the second one."""
+    for p in (q for q in rr.GRID if q["d"] == 0.0):
+        k = inertia_ratio(p["dim"])
+        tol = rr.expect(p, 1e-3)[0].tolerance
+        assert abs(rr.acceleration(0.0, 1e-4, k, rr.radius(p))) == pytest.approx(10 * tol, rel=1e-12)
+    control = next(q for q in sd.GRID if q["d_t"] == 0.0)
+    tol = {c.metric: c.tolerance for c in sd.expect(control, 1e-3)}["spin_deceleration"]
+    assert sd.spin_deceleration(1e-5, control["R"]) == pytest.approx(10 * tol, rel=1e-12)
+    small = next(q for q in rr.GRID if rr.radius(q) != rr.R)
+    wrong = rr.acceleration(0.0, small["d"] * small["R"] / rr.R, 0.4, rr.radius(small))  # d / 0.1 taken as mu_r
+    assert abs(wrong - rr.expect(small, 1e-3)[0].expected) > 10 * rr.ACC_TOL
 
 
 # --- spin_down ----------------------------------------------------------------------------

@@ -181,3 +181,50 @@ def test_where_two_runs_part(runs, capsys):
     assert "4 jobs saved by both runs compared step by step: 1 part" in text
     assert "![the trajectories that part the most, side by side](trajectories.png)" in text
     assert (out / "trajectories.png").stat().st_size > 10_000
+
+
+# --- damaged input and nothing in common (issue 33) -------------------------------------------
+
+def test_two_runs_with_no_check_in_common_compare_without_a_warning(tmp_path, capsys):
+    """Before: matplotlib's "No artists with labels found to put in legend" on stderr."""
+    import warnings
+    a = _folder(tmp_path / "a", [r for r in A if r["metric"] == "gone"])
+    b = _folder(tmp_path / "b", [r for r in B if r["metric"] == "new"])
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        assert main(["compare", str(a), str(b), "--out", str(tmp_path / "out")]) == 1
+    assert not [str(w.message) for w in seen], [str(w.message) for w in seen]
+    assert capsys.readouterr().out.startswith("changed: 0 checks changed status, 0 moved by more than 0.01 "
+                                              "tolerances, 1 in A only, 1 in B only")
+
+
+def test_a_last_row_cut_short_is_no_check(tmp_path, capsys):
+    """A results.csv whose last row a kill cut in two (every whole row ends with a newline):
+    that row is no check, so its check is in A only (before: read as a check of B, with its
+    numbers missing)."""
+    a = _folder(tmp_path / "a", A)
+    b = _folder(tmp_path / "b", A)
+    text = (b / "results.csv").read_text()
+    (b / "results.csv").write_text(text[:text.rstrip("\n").rfind("\n") + 30])  # the last row: 29 characters of it
+    assert main(["compare", str(a), str(b), "--out", str(tmp_path / "out")]) == 1
+    assert capsys.readouterr().out.startswith("changed: 0 checks changed status, 0 moved by more than 0.01 "
+                                              "tolerances, 1 in A only, 0 in B only")
+    assert _table(tmp_path / "out")[A[-1]["metric"]]["change"] == "only in A"
+
+
+@pytest.mark.parametrize("content", [b"", b"not a zip file", b"PK\x03\x04 a zip cut short"], ids=["empty", "text", "torn"])
+def test_a_trajectory_file_that_cannot_be_read_costs_its_job_only(runs, capsys, content):
+    """Before: a traceback (numpy's ValueError, zipfile's BadZipFile)."""
+    a, b, out = runs
+    z = 1.0 - 0.5 * 9.81 * (np.arange(101) * 1e-3) ** 2
+    for folder in (a, b):
+        _trajectory(folder / "trajectories", "good", z)
+        _trajectory(folder / "trajectories", "bad", z)
+    (b / "trajectories" / "bad.npz").write_bytes(content)
+    assert main(["compare", str(a), str(b), "--trajectories", str(a / "trajectories"), str(b / "trajectories"),
+                 "--out", str(out)]) == 1
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("physval: 1 jobs left out of the trajectories' comparison: a saved file cannot be read "
+                           "(first: bad, cannot be read: "), line
+    parts = pd.read_csv(out / "trajectories.csv").set_index("job")
+    assert parts.loc["good", "largest"] == 0 and parts.loc["bad", "note"].startswith("cannot be read: ")

@@ -1,4 +1,4 @@
-"""docs/writing_cases.md does what it says: its worked family passes `physval check-case`
+"""docs/extend/writing_cases.md does what it says: its worked family passes `physval check-case`
 and runs on the reference with every check passing, and its `--known` walk-through turns
 the model difference a user records for MuJoCo into `deviation`, listed in the report as
 the user's own."""
@@ -65,3 +65,48 @@ def test_known_turns_a_users_recorded_model_difference_into_a_deviation(tmp_path
     assert label in listing
     for r in recorded:  # every recorded check with its band and today's measurement
         assert f"pair_drop[{r['variant']}]:apex_top" in listing and r["band"] in listing
+
+
+def test_the_guides_helper_table_names_every_helper_of_cases_observables():
+    """Every public function of cases.observables has its row in the guide's table (rotations
+    once had none), and the table names no helper that is not there."""
+    import inspect
+    import re
+
+    import cases.observables as obs
+    from tests.guide import section
+    rows = [line for line in section("## Observables: `cases.observables`").splitlines() if line.startswith("| `")]
+    named = {name for row in rows for name in re.findall(r"`(\w+)", row.split(" | ")[0])}
+    public = {n for n, f in vars(obs).items() if inspect.isfunction(f) and f.__module__ == obs.__name__
+              and not n.startswith("_")}
+    assert named == public, f"without a row: {sorted(public - named)}; not helpers: {sorted(named - public)}"
+
+
+def test_the_guide_says_how_each_engine_without_per_contact_forces_gets_them():
+    """Every installed engine whose adapter computes contact forces from the bodies' momenta
+    (its knob `contact_force`) is named where the guide says how, with the module that does it."""
+    from pathlib import Path
+
+    from adapters import registry
+    from adapters.base import Settings
+    from cases.scene import Body, Material, Scene, ball, ground
+    from tests.guide import ROOT, section
+    text = section("### Where the contact forces come from").lower()
+    assert "adapters/impulse_split.py" in text and (ROOT / "adapters" / "impulse_split.py").is_file()
+    computed = []
+    for name in registry.engine_names():
+        if not registry.available(name) or not registry.get(name).capabilities.contact_forces:
+            continue
+        adapter = registry.get(name)
+        dim = 3 if 3 in adapter.capabilities.dimensions else 2
+        scene = Scene(bodies=(ground(), Body("ball", ball(0.1, dim), mass=1.0, position=(0, 0, 0.1))),
+                      material=Material(mu_s=0.5), dimension=dim)
+        try:
+            with adapter.build(scene, Settings(dt=1e-3)) as sim:
+                how = str(sim.knobs.get("contact_force", ""))
+        except Exception:
+            continue
+        if how.startswith("momentum"):
+            computed.append(name)
+            assert name in text, f"the guide does not say how {name} gets its contact forces"
+    assert computed or not any(registry.available(n) for n in ("box2d", "box3d"))

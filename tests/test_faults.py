@@ -45,8 +45,8 @@ FAST = {
     "slow_impact": ("v=0.1", "v=0.1,2D"),
     "rolling_resistance": ("d=0,flat,v0=0.7",),
     "spin_down": ("d_t=0,R=0.1,w0=5",),
-    "pair_friction": ("mu_a=0.2,mu_b=0.5,2D",),
-    "pair_restitution": ("e12=0.7,e23=0.3,e13=0.3,m=1:1:1,2D",),
+    "pair_friction": ("side,mu_a=0.3,mu_b=0.5,mu_ab=0.5,2D",),
+    "pair_restitution": ("e12=0.7,e23=0.5,e13=0.7,m=1:1:1,row=1-3-2,2D",),
 }
 
 # Families an engine cannot yet be judged on with zero fails, each with the reason (none

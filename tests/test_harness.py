@@ -12,7 +12,8 @@ from cases.family import CaseError, CaseFamily, Check, Variant
 from cases.scene import Body, Circle, Material, Plane, Scene, Sphere
 from physval.core import deviations
 from physval.core import COLUMNS, Job
-from physval.core.verdicts import contract_problems, errors, within
+from physval.core.tolerance import errors, within
+from physval.core.verdicts import contract_problems
 from tests.fakes import FakeAdapter
 from tests.helpers import run_job
 
@@ -247,7 +248,7 @@ def test_every_shipped_band_is_at_most_one_tolerance_unless_its_entry_says_why()
     without running an engine."""
     from adapters.registry import engine_names, get, EngineError
     from cases.registry import builtin_families
-    from physval.core.verdicts import tolerance_units
+    from physval.core.tolerance import tolerance_units
     fams = builtin_families()
     checks = {(name, v.id): fam.expect(v.params, fam.dt_for(v.params)) for name, fam in fams.items()
               for v in fam.all_variants}

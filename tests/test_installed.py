@@ -1,14 +1,15 @@
 """physval as a user meets it: the wheel built from this checkout, installed into a fresh
 virtual environment, run from a folder outside the repository through the `physval`
-console script. Every command line the README (and the plug-in example's README) shows is
-run as written; a command whose full run takes minutes or hours is narrowed only by
-options appended to it (fewer engines, fewer cases, a shorter fit), never rewritten.
-A README line that this file does not know fails the first test, so the documentation
-cannot grow a command nobody ran.
+console script. Every command line the README, the documentation's pages (docs/) and the
+plug-in example's README show is run as written; a command whose full run takes minutes or
+hours is narrowed only by options appended to it (fewer engines, fewer cases, a shorter
+fit), never rewritten. A shown line that this file does not know fails the first test, so
+the documentation cannot grow a command nobody ran.
 
-The environment sees the machine's site packages (the engines and numpy, which pip would
-otherwise download again) but imports physval, cases, adapters and reference_impl from the
-wheel alone: the first test checks where they come from.
+The environment sees the site packages of the environment the tests run in (the engines and
+numpy, which pip would otherwise download again; in a virtual environment, as the README's
+test command makes one, those are the virtual environment's) but imports physval, cases,
+adapters and reference_impl from the wheel alone: the first test checks where they come from.
 """
 from __future__ import annotations
 
@@ -28,6 +29,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
+DOCS = sorted((ROOT / "docs").rglob("*.md"))
+FIRST_CASE = ROOT / "docs" / "extend" / "first_case.md"  # the README's own case example, second_bounce
 EXAMPLE = ROOT / "examples" / "physval-engine-example"
 PACKAGES = ("physval", "cases", "adapters", "reference_impl")
 
@@ -100,6 +103,15 @@ NARROWED = {
     "physval real --tosses my_tosses.csv --params reports/real/params.json": Narrowed("--engines mujoco",
                                                                                      after="physval real",
                                                                                      needs=("mujoco",)),
+    # docs/extend/writing_cases.md: its worked family (my_cases/pair_drop.py) and --known file
+    "physval check-case my_cases/pair_drop.py": Narrowed(),
+    "physval run --cases-dir my_cases --cases pair_drop --engines reference,pybullet,dart,pymunk,mujoco": Narrowed(
+        needs=("pybullet", "dart", "pymunk", "mujoco")),
+    "physval run --cases-dir my_cases --cases 'pair_drop[e=0.9*]' --engines reference,mujoco "
+    "--save-trajectories traj/": Narrowed(needs=("mujoco",)),
+    "physval known mujoco --file my_known.txt --cases-dir my_cases --write": Narrowed(needs=("mujoco",)),
+    "physval run --cases-dir my_cases --cases pair_drop --engines reference,mujoco --known my_known.txt": Narrowed(
+        after="physval known mujoco --file my_known.txt --cases-dir my_cases --write", needs=("mujoco",)),
     # the plug-in example's README (after its `pip install`)
     "pip install ./examples/physval-engine-example": Narrowed(where="repo"),
     "physval run --cases central_impact --engines mujoco,mujoco-soft": Narrowed(
@@ -114,16 +126,19 @@ NOT_PHYSVAL = ("dask scheduler", "dask worker")
 
 
 def readme_lines(path: Path) -> list[str]:
-    """The command lines of a README's indented code blocks, without trailing comments."""
+    """The command lines of a page's indented code blocks, without trailing comments: a
+    line ending in a backslash goes on in the next, and an option in square brackets
+    (`[--adapter module:Class]`) is the page's way to say it is optional, so it is left out."""
+    text = re.sub(r"\\\n\s*", "", path.read_text())
     lines = []
-    for raw in re.findall(r"^ {4,}((?:physval|pip install|dask) .*)$", path.read_text(), re.M):
-        line = re.sub(r"\s+#.*$", "", raw).strip().rstrip("&").strip()
+    for raw in re.findall(r"^ {4,}((?:physval|pip install|dask) .*)$", text, re.M):
+        line = re.sub(r"\s+#.*$", "", raw)
+        line = re.sub(r" \[--[^\]]*\]", "", line).strip().rstrip("&").strip()
         lines.append(line)
     return list(dict.fromkeys(lines))
 
 
-ALL_LINES = readme_lines(README) + [line for line in readme_lines(EXAMPLE / "README.md") if line not in
-                                    readme_lines(README)]
+ALL_LINES = list(dict.fromkeys(line for page in (README, *DOCS, EXAMPLE / "README.md") for line in readme_lines(page)))
 
 
 def test_every_readme_command_is_run_here():
@@ -158,13 +173,13 @@ def installed(tmp_path_factory) -> Installed:
     # test workers building in the checkout at once collide there ("File exists"); the copy also
     # leaves the checkout without a build/ that a user's later `pip install .` would reuse
     source = base / "source"
-    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(".git", "build", "*.egg-info", "__pycache__",
-                                                                "reports", ".pytest_cache"))
+    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(".git", ".venv", "build", "*.egg-info",
+                                                                "__pycache__", "reports", ".pytest_cache"))
     built = _sh([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(source)])
     assert built.returncode == 0, built.stderr[-2000:]
     (wheel,) = wheels.glob("physval-*.whl")
     venv = base / "venv"
-    assert _sh([sys.executable, "-m", "venv", "--system-site-packages", str(venv)]).returncode == 0
+    _environment_beside_this_one(venv)
     inst = _sh([str(venv / "bin" / "pip"), "install", "-q", "--no-deps", "--ignore-installed", str(wheel)])
     assert inst.returncode == 0, inst.stderr[-2000:]
     user = base / "user"
@@ -175,12 +190,35 @@ def installed(tmp_path_factory) -> Installed:
     return Installed(venv, user, env, wheel)
 
 
+def _environment_beside_this_one(venv: Path) -> None:
+    """A fresh virtual environment that sees this test run's own site packages behind its
+    own, through a .pth file listing them. `venv --system-site-packages` would expose the
+    base interpreter's packages instead, and inside a virtual environment (the README's
+    way, and the only way pip installs on Debian 12 or Ubuntu 24.04) those lack numpy, pandas
+    and the engines. The folders are listed as plain paths, so their own .pth files (an
+    editable install of this checkout among them) are not run: physval, cases, adapters and
+    reference_impl can come from the wheel alone."""
+    assert _sh([sys.executable, "-m", "venv", str(venv)]).returncode == 0
+    import site
+    import sysconfig
+    ours = site.getsitepackages() + ([site.getusersitepackages()] if site.ENABLE_USER_SITE else [])
+    ours += [sysconfig.get_path("purelib"), sysconfig.get_path("platlib")]
+    folders = [p for p in dict.fromkeys(ours) if Path(p).is_dir()]
+    where = _sh([str(venv / "bin" / "python"), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"])
+    assert where.returncode == 0, where.stderr
+    (Path(where.stdout.strip()) / "physval-tests-beside.pth").write_text("".join(f"{p}\n" for p in folders))
+
+
 def _user_files(user: Path) -> None:
-    """What the README's commands expect in the user's folder: the worked example family,
-    and a toss file of the packaged data's columns (three measured tosses)."""
-    (code,) = re.findall(r"```python\n(# my_cases/second_bounce.py\n.*?)```", README.read_text(), re.S)
+    """What the shown commands expect in the user's folder: the worked example families
+    (docs/extend/first_case.md's, and writing_cases.md's with its --known file), and a toss
+    file of the packaged data's columns (three measured tosses)."""
+    from tests.guide import write_example, write_known
+    (code,) = re.findall(r"```python\n(# my_cases/second_bounce.py\n.*?)```", FIRST_CASE.read_text(), re.S)
     (user / "my_cases").mkdir()
     (user / "my_cases" / "second_bounce.py").write_text(code)
+    write_example(user)
+    write_known(user)
     import pandas as pd
     data = pd.read_csv(ROOT / "cases" / "data" / "cube_toss" / "cube_tosses.csv.gz")
     data[data.toss.isin([1, 3, 5])].to_csv(user / "my_tosses.csv", index=False)

@@ -9,6 +9,11 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from cases import central_impact as ci
+from cases.observables import (arc_apex, arc_vertex, ballistic_steps, deepest_overlap, drift, energy_rise,
+                               fall_gravity, first_impact, free_acceleration, free_arc_start, free_flight_error,
+                               impulse, mechanical_energy, momentum, point_speed_bound,
+                               point_velocity, rate, rotations, settle_time, stack_readings, time_to_collapse,
+                               window_mean, window_samples)
 from cases.trajectory import Trajectory
 from tests.fakes import stepped_ball
 
@@ -183,3 +188,77 @@ def test_stack_readings_and_overlap_past_the_runs_end_are_finite():
     got = no_warnings(lambda: stack_readings(traj, names, resting_blocks.HALF, settled=5.0))
     assert got and all(math.isfinite(v) for v in got.values()) and got["drift"] == 0.0, got
     assert math.isfinite(no_warnings(lambda: deepest_overlap(traj, scene, 5.0)))
+
+
+# --- the guide's promise: every helper gives a finite number on any run ---------------------------
+
+def _one_box_scene():
+    from cases.scene import Body, Scene, cube, ground
+    return Scene(bodies=(ground(), Body("box", cube(0.1), mass=1.0, position=(0, 0, 1.0), velocity=(1.0, 0, 0))))
+
+
+# Each helper of cases.observables called as an observer would on a run (the box falling, one
+# window from t0 = 0.05 s, past the end of short runs). The arc helpers get the run's samples
+# from k = 1 on: none on a run of no step, one on a run of one step.
+HELPER_CALLS = {
+    "free_acceleration": lambda tr, sc: free_acceleration(tr, "box", sc.gravity),
+    "ballistic_steps": lambda tr, sc: ballistic_steps(tr, "box", sc.gravity),
+    "first_impact": lambda tr, sc: first_impact(tr, "box", sc.gravity),
+    "free_flight_error": lambda tr, sc: free_flight_error(tr.pos("box"), (0, 0, 1.0), (1.0, 0, 0), sc.gravity, tr.t, tr.dt),
+    "fall_gravity": lambda tr, sc: fall_gravity(tr.pos("box")[:, 2], G, tr.dt),
+    "free_arc_start": lambda tr, sc: free_arc_start(tr.pos("box")[:, 2], 0, G, tr.dt),
+    "arc_apex": lambda tr, sc: arc_apex(tr.t[1:], tr.pos("box")[1:, 2], G),
+    "arc_vertex": lambda tr, sc: arc_vertex(tr.t[1:], tr.pos("box")[1:, 2], G),
+    "window_samples": lambda tr, sc: window_samples(tr, 0.05),
+    "window_mean": lambda tr, sc: window_mean(tr, tr.vel("box")[:, 2], 0.05),
+    "rate": lambda tr, sc: rate(tr, tr.vel("box")[:, 2], 0.05),
+    "settle_time": lambda tr, sc: settle_time(tr, tr.vel("box")[:, 2], 0.1),
+    "point_velocity": lambda tr, sc: point_velocity(tr, "box", (0, 0, -0.1)),
+    "mechanical_energy": lambda tr, sc: mechanical_energy(tr, sc),
+    "energy_rise": lambda tr, sc: energy_rise(tr, sc),
+    "momentum": lambda tr, sc: momentum(tr, sc),
+    "drift": lambda tr, sc: drift(tr, ["box"], 0.05),
+    "time_to_collapse": lambda tr, sc: time_to_collapse(tr, ["box"], 0.01, 0.01),
+    "deepest_overlap": lambda tr, sc: deepest_overlap(tr, sc, 0.05),
+    "stack_readings": lambda tr, sc: stack_readings(tr, ["box"], 0.1, 0.05),
+    "rotations": lambda tr, sc: rotations(tr, "box"),
+    "impulse": lambda tr, sc: impulse(tr, "ground", "box", 0.05),
+    "point_speed_bound": lambda tr, sc: point_speed_bound(tr, "box", 0.2),
+}
+
+
+def _numbers(value):
+    """Every number in a helper's result (None where a helper documents it: no impact)."""
+    if value is None or isinstance(value, (bool, np.bool_)):
+        return []
+    if isinstance(value, dict):
+        return [x for v in value.values() for x in _numbers(v)]
+    if isinstance(value, tuple):
+        return [x for v in value for x in _numbers(v)]
+    return list(np.ravel(np.asarray(value, float)))
+
+
+def test_every_helper_is_called_here():
+    import inspect
+    import cases.observables as obs
+    public = {n for n, f in vars(obs).items() if inspect.isfunction(f) and f.__module__ == obs.__name__
+              and not n.startswith("_")}
+    assert public == set(HELPER_CALLS)
+
+
+@pytest.mark.parametrize("steps", [0, 1, 2, 100])
+@pytest.mark.parametrize("helper", sorted(HELPER_CALLS))
+def test_every_helper_gives_finite_numbers_on_any_run(helper, steps):
+    """A run of no step, of one step (check-case's dry run), of two, and a longer one."""
+    traj, scene = falling_box(steps), _one_box_scene()
+    got = no_warnings(lambda: HELPER_CALLS[helper](traj, scene))
+    assert all(math.isfinite(x) for x in _numbers(got)), (helper, steps, got)
+
+
+def test_an_arc_of_fewer_than_two_samples_reads_its_highest_sample():
+    from cases.observables import arc_apex, arc_vertex
+    assert arc_apex(np.array([]), np.array([]), G) == 0.0
+    assert arc_vertex(np.array([0.3]), np.array([0.7]), G) == (0.3, 0.7)
+    assert arc_apex(np.array([0.3, 0.3]), np.array([0.5, 0.7]), G) == 0.7  # one instant: no parabola
+    t = np.arange(5) * 1e-3
+    assert arc_apex(t, 0.2 + 1.0 * t - G * t * t / 2, G) == pytest.approx(0.2 + 1.0 / (2 * G), rel=1e-12)

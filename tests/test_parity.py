@@ -8,6 +8,7 @@ import csv
 import pandas as pd
 import pytest
 
+from adapters import registry
 from physval.cli import main
 from physval.readings import parity
 
@@ -120,3 +121,36 @@ def test_the_harness_keeps_warps_kernel_cache_in_its_own_folder(monkeypatch, tmp
     monkeypatch.setenv("WARP_CACHE_PATH", "/elsewhere")  # a value the user set stays
     Resolver(Context()).adapter("reference")
     assert os.environ["WARP_CACHE_PATH"] == "/elsewhere"
+
+
+# --- what can be told before any job (issue 33) ------------------------------------------------
+
+def _parity(tmp_path, *argv) -> tuple[int, list[str]]:
+    import contextlib
+    import io
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        code = main(["parity", *argv, "--workers", "1", "--quiet", "--out", str(tmp_path / "out")])
+    return code, err.getvalue().strip().splitlines()
+
+
+def test_a_port_that_is_not_installed_stops_before_any_job(tmp_path):
+    """Before: every job of ENGINE ran first, then exit 2."""
+    missing = [e for e in registry.engine_names() if not registry.available(e)]
+    if not missing:
+        pytest.skip("every engine is installed here")
+    code, err = _parity(tmp_path, "reference", missing[0], "--cases", "central_impact[drop,e=0.5]")
+    assert code == 2 and len(err) == 1 and f"engine {missing[0]!r} is not installed" in err[0], err
+    assert not (tmp_path / "out" / "results.csv").exists()
+
+
+def test_two_engines_with_no_scene_in_common_stop_before_any_job(tmp_path):
+    """A 3D scene for a 2D engine: nothing to compare, said in one line (before: every job
+    ran and the report's table of the largest differences was rows of NaN)."""
+    if not registry.available("pymunk"):
+        pytest.skip("Pymunk (2D only) is not installed")
+    code, err = _parity(tmp_path, "reference", "pymunk", "--cases", "central_impact[drop,e=0.5]")
+    assert code == 2 and err == ["physval: error: reference and pymunk share no scene among the selected cases: "
+                                 "every variant is one that at most one of them can represent (`physval list` "
+                                 "shows which engines run each variant)"], err
+    assert not (tmp_path / "out" / "results.csv").exists()

@@ -84,9 +84,9 @@ def assert_judged_by_its_own_file(found: list[dict]) -> None:
 def test_the_installed_plugin_is_listed_with_where_it_comes_from(site):
     out = physval("list", "--engines", path=[site]).stdout
     (line,) = [x for x in out.splitlines() if x.startswith(f"{ENGINE}\t")]
-    name, version, origin, caps = line.split("\t")
+    name, version, origin, shapes, caps = line.split("\t")
     assert origin == "entry point (physval-engine-example 0.1.0)"
-    assert version != "not installed" and "impacts: compliant" in caps
+    assert version != "not installed" and "impacts: compliant" in caps and shapes.startswith("shapes: ")
 
 
 @pytest.mark.parametrize("method", START_METHODS)

@@ -443,15 +443,46 @@ def test_an_out_that_goes_away_during_the_run_keeps_the_results(tmp_path, capsys
     assert (rescue / "real_report.md").is_file() and (rescue / "params.json").is_file()
 
 
-def test_an_engine_with_an_unbounded_parameter_fits_the_others(tmp_path):
+def test_an_engine_with_an_unbounded_parameter_fits_the_others_and_its_params_are_taken_back(tmp_path):
     """Rapier's push-out stiffness ranges up to inf (no cap, its default): the fit searches
     the parameters with a finite range and holds that one at its default (the command
-    crashed in scipy's bounds check after 44 minutes of a full run)."""
+    crashed in scipy's bounds check after 44 minutes of a full run), and writes it so (JSON's
+    Infinity). A round trip: --params takes that file back (before: 'must be a number in
+    [1, inf]')."""
     if not registry.available("rapier"):
         pytest.skip("rapier3d is not installed")
     assert "contact_natural_frequency" not in real.fitted_names("rapier")
     out = tmp_path / "real"
     assert _cli("--engines", "rapier", "--limit", "1", "--horizon", "0.1", "--generations", "0", "--popsize", "1",
-                "--bootstrap", "2", "--out", str(out), "--no-cache") == 0
+                "--bootstrap", "2", "--workers", "1", "--out", str(out), "--no-cache") == 0
     params = json.loads((out / "params.json").read_text())["rapier"]
     assert params["contact_natural_frequency"] == math.inf
+    again = tmp_path / "again"
+    assert _cli("--engines", "rapier", "--params", str(out / "params.json"), "--limit", "1", "--horizon", "0.1",
+                "--workers", "1", "--out", str(again), "--no-cache") == 0
+    assert json.loads((again / "params.json").read_text())["rapier"] == params
+
+
+# --- --params and what `physval real` writes (issue 33) ----------------------------------------
+
+def test_a_params_file_of_more_engines_than_the_run_takes_the_runs_and_names_the_rest(tmp_path, capsys):
+    """The parameters of engines outside the run (another selection, an engine not installed
+    here, as in the committed reports/real/params.json) are left out, named in one line
+    (before: exit 2, "engine 'mujoco-warp' is not installed", unless every extra was)."""
+    params = tmp_path / "params.json"
+    params.write_text(json.dumps({"mujoco": real.nominal("mujoco"), "pybullet": {"mu": 0.3},
+                                  "mujoco-warp": {"mu": 0.3, "e": 0.2}}))
+    assert _cli("--engines", "mujoco", "--params", str(params), "--limit", "1", "--horizon", "0.1", "--workers", "1",
+                "--out", str(tmp_path / "out"), "--no-cache") == 0
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line == (f"physval real: --params {params}: the parameters of 2 engine(s) outside this run left out: "
+                    "pybullet, mujoco-warp"), line
+    assert set(json.loads((tmp_path / "out" / "params.json").read_text())) == {"mujoco"}
+
+
+def test_a_fit_limit_for_no_engine_of_the_run_stops_before_any_work(tmp_path, capsys):
+    """Before: taken in silence (a typo in the glob gave the engine the default budget)."""
+    assert _cli("--engines", "mujoco", "--fit-limit", "mujco=60", "--out", str(tmp_path / "out")) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line == "physval: error: --fit-limit mujco=60: 'mujco' matches none of this run's engines (mujoco)"
+    assert not (tmp_path / "out").exists()

@@ -55,7 +55,7 @@ def _ensure(requirements):
     try:
         return envs.ensure(requirements)
     except envs.EnvError as exc:
-        if "pip cannot install" in str(exc):
+        if "pip cannot install" in str(exc) or "pip cannot reach" in str(exc):
             pytest.skip(str(exc))
         raise
 
@@ -119,3 +119,18 @@ def test_a_run_that_reports_another_release_stops_the_command(cache, tmp_path, c
     assert main(argv) == 2
     assert "fake-release/2.0.0 reports fake-release '1.1.1', not release 2.0.0" in capfd.readouterr().err
     assert not (tmp_path / "fake-release" / "versions.md").exists()
+
+
+def test_an_index_pip_cannot_reach_is_named_as_the_network(tmp_path, capsys, monkeypatch):
+    """pip pointed at a port where nothing listens (as a machine offline): the line names
+    the network and what pip met, not a release that does not exist (before: "No matching
+    distribution found for iniconfig==1.1.1")."""
+    (tmp_path / "no-wheels").mkdir()
+    for name, value in {"PIP_CONFIG_FILE": "/dev/null", "PIP_INDEX_URL": "http://127.0.0.1:9/simple",
+                        "PIP_EXTRA_INDEX_URL": "", "PIP_FIND_LINKS": str(tmp_path / "no-wheels"), "PIP_RETRIES": "1",
+                        "PIP_DEFAULT_TIMEOUT": "5", "PHYSVAL_CACHE_DIR": str(tmp_path / "cache")}.items():
+        monkeypatch.setenv(name, value)
+    assert main(["versions", "fake-release", "1.1.1", "2.0.0", *FAKE, "--quiet", "--out", str(tmp_path / "out")]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("physval: error: pip cannot reach the package index to install iniconfig==1.1.1 ("), line
+    assert "Connection refused" in line and "check the network connection" in line, line

@@ -7,6 +7,7 @@ without a browser."""
 from __future__ import annotations
 
 import csv
+import re
 
 import shutil
 import time
@@ -70,18 +71,59 @@ def test_every_page_links_only_files_beside_it(site):
                 assert f'id="{anchor}"' in target.read_text(), f"{page.name}: {link}"
 
 
+def test_no_two_elements_of_a_page_share_an_id(site):
+    """A filter box names its table by id: a page whose sections repeat an id filters the wrong one."""
+    for page in pages(site):
+        ids = re.findall(r' id="([^"]+)"', page.read_text())
+        assert len(ids) == len(set(ids)), (page.name, sorted({i for i in ids if ids.count(i) > 1}))
+
+
 def test_the_site_rebuilds_from_the_results_csv(site, tmp_path):
-    """`python3 -m physval.readings.site FOLDER` draws the same family and engine pages from
-    results.csv and knobs.json alone (the index differs only in its command and date)."""
-    from physval.readings.site import rebuild
+    """`python3 -m physval.readings.results FOLDER` draws the same report, family and engine
+    pages from results.csv and knobs.json alone (report.md differs only in its date)."""
+    from physval.readings.results import main
     copy = tmp_path / "copy"
     shutil.copytree(site, copy)
     for page in (copy / "html").rglob("*.html"):
         page.unlink()
-    rebuild(copy)
+    (copy / "report.html").unlink()
+    assert main([str(copy)]) == 0
     for page in (site / "html").rglob("*.html"):
         assert (copy / page.relative_to(site)).read_text() == page.read_text(), page.name
+    undated = [[line for line in (folder / "report.md").read_text().splitlines() if "date (UTC)" not in line]
+               for folder in (site, copy)]
+    assert undated[0] == undated[1]
     assert "Scorecard" in (copy / "report.html").read_text()
+
+
+class _Headings(HTMLParser):
+    """The h2 and h3 headings of a page, in order."""
+
+    def __init__(self):
+        super().__init__()
+        self.found, self._in = [], None
+
+    def handle_starttag(self, tag, attrs):
+        if tag in ("h2", "h3"):
+            self._in = [int(tag[1]), ""]
+
+    def handle_data(self, data):
+        if self._in is not None:
+            self._in[1] += data
+
+    def handle_endtag(self, tag):
+        if self._in is not None and tag == f"h{self._in[0]}":
+            self.found.append(tuple(self._in))
+            self._in = None
+
+
+def test_report_md_and_report_html_carry_the_same_sections_in_the_same_order(site):
+    from physval.report import titles
+    parser = _Headings()
+    parser.feed((site / "report.html").read_text())
+    md = titles((site / "report.md").read_text())
+    assert [t for _, t in md][:3] == ["Contents", "Scorecard", "Closest to physics"]
+    assert parser.found == md
 
 
 def _browser(tmp_path):
@@ -135,6 +177,16 @@ def test_the_site_in_a_browser(site, tmp_path):
 
         driver.get((site / "report.html").as_uri())
         assert driver.find_element(By.ID, "scorecard").is_displayed()
+        # a click on an effect's heading orders the engines by their rank on it, the closest first
+        headings = driver.find_elements(By.CSS_SELECTOR, "#t-scorecard thead th")
+        column = [h.text for h in headings].index("restitution")
+        def ranks():
+            return [int(r.find_elements(By.TAG_NAME, "td")[column].get_attribute("data-key"))
+                    for r in driver.find_elements(By.CSS_SELECTOR, "#t-scorecard tbody tr")]
+        headings[column].click()
+        assert ranks() == sorted(ranks())
+        headings[column].click()  # descending: the farthest first (it reorders the rows the page opened with)
+        assert ranks() == sorted(ranks(), reverse=True)
         shot = tmp_path / "index.png"
         assert driver.save_screenshot(str(shot)) and shot.stat().st_size > 10_000
     finally:

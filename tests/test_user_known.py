@@ -108,8 +108,8 @@ def test_a_known_deviation_that_vanished_has_its_own_listing_in_the_report(tmp_p
                  "--quiet", "--readings", "none", "--out", str(out)]) == 0
     report = (out / "report.md").read_text()
     head, rest = report.split("## Contents", 1)
-    assert "**Known deviations that vanished: 1** (their checks now pass: the engine or its mapping changed): " \
-           "[known deviations that vanished](#known-deviations-that-vanished)" in head
+    assert "**Known deviations that vanished: 1** (their checks are back within tolerance: the engine or its " \
+           "mapping changed): [known deviations that vanished](#known-deviations-that-vanished)" in head
     assert "- [Known deviations that vanished](#known-deviations-that-vanished)" in rest
     section = rest.split("\n## Known deviations that vanished\n", 1)[1].split("\n## ", 1)[0]
     assert rest.index("## Known deviations that vanished") < rest.index("\n## Summary")  # right after the scorecard

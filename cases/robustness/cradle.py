@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Catch, Check
 from cases.observables import mechanical_energy, momentum
 from cases.robustness import momentum_conserved
 from cases.scene import Body, Box, Material, Rect, Scene, ball
@@ -96,4 +96,8 @@ FAMILY = CaseFamily(
     variant_id=lambda p: f"{'walls' if p['walls'] else 'free'},{p['dim']}D,T={p['T']:g}",
     tags=frozenset({"robustness"}),
     full_grid=FULL_GRID,
+    catches=(
+        Catch("restitution off", "walls,2D,T=2"),
+        Catch("damping", "walls,2D,T=2"),
+    ),
 )

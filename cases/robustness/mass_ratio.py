@@ -14,7 +14,7 @@ nothing moves, overlaps or gains energy.
 """
 from __future__ import annotations
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Catch, Check
 from cases.observables import deepest_overlap, drift, energy_rise, window_mean
 from cases.robustness import (at_rest_energy_tolerance, bounded_drift, bounded_penetration, collapse_time,
                               no_energy_gain, stands)
@@ -96,4 +96,8 @@ FAMILY = CaseFamily(
     needs=frozenset({"contact_forces"}),
     tags=frozenset({"robustness"}),
     full_grid=FULL_GRID,
+    catches=(
+        Catch("force read-out", "heavy_on_light,1000:1,2D"),
+        Catch("contact offset", "heavy_on_light,1000:1,2D"),
+    ),
 )

@@ -14,7 +14,7 @@ fraction of the box size, so the checks scale with the scene.
 """
 from __future__ import annotations
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Catch, Check
 from cases.observables import deepest_overlap, drift, energy_rise, window_mean
 from cases.robustness import (at_rest_energy_tolerance, bounded_drift, bounded_penetration, collapse_time,
                               no_energy_gain, stands)
@@ -86,4 +86,8 @@ FAMILY = CaseFamily(
     needs=frozenset({"contact_forces"}),
     tags=frozenset({"robustness"}),
     full_grid=FULL_GRID,
+    catches=(
+        Catch("force read-out", "mm boxes,2D"),
+        Catch("contact offset", "mm boxes,2D"),
+    ),
 )

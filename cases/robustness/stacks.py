@@ -19,7 +19,7 @@ from __future__ import annotations
 import functools
 
 from cases import resting_blocks
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Catch, Check
 from cases.observables import deepest_overlap, drift, energy_rise, window_mean
 from cases.robustness import (at_rest_energy_tolerance, bounded_drift, bounded_penetration, collapse_time,
                               no_energy_gain, stands)
@@ -120,4 +120,7 @@ FAMILY = CaseFamily(
     needs=frozenset({"contact_forces"}),
     tags=frozenset({"robustness"}),
     full_grid=FULL_GRID,
+    catches=(
+        Catch("force read-out", "pyramid,n=3,2D,T=1"),
+    ),
 )

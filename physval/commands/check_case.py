@@ -39,7 +39,7 @@ def run(args) -> int:
     files = []
     for text in args.files:
         file = Path(text)
-        if not file.is_file() or file.suffix != ".py":
+        if not options.is_a("check-case", text, Path.is_file) or file.suffix != ".py":
             raise options.UsageError(f"{text}: not a .py file")
         files.append((file.resolve(), text))
     from physval.core.executor import start_fork_server

@@ -4,6 +4,7 @@ and, when both runs saved their trajectories, where each job's two runs part
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from physval.commands import options
@@ -47,11 +48,14 @@ def trajectory_folders(a, b, named) -> tuple[Path, Path] | None:
     and B/trajectories when both exist, else None."""
     if named:
         for d in named:
-            if not Path(d).is_dir():
+            if not options.is_a("--trajectories", d, Path.is_dir):
                 raise options.UsageError(f"--trajectories {d!r}: not a folder")
         return Path(named[0]), Path(named[1])
     found = Path(a) / "trajectories", Path(b) / "trajectories"
-    return found if all(d.is_dir() for d in found) else None
+    try:
+        return found if all(d.is_dir() for d in found) else None
+    except OSError:  # A or B cannot be read: comparing their results says so
+        return None
 
 
 def compare_runs(a, b, out: str, threshold: float, trajectories=None, command: str = ""):
@@ -69,7 +73,12 @@ def compare_runs(a, b, out: str, threshold: float, trajectories=None, command: s
     extra, parts, written = [], None, [folder / "compare.md", folder / "compare.csv", folder / "compare.png"]
     if trajectories:
         parts = divergence.measure(*trajectories)
-        from physval.reportkit import write_csv
+        unreadable = parts.note.fillna("").str.startswith(divergence.UNREADABLE)
+        if unreadable.any():
+            print(f"physval: {int(unreadable.sum())} jobs left out of the trajectories' comparison: a saved file "
+                  f"cannot be read (first: {parts[unreadable].job.iloc[0]}, {parts[unreadable].note.iloc[0]}); "
+                  "trajectories.csv names them all", file=sys.stderr)
+        from physval.report import write_csv
         write_csv(parts, folder / "trajectories.csv")
         written.append(folder / "trajectories.csv")
         drawn = divergence.plot(parts, *trajectories, folder / "trajectories.png", names)

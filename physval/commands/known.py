@@ -30,7 +30,7 @@ from physval.core import deviations
 from physval.core import COLUMNS, Job
 from physval.core.session import Execution, run_stored
 from physval.core.store import cache_dir
-from physval.reportkit import write_atomic
+from physval.report import write_atomic
 
 
 def add_parser(sub) -> None:
@@ -62,10 +62,10 @@ def run(args) -> int:
     ctx = options.context_of(args)
     resolver = ctx.resolver()
     engines = options.engines_of(args, ctx, default=[])
-    if args.file and not Path(args.file).is_file():
+    if args.file and not options.is_a("--file", args.file, Path.is_file):
         raise options.UsageError(f"--file {args.file!r}: not a file")
     options.check_scheduler(args.scheduler)
-    out = options.output_folder(args.out)
+    out = options.held(args, options.output_folder(args.out))
     families = resolver.families
     # every variant the engines can run (or the --cases), so that failing checks no entry
     # covers show up too; with a user's file, only the families it names

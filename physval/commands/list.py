@@ -1,5 +1,6 @@
 """`physval list`: the case families (variants, effects, which engines can run each), or with
---engines one engine per line: where it comes from, its version and capabilities."""
+--engines one engine per line: its version, where it comes from, the shapes it represents
+(cases.scene kinds; a scene with another is `unsupported` there) and its other capabilities."""
 from __future__ import annotations
 
 from physval.commands import options
@@ -20,9 +21,11 @@ def run(args) -> int:
         for name, spec in specs.items():
             try:
                 a = registry.get(name, ctx.adapters)
-                print(f"{name}\t{a.version()}\t{spec.origin}\t{a.capabilities.describe()}")
+                caps = a.capabilities
+                print(f"{name}\t{a.version()}\t{spec.origin}\tshapes: {', '.join(sorted(caps.shapes))}\t"
+                      f"{caps.describe()}")
             except registry.EngineError as exc:
-                print(f"{name}\tnot installed\t{spec.origin}\t{exc}")
+                print(f"{name}\tnot installed\t{spec.origin}\tshapes: -\t{exc}")
         return 0
     fams = {n: ctx.resolver().family(n) for n in options.cases_of(args, ctx.resolver())}
     adapters = {}

@@ -123,6 +123,15 @@ def add_execution(p, out: str, workers: int | None = None, job_timeout: float | 
 
 # --- checks before any work ---------------------------------------------------------------
 
+def is_a(option: str, text: str, kind) -> bool:
+    """kind(Path(text)) (Path.is_dir, Path.is_file); a path the system refuses to look at (a
+    folder on the way that cannot be searched, a name too long) is one line, UsageError."""
+    try:
+        return kind(Path(text))
+    except OSError as exc:
+        raise UsageError(f"{option} {text!r}: cannot be read ({exc.strerror or exc})") from None
+
+
 def context_of(args):
     """The run's Context from --cases-dir, --adapter and --known (each checked). User code is
     tried in worker processes first (physval.core.dry_run): an --adapter that cannot be
@@ -133,10 +142,11 @@ def context_of(args):
 
     from physval.core import Context, dry_run
     for d in getattr(args, "cases_dir", None) or []:
-        if not d or not Path(d).is_dir():
+        if not d or not is_a("--cases-dir", d, Path.is_dir):
             raise UsageError(f"--cases-dir {d!r}: not a folder")
+        is_a("--cases-dir", d, lambda p: os.scandir(p).close())  # a folder it may not list: one line too
     for f in getattr(args, "known", None) or []:
-        if not f or not Path(f).is_file():
+        if not f or not is_a("--known", f, Path.is_file):
             raise UsageError(f"--known {f!r}: not a file")
     ctx = Context(cases_dirs=tuple(str(Path(d).resolve()) for d in getattr(args, "cases_dir", None) or []),
                   adapters=tuple(getattr(args, "adapter", None) or []),
@@ -181,9 +191,9 @@ def output_folder(text: str, option: str = "--out") -> Path:
     if not text or not text.strip():
         raise UsageError(f"{option} '': must name a folder")
     out = Path(text)
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"{option} {text}: exists and is not a folder")
-    try:
+    try:  # exists() raises where a folder on the way cannot be searched, or a name is too long
+        if out.exists() and not out.is_dir():
+            raise UsageError(f"{option} {text}: exists and is not a folder")
         out.mkdir(parents=True, exist_ok=True)
         probe = out / f".physval-write-test-{os.getpid()}"
         probe.write_bytes(b"")
@@ -193,14 +203,32 @@ def output_folder(text: str, option: str = "--out") -> Path:
     return out
 
 
+def held(args, folder: Path, option: str = "--out") -> Path:
+    """`folder` held by this command until it ends (physval.files.folder_lock, released by
+    the dispatcher however the command ends): another physval command writing there now
+    stops this one with one line naming the folder and that command's process id."""
+    from physval.files import FolderBusy, folder_lock
+    try:
+        args.held.enter_context(folder_lock(folder))
+    except FolderBusy as exc:
+        raise UsageError(f"{option} {folder}: another physval command (pid {exc.pid or 'unknown'}) is writing "
+                         "there; wait for it to end, or choose another folder") from None
+    except OSError as exc:
+        raise UsageError(f"{option} {folder}: cannot write there ({exc.strerror or exc})") from None
+    return folder
+
+
 def output_file(text: str, option: str) -> Path:
     """A file to write at the end, checked now: a name, not a folder, in a folder that can be
     written to (made if missing)."""
     if not text or not text.strip():
         raise UsageError(f"{option} '': must name a file")
     path = Path(text)
-    if path.is_dir():
-        raise UsageError(f"{option} {text}: is a folder; name a file")
+    try:
+        if path.is_dir():
+            raise UsageError(f"{option} {text}: is a folder; name a file")
+    except OSError as exc:
+        raise UsageError(f"{option} {text}: cannot write there ({exc.strerror or exc})") from None
     output_folder(str(path.parent), option)
     return path
 

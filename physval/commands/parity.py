@@ -46,6 +46,13 @@ def add_parser(sub) -> None:
     options.add_execution(p, OUT)
 
 
+def shared_scene(resolver, family: str, variant, engines: list[str]) -> bool:
+    """Every one of `engines` can represent the variant's scene (by its capabilities)."""
+    fam = resolver.family(family)
+    scene, needs = fam.scene(variant.params), fam.needs_of(variant.params)
+    return all(resolver.adapter(e).capabilities.cannot_run(scene, needs) is None for e in engines)
+
+
 def run(args) -> int:
     import sys
     import time
@@ -56,29 +63,34 @@ def run(args) -> int:
     from physval.core.store import KNOBS_FILE, RowStore, cache_keys
     from physval.core.trajectories import file_name, with_saving
     from physval.readings import parity
-    from physval.reportkit import frame
+    from physval.readings.checks import frame
     ctx = options.context_of(args)
     resolver = ctx.resolver()
     chosen = options.cases_of(args, resolver, full=args.full)
     engines = [args.engine, args.port]
     for name in engines:
-        options.engines_of(argparse.Namespace(engines=[name]), ctx)  # unknown or not installed: one line, exit 2
+        options.engines_of(argparse.Namespace(engines=[name]), ctx)  # unknown, or outside its supported releases
+        resolver.adapter(name)  # not installed: one line, exit 2, before any job
     if args.engine == args.port:
         raise options.UsageError(f"ENGINE and PORT are both {args.engine!r}: name two engines")
-    out = options.output_folder(OUT.replace("ENGINE-PORT", f"{args.engine}-{args.port}") if args.out == OUT
-                                else args.out)
+    if not any(shared_scene(resolver, f, v, engines) for f, vs in chosen.items() for v in vs):
+        raise options.UsageError(f"{args.engine} and {args.port} share no scene among the selected cases: every "
+                                 "variant is one that at most one of them can represent (`physval list` shows which "
+                                 "engines run each variant)")
+    out = options.held(args, options.output_folder(OUT.replace("ENGINE-PORT", f"{args.engine}-{args.port}")
+                                                   if args.out == OUT else args.out))
     options.check_scheduler(args.scheduler)
     traj = out / "trajectories"
     jobs, _ = plan(chosen, engines, resolver, True, on_demand=args.on_demand)
     jobs = [with_saving(j, traj) for j in jobs]
     keys = cache_keys(ctx, engines)
     store = RowStore(out / "results.csv", COLUMNS, knobs_file=out / KNOBS_FILE)
-    store.load(lambda row: keys.get(row["engine"], ""))
+    store.load(keys.of_row)
     say = options.teller(args)
     say(f"{len(jobs)} runs ({len(chosen)} families x 2 engines) -> {out}/")
     started = time.monotonic()
     res = run_jobs(jobs, ctx, args.workers, args.scheduler, args.job_timeout, args.start_method, store=store,
-                   cache_key=lambda e: keys[e], progress=not args.quiet, label="parity")
+                   cache_key=keys.of_job, progress=not args.quiet, label="parity")
     rows = store.finalize([j.key for j in jobs if j.key in res.rows])
     if not res.complete:
         print(f"physval: interrupted ({res.interrupted}): finished runs kept in {out / 'results.csv'}; run the "
@@ -96,8 +108,9 @@ def run(args) -> int:
     versions = {e: resolver.adapter(e).version() for e in engines}
     written = parity.write(out, table, parts, args.engine, args.port, threshold, options.command_line(), versions)
     d = table.difference.abs()
-    print(f"{len(table)} checks on both, median |difference| {d.median():.3g} tolerances, {int((d > 1).sum())} "
-          f"beyond one, {int(table.verdicts_differ.sum())} verdicts differ; "
+    judged = (f"median |difference| {d.median():.3g} tolerances, {int((d > 1).sum())} beyond one" if d.notna().any()
+              else "none judged on both")
+    print(f"{len(table)} checks on both, {judged}, {int(table.verdicts_differ.sum())} verdicts differ; "
           f"{int(parts.parted_step.notna().sum())} of {int(parts.steps.notna().sum())} trajectory pairs part "
           f"({time.monotonic() - started:.1f} s)")
     print(f"wrote {', '.join(str(p) for p in written)}")

@@ -147,27 +147,35 @@ def executor_map(ctx, workers: int = 1, scheduler: str | None = None, job_timeou
     return map_fn
 
 
-def read_params(path: str, known_engines: list[str], ctx) -> dict[str, dict]:
-    """{engine: parameters} from a --params file, every value checked against the engine's
-    parameter space before any work."""
+def read_params(path: str, engines: list[str], known_engines: list[str], ctx) -> dict[str, dict]:
+    """{engine: parameters} from a --params file for the run's `engines`, every value checked
+    against the engine's parameter space before any work; what a fit wrote is taken back as
+    it is (inf for a parameter whose range is unbounded, held at that default). The file's
+    engines outside the run (another selection, an engine not installed here) are left
+    out, named in one line on stderr; a name that is no engine at all stops the command."""
     try:
         given = json.loads(Path(path).read_text())
     except (OSError, ValueError) as exc:
         raise options.UsageError(f"--params {path}: cannot read it as JSON ({exc})") from None
     if not isinstance(given, dict) or not all(isinstance(v, dict) for v in given.values()):
         raise options.UsageError(f"--params {path}: must be a JSON object {{engine: {{parameter: value}}}}")
-    for engine, params in given.items():
+    for engine in given:
         if engine not in known_engines:
             raise options.UsageError(f"--params {path}: {engine!r} is not an engine: choose from "
                                      f"{', '.join(known_engines)}")
+    outside = [e for e in given if e not in engines]
+    if outside:
+        print(f"physval real: --params {path}: the parameters of {len(outside)} engine(s) outside this run left "
+              f"out: {', '.join(outside)}", file=sys.stderr)
+    given = {e: p for e, p in given.items() if e in engines}
+    for engine, params in given.items():
         space = parameter_space(engine, ctx)
         for name, value in params.items():
             at = f"--params {path}: {engine} {name}"
             if name not in space:
                 raise options.UsageError(f"{at}: not a parameter of {engine}; it takes {', '.join(space)}")
             t = space[name]
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-                    or not t.low <= value <= t.high:
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not t.low <= value <= t.high:
                 raise options.UsageError(f"{at} = {value!r}: must be a number in [{t.low:g}, {t.high:g}] "
                                          f"({t.meaning})")
     return {e: rounded(e, p, ctx) for e, p in given.items()}
@@ -192,13 +200,20 @@ def run(args) -> int:
         tosses = ct.load(source)
     except ct.TossError as exc:
         raise options.UsageError(f"--tosses {args.tosses}: {exc}") from None
+    except OSError as exc:
+        raise options.UsageError(f"--tosses {args.tosses}: cannot be read ({exc.strerror or exc})") from None
     from adapters import registry
     engines, skipped = engines_3d(options.engines_of(args, ctx) if args.engines else None, ctx)
     if not engines:
         raise options.UsageError("no engine to score: " + "; ".join(f"{e}: {w}" for e, w in skipped.items()))
-    given = read_params(args.params, registry.engine_names(ctx.adapters), ctx) if args.params else {}
+    from fnmatch import fnmatchcase
+    for glob, seconds in args.fit_limit:  # a budget for no engine of the run is a typo or a wrong selection
+        if glob is not None and not any(fnmatchcase(e, glob) for e in engines):
+            raise options.UsageError(f"--fit-limit {glob}={seconds:g}: {glob!r} matches none of this run's engines "
+                                     f"({', '.join(engines)})")
+    given = read_params(args.params, engines, registry.engine_names(ctx.adapters), ctx) if args.params else {}
     do_fit = not args.params and not args.nominal
-    out = options.output_folder(args.out)  # input checked: the folders, then the work
+    out = options.held(args, options.output_folder(args.out))  # input checked: the folders, then the work
     cache = None if args.no_cache else str(options.output_folder(args.cache or str(default_cache()), "--cache"))
     options.check_scheduler(args.scheduler)
 

@@ -13,11 +13,13 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from pathlib import Path
 
 from physval.commands import options
 from physval.core import COLUMNS
 from physval.core.plan import plan
 from physval.core.store import KNOBS_FILE, RowStore, cache_keys
+from physval.interrupts import Terminated, held_off
 
 READINGS = ("effective", "laws")
 
@@ -28,8 +30,8 @@ EPILOG = """examples:
   physval run --cases-dir my_cases --cases second_bounce
   physval run --engines mujoco --junitxml physval.xml --fail-on fail,error,unstable,changed   an engine's CI gate
 exit codes: 0 the run completed (failing physics is a result); 1 a check fell under --fail-on;
-2 bad input; 74 the disk is full and 130 interrupted (finished jobs are kept in both; the
-same command resumes)."""
+2 bad input; 74 the disk is full or read-only and 130 interrupted (finished jobs are kept
+in both; the same command resumes)."""
 
 HELP_CASES = ("case families or variants: NAME, a glob, or NAME[VARIANT] (an exact variant id or a glob), "
               "space- or comma-separated, e.g. 'central_impact[drop,e=0.5]' (default: every family)")
@@ -85,6 +87,34 @@ def readings_of(text: str, cases_named: bool) -> list[str]:
 
 
 def run(args) -> int:
+    """The run; an interrupt (Ctrl-C or SIGTERM) once jobs have run, in them, in the
+    engine-wide readings or in the report, keeps the finished rows and leaves the report
+    marked incomplete (`incomplete`)."""
+    after = {}  # what an interrupted run keeps: its store, its finished jobs, its folder
+    try:
+        return _run(args, after)
+    except KeyboardInterrupt as exc:
+        if not after:
+            raise
+        return incomplete(after, "SIGTERM" if isinstance(exc, Terminated) else "SIGINT")
+
+
+def incomplete(after: dict, signal_name: str) -> int:
+    """The finished rows and the report marked incomplete, written with further interrupts
+    held off (a second Ctrl-C waits the second it takes); one line; exit code 130."""
+    from physval.readings import results
+    out, planned = after["out"], after["planned"]
+    with held_off():
+        rows = after["store"].finalize(after["keys"])
+        results.write_run_report(rows, out, after["families"], command=options.command_line(), complete=False,
+                                 planned=planned)
+    print(f"physval: interrupted ({signal_name}): {len(after['keys'])} of {planned} runs kept in "
+          f"{out / 'results.csv'}, the report marked incomplete; run the same command again to finish",
+          file=sys.stderr)
+    return 130
+
+
+def _run(args, after: dict) -> int:
     started = args.started
     if not args.scheduler and not args.plan:
         from physval.core.executor import start_fork_server
@@ -100,7 +130,8 @@ def run(args) -> int:
     readings = readings_of(args.readings, args.cases is not None)
     fail_on = fail_on_of(args.fail_on)
     junit = options.output_file(args.junitxml, "--junitxml") if args.junitxml is not None else None
-    out = options.output_folder(args.out)
+    out = options.held(args, options.output_folder(args.out))
+    junit_beside(junit, out)
     traj_dir = None if args.save_trajectories is None else options.output_folder(args.save_trajectories,
                                                                                   "--save-trajectories")
     options.check_scheduler(args.scheduler)
@@ -112,7 +143,7 @@ def run(args) -> int:
     from physval.readings import cost
     model = cost.model_for(out)  # before the store drops the rows of changed code: their times still count
     store = RowStore(out / "results.csv", COLUMNS, knobs_file=out / KNOBS_FILE)
-    reused = store.load(lambda row: keys.get(row["engine"], ""), rewrite=not args.plan)
+    reused = store.load(keys.of_row, rewrite=not args.plan)
     # the engines users run, with the reference at its default formulation; its other
     # formulations (Adapter.slow) are read when named
     wide = engines if args.engines is not None else [e for e in engines if e in options.fast_engines(ctx)]
@@ -131,7 +162,7 @@ def run(args) -> int:
     from physval.readings import effective, laws
     todo_jobs = [j for j in jobs if j.key not in store.rows]
     main = Stream(cost.longest_first(todo_jobs, resolver, model) + [j for j in jobs if j.key in store.rows],
-                  store, lambda e: keys[e], "run")
+                  store, keys.of_job, "run")
     wide_readings = {name: {"effective": effective, "laws": laws}[name].stream(wide, ctx, families) for name in readings}
     t_jobs = time.monotonic()
     use = run_streams([main, *wide_readings.values()], ctx, Execution.of(args))
@@ -142,21 +173,20 @@ def run(args) -> int:
                          reading_jobs=sum(r.spent.jobs for r in wide_readings.values()),
                          reading_s=sum(r.spent.job_s for r in wide_readings.values()), worker_cpu_s=use.worker_cpu_s)
     finished = [j for j in jobs if j.key in res.rows]
-    rows = store.finalize([j.key for j in finished])
-    from physval.readings import results
+    after.update(store=store, keys=[j.key for j in finished], out=out, families=families, planned=len(jobs))
     interrupted = res.interrupted or next((r.results.interrupted for r in wide_readings.values()
                                            if r.results.interrupted), "")
     if interrupted:
-        results.write_run_report(rows, out, families, command=options.command_line(), complete=False,
-                                planned=len(jobs))
-        print(f"physval: interrupted ({interrupted}): {len(finished)} of {len(jobs)} runs kept in "
-              f"{out / 'results.csv'}; run the same command again to finish", file=sys.stderr)
-        return 130
+        return incomplete(after, interrupted)
+    rows = store.finalize(after["keys"])
+    from physval.readings import results
     engine_wide = {name: r.value for name, r in wide_readings.items()}
     from physval.readings import scorecard
     engine_wide["beside"] = scorecard.companions(out)  # what sweep, stress and real left in their folders under out
+    for why in engine_wide["beside"].left_out:
+        print(f"physval: left out {why}", file=sys.stderr)
     from physval.core.deviations import stale_entries
-    from physval.reportkit import frame, status_counts
+    from physval.readings.checks import frame, status_counts
     df = frame(rows, COLUMNS)
     phases.report_started = time.monotonic()
     results.write_run_report(rows, out, families, command=options.command_line(), engine_wide=engine_wide,
@@ -176,6 +206,14 @@ def run(args) -> int:
               file=sys.stderr)
         return 1
     return 0
+
+
+def junit_beside(junit: Path | None, out: Path) -> None:
+    """--junitxml inside --out must be a *.xml file: the run writes none, so it cannot be
+    one of the run's own files (results.csv, the report), which it would overwrite after."""
+    if junit is not None and junit.resolve().is_relative_to(out.resolve()) and junit.suffix != ".xml":
+        raise options.UsageError(f"--junitxml {junit}: inside --out {out}, name a .xml file (e.g. {out / 'physval.xml'}): "
+                                 "the run's own files are there")
 
 
 def draw_on_workers(ctx, args):
@@ -218,6 +256,8 @@ def print_plan(jobs, store, resolver, out, workers: int, readings: list[str], wi
 def fail_on_of(text: str) -> set[str]:
     from physval.readings.junit import GATES
     names = {x.strip() for x in text.split(",") if x.strip()}
+    if text.strip() and not names:
+        raise options.UsageError(f"--fail-on {text!r}: names no category; choose from {', '.join(GATES)}")
     bad = sorted(names - set(GATES))
     if bad:
         raise options.UsageError(f"--fail-on {text!r}: {bad[0]!r} is not one of {', '.join(GATES)}")
@@ -232,7 +272,7 @@ def import_report_meanwhile(start_method: str) -> None:
         import threading
 
         def load():
-            from physval import reportkit  # noqa: F401 (pandas)
+            from physval import report  # noqa: F401 (pandas)
             from physval.readings import results  # noqa: F401 (matplotlib's users)
-            reportkit.pyplot()
+            report.pyplot()
         threading.Thread(target=load, name="import the report's modules", daemon=True).start()

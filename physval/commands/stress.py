@@ -10,7 +10,7 @@ from physval.core import COLUMNS, Job
 from physval.core.session import Execution, run_stored
 from physval.readings.robustness import (MAP, QUICK_MAP, TAG, determinism, stability_map,
                                          write_stress_report)
-from physval.reportkit import status_counts
+from physval.readings.checks import status_counts
 from physval.commands import options
 
 
@@ -57,7 +57,7 @@ def run(args) -> int:
     families = {n: f for n, f in resolver.families.items() if TAG in f.tags}
     chosen = options.cases_of(args, resolver, families, full=args.long)
     engines = options.engines_of(args, ctx, options.fast_engines(ctx))
-    out = options.output_folder(args.out)
+    out = options.held(args, options.output_folder(args.out))
     options.check_scheduler(args.scheduler)
     execution = Execution.of(args)
     jobs = [Job(f, v, e) for f, vs in chosen.items() for v in vs for e in engines]

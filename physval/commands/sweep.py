@@ -44,7 +44,7 @@ def run(args) -> int:
         chosen = {n: [v for v in vs if v.id in (fams[n].sweep_variants or (fams[n].variants[0].id,))] or vs
                   for n, vs in chosen.items()}
     engines = options.engines_of(args, ctx, options.fast_engines(ctx))
-    out = options.output_folder(args.out)
+    out = options.held(args, options.output_folder(args.out))
     options.check_scheduler(args.scheduler)
     jobs = points(chosen, engines, resolver, full=args.full, repeats=args.repeats)
     if not jobs:

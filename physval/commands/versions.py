@@ -153,7 +153,7 @@ def run(args) -> int:
     if args.dt is not None:
         from adapters.base import Settings
         Settings(dt=args.dt)
-    out = options.output_folder(str(Path(args.out) / args.engine))
+    out = options.held(args, options.output_folder(str(Path(args.out) / args.engine)))
     say = options.teller(args, "physval versions")
     rows = []
     for release in releases:

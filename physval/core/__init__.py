@@ -7,7 +7,8 @@ to a row store. Every command and reading goes through it.
     selection.py  the one grammar for --cases and --engines
     jobs.py       Job, Outcome, Probe, execute
     record.py     stepping and recording a simulation (bulk state reads, blow-up checks)
-    verdicts.py   statuses, errors, judging a check against its closed form and bands
+    tolerance.py  a measurement's error and the tolerance that bounds it
+    verdicts.py   statuses, judging a check against its closed form and bands
     executor.py   local worker processes (crash- and timeout-isolated) or Dask
     store.py      the streaming, resumable row store and the code fingerprint
     session.py    run_jobs: executor + store + progress + interrupts

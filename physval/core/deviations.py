@@ -54,7 +54,12 @@ from dataclasses import dataclass, field, replace
 from fnmatch import fnmatchcase
 from pathlib import Path
 
-from physval.core.verdicts import errors, tolerance_units
+from physval.core.tolerance import errors, tolerance_units
+
+# the words a verdict's reason starts with when a known deviation's measured size left its
+# band (physval.core.verdicts.judge): away from the closed form, or back onto it
+CHANGED = "known deviation changed"
+VANISHED = "known deviation vanished"
 
 _ENTRY = re.compile(r"^(?:(?P<engines>[^\s\[#]+)\s+)?(?P<family>\w+)\[(?P<variant>.*)\]:(?P<metric>\S+)\s*#\s*(?P<reason>\S.*)$")
 _BAND = re.compile(r"^\s+(?P<engine>\S+)\s+\[(?P<variant>.*)\]:(?P<metric>[^\s=]+)\s*=\s*(?P<rest>\S.*?)\s*(?:#.*)?$")
@@ -395,7 +400,8 @@ def stale_entries(df, resolver) -> list[str]:
     ran_families = set(df.case)
     for engine in dict.fromkeys(df.engine):
         mine = df[df.engine == engine]
-        judged = {(r.case, r.variant, r.metric): r.status for r in mine.itertuples()}
+        judged = {(r.case, r.variant, r.metric): "pass" if str(r.reason).startswith(VANISHED) else r.status
+                  for r in mine.itertuples()}  # a vanished deviation: within its tolerance, the entry can go
         ran_variants = {(c, v) for c, v, _ in judged}
         for e in resolver.known(engine):
             if e.family not in ran_families:

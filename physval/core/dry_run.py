@@ -10,7 +10,7 @@ every call in a worker process, crashes and time-outs isolated):
   variant, the full grid too, is built, run one step on the reference and observed (one
   call per variant: the dry run, so a problem names the family[variant]); the observer
   must give every check a finite number;
-- an adapter is imported and made (one call per --adapter).
+- an adapter is imported and made, and says its version (one call per --adapter).
 
 Only what passed is then loaded in physval's own process and in every job's worker.
 """
@@ -37,6 +37,7 @@ DRY_RUN_TIMEOUT = 60.0
 LOAD_DEATH_RULE = "a case file must import without ending the process, within the time limit"
 DEATH_RULE = "a family's code must return or raise, never end the process, and finish within the time limit"
 ADAPTER_DEATH_RULE = "an adapter's module must import, and its class be made, without ending the process"
+VERSION_RULE = "an adapter's version() must return its engine's release as a string"
 
 
 def execution_of(args) -> Execution:
@@ -151,8 +152,8 @@ def dry_run(fam: CaseFamily, v: Variant, where: str) -> dict[str, float]:
 # --- ad-hoc adapters ------------------------------------------------------------------------
 
 def try_adapters(targets: tuple[str, ...], execution: Execution) -> None:
-    """Import and make each `--adapter module:Class` in a worker; EngineError naming the
-    first that cannot be."""
+    """Import and make each `--adapter module:Class` and ask its version in a worker;
+    EngineError naming the first that cannot be (or whose version() raises)."""
     for target, r in zip(targets, map_calls(_adapter, list(targets), Context(), execution)):
         problem = f"adapter {target!r}: {r.error} ({ADAPTER_DEATH_RULE})" if r.error else r.value
         if problem:
@@ -160,9 +161,14 @@ def try_adapters(targets: tuple[str, ...], execution: Execution) -> None:
 
 
 def _adapter(target: str) -> str:
-    """In a worker: '' if the adapter imports and is made, else why not."""
+    """In a worker: '' if the adapter imports, is made and gives its version (every run's
+    resume key and report name it), else why not."""
     try:
-        registry.adhoc(target)
+        adapter = registry.get(registry.adhoc(target).name, (target,))
+        with user_code(f"adapter {target!r}", "version() raised", VERSION_RULE, error=registry.EngineError):
+            version = adapter.version()
+        if not isinstance(version, str):
+            return f"adapter {target!r}: version() gave {version!r}, not a string ({VERSION_RULE})"
         return ""
     except registry.EngineError as exc:
         return str(exc)

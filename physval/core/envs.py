@@ -28,6 +28,7 @@ import contextlib
 import hashlib
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -100,6 +101,18 @@ def _run(args, **kw) -> subprocess.CompletedProcess:
     return subprocess.run([str(a) for a in args], capture_output=True, text=True, **kw)
 
 
+# What pip (urllib3) says when the index cannot be reached at all, and the part of it worth
+# a user's eyes: "[Errno 111] Connection refused", "Temporary failure in name resolution".
+UNREACHABLE = re.compile(r"(?:Failed to establish a new connection|NameResolutionError|ConnectTimeoutError|"
+                         r"ProxyError|Network is unreachable)[^:]*:\s*([^'\")]+)")
+
+
+def unreachable(output: str) -> str:
+    """Why pip could not reach its index, from its output ("" if it could)."""
+    found = UNREACHABLE.search(output)
+    return found[1].strip() if found else ""
+
+
 def _last_line(done: subprocess.CompletedProcess) -> str:
     lines = [x for x in (done.stderr + done.stdout).splitlines() if x.strip()]
     return lines[-1].strip() if lines else f"exit code {done.returncode}"
@@ -169,6 +182,11 @@ def _make(path: Path, requirements: tuple[str, ...]) -> dict[str, str]:
     pip = _run([python, "-m", "pip", "install", "--disable-pip-version-check", "--no-input", "--quiet",
                 *requirements])
     if pip.returncode:
+        offline = unreachable(pip.stderr + pip.stdout)
+        if offline:  # pip's last line would blame the release ("No matching distribution found")
+            raise EnvError(f"pip cannot reach the package index to install {' '.join(requirements)} ({offline}): "
+                           "check the network connection or pip's index settings (`pip config list`), then run "
+                           "the same command again")
         raise EnvError(f"pip cannot install {' '.join(requirements)}: {_last_line(pip)}")
     site = _site_packages(path)
     (site / PTH).write_text(PTH_LINE)

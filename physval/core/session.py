@@ -5,21 +5,16 @@ Ctrl-C or SIGTERM with everything finished kept.
 from __future__ import annotations
 
 import collections
-import signal
 import sys
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Callable
 
 from physval.core.context import Context
 from physval.core.executor import DEFAULT_JOB_TIMEOUT, make_executor
 from physval.core.jobs import Call, CallResult, Job
-from physval.core.store import RowStore, cache_key_of
-
-
-class Interrupted(KeyboardInterrupt):
-    """SIGTERM, handled like Ctrl-C."""
+from physval.core.store import RowStore, cache_keys
+from physval.interrupts import Terminated, sigterm_as_ctrl_c
 
 
 @dataclass
@@ -35,23 +30,6 @@ class Results:
 
     def ordered(self, jobs: list[Job]) -> list[dict]:
         return [r for j in jobs for r in self.rows.get(j.key, [])]
-
-
-@contextmanager
-def sigterm_as_interrupt():
-    """Within: SIGTERM raises Interrupted (so cleanup runs), as SIGINT raises KeyboardInterrupt."""
-    def handler(signum, frame):
-        raise Interrupted()
-
-    try:
-        old = signal.signal(signal.SIGTERM, handler)
-    except ValueError:  # not the main thread
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, old)
 
 
 class Progress:
@@ -111,7 +89,7 @@ class Stream:
     `spent`."""
     plan: object
     store: RowStore | None = None
-    cache_key: Callable[[str], str] | None = None  # engine -> the key stored rows are stamped with
+    cache_key: Callable[[Job], str] | None = None  # job -> the key its stored rows are stamped with
     label: str = "run"
     first: bool = False
     on_outcome: Callable | None = None
@@ -222,7 +200,7 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
             state[id(s)] = {"gen": _waves(s.plan), "pending": set(), "rows": {}}
             advance(s, None)
         if queue:
-            with sigterm_as_interrupt(), make_executor(ctx, execution.workers, execution.scheduler,
+            with sigterm_as_ctrl_c(), make_executor(ctx, execution.workers, execution.scheduler,
                                                        execution.job_timeout, execution.start_method) as ex:
                 for outcome in ex.run(queue):
                     key = outcome.job.key
@@ -235,7 +213,7 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
                         s.results.ran += 1
                         s.spent.add(outcome)
                         if s.store is not None:
-                            s.store.append(key, rows, s.cache_key(outcome.job.engine))
+                            s.store.append(key, rows, s.cache_key(outcome.job))
                         if s.on_outcome is not None:
                             s.on_outcome(outcome)
                         st["pending"].discard(key)
@@ -244,8 +222,8 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
                     bar.update(outcome.job.test_id)
                 use.started = getattr(ex, "started", 0)
                 use.worker_cpu_s = getattr(ex, "worker_cpu_s", 0.0)
-    except (KeyboardInterrupt, Interrupted) as exc:
-        why = "SIGTERM" if isinstance(exc, Interrupted) else "SIGINT"
+    except KeyboardInterrupt as exc:
+        why = "SIGTERM" if isinstance(exc, Terminated) else "SIGINT"
         for s in streams:
             st = state.get(id(s))
             if st is None or st["pending"] is not None:  # not finished
@@ -262,7 +240,7 @@ def run_jobs(jobs: list[Job], ctx: Context = Context(), workers: int = 1, schedu
              job_timeout: float | None = DEFAULT_JOB_TIMEOUT, start_method: str | None = None,
              store: RowStore | None = None, cache_key=None, progress: bool = True, label: str = "run",
              on_outcome=None) -> Results:
-    """Run the jobs the store does not hold yet. `cache_key(engine) -> str` stamps stored
+    """Run the jobs the store does not hold yet. `cache_key(job) -> str` stamps stored
     rows (required with a store). `on_outcome(outcome)` sees each job as it finishes.
     Never raises on an interrupt: Results.interrupted says it stopped early."""
     stream = Stream(jobs, store, cache_key, label, on_outcome=on_outcome)
@@ -299,10 +277,11 @@ def stored(plan, ctx: Context, path, columns: list[str], label: str = "run", fir
            on_outcome=None) -> Stream:
     """A Stream into a RowStore at `path` (loaded: finished jobs of an earlier run with the
     same code and engine versions are reused, new ones appended as they finish)."""
-    key = cache_key_of(ctx)
+    engines = list(dict.fromkeys(j.engine for j in plan)) if isinstance(plan, (list, tuple)) else None
+    keys = cache_keys(ctx, engines)  # (a plan in waves: each engine's key found as its first job comes)
     store = RowStore(path, columns)
-    store.load(lambda row: key(row["engine"]))
-    return Stream(plan, store, key, label, first, on_outcome)
+    store.load(keys.of_row)
+    return Stream(plan, store, keys.of_job, label, first, on_outcome)
 
 
 def run_plan(plan, ctx: Context, path, columns: list[str], execution: Execution = Execution(), label: str = "run"):
@@ -322,7 +301,7 @@ def map_calls(fn, args, ctx: Context = Context(), execution: Execution = Executi
     results: list[CallResult | None] = [None] * len(calls)
     bar = Progress(len(calls), label, execution.progress)
     try:
-        with sigterm_as_interrupt(), make_executor(ctx, execution.workers, execution.scheduler,
+        with sigterm_as_ctrl_c(), make_executor(ctx, execution.workers, execution.scheduler,
                                                    execution.job_timeout, execution.start_method) as ex:
             for result in ex.run(calls):
                 results[result.call.tag] = result

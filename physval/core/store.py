@@ -5,13 +5,17 @@ again recomputes none of them.
 Each row carries its job's key, the number of rows the job wrote (so a job cut short by a
 kill is recognised and run again) and a cache key: the fingerprint of the code that
 produced it (every source file of physval, cases, adapters, reference_impl, the known
-deviations, a user's case files and --known files, and a plug-in's or --adapter's own
-source and deviation file) with the engine's version. A row whose cache key differs from
-the current one is stale and run again.
+deviations and --known files; a plug-in's or --adapter's own source, the user modules it
+imports and its deviation file) with the engine's version, and for a family from a user's
+--cases-dir the fingerprint of its own file and of the user modules that file imports. A
+row whose cache key differs from the current one is stale and run again: an edit of one
+user family file runs that family's jobs again, not every job.
 """
 from __future__ import annotations
 
+import ast
 import csv
+import functools
 import hashlib
 import io
 import json
@@ -20,7 +24,9 @@ import os
 import sys
 import time
 from collections import defaultdict
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 from physval.files import write_atomic
 
@@ -65,14 +71,20 @@ def unresolved(row: dict) -> bool:
     return bool(text) and not text.startswith("{")
 
 
+def whole_rows(text: str) -> str:
+    """A store's text without a last row cut short (a write stopped by a kill, a full disk):
+    every whole row ends with a newline."""
+    return text if text.endswith("\n") else text[:text.rfind("\n") + 1]
+
+
 def read_results(path) -> list[dict]:
     """The rows of a results.csv (or of the result folder holding one) as dicts of strings,
-    each row's knobs read from knobs.json beside it."""
+    each row's knobs read from knobs.json beside it; a last row cut short is no row."""
     path = Path(path)
     if path.is_dir():
         path = path / "results.csv"
     with open(path, newline="") as fh:
-        rows = list(csv.DictReader(fh))
+        rows = list(csv.DictReader(io.StringIO(whole_rows(fh.read()))))
     return expand_knobs(rows, read_knobs(path.with_name(KNOBS_FILE)))
 
 
@@ -95,12 +107,16 @@ def fingerprint(extra_files=()) -> str:
 
 
 def digest(files) -> str:
-    """SHA-256 (16 hex digits) of the files' names and contents (those that exist)."""
+    """SHA-256 (16 hex digits) of the files' names and contents (those that exist; one that
+    cannot be read counts by its name and the reason)."""
     h = hashlib.sha256()
     for f in files:
         if f.is_file():
             h.update(str(f.relative_to(ROOT) if f.is_relative_to(ROOT) else f).encode())
-            h.update(f.read_bytes())
+            try:
+                h.update(f.read_bytes())
+            except OSError as exc:
+                h.update(f"unreadable: {exc.strerror}".encode())
     return h.hexdigest()[:16]
 
 
@@ -139,9 +155,7 @@ class RowStore:
         `rewrite` is False: a look that changes nothing, as `physval run --plan`'s)."""
         if not self.path.exists() or not self.path.stat().st_size:
             return 0
-        text = self.path.read_text()
-        if not text.endswith("\n"):  # a write cut short by a kill: drop the tail
-            text = text[:text.rfind("\n") + 1]
+        text = whole_rows(self.path.read_text())  # a write cut short by a kill: its tail dropped
         by_job = defaultdict(list)
         records = read_knobs(self.knobs_file) if self.knobs_file is not None else {}
         for r in expand_knobs(list(csv.DictReader(io.StringIO(text))), records):
@@ -216,34 +230,73 @@ class RowStore:
         return named
 
 
-def cache_keys(ctx, engines: list[str]) -> dict[str, str]:
-    """Per engine: the fingerprint of the code that measures (with a user's case files and
-    --known files, and the engine's own source and deviation file when they lie outside
-    this project: a plug-in's, an --adapter's), and the engine's version."""
-    key = cache_key_of(ctx)
-    return {e: key(e) for e in engines}
+@dataclass(frozen=True)
+class CacheKeys:
+    """The cache keys of a run: per engine, and per user family (cache_keys). With `find`,
+    an engine not yet in `engines` gets its key found when first asked (a reading's waves,
+    whose engines are known only as their jobs come)."""
+    engines: dict[str, str]
+    families: dict[str, str] = field(default_factory=dict)  # a user's family -> its files' fingerprint
+    find: Callable[[str], str] | None = None                 # engine -> its key (engine_key_of)
+
+    def of(self, engine: str, family: str) -> str:
+        """The cache key of a job of `family` on `engine` ("" for an engine not in the run)."""
+        if engine not in self.engines:
+            if self.find is None:
+                return ""
+            self.engines[engine] = self.find(engine)
+        own = self.families.get(family)
+        return self.engines[engine] + (f"+{own}" if own else "")
+
+    def of_row(self, row: dict) -> str:
+        return self.of(row["engine"], row["case"])
+
+    def of_job(self, job) -> str:
+        return self.of(job.engine, job.family)
 
 
-def cache_key_of(ctx):
-    """engine -> its cache key (as cache_keys), each found once, the project's fingerprint
-    read once: for stores whose engines are known only as their jobs come (a reading's
-    waves)."""
+def cache_keys(ctx, engines: list[str] | None = None) -> CacheKeys:
+    """Per engine: the fingerprint of the code that measures (with the --known files, and
+    the engine's own source, the user modules it imports and its deviation file when they
+    lie outside this project: a plug-in's, an --adapter's), and the engine's version. Per
+    family of a user's --cases-dir: the fingerprint of its file and the user modules it
+    imports. Without `engines`, each engine's key is found when first asked, the project's
+    fingerprint read once."""
+    find = engine_key_of(ctx)
+    if engines is None:
+        return CacheKeys({}, family_keys(ctx), find)
+    return CacheKeys({e: find(e) for e in engines}, family_keys(ctx))
+
+
+def engine_key_of(ctx) -> Callable[[str], str]:
+    """engine -> its part of the cache key (as cache_keys), the project's fingerprint read once."""
     resolver = ctx.resolver()
-    fp = fingerprint([f for d in ctx.cases_dirs for f in sorted(Path(d).glob("*.py"))] + list(ctx.known_files))
-    found: dict[str, str] = {}
+    fp = fingerprint(list(ctx.known_files))
 
-    def key(e: str) -> str:
-        if e not in found:
-            try:
-                adapter = resolver.adapter(e)
-            except Exception:
-                found[e] = f"{fp}:not installed"
-                return found[e]
-            own = [f for f in adapter_sources(adapter) + resolver.deviation_files(e)
-                   if f.is_file() and not f.resolve().is_relative_to(ROOT) and str(f) not in ctx.known_files]
-            found[e] = f"{fp}{'+' + digest(own) if own else ''}:{resolver.version(e)}"
-        return found[e]
-    return key
+    def find(e: str) -> str:
+        try:
+            adapter = resolver.adapter(e)
+        except Exception:
+            return f"{fp}:not installed"
+        own = [f for f in user_sources(adapter_sources(adapter)) + resolver.deviation_files(e)
+               if f.is_file() and not _in_project(f) and str(f) not in ctx.known_files]
+        return f"{fp}{'+' + digest(own) if own else ''}:{resolver.version(e)}"
+    return find
+
+
+def family_keys(ctx) -> dict[str, str]:
+    """Each loaded family of the run's --cases-dir folders: the fingerprint of its file and
+    of the user modules that file imports (user_sources)."""
+    from cases.family import CaseFamily
+    from cases.registry import case_files
+    files = {str(f.resolve()): f for d in ctx.cases_dirs for f in case_files(d)}
+    out = {}
+    for module in list(sys.modules.values()):  # the family files this process imported
+        name = getattr(module, "__file__", None)
+        family = getattr(module, "FAMILY", None)
+        if name and isinstance(family, CaseFamily) and str(Path(name).resolve()) in files:
+            out[family.name] = digest(user_sources([files[str(Path(name).resolve())]]))
+    return out
 
 
 def adapter_sources(adapter) -> list[Path]:
@@ -255,6 +308,107 @@ def adapter_sources(adapter) -> list[Path]:
     if getattr(top, "__path__", None) and getattr(top, "__file__", None):
         return sorted(Path(top.__file__).parent.rglob("*.py"))
     return [Path(getattr(sys.modules.get(module), "__file__", None) or "")]
+
+
+def _in_project(f: Path) -> bool:
+    """A file of this project's packages (the fingerprint covers it)."""
+    f = f.resolve()
+    return any(f.is_relative_to(ROOT / pkg) for pkg in PACKAGES)
+
+
+@functools.cache
+def _installed_folders() -> tuple[Path, ...]:
+    """Where installed code lives: the standard library and every site-packages folder."""
+    import site
+    import sysconfig
+    found = [sysconfig.get_path(k) for k in ("stdlib", "platstdlib", "purelib", "platlib")]
+    found += site.getsitepackages() + ([site.getusersitepackages()] if site.ENABLE_USER_SITE else [])
+    return tuple(dict.fromkeys(Path(p).resolve() for p in found if p))
+
+
+def _user_module(f: Path) -> bool:
+    """A module a user wrote: neither this project's nor installed (a helper beside an
+    --adapter or a family file, a package on PYTHONPATH, an editable install's source)."""
+    f = f.resolve()
+    return not _in_project(f) and not any(f.is_relative_to(p) for p in _installed_folders())
+
+
+def _module_file(name: str) -> Path | None:
+    """The file of module `name` as this process would import it, found without importing
+    it: from sys.modules if imported, else on sys.path (a package's __init__.py, a module's
+    .py); None for a built-in or one not found."""
+    module = sys.modules.get(name)
+    if module is not None:
+        found = getattr(module, "__file__", None)
+        return Path(found) if found else None
+    top, *rest = name.split(".")
+    for folder in sys.path:
+        base = Path(folder or ".") / top
+        for candidate in (base / "__init__.py", base.with_suffix(".py")):
+            if candidate.is_file():
+                return _submodule(candidate, rest)
+    return None
+
+
+def _submodule(file: Path, parts: list[str]) -> Path | None:
+    """The file of `parts` below the package (or module) `file` (None if none)."""
+    if not parts:
+        return file
+    if file.name != "__init__.py":
+        return None
+    base = file.parent / parts[0]
+    for candidate in (base / "__init__.py", base.with_suffix(".py")):
+        if candidate.is_file():
+            return _submodule(candidate, parts[1:])
+    return None
+
+
+@functools.lru_cache(maxsize=4096)
+def _imports(file: Path, mtime_ns: int) -> tuple[Path, ...]:
+    """The files of the modules `file`'s import statements name (relative ones resolved
+    from its folder), wherever they sit in it (in a function too)."""
+    try:
+        tree = ast.parse(file.read_bytes(), str(file))
+    except (OSError, SyntaxError, ValueError):
+        return ()
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+            found += [_module_file(n) for n in names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:  # relative: from the file's folder, up level - 1 folders
+                base = file.parent
+                for _ in range(node.level - 1):
+                    base = base.parent
+                init = base / "__init__.py"
+                parts = (node.module or "").split(".") if node.module else []
+                package = _submodule(init, parts) if init.is_file() else None
+                if package is None and parts:  # a lone module beside the file
+                    candidate = base.joinpath(*parts).with_suffix(".py")
+                    package = candidate if candidate.is_file() else None
+                found.append(package)
+                found += [_submodule(package, [a.name]) if package else None for a in node.names]
+            else:
+                found.append(_module_file(node.module))
+                found += [_module_file(f"{node.module}.{a.name}") for a in node.names]
+    return tuple(dict.fromkeys(f for f in found if f is not None))
+
+
+def user_sources(files) -> list[Path]:
+    """`files` and, transitively, the user modules they import (_user_module): the code of
+    a user's adapter or family file that can change without any version string changing."""
+    seen, todo, out = set(), [Path(f) for f in files], []
+    while todo:
+        f = todo.pop(0)
+        key = f.resolve() if f.exists() else f
+        if key in seen:
+            continue
+        seen.add(key)
+        out.append(f)
+        if f.suffix == ".py" and f.is_file() and not _in_project(f):
+            todo += [m for m in _imports(key, f.stat().st_mtime_ns) if m.suffix == ".py" and _user_module(m)]
+    return out
 
 
 # Engines' own caches kept in physval's cache folder: environment variable -> subfolder. The

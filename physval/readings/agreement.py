@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from physval.core.verdicts import errors
-from physval.reportkit import fmt, md_table, pyplot, save_figure, write_atomic
+from physval.core.tolerance import errors
+from physval.report import fmt, md_table, pyplot, save_figure, write_atomic
 
 REFERENCE = "reference"
 

@@ -37,7 +37,7 @@ import pandas as pd
 from cases.family import Variant
 from physval.core import Context, Job, Probe, run_jobs, simulate
 from physval.core.session import Execution
-from physval.reportkit import md_table, write_atomic
+from physval.report import md_table, write_atomic
 
 WHAT = ("overhead", "step", "compile", "sweep-workers", "pgs", "faults", "run")
 ON_DEMAND = ("run",)  # not in `physval bench` without names: minutes of a whole default run, twice

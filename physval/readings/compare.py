@@ -20,12 +20,13 @@ physval.readings.divergence.
 """
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from physval.reportkit import fmt, heading, md_table, pyplot, save_figure, write_atomic, write_csv
+from physval.report import fmt, heading, md_table, pyplot, save_figure, write_atomic, write_csv
 
 KEY = ["case", "variant", "engine", "metric"]
 REQUIRED = KEY + ["expected", "measured", "tolerance", "tolerance_kind", "status"]
@@ -58,14 +59,22 @@ def results_file(where) -> Path:
 
 
 def load(where) -> pd.DataFrame:
-    """The checks of one run: KEY, the verdict's numbers and status (numbers as floats)."""
-    path = results_file(where)
+    """The checks of one run: KEY, the verdict's numbers and status (numbers as floats). A
+    last row cut short (a run stopped in its write) is no check."""
+    from physval.core.store import whole_rows
     try:
-        header = list(pd.read_csv(path, nrows=0).columns)
+        path = results_file(where)
+        text = whole_rows(path.read_text())
+    except OSError as exc:
+        raise CompareError(f"{where}: cannot be read ({exc.strerror or exc})") from None
+    except UnicodeDecodeError as exc:
+        raise CompareError(f"{where}: not a CSV table ({exc})") from None
+    try:
+        header = list(pd.read_csv(io.StringIO(text), nrows=0).columns)
         missing = [c for c in REQUIRED if c not in header]
         if missing:
             raise CompareError(f"{path}: no column {', '.join(missing)}: not a physval results.csv")
-        df = pd.read_csv(path, usecols=[c for c in REQUIRED + OPTIONAL if c in header], dtype=str,
+        df = pd.read_csv(io.StringIO(text), usecols=[c for c in REQUIRED + OPTIONAL if c in header], dtype=str,
                          keep_default_na=False)
     except CompareError:
         raise
@@ -276,7 +285,8 @@ def plot(table: pd.DataFrame, path: Path, names: tuple[str, str]) -> None:
            title="Each check with a number in either run (dotted: the tolerance; no number in one run: "
                  "drawn at 1e6)")
     ax.title.set_fontsize(9)
-    ax.legend(fontsize=8, loc="upper left")
+    if ax.get_legend_handles_labels()[0]:  # no check with a number in both runs: nothing to name
+        ax.legend(fontsize=8, loc="upper left")
     save_figure(fig, path)
 
 

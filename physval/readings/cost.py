@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from physval.reportkit import fmt, md_table, write_atomic
+from physval.report import fmt, md_table, write_atomic
 
 TABLE = Path(__file__).with_name("costs.csv")  # per engine and family, a default run's (physval bench run)
 TABLE_COLUMNS = ["engine", "case", "jobs", "steps", "stepping_s", "job_s"]

@@ -14,6 +14,7 @@ metre). A job whose two trajectories are equal to the last bit never parts.
 """
 from __future__ import annotations
 
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -21,13 +22,14 @@ import pandas as pd
 
 from cases.trajectory import OMEGA, POS, QUAT, VEL
 from physval.core.trajectories import load
-from physval.reportkit import fmt, md_table, pyplot, save_figure
+from physval.report import fmt, md_table, pyplot, save_figure
 
 PARTED = 1e-9
 G = 9.81  # m/s^2: the floor of the speed scale is sqrt(G L)
 QUANTITIES = (("position", POS), ("orientation", QUAT), ("velocity", VEL), ("angular velocity", OMEGA))
 SHOWN = 30   # rows of the table in the report (every job is in trajectories.csv)
 DRAWN = 4    # jobs drawn side by side
+UNREADABLE = "cannot be read"  # the note of a job whose saved file in A or B cannot be loaded
 
 
 def scales(states: list[np.ndarray]) -> dict[str, float]:
@@ -71,9 +73,14 @@ def _apart(ta, tb, n: int) -> tuple[np.ndarray, dict]:
 def parting(path_a: Path, path_b: Path, threshold: float = PARTED) -> dict:
     """How one job's two trajectories part: the first step and time past `threshold` (of the
     job's scales), the body and state component that parted first, the largest relative
-    difference, and a note when they cannot be compared step by step."""
-    ta, _ = load(path_a)
-    tb, _ = load(path_b)
+    difference, and a note when they cannot be compared step by step (or a file cannot be
+    read: damaged, or not a saved trajectory)."""
+    try:
+        ta, _ = load(path_a)
+        tb, _ = load(path_b)
+    except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile) as exc:
+        why = (str(exc).splitlines() or [""])[0][:200]
+        return {"job": Path(path_a).stem, "note": f"{UNREADABLE}: {type(exc).__name__}: {why}"}
     out = {"job": Path(path_a).stem, "steps": min(len(ta.t), len(tb.t)) - 1, "parted_step": np.nan,
            "parted_time": np.nan, "first_to_part": "", "body": "", "column": -1, "largest": 0.0, "note": ""}
     if not np.isclose(ta.dt, tb.dt, rtol=1e-12, atol=0):

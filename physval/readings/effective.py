@@ -27,7 +27,7 @@ from cases.family import Variant
 from physval.core import COLUMNS, Job, Probe
 from physval.core.session import Execution, Stream, run_plan, stored
 from physval.core.store import cache_dir
-from physval.reportkit import fmt, md_table, pyplot, save_figure, write_atomic
+from physval.report import fmt, md_table, pyplot, save_figure, write_atomic
 
 DT = 1e-3
 RESTITUTIONS = (0.2, 0.5, 0.8, 1.0)
@@ -164,6 +164,15 @@ def plot(eff: pd.DataFrame, path: Path) -> None:
         ax.set_title(param)
     axes[0][0].legend(fontsize=7)
     save_figure(fig, path)
+
+
+def read(out: Path) -> pd.DataFrame | None:
+    """The rows `section` wrote into a result folder (effective_parameters.csv; None: none)."""
+    path = Path(out) / "effective_parameters.csv"
+    if not path.is_file():
+        return None
+    eff = pd.read_csv(path)
+    return eff.assign(note=eff.note.fillna(""))
 
 
 def section(eff: pd.DataFrame, out: Path) -> str:

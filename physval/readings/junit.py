@@ -9,6 +9,7 @@ unsupported run a <skipped> of type "unsupported" with the reason. The gate itse
 from __future__ import annotations
 
 import math
+import re
 import shlex
 import xml.etree.ElementTree as ET
 from collections import Counter
@@ -27,7 +28,7 @@ def gate_of(row: dict) -> set[str]:
     out = {status}
     if status == "fail" and reason.startswith(CHANGED):
         out.add("changed")
-    if status == "pass" and reason.startswith(VANISHED):
+    if status in ("pass", "fail") and reason.startswith(VANISHED):
         out.add("vanished")
     return out
 
@@ -81,6 +82,23 @@ def testcase(row: dict) -> ET.Element:
     return case
 
 
+# What XML 1.0 forbids in a document (its Char production), even escaped: C0 controls but tab,
+# newline and carriage return, lone surrogates, U+FFFE and U+FFFF. An engine's message may
+# carry them (ANSI colour codes: ESC, U+001B), and a reader rejects the whole file for one.
+NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
+
+
+def xml_text(text: str) -> str:
+    """`text` with each character XML 1.0 forbids written out as its escape (ESC: '\\x1b')."""
+    return NOT_XML.sub(lambda m: m[0].encode("unicode_escape", "backslashreplace").decode("ascii"), text)
+
+
+def _xml_chars(root: ET.Element) -> None:
+    for element in root.iter():
+        element.text = xml_text(element.text) if element.text else element.text
+        element.attrib.update({k: xml_text(v) for k, v in element.attrib.items()})
+
+
 def write(rows: list[dict], path: Path, name: str = "physval") -> Path:
     """The JUnit XML of `rows` at `path`; one test suite per family, in the rows' order."""
     root = ET.Element("testsuites", name=name)
@@ -96,6 +114,7 @@ def write(rows: list[dict], path: Path, name: str = "physval") -> Path:
         suite = ET.SubElement(root, "testsuite", name=family, **{k: str(v) for k, v in counts.items()})
         suite.extend(testcase(r) for r in mine)
     root.attrib.update({k: str(totals[k]) for k in ("tests", "failures", "errors", "skipped")})
+    _xml_chars(root)
     ET.indent(root)
     write_atomic(Path(path), ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n")
     return Path(path)

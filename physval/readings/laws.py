@@ -47,7 +47,7 @@ from cases.trajectory import ContactPoint
 from physval.core import COLUMNS, Job, Probe
 from physval.core.session import Execution, Stream, run_plan, stored
 from physval.core.store import cache_dir
-from physval.reportkit import fmt, md_table, pyplot, save_figure, write_atomic
+from physval.report import fmt, md_table, pyplot, save_figure, write_atomic
 
 SLIDING = 1e-3  # m/s: a contact slides above this tangential speed (creep at rest is um/s)
 ACTIVE = 1e-6   # points carrying more than this fraction of the scene's weight count for cone and dissipation
@@ -260,6 +260,15 @@ def plot(worst: pd.DataFrame, path: Path) -> None:
         ax.set_title(key, fontsize=9)
         ax.tick_params(axis="x", labelrotation=45, labelsize=8)
     save_figure(fig, path)
+
+
+def read(out: Path) -> pd.DataFrame | None:
+    """The rows `section` wrote into a result folder (laws.csv; None: none)."""
+    path = Path(out) / "laws.csv"
+    if not path.is_file():
+        return None
+    laws = pd.read_csv(path)
+    return laws.assign(**{c: laws[c].fillna("") for c in ("case", "variant", "note") if c in laws})
 
 
 def section(laws: pd.DataFrame, out: Path) -> str:

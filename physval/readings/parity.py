@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from physval.readings import divergence
-from physval.reportkit import fmt, heading, md_table, pyplot, save_figure, write_atomic, write_csv
+from physval.report import fmt, heading, md_table, pyplot, save_figure, write_atomic, write_csv
 
 JUDGED = ("pass", "fail", "deviation")
 SHOWN = 25  # rows of the largest-moves table (every check is in parity.csv)
@@ -213,7 +213,7 @@ def write(folder: Path, table: pd.DataFrame, parts: pd.DataFrame, a: str, b: str
     lines += [
         "## Per family", "", md_table(fams.map(fmt) if hasattr(fams, "map") else fams.applymap(fmt)), "",
         "## The largest differences", ""]
-    top = table[d.notna()].assign(size=d).sort_values("size", ascending=False).head(SHOWN)
+    top = table.assign(size=d)[d.notna()].sort_values("size", ascending=False).head(SHOWN)  # none: no row
     lines += [md_table(pd.DataFrame({
         "check": top.case + "[" + top.variant + "]:" + top.metric, f"{a}": top.measured_a, f"{b}": top.measured_b,
         "expected": top.expected, "difference (tol)": top.difference.map(fmt),
@@ -254,16 +254,31 @@ class Pair:
     parts: pd.DataFrame
 
 
-def beside(out: Path) -> list[Pair]:
-    """The parity readings in parity/*/ under a run's folder (readings written before the
-    engines' names were kept in parity.csv are passed over)."""
+# the columns of parity.csv and parting.csv that a run's report reads
+TABLE_COLUMNS = ("case", "engine_a", "engine_b", "engine_version_a", "engine_version_b", "difference",
+                 "verdicts_differ", "one_engine_only")
+PARTS_COLUMNS = ("case", "steps", "parted_step")
+
+
+def beside(out: Path, left_out: list[str] | None = None) -> list[Pair]:
+    """The parity readings in parity/*/ under a run's folder. One whose parity.csv or
+    parting.csv cannot be read as `physval parity` writes them (empty, damaged, written
+    before the engines' names were kept) is passed over, and named in `left_out`."""
+    from physval.report import companion_table
+    left_out = [] if left_out is None else left_out
     pairs = []
     for file in sorted((Path(out) / PARITY_DIR).glob("*/parity.csv")):
-        table = pd.read_csv(file)
-        if "engine_a" not in table.columns or not len(table):
+        table = companion_table(file, "parity", TABLE_COLUMNS)
+        if isinstance(table, str):
+            left_out.append(f"{file}: {table}")
+            continue
+        if not len(table):
             continue
         parts_file = file.with_name("parting.csv")
-        parts = pd.read_csv(parts_file) if parts_file.is_file() else parting([], PARTED)
+        parts = companion_table(parts_file, "parity", PARTS_COLUMNS) if parts_file.is_file() else parting([], PARTED)
+        if isinstance(parts, str):
+            left_out.append(f"{parts_file}: {parts}")
+            continue
         a, b = table.engine_a.iloc[0], table.engine_b.iloc[0]
         pairs.append(Pair(file.parent.relative_to(out), a, b, {a: str(table.engine_version_a.iloc[0]),
                                                                 b: str(table.engine_version_b.iloc[0])}, table, parts))

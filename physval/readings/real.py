@@ -147,14 +147,17 @@ def engine_version(engine: str, ctx: Context = Context()) -> str:
 
 @functools.lru_cache(maxsize=None)
 def adapter_source(engine: str, ctx: Context = Context()) -> str:
-    """For an engine from outside the repository (a plug-in or an --adapter): the SHA-1 of
-    its adapter's source file, so an edited adapter is simulated again rather than read
-    from the cache; "" for a built-in engine (CODE_VERSION and the version cover those)."""
+    """For an engine from outside the repository (a plug-in or an --adapter): the digest of
+    its adapter's source file and the user modules it imports (physval.core.store.user_sources),
+    so an edited adapter or helper is simulated again rather than read from the cache; ""
+    for a built-in engine (CODE_VERSION and the version cover those)."""
     if registry.specs(ctx.adapters)[engine].origin == "built-in":
         return ""
     import inspect
+
+    from physval.core.store import digest, user_sources
     try:
-        return hashlib.sha1(Path(inspect.getsourcefile(type(_adapter(engine, ctx)))).read_bytes()).hexdigest()
+        return digest(user_sources([Path(inspect.getsourcefile(type(_adapter(engine, ctx))))]))
     except (TypeError, OSError):
         return "source unknown"
 

@@ -1,147 +1,146 @@
-"""The report of `physval run` (report.md and plots/) and the sections it is built from:
-the summary (engines, then the reference formulations), known deviations with their recorded bands beside today's measurement,
-failures, unsupported runs, one section per family (what it checks, where its closed form
-comes from, every tolerance with its reason, a plot and a table of measured values),
-the engine settings and the stepping cost. results.csv is the row store itself
+"""The report of `physval run`: report.md and report.html (with plots/ and the pages beside
+them) from the rows of a run, built from one declared list of sections (`SECTIONS`; an
+interrupted run's: `INTERRUPTED`), each one object of the report kit (physval.report) that
+reads the run once and renders to markdown and HTML: the scorecard and the engine closest to
+physics per effect, the summary (engines, then the reference formulations), known
+deviations with their recorded bands beside today's measurement, failures, unsupported
+runs, the engine-wide readings, one page per family (what it checks, where its closed form
+comes from, every tolerance with its reason, a plot and a table of measured values), the
+engine settings, where the run's time went (physval.readings.cost) and the environment.
+The heat maps are drawn before the sections render, side by side on the run's workers
+when it gives a `draw`. results.csv is the row store itself
 (physval.core.store), finalised in job order.
+
+`python3 -m physval.readings.results FOLDER` rebuilds a folder's report from its results.csv
+and the readings beside it, without running an engine.
 """
 from __future__ import annotations
 
 import json
-import math
 import re
+import sys
+from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from physval.core import COLUMNS
 from physval.core.verdicts import VANISHED
-from physval.reportkit import (STATUS_MARK, anchor, contents, deviation_summary, deviation_table, engine_versions, environment,
-                               per_engine_counts,
-                               fmt, frame, heading, md_table, problems_section, pyplot, save_figure, status_counts,
-                               summary_matrix, unsupported_section, write_atomic)
+from physval.readings import agreement, closest, cost, effective, laws, parity, scorecard, site
+from physval.readings.checks import (deviation_summary, deviation_table, engine_groups, engine_versions, family_table,
+                                     frame, per_engine_counts, problems_section, status_class, status_counts,
+                                     summary_matrix, tolerance_reasons, unsupported_section)
+from physval.readings.heatmaps import plot_family, plot_summary
+from physval.report import Html, Report, Section, anchor, environment, fmt, md_table, table, write_atomic
 
-FORMULATION_PREFIX = "reference-"  # the reference's other formulations, summarised apart from the engines
-
-
-def engine_groups(df: pd.DataFrame) -> list[tuple[str, list[str]]]:
-    engines = list(dict.fromkeys(df.engine))
-    plain = [e for e in engines if not e.startswith(FORMULATION_PREFIX)]
-    forms = [e for e in engines if e.startswith(FORMULATION_PREFIX)]
-    return [(t, g) for t, g in (("Engines", plain), ("Reference formulations", forms)) if g]
+INTRO = ("physval runs analytic cases (closed-form answers with tolerances, each with its reason) on physics "
+         "engines and judges every check. Read the scorecard first; each family's page (linked under Families) says "
+         "what it checks and why its tolerances have their size.")
 
 
-def plot_summary(df: pd.DataFrame, engines: list[str], path: Path, title: str) -> None:
-    """Heat map of the worst error/tolerance per family and engine (log colour scale)."""
-    plt = pyplot()
-    fams = sorted(df[df.engine.isin(engines)].case.unique())
-    worst = np.full((len(fams), len(engines)), np.nan)
-    for i, f in enumerate(fams):
-        for j, e in enumerate(engines):
-            vals = df[(df.case == f) & (df.engine == e)].over_tol.dropna()
-            if len(vals):
-                worst[i, j] = max(vals.max(), 1e-6)
-    fig, ax = plt.subplots(figsize=(1.3 * len(engines) + 3.4, 0.42 * len(fams) + 1.8), layout="constrained")
-    im = ax.imshow(np.log10(np.clip(worst, 1e-3, 1e3)), cmap="RdYlGn_r", vmin=-3, vmax=3, aspect="auto")
-    ax.set_xticks(range(len(engines)), engines, rotation=30, ha="right")
-    ax.set_yticks(range(len(fams)), fams, fontsize=8)
-    for i in range(len(fams)):
-        for j in range(len(engines)):
-            text = "n/a" if np.isnan(worst[i, j]) else f"{worst[i, j]:.2g}"
-            ax.text(j, i, text, ha="center", va="center", fontsize=7)
-    fig.colorbar(im, ax=ax, label="log10(worst error / tolerance)")
-    ax.set_title(f"{title}: worst error in tolerances (<1: within tolerance)", fontsize=10)
-    save_figure(fig, path)
+@dataclass
+class Run:
+    """What a run's report reads: its rows (`df`, the frame of physval.readings.checks), its
+    folder, its families, the engine-wide readings it measured (`engine_wide`: effective,
+    laws), the readings of other commands found beside it, the notes on known-deviation
+    entries gone stale, and whether it completed (an interrupted run draws no plots); for
+    the Cost section, its rows as stored (`rows`: with their job keys) and its phases as
+    physval run measured them (`phases`, physval.readings.cost.Phases; None: rebuilt)."""
+    df: pd.DataFrame
+    out: Path
+    families: dict
+    engine_wide: dict = field(default_factory=dict)
+    beside: scorecard.Companions = field(default_factory=scorecard.Companions)
+    stale: list[str] = field(default_factory=list)
+    complete: bool = True
+    rows: list = field(default_factory=list)
+    phases: cost.Phases | None = None
+
+    @property
+    def plots(self) -> Path | None:
+        return self.out / "plots" if self.complete else None
+
+    @cached_property
+    def card(self) -> pd.DataFrame:
+        return scorecard.measure(self.df, self.beside)
+
+    @cached_property
+    def runs(self) -> int:
+        return self.df.groupby(["case", "variant", "engine"]).ngroups if len(self.df) else 0
+
+    def engine_page(self, engine: str) -> str:
+        """The link from report.html to an engine's page (the scorecard's engine names)."""
+        return site.engine_page(engine)
 
 
-LABEL_EVERY_CELL_UP_TO = 300  # cells; a larger grid labels only the cells that are neither pass nor n/a,
-LABELS_AT_MOST = 200          # the worst this many of them (each label costs ~2 ms to lay out and draw)
+def html_link(href: str) -> str:
+    """A link of the report's markdown as the HTML pages link it: a family's page there."""
+    m = re.fullmatch(r"families/(?P<name>[^/]+)\.md", href)
+    return site.family_page(m["name"]) if m else href
 
 
-def plot_family(df: pd.DataFrame, family: str, path: Path) -> None:
-    """One row per check (variant: metric), one column per engine, coloured by the error in
-    tolerances, each cell labelled with that number and the status. On a grid of more
-    than LABEL_EVERY_CELL_UP_TO cells the passes and n/a cells go unlabelled (colour and
-    blank say it; the family's table has the numbers), and at most LABELS_AT_MOST of them,
-    the worst: drawing the text is most of the plot's time (3 of 5 s for 110 checks on 24
-    engines, measured)."""
-    plt = pyplot()
-    sub = df[df.case == family]
-    engines = list(dict.fromkeys(sub.engine))
-    checks = list(dict.fromkeys(zip(sub.variant, sub.metric)))
-    grid = np.full((len(checks), len(engines)), np.nan)
-    label = [[""] * len(engines) for _ in checks]
-    index = {c: i for i, c in enumerate(checks)}
-    for r in sub.itertuples():
-        i, j = index[(r.variant, r.metric)], engines.index(r.engine)
-        if math.isfinite(r.over_tol):
-            grid[i, j] = max(r.over_tol, 1e-6)
-        elif r.status in ("fail", "deviation"):
-            grid[i, j] = 1e3
-        mark = STATUS_MARK[r.status]
-        label[i][j] = f"{r.over_tol:.2g} {mark}" if math.isfinite(r.over_tol) else mark
-    fig, ax = plt.subplots(figsize=(1.25 * len(engines) + 4.5, 0.24 * len(checks) + 1.6), layout="constrained")
-    ax.imshow(np.log10(np.clip(grid, 1e-3, 1e3)), cmap="RdYlGn_r", vmin=-3, vmax=3, aspect="auto",
-              interpolation="nearest")
-    ax.set_xticks(range(len(engines)), engines, rotation=30, ha="right", fontsize=8)
-    ax.set_yticks(range(len(checks)), [f"[{v}] {m}" for v, m in checks], fontsize=7)
-    every = len(checks) * len(engines) <= LABEL_EVERY_CELL_UP_TO
-    cells = [(index[(r.variant, r.metric)], engines.index(r.engine)) for r in sub.itertuples()
-             if every or r.status not in ("pass", "unsupported")]
-    capped = len(cells) > LABELS_AT_MOST
-    if capped:  # the worst first, n/a cells last
-        cells = sorted(cells, key=lambda c: -np.nan_to_num(grid[c], nan=-np.inf))[:LABELS_AT_MOST]
-    for i, j in cells:
-        ax.text(j, i, label[i][j], ha="center", va="center", fontsize=6)
-    shown = ")" if every else "; pass and n/a cells unlabelled)"
-    if capped:
-        shown = f"; only the {LABELS_AT_MOST} worst cells labelled)"
-    ax.set_title(f"{family}: error / tolerance per check (green < 1 <= red; pass, dev = known deviation, FAIL"
-                 + shown, fontsize=9)
-    save_figure(fig, path)
+SUMMARY_LEGEND = (
+    "Each cell: status counts and the worst error in units of tolerance (below 1: within tolerance). "
+    "Statuses: **pass** within the tolerance; **FAIL** outside it, or a known deviation whose measured "
+    "size left its recorded band; **dev** a known engine shortfall within its recorded band; **n/a** "
+    "the engine cannot represent the scene; **UNSTABLE** the engine's state blew up; **ERROR** an "
+    "exception, named in `results.csv`.")
 
 
-def family_table(df: pd.DataFrame, family: str) -> pd.DataFrame:
-    sub = df[df.case == family]
-    engines = list(dict.fromkeys(df.engine))
-    lines: dict[tuple, dict] = {}
-    for r in sub.itertuples():
-        line = lines.get((r.variant, r.metric))
-        if line is None:
-            line = lines[(r.variant, r.metric)] = {
-                "variant": r.variant, "metric": f"{r.metric} [{r.unit}]", "expected": fmt(r.expected),
-                "tolerance": f"{fmt(r.tolerance)} {r.tolerance_kind}"}
-        if r.engine not in line:
-            shown = fmt(r.measured) if r.status in ("pass", "fail", "deviation") else ""
-            line[r.engine] = f"{shown} {STATUS_MARK[r.status]}".strip()
-    out = pd.DataFrame(list(lines.values()))
-    return out[["variant", "metric", "expected", "tolerance"] + [e for e in engines if e in out.columns]] \
-        if len(out) else out
+@dataclass
+class Group:
+    """One table of the summary: its title, engines, file name and family x engine matrix,
+    and the run's rows and plots folder (None: no heat map)."""
+    title: str
+    engines: list[str]
+    slug: str
+    matrix: pd.DataFrame
+    df: pd.DataFrame
+    plots: Path | None
 
 
-def tolerance_reasons(df: pd.DataFrame, family: str) -> pd.DataFrame:
-    """Each check's tolerance reason once (the size varies by variant, the reason is the same)."""
-    sub = df[df.case == family].drop_duplicates(["metric", "tolerance_reason"])
-    return pd.DataFrame({"metric": sub.metric, "tolerance": sub.tolerance_kind, "why this size": sub.tolerance_reason})
+class Summary(Section):
+    """Family x engine status counts and worst errors: the engines, then the reference
+    formulations, each with its heat map (one family: its own page's heat map says it all)."""
+
+    def measure(self, run: Run) -> list[Group]:
+        several = run.df.case.nunique() > 1
+        return [Group(title, engines, "summary" if title == "Engines" else "summary_formulations",
+                      summary_matrix(run.df[run.df.engine.isin(engines)], engines), run.df,
+                      run.plots if several else None)
+                for title, engines in engine_groups(run.df)]
+
+    def markdown(self, groups: list[Group]) -> str:
+        lines = ["## Summary", "", SUMMARY_LEGEND, ""]
+        for g in groups:
+            lines += [f"### {g.title}", "", md_table(g.matrix), ""]
+            if g.plots is not None:  # drawn before (heat_maps)
+                lines += [f"![{g.title}](plots/{g.slug}.png)", ""]
+        return "\n".join(lines)
+
+    def html(self, groups: list[Group], html: Html) -> str:
+        parts = [html.markdown("\n".join(["## Summary", "", SUMMARY_LEGEND]), "summary")]
+        for g in groups:
+            parts += [html.markdown(f"### {g.title}", "summary"),
+                      html.table(table(g.slug, g.matrix, links={"family": site.family_page},
+                                       classes={e: status_class for e in g.engines}))]
+            if g.plots is not None:
+                parts.append(f'<img class="plot" src="plots/{g.slug}.png" alt="{g.title}: worst error in tolerances">')
+        return "\n".join(parts)
 
 
-def summary_sections(df: pd.DataFrame, plots: Path, drawings: list | None = None) -> list[str]:
-    """The summary tables; their heat maps drawn, or added to `drawings` (see draw)."""
-    lines = ["## Summary", "",
-             "Each cell: status counts and the worst error in units of tolerance (below 1: within tolerance). "
-             "Statuses: **pass** within the tolerance; **FAIL** outside it, or a known deviation whose measured "
-             "size left its recorded band; **dev** a known engine shortfall within its recorded band; **n/a** "
-             "the engine cannot represent the scene; **UNSTABLE** the engine's state blew up; **ERROR** an "
-             "exception, named in `results.csv`.", ""]
-    several = df.case.nunique() > 1  # one family: its own section's heat map says it all
-    for title, engines in engine_groups(df):
-        slug = "summary" if title == "Engines" else "summary_formulations"
-        lines += [f"### {title}", "", md_table(summary_matrix(df[df.engine.isin(engines)], engines)), ""]
-        if several:
-            _draw_or_add(drawings, plot_summary, (df[df.engine.isin(engines)], engines, plots / f"{slug}.png", title))
-            lines += [f"![{title}](plots/{slug}.png)", ""]
-    return lines
+class SummaryTable(Section):
+    """An interrupted run's summary: the matrix of every engine, without heading or plot."""
+
+    def measure(self, run: Run) -> pd.DataFrame:
+        return summary_matrix(run.df) if len(run.df) else None
+
+    def markdown(self, matrix: pd.DataFrame) -> str:
+        return "\n".join([md_table(matrix), ""])
+
+    def html(self, matrix: pd.DataFrame, html: Html) -> str:
+        return html.table(table("summary", matrix, links={"family": site.family_page}))
 
 
 VANISHED_TITLE = "Known deviations that vanished"
@@ -149,8 +148,9 @@ _VANISHED_ENTRY = re.compile(rf"^{VANISHED}: (?P<entry>.*?) records ")
 
 
 def vanished_rows(df: pd.DataFrame) -> pd.DataFrame:
-    """The checks a known-deviation band records that now meet their closed form."""
-    return df[(df.status == "pass") & df.reason.astype(str).str.startswith(VANISHED)]
+    """The checks a known-deviation band records that now meet their closed form (a fail
+    where the measurement left the band, core.verdicts.judge)."""
+    return df[df.status.isin(("pass", "fail")) & df.reason.astype(str).str.startswith(VANISHED)]
 
 
 def vanished_section(df: pd.DataFrame) -> list[str]:
@@ -163,89 +163,178 @@ def vanished_section(df: pd.DataFrame) -> list[str]:
     entry = gone.reason.map(lambda r: m["entry"] if (m := _VANISHED_ENTRY.match(r)) else "")
     return [f"## {VANISHED_TITLE}", "",
             f"Checks a known-deviation band records that now meet their closed form ({len(gone)}): the engine or "
-            "its mapping changed. They pass; `physval known ENGINE --write` measures the engine's bands again (the "
-            "entry goes or narrows), `physval run --fail-on vanished` makes a run exit 1 on them.", "",
+            "its mapping changed. Each is a fail where the measurement left its band (a change shows as a fail, "
+            "whichever way it moved); `physval known ENGINE --write` measures the engine's bands again (the entry "
+            "goes or narrows), `physval run --fail-on vanished` makes a run exit 1 on them.", "",
             md_table(pd.DataFrame({
                 "engine": gone.engine, "check": gone.case + "[" + gone.variant + "]:" + gone.metric,
                 "expected": gone.expected.map(fmt), "measured": gone.measured.map(fmt),
                 "recorded band": gone.band, "entry": entry})), ""]
 
 
-def deviation_sections(df: pd.DataFrame, stale: list[str]) -> tuple[list[str], list[str]]:
-    """(the report's section: counts per engine and cause, entries gone stale; the page
-    deviations.md: every known deviation, band against measurement)."""
-    intro = ("Each engine's known shortfalls (`adapters/xfails/<engine>.txt`, a plug-in's own file, or a "
-             "`--known` file): one row per engine and cause. A measurement outside its band is a `FAIL` (the "
-             "deviation changed); `physval known ENGINE` measures the bands again.")
-    lines = ["## Known deviations", "", intro, ""]
-    page = ["# Known deviations", "", intro, ""]
+class Vanished(Section):
+    def measure(self, run: Run) -> pd.DataFrame:
+        return run.df
+
+    def markdown(self, df: pd.DataFrame) -> str:
+        return "\n".join(vanished_section(df))
+
+
+def vanished_notice(df: pd.DataFrame) -> list[str]:
+    """The report's opening line on known deviations that vanished (none: no line)."""
+    if not (n := len(vanished_rows(df))):
+        return []
+    return [f"**Known deviations that vanished: {n}** (their checks are back within tolerance: the engine or its "
+            f"mapping changed): [{VANISHED_TITLE.lower()}](#{anchor(VANISHED_TITLE)}).", ""]
+
+
+DEVIATIONS_INTRO = (
+    "Each engine's known shortfalls (`adapters/xfails/<engine>.txt`, a plug-in's own file, or a "
+    "`--known` file): one row per engine and cause. A measurement outside its band is a `FAIL` (the "
+    "deviation changed); `physval known ENGINE` measures the bands again.")
+
+
+class KnownDeviations(Section):
+    """Counts per engine and cause, and the entries gone stale; every deviation is on
+    deviations.md (`deviations_page`)."""
+
+    def measure(self, run: Run) -> Run:
+        return run
+
+    def markdown(self, run: Run) -> str:
+        lines = ["## Known deviations", "", DEVIATIONS_INTRO, ""]
+        if (run.df.status == "deviation").any():
+            lines += [md_table(per_engine_counts(run.df, "deviation")), "",
+                      "Each engine's causes, and every known deviation with the band its size was recorded in "
+                      "beside the value measured now: [deviations.md](deviations.md).", ""]
+        else:
+            lines += ["_(none in this run)_", ""]
+        if run.stale:
+            lines += ["Entries that no longer deviate or match nothing:", ""] + [f"- {s}" for s in run.stale] + [""]
+        return "\n".join(lines)
+
+
+def deviations_page(df: pd.DataFrame) -> str:
+    page = ["# Known deviations", "", DEVIATIONS_INTRO, ""]
     if (df.status == "deviation").any():
-        lines += [md_table(per_engine_counts(df, "deviation")), "",
-                  "Each engine's causes, and every known deviation with the band its size was recorded in beside "
-                  "the value measured now: [deviations.md](deviations.md).", ""]
         page += ["## Per engine and cause", "", md_table(deviation_summary(df)), "",
                  "## Every known deviation", "", md_table(deviation_table(df)), ""]
-    else:
-        lines += ["_(none in this run)_", ""]
-    if stale:
-        lines += ["Entries that no longer deviate or match nothing:", ""] + [f"- {s}" for s in stale] + [""]
-    return lines, page
+    return "\n".join(page)
 
 
-def family_sections(df: pd.DataFrame, families: dict, plots: Path,
-                    drawings: list | None = None) -> tuple[list[str], dict[str, str]]:
-    """(the report's index of families, one line each; {family: its page families/<name>.md}):
-    what it checks, where its closed form comes from, every tolerance with its reason, the
-    heat map (drawn, or added to `drawings`: see draw) and the measured values."""
-    lines = ["## Families", "", "One page per family: what it checks, where its closed form comes from, every "
-             "tolerance with its reason, a heat map of every check per engine, and the measured values.", ""]
-    index, pages = [], {}
-    for name in sorted(df.case.unique()):
-        fam = families.get(name)
-        mine = df[df.case == name]
-        _draw_or_add(drawings, plot_family, (mine, name, plots / f"{name}.png"))
-        page = [f"# {name}", "", "[back to the report](../report.md)", ""]
-        if fam is not None:
-            page += [f"{fam.summary[:1].upper() + fam.summary[1:]}." if fam.summary else "", "",
-                     f"Closed form: {fam.source}." if fam.source else "", ""]
-        page += [f"Effects simulated: {mine.iloc[0].effects or 'none'}.", "", "Tolerances:", "",
-                 md_table(tolerance_reasons(df, name)), "", f"![{name}](../plots/{name}.png)", "",
-                 "Measured values:", "", md_table(family_table(df, name)), ""]
-        pages[name] = "\n".join(page)
-        index.append({"family": f"[{name}](families/{name}.md)", "what it checks": fam.summary if fam else "",
-                      "checks": len(mine), "statuses": status_counts(mine)})
-    return lines + [md_table(pd.DataFrame(index)), ""], pages
+class Problems(Section):
+    def measure(self, run: Run) -> pd.DataFrame:
+        return run.df
+
+    def markdown(self, df: pd.DataFrame) -> str:
+        return "\n".join(problems_section(df))
 
 
-def unsupported_counts(df: pd.DataFrame) -> list[str]:
-    """The report's section on runs an engine cannot represent: counts per engine; the
-    reasons are on unsupported.md."""
-    if not (df.status == "unsupported").any():
-        return []
-    return ["## Unsupported", "", "Checks each engine cannot represent (a 3D scene in a 2D engine, `mu_s != mu_k` "
+class Unsupported(Section):
+    """The runs an engine cannot represent: counts per engine; the reasons are on unsupported.md."""
+
+    def measure(self, run: Run) -> pd.DataFrame:
+        return run.df[run.df.status == "unsupported"]
+
+    def markdown(self, df: pd.DataFrame) -> str:
+        return "\n".join([
+            "## Unsupported", "", "Checks each engine cannot represent (a 3D scene in a 2D engine, `mu_s != mu_k` "
             "in an engine with one friction coefficient, ...); every reason: [unsupported.md](unsupported.md).", "",
-            md_table(per_engine_counts(df, "unsupported")), ""]
+            md_table(per_engine_counts(df, "unsupported")), ""])
 
 
-def settings_section(df: pd.DataFrame) -> tuple[list[str], list[str]]:
-    """(the report's pointer; the page knobs.md: the knobs each adapter set)."""
-    intro = ("The knobs each adapter set (engine's own names), from one run per engine; every run's "
-             "record is in `knobs.json` (each engine's distinct records once), named by the `knobs` column of "
-             "`results.csv`.")
-    page = ["# Engine settings", "", intro, ""]
+@dataclass
+class Written:
+    """A reading's rows and the folder its section writes its CSV and plot into."""
+    rows: object
+    out: Path
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+
+@dataclass(frozen=True)
+class InFolder(Section):
+    """A reading whose section writes its rows and plot beside the report:
+    `module.section(rows, out)`, the rows being `rows(run)` (None: not read in this run)."""
+    module: object
+    rows: object
+
+    def measure(self, run: Run) -> Written | None:
+        rows = self.rows(run)
+        return None if rows is None else Written(rows, run.out)
+
+    def markdown(self, got: Written) -> str:
+        return self.module.section(got.rows, got.out)
+
+
+def cross_engine(run: Run) -> pd.DataFrame:
+    return agreement.measure(run.df, {n for n, f in run.families.items() if f.cross_engine})
+
+
+class Families(Section):
+    """The index of families, one line each, linking each family's page (`family_page`)
+    (each family's heat map is drawn before: heat_maps)."""
+
+    def measure(self, run: Run) -> Run:
+        return run
+
+    def markdown(self, run: Run) -> str:
+        df, index = run.df, []
+        for name in sorted(df.case.unique()):
+            fam, mine = run.families.get(name), df[df.case == name]
+            index.append({"family": f"[{name}](families/{name}.md)", "what it checks": fam.summary if fam else "",
+                          "checks": len(mine), "statuses": status_counts(mine)})
+        return "\n".join(["## Families", "", "One page per family: what it checks, where its closed form comes from, "
+                          "every tolerance with its reason, a heat map of every check per engine, and the measured "
+                          "values.", "", md_table(pd.DataFrame(index)), ""])
+
+
+def family_page(df: pd.DataFrame, name: str, fam) -> str:
+    """families/<name>.md: what it checks, where its closed form comes from, every tolerance
+    with its reason, the heat map and the measured values."""
+    mine = df[df.case == name]
+    page = [f"# {name}", "", "[back to the report](../report.md)", ""]
+    if fam is not None:
+        page += [f"{fam.summary[:1].upper() + fam.summary[1:]}." if fam.summary else "", "",
+                 f"Closed form: {fam.source}." if fam.source else "", ""]
+    page += [f"Effects simulated: {mine.iloc[0].effects or 'none'}.", "", "Tolerances:", "",
+             md_table(tolerance_reasons(df, name)), "", f"![{name}](../plots/{name}.png)", "",
+             "Measured values:", "", md_table(family_table(df, name)), ""]
+    return "\n".join(page)
+
+
+SETTINGS_INTRO = ("The knobs each adapter set (engine's own names), from one run per engine; every run's "
+                  "record is in `knobs.json` (each engine's distinct records once), named by the `knobs` column of "
+                  "`results.csv`.")
+
+
+class Settings(Section):
+    def measure(self, run: Run) -> Run:
+        return run
+
+    def markdown(self, run: Run) -> str:
+        return "\n".join(["## Engine settings", "", SETTINGS_INTRO + " Every engine's: [knobs.md](knobs.md).", ""])
+
+
+def knobs_page(df: pd.DataFrame) -> str:
+    """knobs.md: the knobs each adapter set."""
+    page = ["# Engine settings", "", SETTINGS_INTRO, ""]
     for eng, grp in df[df.knobs != ""].groupby("engine", sort=False):
         page += [f"## {eng}", "", f"Effects simulated in that run: {grp.iloc[0].effects_simulated}.", "", "```",
                  json.dumps(json.loads(grp.iloc[0].knobs), indent=1, sort_keys=True), "```", ""]
-    return ["## Engine settings", "", intro + " Every engine's: [knobs.md](knobs.md).", ""], page
+    return "\n".join(page)
 
 
-# --- drawing the plots ----------------------------------------------------------------------
-
-def _draw_or_add(drawings: list | None, fn, args: tuple) -> None:
-    if drawings is None:
-        fn(*args)
-    else:
-        drawings.append((fn, args))
+def heat_maps(run: Run) -> list[tuple]:
+    """The heat maps the report shows, each (function, arguments) for `drawn`: the summary's
+    (Summary's groups) and one per family; none for an interrupted run."""
+    if run.plots is None:
+        return []
+    maps = [(plot_summary, (g.df[g.df.engine.isin(g.engines)], g.engines, g.plots / f"{g.slug}.png", g.title))
+            for g in Summary().measure(run) if g.plots is not None]
+    return maps + [(plot_family, (run.df[run.df.case == name], name, run.plots / f"{name}.png"))
+                   for name in sorted(run.df.case.unique())]
 
 
 def drawn(drawing: tuple) -> None:
@@ -261,76 +350,69 @@ def draw_here(drawings: list) -> None:
         drawn(d)
 
 
-# --- the report --------------------------------------------------------------------------
+class Environment(Section):
+    def measure(self, run: Run) -> pd.DataFrame:
+        return run.df
 
-INTRO = ("physval runs analytic cases (closed-form answers with tolerances, each with its reason) on physics "
-         "engines and judges every check. Read the scorecard first; each family's page (linked under Families) says "
-         "what it checks and why its tolerances have their size.")
+    def markdown(self, df: pd.DataFrame) -> str:
+        return "\n".join(["## Environment", "", md_table(environment(engine_versions(df))), ""])
+
+
+# --- the report: its sections in order ----------------------------------------------------
+
+SECTIONS = (
+    scorecard.Scorecard(),
+    closest.Closest(),
+    Vanished(),
+    Summary(),
+    KnownDeviations(),
+    Problems(),
+    Unsupported(),
+    InFolder(effective, lambda run: run.engine_wide.get("effective")),
+    InFolder(agreement, cross_engine),
+    InFolder(parity, lambda run: run.beside.parity),
+    InFolder(laws, lambda run: run.engine_wide.get("laws")),
+    Families(),
+    Settings(),
+    InFolder(cost, lambda run: cost.measure(run.rows, run.phases)),  # last but one: its report time covers the others
+    Environment(),
+)
+INTERRUPTED = (SummaryTable(), Vanished(), Problems())  # an interrupted run's report: what is known so far
 
 
 def write_run_report(rows: list[dict], out: Path, families: dict, command: str = "", complete: bool = True,
                      planned: int | None = None, engine_wide: dict | None = None, stale: list[str] = (),
-                     phases=None, draw=draw_here) -> None:
-    """report.md and plots/ for the rows of a run; `complete` False: an interrupted run's
-    report (marked so, without plots). `stale`: notes on known-deviation entries.
-    `phases`: the run's time as physval run measured it (physval.readings.cost.Phases),
-    for the Cost section. `draw(drawings)`: draws the summary and family heat maps, a list
-    of (function, arguments) (physval run draws them on its workers, side by side)."""
+                     phases: cost.Phases | None = None, draw=draw_here) -> None:
+    """report.md, report.html and their pages for the rows of a run; `complete` False: an
+    interrupted run's report (marked so, without plots). `engine_wide`: the engine-wide
+    readings measured (effective, laws) and `beside`, the readings of other commands found
+    beside the run (physval.readings.scorecard.companions). `stale`: notes on known-deviation
+    entries. `phases`: the run's time as physval run measured it, for the Cost section.
+    `draw(drawings)` draws the heat maps, a list of (function, arguments) (physval run draws
+    them on its workers, side by side)."""
     out = Path(out)
-    df = frame(rows, COLUMNS)
-    runs = df.groupby(["case", "variant", "engine"]).ngroups if len(df) else 0
-    head = heading("physval report", command,
-                   "" if complete else f"the run was interrupted after {runs} of {planned} runs. Finished runs are "
-                                        "kept and not recomputed; plots are drawn when it completes.")
-    head += [INTRO, "", f"{len(df)} checks from {runs} runs: {status_counts(df)}.", ""]
-    from physval.readings import site
-    if n_vanished := len(vanished_rows(df)):
-        head += [f"**Known deviations that vanished: {n_vanished}** (their checks now pass: the engine or its "
-                 f"mapping changed): [{VANISHED_TITLE.lower()}](#{anchor(VANISHED_TITLE)}).", ""]
-    if not complete:
-        body = [md_table(summary_matrix(df)), ""] if len(df) else []
-        body += vanished_section(df) + problems_section(df)
-        write_atomic(out / "report.md", "\n".join(head + body))
-        if len(df):
-            site.write(out, df, families, command, interrupted=f"the run was interrupted after {runs} of {planned} "
-                                                              "runs; finished runs are kept and not recomputed.")
-        return
-    plots = out / "plots"
-    deviations, deviation_page = deviation_sections(df, list(stale))
-    from physval.readings import scorecard
-    beside = engine_wide.get("beside") if engine_wide else None  # the sweep, stress and real readings found beside
-    drawings: list = []
-    sections = [scorecard.section(scorecard.measure(df, beside), beside), "\n".join(vanished_section(df)),
-                "\n".join(summary_sections(df, plots, drawings)),
-                "\n".join(deviations),
-                "\n".join(problems_section(df)),
-                "\n".join(unsupported_counts(df))]
-    from physval.readings import agreement, effective, laws
-    engine_wide = engine_wide or {}
-    if "effective" in engine_wide:
-        sections.append(effective.section(engine_wide["effective"], out))
-    agree = agreement.measure(df, {n for n, f in families.items() if f.cross_engine})
-    if len(agree):
-        sections.append(agreement.section(agree, out))
-    if beside is not None and beside.parity:
-        from physval.readings import parity
-        sections.append(parity.section(beside.parity, out))
-    if "laws" in engine_wide:
-        sections.append(laws.section(engine_wide["laws"], out))
-    family_index, family_pages = family_sections(df, families, plots, drawings)
-    draw(drawings)
-    settings, knobs_page = settings_section(df)
-    cost_at = len(sections) + 2
-    sections += ["\n".join(family_index), "\n".join(settings), "",
-                 "\n".join(["## Environment", "", md_table(environment(engine_versions(df))), ""])]
-    write_pages(out, {"deviations.md": "\n".join(deviation_page), "knobs.md": "\n".join(knobs_page),
-                      "unsupported.md": "\n".join(["# Unsupported runs", ""] + unsupported_section(df)[2:])},
-                {f"{name}.md": text for name, text in family_pages.items()})
-    from physval.readings import cost
-    sections[cost_at] = cost.section(cost.measure(rows, phases), out)  # last: its report time covers the rest
-    sections = [s for s in sections if s.strip()]
-    write_atomic(out / "report.md", "\n".join(head + [contents(sections)] + sections))
-    site.write(out, df, families, command, beside=beside)
+    wide = dict(engine_wide or {})
+    beside = wide.pop("beside", None) or scorecard.Companions()
+    run = Run(frame(rows, COLUMNS), out, families, wide, beside, list(stale), complete, list(rows), phases)
+    missing = "" if complete else f"the run was interrupted after {run.runs} of {planned} runs"
+    report = Report("physval report", SECTIONS if complete else INTERRUPTED, command,
+                    interrupted=missing + (". Finished runs are kept and not recomputed; plots are drawn when it "
+                                           "completes." if missing else ""),
+                    opening=[INTRO, "", f"{len(run.df)} checks from {run.runs} runs: {status_counts(run.df)}.", ""]
+                    + vanished_notice(run.df), contents=complete)
+    html = Html("physval.readings", links=html_link)
+    if complete:
+        write_pages(out, {"deviations.md": deviations_page(run.df), "knobs.md": knobs_page(run.df),
+                          "unsupported.md": "\n".join(["# Unsupported runs", ""] + unsupported_section(run.df)[2:])},
+                    {f"{name}.md": family_page(run.df, name, families.get(name)) for name in sorted(run.df.case.unique())})
+    maps = heat_maps(run)
+    if maps:
+        run.plots.mkdir(parents=True, exist_ok=True)
+        draw(maps)
+    report.write(out, run, html)
+    if len(run.df):
+        site.write(out, run.df, families, run.card, html, interrupted=f"{missing}; finished runs are kept and not "
+                   "recomputed." if missing else "")
 
 
 def write_pages(out: Path, pages: dict[str, str], family_pages: dict[str, str]) -> None:
@@ -344,3 +426,55 @@ def write_pages(out: Path, pages: dict[str, str], family_pages: dict[str, str]) 
             old.unlink()
     for name, text in family_pages.items():
         write_atomic(folder / name, text)
+
+
+def rebuild(folder: Path, command: str | None = None) -> Path:
+    """A result folder's report (report.md, report.html, plots/ and pages) from its
+    results.csv, the engine-wide readings its last report wrote (effective_parameters.csv,
+    laws.csv) and the readings of other commands beside it; the built-in families and the
+    known deviations of the installed engines. `command`: the one the report names
+    (default: the one the folder's report.md names). No engine runs."""
+    from cases.registry import builtin_families
+    from physval.core import Context
+    from physval.core.deviations import stale_entries
+    from physval.core.store import read_results
+    folder = Path(folder)
+    rows = read_results(folder)
+    if command is None:
+        command = previous_command(folder / "report.md")
+    wide = {name: got for name, got in (("effective", effective.read(folder)), ("laws", laws.read(folder)))
+            if got is not None}
+    wide["beside"] = scorecard.companions(folder)
+    write_run_report(rows, folder, builtin_families(), command=command, engine_wide=wide,
+                     stale=stale_entries(frame(rows, COLUMNS), Context().resolver()))
+    return folder / "report.md"
+
+
+def previous_command(report: Path) -> str:
+    """The command a report names on its `Command:` line ("" if none, or no report)."""
+    if report.is_file():
+        for line in report.read_text().splitlines()[:6]:
+            if m := re.fullmatch(r"Command: `(.*)`", line):
+                return m[1]
+    return ""
+
+
+def main(argv: list[str]) -> int:
+    folder = Path(argv[0] if argv else "reports")
+    try:
+        found = (folder / "results.csv").is_file()
+    except OSError as exc:
+        found, why = False, f"cannot be read ({exc.strerror})"
+    else:
+        why = ("no such folder" if not folder.is_dir()
+               else "no results.csv in this folder (FOLDER: a folder `physval run --out` wrote)")
+    if not found:
+        print(f"python -m physval.readings.results: error: {folder}: {why}", file=sys.stderr)
+        return 2
+    report = rebuild(folder)
+    print(f"wrote {report}, {report.with_suffix('.html')}, {folder / 'plots'}/")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

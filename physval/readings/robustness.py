@@ -28,9 +28,9 @@ from physval.core import COLUMNS, Job, Probe, simulate
 from physval.core.session import Execution, run_stored
 from physval.core.selection import select_variants
 from physval.readings import scorecard
-from physval.reportkit import (deviation_summary, heading, environment, engine_versions, fmt, frame, md_table,
-                               problems_section, pyplot, save_figure, status_counts, summary_matrix,
-                               unsupported_section, write_atomic)
+from physval.readings.checks import (deviation_summary, engine_versions, frame, problems_section, status_counts,
+                                     summary_matrix, unsupported_section)
+from physval.report import environment, fmt, heading, md_table, pyplot, save_figure, write_atomic
 
 TAG = "robustness"
 # The map (--long): 60, 120 and 240 Hz; 5 to 50 iterations; stacks of 2 to 20.

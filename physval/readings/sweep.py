@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 
 from physval.core import COLUMNS, Job, Probe, steps_of
-from physval.reportkit import engine_styles, heading, md_table, pyplot, save_figure, write_atomic
+from physval.report import engine_styles, heading, md_table, pyplot, save_figure, write_atomic
 
 # Time steps from 1/60 s (games) down to 1e-4 s (six values, about log-spaced).
 DTS = (1 / 60, 1 / 120, 1 / 240, 1e-3, 3e-4, 1e-4)

@@ -9,7 +9,8 @@ import pandas as pd
 
 from physval.readings import compare
 from physval.readings.divergence import PARTED
-from physval.reportkit import fmt, heading, md_table, status_counts, write_atomic
+from physval.readings.checks import status_counts
+from physval.report import fmt, heading, md_table, write_atomic
 
 
 @dataclass(frozen=True)

@@ -222,10 +222,10 @@ def test_acceleration_lcp_refuses_friction():
     assert "friction" in refused("acceleration_lcp", scene("resting_blocks", "n=3"))
 
 
-@pytest.mark.parametrize("formulation", RIGID + ["spook", "compliant"])
+@pytest.mark.parametrize("formulation", ["sequential_impulses"] + RIGID + ["spook", "compliant"])
 def test_each_formulation_states_its_knobs_as_json(formulation):
     """knobs(config): what the formulation does and the values in force, for the
-    adapter's record (the adapter's own entries describe sequential impulses only)."""
+    adapter's record (which describes no formulation of its own)."""
     import importlib
     import json
 
