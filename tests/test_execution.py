@@ -5,6 +5,7 @@ exit when their parent dies; every start method runs the same jobs."""
 from __future__ import annotations
 
 import csv
+import os
 import signal
 import subprocess
 import sys
@@ -259,6 +260,26 @@ def test_every_start_method_runs_the_same_jobs(cases_dir, tmp_path, method):
                  "--out", str(out)]) == 0
     rows = _rows(out)
     assert sorted(rows) == ["k=1", "k=3"] and all(r["status"] == "pass" for rs in rows.values() for r in rs)
+
+
+def test_a_cases_folder_in_the_current_directory_does_not_shadow_physval_in_the_workers(tmp_path):
+    """A user keeps their own package `cases/` where they run physval. The fork server is a
+    `python -c` process, which puts the current directory first on its path: before the
+    fix it preloaded the user's `cases` instead of physval's, every worker forked from it,
+    and every job failed. The command runs as the installed `physval` script does (the
+    current directory not on the main process's path)."""
+    (tmp_path / "cases").mkdir()
+    (tmp_path / "cases" / "__init__.py").write_text("MINE = True\n")
+    out = tmp_path / "out"
+    code = "import sys; sys.path.remove(''); from physval.cli import main; sys.exit(main(sys.argv[1:]))"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    proc = subprocess.run([sys.executable, "-c", code, "run", "--cases", "central_impact[drop,e=0.5]", "--engines",
+                           "reference", "--readings", "none", "--workers", "1", "--start-method", "forkserver",
+                           "--quiet", "--out", str(out)], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    rows = list(csv.DictReader(open(out / "results.csv")))
+    assert rows and all(r["status"] == "pass" for r in rows), [(r["status"], r["reason"][-200:]) for r in rows]
 
 
 def test_plain_calls_run_on_the_executor_and_a_crash_costs_only_its_call():

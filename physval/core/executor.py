@@ -46,11 +46,30 @@ def default_start_method() -> str:
 
 def start_fork_server(start_method: str | None = None) -> None:
     """Under forkserver, start the fork server now: it loads the harness and the families
-    (physval.core.preload) while the caller goes on, and every worker forks from it ready."""
+    (physval.core.preload) while the caller goes on, and every worker forks from it ready.
+    It imports from this process's path (fork_server_env), not from the folder physval
+    was started in."""
     if (start_method or default_start_method()) == "forkserver":
         from multiprocessing import forkserver
         mp.get_context("forkserver").set_forkserver_preload(["physval.core.preload"])
-        forkserver.ensure_running()
+        saved = dict(os.environ)
+        os.environ.update(fork_server_env())
+        try:
+            forkserver.ensure_running()  # spawns the server with os.environ as it is now
+        finally:
+            os.environ.clear()
+            os.environ.update(saved)
+
+
+def fork_server_env() -> dict[str, str]:
+    """The fork server is a `python -c` process, whose path begins with the current
+    directory (Python 3.11 does not hand it the caller's path, 3.12 only after the
+    preload's imports): a user's `cases/` (or `physval/`) folder there would be imported
+    instead of physval's, and every worker forked from it would fail. So it starts without
+    the current directory (PYTHONSAFEPATH) and with this process's path, as the workers
+    themselves get it (an entry '' stands for the current directory: left out)."""
+    path = [os.path.abspath(p) for p in sys.path if p]
+    return {"PYTHONSAFEPATH": "1", "PYTHONPATH": os.pathsep.join(dict.fromkeys(path))}
 
 
 # --- the worker process --------------------------------------------------------------------
