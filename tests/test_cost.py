@@ -57,7 +57,8 @@ def test_the_report_says_where_the_time_went_and_the_parts_add_up(tmp_path):
     phase = dict(zip(parts[parts.kind == "phase"].name, parts[parts.kind == "phase"].seconds))
     assert {"planning", "jobs and readings", "stepping", "recording", "rest of the jobs", "readings' jobs", "overhead",
             "report",
-            "CPU of the workers", "CPU of the main process"} <= set(phase)
+            "CPU of the workers", "CPU outside any job", "CPU of the main process"} <= set(phase)
+    assert 0 <= phase["CPU outside any job"] < phase["CPU of the workers"]
     jobs = {r["job"]: r for r in csv.DictReader(open(out / "results.csv"))}
     job_s = sum(float(r["job_s"]) for r in jobs.values())
     stepping = sum(float(r["wall_s"] or 0) for r in jobs.values())

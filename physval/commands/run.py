@@ -171,7 +171,8 @@ def _run(args, after: dict) -> int:
                          jobs=main.spent.jobs, job_s=main.spent.job_s, run_s=main.spent.run_s,
                          stepping_s=main.spent.stepping_s,
                          reading_jobs=sum(r.spent.jobs for r in wide_readings.values()),
-                         reading_s=sum(r.spent.job_s for r in wide_readings.values()), worker_cpu_s=use.worker_cpu_s)
+                         reading_s=sum(r.spent.job_s for r in wide_readings.values()), worker_cpu_s=use.worker_cpu_s,
+                         job_cpu_s=main.spent.cpu_s + sum(r.spent.cpu_s for r in wide_readings.values()))
     finished = [j for j in jobs if j.key in res.rows]
     after.update(store=store, keys=[j.key for j in finished], out=out, families=families, planned=len(jobs))
     interrupted = res.interrupted or next((r.results.interrupted for r in wide_readings.values()
@@ -195,7 +196,8 @@ def _run(args, after: dict) -> int:
     total = time.monotonic() - started
     print(f"{len(df)} checks: {status_counts(df)} ({res.ran} runs now, {res.reused} reused; {total:.1f} s: "
           f"{phases.planning_s:.1f} s planning, {use.wall_s:.1f} s jobs and readings on {use.workers} workers "
-          f"({_overhead_ms(phases):.1f} ms a job outside jobs), {t_report:.1f} s report)")
+          f"({_overhead_ms(phases):.1f} ms a job outside jobs, {_overhead_cpu_ms(phases):.1f} ms of CPU), "
+          f"{t_report:.1f} s report)")
     print(f"wrote {out / 'results.csv'}, {out / KNOBS_FILE}, {out / 'report.md'}, {out / 'report.html'}, {out / 'plots'}/")
     from physval.readings import junit as junit_report
     if junit is not None:
@@ -236,6 +238,11 @@ def draw_on_workers(ctx, args):
 def _overhead_ms(p) -> float:
     n = p.jobs + p.reading_jobs
     return 1e3 * (p.pool_s * p.workers - p.job_s - p.reading_s) / n if n else 0.0
+
+
+def _overhead_cpu_ms(p) -> float:
+    n = p.jobs + p.reading_jobs
+    return 1e3 * (p.worker_cpu_s - p.job_cpu_s) / n if n else 0.0
 
 
 def print_plan(jobs, store, resolver, out, workers: int, readings: list[str], wide: list[str], model) -> int:

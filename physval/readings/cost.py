@@ -217,6 +217,7 @@ class Phases:
     reading_jobs: int = 0
     reading_s: float = 0.0      # the readings' jobs' time in workers
     worker_cpu_s: float = math.nan  # the workers' CPU, user + system (local workers)
+    job_cpu_s: float = math.nan     # of it, in the jobs (the run's and the readings'): the rest is per-job overhead
 
 
 COST_COLUMNS = ["kind", "name", "seconds", "of", "jobs", "steps", "us_per_step", "note"]
@@ -254,6 +255,10 @@ def measure(rows, phases: Phases | None = None) -> pd.DataFrame:
              f"{_ms(available - phases.stepping_s - phases.reading_s, phases.jobs)} per job"),
             ("report", report_s, "wall", math.nan, "the report's sections, plots and pages before this one"),
             ("CPU of the workers", phases.worker_cpu_s, "cpu", n, "user + system, their start included"),
+            ("CPU outside any job", phases.worker_cpu_s - phases.job_cpu_s, "cpu", n,
+             f"the workers' CPU beyond their jobs' (starting, taking jobs, sending rows): "
+             f"{_ms(phases.worker_cpu_s - phases.job_cpu_s, n)} per job; unlike the overhead in worker time, "
+             "no load on the machine inflates it"),
             ("CPU of the main process", time.process_time(), "cpu", math.nan,
              "user + system: planning, storing rows, the report so far"),
         ]
