@@ -17,9 +17,10 @@ import pytest
 
 from adapters import registry
 from physval import faults
-from physval.core import Context, Job, execute
-from physval.core.context import Resolver
+from physval.core import Context, Job
 from physval.core.session import Execution
+
+from tests.helpers import shared_rows
 
 ENGINES = ("reference", "mujoco", "pybullet")
 
@@ -116,8 +117,7 @@ def test_unmodified_wrapper_measures_what_the_engine_measures(engine):
     """The wrapper alone passes everything through: every measurement is the engine's own,
     bit for bit."""
     found = rows(engine, faults.NONE.name)
-    resolver = Resolver(Context())
-    plain = [r for job in fast_jobs(engine) for r in execute(job, resolver).rows]
+    plain = [r for job in fast_jobs(engine) for r in shared_rows(job)]
     key = lambda r: (r["case"], r["variant"], r["metric"])  # noqa: E731
     assert {key(r): (r["status"], str(r["measured"])) for r in found} == \
         {key(r): (r["status"], str(r["measured"])) for r in plain}
