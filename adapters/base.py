@@ -103,9 +103,10 @@ class Capabilities:
     # "save_restore" (Simulation.save_state and restore_state carry its whole state). A
     # relation needing a mode the engine lacks is `unsupported`, with its why_not reason.
     modes: frozenset[str] = frozenset()
-    # (effect or mode, reason): effects of cases.scene.EFFECTS the engine has the values for
-    # but does not simulate (a solver that drops the rows), said when a scene asks for one;
-    # modes (cases.relations.NEEDS) it lacks, said when a relation needs one
+    # (effect, reason) for effects of cases.scene.EFFECTS the engine has the values for but
+    # does not simulate (a solver that drops the rows), (shape kind, reason) for kinds of
+    # SHAPE_KINDS it does not represent, and (mode, reason) for modes (cases.relations.NEEDS)
+    # it lacks: said when a scene asks for one, or a relation needs one
     why_not: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self):
@@ -122,9 +123,11 @@ class Capabilities:
         unknown = set(self.modes) - set(MODES)
         if unknown:
             raise ValueError(f"modes = {sorted(unknown)}: must be among {', '.join(MODES)}")
-        unknown = {effect for effect, _ in self.why_not} - set(EFFECTS) - set(MODES)
+        lacking = set(SHAPE_KINDS) - set(self.shapes)
+        unknown = {name for name, _ in self.why_not} - set(EFFECTS) - set(MODES) - lacking
         if unknown:
-            raise ValueError(f"why_not names {sorted(unknown)}: must be among {', '.join(EFFECTS + MODES)}")
+            raise ValueError(f"why_not names {sorted(unknown)}: must be among {', '.join(EFFECTS + MODES)} "
+                             f"or the shapes the engine lacks ({', '.join(sorted(lacking))})")
         if self.float_bits not in UNIT_ROUNDOFF:
             raise ValueError(f"float_bits = {self.float_bits!r}: must be one of {', '.join(map(str, UNIT_ROUNDOFF))}")
 
@@ -141,7 +144,9 @@ class Capabilities:
             return f"{scene.dimension}D scene: the engine runs {dims} scenes only"
         kinds = {b.shape.kind for b in scene.bodies} - self.shapes
         if kinds:
-            return f"shape {', '.join(sorted(kinds))} not available in this engine"
+            why = dict(self.why_not)
+            return "; ".join(f"shape {kind} not available in this engine" + (f": {why[kind]}" if kind in why else "")
+                             for kind in sorted(kinds))
         if not self.static_kinetic:
             for a, b in scene.contact_pairs():
                 m = scene.material_of(a.name, b.name)
@@ -191,7 +196,7 @@ class Capabilities:
                              "contact_points")
                  if getattr(self, f)]
         laws = f"; compliant contact: {','.join(sorted(self.contact_laws))}" if self.contact_laws else ""
-        impacts = f"; impacts: {self.impact_model}" if self.impact_model else ""
+        impacts = f"; impacts: {self.impact_model or 'none declared'}"
         torques = f"; contact torques: {','.join(sorted(self.contact_torques))}" if self.contact_torques else ""
         restitution = f"; restitution: {self.restitution_law}"
         floats = f"; float{self.float_bits}" + (", sub-steps" if self.substeps else "")
@@ -252,6 +257,13 @@ class Simulation(ABC):
         `Capabilities.contact_points` implement it."""
         raise NotImplementedError(f"{type(self).__name__} does not report contact points")
 
+    def plant(self, change: str, size: float | None = None) -> "Simulation":
+        """The planted-fault hook (adapters/planting.py): make the engine-internal `change`
+        (a name of planting.CHANGES that the adapter lists in `plantable`) of `size` in
+        this built world, and return the simulation to step: this one, or one built anew.
+        Only an adapter's own code reaches into its engine this way."""
+        raise NotImplementedError(f"{type(self).__name__} makes no planted change ({change!r} asked)")
+
     def save_state(self):
         """The engine's whole state after the last step, as a picklable object: what
         restore_state needs to continue in a freshly built simulation of the same scene
@@ -296,6 +308,14 @@ class Adapter(ABC):
     # pins whatever else it needs, as mujoco 4.0.0 pins mujoco-core and mujoco-studio 4.0.0).
     packages: tuple[str, ...] = ()
     tunables: Mapping[str, Tunable] = {}  # Settings.options this adapter understands
+    # The engine-internal changes its simulations make for a planted fault (names of
+    # adapters/planting.py CHANGES, made by Simulation.plant): what no scene, setting or
+    # read-out can say, such as a square friction cone or a velocity damping.
+    plantable: frozenset[str] = frozenset()
+    # The engine whose recorded known-deviation bands judge this adapter, where that is not
+    # its own name: an engine with a planted fault named anew (adapters/planting.py Planted,
+    # a user's `--adapter` file), judged as the engine it plants in. None: its own name.
+    bands_of: str | None = None
 
     @abstractmethod
     def version(self) -> str:

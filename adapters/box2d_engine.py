@@ -9,6 +9,13 @@ at 10 m is placed to 1e-6 m; checks tighter than that measure the float, not the
 Angles are set and read through the rotation's cosine and sine (Box2D's own angle
 functions b2MakeRot / b2Rot_GetAngle are polynomial approximations, 1e-3 rad off).
 
+Shapes. A Circle is a b2Circle, a Rect b2MakeBox, a Polygon b2MakeOffsetPolygon of the hull
+of its corners (b2ComputeHull) at the body origin with radius 0 (no rounding), the body's
+mass and inertia the scene's (b2Body_SetMassData). Box2D holds at most 8 corners and welds
+or drops corners closer than 2 cm to each other or 1 cm to the line through their
+neighbours (src/hull.c): such a polygon is `unsupported` (`_hull`), never quietly changed.
+A Plane is a long static box whose top edge is the line.
+
 What one `world.step(dt, n)` does (Box2D v3.1.1 src/solver.c, b2SolverStep): contacts are
 found for the whole step, with speculative points up to 4 linear slops (2 cm) apart; then
 n sub-steps of h = dt/n, each: velocities get gravity (v += g h), warm start, one
@@ -63,7 +70,8 @@ of the load or squeeze): the split with the least friction is returned and `knob
 snapshot the step keeps, so the timed step holds only the engine's work and the snapshot.
 The normal force of a pair is lambda / dt with n the pair's contact normal before the step
 (the geometry Box2D found its contacts from): the plane's normal, the line of centres, or
-the separating axis of least penetration (as b2CollidePolygons chooses it). No contact
+the separating axis of least penetration over both polygons' edges (as b2CollidePolygons
+chooses it). No contact
 points (`Capabilities.contact_points` is False): their positions and per-point impulses are not
 exposed.
 """
@@ -79,7 +87,7 @@ from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, 
 from adapters.combination import per_body_values
 from adapters.frames import planar_states, require_turn_about_y, state_row
 from adapters.impulse_split import OPEN_SPLIT, acting_pairs, split_impulses
-from cases.scene import Body, Circle, Plane, Scene, pair_key, quat_about_y
+from cases.scene import Body, Circle, Plane, Rect, Scene, pair_key, quat_about_y
 
 DEFAULT_SUBSTEPS = 4  # Box2D's recommended sub-step count (b2World_Step documentation)
 # The fraction of the sub-step rate Box2D clamps contact_hertz to (src/world.c, b2World_Step:
@@ -104,6 +112,23 @@ MAXIMUM_LINEAR_SPEED = 1e4
 # bodies (7.6e-6 m): long enough for every motion of the scenes, short enough for that.
 PLANE_HALF_LENGTH = 100.0  # m
 PLANE_DEPTH = 1.0  # m: deeper than any overlap the scenes make
+# What a Box2D polygon can hold (Box2D v3.1 include/box2d/collision.h and src/hull.c,
+# b2ComputeHull): at most B2_MAX_POLYGON_VERTICES corners; corners closer than 4 linear slops
+# are welded into one, and a corner within 2 linear slops of the line through its neighbours
+# is dropped (B2_LINEAR_SLOP = 0.005 m at b2_lengthUnitsPerMeter = 1).
+MAX_POLYGON_VERTICES = 8
+LINEAR_SLOP = 0.005  # m
+
+
+# How Box2D resolves an impact through bodies already touching (Capabilities.impact_model),
+# measured (dt = 1e-3, no gravity, a 0.1 kg ball resting on a 1 kg one, both landing at 2 m/s,
+# touching without overlap; tests/test_declared_models.py): neither model's closed form.
+# Top and bottom ball leave at 3.497, 1.667 m/s (e = 1) and 1.302, 0.887 m/s (e = 0.5). The simultaneous model gives both 2 (e = 1) and 1 m/s (e = 0.5), the sequential one
+# 5.273, 1.273 and 2.091, 0.591 (cases/column_impact.py): restitution targets each contact's
+# approach before the step, so the touching pair takes part in the landing step without its
+# bounce and gets it as an impact of its own later. So it declares no impact model, and the
+# column family's model variants are unsupported on it (its model-free ones still run).
+IMPACT_MODEL_MEASURED = None
 
 
 class Box2DAdapter(Adapter):
@@ -113,13 +138,13 @@ class Box2DAdapter(Adapter):
     supported = ">=0.11.1,<0.12"
     capabilities = Capabilities(
         dimensions=frozenset({2}),
-        shapes=frozenset({"circle", "rect", "plane"}),
+        shapes=frozenset({"circle", "rect", "polygon", "plane"}),  # a polygon: b2MakePolygon, radius 0 (`_hull`)
         native_restitution=True,
         static_kinetic=False,  # one friction coefficient per shape
         contact_forces=True,   # from the bodies' momenta, see the module notes
         iterations=True,       # the sub-step count
         contact_points=False,
-        impact_model="simultaneous",
+        impact_model=IMPACT_MODEL_MEASURED,  # neither model: see the note above the class
         # rollingResistance per shape (`_rolling`); no torsional friction (a 2D engine has
         # no spin about a contact normal in its plane)
         contact_torques=frozenset({"rolling_resistance"}),
@@ -147,6 +172,9 @@ class Box2DAdapter(Adapter):
         reason = self.capabilities.cannot_run(scene)
         if reason:
             raise Unsupported(reason)
+        for body in scene.bodies:  # a polygon Box2D cannot hold: said before a world is made
+            if body.shape.kind == "polygon":
+                _hull(body)
         return Box2DSimulation(scene, settings, self.options_in_force(settings))
 
 
@@ -171,6 +199,22 @@ def _materials(scene: Scene) -> tuple[dict[str, float], dict[str, float]]:
     mu = per_body_values(scene, lambda m: m.mu_s**2, "product", "friction")
     e = per_body_values(scene, lambda m: m.e, "max", "restitution")
     return mu, e
+
+
+def _hull(body: Body):
+    """The b2Hull of a scene Polygon, every corner kept (Unsupported where Box2D would weld
+    or drop one: `MAX_POLYGON_VERTICES`)."""
+    corners = np.ascontiguousarray(body.shape.corners, dtype=np.float32)
+    n = len(corners)
+    if n > MAX_POLYGON_VERTICES:
+        raise Unsupported(f"polygon {body.name!r} has {n} corners: a Box2D polygon has at most "
+                          f"{MAX_POLYGON_VERTICES} (B2_MAX_POLYGON_VERTICES)")
+    hull = b2.compute_hull(corners)
+    if hull.count != n:
+        raise Unsupported(f"polygon {body.name!r}: Box2D's b2ComputeHull keeps {hull.count} of its {n} corners (it "
+                          f"welds corners closer than {4 * LINEAR_SLOP:g} m and drops a corner within "
+                          f"{2 * LINEAR_SLOP:g} m of the line through its neighbours)")
+    return hull
 
 
 def _shape_radius(body: Body) -> float:
@@ -202,18 +246,32 @@ def _rolling(scene: Scene) -> dict[str, float]:
 
 # --- contact geometry: gap and normal of a pair from the bodies' poses ----------------------
 # A pose is (x, y, c, s): centre and the cosine and sine of the rotation, in Box2D's plane.
-# Plain floats: these run for every touching pair and step.
+# A polygon's outline is its corners and outward edge normals in the body frame, counter-
+# clockwise in Box2D's plane (a scene polygon's corners are counterclockwise in (x, z), which
+# is Box2D's (x, y)). Plain floats: these run for every touching pair and step.
 
-FACE_NORMALS = ((0.0, -1.0), (1.0, 0.0), (0.0, 1.0), (-1.0, 0.0))  # of a rectangle, body frame
+
+def outline(shape) -> tuple[tuple, tuple]:
+    """Body-frame corners and outward edge normals (corner i to i + 1) of a Rect or Polygon,
+    counterclockwise."""
+    if isinstance(shape, Rect):
+        a, b = shape.half_extents
+        corners = ((-a, -b), (a, -b), (a, b), (-a, b))
+    else:
+        corners = tuple((float(x), float(z)) for x, z in shape.corners)
+    normals = []
+    for (x0, y0), (x1, y1) in zip(corners, corners[1:] + corners[:1]):
+        length = math.hypot(x1 - x0, y1 - y0)
+        normals.append(((y1 - y0) / length, (x0 - x1) / length))  # the edge turned clockwise: outward
+    return corners, tuple(normals)
 
 
-def _rectangle(pose, half) -> tuple[list, list]:
-    """Vertices and outward face normals of a rectangle (counter-clockwise)."""
+def _placed(pose, shape_outline) -> tuple[list, list]:
+    """World corners and outward normals of a polygon outline at `pose`."""
     x, y, c, s = pose
-    a, b = half
-    vertices = [(x + c * u - s * v, y + s * u + c * v) for u, v in ((-a, -b), (a, -b), (a, b), (-a, b))]
-    normals = [(c * u - s * v, s * u + c * v) for u, v in FACE_NORMALS]
-    return vertices, normals
+    corners, normals = shape_outline
+    return ([(x + c * u - s * v, y + s * u + c * v) for u, v in corners],
+            [(c * u - s * v, s * u + c * v) for u, v in normals])
 
 
 def _max_separation(va, na, vb) -> tuple[float, tuple]:
@@ -245,32 +303,37 @@ def _polygon_point(va, na, point) -> tuple[float, tuple]:
     return best, direction
 
 
-def contact_gap(A: Body, pose_a, B: Body, pose_b) -> tuple[float, tuple]:
+def contact_gap(A: Body, pose_a, B: Body, pose_b, outlines: dict | None = None) -> tuple[float, tuple]:
     """Signed distance of two bodies (negative: overlap) and the unit contact normal from
     B into A, in Box2D's plane: a plane's normal, the line of centres, or the axis of
-    least penetration (as b2CollidePolygons chooses it)."""
+    least penetration (as b2CollidePolygons chooses it). `outlines`: the polygon outlines
+    by body name (worked out from the shapes where absent)."""
     if isinstance(A.shape, Plane):
-        gap, (nx, ny) = contact_gap(B, pose_b, A, pose_a)
+        gap, (nx, ny) = contact_gap(B, pose_b, A, pose_a, outlines)
         return gap, (-nx, -ny)
+
+    def placed(body: Body, pose):
+        known = outlines.get(body.name) if outlines is not None else None
+        return _placed(pose, known or outline(body.shape))
     if isinstance(B.shape, Plane):
         n = (B.shape.normal[0], B.shape.normal[2])
         if isinstance(A.shape, Circle):
             low = pose_a[0] * n[0] + pose_a[1] * n[1] - A.shape.radius
         else:
-            low = min(x * n[0] + y * n[1] for x, y in _rectangle(pose_a, A.shape.half_extents)[0])
+            low = min(x * n[0] + y * n[1] for x, y in placed(A, pose_a)[0])
         return low - B.shape.offset, n
     if isinstance(A.shape, Circle) and isinstance(B.shape, Circle):
         dx, dy = pose_a[0] - pose_b[0], pose_a[1] - pose_b[1]
         r = math.hypot(dx, dy)
         return r - A.shape.radius - B.shape.radius, (dx / r, dy / r)
     if isinstance(A.shape, Circle):
-        gap, n = _polygon_point(*_rectangle(pose_b, B.shape.half_extents), pose_a[:2])
+        gap, n = _polygon_point(*placed(B, pose_b), pose_a[:2])
         return gap - A.shape.radius, n
-    va, na = _rectangle(pose_a, A.shape.half_extents)
+    va, na = placed(A, pose_a)
     if isinstance(B.shape, Circle):
         gap, (nx, ny) = _polygon_point(va, na, pose_b[:2])
         return gap - B.shape.radius, (-nx, -ny)
-    vb, nb = _rectangle(pose_b, B.shape.half_extents)
+    vb, nb = placed(B, pose_b)
     s_a, (nx, ny) = _max_separation(va, na, vb)
     s_b, n_b = _max_separation(vb, nb, va)
     return (s_a, (-nx, -ny)) if s_a > s_b else (s_b, n_b)
@@ -322,6 +385,7 @@ class Box2DSimulation(Simulation):
         self._mass: dict[str, float] = {}      # their masses as Box2D holds them (float32)
         self._shape_of: dict[int, str] = {}    # shape id -> body name
         self._geometry: dict[str, Body] = {}
+        self._outlines: dict[str, tuple] = {}  # polygon outlines by body name (contact_gap)
         self._centre = np.mean([(b.position[0], b.position[2]) for b in scene.dynamic_bodies], axis=0)
         for body in scene.bodies:
             self._add(body, friction[body.name], restitution[body.name])
@@ -344,6 +408,8 @@ class Box2DSimulation(Simulation):
                                                  tangent_speed=0.0)
         record = {"friction": mu, "restitution": e, "rolling_resistance": rolling, "tangent_speed": 0.0}
         self._geometry[body.name] = body
+        if body.shape.kind in ("rect", "polygon"):
+            self._outlines[body.name] = outline(body.shape)
         if isinstance(body.shape, Plane):
             nx, ny, nz = body.shape.normal
             if ny != 0.0:
@@ -373,6 +439,11 @@ class Box2DSimulation(Simulation):
             if isinstance(body.shape, Circle):
                 shape = pb.create_circle_shape(shape_def, b2.circle(radius=body.shape.radius))
                 record["circle"] = {"radius": body.shape.radius}
+            elif body.shape.kind == "polygon":
+                # b2MakeOffsetPolygon of the corners' hull at the body origin: radius 0 (no rounding)
+                shape = pb.create_polygon_shape(shape_def, b2.polygon(hull=_hull(body)))
+                record["polygon"] = {"vertices": [[float(x), float(z)] for x, z in body.shape.corners], "radius": 0.0,
+                                     "hull": "b2ComputeHull, every corner kept"}
             else:
                 a, c = body.shape.half_extents
                 shape = pb.create_polygon_shape(shape_def, b2.box(a, c))
@@ -447,7 +518,7 @@ class Box2DSimulation(Simulation):
         poses = (self._pose(key[0], snapshot), self._pose(key[1], snapshot))
         if known is not None and known[0] == poses:
             return known
-        return poses, contact_gap(self._geometry[key[0]], poses[0], self._geometry[key[1]], poses[1])
+        return poses, contact_gap(self._geometry[key[0]], poses[0], self._geometry[key[1]], poses[1], self._outlines)
 
     def _read_forces(self) -> dict[tuple[str, str], float]:
         """Normal force of each acting pair from the bodies' contact impulses (module notes).

@@ -28,6 +28,14 @@ Faithful mapping (each setting recorded in `knobs`):
 - a plane is a static box, PLANE_HALF_WIDTH wide, its top face the plane, centred under the
   dynamic bodies' mean position (float32 places the box's vertices, which contact
   clipping is relative to, to 2^-24 of its size);
+- a capsule is Box3D's capsule (b3Capsule, its segment on body z); a hull is b3CreateHull of
+  its corners, every corner kept (a hull Box3D would simplify, or cannot index in uint8,
+  is unsupported; so is one thinner than HULL_THINNEST of its size, on which b3CreateHull
+  can hang); Box3D has no cylinder, so a cylinder is the 42-sided prism inscribed in it
+  (CYLINDER_SIDES, the finest a hull holds); a 2D polygon is the hull of its prism along y
+  (adapters/solids.py); a static mesh is b3CreateMesh of its vertices and triangles (no
+  welding, edges between triangles classified: MESH_IDENTIFY_EDGES), which Box3D's mesh
+  contact keeps bodies MESH_REST_OFFSET (5 mm) away from;
 - the push-out spring at Box2D's cap, 1/8 of the sub-step rate (as adapters/box2d_engine.py:
   a rigid contact has no compliance; Box3D's default 30 Hz lets a resting ball sit 65 um
   deep, measured), damping ratio 10 and push speed 3 m/s Box3D's defaults.
@@ -59,6 +67,7 @@ from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, 
 from adapters.frames import state_row, wxyz_to_xyzw, xyzw_to_wxyz, z_to
 from adapters.impulse_split import OPEN_SPLIT, acting_pairs, split_impulses
 from adapters.lazy import require
+from adapters.solids import cylinder_prism, embedded_half_depth, polygon_prism
 from cases.scene import Body, Plane, Scene, pair_key
 
 require("robox3d")  # not installed: ImportError now, so the registry reports it
@@ -82,6 +91,28 @@ CONTACT_PUSH_SPEED = 3.0      # Box3D's default (b3DefaultWorldDef), m/s
 MAXIMUM_LINEAR_SPEED = 1e4    # never acts (default 400 m/s; the harness calls > 100 m/s a blow-up)
 PLANE_HALF_WIDTH = 100.0      # m
 PLANE_HALF_DEPTH = 0.5        # m: deeper than any overlap the scenes make
+# Box3D has no cylinder (b3CreateCylinder makes a hull): a Cylinder is the regular prism with
+# this many sides inscribed in it, the most a Box3D hull holds (its vertices, half-edges and
+# faces are indexed by uint8: 42 sides make 252 half-edges, 43 are refused; measured). Its
+# flat sides lie r cos(pi / 42) = 0.99720 r from the axis: lying on its side it rests 2.8e-3 r
+# low and rolls over 42 edges a turn.
+CYLINDER_SIDES = 42
+# b3CreateHull in float32 (robox3d 0.1.0, measured on 1 m square plates): a plate 1e-5 m
+# thick keeps its 8 corners, one 3e-6 to 8e-6 m thick makes b3CreateHull loop without end,
+# one 1.5e-6 to 2.5e-6 m thick is flattened to 4 corners and thinner ones are refused. So a
+# hull thinner than this fraction of its size (its largest coordinate about its centre: five
+# times the thinnest plate measured safe, 2e-5, and the hangs at 0.6-1.6e-5) is refused
+# before Box3D sees it.
+HULL_THINNEST = 1e-4
+# b3MeshDef.identifyEdges: Box3D marks each edge between two triangles flat, concave or convex,
+# so a body sliding across the flat edge of two coplanar triangles meets no ghost contact on it.
+MESH_IDENTIFY_EDGES = True
+# Box3D's mesh contact pushes a body out to this distance from a mesh's triangles
+# (B3_MESH_REST_OFFSET, one linear slop; a compile-time constant, not settable: "a small
+# visual gap", src/mesh_contact.c): a body rests 5 mm above a mesh ground, where it rests on a
+# plane's box, and one placed on the mesh is pushed out at up to contactSpeed (measured: a
+# 0.1 m box placed touching jumps 23 mm at the default 3 m/s).
+MESH_REST_OFFSET = 0.005  # m
 
 # userMaterialId -> (scene key, body name); each simulation takes a block of ids
 _MATERIALS: dict[int, tuple[int, str]] = {}
@@ -120,6 +151,15 @@ def _quat(q_wxyz, target) -> None:
     target.v.x, target.v.y, target.v.z, target.s = x, y, z, w
 
 
+def _thinness(points: np.ndarray) -> float:
+    """The smallest width of the points' hull across one of its faces, over their largest
+    coordinate (the hull's size about its centre)."""
+    from scipy.spatial import ConvexHull
+    normals = ConvexHull(points).equations[:, :3]
+    extent = points @ normals.T
+    return float((extent.max(axis=0) - extent.min(axis=0)).min() / np.abs(points).max())
+
+
 class Box3DAdapter(Adapter):
     name = "box3d"
     package = "robox3d"
@@ -128,7 +168,9 @@ class Box3DAdapter(Adapter):
     supported = ">=0.1.0,<0.2"
     capabilities = Capabilities(
         dimensions=frozenset({2, 3}),
-        shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
+        # a cylinder is a 42-sided prism (CYLINDER_SIDES), a polygon a prism along y, a mesh static
+        shapes=frozenset({"sphere", "box", "plane", "circle", "rect", "capsule", "cylinder", "hull", "polygon",
+                          "mesh"}),
         native_restitution=True,
         static_kinetic=False,  # one friction coefficient per pair
         contact_forces=True,
@@ -200,10 +242,16 @@ class Box3DSimulation(Simulation):
         dynamic = scene.dynamic_bodies
         self._centre = np.mean([b.position for b in dynamic], axis=0) if dynamic else np.zeros(3)
         self._names: dict[int, str] = {}  # shape index1 -> body name
+        self._shape_ids: dict[str, object] = {}  # body name -> b3ShapeId
+        self._hulls, self._meshes, self._keep = [], [], []  # Box3D geometry, freed after the world (close)
         self._ids: list = []              # dynamic bodies' b3BodyIds, in scene order
         self._order: list[str] = []
-        for i, body in enumerate(scene.bodies):
-            self._add(body, self._key * _IDS_PER_SCENE + i)
+        try:
+            for i, body in enumerate(scene.bodies):
+                self._add(body, self._key * _IDS_PER_SCENE + i)
+        except Unsupported:  # a shape Box3D cannot hold (`_hull`, `_mesh`): the world goes too
+            self.close()
+            raise
         self._id_array = ffi.new("b3BodyId[]", self._ids)
         n = len(self._ids)
         self._poses = np.empty((n, 7), np.float32)
@@ -224,16 +272,8 @@ class Box3DSimulation(Simulation):
             n = np.asarray(s.normal, float)
             foot = self._centre - (self._centre @ n - s.offset) * n  # the plane's point under the bodies
             position, orientation = foot - PLANE_HALF_DEPTH * n, z_to(n)
-            half = (PLANE_HALF_WIDTH, PLANE_HALF_WIDTH, PLANE_HALF_DEPTH)
         else:
             position, orientation = body.position, body.orientation
-            if s.kind in ("sphere", "circle"):
-                half = None
-            elif s.kind == "box":
-                half = tuple(s.half_extents)
-            else:  # rect: a box as deep along y as its larger half-extent
-                a, c = s.half_extents
-                half = (a, max(a, c), c)
         bd.type = lib.b3_staticBody if body.static else lib.b3_dynamicBody
         bd.position = _vec(position)
         _quat(orientation, bd.rotation)
@@ -262,20 +302,8 @@ class Box3DSimulation(Simulation):
         sd.baseMaterial.rollingResistance = 0.0
         sd.density = 1.0  # replaced by the stated mass below
         _MATERIALS[material_id] = (self._key, body.name)
-        if half is None:
-            sphere = ffi.new("b3Sphere*")
-            sphere.center = _vec((0.0, 0.0, 0.0))
-            sphere.radius = s.radius
-            shape = lib.b3CreateSphereShape(bid, ffi.addressof(sd), sphere)
-            record["sphere"] = {"radius": s.radius}
-        else:
-            hull = ffi.new("b3BoxHull*")
-            hull[0] = lib.b3MakeBoxHull(*half)
-            shape = lib.b3CreateHullShape(bid, ffi.addressof(sd), ffi.addressof(hull.base))
-            record["box_hull"] = {"half_extents": list(half)}
-            if isinstance(s, Plane):
-                record["plane_as_box"] = {"top_face_through": list(position + PLANE_HALF_DEPTH * np.asarray(s.normal)),
-                                          "normal": list(s.normal)}
+        shape = self._shape(bid, sd, body, position, record)
+        self._shape_ids[body.name] = shape
         self._names[shape.index1] = body.name
         if body.dynamic:
             md = ffi.new("b3MassData*")
@@ -297,6 +325,101 @@ class Box3DSimulation(Simulation):
         else:
             record["static"] = True
         self.knobs["bodies"][body.name] = record
+
+    def _shape(self, bid, sd, body: Body, position, record: dict):
+        """Create the body's shape in Box3D and note how it was made in `record`."""
+        s = body.shape
+        if s.kind in ("sphere", "circle"):  # a circle: a sphere of its radius, every contact in y = 0
+            sphere = ffi.new("b3Sphere*")
+            sphere.center = _vec((0.0, 0.0, 0.0))
+            sphere.radius = s.radius
+            record["sphere"] = {"radius": s.radius}
+            return lib.b3CreateSphereShape(bid, ffi.addressof(sd), sphere)
+        if s.kind == "capsule":  # its segment along body z
+            capsule = ffi.new("b3Capsule*")
+            capsule.center1, capsule.center2 = _vec((0.0, 0.0, -s.half_length)), _vec((0.0, 0.0, s.half_length))
+            capsule.radius = s.radius
+            record["capsule"] = {"center1": [0.0, 0.0, -s.half_length], "center2": [0.0, 0.0, s.half_length],
+                                 "radius": s.radius}
+            return lib.b3CreateCapsuleShape(bid, ffi.addressof(sd), capsule)
+        if s.kind == "mesh":
+            data = self._mesh(body)
+            record["mesh"] = {"vertices": len(s.vertices), "triangles": len(s.triangles), "weldVertices": False,
+                              "weldTolerance": 0.0, "identifyEdges": MESH_IDENTIFY_EDGES, "useMedianSplit": False,
+                              "scale": [1.0, 1.0, 1.0], "rest_offset": MESH_REST_OFFSET}  # B3_MESH_REST_OFFSET, fixed
+            return lib.b3CreateMeshShape(bid, ffi.addressof(sd), data, _vec((1.0, 1.0, 1.0)))
+        if s.kind in ("box", "rect", "plane"):
+            if s.kind == "plane":
+                half = (PLANE_HALF_WIDTH, PLANE_HALF_WIDTH, PLANE_HALF_DEPTH)
+                record["plane_as_box"] = {"top_face_through": list(position + PLANE_HALF_DEPTH * np.asarray(s.normal)),
+                                          "normal": list(s.normal)}
+            elif s.kind == "box":
+                half = tuple(s.half_extents)
+            else:  # rect: a box as deep along y as its larger half-extent
+                a, c = s.half_extents
+                half = (a, max(a, c), c)
+            hull = ffi.new("b3BoxHull*")
+            hull[0] = lib.b3MakeBoxHull(*half)
+            self._keep.append(hull)
+            record["box_hull"] = {"half_extents": list(half)}
+            return lib.b3CreateHullShape(bid, ffi.addressof(sd), ffi.addressof(hull.base))
+        if s.kind == "cylinder":  # no cylinder in Box3D: the finest prism a hull holds (CYLINDER_SIDES)
+            points = cylinder_prism(s.radius, s.half_length, CYLINDER_SIDES)
+            record["cylinder_as_hull"] = {"sides": CYLINDER_SIDES, "radius": s.radius, "half_length": s.half_length,
+                                          "corners": "on the rim (inscribed)",
+                                          "apothem": s.radius * math.cos(math.pi / CYLINDER_SIDES)}
+        elif s.kind == "polygon":  # a prism along y (adapters/solids.py)
+            depth = embedded_half_depth(s.corners)
+            points = polygon_prism(s.corners, depth)[0]
+            record["polygon_as_hull"] = {"corners": [[float(x), float(z)] for x, z in s.corners], "half_depth": depth}
+        else:  # hull
+            points = np.asarray(s.vertices, float)
+            record["hull"] = {"vertices": len(points)}
+        return lib.b3CreateHullShape(bid, ffi.addressof(sd), self._hull(body, points))
+
+    def _hull(self, body: Body, points: np.ndarray):
+        """b3CreateHull of `points` with every point kept as a corner (maxVertexCount = their
+        number; Unsupported where Box3D merges or drops one, or cannot hold the hull)."""
+        thin = _thinness(points)
+        if thin < HULL_THINNEST:
+            raise Unsupported(f"{body.shape.kind} {body.name!r}: {thin:.2g} of its size thick, thinner than "
+                              f"{HULL_THINNEST:g}: Box3D's b3CreateHull hangs or flattens such hulls (measured)")
+        c = ffi.new("b3Vec3[]", len(points))
+        np.frombuffer(ffi.buffer(c), dtype=np.float32)[:] = np.asarray(points, np.float32).ravel()
+        hull = lib.b3CreateHull(c, len(points), len(points))
+        if hull == ffi.NULL or hull.vertexCount != len(points):
+            kept = 0 if hull == ffi.NULL else hull.vertexCount
+            if hull != ffi.NULL:
+                lib.b3DestroyHull(hull)
+            raise Unsupported(f"{body.shape.kind} {body.name!r}: Box3D's b3CreateHull keeps {kept} of its "
+                              f"{len(points)} corners (a hull holds at most 256 half-edges, and float32 merges "
+                              "corners closer than its tolerance)")
+        self._hulls.append(hull)
+        return hull
+
+    def _mesh(self, body: Body):
+        """b3CreateMesh of a scene Mesh: its vertices and triangles as given (no welding), the
+        edges between triangles classified (`MESH_IDENTIFY_EDGES`)."""
+        s = body.shape
+        vertices = ffi.new("b3Vec3[]", len(s.vertices))
+        np.frombuffer(ffi.buffer(vertices), dtype=np.float32)[:] = np.asarray(s.vertices, np.float32).ravel()
+        indices = ffi.new("int32_t[]", [int(i) for t in s.triangles for i in t])
+        md = ffi.new("b3MeshDef*")
+        md.vertices, md.indices, md.materialIndices = vertices, indices, ffi.NULL
+        md.vertexCount, md.triangleCount = len(s.vertices), len(s.triangles)
+        md.weldVertices, md.weldTolerance = False, 0.0
+        md.useMedianSplit = False
+        md.identifyEdges = MESH_IDENTIFY_EDGES
+        degenerate = ffi.new("int[]", len(s.triangles))
+        data = lib.b3CreateMesh(md, degenerate, len(s.triangles))
+        if data == ffi.NULL or data.degenerateCount:
+            count = 0 if data == ffi.NULL else data.degenerateCount
+            if data != ffi.NULL:
+                lib.b3DestroyMesh(data)
+            raise Unsupported(f"mesh {body.name!r}: Box3D's b3CreateMesh finds {count} degenerate triangles in float32 "
+                              f"(first: triangles[{degenerate[0]}])")
+        self._meshes.append(data)  # Box3D holds a reference: freed after the world (close)
+        return data
 
     def _built_effects(self, scene: Scene, gravity) -> frozenset[str]:
         fx = set()
@@ -407,6 +530,11 @@ class Box3DSimulation(Simulation):
         world, self._world = self._world, None
         if world is not None:
             lib.b3DestroyWorld(world)
+        for hull in self._hulls:
+            lib.b3DestroyHull(hull)
+        for mesh in self._meshes:
+            lib.b3DestroyMesh(mesh)
+        self._hulls, self._meshes, self._keep = [], [], []
         for material_id in [k for k, (key, _) in _MATERIALS.items() if key == self._key]:
             del _MATERIALS[material_id]
         _PAIRS.pop(self._key, None)

@@ -6,6 +6,13 @@ the angle about y) or a TranslationalJoint2D. Static bodies are welded to the wo
 `Plane` becomes a large welded box whose top face is the plane (a `PlaneShape` under a box
 gives DART's detectors a single contact point, measured: a box on it slides where it must stick).
 
+Shapes (`_shape`): capsules and cylinders are DART's own, along the body's z; a hull, a 2D
+polygon's prism and a static mesh are MeshShapes of their triangles, read through DART's
+URDF loader from a temporary OBJ file (dartpy makes a MeshShape from no other source).
+Which detector a world gets depends on its shapes (`_detector`, measured at DETECTOR):
+DART's own for spheres, boxes and capsules, ODE's where a cylinder, hull, polygon or mesh is
+in the scene. Every body has the scene's mass and principal inertia.
+
 Pair materials map onto DART's combination rule (ContactConstraint: friction min,
 restitution product) with adapters.combination.per_body_values; DART has no per-pair
 override. Every engine parameter set here is recorded in `Simulation.knobs`, together with
@@ -47,17 +54,28 @@ from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupport
 from adapters.combination import per_body_values
 from adapters.frames import state_row
 from adapters.lazy import require
-from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
+from adapters.solids import polygon_prism
+from cases.scene import Body, Box, Capsule, Circle, Cylinder, Hull, Mesh, Plane, Polygon, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
 
 # dartpy (0.06-0.15 s to import) is imported by the functions that build a scene: planning a
 # run reads only the adapter's capabilities, and workers import their engines themselves.
 require("dartpy")  # not installed: ImportError now, so the registry reports it
 
-# DART's own detector: exact depths for spheres and boxes and the steadiest five-box
-# stack of the four (FCL, Bullet, ODE: 40-60 % transient force errors there, at 30x
-# the step cost).
+# The collision detector, one a world (World.setCollisionDetector), chosen by the scene's
+# shapes (`_detector`). DART's own: exact depths for spheres and boxes and the steadiest
+# five-box stack of the four (FCL, Bullet, ODE: 40-60 % transient force errors there, at 30x
+# the step cost), and a capsule lying on a box by both ends of its segment. It has no mesh
+# (a hull on it sinks 0.7 mm and turns, a body on a mesh falls through) and a cylinder on a
+# box meets it at one point (lying, it sinks 1.4 mm and rolls off). ODE's detector takes
+# them: a cylinder resting on a box on its side (2 contacts) or end (8), a hull on a box (4),
+# boxes, spheres, hulls and capsules on a triangle mesh (6, 2, 4, 1), each at its height to
+# 2 um and at rest. The others fail them (measured, dartpy 6.20, 0.3 s at rest): FCL builds a
+# capsule as a sphere, lets a sphere fall through a mesh and meets a cylinder at one point;
+# Bullet rounds every box and cylinder edge by its default 4 cm margin, which DART does not
+# set, and rests a box on a mesh on one point.
 DETECTOR = "dart"
+ODE_SHAPES = frozenset({"cylinder", "hull", "polygon", "mesh"})  # the kinds that take ODE's detector
 # Exact Coulomb cone (NsgsFrictionSolver, law Coulomb) instead of the default Dantzig
 # solver, whose box friction limit holds mu*sqrt(2) at 45 deg to the tangent basis
 # (measured: effective mu 0.707 for mu = 0.5). The solver's own 1e-5 m/s and 100 sweeps
@@ -169,7 +187,10 @@ def _frame(body: Body, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _shape(body: Body):
-    """The DART shape of a body and its pose in the body frame."""
+    """The DART shape of a body and its pose in the body frame. A capsule and a cylinder
+    are DART's own, whose axis is the body's z, as the scene's (`height`: the cylindrical
+    part's length, 2 half_length; the whole length for a cylinder). A hull, a polygon's
+    prism and a mesh are MeshShapes of their triangles (`_mesh_shape`)."""
     from dartpy import dynamics as D
     s = body.shape
     if isinstance(s, Sphere):
@@ -187,7 +208,57 @@ def _shape(body: Body):
     if isinstance(s, Plane):  # the box lies below the frame's x-y plane
         size = [2 * GROUND_HALF_WIDTH, 2 * GROUND_HALF_WIDTH, 2 * GROUND_HALF_THICKNESS]
         return D.BoxShape(size), _isometry((0.0, 0.0, -GROUND_HALF_THICKNESS))
+    if isinstance(s, Capsule):
+        return D.CapsuleShape(s.radius, 2.0 * s.half_length), _isometry()
+    if isinstance(s, Cylinder):
+        return D.CylinderShape(s.radius, 2.0 * s.half_length), _isometry()
+    if isinstance(s, Hull):
+        return _mesh_shape(s.vertices, s.faces), _isometry()
+    if isinstance(s, Polygon):  # a prism HALF_DEPTH_2D deep along y, as a rect
+        return _mesh_shape(*polygon_prism(s.corners, HALF_DEPTH_2D)), _isometry()
+    if isinstance(s, Mesh):
+        return _mesh_shape(s.vertices, s.triangles), _isometry()
     raise Unsupported(f"shape {s.kind} not available in the DART adapter")
+
+
+def _mesh_shape(vertices, triangles):
+    """A MeshShape of `triangles` (index triples, wound outward) over `vertices` (body
+    frame). dartpy makes a MeshShape only from a file that assimp reads, so the triangles are
+    written as an OBJ file into a temporary folder and read by DART's URDF loader, which keeps
+    them in memory (assimp stores vertices in float32: 6e-8 of their size)."""
+    import dartpy as dart
+    with tempfile.TemporaryDirectory(prefix="physval-dart-") as folder:
+        path = os.path.join(folder, "shape.obj")
+        with open(path, "w") as f:
+            f.writelines(f"v {x!r} {y!r} {z!r}\n" for x, y, z in np.asarray(vertices, float).tolist())
+            f.writelines(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in np.asarray(triangles, int).tolist())
+        uri = dart.common.Uri.createFromPath(path).toString()
+        urdf = (f'<robot name="shape"><link name="shape"><collision><geometry><mesh filename="{uri}"/>'
+                "</geometry></collision></link></robot>")
+        skeleton = dart.utils.DartLoader().parseSkeletonString(urdf, dart.common.Uri.createFromPath(folder + "/"))
+        if skeleton is None:
+            raise Unsupported("DART's loader could not read the mesh written for it")
+        return skeleton.getBodyNode(0).getShapeNodes()[0].getShape()
+
+
+NEW_KINDS = ("capsule", "cylinder", "hull", "polygon", "mesh")  # recorded in knobs["shapes"]
+
+
+def _shape_record(s) -> dict:
+    """How a capsule, cylinder, hull, polygon or mesh went to DART, for the knobs."""
+    if isinstance(s, (Capsule, Cylinder)):
+        return {f"{type(s).__name__}Shape": {"radius": s.radius, "height": 2.0 * s.half_length}}
+    count = {"hull": lambda: len(s.faces), "polygon": lambda: 4 * len(s.corners) - 4,
+             "mesh": lambda: len(s.triangles)}[s.kind]()
+    depth = f", {HALF_DEPTH_2D:g} m either side of y = 0" if s.kind == "polygon" else ""
+    return {"MeshShape": f"{count} triangles of the scene's {s.kind}{depth}, body frame, scale 1 "
+                         "(an OBJ file read by DartLoader; float32 in assimp)"}
+
+
+def _detector(scene: Scene) -> str:
+    """ODE's detector for a scene with a cylinder, hull, polygon or mesh; DART's own for the
+    rest (DETECTOR, ODE_SHAPES)."""
+    return "ode" if any(b.shape.kind in ODE_SHAPES for b in scene.bodies) else DETECTOR
 
 
 def _angle_about_y(body: Body) -> float:
@@ -427,7 +498,9 @@ class DartAdapter(Adapter):
     supported = ">=6.20.0,<7"
     capabilities = Capabilities(
         dimensions=frozenset({2, 3}),
-        shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
+        # every kind (_shape); a scene with a cylinder, hull, polygon or mesh on ODE's detector
+        shapes=frozenset({"sphere", "box", "plane", "circle", "rect", "capsule", "cylinder", "hull", "polygon",
+                          "mesh"}),
         native_restitution=True,
         static_kinetic=False,
         contact_forces=True,
@@ -497,7 +570,8 @@ def _build_world(scene: Scene, settings: Settings, mu: dict, e: dict, sweeps: in
     world = dart.simulation.World()
     world.setTimeStep(settings.dt)
     world.setGravity(np.asarray(scene.gravity, float))  # zero when the scene has none
-    world.setCollisionDetector(getattr(dart.simulation.CollisionDetectorType, DETECTOR.upper()))
+    detector = _detector(scene)
+    world.setCollisionDetector(getattr(dart.simulation.CollisionDetectorType, detector.upper()))
     world.setNumSimulationThreads(1)
     sleeping = world.getDeactivationOptions()
     sleeping.mEnabled = False
@@ -519,7 +593,7 @@ def _build_world(scene: Scene, settings: Settings, mu: dict, e: dict, sweeps: in
     knobs = {
         "World.setTimeStep": settings.dt,
         "World.setGravity": [float(g) for g in scene.gravity],
-        "World.setCollisionDetector": DETECTOR,
+        "World.setCollisionDetector": detector,
         "World.setNumSimulationThreads": 1,
         "DeactivationOptions.mEnabled": False,
         "BoxedLcpConstraintSolver.setBoxedLcpSolver": "NsgsFrictionSolver",
@@ -555,6 +629,8 @@ def _build_world(scene: Scene, settings: Settings, mu: dict, e: dict, sweeps: in
             nodes[body.name] = node
         node.setName(body.name)
         shape, pose = _shape(body)
+        if body.shape.kind in NEW_KINDS:
+            knobs.setdefault("shapes", {})[body.name] = _shape_record(body.shape)
         shape_node = node.createShapeNode(shape)
         shape_node.setName(body.name)
         frames[shape_node] = body.name

@@ -51,9 +51,17 @@ to, sliding bodies hop (known deviations). Lagged bounds friction by the previou
 normal impulse instead.
 
 Point contact gives ONE point per pair of geometries, the deepest ("Choosing the Right
-Collision Geometry"): a box on the ground rests on one corner at a time. Hydroelastic
-contact integrates a pressure field over a contact surface; every shape here has one
-(dynamic bodies compliant, static ones rigid), so it is never unsupported for shapes.
+Collision Geometry"): a box on the ground rests on one corner at a time. Against a
+half-space a Box still rests flat (its own routine), but a Convex, and a box on a mesh's
+triangle prisms, rock from corner to corner (3-9 mm deep, up to 0.1 rad/s, measured).
+Hydroelastic contact integrates a pressure field over a contact surface; every shape here
+has one (dynamic bodies compliant, static ones rigid), so it is never unsupported for shapes.
+
+Shapes (`_drake_shapes`): Capsule and Cylinder along the body's z, a hull (and a 2D
+polygon's prism) a Convex of its corners; a static mesh under point contact one Convex
+prism a triangle (point contact would take a Mesh's convex hull), under hydroelastic contact
+a rigid Mesh of its triangles. Each body has the scene's mass and principal inertia.
+Hydroelastic moduli for the new shapes: `_hydroelastic_modulus`.
 
 2D scenes (x-z plane): a rotating body hangs on a PlanarJoint (z, x, angle about y), a
 non-rotating one on prismatic joints along x and z; non-rotating 3D bodies on prismatic
@@ -76,7 +84,8 @@ from adapters.base import Adapter, Capabilities, Settings, SettingsError, Simula
 from adapters.combination import per_body_values
 from adapters.frames import about_y_many, multiply_many, state_row
 from adapters.lazy import require
-from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
+from adapters.solids import polygon_prism, triangle_normals, triangle_prisms
+from cases.scene import Body, Box, Capsule, Circle, Cylinder, Hull, Mesh, Plane, Polygon, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
 
 # pydrake (0.15-0.2 s to import) is imported by the functions that build a scene: planning a
@@ -333,15 +342,20 @@ class DrakeSimulation(Simulation):
         from pydrake.math import RigidTransform, RotationMatrix
         from pydrake.multibody.tree import (FixedOffsetFrame, PlanarJoint, PrismaticJoint, RotationalInertia,
                                             SpatialInertia)
-        shape, X_BG = _drake_shape(body)
+        geometries = _drake_shapes(body, self._hydro)
         props = material["props"][body.name]
+        record = _shape_record(body, self._hydro)
+        if record:
+            self.knobs.setdefault("shapes", {})[body.name] = record
         if body.static:
             X_WB = RigidTransform(_rotation(body.orientation), np.asarray(body.position, float))
-            X = X_BG if isinstance(body.shape, Plane) else X_WB.multiply(X_BG)
-            gid = plant.RegisterCollisionGeometry(plant.world_body(), X, shape, body.name, props)
-            self._geometry_name[gid.get_value()] = body.name
+            for name, shape, X_BG in geometries:
+                X = X_BG if isinstance(body.shape, Plane) else X_WB.multiply(X_BG)
+                gid = plant.RegisterCollisionGeometry(plant.world_body(), X, shape, name, props)
+                self._geometry_name[gid.get_value()] = body.name
             self.knobs["joints"][body.name] = "world"
             return "static"
+        [(_, shape, X_BG)] = geometries
         inertia = SpatialInertia.MakeFromCentralInertia(
             body.mass, np.zeros(3), RotationalInertia(*body.principal_inertia))
         rigid = plant.AddRigidBody(body.name, inertia)
@@ -531,22 +545,74 @@ class DrakeSimulation(Simulation):
 
 # --- materials --------------------------------------------------------------------------------
 
-def _drake_shape(body: Body):
-    """Drake shape and its pose in the body frame (a plane: in the world)."""
-    from pydrake.geometry import Box as DrakeBox, HalfSpace, Sphere as DrakeSphere
+def _drake_shapes(body: Body, hydro: bool) -> list:
+    """(name, Drake shape, pose in the body frame (a plane's: in the world)) for each
+    geometry of a body: one, but a static Mesh under point contact. A capsule and a cylinder
+    are Drake's own, whose axis is the body's z, as the scene's (`length`: the cylindrical
+    part's, 2 half_length; the whole length for a cylinder). A hull and a polygon's prism are
+    Convex shapes of their corners (Drake takes their convex hull: the shape itself).
+    A static Mesh: point contact collides a Mesh as its convex hull ("Choosing the Right
+    Collision Geometry"; measured: a ball placed in a V-shaped trough falls through it), so
+    there each triangle is a Convex of its own, its prism into the solid
+    (adapters.solids.triangle_prisms), as MuJoCo's adapter does; hydroelastic contact
+    takes the triangles themselves as a rigid Mesh (an in-memory OBJ)."""
+    from pydrake.geometry import (Box as DrakeBox, Capsule as DrakeCapsule, Convex, Cylinder as DrakeCylinder,
+                                  HalfSpace, Sphere as DrakeSphere)
     from pydrake.math import RigidTransform
     s = body.shape
     if isinstance(s, (Sphere, Circle)):
-        return DrakeSphere(s.radius), RigidTransform()
+        return [(body.name, DrakeSphere(s.radius), RigidTransform())]
     if isinstance(s, Box):
-        return DrakeBox(*(2.0 * np.asarray(s.half_extents, float))), RigidTransform()
+        return [(body.name, DrakeBox(*(2.0 * np.asarray(s.half_extents, float))), RigidTransform())]
     if isinstance(s, Rect):
         a, c = s.half_extents
-        return DrakeBox(2.0 * a, 2.0 * a, 2.0 * c), RigidTransform()
+        return [(body.name, DrakeBox(2.0 * a, 2.0 * a, 2.0 * c), RigidTransform())]
     if isinstance(s, Plane):  # solid below n . x = offset
         n = np.asarray(s.normal, float)
-        return HalfSpace(), HalfSpace.MakePose(n, s.offset * n)
-    raise Unsupported(f"shape {s.kind} has no Drake geometry in this adapter")
+        return [(body.name, HalfSpace(), HalfSpace.MakePose(n, s.offset * n))]
+    if isinstance(s, Capsule):
+        return [(body.name, DrakeCapsule(s.radius, 2.0 * s.half_length), RigidTransform())]
+    if isinstance(s, Cylinder):
+        return [(body.name, DrakeCylinder(s.radius, 2.0 * s.half_length), RigidTransform())]
+    if isinstance(s, (Hull, Polygon)):
+        points, _ = _convex_points(s)
+        return [(body.name, Convex(np.asarray(points, float).T, body.name), RigidTransform())]
+    if hydro:  # a static Mesh: its triangles, rigid
+        from pydrake.common import MemoryFile
+        from pydrake.geometry import InMemoryMesh, Mesh as DrakeMesh
+        text = "".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in np.asarray(s.vertices, float).tolist())
+        text += "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in s.triangles)
+        mesh = DrakeMesh(InMemoryMesh(mesh_file=MemoryFile(text, ".obj", body.name)))
+        return [(body.name, mesh, RigidTransform())]
+    prisms, _ = triangle_prisms(s.vertices, s.triangles)
+    return [(f"{body.name}#{k}", Convex(prism.T, f"{body.name}#{k}"), RigidTransform())
+            for k, prism in enumerate(prisms)]
+
+
+def _convex_points(s) -> tuple[np.ndarray, np.ndarray]:
+    """A Hull's corners and faces (triangles wound outward), or a Polygon's prism's, as deep
+    along y as it is wide (a Rect's box is as deep as it is wide)."""
+    if isinstance(s, Hull):
+        return np.asarray(s.vertices, float), s.faces
+    return polygon_prism(s.corners, float(np.ptp(s.corners[:, 0])) / 2.0)
+
+
+def _shape_record(body: Body, hydro: bool) -> dict:
+    """How a body's shape went to Drake, for the knobs."""
+    s = body.shape
+    if isinstance(s, Capsule):
+        return {"Capsule": {"radius": s.radius, "length": 2.0 * s.half_length}}
+    if isinstance(s, Cylinder):
+        return {"Cylinder": {"radius": s.radius, "length": 2.0 * s.half_length}}
+    if isinstance(s, (Hull, Polygon)):
+        return {"Convex": f"{len(_convex_points(s)[0])} corners of the scene's {s.kind}, body frame, scale 1"}
+    if isinstance(s, Mesh) and hydro:
+        return {"Mesh": f"{len(s.triangles)} triangles of the scene's mesh (in-memory OBJ), scale 1, rigid"}
+    if isinstance(s, Mesh):
+        _, depths = triangle_prisms(s.vertices, s.triangles)
+        return {"Convex": f"{len(depths)} triangle prisms {body.name}#0..#{len(depths) - 1}, scale 1",
+                "prism depth, m": {"largest": max(depths), "least": min(depths)}}
+    return {}
 
 
 def _point_stiffness(scene: Scene, w: float) -> dict[str, float]:
@@ -581,7 +647,8 @@ def _materials(scene: Scene, dt: float, approximation: str, contact_model: str, 
     E = {b.name: _hydroelastic_modulus(b, w, v_ref) for b in scene.bodies} if hydro else None
     record.update({"contact_steps_n": n, "w": w, "law": law, "pairs": {}})
     if hydro:
-        record["hydroelastic_modulus"] = "largest face m w^2 stiff (boxes); contact n dt long at impact_speed (spheres)"
+        record["hydroelastic_modulus"] = ("largest face m w^2 stiff (boxes, cylinders' ends, hulls and polygons' prisms); "
+                                          "contact n dt long at impact_speed (spheres, capsules' caps)")
     else:
         record["point_contact_stiffness"] = "m w^2 per body (static: RIGID_STIFFNESS)"
     if law == "hunt_crossley" or hydro:
@@ -636,20 +703,47 @@ _I2 = math.gamma(1 / 3) * math.gamma(1 / 2) / (3 * math.gamma(5 / 6))
 
 def _hydroelastic_modulus(body: Body, w: float, v_ref: float) -> float:
     """E (Pa) of a compliant body (static ones are rigid: infinity). Drake's pressure
-    fields (geometry/proximity/make_box_field.h, make_sphere_field.h): a box's is
-    E d / H (d the depth below the nearest face, H the smallest half-size), so a face of
-    area A pressed into a rigid plane pushes with E A x / H: E = m w^2 H / A on the largest
-    face makes it the point contact's m w^2 spring. A sphere's is E (1 - r / R), which
-    pressed x into a rigid plane pushes with pi E x^2 (to leading order in x / R): E such
-    that an impact at impact_speed lasts pi / w, i.e. x_max = pi v / (2 I_2 w)."""
+    fields (geometry/proximity/make_*_field.h) are E times a depth below the surface over a
+    length: a box's E d / H (d the depth below the nearest face, H the smallest half-size),
+    a cylinder's the same with H = min(radius, half-length), a Convex's E d / d_f in the
+    tetrahedron of each face f (the field is 0 on the faces, E at the volume centroid, d_f the
+    face's distance from it). So a flat face of area A pressed x into a rigid plane pushes
+    with E A x / H: E = m w^2 H / A on the largest face (a cylinder's end) makes it the point
+    contact's m w^2 spring. A sphere's field is E (1 - r / R), a capsule's the same about its
+    segment, which pressed x into a rigid plane by a cap pushes with pi E x^2 (to leading order
+    in x / R): E such that an impact at impact_speed lasts pi / w, i.e.
+    x_max = pi v / (2 I_2 w). (A cylinder or capsule lying on its side is stiffer as the line
+    contact widens, as a sphere's contact is: these moduli make its flattest contact, and a
+    capsule's cap, the point contact's.)"""
     if body.static:
         return math.inf
     s = body.shape
-    if isinstance(s, (Sphere, Circle)):
+    if isinstance(s, (Sphere, Circle, Capsule)):
         x_max = math.pi * v_ref / (2.0 * _I2 * w)
         return 3.0 * body.mass * v_ref**2 / (2.0 * math.pi * x_max**3)
+    if isinstance(s, Cylinder):
+        return body.mass * w * w * min(s.radius, s.half_length) / (math.pi * s.radius**2)
+    if isinstance(s, (Hull, Polygon)):
+        area, distance = _largest_face(*_convex_points(s))
+        return body.mass * w * w * distance / area
     half = sorted(_box_half_extents(s))
     return body.mass * w * w * half[0] / (4.0 * half[1] * half[2])
+
+
+def _largest_face(points: np.ndarray, triangles: np.ndarray) -> tuple[float, float]:
+    """(area, distance from the origin) of the largest face of a convex polyhedron about
+    the origin, its coplanar triangles taken together."""
+    normals = triangle_normals(points, triangles)
+    a, b, c = points[triangles[:, 0]], points[triangles[:, 1]], points[triangles[:, 2]]
+    areas = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    offsets = np.einsum("ij,ij->i", normals, a)
+    size = float(np.ptp(points, axis=0).max())
+    planes: dict[tuple, list[float]] = {}
+    for n, d, area in zip(normals, offsets, areas):
+        key = tuple(np.round(np.append(n, d / size), 9))  # coplanar to rounding
+        planes.setdefault(key, [0.0, float(d)])[0] += float(area)
+    area, distance = max(planes.values())
+    return area, distance
 
 
 def _box_half_extents(s) -> tuple[float, float, float]:
@@ -661,12 +755,14 @@ def _box_half_extents(s) -> tuple[float, float, float]:
 
 
 def _hydroelastic(body: Body, props: ProximityProperties, modulus: float) -> dict:
-    """Static bodies rigid, dynamic ones compliant with modulus E; spheres tessellated
-    at HYDRO_RESOLUTION of their radius (boxes and half-spaces are not tessellated by a
-    hint). No margin (Drake's speculative contact, hydroelastic only)."""
+    """Static bodies rigid, dynamic ones compliant with modulus E; spheres, capsules and
+    cylinders tessellated at HYDRO_RESOLUTION of their radius (boxes, Convex shapes, meshes
+    and half-spaces are not tessellated by a hint: a Convex's volume mesh is its faces and
+    its centroid, a Mesh is its triangles). No margin (Drake's speculative contact,
+    hydroelastic only)."""
     from pydrake.geometry import AddCompliantHydroelasticProperties, AddRigidHydroelasticProperties
     s = body.shape
-    hint = HYDRO_RESOLUTION * s.radius if isinstance(s, (Sphere, Circle)) else 1.0
+    hint = HYDRO_RESOLUTION * s.radius if isinstance(s, (Sphere, Circle, Capsule, Cylinder)) else 1.0
     if body.static:
         AddRigidHydroelasticProperties(hint, props)
         return {"compliance_type": "rigid", "resolution_hint": hint}
@@ -736,7 +832,9 @@ class DrakeAdapter(Adapter):
         point = contact_model == "point"
         self.capabilities = Capabilities(
             dimensions=frozenset({2, 3}),
-            shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
+            # every kind (_drake_shapes); a static mesh as triangle prisms under point contact
+            shapes=frozenset({"sphere", "box", "plane", "circle", "rect", "capsule", "cylinder", "hull", "polygon",
+                              "mesh"}),
             native_restitution=False,   # e is mapped onto the contact's dissipation
             static_kinetic=False,       # discrete Drake resolves one (dynamic) coefficient
             contact_forces=True,

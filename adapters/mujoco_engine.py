@@ -12,6 +12,14 @@ solref, so any pair table of the scene is reproduced exactly; MuJoCo's geom comb
 (friction max, solref averaged by solmix, condim max) cannot give two pairs that share a
 body different e at all. `adapters.combination` is therefore not needed here.
 
+Shapes (`_geom`): capsules and cylinders are MuJoCo's own, along the body's z; a hull (and
+a 2D polygon's prism) a mesh geom of its corners, which MuJoCo collides as their convex hull,
+the shape itself (vertices kept in float32); a static mesh one convex prism a triangle
+(`_mesh_geoms`: MuJoCo would take a whole mesh's convex hull, which fills every hollow).
+Bodies carry the scene's mass and principal inertia (<inertial>, inertiafromgeom false),
+never MuJoCo's from the geoms. General convex pairs run on MuJoCo's native GJK/EPA with
+several contacts a pair (the flags nativeccd, multiccd: MuJoCo 4's defaults, stated).
+
 Compliant contact: a pair whose material has the Hooke law (cases.scene.Compliance,
 F = k xi per contact point, elastic, no damping) is the same soft constraint with no
 damping and the impedance at MuJoCo's floor, see `hooke_row`: each contact row then
@@ -36,7 +44,8 @@ import numpy as np
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.lazy import require
 from adapters.frames import about_y_many, multiply_many, rotate_many
-from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
+from adapters.solids import polygon_prism, triangle_prisms
+from cases.scene import Body, Box, Capsule, Circle, Cylinder, Hull, Mesh, Plane, Polygon, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
 
 # mujoco (~0.15 s to import) is imported when a scene is first built (adapters/lazy.py)
@@ -305,12 +314,16 @@ GROUND_HALF_THICKNESS = 1.0   # m: thicker than any body moves in one step
 GROUNDS = ("plane", "box")
 
 
-def _geom(body: Body, quat, ground: str = "plane") -> dict:
-    """MJCF attributes of a body's collision geom. 2D shapes become solids in the plane
-    y = 0: a circle a sphere (every contact a planar scene makes lies in y = 0, where the
-    sphere's section is the disc, and sphere collisions are analytic; MuJoCo's cylinder
-    pairs go through general convex collision, whose normals are ~0.1 deg off), a rect a
-    box as deep along y as it is wide."""
+def _geom(body: Body, quat, ground: str = "plane", meshes: dict | None = None) -> dict:
+    """MJCF attributes of a body's collision geom (one geom per body but a Mesh's: `_geoms`).
+    2D shapes become solids in the plane y = 0: a circle a sphere (every contact a planar
+    scene makes lies in y = 0, where the sphere's section is the disc, and sphere collisions
+    are analytic; MuJoCo's cylinder pairs go through general convex collision, whose normals
+    are ~0.1 deg off), a rect a box and a polygon a prism, as deep along y as they are wide.
+    A capsule and a cylinder are MuJoCo's own, whose axis is the geom's z, as the scene's
+    (size: radius, half-length). A hull and a polygon's prism are mesh geoms of their corners
+    (`_mesh_asset`, into `meshes`), which MuJoCo collides as their convex hull, the shape
+    itself."""
     s = body.shape
     if isinstance(s, Plane):
         # MuJoCo's plane is z = 0 of its frame, solid below it: put that frame on the
@@ -327,7 +340,55 @@ def _geom(body: Body, quat, ground: str = "plane") -> dict:
     if isinstance(s, Rect):
         a, c = s.half_extents
         return {"type": "box", "size": [a, a, c], "quat": list(quat)}
+    if isinstance(s, (Capsule, Cylinder)):
+        return {"type": s.kind, "size": [s.radius, s.half_length], "quat": list(quat)}
+    if isinstance(s, Hull):
+        return {"type": "mesh", "mesh": _mesh_asset(meshes, body.name, s.vertices), "quat": list(quat)}
+    if isinstance(s, Polygon):
+        half_depth = float(np.ptp(s.corners[:, 0])) / 2.0
+        return {"type": "mesh", "mesh": _mesh_asset(meshes, body.name, polygon_prism(s.corners, half_depth)[0]),
+                "quat": list(quat)}
     raise Unsupported(f"shape {s.kind} has no MuJoCo geom in this adapter")
+
+
+# A mesh asset's convex hull keeps every vertex (MuJoCo's default, stated: no vertex limit).
+MAXHULLVERT = -1
+
+
+def _mesh_asset(meshes: dict, name: str, vertices) -> str:
+    """Add a <mesh> of `vertices` (in its geom's frame) to `meshes` under `name`; its name.
+    MuJoCo keeps a mesh's vertices in float32 (mjModel.mesh_vert: 6e-8 of their size), and
+    its compiler moves a mesh into its own centroid and principal axes and offsets the geom
+    by as much, so the solid stays where the vertices put it."""
+    meshes[name] = {"name": name, "vertex": [float(c) for v in vertices for c in v], "scale": [1.0, 1.0, 1.0],
+                    "maxhullvert": MAXHULLVERT}
+    return name
+
+
+def _geom_names(body: Body) -> list[str]:
+    """The names of a body's geoms: its own, or one per triangle of a Mesh (name#k)."""
+    if isinstance(body.shape, Mesh):
+        return [f"{body.name}#{k}" for k in range(len(body.shape.triangles))]
+    return [body.name]
+
+
+def _mesh_geoms(body: Body, meshes: dict) -> tuple[list[dict], dict]:
+    """A static Mesh as geoms MuJoCo can collide with. MuJoCo collides a mesh geom as its
+    convex hull, which fills every hollow of a mesh that is not convex (a ground of any relief
+    becomes the solid under its highest points; a flat one, no solid at all), so each triangle
+    is a mesh geom of its own: its prism, the triangle extruded into the solid
+    (adapters.solids.triangle_prisms: up to PRISM_DEPTH deep, less where the solid behind is
+    thinner). Their union has the mesh's surface on the side the bodies are on; a body
+    crossing a seam between triangles meets the prisms' side faces only while it overlaps
+    the top less than it crosses the seam. Returns the geoms and the record."""
+    prisms, depths = triangle_prisms(body.shape.vertices, body.shape.triangles)
+    geoms = [{"name": name, "type": "mesh", "mesh": _mesh_asset(meshes, name, prism),
+              "pos": list(body.position), "quat": list(body.orientation)}
+             for name, prism in zip(_geom_names(body), prisms)]
+    record = {"mesh geoms": f"{len(geoms)} triangle prisms {body.name}#0..{body.name}#{len(geoms) - 1}",
+              "prism depth, m": {"largest": max(depths), "least": min(depths)},
+              "pos": list(body.position), "quat": list(body.orientation)}
+    return geoms, record
 
 
 def _element(tag: str, attrs: dict, inner: str = "") -> str:
@@ -349,11 +410,14 @@ def _joints(body: Body, dimension: int):
     return _SLIDES_2D + (_HINGE_Y if body.rotates else ())
 
 
-def _body_xml(body: Body, dimension: int, knobs: dict, ground: str = "plane") -> str:
+def _body_xml(body: Body, dimension: int, knobs: dict, ground: str = "plane", meshes: dict | None = None) -> str:
     q0 = list(body.orientation)
     no_collide = {"contype": 0, "conaffinity": 0}  # collisions come from <pair> only
+    if isinstance(body.shape, Mesh):  # static only (cases.scene)
+        geoms, knobs["geom"][body.name] = _mesh_geoms(body, meshes)
+        return "".join(_element("geom", {**g, **no_collide}) for g in geoms)
     if body.static:
-        geom = _geom(body, q0, ground)
+        geom = _geom(body, q0, ground, meshes)
         if not isinstance(body.shape, Plane):
             geom["pos"] = list(body.position)
         geom = {"name": body.name, **geom, **no_collide}
@@ -364,7 +428,7 @@ def _body_xml(body: Body, dimension: int, knobs: dict, ground: str = "plane") ->
         # the body frame is the scene body's frame and carries the inertia, so the free
         # joint's qpos and qvel describe the body itself (align="false" keeps it so)
         frame = {"name": body.name, "pos": list(body.position), "quat": q0}
-        geom = {"name": body.name, **_geom(body, [1, 0, 0, 0]), **no_collide}
+        geom = {"name": body.name, **_geom(body, [1, 0, 0, 0], meshes=meshes), **no_collide}
         joint_xml = _element("freejoint", _known("(world)body/freejoint", {"align": "false"}, knobs["left_out"]))
         inertial = {"pos": [0, 0, 0], "quat": [1, 0, 0, 0]}
         knobs["joint"][body.name] = "free"
@@ -372,7 +436,7 @@ def _body_xml(body: Body, dimension: int, knobs: dict, ground: str = "plane") ->
         # a world-aligned frame at the start position: joints slide / turn along world
         # axes, and the geom and inertia carry the body's orientation
         frame = {"name": body.name, "pos": list(body.position)}
-        geom = {"name": body.name, **_geom(body, q0), **no_collide}
+        geom = {"name": body.name, **_geom(body, q0, meshes=meshes), **no_collide}
         joint = [{"name": f"{body.name}:{t}{i}", "type": t, "axis": list(axis), "damping": 0,
                   "stiffness": 0, "armature": 0, "frictionloss": 0, "limited": "false"}
                  for i, (t, axis) in enumerate(joints)]
@@ -390,14 +454,17 @@ def _pair_xml(scene: Scene, n: float, dt: float, knobs: dict, invweight: dict | 
     out = []
     for a, b in scene.contact_pairs():
         mat = scene.material_of(a.name, b.name)
+        # one <pair> per two geoms (a Mesh has one a triangle), all alike
+        geoms = [(g1, g2) for g1 in _geom_names(a) for g2 in _geom_names(b)]
+        named = {} if len(geoms) == 1 else {"geom1": _named(a), "geom2": _named(b)}
         if mat.compliance is not None:  # Hooke (capabilities turn the others away)
             # invweight None: the first compile, which only reads body_invweight0
             w = 1.0 if invweight is None else invweight[a.name] + invweight[b.name]
             pair = _known("contact/pair", {"geom1": a.name, "geom2": b.name, **hooke_row(mat.compliance.k, w),
                                            "margin": 0, "gap": 0, "adhesion": 0}, knobs["left_out"])
             knobs["pair"]["|".join(pair_key(a.name, b.name))] = {
-                **pair, "e": mat.e, "law": "hooke", "k": mat.compliance.k, "invweight": w}
-            out.append(_element("pair", pair))
+                **pair, **named, "e": mat.e, "law": "hooke", "k": mat.compliance.k, "invweight": w}
+            out.extend(_element("pair", {**pair, "geom1": g1, "geom2": g2}) for g1, g2 in geoms)
             continue
         k, damping = contact_spring_damper(mat.e, n, dt)
         solref = [-k, -damping] if "solref" not in defaults or mat.e > 0 else list(DEFAULT_SOLREF)
@@ -412,10 +479,16 @@ def _pair_xml(scene: Scene, n: float, dt: float, knobs: dict, invweight: dict | 
             pair.update(condim=1, friction=[0, 0, 0, 0, 0])
         zeta = damping_ratio_of_restitution(mat.e)
         knobs["pair"]["|".join(pair_key(a.name, b.name))] = {
-            **pair, "e": mat.e, "zeta": zeta if math.isfinite(zeta) else None,
+            **pair, **named, "e": mat.e, "zeta": zeta if math.isfinite(zeta) else None,
             "damping_capped_at_1_over_dt": math.isclose(damping * dt, 1.0) and solref[0] < 0}
-        out.append(_element("pair", pair))
+        out.extend(_element("pair", {**pair, "geom1": g1, "geom2": g2}) for g1, g2 in geoms)
     return "".join(out)
+
+
+def _named(body: Body) -> str:
+    """A body's geoms as the pair record names them."""
+    names = _geom_names(body)
+    return names[0] if len(names) == 1 else f"{names[0]}..{names[-1]} (one pair each)"
 
 
 def scene_mjcf(scene: Scene, settings: Settings, iterations: int, n: float,
@@ -436,7 +509,13 @@ def scene_mjcf(scene: Scene, settings: Settings, iterations: int, n: float,
                                   "contact": "enable" if "contact" in scene.effects else "disable",
                                   "sleep": "disable", "speculative": "disable", "override": "disable",
                                   "autoreset": "disable",  # a blown-up state stays visible instead of resetting
-                                  "warmstart": "enable"}, left_out)
+                                  "warmstart": "enable",
+                                  # general convex pairs (capsules, cylinders and meshes against
+                                  # most shapes): MuJoCo's own GJK/EPA and several contacts a
+                                  # pair (MuJoCo 4's defaults, stated; without multiccd a box on
+                                  # a hull has one contact a step); no sphere, box or plane pair
+                                  # goes through them
+                                  "nativeccd": "enable", "multiccd": "enable"}, left_out)
     compiler = _known("compiler", {"inertiafromgeom": "false", "alignfree": "false", "angle": "radian"}, left_out)
     knobs = {"compiler": compiler, "option": option, "flag": flag,
              "restitution_map": {"contact_steps_n": n, "w": math.pi / (n * settings.dt),
@@ -448,15 +527,25 @@ def scene_mjcf(scene: Scene, settings: Settings, iterations: int, n: float,
                                "force": "k xi per contact row (condim 1)"}}
                 if "hooke" in scene.contact_laws else {}),
              "ground": ground, "joint": {}, "inertial": {}, "geom": {}, "pair": {}, "left_out": left_out}
-    bodies = "".join(_body_xml(b, scene.dimension, knobs, ground) for b in scene.bodies)
+    meshes: dict[str, dict] = {}  # <mesh> assets by name
+    bodies = "".join(_body_xml(b, scene.dimension, knobs, ground, meshes) for b in scene.bodies)
     pairs = _pair_xml(scene, n, settings.dt, knobs, invweight, defaults)
+    if meshes:
+        knobs["mesh"] = {"maxhullvert": MAXHULLVERT, "scale": [1.0, 1.0, 1.0],
+                         "vertex": "the scene's points in the geom frame", "count": len(meshes)}
+    assets = "<asset>" + "".join(_element("mesh", m) for m in meshes.values()) + "</asset>" if meshes else ""
     xml = ('<mujoco model="physval">' + _element("compiler", compiler)
-           + _element("option", option, _element("flag", flag))
+           + _element("option", option, _element("flag", flag)) + assets
            + f"<worldbody>{bodies}</worldbody><contact>{pairs}</contact></mujoco>")
     return xml, knobs
 
 
 # --- the simulation -------------------------------------------------------------------------
+
+def geom_bodies(scene: Scene) -> dict[str, str]:
+    """The scene body each geom of `scene_mjcf`'s model belongs to, by geom name."""
+    return {g: b.name for b in scene.bodies for g in _geom_names(b)}
+
 
 def model_effects(m, knobs: dict) -> frozenset[str]:
     """What a compiled MjModel simulates (its flags, pairs and joints), `knobs` the pair
@@ -485,6 +574,7 @@ class MuJoCoSimulation(Simulation):
     def __init__(self, scene: Scene, model: mujoco.MjModel, knobs: dict, iterations: int):
         self.knobs = knobs
         self.iterations = iterations
+        self._scene = scene  # to build again after a planted change (plant)
         self._model = model
         self._data = d = mujoco.MjData(model)
         # per dynamic body: name, qpos address, dof address, and for bodies on joints other
@@ -506,7 +596,8 @@ class MuJoCoSimulation(Simulation):
             slides = np.array([axis for kind, axis in joints if kind == "slide"], float)
             hinge = joints[-1][0] == "hinge"
             self._bodies.append((body.name, qa, va, (np.asarray(body.position, float), q0, slides, hinge)))
-        names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in range(model.ngeom)]
+        body_of = geom_bodies(scene)
+        names = [body_of[mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g)] for g in range(model.ngeom)]
         self._names = names  # geom id -> the scene body's name
         self._planar = scene.dimension == 2
         # MuJoCo may report a contact's geoms in either order (it orders some type pairs,
@@ -741,6 +832,31 @@ class MuJoCoSimulation(Simulation):
         self.run = None
         self.knobs = {**self.knobs, "mju_threadpool": n}
 
+    # --- planted faults (adapters/planting.py) ------------------------------------------
+
+    def plant(self, change: str, size: float | None = None) -> Simulation:
+        """MuJoCo's planted changes (MuJoCoAdapter.plantable), each an edit of the compiled
+        model and a simulation of it built anew (a fresh MjData, so every quantity derived
+        from the model, e.g. how contact forces are decoded for the cone in force, is the
+        edited model's): "square friction cone" is cone = "pyramidal" (MuJoCo's own
+        default, which the adapter replaces by the elliptic cone); "velocity damping" is
+        joint damping on every degree of freedom, `size` times the dof's own mass or
+        inertia (dof_M0), so each decays at the same rate (a damping left in a model's
+        default class); "thread order" (an invariance fault) lengthens the time step by
+        one rounding in place where a thread pool is bound (use_threads), and nowhere else."""
+        model = self._model
+        if change == "square friction cone":
+            model.opt.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
+        elif change == "velocity damping":
+            model.dof_damping[:] = size * model.dof_M0
+        elif change == "thread order":  # only where a pool is bound: the step on one thread unchanged
+            if self.knobs.get("mju_threadpool"):
+                model.opt.timestep *= 1.0 + 2.0**-52
+            return self
+        else:
+            return super().plant(change, size)
+        return MuJoCoSimulation(self._scene, model, self.knobs, self.iterations)
+
 
 class MuJoCoAdapter(Adapter):
     name = "mujoco"
@@ -751,7 +867,9 @@ class MuJoCoAdapter(Adapter):
     supported = ">=3.2.6,<5"
     capabilities = Capabilities(
         dimensions=frozenset({2, 3}),
-        shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
+        # every kind (_geom); a static mesh as one convex prism a triangle (_mesh_geoms)
+        shapes=frozenset({"sphere", "box", "plane", "circle", "rect", "capsule", "cylinder", "hull", "polygon",
+                          "mesh"}),
         native_restitution=False,  # e is mapped onto the contact spring-damper
         static_kinetic=False,
         contact_forces=True,
@@ -772,6 +890,7 @@ class MuJoCoAdapter(Adapter):
     # the rebound error ~ 1/n is large) to 50 (soft: depth ~ v n dt / pi, 15 mm at 1 m/s).
     tunables = {"contact_steps": Tunable(2.0, 50.0, float(CONTACT_STEPS),
                                          "contact duration in time steps (solref time scale n dt)")}
+    plantable = frozenset({"square friction cone", "velocity damping", "thread order"})  # MuJoCoSimulation.plant
 
     def __init__(self, contact_steps: float = CONTACT_STEPS, ground: str = "plane", name: str | None = None,
                  defaults=()):
@@ -818,7 +937,8 @@ class MuJoCoAdapter(Adapter):
         if "hooke" in scene.contact_laws:
             # a Hooke row's stiffness is k times MuJoCo's D of the row, from the bodies'
             # body_invweight0, which the compiler computes (masses and joints, not solref)
-            invweight = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g):
+            body_of = geom_bodies(scene)
+            invweight = {body_of[mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g)]:
                          float(model.body_invweight0[model.geom_bodyid[g], 0]) for g in range(model.ngeom)}
             xml, knobs = scene_mjcf(scene, settings, iterations, n, invweight, self.ground, self.defaults)
             model = self._compile(xml)

@@ -195,6 +195,7 @@ class MuJoCoWarpAdapter(MuJoCoAdapter):
     # The model is MuJoCo's, which the default run covers in full, and every process pays Warp's
     # start (~4 s warm; ~40 s of compiling with an empty kernel cache).
     default_tags = frozenset({"core", "conformance"})
+    plantable = frozenset()  # MuJoCoSimulation.plant builds MuJoCo's C engine, not its Warp port
 
     def __init__(self, contact_steps: float = CONTACT_STEPS, ground: str = "plane", device: str | None = None):
         """As MuJoCoAdapter; device: a Warp device ("cpu", "cuda:0"), by default

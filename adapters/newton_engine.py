@@ -53,6 +53,17 @@ implicit restitution; its step and Newton's collision detection are recorded as 
 and replayed (`_capture`): unrecorded, 9 ms a step in flight and 29 ms in contact.
 SolverSteel, Style3D and ImplicitMPM are cloth, soft-body and granular solvers.
 
+Shapes (SHAPES). Every solver but SolverMuJoCo collides through Newton's own pipeline, which
+takes a capsule and a straight-sided cylinder along body z (Newton's axis: add_shape_capsule,
+add_shape_cylinder with barrel_radius 0), a hull as a convex mesh of its corners and faces
+(add_shape_convex_hull; maxhullvert their number, no hull recomputed), a static mesh as a
+triangle mesh (add_shape_mesh, counterclockwise from outside, Newton's back-face culling),
+every shape of density 0 and margin 0, the body's mass and inertia the scene's
+(compute_inertia False on meshes). newton-mujoco keeps to spheres, boxes and planes: its
+contact is the MuJoCo adapter's pairs, whose geoms for the other shapes (a triangle prism per
+mesh triangle, a mesh geom per hull) Newton's conversion is not checked to reproduce
+(NEWTON_MUJOCO_SHAPES). 2D scenes (and so polygons) are not adapted.
+
 Float32. Warp stores positions, orientations and velocities in single precision.
 
 Pair materials. XPBD, semi-implicit and Featherstone combine two shapes' mu, restitution,
@@ -97,6 +108,17 @@ require("newton")
 require("warp")
 
 SOLVERS = ("xpbd", "semi-implicit", "featherstone", "vbd", "mujoco", "kamino")
+# The shapes Newton's own collision pipeline takes (every solver but SolverMuJoCo): a capsule and
+# a cylinder along body z (Newton's own axis), a hull a convex mesh of its corners and faces, a
+# static mesh a triangle mesh (counterclockwise from outside, Newton's winding).
+SHAPES = frozenset({"sphere", "box", "plane", "capsule", "cylinder", "hull", "mesh"})
+# newton-mujoco's contact is the MuJoCo adapter's pairs, matched to the geoms Newton's conversion
+# makes of its own shapes: checked for spheres, boxes and planes only
+_PAIRS_UNCHECKED = ("not mapped: newton-mujoco's contact pairs come from the mujoco adapter, and that "
+                    "Newton's conversion makes this shape the geom those pairs name is not checked")
+NEWTON_MUJOCO_SHAPES = (("capsule", _PAIRS_UNCHECKED), ("cylinder", _PAIRS_UNCHECKED), ("hull", _PAIRS_UNCHECKED),
+                        ("mesh", "SolverMuJoCo makes a mesh a MuJoCo mesh geom, which MuJoCo collides as its convex "
+                                 "hull (the mujoco adapter's triangle prisms have no counterpart in Newton's model)"))
 # penalty solvers: the stiffest pair's contact lasts this many steps (as the MuJoCo mapping's
 # 16). At 10 the explicit step's damping takes more than the model says: e = 0.5 maps to
 # 0.395 between two balls (0.434 at 16 steps, 0.474 at 40)
@@ -110,8 +132,11 @@ BOX_CONTACT_POINTS = 4
 
 
 def contact_points(a: Body, b: Body) -> int:
-    """The contact points the penalty gains are shared by: 1 where a sphere touches, else 4."""
-    return 1 if "sphere" in (a.shape.kind, b.shape.kind) else BOX_CONTACT_POINTS
+    """The contact points the penalty gains are shared by: 1 where a sphere touches, 2 where a
+    capsule does (its segment meets a face at one or two points), else 4."""
+    kinds = (a.shape.kind, b.shape.kind)
+    return 1 if "sphere" in kinds else 2 if "capsule" in kinds else BOX_CONTACT_POINTS
+
 XPBD_ITERATIONS = 10  # Newton's default is 2; its own examples use 5-10
 VBD_ITERATIONS = 10  # Newton's default (newton:maxSolverIterations absent)
 # VBD solves for the bodies' poses from their inertia tensors, not the inverses: a body held
@@ -196,7 +221,7 @@ class NewtonAdapter(Adapter):
             return
         self.capabilities = Capabilities(
             dimensions=frozenset({3}),  # 2D scenes would need planar joints: not adapted
-            shapes=frozenset({"sphere", "box", "plane"}),
+            shapes=SHAPES,
             native_restitution=solver in RESTITUTION,
             static_kinetic=False,  # one mu per shape
             contact_forces=not penalty,
@@ -229,6 +254,7 @@ class NewtonAdapter(Adapter):
         self.capabilities = Capabilities(
             dimensions=frozenset({3}),  # 2D scenes would need planar joints: not adapted
             shapes=frozenset({"sphere", "box", "plane"}),
+            why_not=NEWTON_MUJOCO_SHAPES,
             native_restitution=False,  # e mapped onto the pair's solref, as MuJoCo's adapter does
             static_kinetic=False,
             contact_forces=True,
@@ -532,6 +558,21 @@ class NewtonSimulation(Simulation):
             builder.add_shape_box(where, xform=None if where >= 0 else xform, hx=hx, hy=hy, hz=hz, cfg=cfg,
                                   label=body.name)
             record["box"] = list(s.half_extents)
+        elif s.kind in ("capsule", "cylinder"):  # along body z, Newton's own axis
+            add = builder.add_shape_capsule if s.kind == "capsule" else builder.add_shape_cylinder
+            add(where, xform=None if where >= 0 else xform, radius=s.radius, half_height=s.half_length, cfg=cfg,
+                label=body.name)
+            record[s.kind] = {"radius": s.radius, "half_height": s.half_length}
+            if s.kind == "cylinder":  # straight-sided (barrel_radius 0, Newton's default)
+                record["cylinder"]["barrel_radius"] = 0.0
+        else:  # hull: a convex mesh of its corners and faces; mesh: a static triangle mesh
+            vertices, triangles = (s.vertices, s.faces) if s.kind == "hull" else (s.vertices, s.triangles)
+            mesh = newton.Mesh(np.asarray(vertices, np.float32), np.asarray(triangles, np.int32).ravel(),
+                               compute_inertia=False, maxhullvert=len(vertices))  # the body's mass, not the mesh's
+            add = builder.add_shape_convex_hull if s.kind == "hull" else builder.add_shape_mesh
+            add(where, xform=None if where >= 0 else xform, mesh=mesh, cfg=cfg, label=body.name)
+            record["convex_mesh" if s.kind == "hull" else "triangle_mesh"] = {
+                "vertices": len(vertices), "triangles": len(triangles), "compute_inertia": False}
         self._shape_body.append(body.name)
         self.knobs["bodies"][body.name] = record
 

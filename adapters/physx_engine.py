@@ -29,6 +29,17 @@ Faithful mapping (each setting recorded in `knobs`):
   iterations 1;
 - rotation held by locking the three rotational axes (`lockedRotAxis` = 7);
 - a plane is PhysX's infinite plane (`UsdGeom.Plane`, axis Z) turned onto the normal;
+- a capsule is a `UsdGeom.Capsule` and a cylinder a `UsdGeom.Cylinder`, both along body z
+  (axis Z, USD's height the core's 2 h); the cylinder is PhysX's exact convex-core cylinder
+  (PxConvexCoreGeometry, margin 0: CYLINDER_CONVEX_CORE), not a faceted convex mesh;
+- a hull (and a 2D polygon, as its prism along y: adapters/solids.py) is a `UsdGeom.Mesh`
+  of its corners and their hull's faces cooked as a convex hull (physics:approximation
+  convexHull), the vertex limit their number (at most 255: else unsupported) and no
+  minimum thickness (PhysX's default 1 mm would thicken a thinner plate);
+- a static mesh is a single-sided `UsdGeom.Mesh` of its vertices and triangles cooked as a
+  triangle mesh (approximation none; rightHanded: counterclockwise from outside), its
+  vertices unwelded. PhysX gives no read-back of cooked geometry: tests/test_physx_mapping.py
+  checks the layer and where the shapes come to rest;
 - initial angular velocity in degrees per second (the UsdPhysics unit), read back in rad/s.
 
 Contact normal forces from ovphysx's contact binding (PhysX's contact report): per dynamic
@@ -54,7 +65,8 @@ from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupport
 from adapters.combination import per_body_values
 from adapters.frames import require_turn_about_y, state_row, xyzw_to_wxyz, z_to
 from adapters.lazy import require
-from cases.scene import Body, Plane, Scene, pair_key
+from adapters.solids import embedded_half_depth, polygon_prism
+from cases.scene import Body, Hull, Plane, Scene, pair_key
 
 require("ovphysx")  # not installed: ImportError now, so the registry reports it
 
@@ -67,6 +79,18 @@ SOLVERS = ("TGS", "PGS")  # physxScene:solverType: temporal Gauss-Seidel (the de
 # of stacks, tumbles and drops (1000 steps each, a state read every step), 11.3 s with the
 # default pool against 3.9 s on the calling thread, every state bit for bit the same.
 CPU_THREADS = 0
+# A Cylinder is PhysX's exact convex-core cylinder (PxConvexCoreGeometry, ovphysx's default, set
+# here): not the convex mesh of a prism (False) whose facets a rolling cylinder would bump over.
+# Its margin (a rounding radius added around the core) is 0.
+CYLINDER_CONVEX_CORE = True
+# A Hull (and a 2D polygon's prism) is a cooked convex mesh of the scene's corners: the vertex
+# limit is their number, at most PhysX's 255 (PxConvexMeshDesc); cooking may not thicken it
+# (physxConvexHullCollision:minThickness, 1 mm by default, set to HULL_MIN_THICKNESS).
+MAX_HULL_VERTICES = 255
+HULL_MIN_THICKNESS = 0.0
+# A static Mesh is a cooked triangle mesh (physics:approximation "none"), single-sided, wound as
+# the scene gives it (counterclockwise from outside, USD's rightHanded), its vertices unwelded.
+MESH_WELD_TOLERANCE = 0.0
 _STAGES = itertools.count(1)
 _loaded = None
 
@@ -83,6 +107,7 @@ def _load():
         from ovphysx.types import GlobalConfigKey, ObjectScope, SimObjectType
         PhysX.set_cpu_mode(True)
         ovphysx.set_global_config(GlobalConfigKey.NUM_THREADS, CPU_THREADS)
+        ovphysx.set_global_config(GlobalConfigKey.COLLISION_CYLINDER_CUSTOM_GEOMETRY, CYLINDER_CONVEX_CORE)
         ovstage.population.register_usd_schemas(
             [*[str(p) for p in physx_schema_paths()], str(ovphysx.newton_schema_root())])
         _loaded = (ovphysx, ovstage, PhysX, ObjectScope, SimObjectType)
@@ -93,6 +118,14 @@ def _v(x) -> str:
     return "(" + ", ".join(repr(float(c)) for c in x) + ")"
 
 
+def _mesh_arrays(points: np.ndarray, triangles: np.ndarray) -> list[str]:
+    """A UsdGeom.Mesh's points and triangles (counterclockwise seen from outside: rightHanded)."""
+    return [f'            point3f[] points = [{", ".join(_v(p) for p in points)}]',
+            f'            int[] faceVertexCounts = [{", ".join("3" for _ in triangles)}]',
+            f'            int[] faceVertexIndices = [{", ".join(str(int(i)) for t in triangles for i in t)}]',
+            '            uniform token orientation = "rightHanded"']
+
+
 class PhysXAdapter(Adapter):
     name = "physx"
     package = "ovphysx"
@@ -101,7 +134,8 @@ class PhysXAdapter(Adapter):
     supported = ">=0.7.0,<0.8"
     capabilities = Capabilities(
         dimensions=frozenset({2, 3}),
-        shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
+        shapes=frozenset({"sphere", "box", "plane", "circle", "rect", "capsule", "cylinder", "hull", "polygon",
+                          "mesh"}),  # module notes
         native_restitution=True,
         static_kinetic=True,    # PhysicsMaterialAPI staticFriction and dynamicFriction
         contact_forces=True,
@@ -124,6 +158,12 @@ class PhysXAdapter(Adapter):
         steps_per_second = 1.0 / settings.dt
         if abs(steps_per_second - round(steps_per_second)) > 1e-9 * steps_per_second:
             raise Unsupported(f"dt = {settings.dt}: PhysX's timeStepsPerSecond is a whole number, 1/dt is not")
+        for body in scene.bodies:
+            corners = len(body.shape.vertices) if body.shape.kind == "hull" else \
+                2 * len(body.shape.corners) if body.shape.kind == "polygon" else 0
+            if corners > MAX_HULL_VERTICES:
+                raise Unsupported(f"{body.shape.kind} {body.name!r} has {corners} corners: a PhysX convex mesh holds at "
+                                  f"most {MAX_HULL_VERTICES}")
         _load()
         return PhysXSimulation(scene, settings, self.solver)
 
@@ -148,6 +188,7 @@ class PhysXSimulation(Simulation):
                              "enableStabilization": False, "solverType": solver,
                              "enableGPUDynamics": False, "broadphaseType": "MBP"},
             "numThreads": CPU_THREADS,
+            "collisionCylinderCustomGeometry": CYLINDER_CONVEX_CORE,
             "combineMode": {"friction": COMBINE, "restitution": COMBINE},
             "solverPositionIterationCount": self.iterations,
             "solverVelocityIterationCount": VELOCITY_ITERATIONS,
@@ -252,20 +293,45 @@ class PhysXSimulation(Simulation):
                           enableGyroscopicForces=True)
         else:
             record["static"] = True
+        collider = '        def {} "Geom" (prepend apiSchemas = ["PhysicsCollisionAPI", "MaterialBindingAPI"{}])'
         if s.kind in ("sphere", "circle"):  # a disc: a sphere of its radius (module notes)
-            geom = ['        def Sphere "Geom" (prepend apiSchemas = ["PhysicsCollisionAPI", "MaterialBindingAPI"])',
-                    '        {', f'            double radius = {float(s.radius)!r}']
+            geom = [collider.format("Sphere", ""), '        {', f'            double radius = {float(s.radius)!r}']
             record["sphere"] = {"radius": s.radius}
         elif s.kind in ("box", "rect"):  # a rectangle: a box as deep along y as its x half-extent
             half = s.half_extents if s.kind == "box" else (s.half_extents[0], s.half_extents[0], s.half_extents[1])
-            geom = ['        def Cube "Geom" (prepend apiSchemas = ["PhysicsCollisionAPI", "MaterialBindingAPI"])',
-                    '        {', '            double size = 2',
+            geom = [collider.format("Cube", ""), '        {', '            double size = 2',
                     f'            float3 xformOp:scale = {_v(half)}',
                     '            uniform token[] xformOpOrder = ["xformOp:scale"]']
             record["cube"] = {"half_extents": list(half)}
+        elif s.kind in ("capsule", "cylinder"):  # along body z; USD's height is the core's, 2 h
+            geom = [collider.format(s.kind.capitalize(), ""), '        {', '            uniform token axis = "Z"',
+                    f'            double radius = {float(s.radius)!r}', f'            double height = {2.0 * s.half_length!r}']
+            record[s.kind] = {"axis": "Z", "radius": s.radius, "height": 2.0 * s.half_length}
+            if s.kind == "cylinder":
+                geom.append('            custom float physxConvexGeometry:margin = 0')
+                record["cylinder"].update(geometry="PxConvexCoreGeometry (exact)" if CYLINDER_CONVEX_CORE
+                                          else "convex mesh", margin=0.0)
+        elif s.kind in ("hull", "polygon"):  # a cooked convex mesh of the corners and their hull's faces
+            if s.kind == "hull":
+                points = np.asarray(s.vertices, float)
+            else:  # a prism along y (adapters/solids.py)
+                points = polygon_prism(s.corners, embedded_half_depth(s.corners))[0]
+            faces = Hull(tuple(map(tuple, points))).faces  # the face routine only (as the Rapier adapter)
+            geom = [collider.format("Mesh", ', "PhysicsMeshCollisionAPI", "PhysxConvexHullCollisionAPI"'), '        {',
+                    *_mesh_arrays(points, faces), '            uniform token physics:approximation = "convexHull"',
+                    f'            int physxConvexHullCollision:hullVertexLimit = {len(points)}',
+                    f'            float physxConvexHullCollision:minThickness = {HULL_MIN_THICKNESS!r}']
+            record["convex_mesh"] = {"vertices": len(points), "hullVertexLimit": len(points),
+                                     "minThickness": HULL_MIN_THICKNESS}
+        elif s.kind == "mesh":  # static: a cooked triangle mesh
+            geom = [collider.format("Mesh", ', "PhysicsMeshCollisionAPI", "PhysxTriangleMeshCollisionAPI"'), '        {',
+                    *_mesh_arrays(np.asarray(s.vertices, float), np.asarray(s.triangles)),
+                    '            uniform bool doubleSided = 0', '            uniform token physics:approximation = "none"',
+                    f'            float physxTriangleMeshCollision:weldTolerance = {MESH_WELD_TOLERANCE!r}']
+            record["triangle_mesh"] = {"vertices": len(s.vertices), "triangles": len(s.triangles), "doubleSided": False,
+                                       "weldTolerance": MESH_WELD_TOLERANCE}
         else:
-            geom = ['        def Plane "Geom" (prepend apiSchemas = ["PhysicsCollisionAPI", "MaterialBindingAPI"])',
-                    '        {', '            uniform token axis = "Z"']
+            geom = [collider.format("Plane", ""), '        {', '            uniform token axis = "Z"']
             record["plane"] = {"normal": list(s.normal), "offset": s.offset}
         out += geom + [f'            rel material:binding:physics = <{path}Mat>', '        }', '    }']
         self.knobs["bodies"][body.name] = record

@@ -38,6 +38,15 @@ constructor argument recorded in `knobs`; the plain "pybullet" keeps the choices
   drops the rolling and spinning rows of 3D contacts, so those scenes are unsupported
   (`MLCP_DROPS_TORQUES`).
 
+Shapes (`_collision_shape`): capsules and cylinders are Bullet's own, along the body's z;
+a hull is a btConvexHullShape of its corners, a 2D polygon the same of its prism along y, a
+static mesh a btBvhTriangleMeshShape of its triangles; each with the scene's mass and
+principal inertia (changeDynamics), never Bullet's from the shape. Bullet's collision margin
+would inflate hulls and triangles by 1 mm and round cylinder rims: those shapes get none
+(COLLISION_MARGIN). Bullet's own behaviour stays: a hull meets a box or another hull through
+GJK/EPA, one new manifold point a step (the persistent manifold keeps up to four), as a box
+meets a plane here; triangle seams give their own contacts (no internal-edge table).
+
 Compliant contact, Hooke's law F = k xi (cases.scene.Compliance "hooke"): changeDynamics
 contactStiffness and contactDamping set btCollisionObject::setContactStiffnessAndDamping;
 a contact point takes the series stiffness 1/(1/k_A + 1/k_B) and the summed damping
@@ -74,6 +83,7 @@ import numpy as np
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
 from adapters.frames import require_turn_about_y, state_row, wxyz_to_xyzw, xyzw_to_wxyz, z_to
+from adapters.solids import polygon_prism
 from cases.scene import Body, Scene, pair_key
 from cases.trajectory import ContactPoint
 
@@ -124,7 +134,20 @@ LOCK_CREATION_MASS = 1e30  # see _add_body: a non-rotating maximal body is creat
 Z_TO_Y = [-math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5)]
 AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 GEOM_NAMES = {p.GEOM_SPHERE: "GEOM_SPHERE", p.GEOM_BOX: "GEOM_BOX", p.GEOM_PLANE: "GEOM_PLANE",
-              p.GEOM_CYLINDER: "GEOM_CYLINDER"}
+              p.GEOM_CYLINDER: "GEOM_CYLINDER", p.GEOM_CAPSULE: "GEOM_CAPSULE", p.GEOM_MESH: "GEOM_MESH"}
+# Bullet's collision margin. pybullet gives every shape it makes m_defaultCollisionMargin,
+# 1 mm (PhysicsServerCommandProcessor). Where it lies differs by shape: a hull's and a
+# triangle mesh's margin lies OUTSIDE their points (btConvexHullShape's and btTriangleShape's
+# support mapping add it), so with it a hull box rests 1 mm high on the plane and 2 mm high on
+# a triangle-mesh ground (measured); a box's and a cylinder's lies inside their extents and
+# rounds their edges and rims by 1 mm where GJK meets them (not in Bullet's box-box, sphere-box
+# and convex-plane routines); a sphere's and a capsule's margin is their radius (setMargin
+# leaves it). The shapes the scene vocabulary added last get COLLISION_MARGIN (`_no_margin`),
+# so a cylinder, a hull, a polygon and a mesh are the scene's; spheres, boxes, planes, circles
+# and rects keep pybullet's default, as they always ran here (a box's edges are therefore
+# rounded by 1 mm against a hull, a cylinder or a capsule).
+COLLISION_MARGIN = 0.0
+PYBULLET_DEFAULT_MARGIN = 0.001
 
 
 # Constraint solvers (setPhysicsEngineParameter constraintSolverType). "si" is pybullet's
@@ -160,7 +183,9 @@ class PyBulletAdapter(Adapter):
     supported = ">=3.2.7,<4"
     capabilities = Capabilities(
         dimensions=frozenset({2, 3}),
-        shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
+        # every kind (_collision_shape); meshes static, as the scene has them
+        shapes=frozenset({"sphere", "box", "plane", "circle", "rect", "capsule", "cylinder", "hull", "polygon",
+                          "mesh"}),
         native_restitution=True,
         static_kinetic=False,   # one lateralFriction per body
         contact_forces=True,
@@ -173,6 +198,8 @@ class PyBulletAdapter(Adapter):
         impact_model="simultaneous",
         contact_torques=frozenset({"rolling_resistance", "torsional_friction"}),  # TORQUE_KNOBS
     )
+    # planted changes (PyBulletSimulation.plant)
+    plantable = frozenset({"square friction cone", "velocity damping", "restitution threshold"})
 
     def __init__(self, name: str = "pybullet", bodies: str = "auto", friction_anchor: bool = True,
                  ground: str = "plane", solver: str = "si"):
@@ -351,7 +378,12 @@ def _torque_values(scene: Scene, friction: dict[str, float], effect: str) -> dic
 
 
 def _collision_shape(body: Body, client: int, ground: str = "plane") -> tuple[int, dict]:
-    """The engine shape of a body and the record of how it was made."""
+    """The engine shape of a body and the record of how it was made. Capsules and
+    cylinders are pybullet's btCapsuleShapeZ and btCylinderShapeZ, whose axis is the body's
+    z, as the scene's; `height` is the length of the cylindrical part (2 half_length). A
+    hull, a 2D polygon and a static mesh are GEOM_MESH shapes: from vertices alone a
+    btConvexHullShape of the corners, with indices a btBvhTriangleMeshShape (double-sided:
+    a triangle is met from either side), each inside a btCompoundShape (`_mesh_shape`)."""
     s = body.shape
     if s.kind == "plane" and ground == "box":
         half, _, _ = _ground_box(s)
@@ -365,11 +397,58 @@ def _collision_shape(body: Body, client: int, ground: str = "plane") -> tuple[in
     elif s.kind == "circle":  # a cylinder along y; its depth only spreads the contact points
         kw = dict(shapeType=p.GEOM_CYLINDER, radius=s.radius, height=2 * s.radius,
                   collisionFrameOrientation=Z_TO_Y)
-    else:  # rect: a box as deep along y as its larger half-extent
+    elif s.kind == "rect":  # a box as deep along y as its larger half-extent
         a, c = s.half_extents
         kw = dict(shapeType=p.GEOM_BOX, halfExtents=[a, max(a, c), c])
-    record = {**kw, "shapeType": GEOM_NAMES[kw["shapeType"]]}
+    elif s.kind == "capsule":  # its margin is its radius: nothing to clear
+        kw = dict(shapeType=p.GEOM_CAPSULE, radius=s.radius, height=2.0 * s.half_length)
+    elif s.kind == "cylinder":
+        kw = dict(shapeType=p.GEOM_CYLINDER, radius=s.radius, height=2.0 * s.half_length)
+        return _no_margin(client, p.createCollisionShape(physicsClientId=client, **kw),
+                          {**kw, "shapeType": "GEOM_CYLINDER"})
+    elif s.kind == "hull":
+        return _mesh_shape(client, s.vertices, what=f"{len(s.vertices)} corners of the scene's hull, body frame")
+    elif s.kind == "polygon":  # a prism as deep along y as its larger half-extent, as a rect
+        half_depth = float(np.ptp(s.corners, axis=0).max()) / 2.0
+        what = f"{len(s.corners)} corners of the scene's polygon at y = -+{half_depth:g} m, body frame"
+        return _mesh_shape(client, polygon_prism(s.corners, half_depth)[0], what=what)
+    else:  # mesh
+        return _mesh_shape(client, s.vertices, s.triangles,
+                           what=f"{len(s.vertices)} vertices of the scene's mesh, body frame")
+    margin = s.radius if s.kind in ("sphere", "capsule") else PYBULLET_DEFAULT_MARGIN
+    record = {**kw, "shapeType": GEOM_NAMES[kw["shapeType"]], "collisionMargin (pybullet's own)": margin}
     return p.createCollisionShape(physicsClientId=client, **kw), record
+
+
+def _mesh_shape(client: int, vertices, triangles=None, what: str = "") -> tuple[int, dict]:
+    """A GEOM_MESH shape of `vertices` (a convex hull) or of `triangles` over them (a static
+    triangle mesh), at meshScale 1, without collision margin (`_no_margin`).
+    GEOM_CONCAVE_INTERNAL_EDGE is not set: pybullet would build the edge table but adjusts
+    contacts by it only on bodies with CF_CUSTOM_MATERIAL_CALLBACK, which it never sets, so
+    seams between triangles give their own contacts, as in Bullet."""
+    kw = dict(shapeType=p.GEOM_MESH, vertices=[[float(c) for c in v] for v in vertices], meshScale=[1.0, 1.0, 1.0])
+    record = {"shapeType": "GEOM_MESH", "vertices": what, "meshScale": [1.0, 1.0, 1.0]}
+    if triangles is None:
+        record["engine shape"] = "btConvexHullShape of the vertices, in a btCompoundShape"
+    else:
+        kw["indices"] = [int(i) for t in triangles for i in t]
+        record.update(indices=f"{len(triangles)} triangles of the scene's mesh", flags=0,
+                      **{"engine shape": "btBvhTriangleMeshShape, in a btCompoundShape"})
+    return _no_margin(client, p.createCollisionShape(physicsClientId=client, **kw), record)
+
+
+def _no_margin(client: int, shape: int, record: dict) -> tuple[int, dict]:
+    """`shape` with collision margin COLLISION_MARGIN on itself and, for the btCompoundShape
+    pybullet wraps a GEOM_MESH in, on its children. changeDynamics' collisionMargin is the
+    one way to set it, and it reaches a compound's children only on a multibody's base; on a
+    link (a 2D body) it cannot be used at all: b3ChangeDynamicsInfoSetCollisionMargin resets
+    the call's linkIndex to -1, so every value of that call goes to the base (measured: a 2D
+    disc then bounces with e = 0). So the margin is cleared once on a throwaway base holding
+    the shape: the shape keeps it whatever body then holds it."""
+    holder = p.createMultiBody(0.0, shape, physicsClientId=client)
+    p.changeDynamics(holder, -1, collisionMargin=COLLISION_MARGIN, physicsClientId=client)
+    p.removeBody(holder, physicsClientId=client)
+    return shape, {**record, "collisionMargin (the shape's and a compound's children's)": COLLISION_MARGIN}
 
 
 def _planar_joints(body: Body) -> list[str]:
@@ -678,3 +757,24 @@ class PyBulletSimulation(Simulation):
             if p.isConnected(physicsClientId=self._client):
                 p.disconnect(physicsClientId=self._client)
             self._client = None
+
+    # --- planted faults (adapters/planting.py) ------------------------------------------
+
+    def plant(self, change: str, size: float | None = None) -> Simulation:
+        """PyBullet's planted changes (PyBulletAdapter.plantable), each a Bullet default the
+        adapter switches off, set back: "square friction cone" is enableConeFriction = 0
+        (Bullet's pair of independent friction rows); "velocity damping" is linearDamping =
+        angularDamping = `size` on every dynamic body (Bullet's default 0.04; it scales
+        velocities by (1 - c)^dt each step); "restitution threshold" is
+        restitutionVelocityThreshold = `size` (Bullet's default 0.2 m/s)."""
+        c = self._client
+        if change == "square friction cone":
+            p.setPhysicsEngineParameter(enableConeFriction=0, physicsClientId=c)
+        elif change == "velocity damping":
+            for _, uid, _ in self._dynamic:
+                p.changeDynamics(uid, -1, linearDamping=size, angularDamping=size, physicsClientId=c)
+        elif change == "restitution threshold":
+            p.setPhysicsEngineParameter(restitutionVelocityThreshold=size, physicsClientId=c)
+        else:
+            return super().plant(change, size)
+        return self

@@ -5,6 +5,10 @@ Pymunk (x, y). A positive rotation phi about scene +y takes +z towards +x, while
 positive angle takes +x towards +y (= scene +z), so the Pymunk angle is -phi and the
 Pymunk angular velocity is -omega_y.
 
+Shapes. A Circle is a pymunk.Circle, a Rect Poly.create_box and a Polygon a Poly of its
+corners in the body frame, each with radius 0 (no rounding); the body's mass and moment are
+the scene's (a Poly's own are never read). A Plane is a thick static segment.
+
 What one `space.step(dt)` does (Munk2D src/cpSpaceStep.c, read for 7.3.1): positions move
 with the *old* velocity (x += v dt), then contacts are found (overlapping shapes only; a
 polygon also when exactly touching; no speculative contacts), pre_solve runs, restitution
@@ -95,7 +99,7 @@ class PymunkAdapter(Adapter):
     supported = ">=7.0.0,<8"
     capabilities = Capabilities(
         dimensions=frozenset({2}),
-        shapes=frozenset({"circle", "rect", "plane"}),
+        shapes=frozenset({"circle", "rect", "polygon", "plane"}),  # a polygon: a Poly of radius 0
         native_restitution=True,
         static_kinetic=False,  # one friction coefficient per pair
         contact_forces=True,
@@ -247,6 +251,11 @@ class PymunkSimulation(Simulation):
                 pb.angular_velocity = -body.angular_velocity[1] if body.rotates else 0.0
             if isinstance(body.shape, Circle):
                 shape = pymunk.Circle(pb, body.shape.radius)
+            elif body.shape.kind == "polygon":
+                # the corners in the body frame (the scene's (x, z) is Pymunk's (x, y)), no rounding
+                corners = [(float(x), float(z)) for x, z in body.shape.corners]
+                shape = pymunk.Poly(pb, corners, radius=0.0)
+                knobs[body.name]["Poly"] = {"vertices": [list(v) for v in corners], "radius": 0.0}
             else:
                 a, c = body.shape.half_extents
                 shape = pymunk.Poly.create_box(pb, (2 * a, 2 * c), radius=0.0)

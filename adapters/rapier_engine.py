@@ -16,10 +16,25 @@ Gyroscopic forces are switched on (omega x I omega, the free-body physics) excep
 bodies whose three principal moments are equal (spheres, and every 2D body, which turns
 about one principal axis only): for them the term is exactly zero, and Rapier's implicit
 gyroscopic step is not -- it spins a free ball up from 3 to 3.0017 rad/s in 2 s (measured).
+Moments equal to EQUAL_MOMENTS count as equal: a cube given as a Hull has moments that
+differ in the last bit (its mass-property integral), a term |omega|^2 dI of round-off, and
+with the implicit step on it tumbled differently from the Box (measured: its spin drifted
+3e-5 rad/s in 60 steps of free flight, the Box's not at all).
+
+Shapes. A capsule is Rapier's capsule along z; a cylinder Rapier's cylinder (its axis y)
+turned onto body z (CYLINDER_TURN); a hull a convex polyhedron made from its corners and the
+faces of their hull (`_convex_mesh`); a 2D polygon the same of its prism along y
+(adapters/solids.py); a static mesh a trimesh of its vertices and triangles with ghost-edge
+fixing (TRIMESH_FLAGS). No shape is rounded and no collider has a contact skin (0).
 
 Float32. Rapier computes in single precision: positions, velocities, masses and material
 values are rounded to 2^-24 relative (6e-8); a body at 10 m is placed to 1e-6 m. Checks
-tighter than that measure the float, not the physics.
+tighter than that measure the float, not the physics. Where it bites on shapes: a hull's or
+a mesh's corners are rounded to 6e-8 of their distance from the body origin (a mesh ground
+10 km wide places its far corners to 0.24 mm, half the float32 spacing at 5 km); Rapier's own
+convex hull flattens plates thinner than 8.5e-4 of their size, which is why hulls are built
+from their faces (`_convex_mesh`: a 1 m plate 1e-5 m thick keeps its corners and rests at
+its half thickness; tests/test_box2d_rapier_mapping.py).
 
 What one `world.step()` does (rapier 0.35-0.36, src/dynamics/solver): contacts are found
 for the whole step, with speculative points up to `prediction_distance` apart; then
@@ -54,7 +69,11 @@ multiply under which per-collider values reproduce every pair of the scene
 Contact forces and points. Rapier reports per contact point its normal impulse over the
 step (the sum over the sub-steps and the restitution pass) and two tangent impulses in a
 basis the Python bindings do not expose: `contact_forces` sums the normal impulses of each
-pair / dt; contact points are not reported (`Capabilities.contact_points` is False).
+pair / dt; contact points are not reported (`Capabilities.contact_points` is False). The
+bindings (0.36.1) read every point of a trimesh pair's manifolds as 0 while the pair's
+total_impulse (the sum of each manifold's normal times its impulses) is the solver's: a pair
+with a mesh reports the magnitude of that sum / dt, the summed impulses wherever its
+contacts share a normal (a body on a flat patch: its weight; measured).
 """
 from __future__ import annotations
 
@@ -67,9 +86,14 @@ import rapier3d as r
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.combination import RULES as COMBINE, per_body_values
 from adapters.frames import require_turn_about_y, state_row
-from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
+from adapters.solids import embedded_half_depth, polygon_prism
+from cases.scene import Body, Box, Circle, Hull, Plane, Rect, Scene, Sphere, pair_key
 
 DEFAULT_SUBSTEPS = 4  # Rapier's own default num_solver_iterations, stated
+# Principal moments within this fraction of each other are equal (no gyroscopic term, module
+# notes): float64 mass-property integrals agree with a closed form to 1e-15 or so, a body
+# meant to be asymmetric differs far more.
+EQUAL_MOMENTS = 1e-12
 # The contact stiffness asked for, as a fraction of the sub-step rate (dynamic pairs; twice
 # this against fixed bodies): Box2D's cap, see the module notes.
 HERTZ_PER_SUBSTEP_RATE = 0.125
@@ -79,9 +103,33 @@ MAX_CORRECTIVE_VELOCITY = 1.0  # m/s; Rapier's default is 3 (see box2d_engine.CO
 # constraint). Its per-point COULOMB model decelerates a box sliding at 1 m/s (mu = 0.5) at
 # 4.593 instead of 4.905 m/s^2 and turns it sideways; SIMPLIFIED gives 4.9049 (measured).
 FRICTION_MODEL = r.FrictionModel.SIMPLIFIED
+# A Cylinder's collider turned by this (w, x, y, z) about the body: +90 deg about x takes
+# Rapier's cylinder axis y onto body z. The stated inertia is given in the collider's frame
+# (Rapier moves a collider's mass properties by its pose on the body): (I_x, I_z, I_y).
+CYLINDER_TURN = [math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0]
+# A static Mesh is a trimesh with these flags (parry's TriMeshFlags): FIX_INTERNAL_EDGES marks
+# the edges between triangles so a body sliding over a flat edge of two coplanar triangles
+# meets no ghost contact on it (measured on a 20 x 20 grid mesh: without it a box sliding at
+# 3.2 m/s with mu = 0.2 lost 0.85 m/s more than mu g in 0.5 s and a capsule hopped 37 mm;
+# parry adds the ORIENTED and MERGE_DUPLICATE_VERTICES it needs). The triangles are wound as
+# the scene gives them: counterclockwise seen from outside, parry's outward normal.
+TRIMESH_FLAG_NAMES = ["FIX_INTERNAL_EDGES"]
+TRIMESH_FLAGS = r.TriMeshFlags.FIX_INTERNAL_EDGES.bits
 RULES = {"max": r.CoefficientCombineRule.MAX, "min": r.CoefficientCombineRule.MIN,
          "product": r.CoefficientCombineRule.MULTIPLY}
 RULE_NAMES = {"max": "MAX", "min": "MIN", "product": "MULTIPLY"}
+
+
+# How Rapier resolves an impact through bodies already touching (Capabilities.impact_model),
+# measured (dt = 1e-3, no gravity, a 0.1 kg ball resting on a 1 kg one, both landing at 2 m/s,
+# touching without overlap; tests/test_declared_models.py): neither model's closed form.
+# Top and bottom ball leave at 3.497, 1.667 m/s (e = 1) and 0.925, 0.925 m/s (e = 0.5) in 3D,
+# 3.815, 1.466 and 1.769, 0.671 in 2D. The simultaneous model gives both 2 (e = 1) and 1 m/s (e = 0.5), the sequential one
+# 5.273, 1.273 and 2.091, 0.591 (cases/column_impact.py): restitution targets each contact's
+# approach when its constraint is built and acts only on a new contact, so the touching pair
+# takes (almost) no impulse in the landing step and is resolved later as an impact of its own. So it declares no impact model, and the
+# column family's model variants are unsupported on it (its model-free ones still run).
+IMPACT_MODEL_MEASURED = None
 
 
 class RapierAdapter(Adapter):
@@ -91,13 +139,14 @@ class RapierAdapter(Adapter):
     supported = ">=0.36.1,<0.37"
     capabilities = Capabilities(
         dimensions=frozenset({2, 3}),
-        shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
+        shapes=frozenset({"sphere", "box", "plane", "circle", "rect", "capsule", "cylinder", "hull", "polygon",
+                          "mesh"}),  # a hull: a convex mesh; a polygon: its prism along y; a mesh: a static trimesh
         native_restitution=True,
         static_kinetic=False,  # one friction coefficient per collider
         contact_forces=True,
         iterations=True,       # the sub-step count
         contact_points=False,  # tangent impulses come in a basis the bindings do not expose
-        impact_model="simultaneous",
+        impact_model=IMPACT_MODEL_MEASURED,  # neither model: see the note above the class
         restitution_law="two_phase",  # restitution in a pass of its own after the sub-steps, without friction
         float_bits=32,         # positions, velocities and masses in single precision (checked: 0.1 m/s reads back as float32(0.1))
         substeps=True,         # Settings.iterations is the sub-step count
@@ -145,9 +194,49 @@ def _collider(body: Body) -> tuple[r.ColliderBuilder, dict]:
         a, c = s.half_extents
         half = [a, max(a, c), c]
         return r.Collider.cuboid(*half), {"cuboid": half}
+    if s.kind == "capsule":  # its segment along body z
+        return (r.Collider.capsule_z(s.half_length, s.radius),
+                {"capsule_z": {"half_height": s.half_length, "radius": s.radius}})
+    if s.kind == "cylinder":  # Rapier's cylinder is along its y: turned a quarter about x, y onto body z
+        return (r.Collider.cylinder(s.half_length, s.radius).rotation((math.pi / 2, 0.0, 0.0)),
+                {"cylinder": {"half_height": s.half_length, "radius": s.radius, "rotation_wrt_body": CYLINDER_TURN}})
+    if s.kind in ("hull", "polygon"):
+        if s.kind == "hull":
+            points, record = np.asarray(s.vertices, float), {"convex_mesh": {"points": len(s.vertices)}}
+        else:  # a prism along y (adapters/solids.py)
+            depth = embedded_half_depth(s.corners)
+            points = polygon_prism(s.corners, depth)[0]
+            record = {"convex_mesh": {"prism_of_corners": [[float(x), float(z)] for x, z in s.corners],
+                                      "half_depth": depth}}
+        return _convex_mesh(body, points), record
+    if s.kind == "mesh":
+        return (r.Collider.trimesh(np.asarray(s.vertices, np.float32), np.asarray(s.triangles, np.uint32),
+                                   flags=r.TriMeshFlags(TRIMESH_FLAGS)),
+                {"trimesh": {"vertices": len(s.vertices), "triangles": len(s.triangles), "flags": TRIMESH_FLAG_NAMES}})
     # plane n . x = offset: the half-space through offset * n
     return (r.Collider.halfspace(tuple(s.normal)).translation(tuple(s.offset * n for n in s.normal)),
             {"halfspace": {"outward_normal": list(s.normal), "offset": s.offset}})
+
+
+def _convex_mesh(body: Body, points: np.ndarray) -> r.ColliderBuilder:
+    """Rapier's convex polyhedron from `points` (float32) and the faces of their hull as the
+    scene computes them (cases.scene.Hull.faces, wound outward), every point a corner
+    (Unsupported otherwise). Rapier's own convex_hull is not used: in float32 it flattens a
+    plate thinner than 8.5e-4 of its size to its four top corners (measured with 0.36.1 on
+    square plates of 0.1, 1 and 10 m: 9e-4 kept, 8e-4 flat), which convex_mesh keeps down to
+    1e-7."""
+    faces = Hull(tuple(map(tuple, points))).faces  # the face routine only: no frame is asked of these points
+    try:
+        shape = r.SharedShape.convex_mesh(np.asarray(points, np.float32), np.asarray(faces, np.uint32))
+    except Exception as error:  # the bindings raise on a set parry refuses
+        raise Unsupported(f"{body.shape.kind} {body.name!r}: Rapier's convex_mesh refuses its {len(points)} "
+                          f"corners in float32 ({error})") from None
+    polyhedron = shape.as_convex_polyhedron() if shape is not None else None
+    kept = polyhedron.num_points() if polyhedron is not None else 0
+    if kept != len(points):
+        raise Unsupported(f"{body.shape.kind} {body.name!r}: Rapier's convex_mesh keeps {kept} of its {len(points)} "
+                          "corners in float32")
+    return r.Collider.new(shape)
 
 
 def _planar_locks(body: Body, frictional: bool) -> r.LockedAxes:
@@ -187,7 +276,8 @@ class RapierSimulation(Simulation):
             "normalized_allowed_linear_error": p.normalized_allowed_linear_error,  # used by CCD only
             "warmstart_coefficient": p.warmstart_coefficient,
             "length_unit": p.length_unit,
-            "contact_force": "sum of the pair's normal impulses / dt",
+            "contact_force": ("sum of the pair's normal impulses / dt (a pair with a mesh: the magnitude of its total "
+                              "normal impulse / dt)"),
             "bodies": {},
         }
 
@@ -199,6 +289,7 @@ class RapierSimulation(Simulation):
                        for a, b in scene.contact_pairs()}
         self._handles: dict[str, r.RigidBodyHandle] = {}  # dynamic bodies
         self._collider_of: dict[int, str] = {}  # collider index -> body name
+        self._meshes: set[str] = set()  # bodies that are trimeshes (contact_forces)
         self._frictional = "friction" in scene.effects
         for body in scene.bodies:
             self._add(body, scene.dimension, mu[body.name], e[body.name], RULES[rule_mu], RULES[rule_e])
@@ -213,7 +304,7 @@ class RapierSimulation(Simulation):
             record = {"type": "fixed"}
         else:
             inertia = body.principal_inertia
-            gyroscopic = dimension == 3 and max(inertia) > min(inertia)  # module notes
+            gyroscopic = dimension == 3 and max(inertia) - min(inertia) > EQUAL_MOMENTS * max(inertia)  # module notes
             builder = (r.RigidBody.dynamic().linvel(tuple(body.velocity)).linear_damping(0.0)
                        .angular_damping(0.0).can_sleep(False).ccd_enabled(False).soft_ccd_prediction(0.0)
                        .gyroscopic_forces(gyroscopic).allow_fast_rotation(True))
@@ -236,14 +327,19 @@ class RapierSimulation(Simulation):
         collider = (collider.friction(mu).restitution(e).friction_combine_rule(rule_mu)
                     .restitution_combine_rule(rule_e).contact_skin(0.0))
         if body.dynamic:
+            # in the collider's frame: a cylinder's turns body z onto its y (CYLINDER_TURN)
+            ix, iy, iz = inertia
+            local = (ix, iz, iy) if body.shape.kind == "cylinder" else (ix, iy, iz)
             collider = collider.mass_properties(r.MassProperties(local_com=(0.0, 0.0, 0.0), mass=body.mass,
-                                                                 principal_inertia=inertia))
+                                                                 principal_inertia=local))
             record.update(mass=body.mass, principal_inertia=list(inertia))
         else:
             collider = collider.density(0.0)
         handle = self._world.add_body(builder)
         ch = self._world.add_collider(collider, handle)
         self._collider_of[ch.index] = body.name
+        if body.shape.kind == "mesh":
+            self._meshes.add(body.name)
         if body.dynamic:
             self._handles[body.name] = handle
         record.update(collider=shape_record, friction=mu, restitution=e, contact_skin=0.0)
@@ -299,8 +395,11 @@ class RapierSimulation(Simulation):
         for pair in self._world.narrow_phase.contact_pairs():
             if not pair.has_any_active_contact:
                 continue
-            j = sum(p.impulse for m in pair.manifolds for p in m.points)
             a, b = self._collider_of[pair.collider1.index], self._collider_of[pair.collider2.index]
+            if a in self._meshes or b in self._meshes:  # its points read 0 (module notes)
+                j = pair.total_impulse_magnitude()
+            else:
+                j = sum(p.impulse for m in pair.manifolds for p in m.points)
             key = pair_key(a, b)
             forces[key] = forces.get(key, 0.0) + j / self._dt
         return forces

@@ -13,19 +13,21 @@ switch off; the knobs record every setting of `reference_impl.config.Config` in 
 """
 from __future__ import annotations
 
-import copy
-from dataclasses import asdict, replace
+import math
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.frames import state_row
+from adapters.planting import Passthrough
 from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
 from reference_impl import geometry
 from reference_impl.config import Config
+from reference_impl.contact import contact_arrays, new_contacts
 from reference_impl.rigid_body import RigidBody
-from reference_impl.world import Material, World, formulation as find_formulation
+from reference_impl.world import Material, Saved, World, formulation as find_formulation
 
 DEFAULT = Config()  # the engine's stated defaults (iterations: DEFAULT.iterations)
 
@@ -34,11 +36,14 @@ DEFAULT = Config()  # the engine's stated defaults (iterations: DEFAULT.iteratio
 # into a row of two touching ones (cases/column_impact.py): "si", "pgs", "lemke" and
 # "acceleration_lcp" solve one problem over all contacts, each contact's restitution on
 # its own approach velocity (both balls leave the ground at e v; the struck row leaves as
-# one body), exactly; "single_contact" aims at the same collision set but, sweeping pairs
-# and never taking an impulse back, falls short of it (the row's first contact parts at
-# half the speed Newton's law asks: a known deviation); "spook" solves one regularised
-# problem over all contacts per step (inelastic only); "compliant" contacts are springs.
-IMPACT_MODEL = {"compliant": "compliant"}  # every other formulation: "simultaneous"
+# one body), exactly; "single_contact" sweeps pairs with each contact's target fixed at the
+# step's start and never takes an impulse back, which passes an impact on pair by pair: the
+# sequential model's closed form, exactly, for touching balls landing (e = 1 and 0.5,
+# tests/test_declared_models.py) and for a row struck at e = 1; a pressed contact's target
+# is 0, so a row struck at e = 0.5 misses it (a known deviation); "spook" solves one
+# regularised problem over all contacts per step (inelastic only); "compliant" contacts are
+# springs.
+IMPACT_MODEL = {"compliant": "compliant", "single_contact": "sequential"}  # every other formulation: "simultaneous"
 
 
 # No run of a formulation is on demand (Adapter.on_demand): with their loops compiled
@@ -62,16 +67,21 @@ class ReferenceAdapter(Adapter):
         # the default formulation's torque rows (reference_impl/sequential_impulses.py); the
         # others have none and report such pairs unsupported
         contact_torques=frozenset({"rolling_resistance", "torsional_friction"}),
-        # a whole state: the bodies' and the warm-start cache (ReferenceSimulation.save_state);
+        # a whole state: the bodies' rows and the warm start (World.save, ReferenceSimulation.save_state);
         # a batch of worlds: n worlds of the scene stepped in turn (ReferenceBatch), which
         # share nothing but the process and its compiled loops
         modes=frozenset({"save_restore", "worlds"}),
-        why_not=(("threads", "the reference steps on one thread: it has no pool"),),
+        why_not=(("threads", "the reference steps on one thread: it has no pool"),
+                 *((kind, "the reference's collision detection is closed-form for spheres, boxes and planes "
+                          "(circles and rects in 2D) only; it has no narrow phase for other shapes yet")
+                   for kind in ("capsule", "cylinder", "hull", "mesh", "polygon"))),
     )
 
     def __init__(self, formulation: str = "si", name: str | None = None, params: dict | None = None):
         find_formulation(formulation)  # an unknown name fails here, not mid-run
         self.formulation = formulation
+        # planted faults reach into the default formulation's solver only (ReferenceSimulation.plant)
+        self.plantable = PLANTABLE if formulation == "si" else frozenset()
         self.params = dict(params or {})  # formulation settings (Config.params)
         self.name = name or ("reference" if formulation == "si" else f"reference-{formulation}")
         # every formulation runs every family it can represent in a default run (their
@@ -159,6 +169,7 @@ class ReferenceSimulation(Simulation):
             raise Unsupported(f"formulation {config.formulation!r}: {reason}")
         self._world = world
         self._dynamic = [body for body in world.bodies if not body.static]
+        self._cold_restore = False  # a planted fault (plant: "cold restore")
         self._stages: set[tuple[str, ...]] = set()
         self._knobs = {
             "formulation": config.formulation,
@@ -250,20 +261,87 @@ class ReferenceSimulation(Simulation):
     def close(self) -> None:
         """Nothing to free: the world is plain Python objects."""
 
-    # the "save_restore" mode (Capabilities.modes)
+    # --- the "save_restore" mode (Capabilities.modes) ----------------------------------------
 
-    def save_state(self) -> dict:
-        """Every dynamic body's position, orientation and velocities, and the world's
-        warm-start cache (the impulses each contact feature carries into the next step):
-        all a step reads that the scene does not give."""
-        return {"bodies": [(list(b.x), list(b.q), list(b.v), list(b.w)) for b in self._dynamic],
-                "warm": copy.deepcopy(self._world._previous)}
+    def save_state(self) -> Saved:
+        """The world's state between steps (World.save): every body's row and the warm start
+        (the last step's contacts with their impulses): all a step reads that the scene does
+        not give."""
+        return self._world.save()
 
-    def restore_state(self, state: dict) -> None:
-        for b, (x, q, v, w) in zip(self._dynamic, state["bodies"]):
-            b.x, b.q, b.v, b.w = list(x), list(q), list(v), list(w)
-            b.update_frame()
-        self._world._previous = copy.deepcopy(state["warm"])
+    def restore_state(self, state: Saved) -> None:
+        if self._cold_restore:  # the planted "cold restore": the warm start lost
+            state = state._replace(features={}, contacts=contact_arrays(new_contacts(0)),
+                                   pairs=np.zeros((0, 2), np.int64), impulses=np.zeros(0))
+        self._world.restore(state)
+
+    # --- planted faults (adapters/planting.py) ------------------------------------------
+
+    def plant(self, change: str, size: float | None = None) -> Simulation:
+        """The planted changes of the default formulation (ReferenceAdapter.plantable), in
+        the world's own material table and solver: the other formulations make none."""
+        world = self._world
+        if change == "kinetic friction":
+            def scaled(m):
+                return _UncheckedMaterial(m.e, m.mu_s, m.mu_k * size, m.rolling, m.torsion)
+            world.pair_materials = {k: scaled(m) for k, m in world.pair_materials.items()}
+            world.configure(material=scaled(world.material))
+        elif change == "square friction cone":  # a per-row clamp on the fixed tangent basis
+            world.configure(friction_set="pyramid", tangents="fixed")
+        elif change == "restitution threshold":  # slow approaches target v_n+ = 0
+            world.configure(restitution_threshold=size)
+        elif change == "two-phase restitution":  # v_n+ = 0, then normal impulses up to -e v_n-
+            world.configure(restitution_law="two-phase")
+        elif change == "velocity damping":
+            return _Damped(self, size)
+        elif change == "float32 positions":
+            return _AfterStep(self, _float32_positions)
+        elif change == "handed drift":
+            return _AfterStep(self, _turned_about_z(size))
+        elif change == "cold sweeps":  # `size` sweeps from zero impulses
+            world.configure(config=replace(world.config, iterations=int(size), warm_start=False))
+        elif change == "cold restore":
+            self._cold_restore = True
+        elif change == "world seed":  # the scene alone is world 0 of a batch of one: exact
+            pass
+        else:
+            return super().plant(change, size)
+        return self
+
+
+PLANTABLE = frozenset({"kinetic friction", "square friction cone", "restitution threshold", "two-phase restitution",
+                       "velocity damping", "float32 positions", "handed drift", "cold sweeps", "cold restore",
+                       "world seed"})
+
+
+@dataclass(frozen=True)
+class _UncheckedMaterial:
+    """The world's material record without its mu_k <= mu_s check (the world only reads
+    these numbers): a planted kinetic friction above the static one."""
+    e: float
+    mu_s: float
+    mu_k: float
+    rolling: float
+    torsion: float
+
+    @property
+    def torques(self) -> bool:
+        return self.rolling > 0.0 or self.torsion > 0.0
+
+
+class _Damped(Passthrough):
+    """The world with v *= (1 - c dt) and w *= (1 - c dt) on every body after each step."""
+
+    def __init__(self, sim: ReferenceSimulation, c: float):
+        super().__init__(sim)
+        self._keep, self._dynamic = 1.0 - c * sim._dt, sim._dynamic
+
+    def step(self) -> None:
+        self.inner.step()
+        keep = self._keep
+        for b in self._dynamic:
+            b.v[:] = [keep * c for c in b.v]
+            b.w[:] = [keep * c for c in b.w]
 
 
 class ReferenceBatch(Simulation):
@@ -272,7 +350,7 @@ class ReferenceBatch(Simulation):
     own: what the batch tests is that its worlds share nothing (no scratch of the compiled
     loops, no module state), as the worlds of a GPU batch must not."""
 
-    def __init__(self, worlds: list[ReferenceSimulation], k: int):
+    def __init__(self, worlds: list[Simulation], k: int):
         self._worlds, self._k = worlds, k
         self._shown = worlds[k]
         self.iterations = self._shown.iterations
@@ -301,3 +379,44 @@ class ReferenceBatch(Simulation):
     def contact_points(self):
         return self._shown.contact_points()
 
+    def plant(self, change: str, size: float | None = None) -> Simulation:
+        """A planted change in every world; "world seed" moves world k's (k > 0) dynamic
+        bodies by `size` m times normal draws seeded by k, before the first step."""
+        if change == "world seed":
+            for k, world in enumerate(self._worlds[1:], start=1):
+                rng = np.random.default_rng(k)
+                for b in world._dynamic:
+                    b.x = [c + size * rng.standard_normal() for c in b.x]
+            return self
+        self._worlds = [world.plant(change, size) for world in self._worlds]
+        self._shown = self._worlds[self._k]
+        return self
+
+
+class _AfterStep(Passthrough):
+    """The world with `change(bodies)` applied to its dynamic bodies after each step."""
+
+    def __init__(self, sim: ReferenceSimulation, change):
+        super().__init__(sim)
+        self._change, self._dynamic = change, sim._dynamic
+
+    def step(self) -> None:
+        self.inner.step()
+        self._change(self._dynamic)
+
+
+def _float32_positions(bodies) -> None:
+    """Every position rounded to single precision (the planted "float32 positions")."""
+    for b in bodies:
+        b.x = [float(np.float32(c)) for c in b.x]
+
+
+def _turned_about_z(angle: float):
+    """Every velocity turned `angle` rad counter-clockwise about z (the planted "handed drift")."""
+    c, s = math.cos(angle), math.sin(angle)
+
+    def turn(bodies) -> None:
+        for b in bodies:
+            vx, vy = b.v[0], b.v[1]
+            b.v[0], b.v[1] = c * vx - s * vy, s * vx + c * vy
+    return turn

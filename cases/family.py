@@ -370,13 +370,22 @@ def raised_where(exc: BaseException) -> str:
     Python installation (the standard library, site-packages), so an observer that hands
     numpy an empty window is named at its own line, not numpy's; the innermost frame if
     none is; '' without a traceback. FILE is relative to the working directory if inside it."""
+    import traceback
+    frames = traceback.extract_tb(exc.__traceback__) if exc.__traceback__ else []
+    if not frames:
+        return ""
+    path, line = users_frame(exc) or (frames[-1].filename, frames[-1].lineno)
+    return f", at {path}:{line}"
+
+
+def users_frame(exc: BaseException) -> tuple[str, int] | None:
+    """(FILE, LINE) of the innermost frame of the exception's traceback in the user's own
+    code (raised_where), or None where no frame is the user's."""
     import sys
     import sysconfig
     import traceback
     from pathlib import Path
     frames = traceback.extract_tb(exc.__traceback__) if exc.__traceback__ else []
-    if not frames:
-        return ""
     own = [Path(sys.modules[name].__file__).resolve().parent for name in ("cases", "adapters", "physval",
                                                                          "reference_impl") if name in sys.modules]
     libraries = {Path(sysconfig.get_paths()[key]).resolve() for key in ("stdlib", "platstdlib", "purelib", "platlib")}
@@ -385,13 +394,15 @@ def raised_where(exc: BaseException) -> str:
         path = Path(frame.filename).resolve()
         return not any(path.is_relative_to(root) for root in own + list(libraries))
 
-    frame = next((f for f in reversed(frames) if users(f)), frames[-1])
+    frame = next((f for f in reversed(frames) if users(f)), None)
+    if frame is None:
+        return None
     path = Path(frame.filename)
     try:
         path = path.resolve().relative_to(Path.cwd())
     except ValueError:
         pass
-    return f", at {path}:{frame.lineno}"
+    return str(path), frame.lineno
 
 
 @contextmanager

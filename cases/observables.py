@@ -90,10 +90,14 @@ def free_arc_start(z: np.ndarray, k: int, g: float, dt: float, run: int = 6) -> 
     (position-only depenetration), so an arc fitted to positions must start here."""
     d2 = np.diff(z[k:], 2)
     free = np.abs(d2 + g * dt * dt) <= 1e-3 * g * dt * dt
-    for j in range(len(free) - run + 3):
-        if free[j:j + run - 2].all():
-            return k + j
-    return None
+    w = run - 2  # second differences a run of `run` samples holds
+    if w < 1:
+        raise ValueError(f"free_arc_start: run={run}: a free arc is at least 3 samples")
+    # j such that free[j:j + w] are all True: their count over the window is w (a running
+    # sum; a loop over j was most of a long bounce_series job's time on an engine that chatters)
+    count = np.concatenate(([0], np.cumsum(free)))
+    found = np.flatnonzero(count[w:] - count[:-w] == w)
+    return k + int(found[0]) if found.size else None
 
 
 def arc_apex(t: np.ndarray, z: np.ndarray, g: float) -> float:

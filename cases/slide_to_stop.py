@@ -88,9 +88,11 @@ def stopped_below(p, dt) -> float:
 
 # --- observables ----------------------------------------------------------------------
 
-def observe(traj, p) -> dict:
-    x = traj.pos("box")
-    speed = np.linalg.norm(traj.vel("box")[:, :2], axis=1)  # along the ground
+def slide_readings(traj, name: str, p) -> dict:
+    """Where the body `name` stopped (distance from its start along the ground), when, and
+    (a variant with a heading) how far off its launch line."""
+    x = traj.pos(name)
+    speed = np.linalg.norm(traj.vel(name)[:, :2], axis=1)  # along the ground
     out = {"stop_distance": float(np.linalg.norm(x[-1, :2] - x[0, :2])),
            "stop_time": settle_time(traj, speed, stopped_below(p, traj.dt))}
     if "heading" in p:  # how far the stop point lies off the launch line
@@ -98,6 +100,10 @@ def observe(traj, p) -> dict:
         u = heading(p)[:2]
         out["off_line"] = float(abs(d[0] * u[1] - d[1] * u[0]))
     return out
+
+
+def observe(traj, p) -> dict:
+    return slide_readings(traj, "box", p)
 
 
 # --- expectations ---------------------------------------------------------------------

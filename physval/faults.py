@@ -1,21 +1,24 @@
 """Planted faults: the suite tests its own power (mutation testing of the engines, not of
 the code).
 
-A fault wraps an engine's adapter (`FaultyAdapter(inner, fault)`) and changes ONE thing in
-what the engine is given or reports: a material coefficient, gravity, the time step, an
-inertia, the friction cone, a damping, the force read-out. It never touches the harness,
-the cases or their closed forms: the wrapped engine carries the engine's own name, the
-engine's recorded known-deviation bands judge it, and every check the fault moves out of
-its tolerance (or out of its band) must come out `fail`. `tests/test_faults.py` asserts
-that every fault is flagged in at least two families and the unmodified wrapper (`NONE`)
-in none; `physval bench faults` writes the detection matrix (fault x family).
+Each fault of the catalogue changes ONE thing in what an engine is given or reports: a
+material coefficient, gravity, the time step, an inertia, the friction cone, a damping, the
+force read-out. It is planted at the adapter layer, through the documented hook of
+adapters/planting.py (`Planted(adapter, fault)`: the scene, the settings, an engine-internal
+change the adapter itself makes, or a wrapper of the built simulation), and never touches
+the harness, the cases or their closed forms: the planted engine carries the engine's own
+name, the engine's recorded known-deviation bands judge it, and every check the fault moves
+out of its tolerance (or out of its band) must come out `fail`. `tests/test_faults.py`
+asserts that every fault is flagged in at least two families and the unmodified wrapper
+(`NONE`) in none; `physval bench faults` writes the detection matrix (fault x family).
 
 Sizes are those of bugs that ship: a coefficient a few per cent off, 9.80 for 9.81, a time
 step 1 % off, an inertia tensor doubled, a square cone, the 0.04 damping PyBullet switches
-on by default, a force 5 % off. A fault planted in an engine's internals is written per
-engine: for the reference (its default formulation), MuJoCo and PyBullet (`ENGINES`);
-wrapping another engine raises `NotPlantable`, but for a fault that changes only the
-scene the engine is given (kinds "any"), which any engine can be handed.
+on by default, a force 5 % off. A fault that changes what any engine is given is planted in
+any engine; one that needs a change inside the engine (a square friction cone, a damping, a
+restitution threshold or law, a kinetic friction above the static one) is planted where the
+engine's adapter makes that change (`Adapter.plantable`: the reference's default
+formulation, MuJoCo and PyBullet make them today), and elsewhere cannot be (`why_not`).
 
 `WRONG_ANSWERS` are the plain wrong answers (an effect off or doubled, another restitution
 law, another combination rule, a radius written in, a contact offset) that the families
@@ -25,73 +28,20 @@ and shows a check fail.
 """
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
-from adapters.base import Adapter, Settings, Simulation
+from adapters.planting import Fault, NotPlantable, Passthrough, why_not  # noqa: F401 (the contract, re-exported)
 from cases.overlap import rotation_matrix
-from cases.scene import Box, Rect, Scene
+from cases.scene import Box, Capsule, Cylinder, Hull, Mesh, Polygon, Rect, Scene
 
-ENGINES = ("reference", "mujoco", "pybullet")  # the engines faults are written for
-
-
-class NotPlantable(Exception):
-    """The fault has no meaning in (or no way into) this engine; the message says why."""
+# The engines `physval bench faults` plants in by default: the plain configuration of each
+# engine whose adapter makes the engine-internal changes (Adapter.plantable).
+ENGINES = ("reference", "mujoco", "pybullet")
 
 
-def engine_kind(adapter: Adapter, fault: "Fault | None" = None) -> str:
-    """Which engine an adapter drives ("reference", "mujoco", "pybullet"), by its class;
-    NotPlantable for any other (faults in engine internals are written per engine), unless
-    `fault` changes only what any engine is given (kinds "any": then "any")."""
-    kind = {"ReferenceAdapter": "reference", "MuJoCoAdapter": "mujoco",
-            "PyBulletAdapter": "pybullet"}.get(type(adapter).__name__)
-    if kind == "reference" and getattr(adapter, "formulation", "si") != "si":
-        kind = None if fault is None or "any" not in fault.kinds else "any"
-        if kind is None:
-            raise NotPlantable("faults are written for the reference's default formulation (si) only")
-    if kind is None:
-        if fault is not None and "any" in fault.kinds:
-            return "any"
-        raise NotPlantable(f"no faults are written for {type(adapter).__name__}")
-    return kind
-
-
-# --- the fault contract ---------------------------------------------------------------------
-
-class Fault:
-    """What a fault changes; every hook defaults to "nothing". `kind` is the engine."""
-    name = "none"
-    kinds = ENGINES  # the engines the fault has a meaning in (the others are left out of its row)
-
-    def scene(self, scene: Scene, kind: str) -> Scene:
-        """The scene the engine is given instead of the case's."""
-        return scene
-
-    def settings(self, settings: Settings) -> Settings:
-        """The settings the engine is built with instead of the harness's."""
-        return settings
-
-    def plant(self, sim: Simulation, scene: Scene, kind: str) -> Simulation:
-        """Edits to the built engine (returns the simulation to run: it or a new one)."""
-        return sim
-
-    def after_step(self, kind: str):
-        """A function (sim, dt) run after each of the engine's steps, or None (then the
-        engine may step in bulk)."""
-        return None
-
-    def restored(self, state, kind: str):
-        """The state a restore (Simulation.restore_state) is given instead of the one saved."""
-        return state
-
-    read_out = 1.0  # factor on every contact force the engine reports
-
-    @property
-    def summary(self) -> str:
-        return " ".join((self.__doc__ or "").split("\n\n")[0].split())
-
+# --- the catalogue ---------------------------------------------------------------------------
 
 class NoFault(Fault):
     """Nothing changed: the wrapper alone, which must give exactly the engine's verdicts."""
@@ -112,72 +62,48 @@ class Restitution(Fault):
     name = "restitution"
     factor = 1.1
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         return _scale_materials(scene, lambda m: replace(m, e=min(1.0, m.e * self.factor)))
 
 
-class _Friction(Fault):
-    """Shared by the static and kinetic friction faults. The reference has both
-    coefficients and takes the fault in the one named, through its own material table
-    (the case's scene vocabulary forbids mu_k > mu_s, a real engine's table does not);
-    MuJoCo and PyBullet have one coefficient, so there the fault scales it."""
-    factor = 1.0
-    which = ""  # "mu_s" or "mu_k"
-
-    def scene(self, scene, kind):
-        if kind == "reference":
-            return scene
-        f = self.factor
-        return _scale_materials(scene, lambda m: replace(m, mu_s=m.mu_s * f,
-                                                         mu_k=None if m.mu_k is None else m.mu_k * f))
-
-    def plant(self, sim, scene, kind):
-        if kind == "reference":
-            _reference_materials(sim, **{self.which: self.factor})
-        return sim
+def _both_scaled(m, f: float):
+    """The material with mu_s and mu_k (where given) x f."""
+    return replace(m, mu_s=m.mu_s * f, mu_k=None if m.mu_k is None else m.mu_k * f)
 
 
-class StaticFriction(_Friction):
-    """Static friction mu_s x 1.06 (MuJoCo, PyBullet: their one coefficient x 1.06).
+class StaticFriction(Fault):
+    """Static friction mu_s x 1.06 (an engine with one coefficient: it x 1.06).
 
     An engine that holds 6 % more than mu_s N before letting go: the break-away angle of
-    a box on an incline moves from atan(0.5) = 26.6 deg to 27.9 deg."""
+    a box on an incline moves from atan(0.5) = 26.6 deg to 27.9 deg. An engine with
+    separate coefficients keeps mu_k as the case gave it."""
     name = "static friction"
-    factor, which = 1.06, "mu_s"
+    factor = 1.06
+
+    def scene(self, scene, capabilities):
+        f = self.factor
+        if capabilities.static_kinetic:
+            return _scale_materials(scene, lambda m: replace(m, mu_s=m.mu_s * f, mu_k=m.mu_k_))
+        return _scale_materials(scene, lambda m: _both_scaled(m, f))
 
 
-class KineticFriction(_Friction):
-    """Kinetic friction mu_k x 1.05 (MuJoCo, PyBullet: their one coefficient x 1.05).
+class KineticFriction(Fault):
+    """Kinetic friction mu_k x 1.05 (an engine with one coefficient: it x 1.05).
 
     A sliding contact braked by 1.05 mu_k N: a box launched at 2 m/s with mu_k = 0.3 stops
-    3.2 cm short of its 68 cm."""
+    3.2 cm short of its 68 cm. An engine with separate coefficients takes it in its own
+    material table (the engine-internal change "kinetic friction"): the case's scene
+    vocabulary forbids mu_k > mu_s, a real engine's table does not."""
     name = "kinetic friction"
-    factor, which = 1.05, "mu_k"
+    factor = 1.05
 
+    def scene(self, scene, capabilities):
+        if capabilities.static_kinetic:
+            return scene
+        return _scale_materials(scene, lambda m: _both_scaled(m, self.factor))
 
-@dataclass(frozen=True)
-class _UncheckedMaterial:
-    """The reference world's material record without its mu_k <= mu_s check (the world
-    only reads these numbers)."""
-    e: float
-    mu_s: float
-    mu_k: float
-    rolling: float
-    torsion: float
-
-    @property
-    def torques(self) -> bool:
-        return self.rolling > 0.0 or self.torsion > 0.0
-
-
-def _reference_materials(sim, mu_s: float = 1.0, mu_k: float = 1.0) -> None:
-    """Scale the coefficients in the reference world's own material table."""
-    world = sim._world
-
-    def scaled(m):
-        return _UncheckedMaterial(m.e, m.mu_s * mu_s, m.mu_k * mu_k, m.rolling, m.torsion)
-    world.material = scaled(world.material)
-    world.pair_materials = {k: scaled(m) for k, m in world.pair_materials.items()}
+    def change(self, capabilities):
+        return ("kinetic friction", self.factor) if capabilities.static_kinetic else None
 
 
 class Gravity(Fault):
@@ -187,7 +113,7 @@ class Gravity(Fault):
     name = "gravity"
     g_used, g_asked = 9.80, 9.81
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         return replace(scene, gravity=tuple(g * self.g_used / self.g_asked for g in scene.gravity))
 
 
@@ -204,17 +130,19 @@ class TimeStep(Fault):
 
 
 class Inertia(Fault):
-    """Principal inertia x 2 for every box (3D) and rect (2D); spheres and discs unchanged.
+    """Principal inertia x 2 for every box (3D), rect (2D), capsule and cylinder; spheres
+    and discs unchanged.
 
     An inertia tensor computed from full extents where half extents were meant, or given
-    about the wrong point: lever-arm impacts then spin a box half as fast. A uniform factor
-    leaves torque-free rotation (Euler's equations) as it was."""
+    about the wrong point: lever-arm impacts then spin a box half as fast, and a cylinder
+    rolls down an incline with g sin / 2 instead of 2/3 g sin. A uniform factor leaves
+    torque-free rotation (Euler's equations) as it was."""
     name = "inertia"
     factor = 2.0
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         def body(b):
-            if b.static or not isinstance(b.shape, (Box, Rect)):
+            if b.static or not isinstance(b.shape, (Box, Rect, Capsule, Cylinder)):
                 return b
             return replace(b, inertia=tuple(self.factor * i for i in b.principal_inertia))
         return replace(scene, bodies=tuple(body(b) for b in scene.bodies))
@@ -225,93 +153,31 @@ class FrictionCone(Fault):
     two tangent directions bounded by mu f_n on its own, so friction reaches sqrt(2) mu f_n
     at 45 deg to the frame's axes and does not oppose a slip at 22.5 deg.
 
-    MuJoCo: cone = "pyramidal" (MuJoCo's own default, which the adapter replaces by the
-    elliptic cone). PyBullet: enableConeFriction = 0 (Bullet's default pair of independent
-    friction rows). The reference: its sequential impulses clamp each tangent row to
-    [-mu Pn, mu Pn] instead of the disc, with both rows along the fixed tangent basis
+    An engine-internal change, each engine's own (its Simulation.plant): MuJoCo: cone =
+    "pyramidal" (MuJoCo's own default, which the adapter replaces by the elliptic cone).
+    PyBullet: enableConeFriction = 0 (Bullet's default pair of independent friction rows).
+    The reference: its sequential impulses clamp each tangent row to [-mu Pn, mu Pn]
+    instead of the disc, with both rows along the fixed tangent basis
     (reference_impl.contact.tangent_basis) also while sliding."""
     name = "friction cone"
 
-    def plant(self, sim, scene, kind):
-        if kind == "mujoco":
-            import mujoco
-            return _mujoco_rebuilt(sim, scene, lambda m: setattr(m.opt, "cone", mujoco.mjtCone.mjCONE_PYRAMIDAL))
-        if kind == "pybullet":
-            from adapters.pybullet_engine import p
-            p.setPhysicsEngineParameter(enableConeFriction=0, physicsClientId=sim._client)
-            return sim
-        sim._world.solver = _PyramidSolver(sim._world.solver)
-        return sim
-
-
-class _SolverWrapper:
-    """The reference's solver module as it is, but for the `solve` a subclass plants."""
-
-    def __init__(self, module):
-        self._module = module
-
-    def __getattr__(self, name):
-        return getattr(self._module, name)
-
-
-class _PyramidSolver(_SolverWrapper):
-    """The reference's sequential impulses (reference_impl/sequential_impulses.py) with a
-    per-row friction clamp in the fixed tangent basis: the rest of the module as it is."""
-
-    def solve(self, contacts, bodies, dt, config):
-        from reference_impl import contact as rc
-        for c in contacts:
-            if len(c.tangents) != 2:
-                continue
-            P = sum(np.asarray(row.d) * Pt for row, Pt in zip(c.tangents, c.Pt))  # warm start, world frame
-            ra = tuple(c.point[i] - c.a.x[i] for i in range(3))
-            rb = tuple(c.point[i] - c.b.x[i] for i in range(3))
-            t1 = rc.tangent_basis(c.n)
-            c.tangents = (rc.Row(c.a, c.b, ra, rb, t1), rc.Row(c.a, c.b, ra, rb, rc.cross(c.n, t1)))
-            c.Pt = [float(P @ np.asarray(row.d)) for row in c.tangents]
-        from dataclasses import replace  # sequential_impulses' own switch to the per-row clamp
-        return self._module.solve(contacts, bodies, dt,
-                                  replace(config, params={**config.params, "friction_set": "pyramid"}))
-
-
-def _mujoco_rebuilt(sim, scene, edit):
-    """A MuJoCo simulation of the same compiled model after edit(model): a fresh MjData,
-    so every quantity the simulation derives from the model (e.g. how it decodes contact
-    forces for the cone in force) is that of the edited model."""
-    from adapters.mujoco_engine import MuJoCoSimulation
-    model = sim._model
-    edit(model)
-    return MuJoCoSimulation(scene, model, sim.knobs, sim.iterations)
+    def change(self, capabilities):
+        return ("square friction cone", None)
 
 
 class Damping(Fault):
     """A velocity decay of c = 0.04 per second on every body's linear and angular velocity.
 
-    PyBullet: linearDamping = angularDamping = 0.04, its default, which the adapter
-    switches off (Bullet scales velocities by (1 - c)^dt each step). MuJoCo: joint damping
+    An engine-internal change, each engine's own (its Simulation.plant): PyBullet:
+    linearDamping = angularDamping = 0.04, its default, which the adapter switches off (Bullet scales velocities by (1 - c)^dt each step). MuJoCo: joint damping
     on every degree of freedom, c times the dof's own mass or inertia (dof_M0), so each
     decays at the same rate (a damping left in a model's default class). The reference:
     v *= (1 - c dt) and w *= (1 - c dt) after each step."""
     name = "damping"
     c = 0.04  # 1/s
 
-    def plant(self, sim, scene, kind):
-        if kind == "mujoco":
-            return _mujoco_rebuilt(sim, scene, lambda m: m.dof_damping.__setitem__(slice(None), self.c * m.dof_M0))
-        if kind == "pybullet":
-            from adapters.pybullet_engine import p
-            for _, uid, _ in sim._dynamic:
-                p.changeDynamics(uid, -1, linearDamping=self.c, angularDamping=self.c, physicsClientId=sim._client)
-        return sim
-
-    def after_step(self, kind):
-        return self._decay if kind == "reference" else None
-
-    def _decay(self, sim, dt):
-        keep = 1.0 - self.c * dt
-        for b in sim._dynamic:
-            b.v[:] = [keep * c for c in b.v]
-            b.w[:] = [keep * c for c in b.w]
+    def change(self, capabilities):
+        return ("velocity damping", self.c)
 
 
 class ForceReadout(Fault):
@@ -321,7 +187,26 @@ class ForceReadout(Fault):
     An impulse divided by a time step other than the one it was solved over, or summed
     over one point too many: the dynamics are right and the reported forces are not."""
     name = "force read-out"
-    read_out = 1.05
+    factor = 1.05
+
+    def simulation(self, sim):
+        return _ScaledForces(sim, self.factor)
+
+
+class _ScaledForces(Passthrough):
+    """The simulation with every contact force it reports x `factor`."""
+
+    def __init__(self, inner, factor: float):
+        super().__init__(inner)
+        self.factor = factor
+
+    def contact_forces(self):
+        k = self.factor
+        return {pair: k * f for pair, f in self.inner.contact_forces().items()}
+
+    def contact_points(self):
+        k = self.factor
+        return [replace(c, f_n=k * c.f_n, f_t=k * np.asarray(c.f_t)) for c in self.inner.contact_points()]
 
 
 class PairMaterials(Fault):
@@ -332,7 +217,7 @@ class PairMaterials(Fault):
     its own value): a block meant to slide on ice brakes like the rest of the scene."""
     name = "pair materials"
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         return replace(scene, pairs=())
 
 
@@ -345,7 +230,7 @@ class InertiaAxes(Fault):
     flat box then tumbles and lands like a tall one."""
     name = "inertia axes"
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         def body(b):
             if b.static or not isinstance(b.shape, Box):
                 return b
@@ -363,7 +248,7 @@ class AngularVelocityFrame(Fault):
     spins about its own tilted axis, and lands with the wrong spin at the contact."""
     name = "angular velocity frame"
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         def body(b):
             if b.static or not any(b.angular_velocity):
                 return b
@@ -378,36 +263,15 @@ class RestitutionThreshold(Fault):
 
     Bullet's default restitutionVelocityThreshold (0.2 m/s), which the adapter switches
     off; other engines ship the same with other numbers (Box2D's restitution threshold,
-    1 m/s). PyBullet: the parameter set back. The reference: its solver targets
-    v_n+ = 0 instead of -e v_n- on contacts approaching slower than the threshold. MuJoCo
-    has no restitution coefficient (its bounce is the contact's spring-damper): no
-    such threshold can be planted there."""
+    1 m/s). An engine-internal change: PyBullet: the parameter set back. The reference:
+    its solver targets v_n+ = 0 instead of -e v_n- on contacts approaching slower than the
+    threshold. MuJoCo has no restitution coefficient (its bounce is the contact's
+    spring-damper): its adapter makes no such change."""
     name = "restitution threshold"
     speed = 0.2  # m/s
-    kinds = ("reference", "pybullet")
 
-    def plant(self, sim, scene, kind):
-        if kind == "pybullet":
-            from adapters.pybullet_engine import p
-            p.setPhysicsEngineParameter(restitutionVelocityThreshold=self.speed, physicsClientId=sim._client)
-        elif kind == "reference":
-            sim._world.solver = _ThresholdSolver(sim._world.solver, self.speed)
-        return sim
-
-
-class _ThresholdSolver(_SolverWrapper):
-    """The reference's solver with each slow approaching contact's restitution target
-    (contact.normal_target: -e vn0) replaced by 0."""
-
-    def __init__(self, module, speed: float):
-        super().__init__(module)
-        self._speed = speed
-
-    def solve(self, contacts, bodies, dt, config):
-        for c in contacts:
-            if c.target is not None and -self._speed < c.vn0 < 0.0 and c.target > 0.0:
-                c.target = 0.0
-        return self._module.solve(contacts, bodies, dt, config)
+    def change(self, capabilities):
+        return ("restitution threshold", self.speed)
 
 
 class ContactTorques(Fault):
@@ -420,7 +284,7 @@ class ContactTorques(Fault):
     name = "contact torques"
     torsional, rolling = 5e-3, 1e-4  # m
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         def torques(m):
             if not m.frictional or m.rolling_resistance or m.torsional_friction:
                 return m
@@ -431,20 +295,19 @@ class ContactTorques(Fault):
 # --- wrong answers: an effect off or doubled, another law, another rule -------------------
 #
 # The plain wrong answers a family names in its `catches` (cases.family.Catch): each changes
-# what the engine is given (the scene), so it has a meaning in any engine ("any"), but for
-# the restitution law, written for the reference's solver. tests/test_catches.py plants
-# each on the variant its family names and shows a check fail.
+# what the engine is given (the scene), so it can be planted in any engine, but for the
+# restitution law, an engine-internal change (the reference's solver makes it).
+# tests/test_catches.py plants each on the variant its family names and shows a check fail.
 
 class _Materials(Fault):
-    """Every material (the default and each pair's) replaced by change(m): the base of the
+    """Every material (the default and each pair's) replaced by material(m): the base of the
     off and doubled faults below."""
-    kinds = ("any",)
 
-    def change(self, m):
+    def material(self, m):
         return m
 
-    def scene(self, scene, kind):
-        return _scale_materials(scene, self.change)
+    def scene(self, scene, capabilities):
+        return _scale_materials(scene, self.material)
 
 
 class RestitutionOff(_Materials):
@@ -454,7 +317,7 @@ class RestitutionOff(_Materials):
     DART's default restitution is 0): every impact is plastic."""
     name = "restitution off"
 
-    def change(self, m):
+    def material(self, m):
         return replace(m, e=0.0)
 
 
@@ -465,7 +328,7 @@ class RestitutionDoubled(_Materials):
     (e = 0.3 on both bodies of a sum): e = 0.5 becomes 1."""
     name = "restitution doubled"
 
-    def change(self, m):
+    def material(self, m):
         return replace(m, e=min(1.0, 2.0 * m.e))
 
 
@@ -476,7 +339,7 @@ class FrictionOff(_Materials):
     one switched off by a flag it forgot): every contact is frictionless."""
     name = "friction off"
 
-    def change(self, m):
+    def material(self, m):
         return replace(m, mu_s=0.0, mu_k=None)
 
 
@@ -487,7 +350,7 @@ class FrictionDoubled(_Materials):
     engine takes the friction angle's tangent of twice it): 0.3 becomes 0.6."""
     name = "friction doubled"
 
-    def change(self, m):
+    def material(self, m):
         return replace(m, mu_s=2.0 * m.mu_s, mu_k=None if m.mu_k is None else 2.0 * m.mu_k)
 
 
@@ -495,7 +358,7 @@ class RollingOff(_Materials):
     """Rolling resistance off: d_r = 0 in every material."""
     name = "rolling resistance off"
 
-    def change(self, m):
+    def material(self, m):
         return replace(m, rolling_resistance=0.0)
 
 
@@ -504,7 +367,7 @@ class RollingDoubled(_Materials):
     engine wants a diameter)."""
     name = "rolling resistance doubled"
 
-    def change(self, m):
+    def material(self, m):
         return replace(m, rolling_resistance=2.0 * m.rolling_resistance)
 
 
@@ -512,7 +375,7 @@ class TorsionOff(_Materials):
     """Torsional friction off: d_t = 0 in every material."""
     name = "torsional friction off"
 
-    def change(self, m):
+    def material(self, m):
         return replace(m, torsional_friction=0.0)
 
 
@@ -520,7 +383,7 @@ class TorsionDoubled(_Materials):
     """Torsional friction doubled: d_t x 2 in every material."""
     name = "torsional friction doubled"
 
-    def change(self, m):
+    def material(self, m):
         return replace(m, torsional_friction=2.0 * m.torsional_friction)
 
 
@@ -530,10 +393,9 @@ class RollingRadius(Fault):
     dimensionless mu_r = d_r / R with R = 0.1 m written in (and the engine multiplies back
     by the ball's own radius). Right for a 0.1 m ball, half the torque for a 0.05 m one."""
     name = "rolling radius"
-    kinds = ("any",)
     written_for = 0.1  # m
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         radii = [b.shape.radius for b in scene.bodies if b.dynamic and hasattr(b.shape, "radius")]
         if not radii:
             return scene
@@ -552,9 +414,8 @@ class CombineRule(Fault):
     cannot express the table the scene is given unchanged: that adapter would have
     reported it unsupported.)"""
     name = "combine rule"
-    kinds = ("any",)
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         from adapters.base import Unsupported
         from adapters.combination import per_body_values
         pairs = scene.contact_pairs()
@@ -581,35 +442,9 @@ class RestitutionLaw(Fault):
     The reference: its solver targets v_n+ = 0 on each bouncing contact, then pushes each
     one's normal velocity up to its restitution target -e vn0 with normal impulses alone."""
     name = "restitution law"
-    kinds = ("reference",)
 
-    def plant(self, sim, scene, kind):
-        sim._world.solver = _TwoPhaseSolver(sim._world.solver)
-        return sim
-
-
-class _TwoPhaseSolver(_SolverWrapper):
-    """The reference's solver with restitution moved after it, frictionless (RestitutionLaw)."""
-
-    def solve(self, contacts, bodies, dt, config):
-        bounce = [(c, c.target) for c in contacts if c.target is not None and c.target > 0.0]
-        for c, _ in bounce:
-            c.target = 0.0
-        stages = self._module.solve(contacts, bodies, dt, config)
-        for _ in range(config.iterations):  # restitution, normal rows only, Gauss-Seidel
-            largest = 0.0
-            for c, goal in bounce:
-                dv = goal - c.normal.velocity()
-                if dv > 0.0:
-                    P = c.normal.mass * dv
-                    c.normal.apply(P)
-                    c.Pn += P
-                    largest = max(largest, dv)
-            if largest <= config.tolerance:
-                break
-        for c, goal in bounce:
-            c.target = goal
-        return stages
+    def change(self, capabilities):
+        return ("two-phase restitution", None)
 
 
 class ContactOffset(Fault):
@@ -618,15 +453,16 @@ class ContactOffset(Fault):
     adapter leaves on. Bodies rest 2 mm above the surface, impacts happen 2 mm early, a
     rolling ball's contact point lies 2 mm further from its centre."""
     name = "contact offset"
-    kinds = ("any",)
     offset = 2e-3  # m
 
-    def scene(self, scene, kind):
+    def scene(self, scene, capabilities):
         from cases.scene import Circle, Sphere
 
         def grown(s):
-            if isinstance(s, (Sphere, Circle)):
+            if isinstance(s, (Sphere, Circle, Capsule)):
                 return replace(s, radius=s.radius + self.offset)
+            if isinstance(s, Cylinder):
+                return replace(s, radius=s.radius + self.offset, half_length=s.half_length + self.offset)
             if isinstance(s, (Box, Rect)):
                 return replace(s, half_extents=tuple(h + self.offset for h in s.half_extents))
             return s
@@ -659,23 +495,12 @@ class PositionRoundoff(Fault):
 
     An engine that stores positions in float32 (or computes contact geometry in absolute
     float32 coordinates) behind a double interface: its rounding is 6e-8 of the distance
-    from the origin, 6 mm at 100 km, where the scene is the same physics."""
+    from the origin, 6 mm at 100 km, where the scene is the same physics. An engine-internal
+    change ("float32 positions": the reference makes it)."""
     name = "position round-off"
-    kinds = ("reference",)
 
-    def after_step(self, kind):
-        return _float32_positions
-
-
-def _float32_positions(sim, dt):
-    for b in _reference_worlds_bodies(sim):
-        b.x = [float(np.float32(c)) for c in b.x]
-
-
-def _reference_worlds_bodies(sim):
-    """The dynamic bodies of a reference simulation, or of every world of its batch."""
-    worlds = getattr(sim, "_worlds", None) or [sim]
-    return [b for w in worlds for b in w._dynamic]
+    def change(self, capabilities):
+        return ("float32 positions", None)
 
 
 class UnconvergedSweep(Fault):
@@ -685,14 +510,13 @@ class UnconvergedSweep(Fault):
 
     A solver left at one iteration (or an iteration count too small for a stack) and
     started cold: each contact sees the impulses of those before it in the sweep, so a
-    stack built top-down stands otherwise than one built bottom-up."""
+    stack built top-down stands otherwise than one built bottom-up. An engine-internal
+    change ("cold sweeps": the reference makes it)."""
     name = "unconverged sweep"
-    kinds = ("reference",)
+    sweeps = 1
 
-    def plant(self, sim, scene, kind):
-        world = sim._world
-        world.config = replace(world.config, iterations=1, warm_start=False)
-        return sim
+    def change(self, capabilities):
+        return ("cold sweeps", self.sweeps)
 
 
 class WorldSeed(Fault):
@@ -700,17 +524,13 @@ class WorldSeed(Fault):
     component), the world alone (or world 0) exact.
 
     A batched engine that seeds its per-world noise (contact jitter, a randomised solver
-    order) with the world's index: world 3 of 4 is not the scene alone."""
+    order) with the world's index: world 3 of 4 is not the scene alone. An engine-internal
+    change ("world seed": the reference's batch makes it)."""
     name = "world seed"
-    kinds = ("reference",)
     size = 1e-9  # m
 
-    def plant(self, sim, scene, kind):
-        for k, world in enumerate(getattr(sim, "_worlds", [])):
-            rng = np.random.default_rng(k)
-            for b in world._dynamic:
-                b.x = [c + (self.size * rng.standard_normal() if k else 0.0) for c in b.x]
-        return sim
+    def change(self, capabilities):
+        return ("world seed", self.size)
 
 
 class ColdRestore(Fault):
@@ -719,12 +539,12 @@ class ColdRestore(Fault):
 
     A snapshot of body poses and velocities taken for the whole state: the solver's
     accumulated impulses, which it carries from step to step, are lost, so a resting stack
-    restored midway settles again."""
+    restored midway settles again. An engine-internal change ("cold restore": the reference
+    makes it)."""
     name = "cold restore"
-    kinds = ("reference",)
 
-    def restored(self, state, kind):
-        return {**state, "warm": {}}
+    def change(self, capabilities):
+        return ("cold restore", None)
 
 
 class ThreadOrder(Fault):
@@ -732,14 +552,12 @@ class ThreadOrder(Fault):
     step (dt (1 + 2^-52)) whenever MuJoCo steps with a pool.
 
     A parallel reduction that adds the threads' partial sums in the order they finish: the
-    result differs by roundings between a run on one thread and one on many."""
+    result differs by roundings between a run on one thread and one on many. An
+    engine-internal change ("thread order": MuJoCo makes it)."""
     name = "thread order"
-    kinds = ("mujoco",)
 
-    def plant(self, sim, scene, kind):
-        if sim.knobs.get("mju_threadpool"):
-            sim._model.opt.timestep *= 1.0 + 2.0**-52
-        return sim
+    def change(self, capabilities):
+        return ("thread order", None)
 
 
 class HandedDrift(Fault):
@@ -750,19 +568,54 @@ class HandedDrift(Fault):
     every frame (a sign slip in a cross product that builds a direction, a spin term
     with a fixed sense) does not. A turn about the vertical commutes with it, so the
     scene turned about z keeps the invariance and only the mirror (and the tilted turn,
-    whose vertical is another axis) part the runs."""
+    whose vertical is another axis) part the runs. An engine-internal change ("handed
+    drift": the reference makes it)."""
     name = "handed drift"
-    kinds = ("reference",)
     angle = 1e-3  # rad a step
 
-    def after_step(self, kind):
-        return self._turn
+    def change(self, capabilities):
+        return ("handed drift", self.angle)
 
-    def _turn(self, sim, dt):
-        c, s = math.cos(self.angle), math.sin(self.angle)
-        for b in _reference_worlds_bodies(sim):
-            vx, vy = b.v[0], b.v[1]
-            b.v[0], b.v[1] = c * vx - s * vy, s * vx + c * vy
+
+class ShapeMargin(Fault):
+    """A margin of 1 mm inside the shapes given by points: every hull and polygon shrunk by
+    1 mm along each of its axes (a box's hull: every face 1 mm in), every mesh lowered 1 mm
+    along its normals; boxes, spheres and planes as given, every body's inertia kept.
+
+    An engine that keeps a collision margin inside the convex and triangle-mesh shapes it
+    is given (Bullet shrinks a convex shape by its margin, 0.04 m by default, and rounds it
+    back out; one that forgets the rounding leaves a solid smaller than the points) where
+    the primitives it has closed forms for have none: a box given as the hull of its
+    corners then stands 1 mm lower than the box. (Grown rather than shrunk, the solid would
+    start inside the ground, which the scene refuses.) A change of the scene, planted in
+    any engine that takes these shapes."""
+    name = "shape margin"
+    margin = -1e-3  # m: inward
+
+    def scene(self, scene, capabilities):
+        m = self.margin
+
+        def grown(vertices):
+            extent = np.max(np.abs(np.asarray(vertices, float)), axis=0)
+            return tuple(tuple(float(c * (1.0 + m / e)) for c, e in zip(v, extent)) for v in vertices)
+
+        def raised(mesh):
+            v, normals = np.asarray(mesh.vertices, float), np.zeros((len(mesh.vertices), 3))
+            for a, b, c in mesh.triangles:
+                n = np.cross(v[b] - v[a], v[c] - v[a])
+                normals[[a, b, c]] += n / np.linalg.norm(n)
+            normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+            return replace(mesh, vertices=tuple(tuple(float(x) for x in p) for p in v + m * normals))
+
+        def body(b):
+            s = b.shape
+            if isinstance(s, (Hull, Polygon)):
+                return replace(b, shape=replace(s, vertices=grown(s.vertices)),
+                               inertia=None if b.static else tuple(b.principal_inertia))
+            if isinstance(s, Mesh):
+                return replace(b, shape=raised(s))
+            return b
+        return replace(scene, bodies=tuple(body(b) for b in scene.bodies))
 
 
 # Each relation of cases.relations that a planted fault proves, and the fault: the fault must
@@ -772,16 +625,16 @@ class HandedDrift(Fault):
 # catalogue's 0.04 per second, a rate in absolute units (PyBullet's default), which Froude's
 # scaling (times x sqrt(k)) does not carry: what an engine adds in absolute units breaks scale.
 INVARIANCE_FAULTS: tuple[Fault, ...] = (PositionRoundoff(), UnconvergedSweep(), WorldSeed(), ColdRestore(),
-                                        ThreadOrder(), HandedDrift())
+                                        ThreadOrder(), HandedDrift(), ShapeMargin())
 PROVES = {"rotate_vertical": "friction cone", "rotate_tilted": "handed drift",
           "translate_10m": "position round-off", "translate_1000m": "position round-off",
           "translate_100000m": "position round-off", "mirror": "handed drift",
           "scale_4": "damping", "scale_quarter": "damping", "body_order": "unconverged sweep",
-          "worlds": "world seed", "save_restore": "cold restore", "threads": "thread order"}
-# Relations no planted fault can prove yet, and why: no engine takes the shapes they turn a
-# scene into (tests/test_invariance.py fails once one does, so that its proof is written then).
-UNPROVEN = {"as_hull": "no engine represents a Hull yet (Capabilities.shapes)",
-            "as_mesh": "no engine represents a Mesh yet (Capabilities.shapes)"}
+          "worlds": "world seed", "save_restore": "cold restore", "threads": "thread order",
+          "as_hull": "shape margin", "as_mesh": "shape margin"}
+# Relations no planted fault can prove yet, and why (none today: tests/test_invariance.py
+# asks a proof of a representation relation as soon as an engine takes its shape).
+UNPROVEN: dict[str, str] = {}
 
 
 def by_name(name: str) -> Fault:
@@ -792,113 +645,12 @@ def by_name(name: str) -> Fault:
     raise KeyError(f"no fault {name!r}: choose from {', '.join(f.name for f in every)}")
 
 
-# --- the wrapper ----------------------------------------------------------------------------
+# --- running planted engines -----------------------------------------------------------------
 
-class FaultyAdapter(Adapter):
-    """An engine's adapter with one planted fault. It carries the engine's name, its
-    capabilities and its known-deviation file, so the harness judges it as that engine."""
-
-    def __init__(self, inner: Adapter, fault: Fault = NONE):
-        self.kind = engine_kind(inner, fault)
-        self.inner, self.fault = inner, fault
-        self.name = inner.name
-        self.capabilities = inner.capabilities
-        self.package = inner.package
-        self.tunables = inner.tunables
-        self.default_tags = inner.default_tags
-        self.slow = inner.slow
-
-    def version(self) -> str:
-        return f"{self.inner.version()} (planted fault: {self.fault.name})"
-
-    def deviations_file(self):
-        return self.inner.deviations_file()
-
-    def on_demand(self, scene):
-        return self.inner.on_demand(scene)
-
-    def options_in_force(self, settings):
-        return self.inner.options_in_force(settings)
-
-    def build(self, scene: Scene, settings: Settings) -> Simulation:
-        fault = self.fault
-        given = fault.scene(scene, self.kind)
-        sim = self.inner.build(given, fault.settings(settings))
-        try:
-            sim = fault.plant(sim, given, self.kind)
-        except BaseException:
-            sim.close()
-            raise
-        return FaultySimulation(sim, fault, settings.dt, fault.after_step(self.kind), self.kind)
-
-
-class FaultySimulation(Simulation):
-    """The engine's simulation, passed through but for what the fault plants: a step
-    after the engine's own (then stepped one step at a time) and the force read-out."""
-
-    def __init__(self, inner: Simulation, fault: Fault, dt: float, after_step=None, kind: str = ""):
-        self.inner, self.fault, self._dt, self._after, self._kind = inner, fault, dt, after_step, kind
-        self.effects = inner.effects
-        self.iterations = inner.iterations
-        self.run = inner.run if after_step is None else None
-
-    @property
-    def knobs(self) -> dict:
-        return {**self.inner.knobs, "planted_fault": self.fault.name}
-
-    def step(self) -> None:
-        self.inner.step()
-        if self._after is not None:
-            self._after(self.inner, self._dt)
-
-    def states(self):
-        return self.inner.states()
-
-    def body_order(self):
-        return self.inner.body_order()
-
-    def state_size(self):
-        return self.inner.state_size()
-
-    def write_state(self, out):
-        self.inner.write_state(out)
-
-    def decode_states(self, raw):
-        return self.inner.decode_states(raw)
-
-    def contact_forces(self):
-        k = self.fault.read_out
-        return {pair: k * f for pair, f in self.inner.contact_forces().items()}
-
-    def contact_points(self):
-        k = self.fault.read_out
-        return [replace(c, f_n=k * c.f_n, f_t=k * np.asarray(c.f_t)) for c in self.inner.contact_points()]
-
-    def close(self) -> None:
-        self.inner.close()
-
-    def save_state(self):
-        return self.inner.save_state()
-
-    def restore_state(self, state) -> None:
-        self.inner.restore_state(self.fault.restored(state, self._kind))
-
-
-
-# --- running faulty engines -----------------------------------------------------------------
-
-def plant_in(adapter: Adapter, name: str) -> FaultyAdapter:
-    """`adapter` with the fault `name` planted (physval.core.context.Context.planted: how
-    worker processes build the faulty engine); EngineError where it cannot be planted."""
-    from adapters.registry import EngineError
-    fault = by_name(name)
-    try:
-        kind = engine_kind(adapter, fault)
-    except NotPlantable as exc:
-        raise EngineError(f"fault {name!r} cannot be planted in {adapter.name}: {exc}") from None
-    if kind not in fault.kinds and "any" not in fault.kinds:
-        raise EngineError(f"fault {name!r} has no meaning in {adapter.name}")
-    return FaultyAdapter(adapter, fault)
+def plantable_in(engine: str, fault: Fault) -> str | None:
+    """Why `fault` cannot be planted in the engine named `engine`, or None."""
+    from adapters.registry import get
+    return why_not(get(engine), fault)
 
 
 def jobs_of(families: dict[str, list], engine: str) -> list:
@@ -909,13 +661,15 @@ def jobs_of(families: dict[str, list], engine: str) -> list:
 
 
 def verdicts(fault: Fault, jobs: list, execution=None, ctx=None) -> list[dict]:
-    """The verdict rows of `jobs` run on their engines with `fault` planted, judged by the
-    harness as the engine itself (its name, its bands): in worker processes through the
-    core's loop given an `execution` (physval.core.session.Execution), else in this process
-    (the tests' fast set, where a worker's start would cost more than the jobs)."""
+    """The verdict rows of `jobs` run on their engines with `fault` planted (the run's
+    Context carries it to every process, whose Resolver wraps each engine in
+    adapters.planting.Planted), judged by the harness as the engine itself (its name, its
+    bands): in worker processes through the core's loop given an `execution`
+    (physval.core.session.Execution), else in this process (the tests' fast set, where a
+    worker's start would cost more than the jobs)."""
     from physval.core import Context, execute, run_jobs
     from physval.core.context import Resolver
-    ctx = replace(ctx or Context(), planted=fault.name)
+    ctx = replace(ctx or Context(), planted=fault)
     if execution is None:
         resolver = Resolver(ctx)
         return [row for job in jobs for row in execute(job, resolver).rows]

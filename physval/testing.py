@@ -57,17 +57,19 @@ def _line(r) -> str:
             f"within {r['tolerance']:.3g} ({r['tolerance_kind']}; {r['tolerance_reason']}) -- {r['reason']}")
 
 
-def check(job: Job, ctx: Context = Context()) -> None:
+def check(job: Job, ctx: Context = Context(), rows: list[dict] | None = None) -> None:
     """Run `job` here and judge it: pass, xfail (a recorded known deviation within its
     band), skip (not installed, or a scene the engine cannot represent), or fail with a
     readable message. A recorded deviation that now passes fails (strict: its band is out
-    of date)."""
+    of date). `rows`: the job's rows, run already (a suite whose tests share one run's
+    rows: physval's own runs each job once for its battery and its agreement tests)."""
     resolver = ctx.resolver()
     try:
         resolver.adapter(job.engine)
     except Exception as exc:
         pytest.skip(str(exc))
-    rows = execute(job, resolver).rows
+    if rows is None:
+        rows = execute(job, resolver).rows
     repro = (f"reproduce: physval run --cases '{job.family}[{job.variant.id}]' --engines {job.engine}"
              + (f" --relations {job.relation}" if job.relation else ""))
     if {r["status"] for r in rows} == {"unsupported"}:

@@ -1,25 +1,134 @@
-"""The one switch between compiled and plain Python: `njit`.
+"""The one switch between compiled and plain Python: `njit`, and the two things compiled
+code needs beside it: `structure` (a mutable record compiled code reads and writes) and
+`overload` (pick a function by the type of an argument, at compile time).
 
-The inner loops of the formulations (PGS and sequential-impulse sweeps, Lemke's pivots,
-the pairwise Newton-Coulomb loop, the compliant substeps) and of the world around them
-(the box-box narrow phase, a step's contact rows) are written once, as plain
-Python on numpy arrays and floats, and decorated with `njit`: with numba installed (a
-dependency of the project) they run compiled by it, in nopython mode, each compiled once
-per machine and kept in numba's on-disk cache (`__pycache__` beside the module, or
-$NUMBA_CACHE_DIR); without numba, or with NUMBA_DISABLE_JIT=1, the very same functions
-run as Python (the same results, slower). Compiled code keeps Python's float semantics:
-no fastmath, so each operation rounds as it does in Python.
+The engine is written once, as plain Python on numpy arrays, floats and named tuples, and
+its functions are decorated with `njit`: with numba installed (a dependency of the project)
+they run compiled by it in nopython mode; without numba, or with NUMBA_DISABLE_JIT=1, the
+very same functions run as Python (the same results, slower). Compiled code keeps
+Python's float semantics: no fastmath, so each operation rounds as it does in Python.
+
+Numba keeps what it compiled on disk: in `__pycache__` beside each module when that folder
+is writable (a checkout, a virtual environment), else in the user-wide cache
+(~/.cache/numba, or $XDG_CACHE_HOME/numba), or in $NUMBA_CACHE_DIR when set (a read-only
+site-packages of an installed wheel falls back to the user-wide cache by itself; set
+$NUMBA_CACHE_DIR to put it elsewhere, e.g. on a machine whose home is not writable). The
+first process on a fresh install compiles; later ones load. Numba invalidates a cached
+function when its own source file changes, but not when a function it calls in another
+file does; the world's step calls into every module of this package, so here a cached
+function is valid for one exact text of the whole package (`_PACKAGE_STAMP`, a hash of
+its .py files): any edit anywhere in reference_impl recompiles all of it once.
 """
 from __future__ import annotations
 
+import hashlib
+from pathlib import Path
+
 try:
-    from numba import njit as _numba_njit
+    import numba
+    from numba.core import caching as _caching
+    from numba.extending import overload as _numba_overload
 except ImportError:  # pragma: no cover - numba is a dependency; this keeps the code runnable without it
-    _numba_njit = None
+    numba = None
+
+# compiled functions really compile (numba installed and not switched off)
+JIT = numba is not None and not numba.config.DISABLE_JIT
 
 
-def njit(function):
-    """`function` compiled by numba (nopython, cached on disk), or unchanged without numba."""
-    if _numba_njit is None:
+def _package_stamp() -> bytes:
+    digest = hashlib.sha256()
+    for path in sorted(Path(__file__).parent.glob("*.py")):
+        digest.update(path.name.encode())
+        digest.update(path.read_bytes())
+    return digest.digest()
+
+
+_PACKAGE_STAMP = _package_stamp()
+
+if JIT:
+    from numba.core import types as _types
+    from numba.core.registry import CPUDispatcher as _CPUDispatcher
+
+    class _Dispatcher(_CPUDispatcher):
+        """numba's dispatcher, except that a call from compiled code compiles the callee
+        for its argument types without their constant values: numba would compile one copy
+        of a function per constant integer or boolean it is called with (18 copies of a 3x3
+        matrix entry indexed by constants, measured)."""
+
+        def get_call_template(self, args, kws):
+            return super().get_call_template(tuple(_types.unliteral(a) for a in args),
+                                             {k: _types.unliteral(v) for k, v in kws.items()})
+
+    def _package_locator(locator):
+        """numba's cache locator `locator`, its freshness the package's text, not one file's."""
+        return type(f"Package{locator.__name__}", (locator,), {"get_source_stamp": lambda self: _PACKAGE_STAMP})
+
+    class _PackageCacheImpl(_caching.CompileResultCacheImpl):
+        _locator_classes = [_package_locator(c) for c in _caching.CompileResultCacheImpl._locator_classes]
+
+    class _PackageCache(_caching.FunctionCache):
+        _impl_class = _PackageCacheImpl
+
+
+def njit(function=None, *, inline: bool = False):
+    """`function` compiled by numba (nopython, cached on disk for this text of the
+    package), or unchanged without numba. inline=True: compiled code that calls it takes
+    its body in (numba's inline="always") instead of calling a separately compiled copy,
+    for small helpers and for the one-caller phases of a step; numba compiles each
+    function for itself and again inside every function that calls it, so a deep chain
+    of calls compiles its bottom many times. Usable as @njit and @njit(inline=True)."""
+    if function is None:
+        return lambda f: njit(f, inline=inline)
+    if not JIT:
         return function
-    return _numba_njit(cache=True)(function)
+    options = {"nopython": True, "inline": "always"} if inline else {"nopython": True}
+    dispatcher = _Dispatcher(py_func=function, locals={}, targetoptions=options)
+    dispatcher._cache = _PackageCache(function)  # numba's cache=True, with the package's stamp
+    return dispatcher
+
+
+def overload(stub):
+    """Decorator: the typing function that picks, from the numba types of the arguments,
+    the implementation compiled code runs for a call of the plain Python function `stub`
+    (numba.extending.overload). Without compilation `stub` itself runs."""
+    if not JIT:
+        return lambda typing: typing
+    return _numba_overload(stub)
+
+
+def int_dict(length: int):
+    """An empty dict from tuples of `length` integers to integers, which compiled code
+    fills (numba's typed Dict), or a dict without compilation."""
+    if not JIT:
+        return {}
+    from numba import typed, types
+    return typed.Dict.empty(types.UniTuple(types.int64, length), types.int64)
+
+
+def structure(cls, name: str | None = None):
+    """`cls`'s fields (a NamedTuple's, or the names a class annotates) as a record that
+    compiled code reads and assigns, passed as one pointer whatever it holds (a numba
+    StructRef; a function taking a named tuple of 27 arrays compiles 3-4 times slower);
+    a plain class with those fields without compilation. Named `name` (default: cls's
+    name); build it with the fields in order, `Record(*values)`, in Python or in compiled
+    code. Python reads its fields through compiled functions that return them."""
+    fields = list(getattr(cls, "_fields", None) or cls.__annotations__)
+    name = name or cls.__name__
+    if not JIT:
+        def __init__(self, *values):
+            for field, value in zip(fields, values, strict=True):
+                setattr(self, field, value)
+        return type(name, (), {"__slots__": fields, "__init__": __init__, "__doc__": cls.__doc__,
+                               "__module__": cls.__module__})
+    import sys
+
+    from numba.core import types
+    from numba.experimental import structref
+    module = sys.modules[cls.__module__]
+    # the numba type, a module attribute so that cached code can name it
+    kind = type(f"{name}Type", (types.StructRef,), {"__module__": cls.__module__})
+    setattr(module, kind.__name__, kind)
+    structref.register(kind)
+    proxy = type(name, (structref.StructRefProxy,), {"__doc__": cls.__doc__, "__module__": cls.__module__})
+    structref.define_proxy(proxy, kind, fields)
+    return proxy

@@ -17,11 +17,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from reference_impl import lcp
 from reference_impl.compiled import njit
+from reference_impl.geometry import SPHERE
 from reference_impl.lcp import Bodies, Contact, Rows, build_rows, inverse_mass_matrix, jacobian
 
 
@@ -40,11 +42,13 @@ def effective_modulus(E_1: float, nu_1: float, E_2: float, nu_2: float) -> float
     return 1.0 / ((1.0 - nu_1**2) / E_1 + (1.0 - nu_2**2) / E_2)
 
 
+@njit
 def effective_radius(R_1: float, R_2: float = math.inf) -> float:
     """R* with 1/R* = 1/R_1 + 1/R_2 (R = inf: a plane)."""
     return 1.0 / (1.0 / R_1 + 1.0 / R_2)
 
 
+@njit
 def hertz_constant(E_star: float, R_star: float) -> float:
     """H = 4/3 E* sqrt(R*)."""
     return 4.0 / 3.0 * E_star * math.sqrt(R_star)
@@ -60,8 +64,7 @@ class ForceLaw:
         return self.H * xi**self.r if xi > 0.0 else 0.0
 
 
-@dataclass(frozen=True)
-class Substeps:
+class Substeps(NamedTuple):
     u: np.ndarray             # (N, 6) velocities at the end
     displacement: np.ndarray  # (N, 6) integral of u over the steps (linear; small rotation)
     xi: np.ndarray            # (C,) overlaps at the end
@@ -74,13 +77,19 @@ def integrate(rows: Rows, bodies: Bodies, u: np.ndarray, a_ext: np.ndarray, xi: 
     (lcp.py) pushing with laws[c].force(xi_c): u += h/2 (a_ext + M^-1 J^T F(xi));
     xi -= h J u (J u > 0: separating); u += h/2 (a_ext + M^-1 J^T F(xi)). The contact
     geometry (normal, arms) is held fixed over the n steps."""
-    J = jacobian(rows, len(bodies))               # dense: (C, 6N), few contacts
+    return substeps(rows, bodies, np.asarray(u, dtype=float), np.asarray(a_ext, dtype=float),
+                    np.array(xi, dtype=float), np.array([law.H for law in laws], dtype=float),
+                    np.array([law.r for law in laws], dtype=float), float(h), int(n))
+
+
+@njit
+def substeps(rows, bodies, u, a_ext, xi, H, r, h, n) -> Substeps:
+    """integrate, with each contact's law as H[c] xi^r[c]."""
+    J = jacobian(rows, len(bodies.m_inv))          # dense: (C, 6N), few contacts
     B = inverse_mass_matrix(bodies) @ J.T          # M^-1 J^T
-    H, r = np.array([law.H for law in laws], dtype=float), np.array([law.r for law in laws], dtype=float)
-    U, displacement, xi, impulse = _velocity_verlet(J, B, u.ravel().copy(), a_ext.ravel().copy(),
-                                                    np.array(xi, dtype=float), H, r, float(h), int(n))
-    u, displacement = U.reshape(u.shape), displacement.reshape(u.shape)
-    return Substeps(u, displacement, xi, impulse)
+    U, displacement, xi, impulse = _velocity_verlet(J, B, u.ravel().copy(), a_ext.ravel().copy(), xi.copy(),
+                                                    H, r, h, n)
+    return Substeps(U.reshape(u.shape), displacement.reshape(u.shape), xi, impulse)
 
 
 @njit
@@ -159,8 +168,20 @@ def _param(config, key):
     return config.params.get(key, DEFAULTS[key])
 
 
-def _radius(body) -> float:
-    return body.shape.radius if body.shape.kind == "sphere" else math.inf
+class Settings(NamedTuple):
+    hertz: bool       # Hertz's law (else Hooke's)
+    E_star: float     # Hertz: the pair's effective modulus E* (one material for every body), Pa
+    k: float          # Hooke: N/m per contact point
+    substeps: int     # velocity-Verlet steps per outer step
+
+
+def settings(config) -> Settings:
+    E, nu = float(_param(config, "compliant_E")), float(_param(config, "compliant_nu"))
+    return Settings(_param(config, "compliant_law") == "hertz", effective_modulus(E, nu, E, nu),
+                    float(_param(config, "compliant_k")), int(_param(config, "compliant_substeps")))
+
+
+STAGES = ("substeps",)
 
 
 def unsupported(world) -> str | None:
@@ -181,25 +202,34 @@ def unsupported(world) -> str | None:
     return None
 
 
-def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
+@njit
+def solve(contacts, bodies, dt, settings) -> int:
     rows, data, u = lcp.world_rows(contacts, bodies)
     rows = lcp.normal_rows(rows)
-    if _param(config, "compliant_law") == "hertz":
-        E, nu = _param(config, "compliant_E"), _param(config, "compliant_nu")
-        E_star = effective_modulus(E, nu, E, nu)
-        laws = [ForceLaw(hertz_constant(E_star, effective_radius(_radius(c.a), _radius(c.b))), 1.5)
-                for c in contacts]
-    else:
-        laws = [ForceLaw(_param(config, "compliant_k"), 1.0)] * len(contacts)
-    n = int(_param(config, "compliant_substeps"))
-    W = np.array([[*body.v0, *body.w0] for body in bodies], dtype=float).reshape(-1, 6)
-    step = integrate(rows, data, W, (u - W) / dt, np.array([c.depth for c in contacts]), laws, dt / n, n)
-    lcp.apply_velocity_change(bodies, step.u - u)
+    C = len(contacts.a)
+    H, r = np.empty(C), np.empty(C)
+    for j in range(C):
+        if settings.hertz:  # H = 4/3 E* sqrt(R*), a plane's radius infinite
+            a, b = contacts.a[j], contacts.b[j]
+            R_a = bodies.radius[a] if bodies.shape[a] == SPHERE else np.inf
+            R_b = bodies.radius[b] if bodies.shape[b] == SPHERE else np.inf
+            H[j], r[j] = hertz_constant(settings.E_star, effective_radius(R_a, R_b)), 1.5
+        else:
+            H[j], r[j] = settings.k, 1.0
+    n = settings.substeps
+    W = np.empty_like(u)
+    for i in range(len(u)):
+        for e in range(3):
+            W[i, e], W[i, 3 + e] = bodies.v0[i, e], bodies.w0[i, e]
+    step = substeps(rows, data, W, (u - W) / dt, contacts.depth.copy(), H, r, dt / n, n)
+    lcp.apply_velocity_change(bodies, step.u - u, False)
     # the world moves positions by dt (v + vp): make that the substeps' displacement
-    lcp.apply_velocity_change(bodies, step.displacement / dt - step.u, pseudo=True)
-    for c, P in zip(contacts, step.impulse):
-        c.Pn, c.Pt = float(P), [0.0] * len(c.tangents)
-    return ("substeps",)
+    lcp.apply_velocity_change(bodies, step.displacement / dt - step.u, True)
+    for j in range(C):
+        contacts.Pn[j] = step.impulse[j]
+        for t in range(contacts.n_tangents[j]):
+            contacts.Pt[j, t] = 0.0
+    return 1
 
 
 # A force law must see a contact from the moment the shapes touch, not one step later

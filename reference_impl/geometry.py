@@ -3,25 +3,38 @@
 A contact point is `(point, n, depth, feature)`: `n` is the unit normal from the first
 body to the second (note 001, "contact normal pointing from body 1 to body 2"), `depth`
 the overlap along n (> 0 overlapping, < 0 a gap), `point` midway between the two
-surfaces, and `feature` a hashable id of the features that made the point (a box
+surfaces, and `feature` an integer naming the features that made the point (a box
 corner, a clipped edge...), the same from step to step while the contact persists, so
 impulses can be carried over (warm starting).
 
 2D shapes (Circle, Rect) live in the x-z plane of 3D space (y = 0) and turn about y only;
 their contacts have y = 0 normals. A 2D scene's line is a `Plane` whose normal has no y.
+
+Compiled (compiled.py): the routines read the bodies' rows (rigid_body.Bodies: row i is
+body i; its shape is `shape[i]`, a kind below, with `radius`, `half`, `normal`, `offset`)
+and write the points they find into `out` (`Points`) from row k on, returning how many.
+`narrow_phase` picks the routine of a pair of shape kinds: a new shape is a kind, its
+columns in `shape_columns`, and a routine for each pair it meets (or, for convex shapes,
+a support function for GJK), each one line in `_routine`. Every sum is written in the
+order the plain Python version of this module summed it, so the compiled code rounds as
+it did.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from reference_impl.compiled import njit
-from reference_impl.rigid_body import dot
-
+from reference_impl.vectors import copy, dot
 
 # --- shapes --------------------------------------------------------------------------------
+
+# shape kinds, as the bodies' arrays hold them (NONE: a body without a shape, which touches nothing)
+NONE, SPHERE, BOX, PLANE, CIRCLE, RECT = range(6)
+
 
 @dataclass(frozen=True)
 class Sphere:
@@ -72,137 +85,193 @@ class Rect:
         return math.hypot(*self.half)
 
 
-def bounds(body) -> tuple[tuple, tuple] | None:
-    """Axis-aligned bounding box (lo, hi) of a body; None for an unbounded plane."""
-    s, c = body.shape, body.x
-    if s.kind in ("sphere", "circle"):
-        r = s.radius
+KINDS = {"sphere": SPHERE, "box": BOX, "plane": PLANE, "circle": CIRCLE, "rect": RECT}
+
+
+def shape_columns(shape) -> tuple:
+    """A shape's entries in the bodies' arrays: (kind, radius, half, normal, offset,
+    bounding radius); a rect's half extents are (h_x, 0, h_z)."""
+    if shape is None:
+        return NONE, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, 0.0
+    kind = KINDS[shape.kind]
+    radius = shape.radius if kind in (SPHERE, CIRCLE) else 0.0
+    half = shape.half if kind == BOX else ((shape.half[0], 0.0, shape.half[1]) if kind == RECT else (0.0, 0.0, 0.0))
+    normal, offset = (shape.normal, shape.offset) if kind == PLANE else ((0.0, 0.0, 0.0), 0.0)
+    return kind, radius, half, normal, offset, shape.bounding_radius
+
+
+class Points(NamedTuple):
+    """Contact points found by the narrow phase, one row each."""
+    point: np.ndarray    # (M, 3)
+    n: np.ndarray        # (M, 3)
+    depth: np.ndarray    # (M,)
+    feature: np.ndarray  # (M,) int64
+
+
+@njit
+def new_points(size):
+    return Points(np.empty((size, 3)), np.empty((size, 3)), np.empty(size), np.empty(size, np.int64))
+
+
+@njit
+def _put(out, k, point, n, depth, feature) -> None:
+    for c in range(3):
+        out.point[k, c] = point[c]
+        out.n[k, c] = n[c]
+    out.depth[k], out.feature[k] = depth, feature
+
+
+# --- bounding boxes (the broad phase's, broadphase.py) ----------------------------------------
+
+@njit
+def box_bounds(bodies, i):
+    """Axis-aligned bounding box (lo, hi) of body i; a plane has none (unbounded): check
+    `bodies.shape[i] == PLANE` first."""
+    c, kind = bodies.x[i], bodies.shape[i]
+    if kind == SPHERE or kind == CIRCLE:
+        r = bodies.radius[i]
         return (c[0] - r, c[1] - r, c[2] - r), (c[0] + r, c[1] + r, c[2] + r)
-    if s.kind == "plane":
-        return None
-    h = s.half if s.kind == "box" else (s.half[0], 0.0, s.half[1])
-    R = body.R
-    e = [abs(R[i][0]) * h[0] + abs(R[i][1]) * h[1] + abs(R[i][2]) * h[2] for i in range(3)]
-    return (c[0] - e[0], c[1] - e[1], c[2] - e[2]), (c[0] + e[0], c[1] + e[1], c[2] + e[2])
+    h, R = bodies.half[i], bodies.R[i]
+    e0 = abs(R[0, 0]) * h[0] + abs(R[0, 1]) * h[1] + abs(R[0, 2]) * h[2]
+    e1 = abs(R[1, 0]) * h[0] + abs(R[1, 1]) * h[1] + abs(R[1, 2]) * h[2]
+    e2 = abs(R[2, 0]) * h[0] + abs(R[2, 1]) * h[1] + abs(R[2, 2]) * h[2]
+    return (c[0] - e0, c[1] - e1, c[2] - e2), (c[0] + e0, c[1] + e1, c[2] + e2)
 
 
-def below_plane(plane, lo, hi, margin: float) -> bool:
+@njit
+def reaches_plane(n, offset, lo, hi, margin) -> bool:
+    """Whether an AABB reaches within `margin` of the plane n . x <= offset."""
+    lowest = 0.0
+    for i in range(3):
+        lowest += n[i] * (lo[i] if n[i] > 0 else hi[i])
+    return lowest - offset <= margin
+
+
+def bounds(body) -> tuple[tuple, tuple] | None:
+    """Axis-aligned bounding box (lo, hi) of a RigidBody; None for an unbounded plane."""
+    return None if body.shape.kind == "plane" else box_bounds(body._bodies, body._row)
+
+
+def below_plane(plane: Plane, lo, hi, margin: float) -> bool:
     """Whether an AABB reaches within `margin` of a plane's solid side."""
-    n = plane.normal
-    lowest = sum(n[i] * (lo[i] if n[i] > 0 else hi[i]) for i in range(3))
-    return lowest - plane.offset <= margin
+    return reaches_plane(plane.normal, plane.offset, lo, hi, margin)
 
 
-# --- small vector helpers ----------------------------------------------------------------
+# --- small helpers ---------------------------------------------------------------------------
 
-def _add(a, b, s=1.0):
+@njit
+def _add(a, b, s):
+    """a + s b."""
     return (a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2])
 
 
-def _sub(a, b):
-    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
-
-
-def _axes(R):
-    """The body axes (columns of R) as three world vectors."""
-    return ((R[0][0], R[1][0], R[2][0]), (R[0][1], R[1][1], R[2][1]), (R[0][2], R[1][2], R[2][2]))
+@njit
+def _column(R, k):
+    """Body axis k (column k of R) as a world vector."""
+    return (R[0][k], R[1][k], R[2][k])
 
 
 # --- round shapes --------------------------------------------------------------------------
 
-def sphere_plane(P, S, margin):
-    """Sphere (or circle) S on plane P: n is the plane normal."""
-    n, r = P.shape.normal, S.shape.radius
-    depth = P.shape.offset - (dot(n, S.x) - r)
+@njit
+def sphere_plane(bodies, p, s, margin, features, out, k) -> int:
+    """Sphere (or circle) s on plane p: n is the plane normal."""
+    n, r, x = bodies.normal[p], bodies.radius[s], bodies.x[s]
+    depth = bodies.offset[p] - (dot(n, x) - r)
     if depth < -margin:
-        return []
-    surface = _add(S.x, n, -r)  # the sphere's lowest point
-    return [(_add(surface, n, 0.5 * depth), n, depth, 0)]
+        return 0
+    surface = _add(x, n, -r)  # the sphere's lowest point
+    _put(out, k, _add(surface, n, 0.5 * depth), n, depth, 0)
+    return 1
 
 
-def sphere_sphere(A, B, margin):
+@njit
+def sphere_sphere(bodies, a, b, margin, features, out, k) -> int:
     """Two spheres (or circles): n along the line of centres."""
-    ra, rb = A.shape.radius, B.shape.radius
-    d = _sub(B.x, A.x)
+    ra, rb, xa, xb = bodies.radius[a], bodies.radius[b], bodies.x[a], bodies.x[b]
+    d = (xb[0] - xa[0], xb[1] - xa[1], xb[2] - xa[2])
     dist = math.sqrt(dot(d, d))
     depth = ra + rb - dist
     if depth < -margin:
-        return []
+        return 0
     n = (d[0] / dist, d[1] / dist, d[2] / dist) if dist > 0 else (1.0, 0.0, 0.0)
-    return [(_add(A.x, n, ra - 0.5 * depth), n, depth, 0)]
+    _put(out, k, _add(xa, n, ra - 0.5 * depth), n, depth, 0)
+    return 1
 
 
-def _sphere_box(Bx, S, half, axes_used, margin):
-    """Sphere S against box Bx (half-extents `half`, faces along `axes_used`): closest point."""
-    R, r = Bx.R, S.shape.radius
-    d = _sub(S.x, Bx.x)
-    local = (dot((R[0][0], R[1][0], R[2][0]), d), dot((R[0][1], R[1][1], R[2][1]), d),
-             dot((R[0][2], R[1][2], R[2][2]), d))
-    closest = tuple(max(-h, min(h, l)) for h, l in zip(half, local))
-    diff = _sub(local, closest)
+@njit
+def box_sphere(bodies, bx, s, margin, features, out, k) -> int:
+    """Sphere (or circle) s against box (or rect) bx: the closest point of the box; a
+    centre inside leaves through the nearest face (of a rect: x or z)."""
+    R, r, half, xb, xs = bodies.R[bx], bodies.radius[s], bodies.half[bx], bodies.x[bx], bodies.x[s]
+    d = (xs[0] - xb[0], xs[1] - xb[1], xs[2] - xb[2])
+    local = (dot(_column(R, 0), d), dot(_column(R, 1), d), dot(_column(R, 2), d))
+    closest = (max(-half[0], min(half[0], local[0])), max(-half[1], min(half[1], local[1])),
+               max(-half[2], min(half[2], local[2])))
+    diff = (local[0] - closest[0], local[1] - closest[1], local[2] - closest[2])
     dist = math.sqrt(dot(diff, diff))
     if dist > 0:  # centre outside the box
         depth = r - dist
         n_local = (diff[0] / dist, diff[1] / dist, diff[2] / dist)
         surface_local = closest
     else:         # centre inside: leave through the nearest face
-        k = min(axes_used, key=lambda i: half[i] - abs(local[i]))
-        sign = 1.0 if local[k] >= 0 else -1.0
-        depth = r + half[k] - abs(local[k])
-        n_local = tuple(sign if i == k else 0.0 for i in range(3))
-        surface_local = tuple(sign * half[k] if i == k else local[i] for i in range(3))
+        planar = bodies.shape[bx] == RECT
+        f = 0  # the face axis with the least way out (the first of equals)
+        for i in (1, 2):
+            if not (planar and i == 1) and half[i] - abs(local[i]) < half[f] - abs(local[f]):
+                f = i
+        sign = 1.0 if local[f] >= 0 else -1.0
+        depth = r + half[f] - abs(local[f])
+        n_local = (sign if f == 0 else 0.0, sign if f == 1 else 0.0, sign if f == 2 else 0.0)
+        surface_local = (sign * half[f] if f == 0 else local[0], sign * half[f] if f == 1 else local[1],
+                         sign * half[f] if f == 2 else local[2])
     if depth < -margin:
-        return []
+        return 0
     n = (dot(R[0], n_local), dot(R[1], n_local), dot(R[2], n_local))
-    surface = _add(Bx.x, (dot(R[0], surface_local), dot(R[1], surface_local), dot(R[2], surface_local)))
-    return [(_add(surface, n, -0.5 * depth), n, depth, 0)]
-
-
-def box_sphere(Bx, S, margin):
-    return _sphere_box(Bx, S, Bx.shape.half, (0, 1, 2), margin)
-
-
-def rect_circle(Bx, S, margin):
-    hx, hz = Bx.shape.half
-    return _sphere_box(Bx, S, (hx, 0.0, hz), (0, 2), margin)
+    surface = _add(xb, (dot(R[0], surface_local), dot(R[1], surface_local), dot(R[2], surface_local)), 1.0)
+    _put(out, k, _add(surface, n, -0.5 * depth), n, depth, 0)
+    return 1
 
 
 # --- boxes against planes --------------------------------------------------------------------
 
-BOX_CORNERS = tuple((sx, sy, sz) for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1))
-RECT_CORNERS = tuple((sx, 0, sz) for sx in (-1, 1) for sz in (-1, 1))
+# corner signs of a box (feature = row) and of a rect (the box's corners with y = 0)
+BOX_CORNERS = np.array([(sx, sy, sz) for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=np.int64)
+RECT_CORNERS = np.array([(sx, 0, sz) for sx in (-1, 1) for sz in (-1, 1)], dtype=np.int64)
 
 
-def _corners_plane(P, Bx, half, corners, most, margin):
-    """Corners of a box (or rect) below the plane: the `most` deepest (4 for a box face,
-    2 for a rect edge). Feature: the corner's index."""
-    n, R, c = P.shape.normal, Bx.R, Bx.x
-    found = []
-    for k, (sx, sy, sz) in enumerate(corners):
-        local = (sx * half[0], sy * half[1], sz * half[2])
+@njit
+def plane_box(bodies, p, bx, margin, features, out, k) -> int:
+    """Corners of a box (or rect) below the plane: the 4 deepest (a box's face; 2 for a
+    rect's edge). Feature: the corner's index."""
+    planar = bodies.shape[bx] == RECT
+    corners, most = (RECT_CORNERS, 2) if planar else (BOX_CORNERS, 4)
+    n, R, c, half, offset = bodies.normal[p], bodies.R[bx], bodies.x[bx], bodies.half[bx], bodies.offset[p]
+    depths, found = np.empty(len(corners)), np.empty((len(corners), 3))
+    order, m = np.empty(len(corners), np.int64), 0
+    for f in range(len(corners)):
+        local = (corners[f, 0] * half[0], corners[f, 1] * half[1], corners[f, 2] * half[2])
         corner = (c[0] + dot(R[0], local), c[1] + dot(R[1], local), c[2] + dot(R[2], local))
-        depth = P.shape.offset - dot(n, corner)
+        depth = offset - dot(n, corner)
         if depth >= -margin:
-            found.append((depth, k, corner))
-    found.sort(key=lambda f: -f[0])
-    return [(_add(corner, n, 0.5 * depth), n, depth, k) for depth, k, corner in found[:most]]
-
-
-def plane_box(P, Bx, margin):
-    return _corners_plane(P, Bx, Bx.shape.half, BOX_CORNERS, 4, margin)
-
-
-def plane_rect(P, Bx, margin):
-    hx, hz = Bx.shape.half
-    return _corners_plane(P, Bx, (hx, 0.0, hz), RECT_CORNERS, 2, margin)
+            depths[f] = depth
+            found[f, 0], found[f, 1], found[f, 2] = corner
+            t = m  # insert, deepest first (the first of equals stays first)
+            while t > 0 and -depths[order[t - 1]] > -depth:
+                order[t] = order[t - 1]
+                t -= 1
+            order[t] = f
+            m += 1
+    for t in range(min(m, most)):
+        f = order[t]
+        _put(out, k + t, _add(found[f], n, 0.5 * depths[f]), n, depths[f], f)
+    return min(m, most)
 
 
 # --- box against box: separating axes and clipping (note 001, "SAT for OBBs") -----------------
 #
-# Written once, on arrays, and compiled (reference_impl/compiled.py): a body's frame is R
-# (its columns are the body axes a_k in the world, so a_k[c] = R[c, k]), its centre x, its
-# half-extents h (a rect's: (h_x, 0, h_z)). Every sum is written in the order the plain
-# Python version summed it, so the compiled code rounds as it did.
+# A body's frame is R (its columns are the body axes a_k in the world, so a_k[c] = R[c, k]),
+# its centre x, its half-extents h (a rect's: (h_x, 0, h_z)).
 
 # A face axis wins over an edge axis (and box A's face over B's) unless the other
 # overlaps less by more than this: ties between equal faces must not flip from step to
@@ -213,11 +282,12 @@ FEATURE_TIE = 1e-9  # m
 # exactly on an equal face would otherwise give slivers: 5 or 6 points for 4).
 CLIP_TOLERANCE = 1e-6  # m, far below any lever arm that matters
 # Feature ids of clipped points: a corner of the incident face is 0..3; a point cut by a
-# side plane is node k >= CORNER_IDS of `nodes`, nodes[k] = (tag, side, f1, f2), read back
-# into the nested tuple (tag, side, f1, f2) by _feature.
+# side plane is node k >= CORNER_IDS of `nodes`, nodes[k] = (tag, side, f1, f2): cut by the
+# side plane `side` (+-1) of axis `tag` on the edge from feature f1 (inside) to f2.
 CORNER_IDS = 4
 MAX_POINTS = 32  # polygon buffer: 4 corners clipped by 4 sides stay far below this
 MAX_NODES = 64
+MAX_PAIR_POINTS = 8  # a routine's points: a quadrilateral cut by 4 half-planes keeps at most 8
 
 
 @njit
@@ -240,7 +310,8 @@ def _clip(poly, feat, count, centre, axis, half, tag, nodes, n_nodes):
             p1, p2, f1, f2 = poly[k1], poly[k], feat[k1], feat[k]
             d1, d2 = dist[k1], dist[k]
             if n == 2 and d1 <= CLIP_TOLERANCE:
-                out[m], out_feat[m] = p1, f1
+                copy(out[m], p1)
+                out_feat[m] = f1
                 m += 1
             if d1 <= 0.0 < CLIP_TOLERANCE < d2 or d2 <= 0.0 < CLIP_TOLERANCE < d1:
                 s = d1 / (d1 - d2)
@@ -252,7 +323,8 @@ def _clip(poly, feat, count, centre, axis, half, tag, nodes, n_nodes):
                 n_nodes += 1
                 m += 1
             if d2 <= CLIP_TOLERANCE:
-                out[m], out_feat[m] = p2, f2
+                copy(out[m], p2)
+                out_feat[m] = f2
                 m += 1
         poly, feat, count = out, out_feat, m
         if count == 0:
@@ -406,25 +478,32 @@ def _separating_axes(Ra, xa, ha, Rb, xb, hb, margin, planar):
     return 2, best_b[0], -1, best_b[1], best_b[2], u
 
 
-def _feature(k, nodes):
-    """The feature id of a clipped point: a corner index, or (tag, side, f1, f2)."""
+# Feature ids of box-box points: the kind of contact in the top bits, below them what
+# picks the features (the face and the incident axis, or the two edges and their sides).
+FACE_FEATURE, EDGE_FEATURE = 1 << 60, 2 << 60
+
+
+@njit
+def _clip_feature(k, nodes, features) -> int:
+    """The id of feature k of a clipped polygon: a corner (k < CORNER_IDS), or the number
+    `features` (the world's table of clip nodes, kept from step to step) gives the node
+    (tag, side, f1, f2) with its ends' ids, numbering a node the first time it is seen:
+    two points have the same id exactly when they were cut by the same sides from the
+    same corners."""
     if k < CORNER_IDS:
         return k
-    tag, side, f1, f2 = nodes[k - CORNER_IDS]
-    return (tag, float(side), _feature(f1, nodes), _feature(f2, nodes))
+    node = nodes[k - CORNER_IDS]
+    tag, side, f1, f2 = node[0], node[1], node[2], node[3]
+    key = (tag, side, _clip_feature(f1, nodes, features), _clip_feature(f2, nodes, features))
+    found = features.get(key, -1)
+    if found < 0:
+        found = CORNER_IDS + len(features)
+        features[key] = found
+    return found
 
 
-def _half3(body):
-    s = body.shape
-    return s.half if s.kind == "box" else (s.half[0], 0.0, s.half[1])
-
-
-def _frame(body):
-    """R, x, h of a body as arrays (see the compiled functions above)."""
-    return np.array(body.R, dtype=float), np.array(body.x, dtype=float), np.array(_half3(body), dtype=float)
-
-
-def box_box(A, B, margin, planar=False):
+@njit
+def box_box(bodies, a, b, margin, features, out, k) -> int:
     """Separating axis test over the face normals of both boxes (3 + 3) and the 9 edge
     cross products (2 + 2 face normals for rects, no edges); the axis of least overlap
     is the contact normal; faces are clipped (up to 8 points for boxes, 2 for rects).
@@ -433,53 +512,79 @@ def box_box(A, B, margin, planar=False):
     frame; along a_i x b_j (length sqrt(1 - C_ij^2)) the radii are
     ha_i1 |C_i2j| + ha_i2 |C_i1j| and hb_j1 |C_ij2| + hb_j2 |C_ij1|, the centre distance
     |t_i2 C_i1j - t_i1 C_i2j| ((i, i1, i2) and (j, j1, j2) cyclic)."""
-    Ra, xa, ha = _frame(A)
-    Rb, xb, hb = _frame(B)
-    kind, depth, i, j, sign, u = _separating_axes(Ra, xa, ha, Rb, xb, hb, float(margin), planar)
+    planar = bodies.shape[a] == RECT
+    Ra, xa, ha, Rb, xb, hb = bodies.R[a], bodies.x[a], bodies.half[a], bodies.R[b], bodies.x[b], bodies.half[b]
+    kind, depth, i, j, sign, u = _separating_axes(Ra, xa, ha, Rb, xb, hb, margin, planar)
     if kind == 0:
-        return []
+        return 0
     if kind == 3:
         point, signs = _edge_contact(Ra, xa, ha, Rb, xb, hb, i, j, u)
-        return [(tuple(point.tolist()), tuple(u.tolist()), depth, ("edge", i, j, tuple(signs.tolist())))]
+        sides = 0
+        for s in signs:
+            sides = 2 * sides + (1 if s > 0 else 0)
+        _put(out, k, point, u, depth, EDGE_FEATURE + (i * 4 + j) * 16 + sides)
+        return 1
     flip = kind == 2
     if flip:
-        points, ids, n, m, nodes = _face_contact(Rb, xb, hb, Ra, xa, ha, j, sign, True, float(margin), planar)
+        points, ids, n, m, nodes = _face_contact(Rb, xb, hb, Ra, xa, ha, j, sign, True, margin, planar)
         face = j
     else:
-        points, ids, n, m, nodes = _face_contact(Ra, xa, ha, Rb, xb, hb, i, sign, False, float(margin), planar)
+        points, ids, n, m, nodes = _face_contact(Ra, xa, ha, Rb, xb, hb, i, sign, False, margin, planar)
         face = i
-    n, nodes = tuple(n.tolist()), nodes.tolist()
-    return [((x, y, z), n, depth, (flip, face, sign, m, _feature(k, nodes)))
-            for (x, y, z, depth), k in zip(points.tolist(), ids.tolist())]
+    which = FACE_FEATURE + ((((1 if flip else 0) * 4 + face) * 2 + (1 if sign > 0 else 0)) * 4 + m) * (1 << 48)
+    for t in range(len(ids)):
+        _put(out, k + t, points[t, :3], n, points[t, 3], which + _clip_feature(ids[t], nodes, features))
+    return len(ids)
 
 
-def rect_rect(A, B, margin):
-    return box_box(A, B, margin, planar=True)
+def is_edge_feature(feature: int) -> bool:
+    """Whether a box-box point's feature is an edge pair (else a clipped face point)."""
+    return feature >= EDGE_FEATURE
 
 
 # --- dispatch --------------------------------------------------------------------------------
 
-NARROW_PHASE = {
-    ("plane", "sphere"): sphere_plane,
-    ("plane", "circle"): sphere_plane,
-    ("sphere", "sphere"): sphere_sphere,
-    ("circle", "circle"): sphere_sphere,
-    ("box", "sphere"): box_sphere,
-    ("rect", "circle"): rect_circle,
-    ("plane", "box"): plane_box,
-    ("plane", "rect"): plane_rect,
-    ("box", "box"): box_box,
-    ("rect", "rect"): rect_rect,
-}
+@njit
+def _routine(bodies, first, second, margin, features, out, k) -> int:
+    """The points of the pair in this order (normals from first to second), or -1 when
+    no routine takes the shapes in this order."""
+    A, B = bodies.shape[first], bodies.shape[second]
+    if A == PLANE and (B == SPHERE or B == CIRCLE):
+        return sphere_plane(bodies, first, second, margin, features, out, k)
+    if (A == SPHERE and B == SPHERE) or (A == CIRCLE and B == CIRCLE):
+        return sphere_sphere(bodies, first, second, margin, features, out, k)
+    if (A == BOX and B == SPHERE) or (A == RECT and B == CIRCLE):
+        return box_sphere(bodies, first, second, margin, features, out, k)
+    if A == PLANE and (B == BOX or B == RECT):
+        return plane_box(bodies, first, second, margin, features, out, k)
+    if (A == BOX and B == BOX) or (A == RECT and B == RECT):
+        return box_box(bodies, first, second, margin, features, out, k)
+    return -1
+
+
+@njit
+def narrow_phase(bodies, i, j, margin, features, out, k):
+    """(first, second, count): bodies i and j in the order the normals point (first to
+    second) and the number of contact points (0 if apart by more than margin) written
+    into out from row k."""
+    count = _routine(bodies, i, j, margin, features, out, k)
+    if count >= 0:
+        return i, j, count
+    count = _routine(bodies, j, i, margin, features, out, k)
+    if count >= 0:
+        return j, i, count
+    return i, j, 0  # plane against plane: static, never in contact
 
 
 def collide(A, B, margin: float):
-    """(first, second, points) for bodies A and B: the bodies in the order the normals
-    point (first to second), and the contact points (empty if apart by more than margin)."""
-    kinds = (A.shape.kind, B.shape.kind)
-    if kinds in NARROW_PHASE:
-        return A, B, NARROW_PHASE[kinds](A, B, margin)
-    swapped = (kinds[1], kinds[0])
-    if swapped in NARROW_PHASE:
-        return B, A, NARROW_PHASE[swapped](B, A, margin)
-    return A, B, []  # plane against plane: static, never in contact
+    """(first, second, points) for bodies A and B (rigid_body.RigidBody): the bodies in
+    the order the normals point (first to second), and the contact points
+    [(point, n, depth, feature)] (empty if apart by more than margin)."""
+    from reference_impl.compiled import int_dict
+    from reference_impl.rigid_body import new_bodies, stack
+    bodies = new_bodies(stack([A, B]))
+    out = new_points(MAX_PAIR_POINTS)
+    first, second, count = narrow_phase(bodies, 0, 1, float(margin), int_dict(4), out, 0)
+    points = [(tuple(out.point[t].tolist()), tuple(out.n[t].tolist()), float(out.depth[t]), int(out.feature[t]))
+              for t in range(count)]
+    return (A, B, points) if first == 0 else (B, A, points)

@@ -27,8 +27,12 @@ near-singular basis and lose the solution; lemke() checks its result against the
 original problem and raises LemkeFailure rather than return a wrong one, and
 lemke_or_retry (what the world formulation calls) solves such a step again, more
 carefully, so a run never stops on one.
+
+Compiled (compiled.py), as is the world formulation "lemke" below.
 """
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 
@@ -47,7 +51,8 @@ class LemkeFailure(RuntimeError):
 RETRY_EPS = (0.0, 1e-10, 1e-8, 1e-6)
 
 
-def lemke_or_retry(M: np.ndarray, q: np.ndarray) -> np.ndarray:
+@njit
+def lemke_or_retry(M: np.ndarray, q: np.ndarray, tally: np.ndarray) -> np.ndarray:
     """lemke(M, q); if its check fails (a degenerate contact set: a box face on four
     corners), again with the tableau recomputed from M and q at every pivot (no
     accumulated rounding, O(n^3) a pivot), then for M + eps I with eps in RETRY_EPS
@@ -56,29 +61,40 @@ def lemke_or_retry(M: np.ndarray, q: np.ndarray) -> np.ndarray:
     engines' CFM changes it by 1e-5 (DART) or more. Measured over every variant of the
     incline, slide, tumbling, edge-landing, isotropy and resting-block families: the
     in-place pass failed 2455 of 77071 solves, refactoring alone solved 2138 of those,
-    a 1e-10 term the other 317; none was left unsolved."""
+    a 1e-10 term the other 317; none was left unsolved. Counts into `tally`: [0] the
+    solves, [1] the in-place passes that failed, [2 + k] the retries with RETRY_EPS[k]
+    that failed (TALLY entries)."""
+    tally[0] += 1
+    z, solved = np.zeros(len(q)), False
     try:
-        return lemke(M, q)
-    except LemkeFailure as first:
-        failure = first
-    d = max(float(np.max(np.abs(np.diag(M)))), 1e-300)
-    for eps in RETRY_EPS:
+        z, solved = lemke(M, q, -1, False), True
+    except Exception:  # a LemkeFailure (compiled code catches every exception or none)
+        tally[1] += 1
+    if solved:
+        return z
+    d = max(np.max(np.abs(np.diag(M))), 1e-300)
+    for k in range(len(RETRY_EPS)):
         try:
-            return lemke(M + eps * d * np.eye(len(q)), q, refactor=True)
-        except LemkeFailure as exc:
-            failure = exc
-    raise failure
+            z, solved = lemke(M + RETRY_EPS[k] * d * np.eye(len(q)), q, -1, True), True
+        except Exception:
+            tally[2 + k] += 1
+        if solved:
+            return z
+    raise LemkeFailure("no solution: Lemke failed its check on the problem and on every retry (RETRY_EPS)")
 
 
-def lemke(M: np.ndarray, q: np.ndarray, max_pivots: int | None = None, refactor: bool = False) -> np.ndarray:
-    """z solving the LCP (M, q), checked; refactor: recompute the tableau from M and q
-    after every pivot (slower, no accumulated rounding)."""
-    M, q = np.asarray(M, dtype=float), np.asarray(q, dtype=float)
+TALLY = 2 + len(RETRY_EPS)  # the entries of lemke_or_retry's tally
+
+
+@njit
+def lemke(M: np.ndarray, q: np.ndarray, max_pivots: int = -1, refactor: bool = False) -> np.ndarray:
+    """z solving the LCP (M, q), checked; max_pivots < 0: 50 (n + 1); refactor: recompute
+    the tableau from M and q after every pivot (slower, no accumulated rounding)."""
     n = len(q)
     if n == 0 or np.all(q >= 0.0):
         return np.zeros(n)
-    max_pivots = 50 * (n + 1) if max_pivots is None else max_pivots
-    return _pivoting(np.ascontiguousarray(M), np.ascontiguousarray(q), int(max_pivots), bool(refactor))
+    max_pivots = 50 * (n + 1) if max_pivots < 0 else max_pivots
+    return _pivoting(np.ascontiguousarray(M), np.ascontiguousarray(q), max_pivots, refactor)
 
 
 @njit
@@ -95,7 +111,7 @@ def _pivoting(M, q, max_pivots, refactor):
     pivot_floor = 1e-9 * scale   # smallest pivot element: see below
 
     # z0 enters where q is most negative: afterwards every rhs is >= 0
-    leaving = _pivot(T, T0, basis, int(np.argmin(T[:, -1])), z0, refactor, tiny)
+    leaving = _pivot(T, T0, basis, np.argmin(T[:, -1]), z0, refactor, tiny)
     for _ in range(max_pivots):
         entering = leaving + n if leaving < n else leaving - n  # complement of what left
         col = T[:, entering]
@@ -183,59 +199,119 @@ def _ratio_test(T, candidates, col, basis, z0, n):
 
 # the corners d of the box |gamma_t,k| <= 1 in a contact's tangent plane (columns), by
 # the number of tangent rows: 1 in a 2D scene (a segment), 2 in 3D (a square)
-CORNERS = {1: np.array([[1.0, -1.0]]),
-           2: np.array([[1.0, 1.0, -1.0, -1.0], [1.0, -1.0, 1.0, -1.0]])}
+CORNERS_2D = np.array([[1.0, -1.0]])
+CORNERS_3D = np.array([[1.0, 1.0, -1.0, -1.0], [1.0, -1.0, 1.0, -1.0]])
 
 
 def contact_lcp(A: np.ndarray, b: np.ndarray, rows: Rows) -> np.ndarray:
     """gamma solving lcp.py's boxed LCP A gamma - b exactly (friction pyramid)."""
-    normal_rows = np.flatnonzero(rows.is_normal)
-    tangents = [np.flatnonzero((rows.normal == c) & ~rows.is_normal) for c in normal_rows]
-    frictional = [(j, t) for j, t in enumerate(tangents) if t.size]
-    if not frictional:
-        return lemke_or_retry(A, -b)
-    tangent_rows = np.concatenate([t for _, t in frictional])
+    return pyramid_lcp(np.asarray(A, dtype=float), np.asarray(b, dtype=float), rows, np.zeros(TALLY, np.int64))
+
+
+@njit
+def pyramid_lcp(A, b, rows, tally) -> np.ndarray:
+    """contact_lcp, counting into `tally` (lemke_or_retry)."""
+    K = len(rows.a)
+    n_tangents = np.zeros(K, np.int64)  # per normal row; rows come as a normal row, then its tangents
+    for k in range(K):
+        if rows.normal[k] != k:
+            n_tangents[rows.normal[k]] += 1
+    normal_rows = np.array([k for k in range(K) if rows.normal[k] == k], dtype=np.int64)
+    tangent_rows = np.array([k for k in range(K) if rows.normal[k] != k], dtype=np.int64)
+    if len(tangent_rows) == 0:
+        return lemke_or_retry(A, -b, tally)
+    frictional = np.array([j for j in range(len(normal_rows)) if n_tangents[normal_rows[j]] > 0], dtype=np.int64)
     nn, nf = len(normal_rows), len(frictional)
-    n_beta = sum(CORNERS[t.size].shape[1] for _, t in frictional)
+    n_beta = 0
+    for j in frictional:
+        n_beta += 2 if n_tangents[normal_rows[j]] == 1 else 4
     D = np.zeros((len(tangent_rows), n_beta))  # gamma_t = D beta
     E = np.zeros((n_beta, nf))                 # sums each contact's beta
     U = np.zeros((nf, nn))                     # mu gamma_n of each frictional contact
     row = col = 0
-    for c, (j, t) in enumerate(frictional):
-        corners = CORNERS[t.size]
-        D[row:row + t.size, col:col + corners.shape[1]] = corners
-        E[col:col + corners.shape[1], c] = 1.0
-        U[c, j] = rows.mu[t[0]]
-        row, col = row + t.size, col + corners.shape[1]
-    A_nn, A_nt = A[np.ix_(normal_rows, normal_rows)], A[np.ix_(normal_rows, tangent_rows)]
-    A_tn, A_tt = A[np.ix_(tangent_rows, normal_rows)], A[np.ix_(tangent_rows, tangent_rows)]
-    M = np.block([[A_nn, A_nt @ D, np.zeros((nn, nf))],
-                  [D.T @ A_tn, D.T @ A_tt @ D, E],
-                  [U, -E.T, np.zeros((nf, nf))]])
-    q = np.concatenate([-b[normal_rows], -D.T @ b[tangent_rows], np.zeros(nf)])
-    z = lemke_or_retry(M, q)
-    gamma = np.zeros(len(rows))
-    gamma[normal_rows] = z[:nn]
-    gamma[tangent_rows] = D @ z[nn:nn + n_beta]
+    for c in range(nf):
+        j = frictional[c]
+        corners = CORNERS_2D if n_tangents[normal_rows[j]] == 1 else CORNERS_3D
+        _put_block(D, row, col, corners)
+        for beta in range(corners.shape[1]):
+            E[col + beta, c] = 1.0
+        U[c, j] = rows.mu[normal_rows[j] + 1]
+        row, col = row + corners.shape[0], col + corners.shape[1]
+    A_nn, A_nt = _take(A, normal_rows, normal_rows), _take(A, normal_rows, tangent_rows)
+    A_tn, A_tt = _take(A, tangent_rows, normal_rows), _take(A, tangent_rows, tangent_rows)
+    size = nn + n_beta + nf
+    M = np.zeros((size, size))
+    _put_block(M, 0, 0, A_nn)
+    _put_block(M, 0, nn, A_nt @ D)
+    _put_block(M, nn, 0, D.T @ A_tn)
+    _put_block(M, nn, nn, D.T @ A_tt @ D)
+    _put_block(M, nn, nn + n_beta, E)
+    _put_block(M, nn + n_beta, 0, U)
+    _put_block(M, nn + n_beta, nn, -E.T)
+    q, b_t = np.zeros(size), np.empty(len(tangent_rows))
+    for i in range(nn):
+        q[i] = -b[normal_rows[i]]
+    for i in range(len(tangent_rows)):
+        b_t[i] = b[tangent_rows[i]]
+    D_b = D.T @ b_t  # -D^T b_t, negated after (exactly the same numbers)
+    for i in range(n_beta):
+        q[nn + i] = -D_b[i]
+    z = lemke_or_retry(M, q, tally)
+    gamma, t = np.zeros(K), D @ np.ascontiguousarray(z[nn:nn + n_beta])
+    for i in range(nn):
+        gamma[normal_rows[i]] = z[i]
+    for i in range(len(tangent_rows)):
+        gamma[tangent_rows[i]] = t[i]
     return gamma
 
 
-def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
+@njit
+def _put_block(M, row, col, B) -> None:
+    """M[row:row + B.shape[0], col:col + B.shape[1]] = B."""
+    for i in range(B.shape[0]):
+        for j in range(B.shape[1]):
+            M[row + i, col + j] = B[i, j]
+
+
+@njit
+def _take(A, rows, columns):
+    """A[np.ix_(rows, columns)]."""
+    out = np.empty((len(rows), len(columns)))
+    for i in range(len(rows)):
+        for j in range(len(columns)):
+            out[i, j] = A[rows[i], columns[j]]
+    return out
+
+
+class Settings(NamedTuple):
+    tally: np.ndarray  # lemke_or_retry's counts over the world's steps (TALLY entries)
+
+
+def settings(config) -> Settings:
+    return Settings(np.zeros(TALLY, np.int64))
+
+
+STAGES = ("velocity", "friction", "position")
+VELOCITY, FRICTION, POSITION = 1, 2, 4
+
+
+@njit
+def solve(contacts, bodies, dt, settings) -> int:
     """World formulation "lemke" (interface: reference_impl/__init__.py): the same LCP as
     formulation "pgs" (see pgs.solve), solved exactly; the overlap repair on
     pseudo-velocities is solved exactly too. Dense: meant for small systems."""
     rows, data, u = lcp.world_rows(contacts, bodies)
-    gamma = contact_lcp(lcp.delassus(rows, data), lcp.world_rhs(contacts, rows, u), rows)
-    lcp.apply_velocity_change(bodies, lcp.velocity_change(rows, data, gamma))
+    gamma = pyramid_lcp(lcp.delassus(rows, data), lcp.world_rhs(contacts, rows, u), rows, settings.tally)
+    lcp.apply_velocity_change(bodies, lcp.velocity_change(rows, data, gamma), False)
     lcp.store_impulses(contacts, gamma)
-    stages = ["velocity", "friction"] if np.any(~rows.is_normal) else ["velocity"]
-    bias = lcp.world_bias(contacts)
+    stages = VELOCITY | (FRICTION if len(rows.a) > len(contacts.a) else 0)
+    bias = lcp.world_bias(contacts, bodies)
     if np.any(bias > 0.0):
-        stages.append("position")
+        stages |= POSITION
         normal = lcp.normal_rows(rows)
-        P = lemke_or_retry(lcp.delassus(normal, data), -bias)
-        lcp.apply_velocity_change(bodies, lcp.velocity_change(normal, data, P), pseudo=True)
-    return tuple(stages)
+        P = lemke_or_retry(lcp.delassus(normal, data), -bias, settings.tally)
+        lcp.apply_velocity_change(bodies, lcp.velocity_change(normal, data, P), True)
+    return stages
 
 
 def knobs(config) -> dict:

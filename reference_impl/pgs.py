@@ -10,16 +10,18 @@ Per-body sums ("a nice trick for maintaining these sums efficiently per object",
 we keep du = M^-1 J^T gamma per body, so (A gamma)_i = J_i du reads only the two bodies
 of row i, and a change of gamma_i updates only their two entries. One sweep therefore
 costs O(rows), not O(rows^2), and A is never formed.
+Compiled (compiled.py), as is the world formulation "pgs" below.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
-from reference_impl import lcp
 from reference_impl.compiled import njit
-from reference_impl.lcp import Bodies, Rows, inverse_mass_times_rows
+from reference_impl.lcp import (Bodies, Rows, _add_at, apply_velocity_change, inverse_mass_times_rows, lanes,
+                                normal_rows, store_impulses, world_bias, world_impulses, world_rhs, world_rows)
 
 
 @dataclass(frozen=True)
@@ -36,8 +38,7 @@ class PGSSettings:
             raise ValueError(f"tolerance = {self.tolerance!r}: must be >= 0")
 
 
-@dataclass(frozen=True)
-class PGSResult:
+class PGSResult(NamedTuple):
     gamma: np.ndarray   # (K,) row impulses
     du: np.ndarray      # (N, 6) velocity change M^-1 J^T gamma per body
     sweeps: int         # sweeps done
@@ -48,21 +49,29 @@ def projected_gauss_seidel(rows: Rows, bodies: Bodies, b: np.ndarray, settings: 
                            sigma: np.ndarray | None = None, gamma0: np.ndarray | None = None) -> PGSResult:
     """Projected Gauss-Seidel on (A + Sigma) gamma - b with the bounds of lcp.bounds,
     starting from gamma0 (warm start) or zero. Rows are swept in their stored order."""
-    K, N = len(rows), len(bodies)
-    W_a, W_b = inverse_mass_times_rows(rows, bodies)
-    sig = np.zeros(K) if sigma is None else np.asarray(sigma, dtype=float)
-    diag = np.einsum("kj,kj->k", rows.J_a, W_a) + np.einsum("kj,kj->k", rows.J_b, W_b) + sig
-    gamma = np.zeros(K) if gamma0 is None else np.array(gamma0, dtype=float)
-    du = np.zeros((N + 1, 6))  # row N: the static world (index -1), never moves (its W is 0)
-    if gamma0 is not None:     # warm start: the sums of the starting impulses
-        np.add.at(du, rows.a, W_a * gamma[:, None])
-        np.add.at(du, rows.b, W_b * gamma[:, None])
-        du[N] = 0.0
+    K = len(rows.a)
+    return gauss_seidel(rows, bodies, np.asarray(b, dtype=float), int(settings.iterations), float(settings.tolerance),
+                        np.zeros(K) if sigma is None else np.asarray(sigma, dtype=float),
+                        np.zeros(K) if gamma0 is None else np.asarray(gamma0, dtype=float), gamma0 is not None)
 
-    inv_diag = np.where(diag > 0.0, 1.0 / np.where(diag > 0.0, diag, 1.0), 0.0)
-    sweeps, change = _sweeps(rows.J_a, rows.J_b, W_a, W_b, rows.a, rows.b, rows.normal, rows.mu,
-                             np.asarray(b, dtype=float), sig, diag, inv_diag, gamma, du,
-                             int(settings.iterations), float(settings.tolerance))
+
+@njit
+def gauss_seidel(rows, bodies, b, iterations, tolerance, sigma, gamma0, warm) -> PGSResult:
+    """projected_gauss_seidel, from gamma0 when warm (else from zero)."""
+    K, N = len(rows.a), len(bodies.m_inv)
+    W_a, W_b = inverse_mass_times_rows(rows, bodies)
+    diag, inv_diag = np.empty(K), np.empty(K)
+    for k in range(K):
+        diag[k] = lanes(rows.J_a[k], W_a[k]) + lanes(rows.J_b[k], W_b[k]) + sigma[k]
+        inv_diag[k] = 1.0 / diag[k] if diag[k] > 0.0 else 0.0
+    gamma = gamma0.copy() if warm else np.zeros(K)
+    du = np.zeros((N + 1, 6))  # row N: the static world (index -1), never moves (its W is 0)
+    if warm:                   # warm start: the sums of the starting impulses
+        _add_at(du, rows.a, W_a, gamma)
+        _add_at(du, rows.b, W_b, gamma)
+        du[N] = 0.0
+    sweeps, change = _sweeps(rows.J_a, rows.J_b, W_a, W_b, rows.a, rows.b, rows.normal, rows.mu, b, sigma, diag,
+                             inv_diag, gamma, du, iterations, tolerance)
     return PGSResult(gamma, du[:N].copy(), sweeps, change)
 
 
@@ -101,7 +110,23 @@ def _sweeps(Ja, Jb, Wa, Wb, ia, ib, normal, mu, rhs, sg, dg, inv_diag, g, v, ite
     return sweeps, change
 
 
-def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
+class Settings(NamedTuple):
+    iterations: int           # sweeps at most (config.iterations)
+    position_iterations: int  # sweeps of the overlap repair
+    tolerance: float          # m/s
+    warm_start: bool
+
+
+def settings(config) -> Settings:
+    return Settings(config.iterations, config.position_iterations, float(config.tolerance), config.warm_start)
+
+
+STAGES = ("warm_start", "velocity", "friction", "position")
+WARM_START, VELOCITY, FRICTION, POSITION = (1 << k for k in range(len(STAGES)))
+
+
+@njit
+def solve(contacts, bodies, dt, settings) -> int:
     """World formulation "pgs" (interface: reference_impl/__init__.py). The velocity-level
     LCP of lcp.py on the world's contacts (targets of lcp.world_rhs; friction pyramid on
     the world's tangent rows, mu_s while a contact sticks, mu_k while it slides), by PGS
@@ -109,29 +134,28 @@ def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
     Then note 000's overlap repair ("bias target velocity in normal direction proportional
     to overlap") as a frictionless PGS on pseudo-velocities (split impulse, as the default
     formulation does, so the repair moves positions but adds no kinetic energy)."""
-    rows, data, u = lcp.world_rows(contacts, bodies)
-    warm = config.warm_start and any(c.Pn != 0.0 for c in contacts)
-    result = projected_gauss_seidel(rows, data, lcp.world_rhs(contacts, rows, u),
-                                    PGSSettings(config.iterations, config.tolerance),
-                                    gamma0=lcp.world_impulses(contacts) if warm else None)
-    lcp.apply_velocity_change(bodies, result.du)
-    lcp.store_impulses(contacts, result.gamma)
-    stages = ["warm_start"] if warm else []
-    stages += ["velocity", "friction"] if np.any(~rows.is_normal) else ["velocity"]
-    if repair_overlap(contacts, bodies, rows, data, config):
-        stages.append("position")
-    return tuple(stages)
+    rows, data, u = world_rows(contacts, bodies)
+    warm = settings.warm_start and np.any(contacts.Pn != 0.0)
+    result = gauss_seidel(rows, data, world_rhs(contacts, rows, u), settings.iterations, settings.tolerance,
+                          np.zeros(len(rows.a)), world_impulses(contacts), warm)
+    apply_velocity_change(bodies, result.du, False)
+    store_impulses(contacts, result.gamma)
+    stages = (WARM_START if warm else 0) | VELOCITY | (FRICTION if len(rows.a) > len(contacts.a) else 0)
+    if repair_overlap(contacts, bodies, rows, data, settings.position_iterations, settings.tolerance):
+        stages |= POSITION
+    return stages
 
 
-def repair_overlap(contacts, bodies, rows: Rows, data: Bodies, config) -> bool:
+@njit
+def repair_overlap(contacts, bodies, rows, data, iterations, tolerance) -> bool:
     """Note 000's overlap repair on pseudo-velocities (targets: lcp.world_bias), by PGS on
     the normal rows; sets the bodies' vp, wp. Returns whether there was overlap to repair."""
-    bias = lcp.world_bias(contacts)
+    bias = world_bias(contacts, bodies)
     if not np.any(bias > 0.0):
         return False
-    pseudo = projected_gauss_seidel(lcp.normal_rows(rows), data, bias,
-                                    PGSSettings(config.position_iterations, config.tolerance))
-    lcp.apply_velocity_change(bodies, pseudo.du, pseudo=True)
+    normal = normal_rows(rows)
+    pseudo = gauss_seidel(normal, data, bias, iterations, tolerance, np.zeros(len(normal.a)), bias, False)
+    apply_velocity_change(bodies, pseudo.du, True)
     return True
 
 

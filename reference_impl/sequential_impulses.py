@@ -60,67 +60,89 @@ impulse m g dt gives v_n+ = e u: the ratio is exactly e at any dt and phase. Wit
 the same target is a resting contact's v_n+ = 0.
 
 Cost: O(rows) per sweep, a few dozen float operations per row; a warm-started resting
-stack takes one sweep per step.
-The sweeps (`iterate`) run compiled (reference_impl/compiled.py) on the rows' numbers
-packed into arrays; they are contact.Row's `velocity` and `apply`, written out on arrays.
+stack takes one sweep per step. Compiled (compiled.py), on the contacts' rows
+(contact.Contacts) and the bodies' arrays.
 """
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from reference_impl.compiled import njit
+from reference_impl.contact import K as K_, MASS, apply, velocity
+from reference_impl.vectors import copy
 
 CONTACT_TORQUES = True  # models rolling resistance and torsional friction (torque rows)
 
 
-def solve(contacts, bodies, dt, config) -> tuple[str, ...]:
-    stages = []
-    if config.warm_start and not any(c.warm for c in contacts) \
-            and sum(1 + len(c.tangents) for c in contacts) <= config.cold_start_rows:
-        stages.append("cold_start")
-        _least_squares_start(contacts)
-    warm = config.warm_start and any(c.Pn != 0.0 for c in contacts)
-    if warm:
-        stages.append("warm_start")
-    stages.append("velocity")
-    if any(c.tangents for c in contacts):
-        stages.append("friction")
-    if any(c.torques for c in contacts):
-        stages.append("torques")
-    if any(c.bias > 0.0 for c in contacts):
-        stages.append("position")
+class Settings(NamedTuple):
+    iterations: int           # velocity sweeps at most (config.iterations)
+    position_iterations: int  # pseudo-velocity sweeps at most
+    tolerance: float          # a sweep changing no velocity by more ends the loop, m/s
+    warm_start: bool
+    cold_start_rows: int      # the least-squares cold start up to this many rows
+    pyramid: bool             # config.params["friction_set"] == "pyramid"
 
-    # the contacts' rows (contact.Row) as arrays for the compiled sweeps: per contact its
-    # normal row, then its tangent rows, then its torque rows; P holds each row's
-    # accumulated impulse
-    rows = [row for c in contacts for row in (c.normal, *c.tangents, *c.torques)]
-    a = np.array([row.a.index for row in rows], dtype=np.int64)
-    b = np.array([row.b.index for row in rows], dtype=np.int64)
-    J = np.array([(row.d, row.ra_d, row.rb_d, row.ma, row.mb, row.ia, row.ib) for row in rows],
-                 dtype=float).reshape(-1, 21)
-    K, mass = np.array([row.K for row in rows], dtype=float), np.array([row.mass for row in rows], dtype=float)
-    P = np.array([P for c in contacts for P in (c.Pn, *c.Pt, *c.Pq)], dtype=float)
-    n_tangents = np.array([len(c.tangents) for c in contacts], dtype=np.int64)
-    n_rolling = np.array([c.n_rolling for c in contacts], dtype=np.int64)
-    n_torsion = np.array([len(c.torques) - c.n_rolling for c in contacts], dtype=np.int64)
-    target, mu, bias, rolling, torsion = (np.array([getattr(c, name) for c in contacts], dtype=float)
-                                          for name in ("target", "mu", "bias", "rolling", "torsion"))
-    v, w = np.array([body.v for body in bodies], dtype=float), np.array([body.w for body in bodies], dtype=float)
-    vp, wp = np.array([body.vp for body in bodies], dtype=float), np.array([body.wp for body in bodies], dtype=float)
-    pyramid = config.params.get("friction_set", "disc") == "pyramid"
-    iterate(a, b, J, K, mass, P, n_tangents, n_rolling, n_torsion, target, mu, rolling, torsion, bias,
-            v, w, vp, wp, warm, pyramid, config.iterations, config.position_iterations, float(config.tolerance))
-    for body, v_i, w_i, vp_i, wp_i in zip(bodies, v.tolist(), w.tolist(), vp.tolist(), wp.tolist()):
-        if not body.static:
-            body.v[:], body.w[:], body.vp[:], body.wp[:] = v_i, w_i, vp_i, wp_i
-    k, P = 0, P.tolist()
-    for c in contacts:
-        nt, nq = len(c.tangents), len(c.torques)
-        c.Pn, c.Pt, c.Pq = P[k], P[k + 1:k + 1 + nt], P[k + 1 + nt:k + 1 + nt + nq]
+
+def settings(config) -> Settings:
+    return Settings(config.iterations, config.position_iterations, float(config.tolerance), config.warm_start,
+                    config.cold_start_rows, config.params.get("friction_set", "disc") == "pyramid")
+
+
+# the stages solve can run, in order (bit k of its result: STAGES[k] ran)
+STAGES = ("cold_start", "warm_start", "velocity", "friction", "torques", "position")
+COLD_START, WARM_START, VELOCITY, FRICTION, TORQUES, POSITION = (1 << k for k in range(len(STAGES)))
+
+
+@njit
+def solve(contacts, bodies, dt, settings) -> int:
+    """The module docstring's steps on the world's contacts and bodies; returns the
+    STAGES that ran."""
+    c, C = contacts, len(contacts.a)
+    stages, n_rows, any_warm = VELOCITY, 0, False
+    for j in range(C):
+        n_rows += 1 + c.n_tangents[j]
+        any_warm = any_warm or c.warm[j]
+    if settings.warm_start and not any_warm and n_rows <= settings.cold_start_rows:
+        stages |= COLD_START
+        _least_squares_start(contacts, bodies)
+    warm = False
+    for j in range(C):
+        warm = warm or (settings.warm_start and c.Pn[j] != 0.0)
+        stages |= ((WARM_START if warm else 0) | (FRICTION if c.n_tangents[j] > 0 else 0)
+                   | (TORQUES if c.n_rolling[j] + c.n_torsion[j] > 0 else 0) | (POSITION if c.bias[j] > 0.0 else 0))
+
+    # the contacts' rows as arrays for the sweeps: per contact its normal row, then its
+    # tangent rows, then its torque rows; P holds each row's accumulated impulse
+    R = 0
+    for j in range(C):
+        R += 1 + c.n_tangents[j] + c.n_rolling[j] + c.n_torsion[j]
+    a, b = np.empty(R, np.int64), np.empty(R, np.int64)
+    J, K, mass, P = np.empty((R, 21)), np.empty(R), np.empty(R), np.empty(R)
+    k = 0
+    for j in range(C):
+        nt, nq = c.n_tangents[j], c.n_rolling[j] + c.n_torsion[j]
+        for r in range(1 + nt + nq):
+            row = c.normal[j] if r == 0 else (c.tangents[j, r - 1] if r <= nt else c.torques[j, r - 1 - nt])
+            a[k], b[k], K[k], mass[k] = c.a[j], c.b[j], row[K_], row[MASS]
+            copy(J[k], row[:21])
+            P[k] = c.Pn[j] if r == 0 else (c.Pt[j, r - 1] if r <= nt else c.Pq[j, r - 1 - nt])
+            k += 1
+    iterate(a, b, J, K, mass, P, c.n_tangents, c.n_rolling, c.n_torsion, c.target, c.mu, c.rolling, c.torsion,
+            c.bias, bodies.v, bodies.w, bodies.vp, bodies.wp, warm, settings.pyramid, settings.iterations,
+            settings.position_iterations, settings.tolerance)
+    k = 0
+    for j in range(C):
+        nt, nq = c.n_tangents[j], c.n_rolling[j] + c.n_torsion[j]
+        c.Pn[j] = P[k]
+        for t in range(nt):
+            c.Pt[j, t] = P[k + 1 + t]
+        for t in range(nq):
+            c.Pq[j, t] = P[k + 1 + nt + t]
         k += 1 + nt + nq
-    return tuple(stages)
+    return stages
 
 
 @njit
@@ -129,14 +151,14 @@ def iterate(a, b, J, K, mass, P, n_tangents, n_rolling, n_torsion, target, mu, r
     """Steps 1 (the warm start's impulses), 2 and 3 of the module docstring, in place on
     the row impulses P, the velocities v, w and the pseudo-velocities vp, wp (per body,
     by world index). Row k joins bodies a[k] and b[k]; J[k] holds its d, r_a x d, r_b x d,
-    d / m_a, d / m_b, I_a^-1 (r_a x d), I_b^-1 (r_b x d) (contact.Row)."""
+    d / m_a, d / m_b, I_a^-1 (r_a x d), I_b^-1 (r_b x d) (contact.py's row numbers)."""
     C = len(n_tangents)
     first = np.zeros(C, dtype=np.int64)  # each contact's normal row
     for j in range(1, C):
         first[j] = first[j - 1] + 1 + n_tangents[j - 1] + n_rolling[j - 1] + n_torsion[j - 1]
     if warm:
         for k in range(len(P)):
-            _apply(J[k], P[k], v[a[k]], w[a[k]], v[b[k]], w[b[k]])
+            apply(J[k], P[k], v[a[k]], w[a[k]], v[b[k]], w[b[k]])
 
     for _ in range(iterations):
         largest = 0.0
@@ -152,11 +174,11 @@ def iterate(a, b, J, K, mass, P, n_tangents, n_rolling, n_torsion, target, mu, r
             if n_torsion[j]:  # the interval [-d_t Pn, d_t Pn]
                 largest = max(largest, _friction(k, q + n_rolling[j], 1, a, b, J, K, mass, P, torsion[j], v, w,
                                                  False))
-            Pn = max(P[k] + mass[k] * (target[j] - _velocity(J[k], v[a[k]], w[a[k]], v[b[k]], w[b[k]])), 0.0)
+            Pn = max(P[k] + mass[k] * (target[j] - velocity(J[k], v[a[k]], w[a[k]], v[b[k]], w[b[k]])), 0.0)
             dP = Pn - P[k]
             if dP != 0.0:
                 P[k] = Pn
-                _apply(J[k], dP, v[a[k]], w[a[k]], v[b[k]], w[b[k]])
+                apply(J[k], dP, v[a[k]], w[a[k]], v[b[k]], w[b[k]])
                 largest = max(largest, abs(dP) * K[k])
         if largest <= tolerance:
             break
@@ -165,18 +187,18 @@ def iterate(a, b, J, K, mass, P, n_tangents, n_rolling, n_torsion, target, mu, r
         targets = np.empty(C)
         for j in range(C):
             k = first[j]
-            targets[j] = bias[j] - max(_velocity(J[k], v[a[k]], w[a[k]], v[b[k]], w[b[k]]), 0.0)
+            targets[j] = bias[j] - max(velocity(J[k], v[a[k]], w[a[k]], v[b[k]], w[b[k]]), 0.0)
         Pp = np.zeros(C)
         for _ in range(position_iterations):
             largest = 0.0
             for j in range(C):
                 k = first[j]
-                P_j = max(Pp[j] + mass[k] * (targets[j] - _velocity(J[k], vp[a[k]], wp[a[k]], vp[b[k]], wp[b[k]])),
+                P_j = max(Pp[j] + mass[k] * (targets[j] - velocity(J[k], vp[a[k]], wp[a[k]], vp[b[k]], wp[b[k]])),
                           0.0)
                 dP = P_j - Pp[j]
                 if dP != 0.0:
                     Pp[j] = P_j
-                    _apply(J[k], dP, vp[a[k]], wp[a[k]], vp[b[k]], wp[b[k]])
+                    apply(J[k], dP, vp[a[k]], wp[a[k]], vp[b[k]], wp[b[k]])
                     largest = max(largest, abs(dP) * K[k])
             if largest <= tolerance:
                 break
@@ -192,16 +214,16 @@ def _friction(k, first, count, a, b, J, K, mass, P, mu, v, w, pyramid) -> float:
     if count == 1 or pyramid:  # 2D: the disc is the interval [-mu Pn, mu Pn]
         largest = 0.0
         for t in range(first, first + count):
-            P_t = max(-limit, min(limit, P[t] - mass[t] * _velocity(J[t], v[a[t]], w[a[t]], v[b[t]], w[b[t]])))
+            P_t = max(-limit, min(limit, P[t] - mass[t] * velocity(J[t], v[a[t]], w[a[t]], v[b[t]], w[b[t]])))
             dP = P_t - P[t]
             if dP != 0.0:
                 P[t] = P_t
-                _apply(J[t], dP, v[a[t]], w[a[t]], v[b[t]], w[b[t]])
+                apply(J[t], dP, v[a[t]], w[a[t]], v[b[t]], w[b[t]])
                 largest = max(largest, abs(dP) * K[t])
         return largest
     t1, t2 = first, first + 1
-    P1 = P[t1] - mass[t1] * _velocity(J[t1], v[a[t1]], w[a[t1]], v[b[t1]], w[b[t1]])
-    P2 = P[t2] - mass[t2] * _velocity(J[t2], v[a[t2]], w[a[t2]], v[b[t2]], w[b[t2]])
+    P1 = P[t1] - mass[t1] * velocity(J[t1], v[a[t1]], w[a[t1]], v[b[t1]], w[b[t1]])
+    P2 = P[t2] - mass[t2] * velocity(J[t2], v[a[t2]], w[a[t2]], v[b[t2]], w[b[t2]])
     norm = math.sqrt(P1 * P1 + P2 * P2)
     if norm > limit:
         scale = limit / norm
@@ -209,60 +231,55 @@ def _friction(k, first, count, a, b, J, K, mass, P, mu, v, w, pyramid) -> float:
     d1, d2 = P1 - P[t1], P2 - P[t2]
     P[t1], P[t2] = P1, P2
     if d1 != 0.0:
-        _apply(J[t1], d1, v[a[t1]], w[a[t1]], v[b[t1]], w[b[t1]])
+        apply(J[t1], d1, v[a[t1]], w[a[t1]], v[b[t1]], w[b[t1]])
     if d2 != 0.0:
-        _apply(J[t2], d2, v[a[t2]], w[a[t2]], v[b[t2]], w[b[t2]])
+        apply(J[t2], d2, v[a[t2]], w[a[t2]], v[b[t2]], w[b[t2]])
     return max(abs(d1) * K[t1], abs(d2) * K[t2])
 
-
-# the two inner-loop operations of contact.Row on one row's J (see iterate)
 @njit
-def _velocity(J, va, wa, vb, wb) -> float:
-    """Row.velocity: d . (v_b - v_a) + (r_b x d) . w_b - (r_a x d) . w_a."""
-    return (J[0] * (vb[0] - va[0]) + J[1] * (vb[1] - va[1]) + J[2] * (vb[2] - va[2])
-            + J[6] * wb[0] + J[7] * wb[1] + J[8] * wb[2]
-            - J[3] * wa[0] - J[4] * wa[1] - J[5] * wa[2])
-
-
-@njit
-def _apply(J, P, va, wa, vb, wb) -> None:
-    """Row.apply: impulse P d on b at its contact point, -P d on a."""
-    va[0] -= P * J[9]; va[1] -= P * J[10]; va[2] -= P * J[11]
-    wa[0] -= P * J[15]; wa[1] -= P * J[16]; wa[2] -= P * J[17]
-    vb[0] += P * J[12]; vb[1] += P * J[13]; vb[2] += P * J[14]
-    wb[0] += P * J[18]; wb[1] += P * J[19]; wb[2] += P * J[20]
-
-
-def _least_squares_start(contacts) -> None:
+def _least_squares_start(contacts, bodies) -> None:
     """Pn, Pt = the minimum-norm P of J M^-1 J^T P = v_target - J v (rows: each contact's
     normal, then its tangents; tangent targets 0), then Pn >= 0 and |Pt| <= mu Pn."""
-    rows = [row for c in contacts for row in (c.normal, *c.tangents)]
-    column = {}  # body -> its 6 columns (v, w) in J; static bodies have none
-    for row in rows:
-        for body in (row.a, row.b):
-            if not body.static and body not in column:
-                column[body] = 6 * len(column)
-    J = np.zeros((len(rows), 6 * len(column)))
+    c, C, N = contacts, len(contacts.a), len(bodies.x)
+    column = np.full(N, -1, np.int64)  # body -> its 6 columns (v, w) in J; static bodies have none
+    n_rows, used = 0, 0
+    for j in range(C):
+        n_rows += 1 + c.n_tangents[j]
+        for body in (c.a[j], c.b[j]):
+            if not bodies.static[body] and column[body] < 0:
+                column[body] = 6 * used
+                used += 1
+    J = np.zeros((n_rows, 6 * used))
     W = np.zeros_like(J)  # rows of M^-1 J^T
-    for k, row in enumerate(rows):
-        for body, sign, arm, linear, angular in ((row.a, -1.0, row.ra_d, row.ma, row.ia),
-                                                 (row.b, 1.0, row.rb_d, row.mb, row.ib)):
-            if body in column:
-                j = column[body]
-                J[k, j:j + 3], J[k, j + 3:j + 6] = sign * np.array(row.d), sign * np.array(arm)
-                W[k, j:j + 3], W[k, j + 3:j + 6] = sign * np.array(linear), sign * np.array(angular)
-    rhs = np.array([(c.target if k == 0 else 0.0) - row.velocity()
-                    for c in contacts for k, row in enumerate((c.normal, *c.tangents))])
+    rhs = np.empty(n_rows)
+    k = 0
+    for j in range(C):
+        for r in range(1 + c.n_tangents[j]):
+            row = c.normal[j] if r == 0 else c.tangents[j, r - 1]
+            for body, sign, arm, linear, angular in ((c.a[j], -1.0, 3, 9, 15), (c.b[j], 1.0, 6, 12, 18)):
+                col = column[body]
+                if col >= 0:
+                    for e in range(3):
+                        J[k, col + e], J[k, col + 3 + e] = sign * row[e], sign * row[arm + e]
+                        W[k, col + e], W[k, col + 3 + e] = sign * row[linear + e], sign * row[angular + e]
+            a, b = c.a[j], c.b[j]
+            rhs[k] = (c.target[j] if r == 0 else 0.0) - velocity(row, bodies.v[a], bodies.w[a], bodies.v[b],
+                                                                  bodies.w[b])
+            k += 1
     # rcond: drop the exact null space (the indeterminate split among a face's corners),
     # keep every physical mode (the stiffest-to-softest ratio of a ten-box stack is ~1e-4)
-    P = np.linalg.lstsq(J @ W.T, rhs, rcond=1e-10)[0].tolist()
+    P = np.linalg.lstsq(J @ W.T, rhs, rcond=1e-10)[0]
     k = 0
-    for c in contacts:
-        c.Pn = max(P[k], 0.0)
-        Pt = P[k + 1:k + 1 + len(c.tangents)]
-        norm, limit = math.sqrt(sum(x * x for x in Pt)), c.mu * c.Pn
-        c.Pt = [x * limit / norm for x in Pt] if norm > limit else Pt
-        k += 1 + len(c.tangents)
+    for j in range(C):
+        nt = c.n_tangents[j]
+        c.Pn[j] = max(P[k], 0.0)
+        norm = 0.0
+        for t in range(nt):
+            norm += P[k + 1 + t] * P[k + 1 + t]
+        norm, limit = math.sqrt(norm), c.mu[j] * c.Pn[j]
+        for t in range(nt):
+            c.Pt[j, t] = P[k + 1 + t] * limit / norm if norm > limit else P[k + 1 + t]
+        k += 1 + nt
 
 
 def knobs(config) -> dict:

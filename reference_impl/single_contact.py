@@ -10,10 +10,14 @@ inverse inertia. Every function returns the impulse p on body a.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from reference_impl.compiled import njit
+from reference_impl.contact import RA_D, RB_D
+from reference_impl.lcp import world_rows
+from reference_impl.pgs import repair_overlap
 
 
 @njit
@@ -137,7 +141,23 @@ def energy_change(p, u_minus, du) -> float:
 
 # --- world formulation "single_contact" (interface: reference_impl/__init__.py) -------------
 
-def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
+class Settings(NamedTuple):
+    iterations: int           # sweeps at most (config.iterations)
+    position_iterations: int  # sweeps of the overlap repair
+    tolerance: float          # m/s
+    slop: float               # m (config.slop: newton_target)
+
+
+def settings(config) -> Settings:
+    return Settings(config.iterations, config.position_iterations, float(config.tolerance), float(config.slop))
+
+
+STAGES = ("impulses", "position")
+IMPULSES, POSITION = 1, 2
+
+
+@njit
+def solve(contacts, bodies, dt, settings) -> int:
     """Note 004's pairwise loop ("loop through the collision set and solve collisions
     pair-wise, and hope..."): sweep the contacts in the world's order; a contact whose
     normal velocity is below its target (newton_target) by more than config.tolerance
@@ -145,37 +165,26 @@ def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
     until a sweep finds none, at most config.iterations sweeps. Impulses only push and are
     never taken back (no accumulation, unlike sequential impulses). Then the overlap
     repair of pgs.repair_overlap."""
-    from reference_impl import lcp, pgs  # pgs/lcp import nothing from here
-    # the contacts and bodies as arrays for the compiled loop (bodies by their world index)
-    C = len(contacts)
-    a = np.array([c.a.index for c in contacts], dtype=np.int64)
-    b = np.array([c.b.index for c in contacts], dtype=np.int64)
-    point, n = np.array([c.point for c in contacts], dtype=float), np.array([c.n for c in contacts], dtype=float)
-    ra_n = np.array([c.normal.ra_d for c in contacts], dtype=float)  # the normal row's r x n
-    rb_n = np.array([c.normal.rb_d for c in contacts], dtype=float)
-    tangents = np.zeros((C, 2, 3))
-    n_tangents = np.array([len(c.tangents) for c in contacts], dtype=np.int64)
-    for j, c in enumerate(contacts):
-        for k, row in enumerate(c.tangents):
-            tangents[j, k] = row.d
-    e, mu_s, mu_k, depth, target = (np.array([getattr(c, name) for c in contacts], dtype=float)
-                                    for name in ("e", "mu_s", "mu_k", "depth", "target"))
-    x = np.array([body.x for body in bodies], dtype=float)
-    inv_mass = np.array([body.inv_mass for body in bodies], dtype=float)
-    inv_I = np.array([body.inv_I for body in bodies], dtype=float).reshape(-1, 3, 3)
-    v, w = np.array([body.v for body in bodies], dtype=float), np.array([body.w for body in bodies], dtype=float)
-    Pn, Pt = np.zeros(C), np.zeros((C, 2))
-    pairwise_loop(a, b, point, n, ra_n, rb_n, tangents, n_tangents, e, mu_s, mu_k, depth, target,
-                  x, inv_mass, inv_I, v, w, Pn, Pt, config.iterations, float(config.tolerance), float(config.slop))
-    for body, v_i, w_i in zip(bodies, v.tolist(), w.tolist()):
-        if not body.static:
-            body.v[:], body.w[:] = v_i, w_i
-    for c, P, P_t in zip(contacts, Pn.tolist(), Pt.tolist()):
-        c.Pn, c.Pt = P, P_t[:len(c.tangents)]
-    stages = ["impulses"]
-    if pgs.repair_overlap(contacts, bodies, *lcp.world_rows(contacts, bodies)[:2], config):
-        stages.append("position")
-    return tuple(stages)
+    c, C = contacts, len(contacts.a)
+    tangents = np.zeros((C, 2, 3))  # each contact's tangent directions
+    for j in range(C):
+        for k in range(c.n_tangents[j]):
+            for e in range(3):
+                tangents[j, k, e] = c.tangents[j, k, e]
+    ra_n = np.ascontiguousarray(c.normal[:, RA_D:RA_D + 3])  # the normal row's r x n
+    rb_n = np.ascontiguousarray(c.normal[:, RB_D:RB_D + 3])
+    Pn, Pt = np.zeros(C), np.zeros((C, 2))  # impulses are never taken back: no warm start
+    pairwise_loop(c.a, c.b, c.point, c.n, ra_n, rb_n, tangents, c.n_tangents, c.e, c.mu_s, c.mu_k, c.depth,
+                  c.target, bodies.x, bodies.inv_mass, bodies.inv_I, bodies.v, bodies.w, Pn, Pt,
+                  settings.iterations, settings.tolerance, settings.slop)
+    for j in range(C):
+        c.Pn[j] = Pn[j]
+        for k in range(c.n_tangents[j]):
+            c.Pt[j, k] = Pt[j, k]
+    rows, data, _ = world_rows(contacts, bodies)
+    if repair_overlap(contacts, bodies, rows, data, settings.position_iterations, settings.tolerance):
+        return IMPULSES | POSITION
+    return IMPULSES
 
 
 @njit

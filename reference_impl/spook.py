@@ -22,15 +22,19 @@ Friction rows (lcp.py's pyramid) have no position to restore: their rhs is
 -G_t W - h G_t M^-1 f (target: no tangential velocity after the step) and no
 regularisation. SPOOK has no restitution: contacts are inelastic.
 Solved by projected Gauss-Seidel (pgs.py) on the mixed LCP, as the note says.
+Compiled (compiled.py), as is the world formulation "spook" below.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
-from reference_impl import lcp, pgs
-from reference_impl.lcp import Bodies, Rows, row_velocity
+from reference_impl import pgs
+from reference_impl.compiled import njit
+from reference_impl.lcp import (Bodies, Rows, apply_velocity_change, row_velocity, store_impulses, world_impulses,
+                                world_rows)
 
 
 # world defaults: a stiff contact (a 1 kg box on its 4 corners sinks 0.025 um) whose
@@ -52,13 +56,13 @@ class SpookSettings:
             raise ValueError(f"d = {self.d!r}: the relaxation (in steps) must be >= 0")
 
 
-@dataclass(frozen=True)
-class SpookStep:
+class SpookStep(NamedTuple):
     u: np.ndarray       # (N, 6) velocities after the step
     lam: np.ndarray     # (K,) row impulses over the step
     sweeps: int
 
 
+@njit
 def parameters(k: float, d: float, h: float) -> tuple[float, float, float]:
     """(eps, a, b) of note 004."""
     eps = 4.0 / (k * h * h * (1.0 + 4.0 * d))
@@ -72,15 +76,45 @@ def step_velocities(rows: Rows, bodies: Bodies, W: np.ndarray, a_ext: np.ndarray
     """One SPOOK velocity update. W (N, 6) is the velocity at the start of the step,
     a_ext = M^-1 f (N, 6) the external acceleration (linear; angular), q the gap of each
     contact, one per normal row in row order; lam0 warm-starts PGS."""
-    eps, a, b = parameters(settings.k, settings.d, h)
-    normal = rows.is_normal
-    GW = row_velocity(rows, W)
-    gap = np.zeros(len(rows))
-    gap[normal] = q
-    rhs = np.where(normal, -a * gap - b * GW, -GW) - h * row_velocity(rows, a_ext)
-    sigma = np.where(normal, eps, 0.0)
-    result = pgs.projected_gauss_seidel(rows, bodies, rhs, settings.pgs, sigma=sigma, gamma0=lam0)
+    return spook_velocities(rows, bodies, np.asarray(W, dtype=float), np.asarray(a_ext, dtype=float),
+                            np.asarray(q, dtype=float), float(h), float(settings.k), float(settings.d),
+                            int(settings.pgs.iterations), float(settings.pgs.tolerance),
+                            np.zeros(len(rows.a)) if lam0 is None else np.asarray(lam0, dtype=float), lam0 is not None)
+
+
+@njit
+def spook_velocities(rows, bodies, W, a_ext, q, h, k, d, iterations, tolerance, lam0, warm) -> SpookStep:
+    """step_velocities, PGS from lam0 when warm (else from zero)."""
+    eps, a, b = parameters(k, d, h)
+    GW, GA = row_velocity(rows, W), row_velocity(rows, a_ext)
+    rhs, sigma, c = np.empty(len(GW)), np.zeros(len(GW)), 0
+    for r in range(len(GW)):
+        if rows.normal[r] == r:  # a normal row: its contact's gap, regularised
+            rhs[r] = -a * q[c] - b * GW[r] - h * GA[r]
+            sigma[r] = eps
+            c += 1
+        else:
+            rhs[r] = -GW[r] - h * GA[r]
+    result = pgs.gauss_seidel(rows, bodies, rhs, iterations, tolerance, sigma, lam0, warm)
     return SpookStep(W + result.du + h * a_ext, result.gamma, result.sweeps)
+
+
+class Settings(NamedTuple):
+    k: float            # contact stiffness per contact point, N/m
+    d: float            # relaxation, steps
+    iterations: int     # PGS sweeps at most
+    tolerance: float    # m/s
+    warm_start: bool
+
+
+def settings(config) -> Settings:
+    found = SpookSettings(k=float(config.params.get("spook_k", DEFAULT_K)),
+                          d=float(config.params.get("spook_d", DEFAULT_D)))  # checks them
+    return Settings(found.k, found.d, config.iterations, float(config.tolerance), config.warm_start)
+
+
+STAGES = ("warm_start", "velocity", "friction")
+WARM_START, VELOCITY, FRICTION = 1, 2, 4
 
 
 def unsupported(world) -> str | None:
@@ -92,25 +126,25 @@ def unsupported(world) -> str | None:
     return None
 
 
-def solve(contacts, bodies, dt: float, config) -> tuple[str, ...]:
+@njit
+def solve(contacts, bodies, dt, settings) -> int:
     """World formulation "spook" (interface: reference_impl/__init__.py). Keys of
     config.params: "spook_k" (contact stiffness per contact point, N/m, default
     DEFAULT_K) and "spook_d" (relaxation in steps, default DEFAULT_D). W is the velocity
     before external forces (body.v0, body.w0), h M^-1 f what the world added since, q the
     contacts' -depth. Warm started from last step's impulses (config.warm_start); at most
     config.iterations PGS sweeps. No pseudo-velocities: SPOOK restores overlap itself."""
-    rows, data, u = lcp.world_rows(contacts, bodies)
-    W = np.array([[*body.v0, *body.w0] for body in bodies], dtype=float).reshape(-1, 6)
-    settings = SpookSettings(k=float(config.params.get("spook_k", DEFAULT_K)),
-                             d=float(config.params.get("spook_d", DEFAULT_D)),
-                             pgs=pgs.PGSSettings(config.iterations, config.tolerance))
-    warm = config.warm_start and any(c.Pn != 0.0 for c in contacts)
-    step = step_velocities(rows, data, W, (u - W) / dt, -np.array([c.depth for c in contacts]), dt,
-                           settings, lcp.world_impulses(contacts) if warm else None)
-    lcp.apply_velocity_change(bodies, step.u - u)
-    lcp.store_impulses(contacts, step.lam)
-    stages = ["warm_start"] if warm else []
-    return tuple(stages + (["velocity", "friction"] if np.any(~rows.is_normal) else ["velocity"]))
+    rows, data, u = world_rows(contacts, bodies)
+    W = np.empty_like(u)
+    for i in range(len(u)):
+        for e in range(3):
+            W[i, e], W[i, 3 + e] = bodies.v0[i, e], bodies.w0[i, e]
+    warm = settings.warm_start and np.any(contacts.Pn != 0.0)
+    step = spook_velocities(rows, data, W, (u - W) / dt, -contacts.depth, dt, settings.k, settings.d,
+                            settings.iterations, settings.tolerance, world_impulses(contacts), warm)
+    apply_velocity_change(bodies, step.u - u, False)
+    store_impulses(contacts, step.lam)
+    return (WARM_START if warm else 0) | VELOCITY | (FRICTION if len(rows.a) > len(contacts.a) else 0)
 
 
 def knobs(config) -> dict:

@@ -1,21 +1,36 @@
-"""The world: bodies, pair materials, gravity, and the time step (see __init__.py)."""
+"""The world: bodies, pair materials, gravity, and the time step (see __init__.py).
+
+`World` is the Python front: it collects bodies and materials, then keeps everything a
+step reads and writes in one `State` (bodies and contacts as arrays, the formulation's
+settings), and each `World.step(dt)` is one call of the compiled `step` below: broad and
+narrow phase, rows, warm start, gravity, the formulation's solve and the integration run
+compiled end to end (compiled.py), with nothing per body or per contact in Python.
+"""
 from __future__ import annotations
 
-import gc
 import importlib
-from dataclasses import dataclass
+import sys
+from dataclasses import dataclass, replace
+from typing import NamedTuple
 
-from reference_impl.broadphase import candidate_pairs
+import numpy as np
+
+from reference_impl.broadphase import pairs as candidate_pairs
+from reference_impl.compiled import int_dict, njit, overload, structure
 from reference_impl.config import Config
-from reference_impl.contact import Contact, prepare
-from reference_impl.geometry import collide
-from reference_impl.rigid_body import RigidBody
+from reference_impl.contact import (MASS, RB_D, Contact, ContactArrays, Contacts, apply, compact, contact_arrays,
+                                    new_contacts, prepare, velocity)
+from reference_impl.geometry import MAX_PAIR_POINTS, narrow_phase, new_points
+from reference_impl.rigid_body import (Bodies, BodyArrays, RigidBody, integrate_position, new_bodies, speed_bound,
+                                       stack)
+from reference_impl.vectors import copy
 
 ALIASES = {"si": "sequential_impulses"}
 
 
 def formulation(name: str):
-    """The module that implements formulation `name` (it defines `solve`)."""
+    """The module that implements formulation `name` (it defines `Settings`, `settings`,
+    `STAGES` and `solve`: see reference_impl/__init__.py)."""
     module = ALIASES.get(name, name)
     try:
         found = importlib.import_module(f"reference_impl.{module}")
@@ -34,7 +49,7 @@ class Material:
     """What a pair does on contact: restitution e, static mu_s and kinetic mu_k friction
     (mu_k None: the same as mu_s), and the lever arms (m) of the contact torques: rolling
     resistance |tau_r| <= rolling N about the tangent axes, torsional friction
-    |tau_n| <= torsion N about the normal (contact.Contact.prepare)."""
+    |tau_n| <= torsion N about the normal (contact._torque_rows)."""
     e: float = 0.0
     mu_s: float = 0.0
     mu_k: float | None = None
@@ -54,6 +69,54 @@ class Material:
         return self.rolling > 0.0 or self.torsion > 0.0
 
 
+class Phases(NamedTuple):
+    """The settings of the world's own phases (from config.Config)."""
+    margin: float
+    slop: float
+    beta: float
+    stick_speed: float
+    warm_start: bool
+    keep_late: bool  # keep the contacts that touch late in the step (force laws need them)
+    # three departures from the notes that physval plants as faults (physval/faults.py),
+    # off unless config.params names them: "tangents": "fixed" keeps the tangent rows along
+    # contact.tangent_basis also while sliding; "restitution_threshold" (m/s) closes a
+    # contact approaching slower than it plastically (target 0 instead of -e vn0);
+    # "restitution_law": "two-phase" solves every contact plastically, then pushes each
+    # bouncing one up to -e vn0 with normal impulses alone (_restitution_after), sweeping
+    # at most config.iterations times until no velocity changes by more than config.tolerance
+    fixed_tangents: bool
+    restitution_threshold: float
+    two_phase: bool
+    iterations: int
+    tolerance: float
+
+
+@structure
+class State:
+    """Everything a step reads and writes."""
+    bodies: Bodies
+    gravity: np.ndarray      # (3,)
+    materials: np.ndarray    # (M, 5): e, mu_s, mu_k, rolling, torsion; row 0 the world's own
+    material_of: np.ndarray  # (N, N) int: the row of materials of each pair of bodies
+    phases: Phases
+    settings: tuple          # the formulation's Settings (its type picks the formulation)
+    features: dict           # clip-node ids of the narrow phase (geometry._clip_feature)
+    contacts: Contacts       # the last step's (their impulses warm-start the next)
+    pairs: np.ndarray        # (P, 2) body pairs in contact in the last step
+    impulses: np.ndarray     # (P,) their normal impulse, N s
+
+
+class Saved(NamedTuple):
+    """A world's state between steps (World.save), as plain copies: every body's row and the
+    warm start, i.e. the last step's contacts (their impulses), the narrow phase's feature
+    ids they are matched by, and the pairs' normal impulses."""
+    bodies: BodyArrays
+    features: dict           # geometry._clip_feature's ids: (4 ints) -> int
+    contacts: ContactArrays
+    pairs: np.ndarray
+    impulses: np.ndarray
+
+
 class World:
     """Bodies (`add`), pair materials (`set_material`; others get `material`), gravity and
     a `Config`. After each `step(dt)`: `contacts` of the step, `stages` that ran and
@@ -67,20 +130,36 @@ class World:
         self.solver = formulation(config.formulation)
         self.bodies: list[RigidBody] = []
         self.pair_materials: dict[tuple[int, int], Material] = {}
-        self.contacts: list[Contact] = []
         self.stages: tuple[str, ...] = ()
-        self.normal_impulses: dict[tuple[str, str], float] = {}
-        self._previous: dict = {}  # (a index, b index, feature) -> (Pn, tangential impulse vector)
+        self.settings = None   # the formulation's Settings, made with the State
+        self._state = None     # built at the first step, again after the world changes
+        self._contacts = None  # the last step's contacts as contact.Contact, made when asked for
+        self._stage_names: dict[int, tuple[str, ...]] = {}
 
     # --- building --------------------------------------------------------------------------
 
     def add(self, body: RigidBody) -> RigidBody:
         body.index = len(self.bodies)
         self.bodies.append(body)
+        self._state = None
         return body
 
     def set_material(self, a: RigidBody, b: RigidBody, material: Material) -> None:
         self.pair_materials[(min(a.index, b.index), max(a.index, b.index))] = material
+        self._state = None
+
+    def configure(self, material: Material | None = None, config: Config | None = None, **params) -> None:
+        """Change the default material, the whole `config`, or add formulation settings
+        (Config.params: the friction set, or a hook of the step's Phases: "tangents",
+        "restitution_threshold", "restitution_law") after bodies were added: the compiled
+        state is built again at the next step (the warm start kept)."""
+        if material is not None:
+            self.material = material
+        if config is not None:
+            self.config = config
+        if params:
+            self.config = replace(self.config, params={**self.config.params, **params})
+        self._state = None
 
     def material_of(self, a: RigidBody, b: RigidBody) -> Material:
         return self.pair_materials.get((min(a.index, b.index), max(a.index, b.index)), self.material)
@@ -94,106 +173,315 @@ class World:
         check = getattr(self.solver, "unsupported", None)
         return check(self) if check is not None else None
 
+    def save(self) -> Saved:
+        """Everything the next step reads that the bodies and materials do not give, copied:
+        with `restore`, a world built the same way continues exactly as this one would."""
+        if self._state is None:
+            self._state = self._build()
+        pairs, impulses = _impulses(self._state)
+        return Saved(stack(self.bodies), dict(_features(self._state).items()),
+                     ContactArrays(*(a.copy() for a in contact_arrays(_contacts(self._state)))),
+                     pairs.copy(), impulses.copy())
+
+    def restore(self, saved: Saved) -> None:
+        """Continue from `saved` (`save` of a world with the same bodies, materials and
+        config): the bodies take its rows, the next step its warm start."""
+        arrays = BodyArrays(*(a.copy() for a in saved.bodies))
+        bodies = new_bodies(arrays)
+        for i, body in enumerate(self.bodies):
+            body.attach(arrays, bodies, i)
+        features = int_dict(4)
+        for key, value in saved.features.items():
+            features[key] = value
+        self._state = self._build((features, Contacts(*(a.copy() for a in saved.contacts)), saved.pairs.copy(),
+                                   saved.impulses.copy()))
+        self._contacts = None
+
+    def _build(self, warm: tuple | None = None) -> State:
+        """The State of this world: the bodies' rows gathered into one Bodies (each body
+        then shows its row), the last step's contacts kept (or `warm`: features, contacts,
+        pairs, impulses)."""
+        arrays = stack(self.bodies)
+        bodies = new_bodies(arrays)
+        for i, body in enumerate(self.bodies):
+            body.attach(arrays, bodies, i)
+        N, table = len(self.bodies), [self.material, *self.pair_materials.values()]
+        materials = np.array([(m.e, m.mu_s, m.mu_k, m.rolling, m.torsion) for m in table], dtype=float)
+        material_of = np.zeros((N, N), np.int64)
+        for row, (i, j) in enumerate(self.pair_materials, start=1):
+            material_of[i, j] = material_of[j, i] = row
+        c = self.config
+        phases = Phases(float(c.margin), float(c.slop), float(c.beta), float(c.stick_speed), bool(c.warm_start),
+                        bool(getattr(self.solver, "KEEP_LATE_CONTACTS", False)),
+                        c.params.get("tangents", "slip") == "fixed", float(c.params.get("restitution_threshold", 0.0)),
+                        c.params.get("restitution_law", "newton") == "two-phase", int(c.iterations), float(c.tolerance))
+        if warm is not None:
+            features, contacts, pairs, impulses = warm
+        elif self._state is None:
+            features, contacts, pairs, impulses = int_dict(4), new_contacts(0), np.zeros((0, 2), np.int64), np.zeros(0)
+        else:  # the last step's, for the warm start
+            features, contacts, (pairs, impulses) = _features(self._state), _contacts(self._state), \
+                _impulses(self._state)
+        self.settings = self.solver.settings(c)  # the formulation's (compiled code shares its arrays)
+        return new_state(bodies, np.array(self.gravity, dtype=float), materials, material_of, phases,
+                         self.settings, features, contacts, pairs, impulses)
+
     # --- stepping --------------------------------------------------------------------------
 
     def step(self, dt: float) -> None:
-        """One step (see _step), with Python's cyclic garbage collector paused. A step
-        makes ~10^4 short-lived objects on a 55-box pyramid (contacts, rows, their
-        tuples); every 700 of them started a collection walking the young objects, every
-        tenth of those a larger one, and those walks over the host process's heap were a
-        third of a pyramid step (measured: 37 ms to 25 ms). A step's objects hold no
-        reference cycles, so reference counting frees them as before; the collector
-        resumes after the step. Results are unchanged: collecting frees memory, it
-        computes nothing."""
-        paused = gc.isenabled()
-        if paused:
-            gc.disable()
-        try:
-            self._step(dt)
-        finally:
-            if paused:
-                gc.enable()
+        """One step: `step` below, compiled."""
+        if self._state is None:
+            self._state = self._build()
+        ran = step(self._state, float(dt))
+        self._contacts = None
+        names = self._stage_names.get(ran)
+        if names is None:
+            names = self._stage_names[ran] = self._names(ran)
+        self.stages = names
 
-    def _step(self, dt: float) -> None:
-        stages = ["collide"]
-        dynamic = [b for b in self.bodies if not b.static]
-        for body in dynamic:  # velocities before external forces
-            body.v0[:] = body.v
-            body.w0[:] = body.w
+    def _names(self, ran: int) -> tuple[str, ...]:
+        """The stages a step's bit mask says ran, in order (world's, then the formulation's)."""
+        name = self.config.formulation
+        every = [*WORLD_STAGES[:2], *(f"{name}:{s}" for s in self.solver.STAGES), *WORLD_STAGES[2:]]
+        bits = [COLLIDE, GRAVITY, *(1 << (SOLVER_SHIFT + k) for k in range(len(self.solver.STAGES))),
+                POSITIONS, ROTATIONS]
+        return tuple(s for s, bit in zip(every, bits) if ran & bit)
 
-        # collide: broad phase, narrow phase, rows, warm-start impulses
-        self.contacts = self.collide(dt)
+    @property
+    def contacts(self) -> list[Contact]:
+        """The contacts of the last step (contact.Contact: copies, read from its arrays)."""
+        if self._contacts is None:
+            found = contact_arrays(_contacts(self._state)) if self._state is not None else None
+            self._contacts = [] if found is None else [Contact(found, j, self.bodies) for j in range(len(found.a))]
+        return self._contacts
 
-        # integrate forces: gravity into the velocities
-        gx, gy, gz = self.gravity
-        if gx != 0.0 or gy != 0.0 or gz != 0.0:
-            stages.append("gravity")
-            for body in dynamic:
-                v = body.v
-                v[0] += gx * dt
-                v[1] += gy * dt
-                v[2] += gz * dt
+    @property
+    def normal_impulses(self) -> dict[tuple[str, str], float]:
+        """The last step's normal impulse per body pair in contact (sorted names), N s."""
+        if self._state is None:
+            return {}
+        out = {}
+        pairs, impulses = _impulses(self._state)
+        for (i, j), P in zip(pairs.tolist(), impulses.tolist()):
+            a, b = self.bodies[i].name, self.bodies[j].name
+            out[(a, b) if a <= b else (b, a)] = P
+        return out
 
-        # solve the contacts with the configured formulation
-        if self.contacts:
-            stages += [f"{self.config.formulation}:{s}" for s in
-                       self.solver.solve(self.contacts, self.bodies, dt, self.config)]
 
-        # integrate positions (and orientations of the bodies that rotate)
-        stages.append("positions")
-        if any(b.can_rotate for b in dynamic):
-            stages.append("rotations")
-        for body in dynamic:
-            body.integrate_position(dt)
-            body.clear_pseudo()
+@njit
+def new_state(bodies, gravity, materials, material_of, phases, settings, features, contacts, pairs, impulses):
+    return State(bodies, gravity, materials, material_of, phases, settings, features, contacts, pairs, impulses)
 
-        self._remember()
-        self.stages = tuple(stages)
 
-    def collide(self, dt: float) -> list[Contact]:
-        """Contacts up to config.margin apart, plus the step each body may travel (so a
-        contact this step will make is seen now: Contact.normal_target)."""
-        margin = self.config.margin
-        reach = [0.0 if b.static else dt * b.speed_bound() for b in self.bodies]
-        found = []
-        for i, j in candidate_pairs(self.bodies, margin, reach):
-            a, b, points = collide(self.bodies[i], self.bodies[j], margin + reach[i] + reach[j])
-            if not points:
-                continue
-            mat = self.material_of(a, b)
-            planar = a.planar or b.planar
-            for point, n, depth, feature in points:
-                found.append(Contact(a, b, point, n, depth, feature, mat.e, mat.mu_s, mat.mu_k, planar,
-                                     mat.rolling, mat.torsion))
-        prepare(found, dt, self.config)  # rows, vn0, targets of all contacts at once
-        contacts = []
-        previous = self._previous if self.config.warm_start else {}
-        keep_late = getattr(self.solver, "KEEP_LATE_CONTACTS", False)
-        for c in found:
-            if c.target is None and not keep_late:
-                continue  # touches late in the step: the next step's contact (impulse formulations)
-            old = previous.get((c.a.index, c.b.index, c.feature))
-            if old is not None:
-                c.warm = True
-                c.Pn = old[0]
-                c.Pt = [sum(P * d for P, d in zip(old[1], row.d)) for row in c.tangents]
-                c.Pq = [sum(P * d for P, d in zip(old[2], row.rb_d)) for row in c.torques]
-            contacts.append(c)
-        return contacts
+# Python reads a State's fields through compiled getters
+@njit
+def _contacts(state):
+    return state.contacts
 
-    def _remember(self) -> None:
-        """Keep this step's impulses for warm starting and report them per body pair."""
-        self._previous = {}
-        impulses = {}
-        for c in self.contacts:
-            Pt, Pq = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
-            for row, P in zip(c.tangents, c.Pt):
+
+@njit
+def _impulses(state):
+    return state.pairs, state.impulses
+
+
+@njit
+def _features(state):
+    return state.features
+
+
+# the stages of a step, bits of `step`'s result: the world's, and from SOLVER_SHIFT on the
+# formulation's (bit SOLVER_SHIFT + k: its STAGES[k])
+WORLD_STAGES = ("collide", "gravity", "positions", "rotations")
+COLLIDE, GRAVITY, POSITIONS, ROTATIONS = 1, 2, 4, 8
+SOLVER_SHIFT = 4
+
+
+def solve(contacts, bodies, dt, settings):
+    """The formulation's solve: that of the module whose `Settings` `settings` is."""
+    return sys.modules[type(settings).__module__].solve(contacts, bodies, dt, settings)
+
+
+@overload(solve)
+def _solve_of(contacts, bodies, dt, settings):
+    """Compiled, the same choice made once, when `step` compiles for a formulation."""
+    chosen = sys.modules[settings.instance_class.__module__].solve
+    return lambda contacts, bodies, dt, settings: chosen(contacts, bodies, dt, settings)
+
+
+@njit
+def step(state, dt) -> int:
+    """One step (note 001, "simulation loop"); returns the stages that ran (bits, above).
+
+    1. collide: broad phase, narrow phase (shapes up to config.margin apart, plus the step
+       each body can travel), each contact's rows, approach velocity, target and bias
+       (contact.prepare), and last step's impulses of the same contacts (warm start);
+    2. gravity: v += g dt (skipped when gravity is zero);
+    3. solve: the formulation of `state.settings` changes the body velocities;
+    4. integrate positions and orientations from v + vp, w + wp, then clear vp, wp."""
+    bodies = state.bodies
+    N = len(bodies.x)
+    for i in range(N):  # velocities before external forces
+        if not bodies.static[i]:
+            for k in range(3):
+                bodies.v0[i, k], bodies.w0[i, k] = bodies.v[i, k], bodies.w[i, k]
+    ran = COLLIDE
+    contacts = collide(bodies, state.contacts, state.features, state.materials, state.material_of, dt, state.phases)
+
+    g = state.gravity  # integrate forces: gravity into the velocities
+    if g[0] != 0.0 or g[1] != 0.0 or g[2] != 0.0:
+        ran |= GRAVITY
+        for i in range(N):
+            if not bodies.static[i]:
                 for k in range(3):
-                    Pt[k] += P * row.d[k]
-            for row, P in zip(c.torques, c.Pq):  # an angular row's axis is its rb_d
-                for k in range(3):
-                    Pq[k] += P * row.rb_d[k]
-            self._previous[(c.a.index, c.b.index, c.feature)] = (c.Pn, Pt, Pq)
-            key = (c.a.name, c.b.name) if c.a.name <= c.b.name else (c.b.name, c.a.name)
-            impulses[key] = impulses.get(key, 0.0) + c.Pn
-        self.normal_impulses = impulses
+                    bodies.v[i, k] += g[k] * dt
+
+    if len(contacts.a):  # solve the contacts with the configured formulation
+        if state.phases.two_phase:  # the planted fault of Phases
+            ran |= _two_phase(contacts, bodies, dt, state.settings, state.phases) << SOLVER_SHIFT
+        else:
+            ran |= solve(contacts, bodies, dt, state.settings) << SOLVER_SHIFT
+
+    ran |= POSITIONS  # integrate positions (and orientations of the bodies that rotate)
+    for i in range(N):
+        if not bodies.static[i]:
+            if bodies.can_rotate[i]:
+                ran |= ROTATIONS
+            integrate_position(bodies, i, dt)
+            for k in range(3):
+                bodies.vp[i, k], bodies.wp[i, k] = 0.0, 0.0
+
+    state.contacts = contacts
+    state.pairs, state.impulses = _pair_impulses(contacts)
+    return ran
+
+
+@njit
+def _two_phase(contacts, bodies, dt, settings, phases) -> int:
+    """The two-phase law of Phases: the formulation solves with every bouncing contact's
+    target (> 0) set to 0; then each of them is pushed up to its target by normal impulses
+    alone, Gauss-Seidel in contact order, and its target set back."""
+    goals = contacts.target.copy()
+    for j in range(len(goals)):
+        if goals[j] > 0.0:
+            contacts.target[j] = 0.0
+    ran = solve(contacts, bodies, dt, settings)
+    for _ in range(phases.iterations):
+        largest = 0.0
+        for j in range(len(goals)):
+            if goals[j] > 0.0:
+                a, b, row = contacts.a[j], contacts.b[j], contacts.normal[j]
+                dv = goals[j] - velocity(row, bodies.v[a], bodies.w[a], bodies.v[b], bodies.w[b])
+                if dv > 0.0:
+                    P = row[MASS] * dv
+                    apply(row, P, bodies.v[a], bodies.w[a], bodies.v[b], bodies.w[b])
+                    contacts.Pn[j] += P
+                    largest = max(largest, dv)
+        if largest <= phases.tolerance:
+            break
+    for j in range(len(goals)):
+        if goals[j] > 0.0:
+            contacts.target[j] = goals[j]
+    return ran
+
+
+@njit
+def collide(bodies, previous, features, materials, material_of, dt, phases):
+    """Contacts up to phases.margin apart, plus the step each body may travel (so a
+    contact this step will make is seen now: contact.normal_target), with their rows, and
+    warm-started from `previous` (the last step's contacts)."""
+    N = len(bodies.x)
+    reach = np.zeros(N)
+    for i in range(N):
+        if not bodies.static[i]:
+            reach[i] = dt * speed_bound(bodies, i)
+    pairs = candidate_pairs(bodies, phases.margin, reach)
+    found = new_points(MAX_PAIR_POINTS * len(pairs))
+    first, second = np.empty(len(found.depth), np.int64), np.empty(len(found.depth), np.int64)
+    count = 0
+    for p in range(len(pairs)):
+        i, j = pairs[p, 0], pairs[p, 1]
+        a, b, m = narrow_phase(bodies, i, j, phases.margin + reach[i] + reach[j], features, found, count)
+        for t in range(count, count + m):
+            first[t], second[t] = a, b
+        count += m
+    contacts = new_contacts(count)
+    for k in range(count):
+        a, b = first[k], second[k]
+        material = materials[material_of[a, b]]
+        contacts.a[k], contacts.b[k], contacts.depth[k], contacts.feature[k] = a, b, found.depth[k], found.feature[k]
+        copy(contacts.point[k], found.point[k])
+        copy(contacts.n[k], found.n[k])
+        contacts.e[k], contacts.mu_s[k], contacts.mu_k[k] = material[0], material[1], material[2]
+        contacts.rolling[k], contacts.torsion[k] = material[3], material[4]
+        contacts.planar[k] = bodies.planar[a] or bodies.planar[b]
+    prepare(contacts, bodies, dt, phases.beta, phases.slop, phases.stick_speed,  # rows, vn0, targets
+            phases.fixed_tangents, phases.restitution_threshold)
+    if not phases.keep_late:  # touches late in the step: the next step's contact (impulse formulations)
+        contacts = compact(contacts, ~np.isnan(contacts.target))
+    if phases.warm_start:
+        _warm_start(contacts, previous)
+    return contacts
+
+
+@njit
+def _warm_start(contacts, previous) -> None:
+    """Each contact that `previous` has too (same bodies, same feature: the last of them)
+    starts from its impulses (note 001, "inter-timestep persistence"): Pn as it was, the
+    tangential and torque impulses as world vectors projected on this step's rows. Both
+    lists are in body-pair order, so one pass over `previous` finds them."""
+    c, p, m = contacts, previous, 0
+    M = len(previous.a)
+    for j in range(len(c.a)):
+        pair = (min(c.a[j], c.b[j]), max(c.a[j], c.b[j]))
+        while m < M and (min(p.a[m], p.b[m]), max(p.a[m], p.b[m])) < pair:
+            m += 1
+        old = -1
+        for t in range(m, M):
+            if (min(p.a[t], p.b[t]), max(p.a[t], p.b[t])) != pair:
+                break
+            if p.a[t] == c.a[j] and p.b[t] == c.b[j] and p.feature[t] == c.feature[j]:
+                old = t
+        if old < 0:
+            continue
+        c.warm[j] = True
+        c.Pn[j] = p.Pn[old]
+        Pt = _world_vector(p.tangents[old], p.Pt[old], p.n_tangents[old], 0)
+        Pq = _world_vector(p.torques[old], p.Pq[old], p.n_rolling[old] + p.n_torsion[old], RB_D)
+        for k in range(c.n_tangents[j]):
+            c.Pt[j, k] = _project(Pt, c.tangents[j, k], 0)
+        for k in range(c.n_rolling[j] + c.n_torsion[j]):
+            c.Pq[j, k] = _project(Pq, c.torques[j, k], RB_D)
+
+
+@njit
+def _world_vector(rows, P, count, axis):
+    """sum_k P[k] times the direction of rows[k] (its d at `axis` 0, or its r_b x d: a
+    torque row's axis)."""
+    out = np.zeros(3)
+    for k in range(count):
+        for e in range(3):
+            out[e] += P[k] * rows[k, axis + e]
+    return out
+
+
+@njit
+def _project(vector, row, axis) -> float:
+    """vector . the row's direction, summed from 0."""
+    total = 0.0
+    for e in range(3):
+        total += vector[e] * row[axis + e]
+    return total
+
+
+@njit
+def _pair_impulses(contacts):
+    """The body pairs in contact (in the contacts' order) and the sum of their normal impulses."""
+    C = len(contacts.a)
+    pairs, impulses, P = np.empty((C, 2), np.int64), np.empty(C), 0
+    for j in range(C):
+        a, b = min(contacts.a[j], contacts.b[j]), max(contacts.a[j], contacts.b[j])
+        if P == 0 or pairs[P - 1, 0] != a or pairs[P - 1, 1] != b:
+            pairs[P, 0], pairs[P, 1], impulses[P] = a, b, 0.0
+            P += 1
+        impulses[P - 1] += contacts.Pn[j]
+    return pairs[:P].copy(), impulses[:P].copy()

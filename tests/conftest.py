@@ -21,6 +21,13 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 # engine-wide readings cache their jobs here (physval.core.store.cache_dir), not in the user's cache
 os.environ.setdefault("PHYSVAL_CACHE_DIR", tempfile.mkdtemp(prefix="physval-test-cache-"))
+# one run's rows of each built-in job, shared by the tests that read them (tests.helpers.shared_rows):
+# made by the session's first process, inherited by its pytest-xdist workers, removed at its end
+if "PHYSVAL_TEST_ROWS" not in os.environ:
+    import atexit
+    import shutil
+    os.environ["PHYSVAL_TEST_ROWS"] = tempfile.mkdtemp(prefix="physval-test-rows-")
+    atexit.register(shutil.rmtree, os.environ["PHYSVAL_TEST_ROWS"], ignore_errors=True)
 
 
 # Hypothesis profiles. "ci" (the default): derandomized, so every run draws the same

@@ -1,9 +1,38 @@
 """Running jobs in the test process (no worker), with stand-in adapters and known deviations;
-and a built-in variant's scene at its family's dt, for the tests that build an engine directly."""
+one run's rows of a built-in job shared by every test that reads them; and a built-in
+variant's scene at its family's dt, for the tests that build an engine directly."""
 from __future__ import annotations
+
+import hashlib
+import os
+import pickle
+from pathlib import Path
 
 from physval.core import Context, Job, execute
 from physval.core.context import Resolver
+
+SHARED_ROWS = "PHYSVAL_TEST_ROWS"  # the session's folder of shared job rows (tests/conftest.py)
+_rows: dict[str, tuple[dict, ...]] = {}
+
+
+def shared_rows(job: Job) -> list[dict]:
+    """The rows of `job` (built-in families and engines, no stand-ins) as this test session
+    ran it once: the battery (tests/test_cases.py), the agreement tests and the faults'
+    unmodified runs read the same job's rows, and run it only if no test of the session
+    has, in this process or in another pytest-xdist worker (the folder $PHYSVAL_TEST_ROWS
+    they share; without it, this process only). Each caller gets its own copies."""
+    if job.key not in _rows:
+        folder = os.environ.get(SHARED_ROWS)
+        path = Path(folder) / (hashlib.sha256(job.key.encode()).hexdigest()[:32] + ".pickle") if folder else None
+        if path is not None and path.is_file():
+            _rows[job.key] = pickle.loads(path.read_bytes())
+        else:
+            _rows[job.key] = tuple(execute(job, Context().resolver()).rows)
+            if path is not None:
+                tmp = path.with_name(f".{path.name}.{os.getpid()}")
+                tmp.write_bytes(pickle.dumps(_rows[job.key]))
+                os.replace(tmp, path)  # whole or absent for a reader in another worker
+    return [dict(r) for r in _rows[job.key]]
 
 
 def run_job(job: Job, family=None, adapter=None, known=None) -> list[dict]:

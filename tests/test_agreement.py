@@ -12,10 +12,11 @@ from typing import NamedTuple
 import pytest
 
 from cases.registry import builtin_families
-from physval.core import Context, Job, execute
+from physval.core import Context, Job
 from physval.readings.agreement import REFERENCE, distance
 
 from tests.conftest import selected_engines
+from tests.helpers import shared_rows
 
 
 @functools.cache
@@ -23,11 +24,11 @@ def _families():
     return {n: f for n, f in builtin_families().items() if f.cross_engine}
 
 
-@functools.cache
-def _rows(family: str, variant_id: str, engine: str) -> tuple[dict, ...]:
+def _rows(family: str, variant_id: str, engine: str) -> list[dict]:
+    """The job's rows as the session ran it (its battery test reads the same: shared_rows)."""
     fam = _families()[family]
     variant = next(v for v in fam.variants if v.id == variant_id)
-    return tuple(execute(Job(family, variant, engine), Context().resolver()).rows)
+    return shared_rows(Job(family, variant, engine))
 
 
 class Pairing(NamedTuple):

@@ -99,6 +99,26 @@ def test_check_case_names_the_file_and_line_where_the_observer_raised(tmp_path, 
     assert "observe() raised LinAlgError" in err and err.endswith(f", at {path}:{line}") and err.count("\n") == 0, err
 
 
+def test_a_run_s_error_row_names_the_file_and_line_where_the_observer_raised(tmp_path):
+    """`physval run`'s error row for a user's family names the user's own line, with the
+    innermost frame (numpy's) beside it; an observer raising on its own line names that."""
+    from physval.core import Context, Job, execute
+    from physval.core.context import Resolver
+    path = write_example(tmp_path)
+    text = path.read_text()
+    for call, inner in (("np.linalg.inv(np.zeros((2, 2)))", True), ("int('x')", False)):
+        path.write_text(text.replace("def observe(traj, p):\n",
+                                     f"def observe(traj, p):\n    import numpy as np\n    {call}\n"))
+        line = path.read_text().splitlines().index(f"    {call}") + 1
+        resolver = Resolver(Context(cases_dirs=(str(tmp_path / "my_cases"),)))
+        family = resolver.family("pair_drop")
+        rows = execute(Job("pair_drop", family.variants[0], "reference"), resolver).rows
+        reasons = {r["reason"] for r in rows}
+        assert {r["status"] for r in rows} == {"error"} and len(reasons) == 1, rows
+        (reason,) = reasons
+        assert f"(at {path}:{line}, in " in reason if inner else reason.endswith(f"(at {path}:{line})"), reason
+
+
 def test_user_code_names_the_users_line_past_physvals_own_frames(tmp_path):
     """An observer asking physval's Trajectory for a body it does not have: the TrajectoryError is
     raised in cases/trajectory.py, the line named is the observer's."""

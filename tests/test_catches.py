@@ -3,9 +3,13 @@ of physval/faults.py and the variant that shows it), and each is planted there a
 a check fails with the fault, and none without it. So a family cannot claim what it
 cannot see: its docstring's claims are faults its checks are shown to fail.
 
-The faults are planted at the adapter layer (physval.faults.FaultyAdapter) on the
+The faults are planted at the adapter layer (adapters.planting.Planted) on the
 reference engine (or the reference formulation a variant needs), in this process: one
-variant per fault, each in well under a second of simulation but a few.
+variant per fault, each in well under a second of simulation but a few. A family whose
+shapes the reference cannot run yet (capsules and cylinders: its narrow phase is issue 36
+item 2) names an engine that represents them and passes the variant as it is; there only
+the faults that engine can take (adapters.planting.why_not) can be planted, and the catch is
+skipped where that engine is not installed.
 """
 from __future__ import annotations
 
@@ -41,6 +45,7 @@ BLIND = {
     ("resting_blocks", "friction"): "an aligned stack at rest has no tangential force",
     ("stack_forces", "friction"): "an aligned stack at rest has no tangential force",
     ("stack_strike", "friction"): "a sphere dropped on the stack's centre strikes along the normal",
+    ("lying_cylinder", "friction"): "a cylinder at rest on its side has no tangential force",
 }
 
 
@@ -60,6 +65,9 @@ def rows(family: str, variant: str, engine: str, fault: str) -> tuple[dict, ...]
 
 @pytest.mark.parametrize("name,catch", CATCHES, ids=[label(c) for c in CATCHES])
 def test_each_wrong_answer_a_family_names_fails_a_check_there(name, catch):
+    from adapters import registry
+    if not registry.available(catch.engine):
+        pytest.skip(f"{catch.engine} is not installed")
     plain = rows(name, catch.variant, catch.engine, faults.NONE.name)
     assert plain and all(r["status"] == "pass" for r in plain), \
         [(r["metric"], r["status"], r["reason"][:120]) for r in plain if r["status"] != "pass"]
@@ -69,10 +77,13 @@ def test_each_wrong_answer_a_family_names_fails_a_check_there(name, catch):
 
 
 def test_every_catch_names_a_planted_fault_that_can_be_planted_there():
+    """Plantable in the engine the catch names (planting.why_not says why it cannot be), where
+    that engine is installed."""
+    from adapters import registry
     for name, catch in CATCHES:
         fault = faults.by_name(catch.fault)  # KeyError names the catalogue
-        kind = "reference" if catch.engine == "reference" else "any"
-        assert kind in fault.kinds or "any" in fault.kinds, (name, catch)
+        if registry.available(catch.engine):
+            assert faults.plantable_in(catch.engine, fault) is None, (name, catch, faults.plantable_in(catch.engine, fault))
 
 
 def test_every_family_names_what_it_catches():

@@ -5,6 +5,7 @@ exit when their parent dies; every start method runs the same jobs."""
 from __future__ import annotations
 
 import csv
+import os
 import signal
 import subprocess
 import sys
@@ -188,7 +189,7 @@ def _wait_for_busy_workers(cases_dir: Path, n: int, proc: subprocess.Popen, limi
 
 
 # s within which an interrupted run must have stopped: it stops its workers at once and writes
-# a report marked incomplete (about a second on an idle machine; README: "within 2 s"). The
+# a report marked incomplete (about a second on an idle machine; docs/use/running.md: "at once"). The
 # jobs it interrupts would run for an hour, so only a run that waited for them exceeds it.
 STOPS = 60
 
@@ -230,7 +231,8 @@ def test_every_child_exits_when_the_main_process_is_killed(cases_dir, tmp_path, 
     """SIGKILL leaves the main process no cleanup at all. Its two workers are in a job of
     10 minutes (so no job's end lets them notice), and under forkserver the fork server and
     the resource tracker are its children too: every descendant must be gone within STOPS
-    (README: within a second; the margin is for a loaded machine, the job's end is far later)."""
+    (docs/use/running.md: within a second; the margin is for a loaded machine, the job's end is far
+    later)."""
     psutil = pytest.importorskip("psutil")
     proc = _start(cases_dir, tmp_path / "out", nap=600.0, method=method)
     t0 = time.monotonic()
@@ -259,6 +261,26 @@ def test_every_start_method_runs_the_same_jobs(cases_dir, tmp_path, method):
                  "--out", str(out)]) == 0
     rows = _rows(out)
     assert sorted(rows) == ["k=1", "k=3"] and all(r["status"] == "pass" for rs in rows.values() for r in rs)
+
+
+def test_a_cases_folder_in_the_current_directory_does_not_shadow_physval_in_the_workers(tmp_path):
+    """A user keeps their own package `cases/` where they run physval. The fork server is a
+    `python -c` process, which puts the current directory first on its path: before the
+    fix it preloaded the user's `cases` instead of physval's, every worker forked from it,
+    and every job failed. The command runs as the installed `physval` script does (the
+    current directory not on the main process's path)."""
+    (tmp_path / "cases").mkdir()
+    (tmp_path / "cases" / "__init__.py").write_text("MINE = True\n")
+    out = tmp_path / "out"
+    code = "import sys; sys.path.remove(''); from physval.cli import main; sys.exit(main(sys.argv[1:]))"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    proc = subprocess.run([sys.executable, "-c", code, "run", "--cases", "central_impact[drop,e=0.5]", "--engines",
+                           "reference", "--readings", "none", "--workers", "1", "--start-method", "forkserver",
+                           "--quiet", "--out", str(out)], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    rows = list(csv.DictReader(open(out / "results.csv")))
+    assert rows and all(r["status"] == "pass" for r in rows), [(r["status"], r["reason"][-200:]) for r in rows]
 
 
 def test_plain_calls_run_on_the_executor_and_a_crash_costs_only_its_call():
@@ -376,6 +398,94 @@ def test_knobs_are_kept_once_per_engine_in_knobs_json_and_read_back_whole(tmp_pa
     (tmp_path / KNOBS_FILE).unlink()
     lost = RowStore(tmp_path / "results.csv", COLUMNS, knobs_file=tmp_path / KNOBS_FILE)
     assert lost.load(lambda row: "k") == 0  # a record it cannot find: the job runs again
+
+
+# --- scheduling: jobs sent ahead, one executor for every stream of a command -----------------
+
+@pytest.fixture
+def ahead(monkeypatch):
+    """Every worker holds three jobs beyond the one it runs, however short the queue."""
+    from physval.core import executor
+    monkeypatch.setattr(executor, "SEND_AHEAD", 3)
+    monkeypatch.setattr(executor, "SEND_AHEAD_QUEUE", 0)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_jobs_sent_ahead_to_a_worker_that_dies_run_elsewhere_and_only_the_crashing_job_is_lost(
+        cases_dir, tmp_path, workers, ahead):
+    """A worker that dies in its first job held three more it had not begun: they go back to
+    the queue and run in another worker; the crash costs only its own rows."""
+    _faults(cases_dir, crash=0)
+    out = tmp_path / "out"
+    assert main(["run", "--cases-dir", str(cases_dir), "--cases", "faulty_fall", "--engines", "reference",
+                 "--workers", str(workers), "--quiet", "--out", str(out)]) == 0
+    rows = _rows(out)
+    assert sorted(rows) == [f"k={k}" for k in range(6)]
+    assert rows["k=0"][0]["status"] == "error" and "SIGSEGV" in rows["k=0"][0]["reason"]
+    assert all(r["status"] == "pass" for k, rs in rows.items() if k != "k=0" for r in rs)
+
+
+def test_a_job_sent_ahead_starts_its_time_limit_when_it_begins_and_a_hang_costs_only_itself(cases_dir, ahead):
+    """One worker holds the first job and three behind it. The second hangs: its time limit
+    counts from the first's answer (not from when it was sent), it is stopped, the jobs
+    behind it run in a new worker."""
+    from physval.core import Context, Job, run_jobs
+    _faults(cases_dir, hang=1, nap=1.0)
+    ctx = Context(cases_dirs=(str(cases_dir),))
+    fam = ctx.resolver().family("faulty_fall")
+    jobs = [Job(fam.name, v, "reference") for v in fam.variants[:4]]
+    res = run_jobs(jobs, ctx, workers=1, job_timeout=5.0, progress=False)
+    status = {k.split("[", 1)[1].split("]")[0]: rows[0]["status"] for k, rows in res.rows.items()}
+    assert status == {"k=0": "pass", "k=1": "error", "k=2": "pass", "k=3": "pass"}, status
+    assert "per-job time limit of 5 s" in res.rows[jobs[1].key][0]["reason"]
+
+
+def test_streams_share_one_executor_waves_follow_their_rows_and_a_job_two_streams_want_runs_once():
+    """A reading's plan (waves: each yields jobs and is sent their rows) beside a command's
+    jobs on the same workers: the second wave gets its rows with the first wave's job it
+    repeats (not run again) and the command's job it shares (run once, for both)."""
+    from physval.core import Context, Job
+    from physval.core.session import Execution, Stream, run_streams
+    ctx = Context(adapters=(f"{ROOT / 'tests' / 'fakes.py'}:OtherFake",))
+    fam = ctx.resolver().family("central_impact")
+    jobs = [Job(fam.name, v, "fake-2") for v in fam.variants[:6]]
+    sent = []
+
+    def plan():
+        rows = yield jobs[:2]
+        sent.append(sorted(rows))
+        rows = yield jobs[2:4] + jobs[:1]
+        sent.append(sorted(rows))
+        return len(sent)
+    outcomes = []
+    command = Stream(jobs[3:], on_outcome=outcomes.append)
+    reading = Stream(plan(), first=True, on_outcome=outcomes.append)
+    use = run_streams([command, reading], ctx, Execution(workers=2, progress=False))
+    assert reading.value == 2 and not reading.results.interrupted and not command.results.interrupted
+    assert sent == [sorted(j.key for j in jobs[:2]), sorted(j.key for j in jobs[2:4] + jobs[:1])]
+    assert sorted(command.results.rows) == sorted(j.key for j in jobs[3:])
+    assert len({id(o) for o in outcomes}) == 6 and len(outcomes) == 7  # jobs[3]: run once, given to both
+    assert use.workers == 2 and use.started == 2 and use.worker_cpu_s > 0
+    assert all(r["job_s"] > 0 for o in outcomes for r in o.rows)
+
+
+def test_an_engine_is_asked_its_version_once_per_process():
+    """A job's rows carry the engine's version; most adapters read it from the installed
+    distribution's metadata (6 ms of CPU, up to 60 ms of disk a call on a loaded machine):
+    a process asks once."""
+    from physval.core import Context, Job, execute
+    from tests.fakes import FakeAdapter
+
+    class Counting(FakeAdapter):
+        asked = 0
+
+        def version(self):
+            Counting.asked += 1
+            return "1.0"
+    resolver = Context().resolver().provide("fake-count", Counting("fake-count"))
+    fam = resolver.family("central_impact")
+    rows = [execute(Job(fam.name, v, "fake-count"), resolver).rows for v in fam.variants[:3]]
+    assert Counting.asked == 1 and all(r["engine_version"] == "1.0" for rs in rows for r in rs)
 
 
 # --- one folder, one command at a time; an interrupt anywhere (issue 33) ---------------------

@@ -17,9 +17,10 @@ import pytest
 
 from adapters import registry
 from physval import faults
-from physval.core import Context, Job, execute
-from physval.core.context import Resolver
+from physval.core import Context, Job
 from physval.core.session import Execution
+
+from tests.helpers import shared_rows
 
 ENGINES = ("reference", "mujoco", "pybullet")
 
@@ -116,8 +117,7 @@ def test_unmodified_wrapper_measures_what_the_engine_measures(engine):
     """The wrapper alone passes everything through: every measurement is the engine's own,
     bit for bit."""
     found = rows(engine, faults.NONE.name)
-    resolver = Resolver(Context())
-    plain = [r for job in fast_jobs(engine) for r in execute(job, resolver).rows]
+    plain = [r for job in fast_jobs(engine) for r in shared_rows(job)]
     key = lambda r: (r["case"], r["variant"], r["metric"])  # noqa: E731
     assert {key(r): (r["status"], str(r["measured"])) for r in found} == \
         {key(r): (r["status"], str(r["measured"])) for r in plain}
@@ -145,8 +145,11 @@ def test_the_free_flight_band_still_rejects_a_wrong_g_or_dt(engine, fault):
 # --- every fault -----------------------------------------------------------------------------
 
 def check_fault(engine: str, fault_name: str, which: str) -> None:
-    if engine not in faults.by_name(fault_name).kinds:
-        pytest.skip(f"{fault_name} has no meaning in {engine}: {faults.by_name(fault_name).summary}")
+    if not installed(engine):
+        pytest.skip(f"{engine} is not installed")
+    why = faults.plantable_in(engine, faults.by_name(fault_name))
+    if why:
+        pytest.skip(f"{fault_name} cannot be planted in {engine}: {why}")
     found = rows(engine, fault_name, which)
     broken = families_with(found, ("error", "unstable"))
     unexpected = {f for f in broken if (fault_name, f) not in UNMEASURED}

@@ -112,6 +112,9 @@ NARROWED = {
     "physval known mujoco --file my_known.txt --cases-dir my_cases --write": Narrowed(needs=("mujoco",)),
     "physval run --cases-dir my_cases --cases pair_drop --engines reference,mujoco --known my_known.txt": Narrowed(
         after="physval known mujoco --file my_known.txt --cases-dir my_cases --write", needs=("mujoco",)),
+    # docs/extend/adding_an_engine.md: a fault of the user's own planted ad hoc (my_faults.py)
+    "physval run --adapter my_faults.py:reference_strong_gravity --engines reference,reference-strong-gravity "
+    "--cases conformance": Narrowed(),
     # the plug-in example's README (after its `pip install`)
     "pip install ./examples/physval-engine-example": Narrowed(where="repo"),
     "physval run --cases central_impact --engines mujoco,mujoco-soft": Narrowed(
@@ -211,7 +214,8 @@ def _environment_beside_this_one(venv: Path) -> None:
 
 def _user_files(user: Path) -> None:
     """What the shown commands expect in the user's folder: the worked example families
-    (docs/extend/first_case.md's, and writing_cases.md's with its --known file), and a toss
+    (docs/extend/first_case.md's, and writing_cases.md's with its --known file), the planted
+    fault of adding_an_engine.md (my_faults.py), and a toss
     file of the packaged data's columns (three measured tosses)."""
     from tests.guide import write_example, write_known
     (code,) = re.findall(r"```python\n(# my_cases/second_bounce.py\n.*?)```", FIRST_CASE.read_text(), re.S)
@@ -219,6 +223,8 @@ def _user_files(user: Path) -> None:
     (user / "my_cases" / "second_bounce.py").write_text(code)
     write_example(user)
     write_known(user)
+    from tests.test_planting import users_file
+    users_file(user)
     import pandas as pd
     data = pd.read_csv(ROOT / "cases" / "data" / "cube_toss" / "cube_tosses.csv.gz")
     data[data.toss.isin([1, 3, 5])].to_csv(user / "my_tosses.csv", index=False)

@@ -2,11 +2,11 @@
 restitution or friction is a little off must be judged `fail`, with a size, never
 `error` (an observer that crashed) or `unstable` (one that returned NaN).
 
-`Faulty` wraps the reference engine and builds a subtly wrong world from the scene it is
-given: gravity scaled, every pair's e or mu scaled, or its time step longer than the one
-the harness asked for (so the harness reads time as if the step were dt). The observers
-must still find free flight, arcs and slides in what it does, and the closed forms must
-then reject it.
+`Faulty` plants a fault in the reference engine (adapters/planting.py), which then builds
+a subtly wrong world from the scene it is given: gravity scaled, every pair's e or mu
+scaled, or its time step longer than the one the harness asked for (so the harness reads
+time as if the step were dt). The observers must still find free flight, arcs and slides
+in what it does, and the closed forms must then reject it.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from dataclasses import replace
 import pytest
 
 from adapters import registry
-from adapters.base import Adapter
+from adapters.planting import Fault, Planted
 from cases.registry import builtin_families
 from physval.core import Job
 from tests.helpers import run_job
@@ -32,27 +32,32 @@ FAULTS = {
 }
 
 
-class Faulty(Adapter):
-    """The reference engine building a world with one fault (see FAULTS)."""
-    package = "physval"
+class Scaled(Fault):
+    """One fault of FAULTS: gravity scaled, every pair's e or mu scaled, or a time step
+    longer than the one the harness asked for (so the harness reads time as if the step
+    were dt)."""
+    name = "scaled"
 
     def __init__(self, g: float = 1.0, dt: float = 1.0, e: float = 1.0, mu: float = 1.0):
-        self.inner = registry.get("reference")
-        self.name, self.capabilities = "faulty", self.inner.capabilities
         self.g, self.dt, self.e, self.mu = g, dt, e, mu
-
-    def version(self) -> str:
-        return "reference with a fault"
 
     def _material(self, m):
         return replace(m, e=min(m.e * self.e, 1.0), mu_s=m.mu_s * self.mu,
                        mu_k=None if m.mu_k is None else m.mu_k * self.mu)
 
-    def build(self, scene, settings):
-        faulty = replace(scene, gravity=tuple(self.g * c for c in scene.gravity),
-                         material=self._material(scene.material),
-                         pairs=tuple((a, b, self._material(m)) for a, b, m in scene.pairs))
-        return self.inner.build(faulty, replace(settings, dt=settings.dt * self.dt))
+    def scene(self, scene, capabilities):
+        return replace(scene, gravity=tuple(self.g * c for c in scene.gravity),
+                       material=self._material(scene.material),
+                       pairs=tuple((a, b, self._material(m)) for a, b, m in scene.pairs))
+
+    def settings(self, settings):
+        return replace(settings, dt=settings.dt * self.dt)
+
+
+def Faulty(**fault) -> Planted:
+    """The reference engine building a world with one fault (see FAULTS), planted through
+    the adapter layer's hook (adapters/planting.py)."""
+    return Planted(registry.get("reference"), Scaled(**fault), name="faulty")
 
 
 @functools.cache

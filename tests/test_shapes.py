@@ -403,7 +403,9 @@ def _scene_with(kind: str) -> Scene:
                  dimension=shape.dimension)
 
 
-def test_every_engine_declares_known_shapes_and_reports_the_others_unsupported():
+def test_every_engine_declares_known_shapes_and_reports_the_others_unsupported_with_its_reason():
+    """A shape an engine does not represent, in a scene of a dimension it runs, is refused
+    with the engine's reason for it (Capabilities.why_not), never a bare refusal."""
     from adapters import registry
     for name in registry.engine_names():
         try:
@@ -414,7 +416,18 @@ def test_every_engine_declares_known_shapes_and_reports_the_others_unsupported()
         for kind in set(NEW_SHAPES) - set(caps.shapes):
             scene = _scene_with(kind)
             if scene.dimension in caps.dimensions:
-                assert caps.cannot_run(scene) == f"shape {kind} not available in this engine", name
+                why = dict(caps.why_not).get(kind)
+                assert why, f"{name} declares no reason for lacking {kind} (Capabilities.why_not)"
+                assert caps.cannot_run(scene) == f"shape {kind} not available in this engine: {why}", name
+
+
+def test_a_shape_reason_is_for_a_shape_the_engine_lacks():
+    from adapters.base import Capabilities
+    caps = dict(dimensions=frozenset({3}), shapes=frozenset({"sphere", "plane"}), native_restitution=True,
+                static_kinetic=True, contact_forces=True, iterations=True)
+    assert Capabilities(**caps, why_not=(("capsule", "no capsule collider"),)).why_not
+    with pytest.raises(ValueError, match="why_not"):
+        Capabilities(**caps, why_not=(("sphere", "a shape it has"),))
 
 
 @pytest.mark.parametrize("kind", sorted(NEW_SHAPES))

@@ -1,7 +1,8 @@
 """The harness's import structure: no two modules of physval/ import each other, directly or
 in a circle, and no import runs from a lower layer back up (commands -> readings -> core ->
-report kit). The one circle left is the core's with physval/faults.py (the core's context
-plants faults), until planting moves into the adapter layer."""
+report kit). The core knows nothing of physval/faults.py (a planted fault reaches it through
+the adapter layer's hook, adapters/planting.py), and no module of the harness (nor the
+hook) reads another object's private state."""
 from __future__ import annotations
 
 import ast
@@ -9,7 +10,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 LAYERS = ("physval.commands", "physval.readings", "physval.core", "physval.report")  # top to bottom
-LEFT = "physval.faults"  # the one circle left: core/context.py imports it, it imports the core
+FAULTS = "physval.faults"  # the catalogue of planted faults: above the core, which never imports it
 
 
 def _modules() -> dict[str, Path]:
@@ -79,13 +80,54 @@ def _layer(name: str) -> int | None:
 
 def test_no_two_modules_import_each_other():
     circles = _circles(_graph())
-    assert all(LEFT in c for c in circles), [sorted(c) for c in circles if LEFT not in c]
+    assert not circles, [sorted(c) for c in circles]
 
 
-def test_no_import_runs_from_a_lower_layer_back_up():
-    up = [(a, b) for a, targets in _graph().items() for b in targets
-          if _layer(a) is not None and _layer(b) is not None and _layer(b) < _layer(a)]
-    assert not up
+def test_the_core_does_not_import_the_faults():
+    """Planting is the adapter layer's (adapters/planting.py): no module of the core or the
+    report kit imports physval/faults.py, directly or through another module."""
+    graph = _graph()
+
+    def reach(name, seen):
+        for m in graph[name] - seen:
+            seen.add(m)
+            reach(m, seen)
+        return seen
+
+    low = [m for m in graph if _layer(m) is not None and _layer(m) >= LAYERS.index("physval.core")]
+    assert not [m for m in low if FAULTS in reach(m, set())]
+
+
+# Private names of other objects the harness may read: the standard library's own.
+ALLOWED_PRIVATE = {"os._exit"}
+
+
+def _private_reads(path: Path) -> list[str]:
+    """`x._name` in a file where x is not self or cls (a dunder is no private name)."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Attribute) and node.attr.startswith("_") and not node.attr.startswith("__"):
+            if isinstance(node.value, ast.Name) and node.value.id in ("self", "cls"):
+                continue
+            text = ast.unparse(node)
+            if text not in ALLOWED_PRIVATE:
+                out.append(f"{path}:{node.lineno}: {text}")
+    return out
+
+
+def test_nothing_outside_an_adapter_reads_its_private_state():
+    """The harness, the fault catalogue and the planting hook go through adapters' public
+    methods (a planted change is the adapter's own Simulation.plant)."""
+    files = [*sorted((ROOT / "physval").rglob("*.py")), ROOT / "adapters" / "planting.py"]
+    assert not [r for f in files for r in _private_reads(f)]
+
+
+def test_the_private_read_check_sees_one(tmp_path):
+    """The check above would pass on a reader that saw nothing: it sees a reach into an
+    engine's world and lets self, cls and the allowed names be."""
+    probe = tmp_path / "probe.py"
+    probe.write_text("import os\ndef f(self, sim):\n    os._exit(0)\n    return self._x, sim._world\n")
+    assert _private_reads(probe) == [f"{probe}:4: sim._world"]
 
 
 def test_the_graph_sees_the_imports_it_checks():
@@ -94,4 +136,4 @@ def test_the_graph_sees_the_imports_it_checks():
     assert "physval.readings.checks" in graph["physval.readings.results"]
     assert "physval.report" in graph["physval.readings.checks"]
     assert "physval.core.tolerance" in graph["physval.core.deviations"]
-    assert any(LEFT in c for c in _circles(graph))  # the circle left is seen
+    assert "physval.core" in graph[FAULTS]  # the catalogue runs planted engines through the core

@@ -9,8 +9,8 @@ from physval.core.executor import START_METHODS
 from physval.core.selection import select_variants
 from physval.core.session import Execution
 from physval.readings import bench
-from physval.readings.bench import (WHAT, compile_cost, fault_matrix, overhead, pgs_scaling, steps_side_by_side,
-                                     sweep_workers, write)
+from physval.readings.bench import (ON_DEMAND, WHAT, compile_cost, default_run, fault_matrix, overhead, pgs_scaling,
+                                     steps_side_by_side, sweep_workers, write)
 from adapters import registry
 from physval.commands import options
 
@@ -19,16 +19,18 @@ def add_parser(sub) -> None:
     bn = sub.add_parser("bench", help="speed side by side in one run, as ratios (not a test)",
                         description=bench.__doc__.split("\n\n", 1)[1].split("\n\nEvery")[0],
                         formatter_class=argparse.RawDescriptionHelpFormatter)
-    bn.add_argument("what", nargs="*", metavar="WHAT", help=f"{', '.join(WHAT)} (default: all)")
+    bn.add_argument("what", nargs="*", metavar="WHAT",
+                    help=f"{', '.join(WHAT)} (default: all but {', '.join(ON_DEMAND)}, which runs the whole default "
+                         "run twice, cold and warm)")
     options.add_engines(bn, "engines: names or globs (default: all installed, the reference with its default "
                             "formulation)")
     bn.add_argument("--cases", nargs="+", metavar="SPEC",
-                    help="faults only: these families or variants (the --cases grammar; default: every family "
-                         "but the robustness ones)")
+                    help="faults and run only: these families or variants (the --cases grammar; default for "
+                         "faults: every family but the robustness ones; for run: every family)")
     bn.add_argument("--out", default="reports/bench", metavar="DIR", help="output folder (default: reports/bench)")
     bn.add_argument("--workers", type=options.positive_int, default=os.cpu_count() or 1, metavar="N",
-                    help="faults only: worker processes for the planted engines' jobs (default: one per core; "
-                         "the timings run one at a time)")
+                    help="faults and run only: worker processes for the planted engines' jobs and for the "
+                         "default run (default: one per core; the timings run one at a time)")
     bn.add_argument("--scheduler", metavar="ADDRESS", help=argparse.SUPPRESS)
     bn.add_argument("--job-timeout", type=options.seconds_or_off, default=1800.0, metavar="S",
                     help="per-job time limit (default 1800 s; the 55-box pyramid is slow on pure-Python engines)")
@@ -39,7 +41,7 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     ctx = options.context_of(args)
     engines = options.engines_of(args, ctx, options.fast_engines(ctx))
-    what = args.what or list(WHAT)
+    what = args.what or [w for w in WHAT if w not in ON_DEMAND]
     unknown = [w for w in what if w not in WHAT]
     if unknown:
         raise options.UsageError(f"unknown benchmark {unknown[0]!r}: choose from {', '.join(WHAT)}")
@@ -62,6 +64,10 @@ def run(args) -> int:
             [e for e in engines if e in ("reference", "pybullet", "mujoco")], ctx)),
         "pgs": ("PGS sweep cost against contact count", pgs_scaling),
         "faults": ("planted faults: the detection matrix", faults),
+        "run": ("the default run, cold and then warm (minutes each)", lambda: default_run(
+            args.workers, out, (*(("--engines", *args.engines) if args.engines else ()),
+                                *(("--cases", *args.cases) if args.cases else ()),
+                                *(x for a in args.adapter or () for x in ("--adapter", a))))),
     }
     sections = {}
     for name in WHAT:

@@ -1,9 +1,12 @@
 """`physval run`: the validation run. Every selected case variant on every selected engine,
-judged; the engine-wide readings when the whole library runs (or when asked); the report.
+judged; the engine-wide readings when the whole library runs (or when asked), whose jobs
+share the workers with the run's; the report, with where the time went (its Cost section).
+`--plan` predicts the cost before anything runs.
 
 Rows stream to `results.csv` as jobs finish. Run the same command again after an
-interrupt (or a crash of the machine) and no finished job is recomputed; a change of the
-code or of an engine's version makes its jobs run again.
+interrupt and no finished job is recomputed (after a crash of the machine, at most the
+jobs of its last second: physval.core.store.SYNC_EVERY); a change of the code or of an
+engine's version makes its jobs run again.
 """
 from __future__ import annotations
 
@@ -13,7 +16,7 @@ import time
 from pathlib import Path
 
 from physval.commands import options
-from physval.core import COLUMNS, run_jobs
+from physval.core import COLUMNS
 from physval.core.plan import plan, relation_jobs
 from physval.core.store import KNOBS_FILE, RowStore, cache_keys
 from physval.interrupts import Terminated, held_off
@@ -59,6 +62,10 @@ def add_parser(sub) -> None:
                           "comma-separated, or all, none, auto (default: all when no --cases are named, each on "
                           "its representative scenes; else none). With --cases, each named relation runs on every "
                           "selected variant")
+    run.add_argument("--plan", action="store_true",
+                     help="print what the run will cost, per engine and family, predicted from measured per-job costs "
+                          "(the last run in --out, else physval's table), against the default run's budget, and exit "
+                          "without running")
     run.add_argument("--save-trajectories", metavar="DIR",
                      help="also write each job's trajectory and contact forces (npz; physval.core.trajectories.load)")
     run.add_argument("--junitxml", metavar="FILE",
@@ -134,7 +141,7 @@ def incomplete(after: dict, signal_name: str) -> int:
 def _run(args, after: dict) -> int:
     started = args.started
     relations = relations_of(args.relations, args.cases is not None)
-    if not args.scheduler:
+    if not args.scheduler and not args.plan:
         from physval.core.executor import start_fork_server
         start_fork_server(args.start_method)  # loads in parallel with what follows
     ctx = options.context_of(args)  # user families dry-run in workers
@@ -161,39 +168,49 @@ def _run(args, after: dict) -> int:
         from physval.core.trajectories import with_saving
         jobs = [with_saving(j, traj_dir) for j in jobs]
     keys = cache_keys(ctx, engines)
+    from physval.readings import cost
+    model = cost.model_for(out)  # before the store drops the rows of changed code: their times still count
     store = RowStore(out / "results.csv", COLUMNS, knobs_file=out / KNOBS_FILE)
-    reused = store.load(keys.of_row)
+    reused = store.load(keys.of_row, rewrite=not args.plan)
+    # the engines users run, with the reference at its default formulation; its other
+    # formulations (Adapter.slow) are read when named
+    wide = engines if args.engines is not None else [e for e in engines if e in options.fast_engines(ctx)]
+    if args.plan:
+        return print_plan(jobs, store, resolver, out, args.workers, readings, wide, model)
     say = options.teller(args)
     todo = sum(j.key not in store.rows for j in jobs)
     say(f"{len(jobs)} runs ({len(chosen)} families x {len(engines)} engines"
         + (f", {len(battery)} of them the invariance battery's" if battery else "") + f"), {todo} to run"
         + (f", {len(jobs) - todo} finished before" if reused and todo < len(jobs) else "")
-        + (f"; {len(later)} on-demand runs left out (--on-demand)" if later else "") + f" -> {out}/")
+        + (f"; {len(later)} on-demand runs left out (--on-demand)" if later else "") + f" -> {out}/"
+        + (f"; beside them the engine-wide readings: {', '.join(readings)} (cached per engine version)"
+           if readings else ""))
     from physval.core.executor import default_start_method
     import_report_meanwhile(args.start_method or default_start_method())
+    from physval.core.session import Execution, Stream, run_streams
+    from physval.readings import effective, laws
+    todo_jobs = [j for j in jobs if j.key not in store.rows]
+    main = Stream(cost.longest_first(todo_jobs, resolver, model) + [j for j in jobs if j.key in store.rows],
+                  store, keys.of_job, "run")
+    wide_readings = {name: {"effective": effective, "laws": laws}[name].stream(wide, ctx, families) for name in readings}
     t_jobs = time.monotonic()
-    res = run_jobs(jobs, ctx, args.workers, args.scheduler, args.job_timeout, args.start_method, store=store,
-                   cache_key=keys.of_job, progress=not args.quiet, label="run")
-    t_jobs = time.monotonic() - t_jobs
+    use = run_streams([main, *wide_readings.values()], ctx, Execution.of(args))
+    res = main.results
+    phases = cost.Phases(planning_s=t_jobs - started, pool_s=use.wall_s, workers=use.workers,
+                         jobs=main.spent.jobs, job_s=main.spent.job_s, run_s=main.spent.run_s,
+                         stepping_s=main.spent.stepping_s,
+                         reading_jobs=sum(r.spent.jobs for r in wide_readings.values()),
+                         reading_s=sum(r.spent.job_s for r in wide_readings.values()), worker_cpu_s=use.worker_cpu_s,
+                         job_cpu_s=main.spent.cpu_s + sum(r.spent.cpu_s for r in wide_readings.values()))
     finished = [j for j in jobs if j.key in res.rows]
     after.update(store=store, keys=[j.key for j in finished], out=out, families=families, planned=len(jobs))
-    if not res.complete:
-        return incomplete(after, res.interrupted)
+    interrupted = res.interrupted or next((r.results.interrupted for r in wide_readings.values()
+                                           if r.results.interrupted), "")
+    if interrupted:
+        return incomplete(after, interrupted)
     rows = store.finalize(after["keys"])
     from physval.readings import results
-    engine_wide = {}
-    from physval.core.session import Execution
-    from physval.readings import effective, laws
-    # the engines users run, with the reference at its default formulation; its other
-    # formulations (Adapter.slow) are read when named
-    wide = engines if args.engines is not None else [e for e in engines if e in options.fast_engines(ctx)]
-    for name in readings:
-        say(f"engine-wide reading: {name} (cached per engine version)")
-        module = {"effective": effective, "laws": laws}[name]
-        part = module.measure(wide, ctx, families, execution=Execution.of(args))
-        if part is None:  # interrupted
-            raise KeyboardInterrupt
-        engine_wide[name] = part
+    engine_wide = {name: r.value for name, r in wide_readings.items()}
     from physval.readings import scorecard
     engine_wide["beside"] = scorecard.companions(out)  # what sweep, stress and real left in their folders under out
     for why in engine_wide["beside"].left_out:
@@ -201,11 +218,15 @@ def _run(args, after: dict) -> int:
     from physval.core.deviations import stale_entries
     from physval.readings.checks import frame, status_counts
     df = frame(rows, COLUMNS)
+    phases.report_started = time.monotonic()
     results.write_run_report(rows, out, families, command=options.command_line(), engine_wide=engine_wide,
-                            stale=stale_entries(df, resolver))
+                            stale=stale_entries(df, resolver), phases=phases, draw=draw_on_workers(ctx, args))
+    t_report = time.monotonic() - phases.report_started
     total = time.monotonic() - started
-    print(f"{len(df)} checks: {status_counts(df)} ({res.ran} runs now, {res.reused} reused; {total:.1f} s, "
-          f"of which {t_jobs:.1f} s ({t_jobs / total:.0%}) in the selected runs)")
+    print(f"{len(df)} checks: {status_counts(df)} ({res.ran} runs now, {res.reused} reused; {total:.1f} s: "
+          f"{phases.planning_s:.1f} s planning, {use.wall_s:.1f} s jobs and readings on {use.workers} workers "
+          f"({_overhead_ms(phases):.1f} ms a job outside jobs, {_overhead_cpu_ms(phases):.1f} ms of CPU), "
+          f"{t_report:.1f} s report)")
     print(f"wrote {out / 'results.csv'}, {out / KNOBS_FILE}, {out / 'report.md'}, {out / 'report.html'}, {out / 'plots'}/")
     from physval.readings import junit as junit_report
     if junit is not None:
@@ -224,6 +245,48 @@ def junit_beside(junit: Path | None, out: Path) -> None:
     if junit is not None and junit.resolve().is_relative_to(out.resolve()) and junit.suffix != ".xml":
         raise options.UsageError(f"--junitxml {junit}: inside --out {out}, name a .xml file (e.g. {out / 'physval.xml'}): "
                                  "the run's own files are there")
+
+
+def draw_on_workers(ctx, args):
+    """The report's heat maps drawn side by side on local workers (--workers, not a Dask
+    cluster: the files are written here), as jobs are: a plot that fails (or kills its
+    worker) stops the report with its reason."""
+    from physval.core.session import Execution, map_calls
+    from physval.readings.results import draw_here, drawn
+
+    def draw(drawings: list) -> None:
+        if args.workers <= 1 or len(drawings) <= 1:
+            return draw_here(drawings)
+        execution = Execution(args.workers, None, args.job_timeout, args.start_method, progress=False)
+        for r in map_calls(drawn, drawings, ctx, execution, label="plots"):
+            if r.error:
+                raise RuntimeError(f"drawing a plot of the report failed: {r.error}")
+    return draw
+
+
+def _overhead_ms(p) -> float:
+    n = p.jobs + p.reading_jobs
+    return 1e3 * (p.pool_s * p.workers - p.job_s - p.reading_s) / n if n else 0.0
+
+
+def _overhead_cpu_ms(p) -> float:
+    n = p.jobs + p.reading_jobs
+    return 1e3 * (p.worker_cpu_s - p.job_cpu_s) / n if n else 0.0
+
+
+def print_plan(jobs, store, resolver, out, workers: int, readings: list[str], wide: list[str], model) -> int:
+    """physval run --plan: the run's predicted cost, nothing run."""
+    from physval.readings import cost
+    todo = [j for j in jobs if j.key not in store.rows]
+    planned = cost.plan(todo, resolver, model)
+    note = ""
+    if len(todo) < len(jobs):
+        note = f"{len(jobs) - len(todo)} of {len(jobs)} jobs finished before (in {out / 'results.csv'}): not run again"
+    if readings:
+        note += ("; " if note else "") + (f"engine-wide readings ({', '.join(readings)}) on {len(wide)} engines: "
+                                          "cached per engine version, run beside the jobs where not cached")
+    print(cost.plan_text(planned, workers, model, note))
+    return 0
 
 
 def fail_on_of(text: str) -> set[str]:

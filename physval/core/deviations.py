@@ -190,6 +190,14 @@ class Deviation:
         where = ["--file", self.source] if self.user else []
         return shlex.join(["physval", "known", engine, *where, *self.options, "--write"])
 
+    def recorded_as(self, recorded: str, engine: str) -> "Deviation":
+        """This entry with the bands recorded for engine `recorded` as `engine`'s (itself
+        where the two are one): how an adapter judged by another engine's bands reads them."""
+        if recorded == engine:
+            return self
+        return replace(self, engines=engine, bands=tuple(replace(b, engine=engine) for b in self.bands
+                                                          if b.engine == recorded))
+
     def matches(self, family: str, variant: str, metric: str) -> bool:
         """The entry covers this check. The invariance battery's verdicts (metrics
         invariance_*, cases.relations) are covered only by entries that name them: a

@@ -12,12 +12,14 @@ from __future__ import annotations
 import importlib
 import json
 import math
+import time
 import traceback
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable
 
 from adapters.base import Settings, SettingsError, Unsupported
-from cases.family import CaseFamily, Check, Variant
+from cases.family import CaseFamily, Check, Variant, users_frame
 from cases.trajectory import TrajectoryError
 from cases import relations
 from physval.core import deviations, invariance
@@ -77,25 +79,46 @@ class Call:
         return getattr(self.fn, "__name__", "call")
 
 
+@dataclass(frozen=True)
+class Timing:
+    """Where a task's worker spent its time: `wall_s` and `cpu_s` (this process's CPU, user
+    and system, all threads) performing it, `waited_s` idle before it arrived (0 when it
+    was already there), `process_cpu_s` the process's CPU since it started, at the end."""
+    wall_s: float
+    cpu_s: float
+    waited_s: float = 0.0
+    process_cpu_s: float = 0.0
+
+
 @dataclass
 class CallResult:
     call: Call
     value: object = None
     error: str = ""  # why there is no value (the call raised, or its worker died)
+    timing: Timing | None = None  # None: it did not finish in a worker (lost)
 
 
-def perform(task, resolver: Resolver):
-    """Run a Job (-> Outcome) or a Call (-> CallResult) in this process; never raises but
-    on Ctrl-C: whatever else the code it runs raises, an exit (SystemExit) included, is
-    the task's error (a Job's rows say it), so a worker lives on to take the next task."""
+def perform(task, resolver: Resolver, waited_s: float = 0.0):
+    """Run a Job (-> Outcome) or a Call (-> CallResult) in this process, with its Timing;
+    a Job's rows get its time, `job_s`. Never raises but on Ctrl-C: whatever else the
+    code it runs raises, an exit (SystemExit) included, is the task's error (a Job's rows
+    say it), so a worker lives on to take the next task."""
+    wall0, cpu0 = time.perf_counter(), time.process_time()
     try:
         if isinstance(task, Job):
-            return execute(task, resolver)
-        return CallResult(task, task.fn(task.arg))
+            result = execute(task, resolver)
+        else:
+            result = CallResult(task, task.fn(task.arg))
     except KeyboardInterrupt:
         raise
     except BaseException as exc:
-        return lost(task, resolver, describe(exc))
+        result = lost(task, resolver, describe(exc))
+    cpu1 = time.process_time()
+    result.timing = Timing(time.perf_counter() - wall0, cpu1 - cpu0, waited_s, cpu1)
+    if isinstance(result, Outcome):
+        for r in result.rows:
+            r["job_s"] = result.timing.wall_s
+    return result
 
 
 def lost(task, resolver: Resolver, reason: str):
@@ -111,6 +134,8 @@ class Outcome:
     rows: list[dict]
     extra: dict = field(default_factory=dict)  # what the job's probe read
     exception: str | None = None               # the exception type the engine raised, if any
+    timing: Timing | None = None               # None: it did not finish in a worker (lost)
+    run_s: float = 0.0                         # its run's whole wall time (Run.whole_s: stepping, recording)
 
 
 class Probe:
@@ -150,9 +175,19 @@ def at_recorded_settings(job: Job, family: CaseFamily) -> bool:
 # --- rows ----------------------------------------------------------------------------------
 
 def describe(exc: BaseException) -> str:
-    """'Type: first line of the message (at file:line)'."""
+    """'Type: first line of the message (at file:line)': the innermost frame of the user's
+    own code (a family of --cases-dir, an --adapter file; cases.family.users_frame) where
+    one is on the traceback, with the innermost frame beside it where that is another
+    (a helper the user's code called); else the innermost frame's file name."""
     where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
-    loc = f" (at {where.filename.rsplit('/', 1)[-1]}:{where.lineno})" if where else ""
+    inner = f"{where.filename.rsplit('/', 1)[-1]}:{where.lineno}" if where else ""
+    user = users_frame(exc)
+    if user is None:
+        loc = f" (at {inner})" if where else ""
+    elif (Path(user[0]).name, user[1]) == (Path(where.filename).name, where.lineno):
+        loc = f" (at {user[0]}:{user[1]})"
+    else:
+        loc = f" (at {user[0]}:{user[1]}, in {inner})"
     text = str(exc).splitlines()[0] if str(exc) else ""
     return f"{type(exc).__name__}: {text}{loc}"
 
@@ -253,10 +288,7 @@ def execute(job: Job, resolver: Resolver) -> Outcome:
         adapter = resolver.adapter(job.engine)
     except Exception as exc:  # unknown or not installed
         return Outcome(job, rows_with("unsupported", str(exc)))
-    try:
-        base["engine_version"] = adapter.version()
-    except Exception:
-        base["engine_version"] = "unknown"
+    base["engine_version"] = resolver.version(job.engine)
     try:
         known = resolver.known(job.engine)
     except deviations.DeviationFileError as exc:  # a worker must not die of a bad file: its rows say why
@@ -300,7 +332,7 @@ def execute(job: Job, resolver: Resolver) -> Outcome:
         entry = deviations.find(known, family.name, job.variant.id, c.metric)
         rows.append(blank_row(family.name, job.variant, job.engine, c, dt=settings.dt,
                               **fields, **judge(c, number, job.engine, job.variant.id, entry, bands_apply)))
-    return Outcome(job, rows, extra)
+    return Outcome(job, rows, extra, run_s=run.whole_s)
 
 
 def related(job: Job, family: CaseFamily, adapter, known, scene, settings: Settings, base: dict) -> list[dict]:

@@ -34,6 +34,7 @@ class Run:
     effects: frozenset
     iterations: int | None
     cpu_s: float = 0.0     # this thread's CPU time over the whole run (recording and warm-up included)
+    whole_s: float = 0.0   # wall time of the whole run: stepping, warm-up, recording, blow-up checks
 
 
 def speed_limit(scene: Scene, duration: float) -> float:
@@ -63,7 +64,7 @@ def simulate(sim: Simulation, scene: Scene, dt: float, steps: int, forces: bool 
     each step. `on_step(sim, k)`: a reading that looks at the engine after step k (and at
     its start, k = 0).
     Raises Unstable (NaN, infinity, blow-up of the engine's state) or what the engine raises."""
-    cpu0 = time.thread_time()
+    cpu0, start = time.thread_time(), time.perf_counter()
     names = sim.body_order()
     expected = {b.name for b in scene.dynamic_bodies}
     if set(names) != expected:
@@ -80,7 +81,7 @@ def simulate(sim: Simulation, scene: Scene, dt: float, steps: int, forces: bool 
     if on_step is not None:
         on_step(sim, 0)
     if sim.run is not None and not forces and on_step is None:
-        return _run_in_blocks(sim, scene, dt, steps, warmup, names, raw, decoded, v_max, cpu0)
+        return _run_in_blocks(sim, scene, dt, steps, warmup, names, raw, decoded, v_max, cpu0, start)
     try:
         for k in range(1, steps + 1):
             t0 = clock()
@@ -117,10 +118,11 @@ def simulate(sim: Simulation, scene: Scene, dt: float, steps: int, forces: bool 
                       states={n: states[:, i] for i, n in enumerate(names)},
                       forces=_stack_forces(pair_forces, steps) if forces else None,
                       effects=frozenset(sim.effects), bodies=frozenset(b.name for b in scene.bodies))
-    return Run(traj, wall, steps, dict(sim.knobs), frozenset(sim.effects), sim.iterations, time.thread_time() - cpu0)
+    return Run(traj, wall, steps, dict(sim.knobs), frozenset(sim.effects), sim.iterations, time.thread_time() - cpu0,
+               time.perf_counter() - start)
 
 
-def _run_in_blocks(sim, scene, dt, steps, warmup, names, raw, decoded, v_max, cpu0) -> Run:
+def _run_in_blocks(sim, scene, dt, steps, warmup, names, raw, decoded, v_max, cpu0, start) -> Run:
     """The engine steps and records a block of steps in one call (Simulation.run); wall_s
     is the time of those calls after the warm-up block (the engine's own recording in
     it is a copy per step)."""
@@ -139,7 +141,8 @@ def _run_in_blocks(sim, scene, dt, steps, warmup, names, raw, decoded, v_max, cp
     states = np.concatenate(decoded)
     traj = Trajectory(dt=dt, t=np.arange(steps + 1) * dt, states={n: states[:, i] for i, n in enumerate(names)},
                       forces=None, effects=frozenset(sim.effects), bodies=frozenset(b.name for b in scene.bodies))
-    return Run(traj, wall, steps, dict(sim.knobs), frozenset(sim.effects), sim.iterations, time.thread_time() - cpu0)
+    return Run(traj, wall, steps, dict(sim.knobs), frozenset(sim.effects), sim.iterations, time.thread_time() - cpu0,
+               time.perf_counter() - start)
 
 
 def _stack_forces(per_step: list[dict], steps: int) -> dict[tuple[str, str], np.ndarray]:

@@ -4,9 +4,11 @@ Ctrl-C or SIGTERM with everything finished kept.
 """
 from __future__ import annotations
 
+import collections
 import sys
 import time
 from dataclasses import dataclass, field
+from typing import Callable
 
 from physval.core.context import Context
 from physval.core.executor import DEFAULT_JOB_TIMEOUT, make_executor
@@ -31,21 +33,32 @@ class Results:
 
 
 class Progress:
-    """A bar on a terminal; elsewhere a line every 10 % (or 60 s) with the time left."""
+    """A bar on a terminal; elsewhere a line every 10 % (or 60 s) with the time left. The
+    total may grow as jobs are planned (a reading's next wave)."""
 
     def __init__(self, total: int, label: str, enabled: bool = True):
-        self.total, self.label, self.done = total, label, 0
+        self.total, self.label, self.done = 0, label, 0
         self.start = self.last = time.monotonic()
         self.tty = enabled and sys.stderr.isatty()
-        self.enabled = enabled and total > 0
+        self.enabled = enabled
         self.bar = None
-        if self.tty and self.enabled:
+        self.grow(total)
+
+    def grow(self, n: int) -> None:
+        """n more jobs to run."""
+        self.total += n
+        if not (self.tty and self.enabled and self.total):
+            return
+        if self.bar is None:
             from tqdm import tqdm
-            self.bar = tqdm(total=total, unit="job", desc=label, dynamic_ncols=True)
+            self.bar = tqdm(total=self.total, unit="job", desc=self.label, dynamic_ncols=True)
+        elif n:
+            self.bar.total = self.total
+            self.bar.refresh()
 
     def update(self, what: str = "") -> None:
         self.done += 1
-        if not self.enabled:
+        if not self.enabled or not self.total:
             return
         if self.bar is not None:
             self.bar.set_postfix_str(what[:50], refresh=False)
@@ -65,6 +78,164 @@ class Progress:
             self.bar.close()
 
 
+@dataclass
+class Stream:
+    """The jobs of a command or of a reading, with the store their rows go to. `plan`: a
+    list of jobs, or a generator that yields waves of jobs (lists), is sent the rows of
+    each wave ({job key: rows}, the store's own rows for jobs it held) and returns the
+    reading's value (a bisection: each wave's jobs depend on the last wave's rows).
+    `first`: its jobs go ahead of the others' (a chain of waves whose latency would
+    otherwise decide when the command ends). After `run_streams`: `results`, `value`,
+    `spent`."""
+    plan: object
+    store: RowStore | None = None
+    cache_key: Callable[[Job], str] | None = None  # job -> the key its stored rows are stamped with
+    label: str = "run"
+    first: bool = False
+    on_outcome: Callable | None = None
+    results: Results = field(default_factory=Results)
+    value: object = None
+    spent: "Spent" = field(default_factory=lambda: Spent())
+
+
+@dataclass
+class Spent:
+    """Where the worker time of a stream's jobs went: `job_s` the jobs' whole time in their
+    workers (building, stepping, recording, observing, judging), `run_s` of it their runs
+    (stepping and recording each step), `stepping_s` of that the engines' steps alone
+    (rows' wall_s), `cpu_s` the workers' CPU in them, `waited_s` their workers' idle time
+    before each began."""
+    jobs: int = 0
+    job_s: float = 0.0
+    run_s: float = 0.0
+    stepping_s: float = 0.0
+    cpu_s: float = 0.0
+    waited_s: float = 0.0
+
+    def add(self, outcome) -> None:
+        self.jobs += 1
+        t = getattr(outcome, "timing", None)
+        if t is not None:
+            self.job_s += t.wall_s
+            self.cpu_s += t.cpu_s
+            self.waited_s += t.waited_s
+        self.run_s += getattr(outcome, "run_s", 0.0)
+        rows = getattr(outcome, "rows", None) or [{}]
+        try:
+            self.stepping_s += float(rows[0].get("wall_s") or 0.0)
+        except (TypeError, ValueError):
+            pass
+
+
+@dataclass
+class PoolUse:
+    """The executor's whole run: `wall_s` from its start to its last result, on `workers`
+    workers (`started`: worker processes started, replacements included; `worker_cpu_s`:
+    their CPU, user + system, as they reported it; local workers only)."""
+    wall_s: float = 0.0
+    workers: int = 0
+    started: int = 0
+    worker_cpu_s: float = 0.0
+
+
+def _waves(plan):
+    if isinstance(plan, (list, tuple)):
+        yield list(plan)
+        return None
+    return (yield from plan)
+
+
+def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Execution" = None) -> PoolUse:
+    """Run every stream's jobs that its store does not hold yet on one executor (one set
+    of workers, kept busy by all of them: a reading's waves run beside the jobs of the
+    command, not after them), streaming each job's rows to its stream's store. A job two
+    streams want runs once. Never raises on an interrupt: each stream's
+    Results.interrupted says it stopped early (and its value stays None)."""
+    execution = execution or Execution()
+    queue: collections.deque = collections.deque()
+    waiting: dict[str, list[Stream]] = {}   # job key -> the streams that wait for its rows
+    state: dict[int, dict] = {}             # id(stream) -> its generator, wave rows, pending keys
+    bar = Progress(0, streams[0].label if streams else "run", execution.progress)
+    use = PoolUse(workers=execution.workers)
+
+    def advance(s: Stream, rows: dict | None) -> None:
+        """Send `s` its finished wave and queue its next (waves its store holds whole are
+        answered at once)."""
+        st = state[id(s)]
+        while True:
+            try:
+                wave = next(st["gen"]) if rows is None else st["gen"].send(rows)
+            except StopIteration as stop:
+                s.value, st["pending"] = stop.value, None
+                return
+            st["rows"], todo, seen = {}, [], set()
+            for j in wave:
+                if j.key in seen:
+                    continue
+                seen.add(j.key)
+                if s.store is not None and j.key in s.store.rows:  # finished by an earlier run
+                    st["rows"][j.key] = s.results.rows[j.key] = s.store.rows[j.key]
+                    s.results.reused += 1
+                elif j.key in s.results.rows:  # run for an earlier wave
+                    st["rows"][j.key] = s.results.rows[j.key]
+                else:
+                    todo.append(j)
+            st["pending"] = {j.key for j in todo}
+            if not todo:
+                rows = st["rows"]
+                continue
+            fresh = [j for j in todo if j.key not in waiting]  # (the others: queued for another stream)
+            for j in todo:
+                waiting.setdefault(j.key, []).append(s)
+            if s.first:
+                queue.extendleft(reversed(fresh))
+            else:
+                queue.extend(fresh)
+            bar.grow(len(fresh))
+            return
+
+    t0 = time.monotonic()
+    try:
+        for s in streams:
+            state[id(s)] = {"gen": _waves(s.plan), "pending": set(), "rows": {}}
+            advance(s, None)
+        if queue:
+            with sigterm_as_ctrl_c(), make_executor(ctx, execution.workers, execution.scheduler,
+                                                       execution.job_timeout, execution.start_method) as ex:
+                for outcome in ex.run(queue):
+                    key = outcome.job.key
+                    rows = [{**r, **outcome.extra} for r in outcome.rows]
+                    for s in waiting.pop(key, []):
+                        st = state[id(s)]
+                        # in memory first: an interrupt during the disk write must not leave a row
+                        # on disk that the run does not count as finished (its finalize would drop it)
+                        st["rows"][key] = s.results.rows[key] = rows
+                        s.results.ran += 1
+                        s.spent.add(outcome)
+                        if s.store is not None:
+                            s.store.append(key, rows, s.cache_key(outcome.job))
+                        if s.on_outcome is not None:
+                            s.on_outcome(outcome)
+                        st["pending"].discard(key)
+                        if not st["pending"]:
+                            advance(s, st["rows"])
+                    bar.update(outcome.job.test_id)
+                use.started = getattr(ex, "started", 0)
+                use.worker_cpu_s = getattr(ex, "worker_cpu_s", 0.0)
+    except KeyboardInterrupt as exc:
+        why = "SIGTERM" if isinstance(exc, Terminated) else "SIGINT"
+        for s in streams:
+            st = state.get(id(s))
+            if st is None or st["pending"] is not None:  # not finished
+                s.results.interrupted, s.value = why, None
+                if st is not None:
+                    st["gen"].close()
+    finally:
+        use.wall_s = time.monotonic() - t0
+        bar.close()
+    return use
+
+
 def run_jobs(jobs: list[Job], ctx: Context = Context(), workers: int = 1, scheduler: str | None = None,
              job_timeout: float | None = DEFAULT_JOB_TIMEOUT, start_method: str | None = None,
              store: RowStore | None = None, cache_key=None, progress: bool = True, label: str = "run",
@@ -72,37 +243,9 @@ def run_jobs(jobs: list[Job], ctx: Context = Context(), workers: int = 1, schedu
     """Run the jobs the store does not hold yet. `cache_key(job) -> str` stamps stored
     rows (required with a store). `on_outcome(outcome)` sees each job as it finishes.
     Never raises on an interrupt: Results.interrupted says it stopped early."""
-    res = Results()
-    todo = []
-    for j in jobs:
-        if store is not None and j.key in store.rows:
-            res.rows[j.key] = store.rows[j.key]
-            res.reused += 1
-        else:
-            todo.append(j)
-    if not todo:
-        return res
-    bar = Progress(len(todo), label, progress)
-    try:
-        with sigterm_as_ctrl_c(), make_executor(ctx, workers, scheduler, job_timeout, start_method) as ex:
-            for outcome in ex.run(todo):
-                rows = [{**r, **outcome.extra} for r in outcome.rows]
-                # in memory first: an interrupt during the disk write must not leave a row
-                # on disk that the run does not count as finished (its finalize would drop it)
-                res.rows[outcome.job.key] = rows
-                res.ran += 1
-                if store is not None:
-                    store.append(outcome.job.key, rows, cache_key(outcome.job))
-                if on_outcome is not None:
-                    on_outcome(outcome)
-                bar.update(outcome.job.test_id)
-    except Terminated:
-        res.interrupted = "SIGTERM"
-    except KeyboardInterrupt:
-        res.interrupted = "SIGINT"
-    finally:
-        bar.close()
-    return res
+    stream = Stream(jobs, store, cache_key, label, on_outcome=on_outcome)
+    run_streams([stream], ctx, Execution(workers, scheduler, job_timeout, start_method, progress))
+    return stream.results
 
 
 @dataclass(frozen=True)
@@ -125,14 +268,28 @@ def run_stored(jobs: list[Job], ctx: Context, path, columns: list[str], executio
                label: str = "run", on_outcome=None) -> tuple[Results, RowStore]:
     """run_jobs with a RowStore at `path`: finished jobs of an earlier run with the same
     code and engine versions are reused, new ones appended as they finish."""
-    engines = list(dict.fromkeys(j.engine for j in jobs))
-    keys = cache_keys(ctx, engines)
+    stream = stored(jobs, ctx, path, columns, label, on_outcome=on_outcome)
+    run_streams([stream], ctx, execution)
+    return stream.results, stream.store
+
+
+def stored(plan, ctx: Context, path, columns: list[str], label: str = "run", first: bool = False,
+           on_outcome=None) -> Stream:
+    """A Stream into a RowStore at `path` (loaded: finished jobs of an earlier run with the
+    same code and engine versions are reused, new ones appended as they finish)."""
+    engines = list(dict.fromkeys(j.engine for j in plan)) if isinstance(plan, (list, tuple)) else None
+    keys = cache_keys(ctx, engines)  # (a plan in waves: each engine's key found as its first job comes)
     store = RowStore(path, columns)
     store.load(keys.of_row)
-    res = run_jobs(jobs, ctx, execution.workers, execution.scheduler, execution.job_timeout, execution.start_method,
-                   store=store, cache_key=keys.of_job, progress=execution.progress, label=label,
-                   on_outcome=on_outcome)
-    return res, store
+    return Stream(plan, store, keys.of_job, label, first, on_outcome)
+
+
+def run_plan(plan, ctx: Context, path, columns: list[str], execution: Execution = Execution(), label: str = "run"):
+    """The value a reading's plan (a generator of waves, see Stream) returns, its jobs run
+    through a RowStore at `path` on one executor; None if interrupted."""
+    stream = stored(plan, ctx, path, columns, label)
+    run_streams([stream], ctx, execution)
+    return stream.value
 
 
 def map_calls(fn, args, ctx: Context = Context(), execution: Execution = Execution(),

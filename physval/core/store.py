@@ -19,11 +19,14 @@ import functools
 import hashlib
 import io
 import json
+import math
 import os
 import sys
+import time
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 from physval.files import write_atomic
 
@@ -35,6 +38,7 @@ PACKAGES = ("physval", "cases", "adapters", "reference_impl")
 
 
 KNOBS_COLUMN = "knobs"
+SYNC_EVERY = 1.0  # s: RowStore.append makes the file durable (fsync) when the last did so this long ago
 
 
 def knob_ref(text: str) -> str:
@@ -131,6 +135,7 @@ class RowStore:
         self.columns = list(columns) + [c for c in STORE_COLUMNS if c not in columns]
         self.knobs_file = Path(knobs_file) if knobs_file is not None else None
         self.rows: dict[str, list[dict]] = {}   # job key -> rows, complete jobs only
+        self._synced = -math.inf                  # when append last made the file durable
         self._check()
 
     def _check(self) -> None:
@@ -144,9 +149,10 @@ class RowStore:
                 raise StoreError(f"{self.path}: not a file physval can resume (no {', '.join(missing)} column): "
                                  "choose another --out folder or remove the file")
 
-    def load(self, cache_key_of) -> int:
+    def load(self, cache_key_of, rewrite: bool = True) -> int:
         """Read finished jobs whose cache key is `cache_key_of(job rows' first row)`;
-        return how many. The file is rewritten without cut-short or stale jobs."""
+        return how many. The file is rewritten without cut-short or stale jobs (unless
+        `rewrite` is False: a look that changes nothing, as `physval run --plan`'s)."""
         if not self.path.exists() or not self.path.stat().st_size:
             return 0
         text = whole_rows(self.path.read_text())  # a write cut short by a kill: its tail dropped
@@ -161,12 +167,18 @@ class RowStore:
                 whole = False
             if whole and rows[0]["cache_key"] == cache_key_of(rows[0]):
                 self.rows[key] = rows
-        self._write([r for rows in self.rows.values() for r in rows])
+        if rewrite:
+            self._write([r for rows in self.rows.values() for r in rows])
         return len(self.rows)
 
     def append(self, key: str, rows: list[dict], cache_key: str) -> None:
-        """Add one finished job's rows: held in memory first, then one write, flushed to
-        disk (an interrupt in the write leaves them in memory, and finalize writes them)."""
+        """Add one finished job's rows: held in memory first, then one write, handed to the
+        operating system at once (an interrupt in the write leaves them in memory, and
+        finalize writes them; a killed physval loses nothing written), and made durable
+        (fsync) by the first append SYNC_EVERY seconds or more after the last that was: a
+        crash of the machine costs at most the jobs stored since (a cut-short tail is
+        dropped by load(), and they run again). An fsync a job cost the main process 20 ms
+        on a loaded disk."""
         stamped = [{**r, "job": key, "job_rows": len(rows), "cache_key": cache_key} for r in rows]
         self.rows[key] = stamped
         buf = io.StringIO()
@@ -179,7 +191,9 @@ class RowStore:
         with open(self.path, "a", newline="") as fh:
             fh.write(buf.getvalue())
             fh.flush()
-            os.fsync(fh.fileno())
+            if time.monotonic() - self._synced >= SYNC_EVERY:
+                os.fsync(fh.fileno())
+                self._synced = time.monotonic()
 
     def finalize(self, keys: list[str]) -> list[dict]:
         """Rewrite the file with the rows of `keys` only, in that order; return them."""
@@ -218,14 +232,19 @@ class RowStore:
 
 @dataclass(frozen=True)
 class CacheKeys:
-    """The cache keys of a run: per engine, and per user family (cache_keys)."""
+    """The cache keys of a run: per engine, and per user family (cache_keys). With `find`,
+    an engine not yet in `engines` gets its key found when first asked (a reading's waves,
+    whose engines are known only as their jobs come)."""
     engines: dict[str, str]
     families: dict[str, str] = field(default_factory=dict)  # a user's family -> its files' fingerprint
+    find: Callable[[str], str] | None = None                 # engine -> its key (engine_key_of)
 
     def of(self, engine: str, family: str) -> str:
         """The cache key of a job of `family` on `engine` ("" for an engine not in the run)."""
         if engine not in self.engines:
-            return ""
+            if self.find is None:
+                return ""
+            self.engines[engine] = self.find(engine)
         own = self.families.get(family)
         return self.engines[engine] + (f"+{own}" if own else "")
 
@@ -236,25 +255,33 @@ class CacheKeys:
         return self.of(job.engine, job.family)
 
 
-def cache_keys(ctx, engines: list[str]) -> CacheKeys:
+def cache_keys(ctx, engines: list[str] | None = None) -> CacheKeys:
     """Per engine: the fingerprint of the code that measures (with the --known files, and
     the engine's own source, the user modules it imports and its deviation file when they
     lie outside this project: a plug-in's, an --adapter's), and the engine's version. Per
     family of a user's --cases-dir: the fingerprint of its file and the user modules it
-    imports."""
+    imports. Without `engines`, each engine's key is found when first asked, the project's
+    fingerprint read once."""
+    find = engine_key_of(ctx)
+    if engines is None:
+        return CacheKeys({}, family_keys(ctx), find)
+    return CacheKeys({e: find(e) for e in engines}, family_keys(ctx))
+
+
+def engine_key_of(ctx) -> Callable[[str], str]:
+    """engine -> its part of the cache key (as cache_keys), the project's fingerprint read once."""
     resolver = ctx.resolver()
     fp = fingerprint(list(ctx.known_files))
-    out = {}
-    for e in engines:
+
+    def find(e: str) -> str:
         try:
             adapter = resolver.adapter(e)
         except Exception:
-            out[e] = f"{fp}:not installed"
-            continue
+            return f"{fp}:not installed"
         own = [f for f in user_sources(adapter_sources(adapter)) + resolver.deviation_files(e)
                if f.is_file() and not _in_project(f) and str(f) not in ctx.known_files]
-        out[e] = f"{fp}{'+' + digest(own) if own else ''}:{adapter.version()}"
-    return CacheKeys(out, family_keys(ctx))
+        return f"{fp}{'+' + digest(own) if own else ''}:{resolver.version(e)}"
+    return find
 
 
 def family_keys(ctx) -> dict[str, str]:

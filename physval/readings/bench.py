@@ -15,10 +15,15 @@ machine is noisy; absolute times are for orientation only). Never a pass/fail te
   contacts (doubling the contacts should at most about double the time);
 - `faults`: not a speed: the suite's own power. Each fault of physval/faults.py planted in
   each engine it is written for, every family's default variants run on it, and the
-  detection matrix written: failing checks per fault and family.
+  detection matrix written: failing checks per fault and family;
+- `run` (only when named: two whole default runs): `physval run` as a user runs it, in a
+  fresh process, cold (empty physval and numba caches) and then warm (the caches filled),
+  each timed whole, with where its time went (the run's Cost section: planning, the
+  engines' steps, the rest of the jobs, the readings, the workers' overhead per job, the
+  report, CPU) and each engine's worker-seconds, against the default run's budget.
 
-Every measurement runs as a job of the core (physval.core), one worker at a time, so
-engines are timed side by side in the same conditions.
+Every measurement but `run` runs as a job of the core (physval.core), one worker at a time,
+so engines are timed side by side in the same conditions.
 """
 from __future__ import annotations
 
@@ -34,7 +39,8 @@ from physval.core import Context, Job, Probe, run_jobs, simulate
 from physval.core.session import Execution
 from physval.report import md_table, write_atomic
 
-WHAT = ("overhead", "step", "compile", "sweep-workers", "pgs", "faults")
+WHAT = ("overhead", "step", "compile", "sweep-workers", "pgs", "faults", "run")
+ON_DEMAND = ("run",)  # not in `physval bench` without names: minutes of a whole default run, twice
 
 
 # --- overhead: the core's recorded step against a bare step ----------------------------------
@@ -302,7 +308,9 @@ FAULTS_NOTE = ("Each fault of physval/faults.py, one thing changed in what the e
                "bands. A cell counts the checks that `fail`; `families flagging` counts the families with at least "
                "one; `not measured` names the families where checks came out `error` or `unstable` instead (an "
                "observer that could not measure: a fault should give a sized fail). Engines: reference, mujoco and "
-               "pybullet unless --engines names others the faults are written for.")
+               "pybullet unless --engines names others; a fault that needs an engine-internal change (a square "
+               "friction cone, a damping, a restitution threshold) runs only on engines whose adapter makes it "
+               "(adapters/planting.py).")
 
 
 def faults_note() -> str:
@@ -312,25 +320,25 @@ def faults_note() -> str:
 
 def fault_matrix(engines: list[str], ctx: Context, execution: Execution,
                  families: dict[str, list] | None = None) -> pd.DataFrame:
-    """Fault x family detection counts for every engine of `engines` that faults are
-    written for, over `families` (name -> variants; default: the default variants of every
-    family but the robustness ones). Each fault's jobs run in worker processes that build
-    the engine with the fault planted (physval.faults.verdicts), under the engine's own
-    name, so its bands judge it."""
+    """Fault x family detection counts for every installed engine of `engines`, over
+    `families` (name -> variants; default: the default variants of every family but the
+    robustness ones). Each fault's jobs run in worker processes that build the engine with
+    the fault planted (physval.faults.verdicts: adapters.planting's hook), under the
+    engine's own name, so its bands judge it."""
     from physval import faults
     resolver = ctx.resolver()
     if families is None:
         families = {n: f.variants for n, f in resolver.families.items() if "robustness" not in f.tags}
-    kinds = {}
+    adapters = {}
     for engine in engines:
         try:
-            kinds[engine] = faults.engine_kind(resolver.adapter(engine))
+            adapters[engine] = resolver.adapter(engine)
         except Exception:
-            continue  # not installed, or no faults written for it
+            continue  # not installed
     out = []
     for fault in (faults.NONE, *faults.FAULTS):
-        # the engines the fault has a meaning in (a restitution threshold has none in MuJoCo, which has no e)
-        mine = [e for e, kind in kinds.items() if kind in fault.kinds]
+        # the engines it can be planted in (MuJoCo's adapter makes no restitution threshold: it has no e)
+        mine = [e for e, adapter in adapters.items() if faults.why_not(adapter, fault) is None]
         rows = faults.verdicts(fault, [j for e in mine for j in faults.jobs_of(families, e)], execution, ctx)
         for engine in mine:
             row = {"engine": engine, "fault": fault.name}
@@ -346,7 +354,7 @@ def fault_matrix(engines: list[str], ctx: Context, execution: Execution,
             row["checks"] = sum(r["engine"] == engine for r in rows)
             row["not measured (error/unstable)"] = ", ".join(f"{k}: {v}" for k, v in broken.items())
             out.append(row)
-    order = {e: i for i, e in enumerate(kinds)}
+    order = {e: i for i, e in enumerate(adapters)}
     return pd.DataFrame(out).sort_values("engine", key=lambda c: c.map(order), kind="stable")
 
 
@@ -377,7 +385,7 @@ def _note(name: str) -> str:
     if name == "faults":
         return faults_note()
     return {"overhead": OVERHEAD_NOTE, "step": STEP_NOTE, "compile": COMPILE_NOTE, "sweep-workers": SWEEP_WORKERS_NOTE,
-            "pgs": PGS_NOTE}[name]
+            "pgs": PGS_NOTE, "run": RUN_NOTE}[name]
 
 
 STEP_NOTE = ("Minimum over 2 repeats of the mean wall time per step over 20 steps at dt = 1e-3 (10 warm-up "
@@ -461,3 +469,77 @@ def pgs_scaling(sizes=(250, 500, 1000, 2000, 4000, 8000), repeats: int = 9) -> p
             "setup ms": (one[k] - sweep[k]) * 1e3}
            for k in sizes]
     return pd.DataFrame(out)
+
+
+# --- the default run, cold and warm ---------------------------------------------------------
+
+STATES = ("cold", "warm")
+
+
+def default_run(workers: int, out: Path, args: tuple[str, ...] = ()) -> pd.DataFrame:
+    """`physval run` with `args` (none: the default run) on `workers` workers, in a fresh
+    process, twice: cold (empty physval and numba caches: PHYSVAL_CACHE_DIR and
+    NUMBA_CACHE_DIR in a new temporary folder) and warm (the caches the cold run filled, a
+    new --out). One row per part of the run's time (its cost.csv: phases, CPU, engines),
+    the two states side by side, and the whole command's wall time and budget. The warm
+    run's per-family costs are written to `out`/costs.csv (physval's shipped cost table,
+    physval/readings/costs.csv, is a copy of it)."""
+    import os
+    import subprocess
+    import sys
+    import tempfile
+    from physval.readings import cost
+    parts: dict[str, pd.DataFrame] = {}
+    wall: dict[str, float] = {}
+    with tempfile.TemporaryDirectory(prefix="physval-bench-run-") as tmp:
+        env = {**os.environ, "PHYSVAL_CACHE_DIR": f"{tmp}/physval-cache", "NUMBA_CACHE_DIR": f"{tmp}/numba-cache"}
+        for state in STATES:
+            folder = Path(tmp) / state
+            t0 = time.perf_counter()
+            done = subprocess.run([sys.executable, "-m", "physval", "run", *args, "--workers", str(workers),
+                                   "--quiet", "--out", str(folder)], env=env, stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, text=True)
+            wall[state] = time.perf_counter() - t0
+            if done.returncode not in (0, 1) or not (folder / "cost.csv").is_file():
+                raise RuntimeError(f"physval run ({state}) exited {done.returncode}: {done.stderr.strip()[-400:]}")
+            parts[state] = pd.read_csv(folder / "cost.csv")
+            if state == "warm":
+                from physval.core.store import read_results
+                cost.write_table(cost.per_family(cost.per_job(read_results(folder / "results.csv"))),
+                                 Path(out) / "costs.csv")
+    return run_table(parts, wall, workers)
+
+
+def run_table(parts: dict[str, pd.DataFrame], wall: dict[str, float], workers: int) -> pd.DataFrame:
+    """The states' cost rows side by side, with the whole command and the budget first."""
+    from physval.readings.cost import BUDGET_S, BUDGET_WORKERS
+    keys: list[tuple[str, str]] = []
+    for df in parts.values():
+        keys += [k for k in zip(df.kind, df.name) if k not in keys]
+    rows = [{"kind": "whole", "name": f"physval run on {workers} workers (budget {BUDGET_S:.0f} s on "
+                                      f"{BUDGET_WORKERS} cores)", "of": "wall",
+             **{f"{st} s": wall.get(st, math.nan) for st in parts}, "note": ""}]
+    for kind, name in keys:
+        row = {"kind": kind, "name": name}
+        for st, df in parts.items():
+            hit = df[(df.kind == kind) & (df.name == name)]
+            row["of"] = hit["of"].iloc[0] if len(hit) else row.get("of", "")
+            row[f"{st} s"] = float(hit.seconds.iloc[0]) if len(hit) else math.nan
+            if kind == "phase" and name == "overhead" and len(hit):
+                row[f"{st} ms per job"] = 1e3 * float(hit.seconds.iloc[0]) / float(hit.jobs.iloc[0]) \
+                    if float(hit.jobs.iloc[0] or 0) else math.nan
+            if kind == "engine" and len(hit):
+                row["note"] = f"{int(hit.jobs.iloc[0])} jobs"
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+RUN_NOTE = ("`physval run` (the default run: every family on every installed engine, the engine-wide readings, the "
+            "report) started as a user starts it, in a fresh process, first with empty caches (`cold`: physval's "
+            "cache folder, where the readings keep their jobs, and numba's, where the reference's compiled "
+            "functions are kept) and then again with the caches that run filled (`warm`, into a new folder). "
+            "`whole`: the command's wall time from outside. The other rows are the run's own Cost section "
+            "(`cost.csv`): wall-clock phases; within the jobs' phase the workers' time in the engines' steps, in "
+            "the rest of each job and in the readings' jobs, and outside any job (`overhead`, also per job); the "
+            "CPU time of the workers and of the main process; each engine's worker-seconds. Wall and worker "
+            "times need a quiet machine; the CPU rows and the shares hold on a loaded one.")

@@ -10,8 +10,9 @@ For several requested values, measure on each engine
 A mismatch is a finding for the report, not a verdict: these rows have no tolerance.
 
 Every run is a job of the core (physval.core), so the bisection's steps for all engines
-and coefficients run side by side as waves of jobs, and every job is cached per engine
-version in the cache folder (physval.core.store.cache_dir): a second run measures nothing.
+and coefficients run side by side as waves of jobs (`waves`; `physval run` runs them on its
+own workers beside its jobs, `stream`), and every job is cached per engine version in the
+cache folder (physval.core.store.cache_dir): a second run measures nothing.
 """
 from __future__ import annotations
 
@@ -24,7 +25,7 @@ import pandas as pd
 from cases import central_impact, incline_threshold
 from cases.family import Variant
 from physval.core import COLUMNS, Job, Probe
-from physval.core.session import Execution, run_stored
+from physval.core.session import Execution, Stream, run_plan, stored
 from physval.core.store import cache_dir
 from physval.report import fmt, md_table, pyplot, save_figure, write_atomic
 
@@ -76,6 +77,23 @@ def _why_not(rows: list[dict]) -> str:
 
 def measure(engines: list[str], ctx, families=None, execution: Execution = Execution(), **_) -> pd.DataFrame | None:
     """Asked-vs-measured rows for each engine (None if interrupted)."""
+    return run_plan(waves(engines, ctx), ctx, cache_dir() / STORE, COLUMNS_OBSERVED, execution, label=LABEL)
+
+
+def stream(engines: list[str], ctx, families=None) -> Stream:
+    """The reading as a stream of the command's executor (physval.core.session.run_streams):
+    its waves run beside the command's own jobs; its value is measure()'s."""
+    return stored(waves(engines, ctx), ctx, cache_dir() / STORE, COLUMNS_OBSERVED, label=LABEL, first=True)
+
+
+STORE = "effective.csv"
+LABEL = "asked vs measured"
+
+
+def waves(engines: list[str], ctx):
+    """The reading's plan: the bisection's probes wave by wave (each wave's angles follow
+    from the last wave's rows), the restitution and kinetic-friction runs with the first;
+    returns the asked-vs-measured rows."""
     resolver = ctx.resolver()
     dims = {}
     for e in engines:
@@ -83,7 +101,6 @@ def measure(engines: list[str], ctx, families=None, execution: Execution = Execu
             dims[e] = 3 if 3 in resolver.adapter(e).capabilities.dimensions else 2
         except Exception:
             continue
-    path = cache_dir() / "effective.csv"
     jobs_e = {(e, x): _job(central_impact.FAMILY, {"setup": "drop", "e": x, "h": central_impact.H, "dim": d}, e)
               for e, d in dims.items() for x in RESTITUTIONS}
     jobs_k = {(e, mu): _job(incline_threshold.FAMILY, {"mu_s": mu, "mu_k": mu, "offset_deg": 10.0, "dim": d}, e)
@@ -96,13 +113,10 @@ def measure(engines: list[str], ctx, families=None, execution: Execution = Execu
             params = {"mu_s": mu, "mu_k": mu, "offset_deg": 0.5 * (lo + hi), "dim": dims[e]}
             probes[(e, mu)] = _job(incline_threshold.FAMILY, params, e)
         jobs = list(probes.values()) + (list(jobs_e.values()) + list(jobs_k.values()) if wave == 0 else [])
-        res, _ = run_stored(jobs, ctx, path, COLUMNS_OBSERVED, execution,
-                            label=f"asked vs measured ({wave + 1}/{BISECTIONS})")
-        if not res.complete:
-            return None
-        results.update(res.rows)
+        rows = yield jobs
+        results.update(rows)
         for key, job in probes.items():
-            a = _observed(res.rows[job.key], "sliding_acceleration")
+            a = _observed(rows[job.key], "sliding_acceleration")
             mid = 0.5 * sum(bracket[key])
             bracket[key][1 if a > A_SLIDING else 0] = mid
     out = []

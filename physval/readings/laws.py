@@ -45,7 +45,7 @@ import pandas as pd
 from cases.scene import Scene
 from cases.trajectory import ContactPoint
 from physval.core import COLUMNS, Job, Probe
-from physval.core.session import Execution, run_stored
+from physval.core.session import Execution, Stream, run_plan, stored
 from physval.core.store import cache_dir
 from physval.report import fmt, md_table, pyplot, save_figure, write_atomic
 
@@ -185,6 +185,24 @@ def measure(engines: list[str], ctx, families: dict, execution: Execution = Exec
     """The residual rows of the engines over the battery, each scene at its family's dt
     (None if interrupted); an engine that cannot report contact points, or fails on a
     scene, gets a row saying so. `resolver`: the parent's (default: the context's)."""
+    return run_plan(waves(engines, ctx, families, resolver), ctx, cache_dir() / STORE, COLUMNS_LAWS, execution,
+                    label=LABEL)
+
+
+def stream(engines: list[str], ctx, families: dict) -> Stream:
+    """The reading as a stream of the command's executor (physval.core.session.run_streams):
+    its jobs run beside the command's own; its value is measure()'s."""
+    return stored(waves(engines, ctx, families), ctx, cache_dir() / STORE, COLUMNS_LAWS, label=LABEL, first=True)
+
+
+STORE = "laws.csv"
+LABEL = "physics-law residuals"
+COLUMNS_LAWS = COLUMNS + ["laws"]
+
+
+def waves(engines: list[str], ctx, families: dict, resolver=None):
+    """The reading's plan: one wave, the battery on every engine that reports contact
+    points; returns the residual rows."""
     resolver = resolver or ctx.resolver()
     rows, jobs = [], []
     for engine in engines:
@@ -198,12 +216,10 @@ def measure(engines: list[str], ctx, families: dict, execution: Execution = Exec
                          "note": "the engine does not report per-contact forces"})
             continue
         jobs += [Job(name, v, engine, probe=PROBE) for name, v in battery(families, adapter)]
-    res, _ = run_stored(jobs, ctx, cache_dir() / "laws.csv", COLUMNS + ["laws"], execution, label="physics-law residuals")
-    if not res.complete:
-        return None
+    got = (yield jobs) if jobs else {}
     for job in jobs:
-        got = res.rows[job.key]
-        first = got[0] if got else {}
+        found = got[job.key]
+        first = found[0] if found else {}
         row = {"engine": job.engine, "case": job.family, "variant": job.variant.id, "dt": first.get("dt", ""),
                "wall_s": first.get("wall_s", ""), "note": ""}
         if first.get("laws"):

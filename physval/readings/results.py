@@ -6,7 +6,9 @@ physics per effect, the summary (engines, then the reference formulations), know
 deviations with their recorded bands beside today's measurement, failures, unsupported
 runs, the engine-wide readings, one page per family (what it checks, where its closed form
 comes from, every tolerance with its reason, a plot and a table of measured values), the
-engine settings, the stepping cost and the environment. results.csv is the row store itself
+engine settings, where the run's time went (physval.readings.cost) and the environment.
+The heat maps are drawn before the sections render, side by side on the run's workers
+when it gives a `draw`. results.csv is the row store itself
 (physval.core.store), finalised in job order.
 
 `python3 -m physval.readings.results FOLDER` rebuilds a folder's report from its results.csv
@@ -21,12 +23,11 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from physval.core import COLUMNS
 from physval.core.verdicts import VANISHED
-from physval.readings import agreement, closest, effective, invariance, laws, parity, scorecard, site
+from physval.readings import agreement, closest, cost, effective, invariance, laws, parity, scorecard, site
 from physval.readings.checks import (deviation_summary, deviation_table, engine_groups, engine_versions, family_table,
                                      frame, per_engine_counts, problems_section, status_class, status_counts,
                                      summary_matrix, tolerance_reasons, unsupported_section)
@@ -43,7 +44,9 @@ class Run:
     """What a run's report reads: its rows (`df`, the frame of physval.readings.checks), its
     folder, its families, the engine-wide readings it measured (`engine_wide`: effective,
     laws), the readings of other commands found beside it, the notes on known-deviation
-    entries gone stale, and whether it completed (an interrupted run draws no plots)."""
+    entries gone stale, and whether it completed (an interrupted run draws no plots); for
+    the Cost section, its rows as stored (`rows`: with their job keys) and its phases as
+    physval run measured them (`phases`, physval.readings.cost.Phases; None: rebuilt)."""
     df: pd.DataFrame
     out: Path
     families: dict
@@ -51,6 +54,8 @@ class Run:
     beside: scorecard.Companions = field(default_factory=scorecard.Companions)
     stale: list[str] = field(default_factory=list)
     complete: bool = True
+    rows: list = field(default_factory=list)
+    phases: cost.Phases | None = None
 
     @property
     def plots(self) -> Path | None:
@@ -110,8 +115,7 @@ class Summary(Section):
         lines = ["## Summary", "", SUMMARY_LEGEND, ""]
         for g in groups:
             lines += [f"### {g.title}", "", md_table(g.matrix), ""]
-            if g.plots is not None:
-                plot_summary(g.df, g.engines, g.plots / f"{g.slug}.png", g.title)
+            if g.plots is not None:  # drawn before (heat_maps)
                 lines += [f"![{g.title}](plots/{g.slug}.png)", ""]
         return "\n".join(lines)
 
@@ -269,8 +273,8 @@ def cross_engine(run: Run) -> pd.DataFrame:
 
 
 class Families(Section):
-    """The index of families, one line each, linking each family's page (`family_page`),
-    and each family's heat map."""
+    """The index of families, one line each, linking each family's page (`family_page`)
+    (each family's heat map is drawn before: heat_maps)."""
 
     def measure(self, run: Run) -> Run:
         return run
@@ -279,8 +283,6 @@ class Families(Section):
         df, index = run.df, []
         for name in sorted(df.case.unique()):
             fam, mine = run.families.get(name), df[df.case == name]
-            if run.plots is not None:
-                plot_family(df, name, run.plots / f"{name}.png")
             index.append({"family": f"[{name}](families/{name}.md)", "what it checks": fam.summary if fam else "",
                           "checks": len(mine), "statuses": status_counts(mine)})
         return "\n".join(["## Families", "", "One page per family: what it checks, where its closed form comes from, "
@@ -324,26 +326,28 @@ def knobs_page(df: pd.DataFrame) -> str:
     return "\n".join(page)
 
 
-def cost_section(df: pd.DataFrame) -> list[str]:
-    timing = df.drop_duplicates(["case", "variant", "engine"])
-    steps = pd.to_numeric(timing.steps, errors="coerce")
-    timing = timing[steps > 0].assign(steps=steps[steps > 0])
-    if not len(timing):
+def heat_maps(run: Run) -> list[tuple]:
+    """The heat maps the report shows, each (function, arguments) for `drawn`: the summary's
+    (Summary's groups) and one per family; none for an interrupted run."""
+    if run.plots is None:
         return []
-    t = timing.groupby("engine", sort=False).apply(
-        lambda g: pd.Series({"runs": len(g), "steps": int(g.steps.sum()),
-                             "us per step (median over runs)": float(np.median(g.wall_s / g.steps) * 1e6)}),
-        include_groups=False).reset_index()
-    return ["## Cost", "", "Wall time of stepping only (scene construction excluded), all families "
-            "together; see `physval sweep` for error against cost.", "", md_table(t), ""]
+    maps = [(plot_summary, (g.df[g.df.engine.isin(g.engines)], g.engines, g.plots / f"{g.slug}.png", g.title))
+            for g in Summary().measure(run) if g.plots is not None]
+    return maps + [(plot_family, (run.df[run.df.case == name], name, run.plots / f"{name}.png"))
+                   for name in sorted(run.df.case.unique())]
 
 
-class Cost(Section):
-    def measure(self, run: Run) -> pd.DataFrame:
-        return run.df
+def drawn(drawing: tuple) -> None:
+    """Draw one plot: (function, arguments); a module-level function, so a worker process
+    can draw it (physval.core.session.map_calls)."""
+    fn, args = drawing
+    fn(*args)
 
-    def markdown(self, df: pd.DataFrame) -> str:
-        return "\n".join(cost_section(df))
+
+def draw_here(drawings: list) -> None:
+    """Draw the plots one after the other in this process."""
+    for d in drawings:
+        drawn(d)
 
 
 class Environment(Section):
@@ -371,23 +375,26 @@ SECTIONS = (
     InFolder(laws, lambda run: run.engine_wide.get("laws")),
     Families(),
     Settings(),
-    Cost(),
+    InFolder(cost, lambda run: cost.measure(run.rows, run.phases)),  # last but one: its report time covers the others
     Environment(),
 )
 INTERRUPTED = (SummaryTable(), Vanished(), Problems())  # an interrupted run's report: what is known so far
 
 
 def write_run_report(rows: list[dict], out: Path, families: dict, command: str = "", complete: bool = True,
-                     planned: int | None = None, engine_wide: dict | None = None, stale: list[str] = ()) -> None:
+                     planned: int | None = None, engine_wide: dict | None = None, stale: list[str] = (),
+                     phases: cost.Phases | None = None, draw=draw_here) -> None:
     """report.md, report.html and their pages for the rows of a run; `complete` False: an
     interrupted run's report (marked so, without plots). `engine_wide`: the engine-wide
     readings measured (effective, laws) and `beside`, the readings of other commands found
     beside the run (physval.readings.scorecard.companions). `stale`: notes on known-deviation
-    entries."""
+    entries. `phases`: the run's time as physval run measured it, for the Cost section.
+    `draw(drawings)` draws the heat maps, a list of (function, arguments) (physval run draws
+    them on its workers, side by side)."""
     out = Path(out)
     wide = dict(engine_wide or {})
     beside = wide.pop("beside", None) or scorecard.Companions()
-    run = Run(frame(rows, COLUMNS), out, families, wide, beside, list(stale), complete)
+    run = Run(frame(rows, COLUMNS), out, families, wide, beside, list(stale), complete, list(rows), phases)
     missing = "" if complete else f"the run was interrupted after {run.runs} of {planned} runs"
     report = Report("physval report", SECTIONS if complete else INTERRUPTED, command,
                     interrupted=missing + (". Finished runs are kept and not recomputed; plots are drawn when it "
@@ -399,6 +406,10 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
         write_pages(out, {"deviations.md": deviations_page(run.df), "knobs.md": knobs_page(run.df),
                           "unsupported.md": "\n".join(["# Unsupported runs", ""] + unsupported_section(run.df)[2:])},
                     {f"{name}.md": family_page(run.df, name, families.get(name)) for name in sorted(run.df.case.unique())})
+    maps = heat_maps(run)
+    if maps:
+        run.plots.mkdir(parents=True, exist_ok=True)
+        draw(maps)
     report.write(out, run, html)
     if len(run.df):
         site.write(out, run.df, families, run.card, html, interrupted=f"{missing}; finished runs are kept and not "

@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from reference_impl.geometry import Box, Circle, Plane, Rect, Sphere, collide
+from reference_impl.geometry import Box, Circle, Plane, Rect, Sphere, collide, is_edge_feature
 from reference_impl.rigid_body import RigidBody
 
 MARGIN = 1e-9  # contacts only when touching, for these checks
@@ -179,7 +179,7 @@ def test_crossed_edges_touch_at_one_point():
     assert depth == pytest.approx(0.2 * S2 - zb, abs=1e-15)
     assert close(n, (0.0, 0.0, 1.0), 1e-15)
     assert close(p, (0.0, 0.0, 0.1 * S2 - depth / 2), 1e-15)  # midway between the edges
-    assert feature[0] == "edge"
+    assert is_edge_feature(feature)
 
 
 def test_box_box_normal_points_from_first_to_second_in_either_order():

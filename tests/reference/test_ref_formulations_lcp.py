@@ -278,7 +278,7 @@ def test_impulses_between_free_bodies_conserve_momentum(seed):
 def kinetic_energy(bodies, u):
     """Sum of m v^2 / 2 + w . I w / 2 (pinv: a particle's zero I^-1 has w = 0)."""
     return sum(0.5 * u[i, :3] @ u[i, :3] / bodies.m_inv[i] + 0.5 * u[i, 3:] @ np.linalg.pinv(bodies.I_inv[i]) @ u[i, 3:]
-               for i in range(len(bodies)))
+               for i in range(len(bodies.m_inv)))
 
 
 @given(seed=seeds, friction=st.booleans())

@@ -1,0 +1,84 @@
+"""The run's cost model: `physval run --plan` predicts per engine and family from measured
+per-job costs (and counts an engine it has never measured apart), the report's Cost
+section says where the time went, and `physval bench run` times a run cold and warm."""
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import pandas as pd
+
+from physval.cli import main
+from physval.readings import cost
+
+ROOT = Path(__file__).resolve().parent.parent
+FAKES = str(ROOT / "tests" / "fakes.py")
+QUIET = ["--workers", "1", "--quiet"]
+
+
+def test_a_job_costs_its_engines_time_outside_stepping_plus_its_steps_at_the_measured_rate():
+    """2 jobs of 1000 steps took 3 s, 2 of them stepping: 1 ms a step and 0.5 s a job
+    outside; a 500-step job of the family costs 1 s, of another family on that engine the
+    engine's median, and on an engine never measured nothing known."""
+    table = pd.DataFrame([{"engine": "e", "case": "c", "jobs": 2, "steps": 2000, "stepping_s": 2.0, "job_s": 3.0}])
+    model = cost.Model.of(table, "a test")
+    assert model.predict("e", "c", 500) == (1.0, "family")
+    assert model.predict("e", "other", 500) == (1.0, "engine")
+    s, how = model.predict("new", "c", 500)
+    assert math.isnan(s) and how == "none"
+
+
+def test_the_plan_prices_from_the_last_run_counts_an_unmeasured_engine_apart_and_changes_nothing(tmp_path, capsys):
+    out = tmp_path / "out"
+    engines = ["--adapter", f"{FAKES}:OtherFake", "--adapter", f"{FAKES}:HistoryFake"]
+    assert main(["run", *engines, "--engines", "fake-2", "--cases", "central_impact", *QUIET, "--out", str(out)]) == 0
+    capsys.readouterr()
+    before = (out / "results.csv").read_bytes()
+    assert main(["run", "--plan", *engines, "--engines", "fake-2,fake-history", "--cases",
+                 "central_impact,incline_threshold", *QUIET, "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert (out / "results.csv").read_bytes() == before, "--plan runs nothing and rewrites nothing"
+    assert f"predicted from the last run in {out}" in text
+    lines = {line.split()[0]: line.split() for line in text.splitlines() if line.strip().startswith("fake-")}
+    n_incline = len(__import__("physval.core", fromlist=["Context"]).Context().resolver()
+                    .family("incline_threshold").variants)
+    assert lines["fake-2"][1] == str(n_incline) and float(lines["fake-2"][2]) > 0 and lines["fake-2"][4] == "0"
+    assert float(lines["fake-history"][2]) == 0 and int(lines["fake-history"][4]) == int(lines["fake-history"][1]) > 0
+    assert "finished before" in text and "jobs with no measured cost (not counted)" in text
+
+
+def test_the_report_says_where_the_time_went_and_the_parts_add_up(tmp_path):
+    out = tmp_path / "out"
+    assert main(["run", "--adapter", f"{FAKES}:OtherFake", "--engines", "fake-2", "--cases", "central_impact",
+                 *QUIET, "--out", str(out)]) == 0
+    assert "## Cost" in (out / "report.md").read_text()
+    parts = pd.read_csv(out / "cost.csv")
+    phase = dict(zip(parts[parts.kind == "phase"].name, parts[parts.kind == "phase"].seconds))
+    assert {"planning", "jobs and readings", "stepping", "recording", "rest of the jobs", "readings' jobs", "overhead",
+            "report",
+            "CPU of the workers", "CPU outside any job", "CPU of the main process"} <= set(phase)
+    assert 0 <= phase["CPU outside any job"] < phase["CPU of the workers"]
+    jobs = {r["job"]: r for r in csv.DictReader(open(out / "results.csv"))}
+    job_s = sum(float(r["job_s"]) for r in jobs.values())
+    stepping = sum(float(r["wall_s"] or 0) for r in jobs.values())
+    assert math.isclose(phase["stepping"] + phase["recording"] + phase["rest of the jobs"], job_s, rel_tol=1e-6)
+    assert phase["recording"] > 0 and phase["rest of the jobs"] > 0
+    assert math.isclose(phase["stepping"], stepping, rel_tol=1e-6) and 0 < stepping < job_s
+    assert math.isclose(phase["overhead"], 1 * phase["jobs and readings"] - job_s, rel_tol=1e-6, abs_tol=1e-9)
+    (engine,) = parts[parts.kind == "engine"].itertuples()
+    assert engine.name == "fake-2" and engine.jobs == len(jobs)
+
+
+def test_bench_run_times_a_run_cold_then_warm_and_writes_the_cost_table(tmp_path):
+    out = tmp_path / "bench"
+    assert main(["bench", "run", "--adapter", f"{FAKES}:OtherFake", "--engines", "fake-2", "--cases",
+                 "central_impact[e=0.5,m=1:*]", "--workers", "1", "--quiet", "--out", str(out)]) == 0
+    df = pd.read_csv(out / "bench_run.csv")
+    assert list(df.columns[:5]) == ["kind", "name", "of", "cold s", "warm s"]
+    whole = df[df.kind == "whole"].iloc[0]
+    assert whole["cold s"] > 0 and whole["warm s"] > 0
+    assert set(df[df.kind == "engine"].name) == {"fake-2"}
+    table = pd.read_csv(out / "costs.csv")
+    assert list(table.columns) == cost.TABLE_COLUMNS and set(table.engine) == {"fake-2"} and table.jobs.sum() > 0
+    assert "## run" in (out / "bench.md").read_text()
