@@ -19,11 +19,16 @@ from typing import Mapping
 import numpy as np
 
 from cases.family import UNIT_ROUNDOFF
+from cases.relations import NEEDS as MODES
 from cases.scene import (CONTACT_TORQUES, EFFECTS, IMPACT_MODEL_NEED, IMPACT_MODELS,  # noqa: F401 (re-exported)
                          RESTITUTION_LAW_NEED, RESTITUTION_LAWS, SHAPE_KINDS, Scene)
 from cases.trajectory import ContactPoint
 
 
+
+
+MODE_WORDS = {"threads": "thread pool to size", "worlds": "batched worlds",
+              "save_restore": "save and restore of its whole state"}
 
 
 class Unsupported(Exception):
@@ -41,6 +46,12 @@ class Settings:
     # engine-specific contact parameters by name (Adapter.tunables), e.g. MuJoCo's
     # contact time scale; empty: the adapter's stated defaults
     options: Mapping[str, float] = field(default_factory=dict)
+    # How the scene is run (Capabilities.modes: an engine that does not declare the mode is
+    # never given it): `threads` the size of the engine's thread pool (None: the adapter's
+    # default, one thread); `world` (k, n): the scene as world k (from 0) of a batch of n
+    # copies stepped together, world k's states reported (None: the scene alone)
+    threads: int | None = None
+    world: tuple[int, int] | None = None
 
     def __post_init__(self):
         if not (isinstance(self.dt, (int, float)) and math.isfinite(self.dt) and self.dt > 0):
@@ -49,6 +60,12 @@ class Settings:
             raise SettingsError(f"dt = {self.dt!r}: must be <= 0.1 s for contact to mean anything")
         if self.iterations is not None and (not isinstance(self.iterations, int) or self.iterations < 1):
             raise SettingsError(f"iterations = {self.iterations!r}: must be a whole number >= 1")
+        if self.threads is not None and (not isinstance(self.threads, int) or self.threads < 1):
+            raise SettingsError(f"threads = {self.threads!r}: must be a whole number >= 1")
+        if self.world is not None and not (isinstance(self.world, tuple) and len(self.world) == 2
+                                           and all(isinstance(i, int) for i in self.world)
+                                           and 0 <= self.world[0] < self.world[1]):
+            raise SettingsError(f"world = {self.world!r}: must be (k, n), whole numbers with 0 <= k < n")
 
 
 @dataclass(frozen=True)
@@ -80,9 +97,16 @@ class Capabilities:
     # Settings.iterations counts sub-steps, each a whole velocity and position update: the
     # round-off a check allows is counted per sub-step (Simulation.iterations of them a step).
     substeps: bool = False
+    # The ways to run a scene the engine offers, among cases.relations.NEEDS, which the
+    # invariance battery compares with a plain run: "threads" (Settings.threads sizes its
+    # thread pool), "worlds" (Settings.world = (k, n) runs the scene as world k of a batch),
+    # "save_restore" (Simulation.save_state and restore_state carry its whole state). A
+    # relation needing a mode the engine lacks is `unsupported`, with its why_not reason.
+    modes: frozenset[str] = frozenset()
     # (effect, reason) for effects of cases.scene.EFFECTS the engine has the values for but
-    # does not simulate (a solver that drops the rows), and (shape kind, reason) for kinds of
-    # SHAPE_KINDS it does not represent: said when a scene asks for one
+    # does not simulate (a solver that drops the rows), (shape kind, reason) for kinds of
+    # SHAPE_KINDS it does not represent, and (mode, reason) for modes (cases.relations.NEEDS)
+    # it lacks: said when a scene asks for one, or a relation needs one
     why_not: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self):
@@ -96,10 +120,14 @@ class Capabilities:
             raise ValueError(f"contact_torques = {sorted(unknown)}: must be among {', '.join(CONTACT_TORQUES)}")
         if self.restitution_law not in RESTITUTION_LAWS:
             raise ValueError(f"restitution_law = {self.restitution_law!r}: must be one of {', '.join(RESTITUTION_LAWS)}")
-        unknown = {name for name, _ in self.why_not} - set(EFFECTS) - (set(SHAPE_KINDS) - set(self.shapes))
+        unknown = set(self.modes) - set(MODES)
         if unknown:
-            raise ValueError(f"why_not names {sorted(unknown)}: must be among {', '.join(EFFECTS)} "
-                             f"or the shapes the engine lacks ({', '.join(sorted(set(SHAPE_KINDS) - set(self.shapes)))})")
+            raise ValueError(f"modes = {sorted(unknown)}: must be among {', '.join(MODES)}")
+        lacking = set(SHAPE_KINDS) - set(self.shapes)
+        unknown = {name for name, _ in self.why_not} - set(EFFECTS) - set(MODES) - lacking
+        if unknown:
+            raise ValueError(f"why_not names {sorted(unknown)}: must be among {', '.join(EFFECTS + MODES)} "
+                             f"or the shapes the engine lacks ({', '.join(sorted(lacking))})")
         if self.float_bits not in UNIT_ROUNDOFF:
             raise ValueError(f"float_bits = {self.float_bits!r}: must be one of {', '.join(map(str, UNIT_ROUNDOFF))}")
 
@@ -156,6 +184,12 @@ class Capabilities:
                             f"{self.restitution_law} restitution")
         return None
 
+    def cannot_run_as(self, mode: str) -> str | None:
+        """Why the engine cannot run a scene in `mode` (cases.relations.NEEDS), or None."""
+        if not mode or mode in self.modes:
+            return None
+        return dict(self.why_not).get(mode, f"the engine offers no {MODE_WORDS[mode]} (Capabilities.modes)")
+
     def describe(self) -> str:
         dims = "+".join(f"{d}D" for d in sorted(self.dimensions))
         flags = [f for f in ("native_restitution", "static_kinetic", "contact_forces", "iterations",
@@ -166,7 +200,8 @@ class Capabilities:
         torques = f"; contact torques: {','.join(sorted(self.contact_torques))}" if self.contact_torques else ""
         restitution = f"; restitution: {self.restitution_law}"
         floats = f"; float{self.float_bits}" + (", sub-steps" if self.substeps else "")
-        return f"{dims}; " + ", ".join(flags) + laws + impacts + torques + restitution + floats
+        modes = f"; runs: {','.join(sorted(self.modes))}" if self.modes else ""
+        return f"{dims}; " + ", ".join(flags) + laws + impacts + torques + restitution + floats + modes
 
 
 class Simulation(ABC):
@@ -228,6 +263,17 @@ class Simulation(ABC):
         this built world, and return the simulation to step: this one, or one built anew.
         Only an adapter's own code reaches into its engine this way."""
         raise NotImplementedError(f"{type(self).__name__} makes no planted change ({change!r} asked)")
+
+    def save_state(self):
+        """The engine's whole state after the last step, as a picklable object: what
+        restore_state needs to continue in a freshly built simulation of the same scene
+        exactly as this one would (its contact and warm-start caches included). Engines
+        with the "save_restore" mode (Capabilities.modes) implement it."""
+        raise NotImplementedError(f"{type(self).__name__} cannot save its state")
+
+    def restore_state(self, state) -> None:
+        """Continue from `state` (save_state of a simulation of the same scene and settings)."""
+        raise NotImplementedError(f"{type(self).__name__} cannot restore a state")
 
     def close(self) -> None:
         """Free the engine's resources; safe to call twice."""

@@ -174,13 +174,14 @@ def _rotation_z_to(n) -> np.ndarray:
     return np.eye(3) + s * K + (1.0 - c) * K @ K
 
 
-def _frame(body: Body) -> tuple[np.ndarray, np.ndarray]:
+def _frame(body: Body, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     """World position and rotation of the body frame; a plane's frame has z along its
-    normal and its origin on the plane."""
+    normal and its origin on the plane, at its point nearest the origin (moved under the
+    bodies where they are far from it: Plane.centre_under)."""
     import dartpy as dart
     if isinstance(body.shape, Plane):
         n = np.asarray(body.shape.normal, float)
-        return n * body.shape.offset, _rotation_z_to(n)
+        return body.shape.centre_under(scene, GROUND_HALF_WIDTH), _rotation_z_to(n)
     return (np.asarray(body.position, float),
             dart.math.Quaternion(np.asarray(body.orientation, float)).to_rotation_matrix())
 
@@ -613,7 +614,7 @@ def _build_world(scene: Scene, settings: Settings, mu: dict, e: dict, sweeps: in
     nodes, frames = {}, {}
     for body in scene.bodies:
         skeleton = D.Skeleton(body.name)
-        position, R = _frame(body)
+        position, R = _frame(body, scene)
         if body.static:
             joint, node = skeleton.createWeldJointAndBodyNodePair()
             joint.setTransformFromParentBodyNode(_isometry(position, R))

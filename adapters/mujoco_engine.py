@@ -811,6 +811,27 @@ class MuJoCoSimulation(Simulation):
     def close(self) -> None:
         self._model = self._data = None
 
+    # the "save_restore" and "threads" modes (Capabilities.modes)
+    STATE = "mjSTATE_INTEGRATION"  # qpos, qvel, act, the warm start qacc_warmstart, time, controls, ...
+
+    def save_state(self) -> np.ndarray:
+        """MuJoCo's integration state (mj_getState): everything mj_step reads that it does not
+        compute, the solver's warm start included."""
+        spec = getattr(mujoco.mjtState, self.STATE)
+        state = np.empty(mujoco.mj_stateSize(self._model, spec))
+        mujoco.mj_getState(self._model, self._data, state, spec)
+        return state
+
+    def restore_state(self, state) -> None:
+        mujoco.mj_setState(self._model, self._data, np.asarray(state, float), getattr(mujoco.mjtState, self.STATE))
+
+    def use_threads(self, n: int) -> None:
+        """Bind a pool of `n` worker threads to the simulation's MjData (mju_threadpool).
+        It then steps by mj_step alone: rollout (`run`) refuses an MjData with a pool."""
+        mujoco.mju_threadpool(self._data, n)
+        self.run = None
+        self.knobs = {**self.knobs, "mju_threadpool": n}
+
     # --- planted faults (adapters/planting.py) ------------------------------------------
 
     def plant(self, change: str, size: float | None = None) -> Simulation:
@@ -821,12 +842,17 @@ class MuJoCoSimulation(Simulation):
         default, which the adapter replaces by the elliptic cone); "velocity damping" is
         joint damping on every degree of freedom, `size` times the dof's own mass or
         inertia (dof_M0), so each decays at the same rate (a damping left in a model's
-        default class)."""
+        default class); "thread order" (an invariance fault) lengthens the time step by
+        one rounding in place where a thread pool is bound (use_threads), and nowhere else."""
         model = self._model
         if change == "square friction cone":
             model.opt.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
         elif change == "velocity damping":
             model.dof_damping[:] = size * model.dof_M0
+        elif change == "thread order":  # only where a pool is bound: the step on one thread unchanged
+            if self.knobs.get("mju_threadpool"):
+                model.opt.timestep *= 1.0 + 2.0**-52
+            return self
         else:
             return super().plant(change, size)
         return MuJoCoSimulation(self._scene, model, self.knobs, self.iterations)
@@ -855,13 +881,16 @@ class MuJoCoAdapter(Adapter):
         # leaves at 0.66 and 0.68 m/s where rigid simultaneous contact gives 2/3 each)
         impact_model="compliant",
         contact_torques=frozenset({"rolling_resistance", "torsional_friction"}),  # condim 6 / 4, lengths
+        # Settings.threads: a thread pool bound to the MjData (mju_threadpool); a whole state
+        # through mj_getState / mj_setState (mjSTATE_INTEGRATION, the warm start included)
+        modes=frozenset({"threads", "save_restore"}),
     )
     # Settings.options: the contact time scale n (the module notes), which with e sets the
     # contact row's solref (k, b) and the friction rows' slip time n dt. From 2 steps (stiff:
     # the rebound error ~ 1/n is large) to 50 (soft: depth ~ v n dt / pi, 15 mm at 1 m/s).
     tunables = {"contact_steps": Tunable(2.0, 50.0, float(CONTACT_STEPS),
                                          "contact duration in time steps (solref time scale n dt)")}
-    plantable = frozenset({"square friction cone", "velocity damping"})  # MuJoCoSimulation.plant
+    plantable = frozenset({"square friction cone", "velocity damping", "thread order"})  # MuJoCoSimulation.plant
 
     def __init__(self, contact_steps: float = CONTACT_STEPS, ground: str = "plane", name: str | None = None,
                  defaults=()):
@@ -885,7 +914,10 @@ class MuJoCoAdapter(Adapter):
         return metadata.version("mujoco")
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
-        return MuJoCoSimulation(scene, *self.model(scene, settings))
+        sim = MuJoCoSimulation(scene, *self.model(scene, settings))
+        if (settings.threads or 1) > 1:
+            sim.use_threads(settings.threads)
+        return sim
 
     def model(self, scene: Scene, settings: Settings) -> tuple[mujoco.MjModel, dict, int]:
         """The compiled MjModel of `scene`, the knobs its MJCF sets and the iteration cap:

@@ -44,6 +44,15 @@ CHANGES = {
     "velocity damping": "every body's linear and angular velocity decaying at `size` per second",
     "restitution threshold": "restitution off (e = 0) on contacts approaching slower than `size` m/s",
     "two-phase restitution": "friction acting on a plastic impact, then restitution applied without friction",
+    # changes that break an invariance of cases.relations (physval.faults.INVARIANCE_FAULTS)
+    "float32 positions": "every body's position rounded to single precision after each step",
+    "handed drift": "every body's velocity turned `size` rad counter-clockwise about the world's z after each step",
+    "cold sweeps": "`size` solver sweeps a step, each step's started from zero impulses (no warm start)",
+    "cold restore": "a restored state (Simulation.restore_state) without its warm start: zero impulses after it",
+    "world seed": "world k > 0 of a batch (Settings.world) started with each position moved by `size` m times a "
+                  "normal draw seeded by k",
+    "thread order": "with a thread pool (Settings.threads > 1), the time step one rounding longer (dt (1 + 2^-52)), "
+                    "as a sum whose order depends on the threads",
 }
 
 
@@ -191,6 +200,12 @@ class Passthrough(Simulation):
 
     def contact_points(self):
         return self.inner.contact_points()
+
+    def save_state(self):
+        return self.inner.save_state()
+
+    def restore_state(self, state) -> None:
+        self.inner.restore_state(state)
 
     def close(self) -> None:
         self.inner.close()

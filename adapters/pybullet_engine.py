@@ -457,12 +457,15 @@ def _planar_joints(body: Body) -> list[str]:
     return ["prismatic x", "prismatic z"] + (["revolute y"] if body.rotates else [])
 
 
-def _ground_box(plane) -> tuple[list, list, list]:
+def _ground_box(plane, scene=None) -> tuple[list, list, list]:
     """(half extents, position, orientation xyzw) of the static box whose top face is the
     plane n . x = offset: centred GROUND_HALF_THICKNESS below the plane's point nearest
-    the origin, its z axis along n."""
+    the origin (moved under the bodies where they are far from it: Plane.centre_under),
+    its z axis along n."""
     n = np.asarray(plane.normal, float)
     centre = (plane.offset - GROUND_HALF_THICKNESS) * n
+    if scene is not None:  # + 0 (bit for bit the same) for a scene near the origin
+        centre = centre + (plane.centre_under(scene, GROUND_HALF_WIDTH) - plane.offset * n)
     return [GROUND_HALF_WIDTH, GROUND_HALF_WIDTH, GROUND_HALF_THICKNESS], list(centre), wxyz_to_xyzw(z_to(n))
 
 
@@ -512,16 +515,17 @@ class PyBulletSimulation(Simulation):
         self._ids: dict[tuple[int, int], str] = {}  # (body unique id, link index) -> name
         self._dynamic: list[tuple[str, int, int]] = []  # (name, body id, link index or -1)
         for body in scene.bodies:
-            record = self._add_body(body, scene.dimension, friction[body.name], restitution[body.name])
+            record = self._add_body(body, scene, friction[body.name], restitution[body.name])
             self.knobs["bodies"][body.name] = record
         self.effects = self._built_effects(scene, friction, restitution)
 
-    def _add_body(self, body: Body, dimension: int, mu: float, e: float) -> dict:
+    def _add_body(self, body: Body, scene: Scene, mu: float, e: float) -> dict:
+        dimension = scene.dimension
         c = self._client
         shape, shape_record = _collision_shape(body, c, self._ground)
         position, orientation = list(body.position), wxyz_to_xyzw(body.orientation)
         if body.shape.kind == "plane" and self._ground == "box":
-            _, position, orientation = _ground_box(body.shape)
+            _, position, orientation = _ground_box(body.shape, scene)
         elif body.shape.kind == "plane":  # n.x = offset in the world frame: through offset*n
             position = [body.shape.offset * n for n in body.shape.normal]
             orientation = [0.0, 0.0, 0.0, 1.0]

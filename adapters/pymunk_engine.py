@@ -112,6 +112,11 @@ class PymunkAdapter(Adapter):
         # touching is struck one pair per step instead: the sequential outcome (measured:
         # a Newton's cradle of three, e = 1, ends at 0, 0, 1).
         impact_model="simultaneous",
+        # Settings.threads: Space(threaded=True) with that many threads (Chipmunk's threaded
+        # solver, Linux and macOS; it uses at most 2)
+        modes=frozenset({"threads"}),
+        why_not=(("save_restore", "a pickled Space restarts without Chipmunk's cached arbiters, whose "
+                                  "accumulated impulses warm-start the next step: no whole state to save"),),
     )
 
     def __init__(self, name: str = "pymunk", collision_slop: float = COLLISION_SLOP):
@@ -147,9 +152,12 @@ def _json(value: float):
 
 class PymunkSimulation(Simulation):
     def __init__(self, scene: Scene, settings: Settings, collision_slop: float = COLLISION_SLOP):
-        self._dt = settings.dt
+        self._dt, self._scene = settings.dt, scene
         self.iterations = DEFAULT_ITERATIONS if settings.iterations is None else settings.iterations
-        space = pymunk.Space()
+        threads = settings.threads or 1
+        space = pymunk.Space(threaded=threads > 1)
+        if threads > 1:
+            space.threads = threads
         space.iterations = self.iterations
         space.collision_slop = collision_slop
         # (1 - beta)**(1/dt) underflows below dt = 3e-4 s: floored at the smallest normal
@@ -162,6 +170,7 @@ class PymunkSimulation(Simulation):
         gx, gz = float(scene.gravity[0]), float(scene.gravity[2])
         space.gravity = (gx, gz)
         self.knobs = {
+            "threads": threads,  # Space(threaded=True).threads when above 1 (default: unthreaded)
             "iterations": self.iterations,
             "collision_slop": collision_slop,
             "collision_bias": collision_bias,
@@ -231,7 +240,7 @@ class PymunkSimulation(Simulation):
             pb = pymunk.Body(body.mass, moment)
             knobs[body.name] = {"mass": body.mass, "moment": _json(moment)}
         if isinstance(body.shape, Plane):
-            shape = self._plane(pb, body.shape)
+            shape = self._plane(pb, body.shape, self._scene)
             knobs[body.name]["Segment"] = {"a": list(shape.a), "b": list(shape.b), "radius": shape.radius}
         else:
             pb.position = (body.position[0], body.position[2])
@@ -254,13 +263,16 @@ class PymunkSimulation(Simulation):
         return shape
 
     @staticmethod
-    def _plane(pb: pymunk.Body, plane: Plane) -> pymunk.Segment:
-        """The half-space n . x <= offset as a capsule whose flat top is the line n . x = offset."""
+    def _plane(pb: pymunk.Body, plane: Plane, scene: Scene) -> pymunk.Segment:
+        """The half-space n . x <= offset as a capsule whose flat top is the line n . x = offset,
+        centred below the line's point nearest the origin (moved under the bodies where they
+        are far from it: Plane.centre_under)."""
         nx, ny, nz = plane.normal
         if ny != 0.0:
             raise Unsupported(f"plane normal {plane.normal}: not in the x-z plane of a 2D scene")
         axis = plane.offset - PLANE_DEPTH  # the capsule's axis, PLANE_DEPTH below the surface
-        cx, cy = axis * nx, axis * nz
+        shift = plane.centre_under(scene, PLANE_HALF_LENGTH) - plane.offset * np.asarray(plane.normal, float)
+        cx, cy = axis * nx + shift[0], axis * nz + shift[2]  # + 0 (the same bits) near the origin
         tx, ty = -nz * PLANE_HALF_LENGTH, nx * PLANE_HALF_LENGTH  # along the line
         return pymunk.Segment(pb, (cx - tx, cy - ty), (cx + tx, cy + ty), PLANE_DEPTH)
 

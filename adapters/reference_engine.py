@@ -13,6 +13,7 @@ switch off; the knobs record every setting of `reference_impl.config.Config` in 
 """
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, replace
 
 import numpy as np
@@ -24,8 +25,9 @@ from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
 from reference_impl import geometry
 from reference_impl.config import Config
+from reference_impl.contact import contact_arrays, new_contacts
 from reference_impl.rigid_body import RigidBody
-from reference_impl.world import Material, World, formulation as find_formulation
+from reference_impl.world import Material, Saved, World, formulation as find_formulation
 
 DEFAULT = Config()  # the engine's stated defaults (iterations: DEFAULT.iterations)
 
@@ -65,9 +67,14 @@ class ReferenceAdapter(Adapter):
         # the default formulation's torque rows (reference_impl/sequential_impulses.py); the
         # others have none and report such pairs unsupported
         contact_torques=frozenset({"rolling_resistance", "torsional_friction"}),
-        why_not=tuple((kind, "the reference's collision detection is closed-form for spheres, boxes and planes "
-                             "(circles and rects in 2D) only; it has no narrow phase for other shapes yet")
-                      for kind in ("capsule", "cylinder", "hull", "mesh", "polygon")),
+        # a whole state: the bodies' rows and the warm start (World.save, ReferenceSimulation.save_state);
+        # a batch of worlds: n worlds of the scene stepped in turn (ReferenceBatch), which
+        # share nothing but the process and its compiled loops
+        modes=frozenset({"save_restore", "worlds"}),
+        why_not=(("threads", "the reference steps on one thread: it has no pool"),
+                 *((kind, "the reference's collision detection is closed-form for spheres, boxes and planes "
+                          "(circles and rects in 2D) only; it has no narrow phase for other shapes yet")
+                   for kind in ("capsule", "cylinder", "hull", "mesh", "polygon"))),
     )
 
     def __init__(self, formulation: str = "si", name: str | None = None, params: dict | None = None):
@@ -99,6 +106,9 @@ class ReferenceAdapter(Adapter):
             raise Unsupported(reason)
         config = Config(formulation=self.formulation, params={**self.params, **_compliance_params(scene)},
                         iterations=settings.iterations or DEFAULT.iterations)
+        if settings.world is not None:
+            return ReferenceBatch([ReferenceSimulation(scene, settings.dt, config) for _ in range(settings.world[1])],
+                                  settings.world[0])
         return ReferenceSimulation(scene, settings.dt, config)
 
 
@@ -159,6 +169,7 @@ class ReferenceSimulation(Simulation):
             raise Unsupported(f"formulation {config.formulation!r}: {reason}")
         self._world = world
         self._dynamic = [body for body in world.bodies if not body.static]
+        self._cold_restore = False  # a planted fault (plant: "cold restore")
         self._stages: set[tuple[str, ...]] = set()
         self._knobs = {
             "formulation": config.formulation,
@@ -250,6 +261,20 @@ class ReferenceSimulation(Simulation):
     def close(self) -> None:
         """Nothing to free: the world is plain Python objects."""
 
+    # --- the "save_restore" mode (Capabilities.modes) ----------------------------------------
+
+    def save_state(self) -> Saved:
+        """The world's state between steps (World.save): every body's row and the warm start
+        (the last step's contacts with their impulses): all a step reads that the scene does
+        not give."""
+        return self._world.save()
+
+    def restore_state(self, state: Saved) -> None:
+        if self._cold_restore:  # the planted "cold restore": the warm start lost
+            state = state._replace(features={}, contacts=contact_arrays(new_contacts(0)),
+                                   pairs=np.zeros((0, 2), np.int64), impulses=np.zeros(0))
+        self._world.restore(state)
+
     # --- planted faults (adapters/planting.py) ------------------------------------------
 
     def plant(self, change: str, size: float | None = None) -> Simulation:
@@ -269,13 +294,24 @@ class ReferenceSimulation(Simulation):
             world.configure(restitution_law="two-phase")
         elif change == "velocity damping":
             return _Damped(self, size)
+        elif change == "float32 positions":
+            return _AfterStep(self, _float32_positions)
+        elif change == "handed drift":
+            return _AfterStep(self, _turned_about_z(size))
+        elif change == "cold sweeps":  # `size` sweeps from zero impulses
+            world.configure(config=replace(world.config, iterations=int(size), warm_start=False))
+        elif change == "cold restore":
+            self._cold_restore = True
+        elif change == "world seed":  # the scene alone is world 0 of a batch of one: exact
+            pass
         else:
             return super().plant(change, size)
         return self
 
 
 PLANTABLE = frozenset({"kinetic friction", "square friction cone", "restitution threshold", "two-phase restitution",
-                       "velocity damping"})
+                       "velocity damping", "float32 positions", "handed drift", "cold sweeps", "cold restore",
+                       "world seed"})
 
 
 @dataclass(frozen=True)
@@ -306,3 +342,81 @@ class _Damped(Passthrough):
         for b in self._dynamic:
             b.v[:] = [keep * c for c in b.v]
             b.w[:] = [keep * c for c in b.w]
+
+
+class ReferenceBatch(Simulation):
+    """A batch of n reference worlds of one scene, stepped in turn, reporting world `k`'s
+    bodies (the "worlds" mode: Settings.world = (k, n)). The reference has no batch of its
+    own: what the batch tests is that its worlds share nothing (no scratch of the compiled
+    loops, no module state), as the worlds of a GPU batch must not."""
+
+    def __init__(self, worlds: list[Simulation], k: int):
+        self._worlds, self._k = worlds, k
+        self._shown = worlds[k]
+        self.iterations = self._shown.iterations
+        self.effects = self._shown.effects
+
+    @property
+    def knobs(self) -> dict:
+        return {**self._shown.knobs, "batch": {"world": self._k, "worlds": len(self._worlds)}}
+
+    def step(self) -> None:
+        for world in self._worlds:
+            world.step()
+
+    def states(self):
+        return self._shown.states()
+
+    def body_order(self) -> list[str]:
+        return self._shown.body_order()
+
+    def write_state(self, out: np.ndarray) -> None:
+        self._shown.write_state(out)
+
+    def contact_forces(self):
+        return self._shown.contact_forces()
+
+    def contact_points(self):
+        return self._shown.contact_points()
+
+    def plant(self, change: str, size: float | None = None) -> Simulation:
+        """A planted change in every world; "world seed" moves world k's (k > 0) dynamic
+        bodies by `size` m times normal draws seeded by k, before the first step."""
+        if change == "world seed":
+            for k, world in enumerate(self._worlds[1:], start=1):
+                rng = np.random.default_rng(k)
+                for b in world._dynamic:
+                    b.x = [c + size * rng.standard_normal() for c in b.x]
+            return self
+        self._worlds = [world.plant(change, size) for world in self._worlds]
+        self._shown = self._worlds[self._k]
+        return self
+
+
+class _AfterStep(Passthrough):
+    """The world with `change(bodies)` applied to its dynamic bodies after each step."""
+
+    def __init__(self, sim: ReferenceSimulation, change):
+        super().__init__(sim)
+        self._change, self._dynamic = change, sim._dynamic
+
+    def step(self) -> None:
+        self.inner.step()
+        self._change(self._dynamic)
+
+
+def _float32_positions(bodies) -> None:
+    """Every position rounded to single precision (the planted "float32 positions")."""
+    for b in bodies:
+        b.x = [float(np.float32(c)) for c in b.x]
+
+
+def _turned_about_z(angle: float):
+    """Every velocity turned `angle` rad counter-clockwise about z (the planted "handed drift")."""
+    c, s = math.cos(angle), math.sin(angle)
+
+    def turn(bodies) -> None:
+        for b in bodies:
+            vx, vy = b.v[0], b.v[1]
+            b.v[0], b.v[1] = c * vx - s * vy, s * vx + c * vy
+    return turn

@@ -62,9 +62,11 @@ UNIT_ROUNDOFF = {64: 2.0**-53, 32: 2.0**-24}
 # exactly, so only impacts round the momentum.
 IMPACT_ROUNDINGS = 2 * 4 * 2
 
-# What a check's miss shows (Check.measures): the physics, or the order of the engine's
-# time integration (a tolerance that is a scheme's error bound on exactly conserved motion).
-MEASURES = ("physics", "integrator")
+# What a check's miss shows (Check.measures): the physics, the order of the engine's time
+# integration (a tolerance that is a scheme's error bound on exactly conserved motion), or an
+# invariance the engine breaks (two runs of one scene that physics says are the same differ:
+# physval.core.invariance makes these checks, from the relations of cases.relations).
+MEASURES = ("physics", "integrator", "invariance")
 
 
 def impulse_roundoff(pair_momentum: float, impacts: int = 1) -> float:
@@ -98,8 +100,9 @@ class Check:
     `measures` says what a miss shows (MEASURES): "physics" (the default), or "integrator"
     when the tolerance is the error bound of a time-stepping scheme of a stated order (a
     second-order rotation step, say) on motion whose physics conserves exactly, so that a
-    miss measures the engine's integration order, not its physics; reports show those
-    checks apart (physval.readings.scorecard)."""
+    miss measures the engine's integration order, not its physics; or "invariance" for the
+    invariance battery's checks (physval.core.invariance); reports show those checks apart
+    (physval.readings.scorecard)."""
     metric: str
     unit: str
     expected: float

@@ -312,6 +312,23 @@ class Plane:
     def inertia(self, m: float):
         raise SceneError("a plane is static: it has no inertia")
 
+    def centre_under(self, scene: "Scene", cell: float) -> np.ndarray:
+        """Where an engine's finite stand-in for the plane (a box, a segment `cell` m from its
+        centre to its edge) is centred: the plane's point nearest the origin, moved along the
+        plane by whole multiples of `cell` per world axis towards the dynamic bodies' mean
+        position. A scene within cell / 2 of that point keeps it exactly (offset n); one moved
+        far from the origin (the invariance battery's translations) still stands on the
+        stand-in instead of beyond its edge."""
+        n = np.asarray(self.normal, float)
+        base = self.offset * n
+        bodies = [b.position for b in scene.bodies if not b.static]
+        if not bodies:
+            return base
+        t = np.mean(np.asarray(bodies, float), axis=0) - base
+        shift = cell * np.round((t - (n @ t) * n) / cell)
+        shift -= (n @ shift) * n
+        return base + shift if shift.any() else base
+
     def validate(self, where: str) -> None:
         n = _finite(self.normal, f"{where}.normal", (3,))
         _finite(self.offset, f"{where}.offset")

@@ -34,7 +34,7 @@ import numpy as np
 
 from adapters.planting import Fault, NotPlantable, Passthrough, why_not  # noqa: F401 (the contract, re-exported)
 from cases.overlap import rotation_matrix
-from cases.scene import Box, Capsule, Cylinder, Rect, Scene
+from cases.scene import Box, Capsule, Cylinder, Hull, Mesh, Polygon, Rect, Scene
 
 # The engines `physval bench faults` plants in by default: the plain configuration of each
 # engine whose adapter makes the engine-internal changes (Adapter.plantable).
@@ -486,11 +486,163 @@ WRONG_ANSWERS: tuple[Fault, ...] = (RestitutionOff(), RestitutionDoubled(), Fric
 NONE = NoFault()
 
 
+
+# --- faults that break an invariance (cases.relations), each flagged by its relation --------------
+
+class PositionRoundoff(Fault):
+    """Positions kept in single precision: every body's position rounded to float32 after
+    each step, while the engine declares float64.
+
+    An engine that stores positions in float32 (or computes contact geometry in absolute
+    float32 coordinates) behind a double interface: its rounding is 6e-8 of the distance
+    from the origin, 6 mm at 100 km, where the scene is the same physics. An engine-internal
+    change ("float32 positions": the reference makes it)."""
+    name = "position round-off"
+
+    def change(self, capabilities):
+        return ("float32 positions", None)
+
+
+class UnconvergedSweep(Fault):
+    """One Gauss-Seidel sweep a step from zero impulses (no warm start, no least-squares
+    cold start): the contacts' impulses then depend on the order they are visited in, the
+    order the bodies were created in.
+
+    A solver left at one iteration (or an iteration count too small for a stack) and
+    started cold: each contact sees the impulses of those before it in the sweep, so a
+    stack built top-down stands otherwise than one built bottom-up. An engine-internal
+    change ("cold sweeps": the reference makes it)."""
+    name = "unconverged sweep"
+    sweeps = 1
+
+    def change(self, capabilities):
+        return ("cold sweeps", self.sweeps)
+
+
+class WorldSeed(Fault):
+    """A batch whose world k starts perturbed by a seed drawn from k (1e-9 m per position
+    component), the world alone (or world 0) exact.
+
+    A batched engine that seeds its per-world noise (contact jitter, a randomised solver
+    order) with the world's index: world 3 of 4 is not the scene alone. An engine-internal
+    change ("world seed": the reference's batch makes it)."""
+    name = "world seed"
+    size = 1e-9  # m
+
+    def change(self, capabilities):
+        return ("world seed", self.size)
+
+
+class ColdRestore(Fault):
+    """A restored state without its warm-start cache: the contacts of the step after a
+    restore start from zero impulses.
+
+    A snapshot of body poses and velocities taken for the whole state: the solver's
+    accumulated impulses, which it carries from step to step, are lost, so a resting stack
+    restored midway settles again. An engine-internal change ("cold restore": the reference
+    makes it)."""
+    name = "cold restore"
+
+    def change(self, capabilities):
+        return ("cold restore", None)
+
+
+class ThreadOrder(Fault):
+    """With a thread pool, a sum taken in another order: planted as one rounding of the time
+    step (dt (1 + 2^-52)) whenever MuJoCo steps with a pool.
+
+    A parallel reduction that adds the threads' partial sums in the order they finish: the
+    result differs by roundings between a run on one thread and one on many. An
+    engine-internal change ("thread order": MuJoCo makes it)."""
+    name = "thread order"
+
+    def change(self, capabilities):
+        return ("thread order", None)
+
+
+class HandedDrift(Fault):
+    """A handed error: every body's velocity turned 1e-3 rad counter-clockwise about the
+    vertical (z, seen from above) after each step, in a scene and in its mirror image alike.
+
+    Physics turns a mirrored motion the other way; a term that turns motion one way in
+    every frame (a sign slip in a cross product that builds a direction, a spin term
+    with a fixed sense) does not. A turn about the vertical commutes with it, so the
+    scene turned about z keeps the invariance and only the mirror (and the tilted turn,
+    whose vertical is another axis) part the runs. An engine-internal change ("handed
+    drift": the reference makes it)."""
+    name = "handed drift"
+    angle = 1e-3  # rad a step
+
+    def change(self, capabilities):
+        return ("handed drift", self.angle)
+
+
+class ShapeMargin(Fault):
+    """A margin of 1 mm inside the shapes given by points: every hull and polygon shrunk by
+    1 mm along each of its axes (a box's hull: every face 1 mm in), every mesh lowered 1 mm
+    along its normals; boxes, spheres and planes as given, every body's inertia kept.
+
+    An engine that keeps a collision margin inside the convex and triangle-mesh shapes it
+    is given (Bullet shrinks a convex shape by its margin, 0.04 m by default, and rounds it
+    back out; one that forgets the rounding leaves a solid smaller than the points) where
+    the primitives it has closed forms for have none: a box given as the hull of its
+    corners then stands 1 mm lower than the box. (Grown rather than shrunk, the solid would
+    start inside the ground, which the scene refuses.) A change of the scene, planted in
+    any engine that takes these shapes."""
+    name = "shape margin"
+    margin = -1e-3  # m: inward
+
+    def scene(self, scene, capabilities):
+        m = self.margin
+
+        def grown(vertices):
+            extent = np.max(np.abs(np.asarray(vertices, float)), axis=0)
+            return tuple(tuple(float(c * (1.0 + m / e)) for c, e in zip(v, extent)) for v in vertices)
+
+        def raised(mesh):
+            v, normals = np.asarray(mesh.vertices, float), np.zeros((len(mesh.vertices), 3))
+            for a, b, c in mesh.triangles:
+                n = np.cross(v[b] - v[a], v[c] - v[a])
+                normals[[a, b, c]] += n / np.linalg.norm(n)
+            normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+            return replace(mesh, vertices=tuple(tuple(float(x) for x in p) for p in v + m * normals))
+
+        def body(b):
+            s = b.shape
+            if isinstance(s, (Hull, Polygon)):
+                return replace(b, shape=replace(s, vertices=grown(s.vertices)),
+                               inertia=None if b.static else tuple(b.principal_inertia))
+            if isinstance(s, Mesh):
+                return replace(b, shape=raised(s))
+            return b
+        return replace(scene, bodies=tuple(body(b) for b in scene.bodies))
+
+
+# Each relation of cases.relations that a planted fault proves, and the fault: the fault must
+# make its relation's verdict `fail` on the relation's default scene, the plain wrapper not
+# (tests/test_invariance.py); "friction cone" is the catalogue's square cone in a fixed
+# tangent frame: a friction that depends on the direction of sliding; "damping" is the
+# catalogue's 0.04 per second, a rate in absolute units (PyBullet's default), which Froude's
+# scaling (times x sqrt(k)) does not carry: what an engine adds in absolute units breaks scale.
+INVARIANCE_FAULTS: tuple[Fault, ...] = (PositionRoundoff(), UnconvergedSweep(), WorldSeed(), ColdRestore(),
+                                        ThreadOrder(), HandedDrift(), ShapeMargin())
+PROVES = {"rotate_vertical": "friction cone", "rotate_tilted": "handed drift",
+          "translate_10m": "position round-off", "translate_1000m": "position round-off",
+          "translate_100000m": "position round-off", "mirror": "handed drift",
+          "scale_4": "damping", "scale_quarter": "damping", "body_order": "unconverged sweep",
+          "worlds": "world seed", "save_restore": "cold restore", "threads": "thread order",
+          "as_hull": "shape margin", "as_mesh": "shape margin"}
+# Relations no planted fault can prove yet, and why (none today: tests/test_invariance.py
+# asks a proof of a representation relation as soon as an engine takes its shape).
+UNPROVEN: dict[str, str] = {}
+
+
 def by_name(name: str) -> Fault:
-    for f in (NONE, *FAULTS, *WRONG_ANSWERS):
+    every = (NONE, *FAULTS, *WRONG_ANSWERS, *INVARIANCE_FAULTS)
+    for f in every:
         if f.name == name:
             return f
-    raise KeyError(f"no fault {name!r}: choose from {', '.join(f.name for f in (NONE, *FAULTS, *WRONG_ANSWERS))}")
+    raise KeyError(f"no fault {name!r}: choose from {', '.join(f.name for f in every)}")
 
 
 # --- running planted engines -----------------------------------------------------------------

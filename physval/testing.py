@@ -10,9 +10,10 @@ repository runs it without a physval checkout (in the spirit of scikit-learn's
     def test_battery(job):
         check(job)
 
-`engine_checks` gives one pytest parameter per job: the conformance battery and every case
-variant the engine can represent, with ids such as `central_impact[e=0.5,m=1:3]-my-engine`
-(so `pytest -k` selects them); runs the engine declares too slow for a default run are
+`engine_checks` gives one pytest parameter per job: the conformance battery, every case
+variant the engine can represent and the invariance battery (each relation of
+cases.relations on its default scenes), with ids such as `central_impact[e=0.5,m=1:3]-my-engine`
+and `stack_forces[n=4,light-heavy]-my-engine-body_order` (so `pytest -k` selects them); runs the engine declares too slow for a default run are
 marked `slow`. `check(job)` runs the job in the test's process and judges it as `physval
 run` does, with the engine's known deviations (its `xfails/<name>.txt`): a check within
 its tolerance passes, one inside its recorded band is an expected failure (xfail, with the
@@ -25,7 +26,8 @@ from __future__ import annotations
 import pytest
 
 from physval.core import Context, Job, execute
-from physval.core.plan import plan
+from cases.relations import RELATIONS
+from physval.core.plan import plan, relation_jobs
 
 
 def engine_checks(engines: list[str] | None = None, conformance: bool | None = None, named: bool = True,
@@ -44,6 +46,8 @@ def engine_checks(engines: list[str] | None = None, conformance: bool | None = N
     families = {n: list(f.variants) for n, f in resolver.families.items()
                 if conformance is None or ("conformance" in f.tags) == conformance}
     jobs, later = plan(families, chosen, resolver, named, on_demand=False)
+    if not conformance:
+        jobs += relation_jobs([r.name for r in RELATIONS], chosen, resolver, named)
     return ([pytest.param(j, id=j.test_id) for j in jobs]
             + [pytest.param(j, id=j.test_id, marks=[pytest.mark.slow]) for j in later])
 
@@ -66,7 +70,8 @@ def check(job: Job, ctx: Context = Context(), rows: list[dict] | None = None) ->
         pytest.skip(str(exc))
     if rows is None:
         rows = execute(job, resolver).rows
-    repro = f"reproduce: physval run --cases '{job.family}[{job.variant.id}]' --engines {job.engine}"
+    repro = (f"reproduce: physval run --cases '{job.family}[{job.variant.id}]' --engines {job.engine}"
+             + (f" --relations {job.relation}" if job.relation else ""))
     if {r["status"] for r in rows} == {"unsupported"}:
         pytest.skip(f"unsupported: {rows[0]['reason']}")
     broken = [r for r in rows if r["status"] in ("error", "unstable")]

@@ -18,10 +18,11 @@ import numpy as np
 from reference_impl.broadphase import pairs as candidate_pairs
 from reference_impl.compiled import int_dict, njit, overload, structure
 from reference_impl.config import Config
-from reference_impl.contact import (MASS, RB_D, Contact, Contacts, apply, compact, contact_arrays, new_contacts,
-                                    prepare, velocity)
+from reference_impl.contact import (MASS, RB_D, Contact, ContactArrays, Contacts, apply, compact, contact_arrays,
+                                    new_contacts, prepare, velocity)
 from reference_impl.geometry import MAX_PAIR_POINTS, narrow_phase, new_points
-from reference_impl.rigid_body import Bodies, RigidBody, integrate_position, new_bodies, speed_bound, stack
+from reference_impl.rigid_body import (Bodies, BodyArrays, RigidBody, integrate_position, new_bodies, speed_bound,
+                                       stack)
 from reference_impl.vectors import copy
 
 ALIASES = {"si": "sequential_impulses"}
@@ -105,6 +106,17 @@ class State:
     impulses: np.ndarray     # (P,) their normal impulse, N s
 
 
+class Saved(NamedTuple):
+    """A world's state between steps (World.save), as plain copies: every body's row and the
+    warm start, i.e. the last step's contacts (their impulses), the narrow phase's feature
+    ids they are matched by, and the pairs' normal impulses."""
+    bodies: BodyArrays
+    features: dict           # geometry._clip_feature's ids: (4 ints) -> int
+    contacts: ContactArrays
+    pairs: np.ndarray
+    impulses: np.ndarray
+
+
 class World:
     """Bodies (`add`), pair materials (`set_material`; others get `material`), gravity and
     a `Config`. After each `step(dt)`: `contacts` of the step, `stages` that ran and
@@ -136,13 +148,15 @@ class World:
         self.pair_materials[(min(a.index, b.index), max(a.index, b.index))] = material
         self._state = None
 
-    def configure(self, material: Material | None = None, **params) -> None:
-        """Change the default material or add formulation settings (Config.params: the
-        friction set, or a hook of the step's Phases: "tangents", "restitution_threshold",
-        "restitution_law") after bodies were added: the compiled state is built again at the
-        next step."""
+    def configure(self, material: Material | None = None, config: Config | None = None, **params) -> None:
+        """Change the default material, the whole `config`, or add formulation settings
+        (Config.params: the friction set, or a hook of the step's Phases: "tangents",
+        "restitution_threshold", "restitution_law") after bodies were added: the compiled
+        state is built again at the next step (the warm start kept)."""
         if material is not None:
             self.material = material
+        if config is not None:
+            self.config = config
         if params:
             self.config = replace(self.config, params={**self.config.params, **params})
         self._state = None
@@ -159,9 +173,34 @@ class World:
         check = getattr(self.solver, "unsupported", None)
         return check(self) if check is not None else None
 
-    def _build(self) -> State:
+    def save(self) -> Saved:
+        """Everything the next step reads that the bodies and materials do not give, copied:
+        with `restore`, a world built the same way continues exactly as this one would."""
+        if self._state is None:
+            self._state = self._build()
+        pairs, impulses = _impulses(self._state)
+        return Saved(stack(self.bodies), dict(_features(self._state).items()),
+                     ContactArrays(*(a.copy() for a in contact_arrays(_contacts(self._state)))),
+                     pairs.copy(), impulses.copy())
+
+    def restore(self, saved: Saved) -> None:
+        """Continue from `saved` (`save` of a world with the same bodies, materials and
+        config): the bodies take its rows, the next step its warm start."""
+        arrays = BodyArrays(*(a.copy() for a in saved.bodies))
+        bodies = new_bodies(arrays)
+        for i, body in enumerate(self.bodies):
+            body.attach(arrays, bodies, i)
+        features = int_dict(4)
+        for key, value in saved.features.items():
+            features[key] = value
+        self._state = self._build((features, Contacts(*(a.copy() for a in saved.contacts)), saved.pairs.copy(),
+                                   saved.impulses.copy()))
+        self._contacts = None
+
+    def _build(self, warm: tuple | None = None) -> State:
         """The State of this world: the bodies' rows gathered into one Bodies (each body
-        then shows its row), the last step's contacts kept."""
+        then shows its row), the last step's contacts kept (or `warm`: features, contacts,
+        pairs, impulses)."""
         arrays = stack(self.bodies)
         bodies = new_bodies(arrays)
         for i, body in enumerate(self.bodies):
@@ -176,7 +215,9 @@ class World:
                         bool(getattr(self.solver, "KEEP_LATE_CONTACTS", False)),
                         c.params.get("tangents", "slip") == "fixed", float(c.params.get("restitution_threshold", 0.0)),
                         c.params.get("restitution_law", "newton") == "two-phase", int(c.iterations), float(c.tolerance))
-        if self._state is None:
+        if warm is not None:
+            features, contacts, pairs, impulses = warm
+        elif self._state is None:
             features, contacts, pairs, impulses = int_dict(4), new_contacts(0), np.zeros((0, 2), np.int64), np.zeros(0)
         else:  # the last step's, for the warm start
             features, contacts, (pairs, impulses) = _features(self._state), _contacts(self._state), \

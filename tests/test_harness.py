@@ -225,7 +225,10 @@ def test_every_deviation_entry_matches_a_check_of_a_builtin_case():
     from adapters.registry import engine_names, get, EngineError
     from cases.registry import builtin_families
     fams = builtin_families()
+    from cases.relations import RELATIONS
+    # the families' closed forms, and the invariance battery's verdicts (any variant, with --relations)
     checks_of = {name: {(v.id, c.metric) for v in fam.all_variants for c in fam.expect(v.params, fam.dt_for(v.params))}
+                 | {(v.id, r.metric) for v in fam.all_variants for r in RELATIONS}
                  for name, fam in fams.items()}
     for eng in engine_names():
         try:
@@ -249,6 +252,8 @@ def test_every_shipped_band_is_at_most_one_tolerance_unless_its_entry_says_why()
     from adapters.registry import engine_names, get, EngineError
     from cases.registry import builtin_families
     from physval.core.tolerance import tolerance_units
+    from cases.relations import METRIC_PREFIX, by_name as relation_named
+    from physval.core import invariance
     fams = builtin_families()
     checks = {(name, v.id): fam.expect(v.params, fam.dt_for(v.params)) for name, fam in fams.items()
               for v in fam.all_variants}
@@ -262,9 +267,18 @@ def test_every_shipped_band_is_at_most_one_tolerance_unless_its_entry_says_why()
         # each check as the engine is judged: its round-off share at the engine's float width
         tolerance = {(name, variant, c.metric): tolerance_units(c.expected, c.tolerance, c.kind)
                      for (name, variant), cs in checks.items() for c in adapter.capabilities.judged(cs)}
+
+        def of(family, variant, metric):  # an invariance verdict's: the promise at the engine's float width,
+            if metric.startswith(METRIC_PREFIX):  # one sub-step (the smallest it takes)
+                fam = fams[family]
+                v = next(v for v in fam.all_variants if v.id == variant)
+                steps = max(1, round(fam.duration(v.params) / fam.dt_for(v.params)))
+                return invariance.check(relation_named(metric[len(METRIC_PREFIX):]), fam.scene(v.params), steps,
+                                        adapter.capabilities.float_bits).tolerance
+            return tolerance[family, variant, metric]
         for d in deviations.load([path]):
             wide += [f"{eng}.txt:{b.line}: {why}" for b in d.bands
-                     if (why := d.too_wide(b, tolerance[d.family, b.variant, b.metric])) is not None]
+                     if (why := d.too_wide(b, of(d.family, b.variant, b.metric))) is not None]
     assert not wide, f"{len(wide)} bands wider than a tolerance without a reason, e.g. {wide[:3]}"
 
 

@@ -13,6 +13,8 @@ from pathlib import Path
 
 import pytest
 
+from cases.relations import RELATIONS
+
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "physval-engine-example"
 # test_cases.py: the jobs; test_bulk_reads.py: an `engine` argument; test_box2d_rapier_mapping.py:
@@ -28,10 +30,13 @@ def _collect(*args: str) -> tuple[list[str], str]:
     return [x for x in proc.stdout.splitlines() if "::" in x], proc.stdout.strip().splitlines()[-1]
 
 
+RELATION = f"(-({'|'.join(r.name for r in RELATIONS)}))?"  # the invariance battery's ids end in the relation
+
+
 @pytest.mark.parametrize("engine, kept", [
-    ("reference", r"tests/test_cases\.py::test_(case|conformance)\[.*-reference\]"
+    ("reference", r"tests/test_cases\.py::test_(case|conformance)\[.*-reference" + RELATION + r"\]"
                   r"|tests/test_bulk_reads\.py::test_\w+\[reference-[23]D\]"),
-    ("box2d", r"tests/test_cases\.py::test_(case|conformance)\[.*-box2d\]"
+    ("box2d", r"tests/test_cases\.py::test_(case|conformance)\[.*-box2d" + RELATION + r"\]"
               r"|tests/test_bulk_reads\.py::test_\w+\[box2d-[23]D\]|tests/test_box2d_rapier_mapping\.py::test_box2d_\w+.*"),
 ])
 def test_pytest_engine_keeps_that_engines_tests_only(engine, kept):

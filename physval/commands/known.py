@@ -2,7 +2,8 @@
 
 The command runs every variant the engine can represent in a default run (`--full`: also
 the full grids; `--on-demand`: also the runs the engine declares too slow for one; or the
-`--cases`; with a user's `--file`, the families it names), at the family's dt and the adapter's default iterations,
+`--cases`; with a user's `--file`, the families it names) and the invariance battery (each
+relation on those of its default scenes the selection holds), at the family's dt and the adapter's default iterations,
 and under each entry of the engine's deviation file (or of the `--file`) records a band
 line for every check the entry matches that misses its tolerance (or a `raises EXCEPTION`
 line for a run the engine aborts). Every job runs `--repeat` times (default 2), each
@@ -24,10 +25,12 @@ from fnmatch import fnmatchcase
 from pathlib import Path
 
 
+from cases.relations import RELATIONS
 from physval.core.deviations import deviating, measured_bands
 from physval.commands import options
 from physval.core import deviations
 from physval.core import COLUMNS, Job
+from physval.core.plan import relation_jobs
 from physval.core.session import Execution, run_stored
 from physval.core.store import cache_dir
 from physval.report import write_atomic
@@ -91,6 +94,9 @@ def run(args) -> int:
                 if adapter.capabilities.cannot_run(fam.scene(v.params), fam.needs_of(v.params)) is None \
                         and (args.on_demand or not adapter.deferred(fam.scene(v.params), fam.tags)):
                     jobs.append(Job(fam_name, v, engine))
+        # the invariance battery's verdicts (cases.relations) on its default scenes, those the selection holds
+        jobs += [j for j in relation_jobs([r.name for r in RELATIONS], [engine], resolver, True)
+                 if any(v.id == j.variant.id for v in chosen.get(j.family, ()))]
         repeats = []
         for k in range(args.repeat):
             raised = {}
@@ -133,9 +139,9 @@ def run(args) -> int:
                       + (f", {len(redrawn)} re-measured" if redrawn else "")
                       + (f", {len(moved)} moved out of their band" if moved else ""))
         for e, b, _ in measured.too_wide(entries):
-            over = b.tolerances(measured.tolerance[(b.variant, b.metric)])
+            over = b.spread_tolerances(measured.tolerance[(b.variant, b.metric)])
             print(f"  line {e.line} {e.pattern}: [{b.variant}]:{b.metric} = {b.describe()} is {over:.3g} tolerances "
-                  f"wide over {args.repeat} repeats: if that spread is the engine's own, write '    # band: WHY' "
+                  f"wide over {args.repeat} repeats (beyond its rounding floor): if that spread is the engine's own, write '    # band: WHY' "
                   "under the entry (until then the check fails)")
         for note in measured.unsteady:
             print(f"  unsteady: {note}")

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from physval.commands import options
 from physval.core import COLUMNS
-from physval.core.plan import plan
+from physval.core.plan import plan, relation_jobs
 from physval.core.store import KNOBS_FILE, RowStore, cache_keys
 from physval.interrupts import Terminated, held_off
 
@@ -56,6 +56,12 @@ def add_parser(sub) -> None:
                      help="engine-wide readings: effective (asked-vs-measured restitution and friction), laws "
                           "(physics-law residuals of the contact forces), all, none, or auto (default: all when no "
                           "--cases are named, else none); cached per engine version and reused")
+    run.add_argument("--relations", default="auto", metavar="LIST",
+                     help="the invariance battery: relations (cases.relations: rotate_vertical, translate_1000m, "
+                          "mirror, scale_4, body_order, as_hull, threads, worlds, save_restore, ...) to apply, "
+                          "comma-separated, or all, none, auto (default: all when no --cases are named, each on "
+                          "its representative scenes; else none). With --cases, each named relation runs on every "
+                          "selected variant")
     run.add_argument("--plan", action="store_true",
                      help="print what the run will cost, per engine and family, predicted from measured per-job costs "
                           "(the last run in --out, else physval's table), against the default run's budget, and exit "
@@ -70,6 +76,24 @@ def add_parser(sub) -> None:
                           "deviation, unsupported, changed (a known deviation that left its band), vanished (a known "
                           "deviation that now passes); default: none (exit 0 whatever the physics)")
     options.add_execution(run, "reports")
+
+
+def relations_of(text: str, cases_named: bool) -> list[str]:
+    """The relations --relations names (its help)."""
+    from cases.relations import RELATIONS
+    every = [r.name for r in RELATIONS]
+    names = [x.strip() for x in text.split(",") if x.strip()]
+    if names == ["auto"]:
+        return [] if cases_named else every
+    if names == ["all"]:
+        return every
+    if names == ["none"]:
+        return []
+    bad = [n for n in names if n not in every]
+    if bad or not names:
+        raise options.UsageError(f"--relations {text!r}: {bad[0] + ' is not a relation; ' if bad else ''}"
+                                 f"choose from {', '.join(every)}, all, none, auto")
+    return names
 
 
 def readings_of(text: str, cases_named: bool) -> list[str]:
@@ -116,6 +140,7 @@ def incomplete(after: dict, signal_name: str) -> int:
 
 def _run(args, after: dict) -> int:
     started = args.started
+    relations = relations_of(args.relations, args.cases is not None)
     if not args.scheduler and not args.plan:
         from physval.core.executor import start_fork_server
         start_fork_server(args.start_method)  # loads in parallel with what follows
@@ -136,6 +161,9 @@ def _run(args, after: dict) -> int:
                                                                                   "--save-trajectories")
     options.check_scheduler(args.scheduler)
     jobs, later = plan(chosen, engines, resolver, args.engines is not None, args.dt, args.iterations, args.on_demand)
+    battery = relation_jobs(relations, engines, resolver, args.engines is not None,
+                            chosen if args.cases is not None else None, args.dt, args.iterations)
+    jobs += battery
     if traj_dir is not None:
         from physval.core.trajectories import with_saving
         jobs = [with_saving(j, traj_dir) for j in jobs]
@@ -151,7 +179,8 @@ def _run(args, after: dict) -> int:
         return print_plan(jobs, store, resolver, out, args.workers, readings, wide, model)
     say = options.teller(args)
     todo = sum(j.key not in store.rows for j in jobs)
-    say(f"{len(jobs)} runs ({len(chosen)} families x {len(engines)} engines), {todo} to run"
+    say(f"{len(jobs)} runs ({len(chosen)} families x {len(engines)} engines"
+        + (f", {len(battery)} of them the invariance battery's" if battery else "") + f"), {todo} to run"
         + (f", {len(jobs) - todo} finished before" if reused and todo < len(jobs) else "")
         + (f"; {len(later)} on-demand runs left out (--on-demand)" if later else "") + f" -> {out}/"
         + (f"; beside them the engine-wide readings: {', '.join(readings)} (cached per engine version)"

@@ -31,8 +31,9 @@ at a given dt and iteration count repeats to rounding. `physval known` measures 
 REPEATS times (the second time in the reverse order, so each job runs in another worker
 process after other jobs: a history dependence shows) and records the middle of the values
 +- half their spread plus a rounding floor (`band_of`). A band is at most one tolerance
-of its check (the tolerance in the check's units: `tolerance`, or `tolerance * |expected|`
-for a relative one): a change of the engine or of its mapping by more than that is `fail`.
+of its check beyond that floor (the tolerance in the check's units: `tolerance`, or
+`tolerance * |expected|` for a relative one): a change of the engine or of its mapping by
+more than that is `fail`.
 A wider band needs its reason written under the entry, as a `# band:` line:
 
     stack_strike[*]:stack_displacement  # point contact: the struck stack shuffles sideways
@@ -54,6 +55,7 @@ from dataclasses import dataclass, field, replace
 from fnmatch import fnmatchcase
 from pathlib import Path
 
+from cases.relations import METRIC_PREFIX as INVARIANCE
 from physval.core.tolerance import errors, tolerance_units
 
 # the words a verdict's reason starts with when a known deviation's measured size left its
@@ -145,6 +147,18 @@ class Band:
             return 0.0
         return self.width / tolerance if tolerance > 0 and math.isfinite(tolerance) else math.nan
 
+    def spread_tolerances(self, tolerance: float) -> float:
+        """As `tolerances`, of the half-width beyond the floor of rounding across machines
+        (ROUNDING of the value): what the repeats spread. The floor has its reason stated
+        once (above ROUNDING); it outgrows a tolerance only where the tolerance is itself
+        a share of rounding and the value is large, as for a broken invariance (the
+        invariance battery's checks promise round-off, 1e-11 of scale, and a turned run that
+        parted measures 0.1 of it: its floor is 1e-10)."""
+        if self.raises is not None:
+            return 0.0
+        beyond = max(self.width - ROUNDING * abs(self.value), 0.0)
+        return beyond / tolerance if tolerance > 0 and math.isfinite(tolerance) else math.nan
+
 
 @dataclass(frozen=True)
 class Deviation:
@@ -185,6 +199,12 @@ class Deviation:
                                                           if b.engine == recorded))
 
     def matches(self, family: str, variant: str, metric: str) -> bool:
+        """The entry covers this check. The invariance battery's verdicts (metrics
+        invariance_*, cases.relations) are covered only by entries that name them: a
+        family's entry with the metric `*` records a shortfall of its closed forms, not a
+        broken invariance."""
+        if metric.startswith(INVARIANCE) and not self.metric.startswith(INVARIANCE):
+            return False
         return family == self.family and fnmatchcase(variant, self.variant) and fnmatchcase(metric, self.metric)
 
     def band(self, engine: str, variant: str, metric: str) -> Band | None:
@@ -204,8 +224,9 @@ class Deviation:
 
     def too_wide(self, band: Band, tolerance: float) -> str | None:
         """Why `band` may not stand as recorded: wider than one tolerance of its check
-        (`tolerance` in the check's units) while the entry gives no `# band:` reason; None if it may."""
-        over = band.tolerances(tolerance)
+        (`tolerance` in the check's units) beyond the rounding floor while the entry gives no
+        `# band:` reason; None if it may."""
+        over = band.spread_tolerances(tolerance)
         if self.band_reason or not over > WIDEST_WITHOUT_REASON:
             return None
         return (f"the band {band.describe()} ({Path(self.source).name}:{band.line}) is {over:.3g} tolerances wide and "

@@ -21,7 +21,8 @@ from typing import Callable
 from adapters.base import Settings, SettingsError, Unsupported
 from cases.family import CaseFamily, Check, Variant, users_frame
 from cases.trajectory import TrajectoryError
-from physval.core import deviations
+from cases import relations
+from physval.core import deviations, invariance
 from physval.core.context import Resolver
 from physval.core.record import Run, Unstable, simulate
 from physval.core.verdicts import blank_row, judge
@@ -32,7 +33,9 @@ class Job:
     """What to run. `dt` None: the family's; `iterations` None: the adapter's default;
     `options`: engine-specific settings (Settings.options) as sorted (name, value) pairs;
     `probe`: "module:function" of a reading taken in the worker while the job runs
-    (function(job) -> Probe), with `probe_args` as sorted (name, value) pairs."""
+    (function(job) -> Probe), with `probe_args` as sorted (name, value) pairs; `relation`:
+    the name of an invariance relation of cases.relations, which makes the job that relation's
+    verdict on the variant instead of the family's checks (physval.core.invariance)."""
     family: str
     variant: Variant
     engine: str
@@ -42,10 +45,11 @@ class Job:
     probe: str | None = None
     probe_args: tuple = ()
     warmup: int = 0  # steps left out of the timing
+    relation: str = ""
 
     @property
     def test_id(self) -> str:
-        return f"{self.variant.test_id}-{self.engine}"
+        return f"{self.variant.test_id}-{self.engine}" + (f"-{self.relation}" if self.relation else "")
 
     @property
     def key(self) -> str:
@@ -189,6 +193,11 @@ def describe(exc: BaseException) -> str:
 
 
 def checks_of(job: Job, family: CaseFamily) -> list[Check]:
+    """The job's checks: the family's closed forms, or its relation's verdict (at float64:
+    the tolerance at the engine's own width is set once its run is known)."""
+    if job.relation:
+        return [invariance.check(relations.by_name(job.relation), family.scene(job.variant.params),
+                                 steps_of(job, family))]
     return family.expect(job.variant.params, time_step(job, family))
 
 
@@ -284,6 +293,8 @@ def execute(job: Job, resolver: Resolver) -> Outcome:
         known = resolver.known(job.engine)
     except deviations.DeviationFileError as exc:  # a worker must not die of a bad file: its rows say why
         return Outcome(job, rows_with("error", f"the known-deviation file does not parse: {exc}"))
+    if job.relation:
+        return Outcome(job, related(job, family, adapter, known, scene, settings, base))
     try:
         run, extra = run_scene(adapter, scene, settings, steps_of(job, family), needs=needs,
                                make_probe=lambda: _probe(job), warmup=job.warmup)
@@ -322,6 +333,48 @@ def execute(job: Job, resolver: Resolver) -> Outcome:
         rows.append(blank_row(family.name, job.variant, job.engine, c, dt=settings.dt,
                               **fields, **judge(c, number, job.engine, job.variant.id, entry, bands_apply)))
     return Outcome(job, rows, extra, run_s=run.whole_s)
+
+
+def related(job: Job, family: CaseFamily, adapter, known, scene, settings: Settings, base: dict) -> list[dict]:
+    """The row of a job's invariance relation: the scene run as given and through the
+    relation, the second run mapped back and compared (physval.core.invariance)."""
+    relation = relations.by_name(job.relation)
+    steps = steps_of(job, family)
+    plain = invariance.check(relation, scene, steps)
+    why_not = relation.applies(scene) or adapter.capabilities.cannot_run_as(relation.needs)
+    if why_not:
+        return job_rows(job, family, "unsupported", f"{relation.name}: {why_not}", [plain], **base)
+    try:
+        other, again = relation.transform(scene), invariance.settings_for(relation, settings)
+    except Exception as exc:  # the relation cannot make the scene another way (SceneError, a shape it cannot scale)
+        return job_rows(job, family, "unsupported", f"{relation.name}: {describe(exc)}", [plain], **base)
+    why_not = adapter.capabilities.cannot_run(other)
+    if why_not:
+        return job_rows(job, family, "unsupported", f"{relation.name}: {why_not}", [plain], **base)
+    try:
+        first, _ = run_scene(adapter, scene, settings, steps)
+    except Failed as f:
+        return job_rows(job, family, f.status, f.reason, [plain], **base)
+    try:
+        if relation.restart:
+            half = steps // 2
+            before, saved = run_scene(adapter, other, again, half, make_probe=invariance.Saving)
+            after, _ = run_scene(adapter, other, again, steps - half,
+                                 make_probe=lambda: invariance.Restoring(saved["state"]))
+            second = invariance.joined(before.trajectory, after.trajectory)
+        else:
+            second = run_scene(adapter, other, again, steps)[0].trajectory
+    except Failed as f:
+        return job_rows(job, family, f.status, f"the {relation.name} run: {f.reason}", [plain], **base)
+    caps = adapter.capabilities
+    substeps = first.iterations if caps.substeps and first.iterations else 1
+    c = invariance.check(relation, scene, steps, caps.float_bits, substeps)
+    parting = invariance.compare(first.trajectory, relation.map_back(second, scene), c.tolerance)
+    entry = deviations.find(known, family.name, job.variant.id, c.metric)
+    verdict = judge(c, parting.largest, job.engine, job.variant.id, entry, at_recorded_settings(job, family))
+    said = parting.text(c.tolerance)
+    verdict["reason"] = f"{verdict['reason']}; {said}" if verdict.get("reason") else said
+    return [blank_row(family.name, job.variant, job.engine, c, dt=settings.dt, **base, **verdict)]
 
 
 def _raised(job, family, checks, known, exc, base) -> list[dict]:

@@ -2,15 +2,9 @@
 wrote in two runs (two engine releases, two settings), compared step by step.
 
 For each job saved by both runs, the first step at which any dynamic body's state differs
-by more than PARTED of that quantity's scale in the job (`scales`): the scene's size L (the
-largest distance of a body from the origin), its speed (the largest body speed, and at least
-sqrt(g L), what a fall across the scene reaches), its rate of turning (the largest angular
-speed, and at least speed / L); a quaternion's scale is 1. Scales are the job's, not each
-body's: a box resting in a stack turns at ~1e-13 rad/s, rounding, and measured against that
-its rounding would part at once. PARTED = 1e-9 lies seven orders of magnitude above the
-rounding of one double-precision operation (1.1e-16), so a double engine that reorders a sum
-does not part at once, and below anything a plot or a check can show (1 nm on a scene of a
-metre). A job whose two trajectories are equal to the last bit never parts.
+by more than PARTED of that quantity's scale in the job (physval.core.parting, the measure
+the invariance battery applies too: the scene's size, speed and rate of turning; a
+quaternion's scale is 1). A job whose two trajectories are equal to the last bit never parts.
 """
 from __future__ import annotations
 
@@ -20,54 +14,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from cases.trajectory import OMEGA, POS, QUAT, VEL
+from physval.core.parting import PARTED, apart as _apart, first_past
 from physval.core.trajectories import load
 from physval.report import fmt, md_table, pyplot, save_figure
 
-PARTED = 1e-9
-G = 9.81  # m/s^2: the floor of the speed scale is sqrt(G L)
-QUANTITIES = (("position", POS), ("orientation", QUAT), ("velocity", VEL), ("angular velocity", OMEGA))
 SHOWN = 30   # rows of the table in the report (every job is in trajectories.csv)
 DRAWN = 4    # jobs drawn side by side
 UNREADABLE = "cannot be read"  # the note of a job whose saved file in A or B cannot be loaded
-
-
-def scales(states: list[np.ndarray]) -> dict[str, float]:
-    """Each quantity's scale over every body of both runs (the module's docstring)."""
-    def largest(cols):
-        return max((float(np.nanmax(np.linalg.norm(s[:, cols], axis=1), initial=0.0)) for s in states), default=0.0)
-    size = max(largest(POS), np.finfo(float).tiny)
-    speed = max(largest(VEL), np.sqrt(G * size))
-    return {"position": size, "orientation": 1.0, "velocity": speed,
-            "angular velocity": max(largest(OMEGA), speed / size)}
-
-
-def _relative(sa: np.ndarray, sb: np.ndarray, scale: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
-    """(per sample: the largest difference of any state component over its quantity's scale,
-    per sample: which component it was)."""
-    rel = np.empty_like(sa)
-    for name, cols in QUANTITIES:
-        rel[:, cols] = np.abs(sb[:, cols] - sa[:, cols]) / scale[name]
-    rel = np.where(np.isnan(rel), np.inf, rel)  # NaN in one run only (a blow-up) parts it
-    rel = np.where(np.isnan(sa) & np.isnan(sb), 0.0, rel)
-    return rel.max(axis=1), rel.argmax(axis=1)
-
-
-def _quantity(col: int) -> str:
-    for name, cols in QUANTITIES:
-        if cols.start <= col < cols.stop:
-            return f"{name}[{col - cols.start}]"
-    return str(col)
-
-
-def _apart(ta, tb, n: int) -> tuple[np.ndarray, dict]:
-    """(per sample: the largest relative difference over the bodies of both runs, per body:
-    what `_relative` gives) over the first n samples."""
-    bodies = sorted(set(ta.states) & set(tb.states))
-    scale = scales([t.states[b][:n] for t in (ta, tb) for b in bodies])
-    per_body = {body: _relative(ta.states[body][:n], tb.states[body][:n], scale) for body in bodies}
-    worst = np.max([rel for rel, _ in per_body.values()], axis=0) if per_body else np.zeros(n)
-    return worst, per_body
 
 
 def parting(path_a: Path, path_b: Path, threshold: float = PARTED) -> dict:
@@ -90,14 +43,11 @@ def parting(path_a: Path, path_b: Path, threshold: float = PARTED) -> dict:
     if set(ta.states) != set(tb.states):
         out["note"] = (out["note"] + "; " if out["note"] else "") + "the runs hold different bodies"
     worst, per_body = _apart(ta, tb, out["steps"] + 1)
-    past = np.flatnonzero(worst > threshold)
     out["largest"] = float(worst.max(initial=0.0))
-    if len(past):
-        k = int(past[0])
-        body = max(per_body, key=lambda name: per_body[name][0][k])
-        col = int(per_body[body][1][k])
-        out |= {"parted_step": k, "parted_time": float(ta.t[k]), "first_to_part": f"{body} {_quantity(col)}",
-                "body": body, "column": col}
+    if where := first_past(worst, per_body, threshold):
+        k = where["step"]
+        out |= {"parted_step": k, "parted_time": float(ta.t[k]), "first_to_part": where["what"],
+                "body": where["body"], "column": where["column"]}
     return out
 
 

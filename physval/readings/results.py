@@ -27,7 +27,7 @@ import pandas as pd
 
 from physval.core import COLUMNS
 from physval.core.verdicts import VANISHED
-from physval.readings import agreement, closest, cost, effective, laws, parity, scorecard, site
+from physval.readings import agreement, closest, cost, effective, invariance, laws, parity, scorecard, site
 from physval.readings.checks import (deviation_summary, deviation_table, engine_groups, engine_versions, family_table,
                                      frame, per_engine_counts, problems_section, status_class, status_counts,
                                      summary_matrix, tolerance_reasons, unsupported_section)
@@ -368,6 +368,7 @@ SECTIONS = (
     KnownDeviations(),
     Problems(),
     Unsupported(),
+    invariance,
     InFolder(effective, lambda run: run.engine_wide.get("effective")),
     InFolder(agreement, cross_engine),
     InFolder(parity, lambda run: run.beside.parity),

@@ -25,6 +25,14 @@ column of `measure`, physval.readings.closest). A failed check (outside its tole
 and no known deviation, or a deviation that left its band) is a miss like any other here;
 the cell counts it, and the report's failures section lists it.
 
+Two columns grade checks by what they measure rather than by effect (`BY_MEASURE`):
+*integration order* the checks whose tolerance is a time-stepping scheme's error bound, and
+*invariance* the invariance battery's verdicts (physval.core.invariance: a scene run as
+given and turned, moved, mirrored, scaled, built in another order, given as a hull or mesh,
+on more threads, as a world of a batch, or saved and restored, each judged against what the
+engine promises: bit-identical, or round-off at its float width). Their checks count under
+no physical effect; the grade follows the same rule.
+
 Three columns come from the other commands' readings where the run's output folder holds
 them (`companions`): each effect's cell adds the cost at which the engine reaches the
 tolerance on that effect's families (from `physval sweep`, in sweep/), *real-world error*
@@ -51,6 +59,7 @@ from physval.report import Html, Section, companion_table, fmt, md_table, pyplot
 from physval.report import cell as html_cell
 
 INTEGRATION = "integration order"
+INVARIANCE = "invariance"
 # effect -> the (family, metric glob) pairs whose checks test it; a family may test several
 # effects through different metrics (an incline holds a box: static; slides it: kinetic)
 EFFECTS = {
@@ -70,10 +79,15 @@ EFFECTS = {
     # the checks that measure an integrator's order, not physics (Check.measures =
     # "integrator"): graded here, whatever family they are in, and under no physical effect
     INTEGRATION: (),
+    # the invariance battery's verdicts (Check.measures = "invariance": physval.core.invariance):
+    # two runs physics says are the same, compared through a relation of cases.relations
+    INVARIANCE: (),
     "stability": (("robustness_*", "*"),),
     "adapter contract": (("conformance", "*"),),
 }
 REAL, DETERMINISM = "real-world error", "determinism"  # columns from the real and stress readings
+# the columns that grade the checks of one Check.measures (whatever their family) instead of an effect's
+BY_MEASURE = {"integrator": INTEGRATION, "invariance": INVARIANCE}
 
 
 SHARES = (("A", 1.0), ("B", 0.9), ("C", 0.7), ("D", 0.5), ("F", 0.0))  # letter: the least share within
@@ -217,17 +231,17 @@ def measure(df: pd.DataFrame, beside: Companions | None = None) -> pd.DataFrame:
     judged = df[df.status.isin(JUDGED)]
     rows = []
     effects = {k: effect_of(*k) for k in set(zip(judged.case, judged.metric))}
-    order = (judged.measures == "integrator").to_numpy() if "measures" in judged else np.zeros(len(judged), bool)
+    measures = judged.measures.fillna("physics").to_numpy() if "measures" in judged else np.full(len(judged), "physics")
     for engine in dict.fromkeys(df.engine):
         mine_at = (judged.engine == engine).to_numpy()
         mine = judged[mine_at]
-        integrator = order[mine_at]
+        column = np.array([BY_MEASURE.get(m, "") for m in measures[mine_at]], dtype=object)
         for effect in EFFECTS:
-            if effect == INTEGRATION:
-                part = mine[integrator]
+            if effect in BY_MEASURE.values():
+                part = mine[column == effect]
             else:
                 part = mine[np.array([effect in effects[(c, m)] for c, m in zip(mine.case, mine.metric)], dtype=bool)
-                            & ~integrator]
+                            & (column == "")]
             families = sorted(part.case.unique())
             within = int((part.status == "pass").sum())
             rows.append({"engine": engine, "effect": effect, "grade": grade(part),
@@ -239,7 +253,8 @@ def measure(df: pd.DataFrame, beside: Companions | None = None) -> pd.DataFrame:
                          "worst_text": worst_of(part),
                          "families": ", ".join(families),
                          "ms_per_s": run_cost(part) if len(part) else math.nan,
-                         "cost": reach_cost(beside.sweep, engine, families) if effect != INTEGRATION else "",
+                         "cost": reach_cost(beside.sweep, engine, families) if effect not in BY_MEASURE.values()
+                         else "",
                          "text": ""})
         rows += [_companion(engine, REAL, "", real.get(engine, "")),
                  _determinism(engine, beside.determinism)]
@@ -318,7 +333,10 @@ def legend(beside: Companions | None = None) -> str:
     """How to read the scorecard (the markdown and the HTML share it)."""
     text = (rule() + " Beside the grade: checks within tolerance / checks judged, and the typical miss. Checks "
             "whose tolerance is an integration scheme's error bound (a second-order rotation step) measure the "
-            "engine's integrator, not its physics: they are graded under *integration order* only. The rule is "
+            "engine's integrator, not its physics: they are graded under *integration order* only; *invariance* "
+            "grades the invariance battery (the same scene turned, moved, mirrored, scaled, reordered, run on more "
+            "threads, as a world of a batch or saved and restored, against the engine's promise: bit-identical or "
+            "round-off at its float width). The rule is "
             "`physval.readings.scorecard`'s docstring; every number comes from `results.csv`.")
     if beside is not None and beside.sources:
         text += (" From the readings beside this run (" + "; ".join(beside.sources) + "): after the counts, "
