@@ -81,6 +81,11 @@ NARROWED = {
     "physval bench pgs": Narrowed(),
     "physval bench compile": Narrowed("--engines reference-hooke"),
     "physval bench faults": Narrowed('--engines mujoco --cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
+    "physval bench run": Narrowed('--engines mujoco --cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
+    "physval bench run --engines mujoco,pybullet --cases central_impact": Narrowed(needs=("mujoco", "pybullet")),
+    # a run's predicted cost (nothing is run)
+    "physval run --plan": Narrowed(),
+    "physval run --plan --cases creep --engines 'reference-*' --workers 2": Narrowed(),
     # an engine's CI gate (exit 1 only if a check falls under --fail-on)
     "physval run --engines mujoco --junitxml physval.xml --fail-on fail,error,unstable,changed": Narrowed(
         '--cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
@@ -287,7 +292,9 @@ def test_a_readme_command_works_from_the_installed_wheel(installed, line, tmp_pa
     said = f"`{line}` {NARROWED[line].extra}: exit {done.returncode}\n{done.stdout[-1500:]}\n{done.stderr[-3000:]}"
     assert done.returncode == 0, said
     assert "Traceback" not in done.stderr, said
-    if line.startswith("physval run ") and "--help" not in line:
+    if "--plan" in line:  # a prediction: one row per engine and a total, nothing written
+        assert "predicted" in done.stdout.lower() and "wrote " not in done.stdout, said
+    elif line.startswith("physval run ") and "--help" not in line:
         assert "wrote " in done.stdout, said
         if "--save-trajectories" in line:
             assert list((installed.user / "traj").glob("*.npz")), said

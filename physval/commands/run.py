@@ -220,7 +220,7 @@ def _run(args, after: dict) -> int:
     df = frame(rows, COLUMNS)
     phases.report_started = time.monotonic()
     results.write_run_report(rows, out, families, command=options.command_line(), engine_wide=engine_wide,
-                            stale=stale_entries(df, resolver), phases=phases, draw=draw_on_workers(ctx, args))
+                            stale=stale_entries(df, resolver), phases=phases)
     t_report = time.monotonic() - phases.report_started
     total = time.monotonic() - started
     print(f"{len(df)} checks: {status_counts(df)} ({res.ran} runs now, {res.reused} reused; {total:.1f} s: "
@@ -245,23 +245,6 @@ def junit_beside(junit: Path | None, out: Path) -> None:
     if junit is not None and junit.resolve().is_relative_to(out.resolve()) and junit.suffix != ".xml":
         raise options.UsageError(f"--junitxml {junit}: inside --out {out}, name a .xml file (e.g. {out / 'physval.xml'}): "
                                  "the run's own files are there")
-
-
-def draw_on_workers(ctx, args):
-    """The report's heat maps drawn side by side on local workers (--workers, not a Dask
-    cluster: the files are written here), as jobs are: a plot that fails (or kills its
-    worker) stops the report with its reason."""
-    from physval.core.session import Execution, map_calls
-    from physval.readings.results import draw_here, drawn
-
-    def draw(drawings: list) -> None:
-        if args.workers <= 1 or len(drawings) <= 1:
-            return draw_here(drawings)
-        execution = Execution(args.workers, None, args.job_timeout, args.start_method, progress=False)
-        for r in map_calls(drawn, drawings, ctx, execution, label="plots"):
-            if r.error:
-                raise RuntimeError(f"drawing a plot of the report failed: {r.error}")
-    return draw
 
 
 def _overhead_ms(p) -> float:

@@ -149,12 +149,13 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
     """Run every stream's jobs that its store does not hold yet on one executor (one set
     of workers, kept busy by all of them: a reading's waves run beside the jobs of the
     command, not after them), streaming each job's rows to its stream's store. A job two
-    streams want runs once. Never raises on an interrupt: each stream's
+    streams want runs once, whether the second asks before it ends or after. Never raises on an interrupt: each stream's
     Results.interrupted says it stopped early (and its value stays None)."""
     execution = execution or Execution()
     queue: collections.deque = collections.deque()
     waiting: dict[str, list[Stream]] = {}   # job key -> the streams that wait for its rows
     state: dict[int, dict] = {}             # id(stream) -> its generator, wave rows, pending keys
+    finished: dict[str, tuple] = {}         # job key -> (outcome, rows) of a job run in this call
     bar = Progress(0, streams[0].label if streams else "run", execution.progress)
     use = PoolUse(workers=execution.workers)
 
@@ -178,6 +179,8 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
                     s.results.reused += 1
                 elif j.key in s.results.rows:  # run for an earlier wave
                     st["rows"][j.key] = s.results.rows[j.key]
+                elif j.key in finished:  # run for another stream before this one asked
+                    deliver(s, *finished[j.key])
                 else:
                     todo.append(j)
             st["pending"] = {j.key for j in todo}
@@ -194,6 +197,19 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
             bar.grow(len(fresh))
             return
 
+    def deliver(s: Stream, outcome, rows: list) -> None:
+        """A job's rows to stream `s`: in memory first (an interrupt during the disk write
+        must not leave a row on disk that the run does not count as finished: its finalize
+        would drop it), then its store and its on_outcome."""
+        key = outcome.job.key
+        state[id(s)]["rows"][key] = s.results.rows[key] = rows
+        s.results.ran += 1
+        s.spent.add(outcome)
+        if s.store is not None:
+            s.store.append(key, rows, s.cache_key(outcome.job))
+        if s.on_outcome is not None:
+            s.on_outcome(outcome)
+
     t0 = time.monotonic()
     try:
         for s in streams:
@@ -205,17 +221,10 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
                 for outcome in ex.run(queue):
                     key = outcome.job.key
                     rows = [{**r, **outcome.extra} for r in outcome.rows]
+                    finished[key] = (outcome, rows)
                     for s in waiting.pop(key, []):
                         st = state[id(s)]
-                        # in memory first: an interrupt during the disk write must not leave a row
-                        # on disk that the run does not count as finished (its finalize would drop it)
-                        st["rows"][key] = s.results.rows[key] = rows
-                        s.results.ran += 1
-                        s.spent.add(outcome)
-                        if s.store is not None:
-                            s.store.append(key, rows, s.cache_key(outcome.job))
-                        if s.on_outcome is not None:
-                            s.on_outcome(outcome)
+                        deliver(s, outcome, rows)
                         st["pending"].discard(key)
                         if not st["pending"]:
                             advance(s, st["rows"])

@@ -279,6 +279,22 @@ def measure(rows, phases: Phases | None = None) -> pd.DataFrame:
     return df
 
 
+def measured(rows, phases: Phases | None, out: Path) -> pd.DataFrame:
+    """`measure` of a run as it ends (`phases` given), or, rebuilding a report from its
+    folder (no phases), the engines measured again from the rows and the phases as the run
+    wrote them in its cost.csv: a rebuilt report says where that run's time went."""
+    df = measure(rows, phases)
+    if phases is not None or not (Path(out) / "cost.csv").is_file():
+        return df
+    try:
+        before = pd.read_csv(Path(out) / "cost.csv")
+    except (OSError, ValueError, pd.errors.ParserError):
+        return df
+    if list(before.columns) != COST_COLUMNS:
+        return df
+    return pd.concat([before[before.kind == "phase"], df], ignore_index=True)
+
+
 def _ms(seconds: float, jobs: int) -> str:
     return f"{1e3 * seconds / jobs:.1f} ms" if jobs else "-"
 

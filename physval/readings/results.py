@@ -338,8 +338,9 @@ def heat_maps(run: Run) -> list[tuple]:
 
 
 def drawn(drawing: tuple) -> None:
-    """Draw one plot: (function, arguments); a module-level function, so a worker process
-    can draw it (physval.core.session.map_calls)."""
+    """Draw one plot: (function, arguments). (Not on the run's workers: a drawing's data
+    sent to a worker that was sending its own result back blocked both ends of the pipe,
+    and the default run hung after its last job.)"""
     fn, args = drawing
     fn(*args)
 
@@ -375,7 +376,7 @@ SECTIONS = (
     InFolder(laws, lambda run: run.engine_wide.get("laws")),
     Families(),
     Settings(),
-    InFolder(cost, lambda run: cost.measure(run.rows, run.phases)),  # last but one: its report time covers the others
+    InFolder(cost, lambda run: cost.measured(run.rows, run.phases, run.out)),  # last but one: its report time covers the others
     Environment(),
 )
 INTERRUPTED = (SummaryTable(), Vanished(), Problems())  # an interrupted run's report: what is known so far
