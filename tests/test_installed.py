@@ -83,6 +83,11 @@ NARROWED = {
     "physval bench faults": Narrowed('--engines mujoco --cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
     "physval bench run": Narrowed('--engines mujoco --cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
     "physval bench run --engines mujoco,pybullet --cases central_impact": Narrowed(needs=("mujoco", "pybullet")),
+    # the invariance battery (docs/measure/invariance.md)
+    "physval run": Narrowed('--cases "central_impact[drop,e=0.5]" --engines reference'),
+    "physval run --cases slide_to_stop --relations all": Narrowed("--engines reference"),
+    'physval run --cases "stack_forces[n=4*]" --relations rotate_vertical,body_order --engines mujoco': Narrowed(
+        needs=("mujoco",)),
     # a run's predicted cost (nothing is run)
     "physval run --plan": Narrowed(),
     "physval run --plan --cases creep --engines 'reference-*' --workers 2": Narrowed(),
