@@ -50,3 +50,13 @@ def variant_scene(family: str, variant: str):
     fam = builtin_families()[family]
     v = next(v for v in fam.variants if v.id == variant)
     return fam.scene(v.params), Settings(dt=fam.dt_for(v.params))
+
+
+def adapter_or_skip(name: str):
+    """The registry's adapter of engine `name`; the test is skipped where it is not installed."""
+    import pytest
+    from adapters import registry
+    try:
+        return registry.get(name)
+    except registry.EngineError as exc:
+        pytest.skip(str(exc))

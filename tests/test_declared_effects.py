@@ -24,6 +24,7 @@ import pytest
 from adapters import registry
 from adapters.base import Settings, Unsupported
 from cases.scene import EFFECTS, Body, Material, Plane, Scene, ball, cube, ground
+from tests.helpers import adapter_or_skip
 
 G = 9.81
 R = 0.1       # m, the balls' radius
@@ -98,13 +99,6 @@ PLANTS = {"restitution": RESTITUTION, "friction": FRICTION, "static_kinetic": ST
           "rolling_resistance": ROLLING, "torsional_friction": TORSION}
 
 
-def _adapter(name):
-    try:
-        return registry.get(name)
-    except registry.EngineError as exc:
-        pytest.skip(str(exc))
-
-
 def _run(adapter, scene: Scene, plant: Plant):
     """(the simulation's effects, how far plant.read moved over plant.steps after
     plant.settle), or None if the engine declares the scene unsupported (the reason must
@@ -130,7 +124,7 @@ def _run(adapter, scene: Scene, plant: Plant):
 @pytest.mark.parametrize("effect", list(PLANTS))
 @pytest.mark.parametrize("engine", registry.engine_names())
 def test_a_declared_effect_changes_what_the_engine_does(engine, effect):
-    adapter = _adapter(engine)
+    adapter = adapter_or_skip(engine)
     plant = PLANTS[effect]
     dims = [d for d in plant.dimensions if d in adapter.capabilities.dimensions]
     if not dims:
@@ -166,7 +160,7 @@ def test_declared_per_contact_forces_are_each_contacts_own(engine):
     """Each face of the groove carries N = m g / (2 cos alpha) (6.94 N at 45 deg), read as the
     mean of steps 80-100 (a soft contact settles within them); within 2 %, against the
     wrong answer's 50 %."""
-    adapter = _adapter(engine)
+    adapter = adapter_or_skip(engine)
     if not adapter.capabilities.contact_forces:
         pytest.skip(f"{engine} declares no contact force read-out")
     dim = 3 if 3 in adapter.capabilities.dimensions else 2
@@ -207,7 +201,7 @@ def test_an_effect_the_solver_drops_is_unsupported_with_the_engines_reason():
 @pytest.mark.engine("pybullet-dantzig", "pybullet-pgs")
 @pytest.mark.parametrize("engine", ["pybullet-dantzig", "pybullet-pgs"])
 def test_pybullets_mlcp_solvers_say_why_3d_contact_torques_are_unsupported(engine):
-    adapter = _adapter(engine)
+    adapter = adapter_or_skip(engine)
     for plant in (ROLLING, TORSION):
         scene = plant.scene(3, True)
         why = adapter.capabilities.cannot_run(scene)

@@ -33,6 +33,7 @@ from cases.impact_laws import IMPULSE_OF_LAW, law_of
 from cases.scene import Body, Material, Scene, ball, ground
 from physval.core import Context, Job, execute
 from physval.core.context import Resolver
+from tests.helpers import adapter_or_skip
 
 V = 2.0                              # m/s, both balls before the landing
 MASSES = [0.1, 1.0, math.inf]        # top, bottom, ground
@@ -43,13 +44,6 @@ MATCH = 1e-4
 # neither" only if it misses each by more than this (Rapier's nearest miss measured: 0.075
 # m/s in 3D at e = 0.5)
 NEITHER = 1e-2
-
-
-def _adapter(name):
-    try:
-        return registry.get(name)
-    except registry.EngineError as exc:
-        pytest.skip(str(exc))
 
 
 def _landing(adapter, e: float) -> tuple[float, float]:
@@ -74,7 +68,7 @@ def _landing(adapter, e: float) -> tuple[float, float]:
 @pytest.mark.parametrize("e", (1.0, 0.5))
 @pytest.mark.parametrize("engine", registry.engine_names())
 def test_touching_balls_land_by_the_declared_impact_model(engine, e):
-    adapter = _adapter(engine)
+    adapter = adapter_or_skip(engine)
     model = adapter.capabilities.impact_model
     if model == "compliant":
         pytest.skip(f"{engine}: compliant contacts have no closed form here")
@@ -118,7 +112,7 @@ def _law_misses(engine: str, adapter) -> dict[str, float]:
 
 @pytest.mark.parametrize("engine", registry.engine_names())
 def test_the_declared_restitution_law_is_the_one_the_runs_show(engine):
-    adapter = _adapter(engine)
+    adapter = adapter_or_skip(engine)
     misses = _law_misses(engine, adapter)
     declared = adapter.capabilities.restitution_law
     if declared not in misses or len(misses) < 2:

@@ -9,13 +9,7 @@ import pytest
 from adapters import registry
 from adapters.base import Settings, Unsupported
 from cases.scene import Body, Material, Scene, ball, cube, ground
-
-
-def _adapter(name):
-    try:
-        return registry.get(name)
-    except registry.EngineError as exc:
-        pytest.skip(str(exc))
+from tests.helpers import adapter_or_skip
 
 
 def _scene(dim: int = 3) -> Scene:
@@ -27,7 +21,7 @@ def _scene(dim: int = 3) -> Scene:
 
 
 def _knobs(name, scene=None):
-    sim = _adapter(name).build(scene or _scene(), Settings(dt=1e-3))
+    sim = adapter_or_skip(name).build(scene or _scene(), Settings(dt=1e-3))
     try:
         return sim.knobs
     finally:
@@ -79,4 +73,4 @@ def test_pybullet_solver_variants_change_the_solver_only(name, solver):
 @pytest.mark.engine("pybullet-pgs")
 def test_pybullet_pgs_turns_2d_scenes_away_with_the_reason():
     with pytest.raises(Unsupported, match="NaN"):
-        _adapter("pybullet-pgs").build(_scene(2), Settings(dt=1e-3))
+        adapter_or_skip("pybullet-pgs").build(_scene(2), Settings(dt=1e-3))

@@ -17,15 +17,9 @@ import pytest
 from adapters import registry
 from adapters.base import Settings, Unsupported
 from cases.scene import Body, Compliance, Material, Scene, ball, ground
+from tests.helpers import adapter_or_skip
 
 DT = 1e-3
-
-
-def _adapter(name):
-    try:
-        return registry.get(name)
-    except registry.EngineError as exc:
-        pytest.skip(str(exc))
 
 
 def _scenes(dim: int) -> list[Scene]:
@@ -172,7 +166,7 @@ def _at(record: dict, path: tuple):
 
 @pytest.mark.parametrize("engine", registry.engine_names())
 def test_the_knob_record_describes_the_solver_that_ran(engine):
-    adapter = _adapter(engine)
+    adapter = adapter_or_skip(engine)
     dim = 3 if 3 in adapter.capabilities.dimensions else 2
     with _build(adapter, dim) as sim:
         sim.step()

@@ -23,6 +23,7 @@ from adapters.base import Settings
 from cases.scene import (Body, Box, Capsule, Cylinder, Hull, Material, Mesh, Polygon, Rect, Scene, Sphere, ground,
                          pair_key)
 from tests.shape_helpers import DT, G, ON_ITS_SIDE
+from tests.helpers import adapter_or_skip
 
 STEPS = 500  # 0.5 s: every contact here has settled (the slowest, Drake's, lasts 16 steps)
 SETTLED = 100  # steps over which the contact forces are averaged (pybullet's MLCP solvers let a
@@ -56,13 +57,6 @@ def _speed(row: np.ndarray, shape) -> float:
     """The largest speed of a point of a body in state `row` (cases.trajectory layout)."""
     from cases.overlap import reach
     return float(np.linalg.norm(row[7:10]) + np.linalg.norm(row[10:13]) * reach(shape))
-
-
-def _adapter(name: str):
-    try:
-        return registry.get(name)
-    except registry.EngineError as exc:
-        pytest.skip(str(exc))
 
 
 R, H = 0.05, 0.1  # capsule and cylinder radius and half-length, m
@@ -135,7 +129,7 @@ def _run(engine: str, ground_kind: str, dimension: int = 3):
 
 
 def _ran(engine: str, ground_kind: str, dimension: int = 3):
-    _adapter(engine)
+    adapter_or_skip(engine)
     out = _run(engine, ground_kind, dimension)
     if isinstance(out, str):
         pytest.skip(f"{engine}: {out}")
@@ -146,7 +140,7 @@ def _ran(engine: str, ground_kind: str, dimension: int = 3):
 def test_bodies_start_where_the_scene_says(engine):
     """The state read back before the first step is the scene's, to the engine's float width
     (positions of metres: 1e-12 m in float64, 1e-6 m in float32)."""
-    tol = 1e-12 if _adapter(engine).capabilities.float_bits == 64 else 1e-6
+    tol = 1e-12 if adapter_or_skip(engine).capabilities.float_bits == 64 else 1e-6
     for ground_kind, dimension in (("plane", 3), ("mesh", 3), ("plane", 2)):
         out = _run(engine, ground_kind, dimension)
         if isinstance(out, str):  # a configuration without 2D scenes
@@ -174,7 +168,7 @@ def test_capsules_and_cylinders_rest_at_their_size(engine):
 
 
 def _point_contact(engine: str) -> bool:
-    return getattr(_adapter(engine), "contact_model", None) == "point"
+    return getattr(adapter_or_skip(engine), "contact_model", None) == "point"
 
 
 # Drake's point contact gives a pair one point, its deepest: a box on the half-space rests
@@ -258,7 +252,7 @@ def test_pybullet_shapes_are_the_scenes():
     its own (getMeshData); every surface, mesh ground included, where the scene has it, to
     rounding (distances from points outside by Bullet's GJK against a small probe ball: a
     margin left on a hull or a triangle would put it 1 mm out)."""
-    _adapter("pybullet")
+    adapter_or_skip("pybullet")
     from adapters.pybullet_engine import p
     for ground_kind in ("plane", "mesh"):
         scene = _scene(ground_kind)
@@ -291,7 +285,7 @@ def test_mujoco_geoms_are_the_scenes():
     (world vertices the scene's, to float32: MuJoCo stores mesh vertices so); every surface,
     the mesh ground's triangle prisms included, where the scene has it (mj_ray from points
     outside); a mesh ground one prism geom a triangle."""
-    _adapter("mujoco")
+    adapter_or_skip("mujoco")
     import mujoco
     from cases.overlap import rotation_matrix
     for ground_kind in ("plane", "mesh"):
@@ -336,7 +330,7 @@ def test_dart_shapes_are_the_scenes():
     node where the body is with its z axis the body's; the hull and the mesh ground
     MeshShapes spanning the scene's corners (DART reads back no vertices, only the bounds);
     the scene's detector (ODE's for these shapes, module notes)."""
-    _adapter("dart")
+    adapter_or_skip("dart")
     from dartpy import dynamics as D
     from cases.overlap import rotation_matrix
     for ground_kind in ("plane", "mesh"):
@@ -372,7 +366,7 @@ def test_drake_geometry_is_the_scenes(engine):
     outside); the hull a Convex whose hull is the scene's corners; the mesh ground triangle
     prisms under point contact (each a Convex of the triangle and its copy behind it) and
     under hydroelastic contact a rigid Mesh of the scene's triangles, each where the body is."""
-    _adapter(engine)
+    adapter_or_skip(engine)
     from adapters.solids import triangle_prisms
     for ground_kind in ("plane", "mesh"):
         scene = _scene(ground_kind)
