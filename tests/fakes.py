@@ -252,6 +252,11 @@ def square_or_crash(x):
     return x * x
 
 
+def echo(data):
+    """A plain call that answers what it was sent (as large as it came)."""
+    return data
+
+
 class ReleaseBallistic(FakeAdapter):
     """A stand-in engine whose "releases" are those of a tiny PyPI package (iniconfig): from
     2.0 its gravity is 0.1 % strong, so `physval versions` on 1.1.1 and 2.0.0 has a change

@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 from pathlib import Path
 
@@ -94,8 +95,9 @@ def test_a_crashing_job_costs_only_its_own_rows(cases_dir, tmp_path, workers, ho
     assert all(r["status"] == "pass" for k, rs in rows.items() if k != "k=2" for r in rs)
 
 
-# s: the per-job limit of the time-out test. Its other jobs take ~0.05 s on an idle machine:
-# even on 2 cores at a load average of 11 they stay far below it (at 2 s, some did not).
+# s: the per-job limit of the time-out tests. Their other jobs take ~0.05 s on an idle machine,
+# a worker's first (which loads the reference's compiled code) ~1 s: even on 2 cores at a load
+# average of 11 they stay below it (at 2 s, some did not; at 5 s a first job did not, at load 10).
 JOB_LIMIT = 10
 
 
@@ -434,10 +436,30 @@ def test_a_job_sent_ahead_starts_its_time_limit_when_it_begins_and_a_hang_costs_
     ctx = Context(cases_dirs=(str(cases_dir),))
     fam = ctx.resolver().family("faulty_fall")
     jobs = [Job(fam.name, v, "reference") for v in fam.variants[:4]]
-    res = run_jobs(jobs, ctx, workers=1, job_timeout=5.0, progress=False)
+    res = run_jobs(jobs, ctx, workers=1, job_timeout=JOB_LIMIT, progress=False)
     status = {k.split("[", 1)[1].split("]")[0]: rows[0]["status"] for k, rows in res.rows.items()}
-    assert status == {"k=0": "pass", "k=1": "error", "k=2": "pass", "k=3": "pass"}, status
-    assert "per-job time limit of 5 s" in res.rows[jobs[1].key][0]["reason"]
+    assert status == {"k=0": "pass", "k=1": "error", "k=2": "pass", "k=3": "pass"}, [r[0]["reason"][-300:] for r in res.rows.values()]
+    assert f"per-job time limit of {JOB_LIMIT} s" in res.rows[jobs[1].key][0]["reason"]
+
+
+def test_large_tasks_with_large_results_are_not_sent_ahead_into_a_deadlock(ahead):
+    """Tasks and results each larger than the pipe's buffers (4 MB): a task sent ahead to a
+    busy worker would block the main process in send while the worker blocks sending its
+    result. Large tasks wait for an idle worker instead; every call returns its data."""
+    from physval.core.executor import LocalExecutor
+    from physval.core.jobs import Call
+    from tests.fakes import echo
+    data = [bytes([k]) * 4_000_000 for k in range(4)]
+
+    def run():
+        with LocalExecutor(workers=1) as ex:
+            return {r.call.tag: r.value for r in ex.run([Call(echo, d, k) for k, d in enumerate(data)])}
+    got = {}
+    worker = threading.Thread(target=lambda: got.update(run()), daemon=True)
+    worker.start()
+    worker.join(timeout=120)  # a deadlock never ends; the four echoes take well under a second
+    assert not worker.is_alive(), "the main process and its worker are blocked on each other"
+    assert got == dict(enumerate(data))
 
 
 def test_streams_share_one_executor_waves_follow_their_rows_and_a_job_two_streams_want_runs_once():

@@ -20,6 +20,7 @@ from __future__ import annotations
 import collections
 import multiprocessing as mp
 import multiprocessing.connection
+from multiprocessing.reduction import ForkingPickler
 import os
 import signal
 import sys
@@ -150,13 +151,14 @@ class _Slot:
         """The task it runs now (None: idle)."""
         return self.tasks[0] if self.tasks else None
 
-    def give(self, task) -> None:
-        """Hand a task over (a worker that died meanwhile is found by its sentinel)."""
+    def give(self, task, message: bytes) -> None:
+        """Hand a task over, `message` its pickle (a worker that died meanwhile is found by
+        its sentinel)."""
         if not self.tasks:
             self.started = time.monotonic()
         self.tasks.append(task)
         try:
-            self.conn.send(task)
+            self.conn.send_bytes(message)
         except (BrokenPipeError, OSError):
             pass
 
@@ -183,6 +185,12 @@ class _Slot:
 # the end, a long task sent ahead to a busy worker would wait while another worker idles.
 SEND_AHEAD = 1
 SEND_AHEAD_QUEUE = 4
+# ... and only a task whose message fits the pipe's buffer whole: a worker that is busy
+# does not read, and one that ends its job sends its result before it reads again, so a
+# larger task sent ahead could block the main process in send while the worker blocks
+# sending a large result, each waiting for the other to read (Linux's socket buffers hold
+# about 200 KiB; a larger task waits for an idle worker, which reads at once).
+SEND_AHEAD_BYTES = 64 * 1024
 
 
 class LocalExecutor:
@@ -303,23 +311,25 @@ class LocalExecutor:
             limit = 1 + (SEND_AHEAD if len(queue) > SEND_AHEAD_QUEUE * self.workers else 0)
             if len(s.tasks) >= limit:
                 return
-            s.give(self._take(queue))
+            i = self._next(queue)
+            message = ForkingPickler.dumps(queue[i])
+            if s.tasks and len(message) > SEND_AHEAD_BYTES:
+                return  # too large to send ahead (see SEND_AHEAD_BYTES): it waits for an idle worker
+            task = queue[i]
+            del queue[i]
+            engine = getattr(task, "engine", None)
+            if engine is not None:
+                self._begun.add(engine)
+            s.give(task, message)
 
-    def _take(self, queue: collections.deque):
-        """The next task, but not a second job of an engine whose first is still running
-        if any other task can go instead (its first-run costs are being paid)."""
+    def _next(self, queue: collections.deque) -> int:
+        """Where the next task is: the first, but not a second job of an engine whose first
+        is still running if any other task can go instead (its first-run costs are being paid)."""
         for i, task in enumerate(queue):
             engine = getattr(task, "engine", None)
             if engine is None or engine in self._finished or engine not in self._begun:
-                break
-        else:
-            i = 0  # nothing else to do: no worker waits for the first job
-        task = queue[i]
-        del queue[i]
-        engine = getattr(task, "engine", None)
-        if engine is not None:
-            self._begun.add(engine)
-        return task
+                return i
+        return 0  # nothing else to do: no worker waits for the first job
 
     @staticmethod
     def _greeted(s: _Slot) -> bool:
