@@ -1,24 +1,22 @@
 """`physval real`: engines against 400 measured cube tosses (the real-world tier).
 
-README paragraph (draft, for the lead to merge):
-
-    `physval real` asks how far each engine is from the real world once its contact
-    parameters are fitted as well as they can be. It replays 400 motion-captured tosses of
-    one acrylic cube onto one surface (the ContactNets data set, BSD 3-Clause, shipped in
-    `cases/data/cube_toss/`): each toss starts from its measured state just before the first
-    impact; every 3D engine fits its friction, restitution and (MuJoCo) contact time scale
-    on the even-numbered tosses; the odd-numbered ones are scored at the fitted and at the
-    data set's nominal parameters (mu 0.18, e 0.125). The errors are the distance between
-    simulated and measured centre in cube widths and the angle between the orientations in
-    degrees, 0.1 s and 0.5 s after the first impact and at the final rest pose, and whether
-    the cube ends on the same face; `reports/real/real_report.md` ranks the engines and sets
-    them against the noise floor of the data (the measurement against itself smoothed).
-    Read them as the reality gap for this one cube on this one surface, not as a property
-    of an engine in general: the tosses are chaotic (a small change before an impact can
-    change the face the cube ends on), the start state carries the capture's noise, and the
-    fitted parameters absorb whatever the cube and the surface do that no engine models.
-    `physval real --tosses FILE --params reports/real/params.json` scores your own tosses
-    (same columns) with the saved parameters; `--fit` fits them on your file instead.
+`physval real` asks how far each engine is from the real world once its contact
+parameters are fitted as well as they can be. It replays 400 motion-captured tosses of
+one acrylic cube onto one surface (the ContactNets data set, BSD 3-Clause, shipped in
+`cases/data/cube_toss/`): each toss starts from its measured state just before the first
+impact; every 3D engine fits its friction, restitution and (MuJoCo) contact time scale
+on the even-numbered tosses; the odd-numbered ones are scored at the fitted and at the
+data set's nominal parameters (mu 0.18, e 0.125). The errors are the distance between
+simulated and measured centre in cube widths and the angle between the orientations in
+degrees, 0.1 s and 0.5 s after the first impact and at the final rest pose, and whether
+the cube ends on the same face; `reports/real/real_report.md` ranks the engines and sets
+them against the noise floor of the data (the measurement against itself smoothed).
+Read them as the reality gap for this one cube on this one surface, not as a property
+of an engine in general: the tosses are chaotic (a small change before an impact can
+change the face the cube ends on), the start state carries the capture's noise, and the
+fitted parameters absorb whatever the cube and the surface do that no engine models.
+`physval real --tosses FILE --params reports/real/params.json` scores your own tosses
+(same columns) with the saved parameters; `--fit` fits them on your file instead.
 
 What it does, per engine (every registered 3D engine that is installed):
 1. Each toss of the test split (odd toss ids, `cases.cube_toss`) is built as an
