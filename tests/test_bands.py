@@ -146,3 +146,38 @@ def test_known_measures_twice_in_another_order_and_asks_for_a_reason_where_histo
 def _rows_of(path: Path) -> dict:
     with open(path, newline="") as f:
         return {(r["variant"], r["metric"]): r for r in csv.DictReader(f)}
+
+
+PLANTED = """
+from dataclasses import replace
+
+from adapters.planting import Fault, Planted
+from adapters.registry import get
+
+
+class StrongGravity(Fault):
+    name = "strong gravity"
+
+    def scene(self, scene, capabilities):
+        return replace(scene, gravity=tuple(1.01 * g for g in scene.gravity))
+
+
+def renamed():
+    return Planted(get("reference-lemke"), StrongGravity(), name="lemke-strong-gravity")
+"""
+
+
+def test_known_will_not_write_a_planted_engines_bands_into_the_file_of_the_engine_it_wraps(tmp_path, capsys):
+    """A planted engine is judged by the bands of the engine it wraps: `known --write` would
+    put the planted engine's bands into that engine's shipped file. It stops first, one line
+    naming --file, and the shipped file is untouched; with --file the bands go there."""
+    (tmp_path / "my_faults.py").write_text(PLANTED)
+    from adapters import registry
+    shipped = Path(registry.get("reference-lemke").deviations_file())
+    before = shipped.read_bytes()
+    args = ["known", "--adapter", f"{tmp_path / 'my_faults.py'}:renamed", "lemke-strong-gravity",
+            "--cases", "conformance", "--out", str(tmp_path / "m"), "--quiet", "--write"]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "judged by the bands of reference-lemke" in err and "--file" in err
+    assert shipped.read_bytes() == before and not (tmp_path / "m").exists()

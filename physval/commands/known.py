@@ -25,6 +25,7 @@ from fnmatch import fnmatchcase
 from pathlib import Path
 
 
+from adapters.planting import Planted
 from cases.relations import RELATIONS
 from physval.core.deviations import deviating, measured_bands
 from physval.commands import options
@@ -61,6 +62,17 @@ def add_parser(sub) -> None:
     options.add_execution(p, str(cache_dir()))
 
 
+def _refuse_a_borrowed_file(engine: str, adapter) -> None:
+    """A planted engine (adapters.planting.Planted, or any adapter judged by another
+    engine's bands) reads the bands of the engine it wraps: its own measured bands would
+    overwrite that engine's in the shipped file. They go to a file of the user's own."""
+    wrapped = getattr(adapter, "bands_of", None) or (adapter.name if isinstance(adapter, Planted) else None)
+    if wrapped:
+        raise options.UsageError(f"known {engine} --write: {engine} is judged by the bands of {wrapped} "
+                                 f"(a planted or wrapped engine), whose file records {wrapped} itself; "
+                                 f"add --file FILE to write {engine}'s bands into a file of your own")
+
+
 def run(args) -> int:
     ctx = options.context_of(args)
     resolver = ctx.resolver()
@@ -68,6 +80,9 @@ def run(args) -> int:
     if args.file and not options.is_a("--file", args.file, Path.is_file):
         raise options.UsageError(f"--file {args.file!r}: not a file")
     options.check_scheduler(args.scheduler)
+    if args.write and not args.file:
+        for engine in engines:
+            _refuse_a_borrowed_file(engine, resolver.adapter(engine))
     out = options.held(args, options.output_folder(args.out))
     families = resolver.families
     # every variant the engines can run (or the --cases), so that failing checks no entry
