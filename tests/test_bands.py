@@ -181,3 +181,22 @@ def test_known_will_not_write_a_planted_engines_bands_into_the_file_of_the_engin
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "judged by the bands of reference-lemke" in err and "--file" in err
     assert shipped.read_bytes() == before and not (tmp_path / "m").exists()
+
+
+def test_known_rewrites_bands_where_they_stand_in_the_file(tmp_path):
+    """Measured again, an entry's bands keep the order the file gives them (a re-measured
+    file differs only where a band does), whatever order the measurement found them in."""
+    known = tmp_path / "known.txt"
+    known.write_text("fake-history central_impact[e=0.5,m=1:*]:*  # the fake engine lets the spheres pass through\n"
+                     "    # band: the fake engine's history: each scene starts faster\n")
+    measure = ["known", "fake-history", "--file", str(known), "--cases", *CASES, *HISTORY, *QUIET, "--write"]
+    assert main([*measure, "--out", str(tmp_path / "m1")]) == 0
+    head, *bands = known.read_text().splitlines()[:1], *known.read_text().splitlines()[1:]
+    reason, bands = bands[0], bands[1:]
+    assert len(bands) > 2
+    shuffled = bands[::-1]
+    known.write_text("\n".join([*head, reason, *shuffled]) + "\n")
+    assert main([*measure, "--out", str(tmp_path / "m2")]) == 0
+    again = known.read_text().splitlines()[2:]
+    key = lambda line: line.rsplit(" = ", 1)[0]
+    assert [key(b) for b in again] == [key(b) for b in shuffled]

@@ -62,6 +62,21 @@ def add_parser(sub) -> None:
     options.add_execution(p, str(cache_dir()))
 
 
+def _in_place(old: list, new: list, keep) -> list:
+    """An entry's bands after a measurement, in the file's order (so that a re-measured file
+    differs only where a band did): a band measured again stays where it was, one `keep`
+    refuses goes, one measured for the first time comes last."""
+    fresh = {(b.engine, b.variant, b.metric): b for b in new}
+    out = []
+    for b in old:
+        key = (b.engine, b.variant, b.metric)
+        if key in fresh:
+            out.append(fresh.pop(key))
+        elif keep(b):
+            out.append(b)
+    return out + list(fresh.values())
+
+
 def _refuse_a_borrowed_file(engine: str, adapter) -> None:
     """A planted engine (adapters.planting.Planted, or any adapter judged by another
     engine's bands) reads the bands of the engine it wraps: its own measured bands would
@@ -131,9 +146,10 @@ def run(args) -> int:
         # bands of checks this run did not measure (other engines, unselected variants) stay;
         # a band of a variant its family no longer has goes (a grid changed since it was measured)
         exists = {(name, v.id) for name, fam in families.items() for v in fam.all_variants}
-        bands_of = {e.line: [b for b in e.bands if (e.family, b.variant) in exists
-                             and (b.engine != engine or (e.family, b.variant) not in ran)]
-                    + new[e.line] for e in entries}
+        bands_of = {e.line: _in_place(e.bands, new[e.line],
+                                      lambda b, e=e: (e.family, b.variant) in exists
+                                      and (b.engine != engine or (e.family, b.variant) not in ran))
+                    for e in entries}
         print(f"{engine}: {path}")
         for e in entries:
             before = {(b.variant, b.metric): b for b in e.bands if b.engine == engine and (e.family, b.variant) in ran}
