@@ -532,6 +532,12 @@ def test_a_second_run_into_a_folder_in_use_stops_at_once_naming_the_first(cases_
     assert second.returncode == 2 and line.startswith(f"physval: error: --out {out}: another physval command "
                                                       f"(pid {first.pid}) is writing there"), second.stderr
     assert (out / "results.csv").read_text() == rows_before
+    for other in (["bench", "step", "--engines", "reference", "--quiet"], ["compare", str(out), str(out)]):
+        refused = subprocess.run([sys.executable, "-m", "physval", *other, "--out", str(out)], cwd=ROOT,
+                                 capture_output=True, text=True, timeout=300)
+        assert refused.returncode == 2 and f"--out {out}: another physval command (pid {first.pid})" in \
+            refused.stderr, (other[0], refused.stderr)
+    assert (out / "results.csv").read_text() == rows_before
     first.send_signal(signal.SIGTERM)
     _, err = first.communicate(timeout=STOPS)
     assert first.returncode == 130 and not (out / LOCK_FILE).exists(), err

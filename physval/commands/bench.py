@@ -45,7 +45,7 @@ def run(args) -> int:
     unknown = [w for w in what if w not in WHAT]
     if unknown:
         raise options.UsageError(f"unknown benchmark {unknown[0]!r}: choose from {', '.join(WHAT)}")
-    out = options.output_folder(args.out)
+    out = options.held(args, options.output_folder(args.out))
     execution = Execution(1, None, args.job_timeout, args.start_method, not args.quiet)
     say = options.teller(args, "physval bench")
 

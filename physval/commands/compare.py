@@ -58,8 +58,9 @@ def trajectory_folders(a, b, named) -> tuple[Path, Path] | None:
         return None
 
 
-def compare_runs(a, b, out: str, threshold: float, trajectories=None, command: str = ""):
-    """Compare run folders a and b into folder `out` (made once both are read): (the joined
+def compare_runs(a, b, out: str, threshold: float, trajectories=None, command: str = "", args=None):
+    """Compare run folders a and b into folder `out` (made once both are read, and held by
+    the command of `args` if given: options.held): (the joined
     table of physval.readings.compare, where the trajectories part (physval.readings.divergence;
     None without trajectories), the files written). CompareError (bad input) becomes UsageError."""
     from physval.readings import compare, divergence
@@ -68,6 +69,8 @@ def compare_runs(a, b, out: str, threshold: float, trajectories=None, command: s
     except compare.CompareError as exc:
         raise options.UsageError(str(exc)) from None
     folder = options.output_folder(out)
+    if args is not None:
+        options.held(args, folder)
     table = compare.compare(left, right, threshold)
     names = (str(a), str(b))
     extra, parts, written = [], None, [folder / "compare.md", folder / "compare.csv", folder / "compare.png"]
@@ -91,7 +94,8 @@ def compare_runs(a, b, out: str, threshold: float, trajectories=None, command: s
 def run(args) -> int:
     from physval.readings.compare import changed, summary_line
     trajectories = trajectory_folders(args.a, args.b, args.trajectories)
-    table, _, written = compare_runs(args.a, args.b, args.out, args.threshold, trajectories, options.command_line())
+    table, _, written = compare_runs(args.a, args.b, args.out, args.threshold, trajectories, options.command_line(),
+                                     args)
     print(f"{'changed' if changed(table) else 'nothing changed'}: {summary_line(table, args.threshold)}")
     print(f"wrote {', '.join(str(p) for p in written)}")
     return 1 if changed(table) else 0
