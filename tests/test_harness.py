@@ -89,6 +89,25 @@ def test_pass_and_fail_are_judged_per_check():
     assert rows[0]["abs_error"] == pytest.approx(0.5) and "> tolerance" in rows[0]["reason"]
 
 
+def test_a_variants_closed_forms_are_computed_once_per_process():
+    """Every engine's job of a variant asks for the same checks: expect() runs once per
+    variant and time step (physval.core.jobs.expected), and a family of the same name with
+    another expect() gets its own."""
+    calls = []
+
+    def expect(p, dt):
+        calls.append((p["offset"], dt))
+        return _fall_expect(p, dt)
+    counted = CaseFamily(name="free_fall", summary="a ball falls", source="symplectic Euler",
+                         grid=({"offset": 0.0},), scene=_fall_scene, duration=lambda p: T,
+                         observe=_fall_observe, expect=expect, dt=DT, variant_id=lambda p: f"offset={p['offset']}")
+    job = Job("free_fall", counted.variants[0], "fake")
+    first = run_job(job, counted, FakeAdapter(), known=[])
+    again = run_job(Job("free_fall", counted.variants[0], "other"), counted, FakeAdapter(), known=[])
+    assert calls == [(0.0, DT)] and [r["status"] for r in first + again] == ["pass"] * 4
+    assert run_job(_job(1), FALL, FakeAdapter(), known=[])[0]["status"] == "fail"  # FALL's own expect
+
+
 def _entry(variant="offset=0.5", metric="z_*", bands=(), reason="the fake engine floats"):
     return deviations.Deviation("fake.txt", "free_fall", variant, metric, reason, 1, tuple(bands))
 
