@@ -363,6 +363,20 @@ def test_report_has_its_sections_and_no_temporary_files(tmp_path):
     assert not [p for p in tmp_path.rglob(".*") if p.is_file()], "temporary files left behind"
 
 
+def test_plots_drawn_beside_the_report_are_all_there_once_it_waits(tmp_path):
+    """physval run draws the heat maps in processes of their own while the sections render
+    (results.draw_beside): waiting returns once every drawing is done, and raises what one
+    raised."""
+    import os
+    from physval.readings.results import draw_beside
+    made = [tmp_path / f"{k}.txt" for k in range(2)]
+    wait = draw_beside([(Path.write_text, (path, "drawn")) for path in made] + [(os.remove, (tmp_path / "none",))],
+                       processes=2)
+    with pytest.raises(FileNotFoundError):
+        wait()
+    assert [p.read_text() for p in made] == ["drawn"] * 2
+
+
 def test_an_interrupted_write_leaves_the_old_file_whole(tmp_path, monkeypatch):
     from physval import files
     target = tmp_path / "report.md"
