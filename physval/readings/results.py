@@ -371,17 +371,22 @@ def draw_beside(drawings: list, processes: int | None = None):
         processes = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
     pool = ProcessPoolExecutor(max_workers=max(1, min(processes, len(drawings))),
                                mp_context=multiprocessing.get_context(method))
-    # the largest first, so that the last to start is a small one
-    futures = [pool.submit(drawn, d) for d in sorted(drawings, key=_size, reverse=True)]
+    from concurrent.futures.process import BrokenProcessPool
+    ordered = sorted(drawings, key=_size, reverse=True)  # the largest first: the last to start is a small one
+    futures = [pool.submit(drawn, d) for d in ordered]
 
     def wait(abandon: bool = False) -> None:
-        """`abandon`: the report stopped (an interrupt): drop what is not drawn yet."""
+        """`abandon`: the report stopped (an interrupt): drop what is not drawn yet. A
+        drawing whose process died (the pool broke: killed, out of memory) is drawn here."""
         if abandon:
             pool.shutdown(wait=False, cancel_futures=True)
             return
         try:
-            for f in futures:
-                f.result()
+            for d, f in zip(ordered, futures):
+                try:
+                    f.result()
+                except BrokenProcessPool:
+                    drawn(d)
         finally:
             pool.shutdown(cancel_futures=True)
     return wait
