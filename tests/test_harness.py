@@ -89,6 +89,25 @@ def test_pass_and_fail_are_judged_per_check():
     assert rows[0]["abs_error"] == pytest.approx(0.5) and "> tolerance" in rows[0]["reason"]
 
 
+def test_a_variants_closed_forms_are_computed_once_per_process():
+    """Every engine's job of a variant asks for the same checks: expect() runs once per
+    variant and time step (physval.core.jobs.expected), and a family of the same name with
+    another expect() gets its own."""
+    calls = []
+
+    def expect(p, dt):
+        calls.append((p["offset"], dt))
+        return _fall_expect(p, dt)
+    counted = CaseFamily(name="free_fall", summary="a ball falls", source="symplectic Euler",
+                         grid=({"offset": 0.0},), scene=_fall_scene, duration=lambda p: T,
+                         observe=_fall_observe, expect=expect, dt=DT, variant_id=lambda p: f"offset={p['offset']}")
+    job = Job("free_fall", counted.variants[0], "fake")
+    first = run_job(job, counted, FakeAdapter(), known=[])
+    again = run_job(Job("free_fall", counted.variants[0], "other"), counted, FakeAdapter(), known=[])
+    assert calls == [(0.0, DT)] and [r["status"] for r in first + again] == ["pass"] * 4
+    assert run_job(_job(1), FALL, FakeAdapter(), known=[])[0]["status"] == "fail"  # FALL's own expect
+
+
 def _entry(variant="offset=0.5", metric="z_*", bands=(), reason="the fake engine floats"):
     return deviations.Deviation("fake.txt", "free_fall", variant, metric, reason, 1, tuple(bands))
 
@@ -342,6 +361,20 @@ def test_report_has_its_sections_and_no_temporary_files(tmp_path):
     assert (tmp_path / "plots" / "free_fall.png").stat().st_size > 1000
     assert not (tmp_path / "plots" / "summary.png").exists()  # one family: its own heat map is the summary
     assert not [p for p in tmp_path.rglob(".*") if p.is_file()], "temporary files left behind"
+
+
+def test_plots_drawn_beside_the_report_are_all_there_once_it_waits(tmp_path):
+    """physval run draws the heat maps in processes of their own while the sections render
+    (results.draw_beside): waiting returns once every drawing is done, and raises what one
+    raised."""
+    import os
+    from physval.readings.results import draw_beside
+    made = [tmp_path / f"{k}.txt" for k in range(2)]
+    wait = draw_beside([(Path.write_text, (path, "drawn")) for path in made] + [(os.remove, (tmp_path / "none",))],
+                       processes=2)
+    with pytest.raises(FileNotFoundError):
+        wait()
+    assert [p.read_text() for p in made] == ["drawn"] * 2
 
 
 def test_an_interrupted_write_leaves_the_old_file_whole(tmp_path, monkeypatch):

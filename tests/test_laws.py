@@ -74,6 +74,26 @@ def test_relative_velocity_uses_start_lever_arms_and_end_velocities():
     assert laws.relative_velocity(p, end)[2] == pytest.approx(20.0 * 0.002)
 
 
+def test_a_steps_points_together_read_as_each_point_alone():
+    """The probe folds a step's points in one pass over arrays (point_residuals,
+    relative_velocities): each entry is what the one-point forms give, bit for bit."""
+    rng = np.random.default_rng(3)
+    states = {name: np.concatenate([rng.normal(size=3), [1, 0, 0, 0], rng.normal(size=6)]) for name in ("a", "b")}
+    start = {name: s + rng.normal(size=13) * 1e-3 for name, s in states.items()}
+    points = [ContactPoint(a, b, rng.normal(size=3), n / np.linalg.norm(n), f_n, rng.normal(size=3), gap)
+              for a, b, n, f_n, gap in [("a", "ground", rng.normal(size=3), 5.0, -1e-3), ("b", "a", rng.normal(size=3),
+                                        0.0, 2e-3), ("ground", "b", rng.normal(size=3), 3.0, 0.0)]]
+    mat = [(0.2, 0.5, 0.4), (0.0, 0.0, 0.0), (0.5, 0.8, 0.6)]
+    v, v0 = laws.relative_velocities(points, states, start), laws.relative_velocities(points, start)
+    batch = laws.point_residuals(points, v, v0, *(np.array(c) for c in zip(*mat)), 1e-6)
+    for i, p in enumerate(points):
+        assert np.array_equal(v[i], laws.relative_velocity(p, states, start))
+        one = laws.point_residual(p, v[i], v0[i], *mat[i], 1e-6)
+        assert one.penetration == batch.penetration[i] and one.complementarity == batch.complementarity[i]
+        assert one.cone_excess == (batch.cone_excess[i] if batch.carries[i] else None)
+        assert one.dissipation_gap == (batch.dissipation_gap[i] if batch.sliding[i] else None)
+
+
 def test_the_reference_meets_the_laws_on_the_battery():
     """Sequential impulses solve each contact to their tolerance: the residuals are at the
     solver's convergence level (cone 1e-8 from stopping at a velocity change of 1e-13 m/s

@@ -220,7 +220,7 @@ def _run(args, after: dict) -> int:
     df = frame(rows, COLUMNS)
     phases.report_started = time.monotonic()
     results.write_run_report(rows, out, families, command=options.command_line(), engine_wide=engine_wide,
-                            stale=stale_entries(df, resolver), phases=phases)
+                            stale=stale_entries(df, resolver), phases=phases, draw=results.draw_beside)
     t_report = time.monotonic() - phases.report_started
     total = time.monotonic() - started
     print(f"{len(df)} checks: {status_counts(df)} ({res.ran} runs now, {res.reused} reused; {total:.1f} s: "

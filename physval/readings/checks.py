@@ -62,12 +62,13 @@ def engine_groups(df: pd.DataFrame) -> list[tuple[str, list[str]]]:
 def summary_matrix(df: pd.DataFrame, engines: list[str] | None = None) -> pd.DataFrame:
     """Family x engine: status counts and the worst error in tolerances."""
     engs = engines if engines is not None else list(dict.fromkeys(df.engine))
+    cells = dict(iter(df.groupby(["case", "engine"], sort=False)))  # one pass, not a scan of df per cell
+    none = df.iloc[0:0]
     out = []
     for fam in sorted(df.case.unique()):
         line = {"family": fam}
-        part = df[df.case == fam]
         for eng in engs:
-            sub = part[part.engine == eng]
+            sub = cells.get((fam, eng), none)
             counts = Counter(sub.status)
             cell = " ".join(f"{counts[s]} {STATUS_MARK[s]}" for s in STATUSES if counts[s])
             worst = sub.over_tol.dropna()
