@@ -991,7 +991,7 @@ class MuJoCoTreeSimulation(MuJoCoSimulation):
     kinematics of qpos and qvel (a child's pose and velocity follow from its ancestors'
     joints), its start velocities are the joint velocities that give them, and loads are
     MuJoCo's applied forces (xfrc_applied: world force at the centre of mass and torque,
-    held from step to step). No rollout: states are decoded through mj_kinematics."""
+    held from step to step). No rollout: each step's state is read through mj_kinematics."""
 
     run = None  # the bulk run's rollout does not carry xfrc_applied; step() does
 
@@ -1016,32 +1016,50 @@ class MuJoCoTreeSimulation(MuJoCoSimulation):
                               f"{miss:.3g}): a jointed body's start velocity must be one its joints allow")
         d.qvel[:] = qvel
         self._ids = np.array([ids[b.name] for b in scene.dynamic_bodies])
-        self._scratch = mujoco.MjData(model)
+        self._roots = model.body_rootid[self._ids]
         return [(b.name, None, None, None) for b in scene.dynamic_bodies]
 
     def _built_effects(self, knobs: dict) -> frozenset[str]:
         loaded = np.any(self._data.xfrc_applied != 0)
         return model_effects(self._model, knobs) | ({"load"} if loaded else set())
 
+    # Bulk reads: a raw row is each body's xpos, xquat, cvel and its subtree's centre of mass,
+    # from MuJoCo's own kinematics of the state after the step (mj_kinematics, mj_comPos,
+    # mj_comVel on the live data: mj_step recomputes all of them from qpos and qvel at its
+    # start, so this changes nothing it steps), decoded with numpy.
+    _ROW = 16  # xpos 3, xquat 4, cvel 6 (rotation, translation), subtree_com 3
+
     def states(self) -> dict[str, np.ndarray]:
-        raw = np.concatenate([self._qpos, self._qvel])[None]
+        raw = np.empty((1, self.state_size()))
+        self.write_state(raw[0])
         return dict(zip(self.body_order(), self.decode_states(raw)[0]))
 
+    def state_size(self) -> int:
+        return self._ROW * len(self._ids)
+
+    def write_state(self, out: np.ndarray) -> None:
+        m, d, ids = self._model, self._data, self._ids
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_comVel(m, d)
+        n = len(ids)
+        out[0:3 * n] = d.xpos[ids].ravel()
+        out[3 * n:7 * n] = d.xquat[ids].ravel()
+        out[7 * n:13 * n] = d.cvel[ids].ravel()
+        out[13 * n:16 * n] = d.subtree_com[self._roots].ravel()
+
     def decode_states(self, raw: np.ndarray) -> np.ndarray:
-        m, d, nq, ids = self._model, self._scratch, self._nq, self._ids
-        out = np.zeros((len(raw), len(ids), 13))
-        res = np.zeros(6)
-        for k, row in enumerate(raw):
-            d.qpos[:], d.qvel[:] = row[:nq], row[nq:]
-            mujoco.mj_kinematics(m, d)
-            mujoco.mj_comPos(m, d)
-            mujoco.mj_comVel(m, d)
-            out[k, :, 0:3] = d.xpos[ids]
-            out[k, :, 3:7] = d.xquat[ids]
-            for i, b in enumerate(ids):
-                mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, int(b), res, 0)  # (w, v), world frame
-                out[k, i, 7:10] = res[3:]
-                out[k, i, 10:13] = res[:3]
+        n = len(self._ids)
+        xpos = raw[:, 0:3 * n].reshape(-1, n, 3)
+        cvel = raw[:, 7 * n:13 * n].reshape(-1, n, 6)
+        com = raw[:, 13 * n:16 * n].reshape(-1, n, 3)
+        out = np.empty((len(raw), n, 13))
+        out[:, :, 0:3] = xpos
+        out[:, :, 3:7] = raw[:, 3 * n:7 * n].reshape(-1, n, 4)
+        # cvel is (w, v) at the subtree's centre of mass, world axes: the body origin's
+        # velocity is v + w x (xpos - subtree_com) (MuJoCo's mj_objectVelocity)
+        out[:, :, 7:10] = cvel[:, :, 3:6] + np.cross(cvel[:, :, 0:3], xpos - com)
+        out[:, :, 10:13] = cvel[:, :, 0:3]
         return out
 
 
