@@ -214,3 +214,18 @@ def test_a_load_accelerates_at_force_over_mass(engine):
     sim.close()
     assert state[7] == pytest.approx(0.2, rel=1e-4)
     assert state[11] == pytest.approx(0.1, rel=1e-4)
+
+
+@pytest.mark.parametrize("motion", ["slow mode", "fast mode"])
+def test_double_pendulum_modes_are_the_linear_normal_modes_at_2_deg(motion):
+    """The expected period (the full equations integrated, read at their zero crossings) is
+    the linear mode's 2 pi / w to the O(theta^2) shift at 2 deg: 1e-4 for the slow mode (a
+    single pendulum's theta^2/16 is 7.6e-5), 2e-3 for the fast one, whose opposed arms meet
+    the coupling cos(theta_1 - theta_2) and the theta'^2 terms at their difference (measured
+    1.1e-3); and the two modes differ: the start shapes are the modes'."""
+    from cases import double_pendulum as dp
+    w, shapes = dp.normal_modes(3)
+    k = 0 if motion == "slow mode" else 1
+    T, _ = dp._swing(motion, 3, 1e-3)
+    assert T == pytest.approx(2 * math.pi / w[k], rel=1e-4 if k == 0 else 2e-3)
+    assert w[0] < w[1] and shapes[0, 0] * shapes[1, 0] > 0 > shapes[0, 1] * shapes[1, 1]  # in phase, then opposed
