@@ -40,7 +40,7 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Catch, Check
 from cases.observables import mechanical_energy
 from cases.pendulum import crossing_period
 from cases.scene import Body, Joint, Scene, ball
@@ -231,4 +231,10 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=variant_id,
+    catches=(
+        # planted on MuJoCo: the reference builds no joints yet (issue 39 item 2)
+        Catch("gravity", "slow mode", "mujoco"),
+        Catch("time step", "fast mode", "mujoco"),
+        Catch("damping", "slow mode", "mujoco"),
+    ),
 )

@@ -45,7 +45,7 @@ import math
 
 import numpy as np
 
-from cases.family import CaseFamily, Check
+from cases.family import CaseFamily, Catch, Check
 from cases.observables import mechanical_energy
 from cases.scene import Body, Joint, Scene, ball
 
@@ -165,4 +165,10 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=1e-3,
     variant_id=variant_id,
+    catches=(
+        # planted on MuJoCo: the reference builds no joints yet (issue 39 item 2)
+        Catch("gravity", "revolute,amplitude=150", "mujoco"),
+        Catch("time step", "revolute,amplitude=5", "mujoco"),
+        Catch("damping", "revolute,amplitude=150", "mujoco"),
+    ),
 )
