@@ -229,3 +229,14 @@ def test_double_pendulum_modes_are_the_linear_normal_modes_at_2_deg(motion):
     T, _ = dp._swing(motion, 3, 1e-3)
     assert T == pytest.approx(2 * math.pi / w[k], rel=1e-4 if k == 0 else 2e-3)
     assert w[0] < w[1] and shapes[0, 0] * shapes[1, 0] > 0 > shapes[0, 1] * shapes[1, 1]  # in phase, then opposed
+
+
+def test_rigid_motions_and_scalings_do_not_apply_to_jointed_scenes():
+    """They move the bodies, not yet the joints' anchors and axes or the loads: a moved
+    scene would hang its bodies on the old anchors, so the relation says it does not apply."""
+    from cases import relations
+    hinged = pendulum.scene(pendulum.GRID[0])
+    moved = [r for r in relations.RELATIONS if isinstance(r, (relations.Motion, relations.Scale))]
+    assert moved and all(r.applies(hinged) == "the scene has joints or loads, which this relation does not "
+                                              "transform yet" for r in moved)
+    assert all(r.applies(Scene(bodies=(_bob(),))) is None for r in moved)
