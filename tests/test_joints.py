@@ -240,3 +240,15 @@ def test_rigid_motions_and_scalings_do_not_apply_to_jointed_scenes():
     assert moved and all(r.applies(hinged) == "the scene has joints or loads, which this relation does not "
                                               "transform yet" for r in moved)
     assert all(r.applies(Scene(bodies=(_bob(),))) is None for r in moved)
+
+
+def test_pinch_grasp_holds_exactly_at_2_mu_F_equal_to_m_g():
+    from cases import pinch_grasp as pg
+    assert pg.holds({"ratio": 1.0, "dim": 3}) and not pg.holds({"ratio": 0.999, "dim": 3})
+    mu = pg.friction({"ratio": 0.8, "dim": 3})
+    assert 2 * mu * pg.F == pytest.approx(0.8 * pg.MASS * G)
+    assert pg.sliding_acceleration(mu) == pytest.approx(0.2 * G)
+    # a slipping block stays between the pads for the whole run: at the grid's lowest ratio
+    # (0.8) it falls (1 - 0.8) g T^2 / 2, less than the pads reach below it
+    lowest = min(p["ratio"] for p in pg.GRID)
+    assert (1 - lowest) * G * pg.T**2 / 2 < pg.PAD_HALF[2] - pg.HALF
