@@ -53,6 +53,7 @@ import numpy as np
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
 from adapters.frames import state_row
+from adapters.joints import world_joints
 from adapters.lazy import require
 from adapters.solids import polygon_prism
 from cases.scene import Body, Box, Capsule, Circle, Cylinder, Hull, Mesh, Plane, Polygon, Rect, Scene, Sphere, pair_key
@@ -551,7 +552,7 @@ class DartAdapter(Adapter):
                 if 0.0 < value <= ENGINE_CONSTANTS[limit]:
                     raise Unsupported(f"{what} {value} for {a.name}/{b.name}: DART treats a pair "
                                       f"coefficient <= {ENGINE_CONSTANTS[limit]} as zero ({limit})")
-        _world_joints(scene)  # Unsupported for what the adapter does not map
+        world_joints(scene, "one skeleton of both")  # Unsupported for what the adapter does not map
         mu = per_body_values(scene, lambda m: m.mu_s, "min", "friction")
         e = per_body_values(scene, lambda m: m.e, "product", "restitution")
         sweeps = DEFAULT_SWEEPS if settings.iterations is None else settings.iterations
@@ -592,26 +593,6 @@ def _effects(scene: Scene, knobs: dict, mu: dict, e: dict) -> frozenset[str]:
     if knobs.get("joint limits"):
         fx.add("limit")
     return frozenset(fx)
-
-
-def _world_joints(scene: Scene) -> dict:
-    """The scene joints by body, each to the world or a static body: what the adapter maps
-    (the body's skeleton hangs on it). Unsupported for a joint between two moving bodies
-    (it would join their skeletons, not mapped) and for a jointed body's start velocity."""
-    out = {}
-    for j, joint in enumerate(scene.joints):
-        if joint.parent is not None and scene.body(joint.parent).dynamic:
-            raise Unsupported(f"joints[{j}] joins two moving bodies ({joint.parent!r}, {joint.body!r}): one "
-                              "skeleton of both is not mapped; only joints to the world or a static body are")
-        body = scene.body(joint.body)
-        if body.static or joint.body in out:
-            raise Unsupported(f"joints[{j}]: {joint.body!r} as the joint's `body` must be a moving body on one "
-                              "joint (its skeleton's root)")
-        if any(body.velocity) or any(body.angular_velocity):
-            raise Unsupported(f"joints[{j}]: {joint.body!r} starts moving: a jointed body's start velocity is "
-                              "not mapped onto DART's joint velocities")
-        out[joint.body] = joint
-    return out
 
 
 def _world_joint(skeleton, body: Body, joint, position, R, knobs: dict) -> str:
@@ -694,7 +675,7 @@ def _build_world(scene: Scene, settings: Settings, mu: dict, e: dict, sweeps: in
         "engine_constants (not settable)": dict(ENGINE_CONSTANTS),
     }
     nodes, frames = {}, {}
-    hung = _world_joints(scene)
+    hung = world_joints(scene, "one skeleton of both")
     for body in scene.bodies:
         skeleton = D.Skeleton(body.name)
         position, R = _frame(body, scene)

@@ -83,6 +83,7 @@ import numpy as np
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
 from adapters.frames import require_turn_about_y, state_row, wxyz_to_xyzw, xyzw_to_wxyz, z_to
+from adapters.joints import world_joints
 from adapters.solids import polygon_prism
 from cases.scene import Body, Scene, pair_key
 from cases.trajectory import ContactPoint
@@ -243,7 +244,7 @@ class PyBulletAdapter(Adapter):
         reason = self.capabilities.cannot_run(scene) or self._spin_without_roll(scene) or self._mlcp_torques(scene)
         if reason:
             raise Unsupported(reason)
-        _hung(scene)  # Unsupported for the joints the adapter does not map
+        world_joints(scene, "one multibody of both")  # Unsupported for the joints the adapter does not map
         if self.config["solver"] == "pgs" and scene.dimension == 2:
             raise Unsupported("2D scene: pybullet's MLCP projected Gauss-Seidel leaves NaN in the state in the "
                               "first step a contact acts on the planar joint chain of a 2D body (SOLVERS)")
@@ -464,25 +465,6 @@ def _no_margin(client: int, shape: int, record: dict) -> tuple[int, dict]:
     return shape, {**record, "collisionMargin (the shape's and a compound's children's)": COLLISION_MARGIN}
 
 
-def _hung(scene: Scene) -> dict:
-    """The scene joints by body, each to the world or a static body: what the adapter maps.
-    Unsupported for a joint between two moving bodies (one multibody of both, not mapped)
-    and for a jointed body's start velocity."""
-    out = {}
-    for j, joint in enumerate(scene.joints):
-        if joint.parent is not None and scene.body(joint.parent).dynamic:
-            raise Unsupported(f"joints[{j}] joins two moving bodies ({joint.parent!r}, {joint.body!r}): one "
-                              "multibody of both is not mapped; only joints to the world or a static body are")
-        body = scene.body(joint.body)
-        if body.static or joint.body in out:
-            raise Unsupported(f"joints[{j}]: {joint.body!r} as the joint's `body` must be a moving body on one joint")
-        if any(body.velocity) or any(body.angular_velocity):
-            raise Unsupported(f"joints[{j}]: {joint.body!r} starts moving: a jointed body's start velocity is not "
-                              "mapped onto the multibody's joint velocities")
-        out[joint.body] = joint
-    return out
-
-
 def _planar_joints(body: Body) -> list[str]:
     """Joints that keep a 2D body in the x-z plane: slide along x and z, turn about y."""
     require_turn_about_y(body, "so it cannot turn about y only")
@@ -544,7 +526,7 @@ class PyBulletSimulation(Simulation):
             "constraintSolverType": f"CONSTRAINT_SOLVER_LCP_{self._solver.upper()}",
             "bodies": {},
         }
-        self._hung = _hung(scene)  # scene joints to the world or a static body, by body
+        self._hung = world_joints(scene, "one multibody of both")  # joints to the world or a static body
         self._ids: dict[tuple[int, int], str] = {}  # (body unique id, link index) -> name
         self._dynamic: list[tuple[str, int, int]] = []  # (name, body id, link index or -1)
         for body in scene.bodies:
