@@ -21,11 +21,18 @@ import numpy as np
 from cases.family import UNIT_ROUNDOFF
 from cases.relations import NEEDS as MODES
 from cases.scene import (CONTACT_TORQUES, EFFECTS, IMPACT_MODEL_NEED, IMPACT_MODELS,  # noqa: F401 (re-exported)
-                         RESTITUTION_LAW_NEED, RESTITUTION_LAWS, SHAPE_KINDS, Scene)
+                         JOINT_KINDS, RESTITUTION_LAW_NEED, RESTITUTION_LAWS, SHAPE_KINDS, Scene)
 from cases.trajectory import ContactPoint
 
 
 
+
+# How an engine represents a jointed body (Capabilities.coordinates): "maximal" every body
+# keeps its six coordinates and a joint is constraint rows between them (Box2D, Pymunk,
+# Rapier's impulse joints, PyBullet's constraints), which the solver holds to its tolerance
+# and stabilisation; "reduced" the joint's own coordinates are the state (a hinge is one
+# angle: MuJoCo, Drake, DART, PyBullet's multibodies), so the joint holds exactly.
+COORDINATES = ("maximal", "reduced")
 
 MODE_WORDS = {"threads": "thread pool to size", "worlds": "batched worlds",
               "save_restore": "save and restore of its whole state"}
@@ -108,6 +115,15 @@ class Capabilities:
     # SHAPE_KINDS it does not represent, and (mode, reason) for modes (cases.relations.NEEDS)
     # it lacks: said when a scene asks for one, or a relation needs one
     why_not: tuple[tuple[str, str], ...] = ()
+    # The joint kinds of cases.scene.JOINT_KINDS the engine builds natively; `joint_limits`
+    # whether it bounds a revolute or prismatic joint's coordinate; `coordinates` how it
+    # represents a jointed body (COORDINATES); `loads` whether it applies a scene's constant
+    # external forces and torques (cases.scene.Load). A scene asking for more: unsupported,
+    # with the why_not reason of "joint", "limit" or "load" where the adapter gives one.
+    joints: frozenset[str] = frozenset()
+    joint_limits: bool = False
+    coordinates: str | None = None
+    loads: bool = False
 
     def __post_init__(self):
         unknown = set(self.shapes) - set(SHAPE_KINDS)
@@ -130,6 +146,12 @@ class Capabilities:
                              f"or the shapes the engine lacks ({', '.join(sorted(lacking))})")
         if self.float_bits not in UNIT_ROUNDOFF:
             raise ValueError(f"float_bits = {self.float_bits!r}: must be one of {', '.join(map(str, UNIT_ROUNDOFF))}")
+        unknown = set(self.joints) - set(JOINT_KINDS)
+        if unknown:
+            raise ValueError(f"joints = {sorted(unknown)}: must be among {', '.join(JOINT_KINDS)}")
+        if self.joints and self.coordinates not in COORDINATES:
+            raise ValueError(f"coordinates = {self.coordinates!r}: an engine with joints says which it uses, "
+                             f"{' or '.join(COORDINATES)}")
 
     def judged(self, checks, iterations: int | None = None) -> list:
         """`checks` at this engine's float width (cases.family.Check.at_precision), with
@@ -160,6 +182,16 @@ class Capabilities:
                 d = scene.material_of(a.name, b.name).torque(effect)
                 why = dict(self.why_not).get(effect, f"the engine has no {effect.replace('_', ' ')}")
                 return f"{effect.replace('_', ' ')} = {d:g} m for {a.name}/{b.name}: {why}"
+        why = dict(self.why_not)
+        kinds = sorted({j.kind for j in scene.joints} - self.joints, key=JOINT_KINDS.index)
+        if kinds:
+            built = f"the engine builds {', '.join(sorted(self.joints))} joints only" if self.joints \
+                else "the adapter builds no joints"
+            return f"{', '.join(kinds)} joint asked for: {why.get('joint', built)}"
+        if "limit" in scene.effects and not self.joint_limits:
+            return f"joint limits asked for: {why.get('limit', 'the adapter builds no joint limits')}"
+        if "load" in scene.effects and not self.loads:
+            return f"a constant external force or torque asked for: {why.get('load', 'the adapter applies no loads')}"
         laws = scene.contact_laws - self.contact_laws
         if laws:
             return (f"compliant contact ({', '.join(sorted(laws))} law) asked for: the engine does not "
@@ -201,7 +233,11 @@ class Capabilities:
         restitution = f"; restitution: {self.restitution_law}"
         floats = f"; float{self.float_bits}" + (", sub-steps" if self.substeps else "")
         modes = f"; runs: {','.join(sorted(self.modes))}" if self.modes else ""
-        return f"{dims}; " + ", ".join(flags) + laws + impacts + torques + restitution + floats + modes
+        joints = (f"; joints: {','.join(k for k in JOINT_KINDS if k in self.joints)}"
+                  f"{' with limits' if self.joint_limits else ''} ({self.coordinates} coordinates)"
+                  if self.joints else "; joints: none")
+        loads = ", loads" if self.loads else ""
+        return f"{dims}; " + ", ".join(flags) + laws + impacts + torques + restitution + floats + modes + joints + loads
 
 
 class Simulation(ABC):

@@ -157,6 +157,12 @@ class Box2DAdapter(Adapter):
         modes=frozenset({"threads"}),
         why_not=(("save_restore", "Box2D v3 has no snapshot: its contact cache (warm-start impulses) can be "
                                   "neither read nor written through pyb2d3"),),
+        # Box2D's joints (_joint): soft constraint rows between the bodies' own coordinates,
+        # solved in the sub-steps with the contacts
+        joints=frozenset({"revolute", "prismatic", "fixed"}),
+        joint_limits=True,
+        coordinates="maximal",
+        loads=True,  # apply_force_to_center and apply_torque before each step (Box2D clears them)
     )
     tunables = {
         "contact_hertz": Tunable(1.0, math.inf, math.inf,
@@ -190,6 +196,12 @@ def _angle(body: Body) -> float:
     require_turn_about_y(body, "which a 2D engine cannot represent")
     w, _, y, _ = body.orientation
     return -2.0 * math.atan2(y, w)
+
+
+def _angle_of(pb) -> float:
+    """A Box2D body's angle from its rotation's cosine and sine."""
+    q = pb.rotation
+    return math.atan2(q.s, q.c)
 
 
 def _materials(scene: Scene) -> tuple[dict[str, float], dict[str, float]]:
@@ -387,8 +399,15 @@ class Box2DSimulation(Simulation):
         self._geometry: dict[str, Body] = {}
         self._outlines: dict[str, tuple] = {}  # polygon outlines by body name (contact_gap)
         self._centre = np.mean([(b.position[0], b.position[2]) for b in scene.dynamic_bodies], axis=0)
+        self._every: dict[str, object] = {}   # every body (static ones too), for joints
         for body in scene.bodies:
             self._add(body, friction[body.name], restitution[body.name])
+        self._joints = [self._joint(joint, j) for j, joint in enumerate(scene.joints)]
+        # a torque about scene +y is minus Box2D's
+        self._loads = [(self._bodies[load.body], (float(load.force[0]), float(load.force[2])), -float(load.torque[1]))
+                       for load in scene.loads if load.acts]
+        if self._loads:
+            self.knobs["loads"] = "apply_force_to_center and apply_torque before each step (Box2D clears them)"
         self._static_pose = {}  # a plane's pose is its normal and offset (contact_gap)
         for body in scene.bodies:
             if body.static:
@@ -461,7 +480,50 @@ class Box2DSimulation(Simulation):
                               fixed_rotation=not body.rotates, linear_damping=0.0, angular_damping=0.0,
                               enable_sleep=False)
         self._shape_of[shape.id] = body.name
+        self._every[body.name] = pb
         self.knobs["bodies"][body.name] = record
+
+    def _joint(self, joint, j: int):
+        """A scene joint as a Box2D joint between the two bodies (the world: a static body at
+        the origin, made once): revolute a revolute joint at the anchor, its limit in Box2D's
+        angle (minus the scene's turn about +y); prismatic a prismatic joint along the axis
+        (Box2D's holds the relative turn too); fixed a weld joint with rigid (0 Hz) linear
+        and angular rows. No springs, no motors, collide_connected off (cases.scene.Joint).
+        The joints' softness is Box2D's own (b2WorldDef jointHertz and jointDampingRatio,
+        which pyb2d3 0.11.1 does not expose)."""
+        if joint.parent is None and "world" not in self._every:
+            self._every["world"] = self._world.create_static_body(position=(0.0, 0.0))
+        a = self._every["world" if joint.parent is None else joint.parent]
+        b = self._every[joint.body]
+        anchor = (float(joint.anchor[0]), float(joint.anchor[2]))
+        common = dict(body_a=a, body_b=b, local_anchor_a=a.local_point(anchor), local_anchor_b=b.local_point(anchor),
+                      collide_connected=False)
+        reference = _angle_of(b) - _angle_of(a)
+        record = {"kind": joint.kind, "collide_connected": False, "reference_angle": reference,
+                  "joint_softness": "Box2D's default (jointHertz, jointDampingRatio: not exposed by pyb2d3)"}
+        if joint.kind == "revolute":
+            made = b2.revolute_joint_def(**common, reference_angle=reference, enable_spring=False,
+                                         enable_motor=False, enable_limit=joint.limits is not None)
+            if joint.limits is not None:  # the scene's turn about +y is minus Box2D's angle
+                low, high = (-joint.limits[1], -joint.limits[0]) if joint.unit_axis[1] > 0 else joint.limits
+                made.lower_angle, made.upper_angle = low, high
+                record["limits"] = [low, high]
+            self._world.create_revolute_joint(made)
+        elif joint.kind == "prismatic":
+            ux, _, uz = joint.unit_axis
+            made = b2.prismatic_joint_def(**common, local_axis_a=a.local_vector((ux, uz)), reference_angle=reference,
+                                          enable_spring=False, enable_motor=False,
+                                          enable_limit=joint.limits is not None)
+            if joint.limits is not None:
+                made.lower_translation, made.upper_translation = joint.limits
+                record["limits"] = list(joint.limits)
+            self._world.create_prismatic_joint(made)
+        else:  # fixed
+            made = b2.weld_joint_def(**common, reference_angle=reference, linear_hertz=0.0, angular_hertz=0.0)
+            record.update(linear_hertz=0.0, angular_hertz=0.0)
+            self._world.create_weld_joint(made)
+        self.knobs.setdefault("joints", {})[f"joints[{j}]"] = record
+        return joint.kind
 
     def _built_effects(self, friction: dict, restitution: dict) -> frozenset[str]:
         fx = set()
@@ -479,6 +541,12 @@ class Box2DSimulation(Simulation):
                 fx.add("rolling_resistance")
         if any(b.mass_data.rotational_inertia > 0 for b in self._bodies.values()):
             fx.add("rotation")
+        if self._joints:
+            fx.add("joint")
+        if any("limits" in r for r in self.knobs.get("joints", {}).values()):
+            fx.add("limit")
+        if self._loads:
+            fx.add("load")
         return frozenset(fx)
 
     # --- stepping and the contact read-out --------------------------------------------
@@ -493,6 +561,9 @@ class Box2DSimulation(Simulation):
 
     def step(self) -> None:
         before = self._snapshot()
+        for body, force, torque in self._loads:
+            body.apply_force_to_center(force, False)
+            body.apply_torque(torque, False)
         self._world.step(self._dt, self.iterations)
         events = self._world.get_contact_events()
         touching_before = frozenset(self._touching)

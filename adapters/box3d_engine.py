@@ -180,6 +180,13 @@ class Box3DAdapter(Adapter):
         restitution_law="two_phase",  # Box2D v3's relax pass: restitution after the sub-steps, without friction
         float_bits=32,         # positions, velocities and masses in single precision
         substeps=True,         # Settings.iterations is the sub-step count
+        # Box3D's joints (_joint): soft constraint rows between the bodies' own coordinates,
+        # solved in the sub-steps with the contacts, as Box2D's
+        joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
+        joint_limits=True,
+        coordinates="maximal",
+        why_not=(("load", "the adapter applies no external forces (b3Body_ApplyForceToCenter, cleared by each "
+                          "step, is not mapped)"),),
     )
     tunables = {
         "contact_hertz": Tunable(1.0, math.inf, math.inf,
@@ -246,9 +253,11 @@ class Box3DSimulation(Simulation):
         self._hulls, self._meshes, self._keep = [], [], []  # Box3D geometry, freed after the world (close)
         self._ids: list = []              # dynamic bodies' b3BodyIds, in scene order
         self._order: list[str] = []
+        self._every: dict[str, tuple] = {}  # every body's (b3BodyId, start position, orientation), for joints
         try:
             for i, body in enumerate(scene.bodies):
                 self._add(body, self._key * _IDS_PER_SCENE + i)
+            self._joints = [self._joint(joint, j) for j, joint in enumerate(scene.joints)]
         except Unsupported:  # a shape Box3D cannot hold (`_hull`, `_mesh`): the world goes too
             self.close()
             raise
@@ -291,6 +300,7 @@ class Box3DSimulation(Simulation):
                 setattr(bd.motionLocks, k, v)
             record["motionLocks"] = [k for k, v in locks.items() if v]
         bid = lib.b3CreateBody(self._world, ffi.addressof(bd))
+        self._every[body.name] = (bid, np.asarray(position, float), tuple(orientation))
         sd = lib.b3DefaultShapeDef()
         sd.baseMaterial.userMaterialId = material_id
         # Box3D's rolling resistance (b3SurfaceMaterial.rollingResistance; a pair takes the larger
@@ -434,7 +444,53 @@ class Box3DSimulation(Simulation):
                 fx.add("friction")
         if any(b.rotates for b in scene.dynamic_bodies):
             fx.add("rotation")
+        if self._joints:
+            fx.add("joint")
+        if any("limits" in r for r in self.knobs.get("joints", {}).values()):
+            fx.add("limit")
         return frozenset(fx)
+
+    def _joint(self, joint, j: int) -> str:
+        """A scene joint as a Box3D joint between the parent (body A; the world: a static body
+        at the origin, made once) and the body (B). Each body's local frame sits at the anchor
+        with its z axis along the scene's axis (Box3D's hinge and slide axis); a limit bounds
+        B's turn (slide) relative to A about (along) it. No springs or motors,
+        collideConnected off (cases.scene.Joint); the constraints' softness Box3D's default."""
+        from scipy.spatial.transform import Rotation
+        if joint.parent is None and "world" not in self._every:
+            bd = lib.b3DefaultBodyDef()
+            bd.type = lib.b3_staticBody
+            self._every["world"] = (lib.b3CreateBody(self._world, ffi.addressof(bd)), np.zeros(3), (1.0, 0.0, 0.0, 0.0))
+        make = {"revolute": (lib.b3DefaultRevoluteJointDef, lib.b3CreateRevoluteJoint),
+                "prismatic": (lib.b3DefaultPrismaticJointDef, lib.b3CreatePrismaticJoint),
+                "ball": (lib.b3DefaultSphericalJointDef, lib.b3CreateSphericalJoint),
+                "fixed": (lib.b3DefaultWeldJointDef, lib.b3CreateWeldJoint)}[joint.kind]
+        jd = make[0]()
+        anchor = np.asarray(joint.anchor, float)
+        z_on_axis = Rotation.align_vectors([joint.unit_axis], [[0.0, 0.0, 1.0]])[0]
+        record = {"kind": joint.kind, "collideConnected": False}
+        for (bid, x0, q0), frame, side in ((self._every["world" if joint.parent is None else joint.parent],
+                                            jd.base.localFrameA, "A"),
+                                           (self._every[joint.body], jd.base.localFrameB, "B")):
+            w, x, y, z = q0
+            inverse = Rotation.from_quat([x, y, z, w]).inv()
+            frame.p = _vec(inverse.apply(anchor - x0))
+            qx, qy, qz, qw = (inverse * z_on_axis).as_quat()
+            frame.q.v.x, frame.q.v.y, frame.q.v.z, frame.q.s = qx, qy, qz, qw
+            record[f"localFrame{side}"] = {"p": inverse.apply(anchor - x0).tolist(), "q_xyzw": [qx, qy, qz, qw]}
+        jd.base.bodyIdA = self._every["world" if joint.parent is None else joint.parent][0]
+        jd.base.bodyIdB = self._every[joint.body][0]
+        jd.base.collideConnected = False
+        if joint.limits is not None:
+            jd.enableLimit = True
+            if joint.kind == "revolute":
+                jd.lowerAngle, jd.upperAngle = joint.limits
+            else:
+                jd.lowerTranslation, jd.upperTranslation = joint.limits
+            record["limits"] = list(joint.limits)
+        make[1](self._world, ffi.addressof(jd))
+        self.knobs.setdefault("joints", {})[f"joints[{j}]"] = record
+        return joint.kind
 
     # --- stepping and reading -------------------------------------------------------------
 

@@ -53,6 +53,7 @@ import numpy as np
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
 from adapters.frames import state_row
+from adapters.joints import world_joints
 from adapters.lazy import require
 from adapters.solids import polygon_prism
 from cases.scene import Body, Box, Capsule, Circle, Cylinder, Hull, Mesh, Plane, Polygon, Rect, Scene, Sphere, pair_key
@@ -491,6 +492,24 @@ class DartSimulation(Simulation):
         self._output.close()
 
 
+class DartJointSimulation(DartSimulation):
+    """A scene with joints: each body's state read from its BodyNode (world transform and
+    velocities, DartSimulation.states) rather than decoded from a free or planar joint's
+    coordinates."""
+
+    def body_order(self) -> list[str]:
+        return list(self._nodes)
+
+    def state_size(self) -> int:
+        return 13 * len(self._nodes)
+
+    def write_state(self, out: np.ndarray) -> None:
+        Simulation.write_state(self, out)
+
+    def decode_states(self, raw: np.ndarray) -> np.ndarray:
+        return Simulation.decode_states(self, raw)
+
+
 class DartAdapter(Adapter):
     name = "dart"
     package = "dartpy"
@@ -510,6 +529,13 @@ class DartAdapter(Adapter):
         # velocity (cases/column_impact.py: two pressed balls leave the ground together,
         # a struck row of two leaves as one body)
         impact_model="simultaneous",
+        # a body on a scene joint to the world (or a static body) hangs on DART's joint of
+        # that kind as its skeleton's root (_world_joint): reduced coordinates
+        joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
+        joint_limits=True,
+        coordinates="reduced",
+        why_not=(("load", "the adapter applies no external forces (BodyNode.addExtForce, cleared by each step, "
+                          "is not mapped)"),),
     )
 
     def version(self) -> str:
@@ -526,6 +552,7 @@ class DartAdapter(Adapter):
                 if 0.0 < value <= ENGINE_CONSTANTS[limit]:
                     raise Unsupported(f"{what} {value} for {a.name}/{b.name}: DART treats a pair "
                                       f"coefficient <= {ENGINE_CONSTANTS[limit]} as zero ({limit})")
+        world_joints(scene, "one skeleton of both")  # Unsupported for what the adapter does not map
         mu = per_body_values(scene, lambda m: m.mu_s, "min", "friction")
         e = per_body_values(scene, lambda m: m.e, "product", "restitution")
         sweeps = DEFAULT_SWEEPS if settings.iterations is None else settings.iterations
@@ -541,8 +568,8 @@ class DartAdapter(Adapter):
         output.end()
         rough = frozenset(name for name, m in mu.items()
                           if m > ENGINE_CONSTANTS["DART_FRICTION_COEFF_THRESHOLD"])
-        return DartSimulation(world, nodes, frames, knobs, _effects(scene, knobs, mu, e), sweeps,
-                              output, scene.dimension, rough)
+        kind = DartJointSimulation if scene.joints else DartSimulation
+        return kind(world, nodes, frames, knobs, _effects(scene, knobs, mu, e), sweeps, output, scene.dimension, rough)
 
 
 def _effects(scene: Scene, knobs: dict, mu: dict, e: dict) -> frozenset[str]:
@@ -559,9 +586,45 @@ def _effects(scene: Scene, knobs: dict, mu: dict, e: dict) -> frozenset[str]:
             fx.add("restitution")
         if any(min(mu[a.name], mu[b.name]) > 0.0 for a, b in pairs):
             fx.add("friction")
-    if any(j in ("FreeJoint", "PlanarJoint") for j in knobs["joints"].values()):
+    if any(j in ("FreeJoint", "PlanarJoint", "RevoluteJoint", "BallJoint") for j in knobs["joints"].values()):
         fx.add("rotation")
+    if scene.joints:
+        fx.add("joint")
+    if knobs.get("joint limits"):
+        fx.add("limit")
     return frozenset(fx)
+
+
+def _world_joint(skeleton, body: Body, joint, position, R, knobs: dict) -> str:
+    """Hang a dynamic body on the scene joint as its skeleton's root joint: the joint frame
+    at the anchor, world-aligned (its axis the scene's axis), and the body's frame at its
+    start pose relative to it, so the joint's coordinate is 0 at the start and is the turn
+    (slide) of the body about (along) the axis."""
+    make = {"revolute": skeleton.createRevoluteJointAndBodyNodePair,
+            "prismatic": skeleton.createPrismaticJointAndBodyNodePair,
+            "ball": skeleton.createBallJointAndBodyNodePair,
+            "fixed": skeleton.createWeldJointAndBodyNodePair}[joint.kind]
+    made, _ = make()
+    anchor = np.asarray(joint.anchor, float)
+    made.setTransformFromParentBodyNode(_isometry(anchor))
+    made.setTransformFromChildBodyNode(_isometry(R.T @ (anchor - np.asarray(position, float)), R.T))
+    record = {"kind": type(made).__name__, "anchor": anchor.tolist()}
+    if joint.kind in ("revolute", "prismatic"):
+        made.setAxis(np.asarray(joint.unit_axis, float))
+        record["axis"] = list(joint.unit_axis)
+        if joint.limits is not None:
+            made.setPositionLowerLimit(0, float(joint.limits[0]))
+            made.setPositionUpperLimit(0, float(joint.limits[1]))
+            made.setLimitEnforcement(True)
+            record["limits"] = list(joint.limits)
+            knobs["joint limits"] = True
+    if joint.kind != "fixed":
+        for i in range(made.getNumDofs()):  # no joint damping, stiffness or friction (DART's defaults, stated)
+            made.setDampingCoefficient(i, 0.0)
+            made.setSpringStiffness(i, 0.0)
+            made.setCoulombFriction(i, 0.0)
+    knobs.setdefault("scene joints", {})[body.name] = record
+    return type(made).__name__
 
 
 def _build_world(scene: Scene, settings: Settings, mu: dict, e: dict, sweeps: int):
@@ -612,6 +675,7 @@ def _build_world(scene: Scene, settings: Settings, mu: dict, e: dict, sweeps: in
         "engine_constants (not settable)": dict(ENGINE_CONSTANTS),
     }
     nodes, frames = {}, {}
+    hung = world_joints(scene, "one skeleton of both")
     for body in scene.bodies:
         skeleton = D.Skeleton(body.name)
         position, R = _frame(body, scene)
@@ -620,7 +684,10 @@ def _build_world(scene: Scene, settings: Settings, mu: dict, e: dict, sweeps: in
             joint.setTransformFromParentBodyNode(_isometry(position, R))
             knobs["joints"][body.name] = "WeldJoint"
         else:
-            knobs["joints"][body.name] = _mobile_joint(skeleton, body, scene.dimension, position, R)
+            if body.name in hung:
+                knobs["joints"][body.name] = _world_joint(skeleton, body, hung[body.name], position, R, knobs)
+            else:
+                knobs["joints"][body.name] = _mobile_joint(skeleton, body, scene.dimension, position, R)
             node = skeleton.getBodyNode(0)
             # the scene's inertia; DART's default is mass 1 and identity whatever the shape
             node.setInertia(D.Inertia(body.mass, np.zeros(3), np.diag(body.principal_inertia)))

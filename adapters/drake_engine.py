@@ -82,6 +82,7 @@ import numpy as np
 
 from adapters.base import Adapter, Capabilities, Settings, SettingsError, Simulation, Tunable, Unsupported
 from adapters.combination import per_body_values
+from adapters.joints import world_joints
 from adapters.frames import about_y_many, multiply_many, state_row
 from adapters.lazy import require
 from adapters.solids import polygon_prism, triangle_normals, triangle_prisms
@@ -318,6 +319,7 @@ class DrakeSimulation(Simulation):
         }
         material = _materials(scene, settings.dt, approximation, contact_model, options, self.knobs["contact_map"])
         self._geometry_name: dict[int, str] = {}
+        self._hung = world_joints(scene, "one tree of both")
         plan = {b.name: self._add_body(plant, b, scene.dimension, material) for b in scene.bodies}
         plant.Finalize()
         self._plant = plant
@@ -363,6 +365,8 @@ class DrakeSimulation(Simulation):
                                             "principal_moments": list(body.principal_inertia)}
         gid = plant.RegisterCollisionGeometry(rigid, X_BG, shape, body.name, props)
         self._geometry_name[gid.get_value()] = body.name
+        if body.name in self._hung:
+            return self._joint(plant, body, rigid, self._hung[body.name])
         if dimension == 3 and body.rotates:
             self.knobs["joints"][body.name] = "QuaternionFloatingJoint (free body)"
             return ("free", rigid)
@@ -393,6 +397,26 @@ class DrakeSimulation(Simulation):
                                            "limits": "none", "intermediate bodies": "massless"}
         return ("slides", slides)
 
+    def _joint(self, plant, body: Body, rigid, joint):
+        """Hang the body on the scene joint: frame F on the world at the anchor, world-aligned,
+        frame M on the body at the same point at the start, so the joint's coordinate is 0
+        at the start and the axis is the scene's (in F); no damping, no limits."""
+        from pydrake.math import RigidTransform
+        from pydrake.multibody.tree import FixedOffsetFrame, PrismaticJoint, RevoluteJoint, WeldJoint
+        anchor, R_B0 = np.asarray(joint.anchor, float), _rotation(body.orientation)
+        F = plant.AddFrame(FixedOffsetFrame(f"{body.name}:F", plant.world_frame(), RigidTransform(anchor)))
+        M = plant.AddFrame(FixedOffsetFrame(f"{body.name}:M", rigid.body_frame(), RigidTransform(
+            R_B0.transpose(), R_B0.transpose().multiply(anchor - np.asarray(body.position, float)))))
+        axis = np.asarray(joint.unit_axis, float)
+        name = f"{body.name}:{joint.kind}"
+        made = {"revolute": lambda: RevoluteJoint(name, F, M, axis, damping=0.0),
+                "prismatic": lambda: PrismaticJoint(name, F, M, axis, damping=0.0),
+                "fixed": lambda: WeldJoint(name, F, M, RigidTransform())}[joint.kind]()
+        plant.AddJoint(made)
+        self.knobs["joints"][body.name] = {type(made).__name__: {"anchor": anchor.tolist(), "axis": axis.tolist(),
+                                                                 "damping": 0.0, "limits": "none"}}
+        return ("jointed", rigid)
+
     def _set_start(self, scene: Scene, plan: dict):
         """Start pose and velocity of every dynamic body; returns the state readers."""
         plant, ctx = self._plant, self._context
@@ -402,7 +426,9 @@ class DrakeSimulation(Simulation):
             kind = plan[body.name]
             p0, q0 = np.asarray(body.position, float), np.asarray(body.orientation, float)
             v0, w0 = np.asarray(body.velocity, float), np.asarray(body.angular_velocity, float)
-            if kind[0] == "free":
+            if kind[0] == "jointed":  # at rest at its start pose: every joint coordinate 0
+                readers.append((body.name, "jointed", kind[1], None, None))
+            elif kind[0] == "free":
                 qs, vs = kind[1].floating_positions_start(), kind[1].floating_velocities_start_in_v()
                 q[qs:qs + 4], q[qs + 4:qs + 7] = q0 / np.linalg.norm(q0), p0
                 v[vs:vs + 3], v[vs + 3:vs + 6] = w0, v0   # angular velocity in the world frame
@@ -434,7 +460,12 @@ class DrakeSimulation(Simulation):
         q, v = self._plant.GetPositions(self._context), self._plant.GetVelocities(self._context)
         out = {}
         for name, kind, a, b, q0 in self._readers:
-            if kind == "free":  # q: w, x, y, z, position; v: world angular, linear
+            if kind == "jointed":  # the body's pose and spatial velocity from the plant's kinematics
+                X, V = self._plant.EvalBodyPoseInWorld(self._context, a), \
+                    self._plant.EvalBodySpatialVelocityInWorld(self._context, a)
+                out[name] = state_row(X.translation(), X.rotation().ToQuaternion().wxyz(), V.translational(),
+                                      V.rotational())
+            elif kind == "free":  # q: w, x, y, z, position; v: world angular, linear
                 out[name] = state_row(q[a + 4:a + 7], q[a:a + 4], v[b + 3:b + 6], v[b:b + 3])
             elif kind == "planar":  # (z, x, angle about +y)
                 th = q[a + 2]
@@ -452,12 +483,19 @@ class DrakeSimulation(Simulation):
         return [r[0] for r in self._readers]
 
     def state_size(self) -> int:
+        if self._hung:  # a jointed body's state is read through the plant's kinematics (states)
+            return 13 * len(self._readers)
         return self._plant.num_positions() + self._plant.num_velocities()
 
     def write_state(self, out: np.ndarray) -> None:
+        if self._hung:
+            Simulation.write_state(self, out)
+            return
         out[:] = self._plant.GetPositionsAndVelocities(self._context)
 
     def decode_states(self, raw: np.ndarray) -> np.ndarray:
+        if self._hung:
+            return Simulation.decode_states(self, raw)
         nq = self._plant.num_positions()
         q, v = raw[:, :nq], raw[:, nq:]
         out = np.zeros((len(raw), len(self._readers), 13))
@@ -797,6 +835,10 @@ def _effects(scene: Scene, material: dict, plan: dict, hydro: bool = False) -> f
             fx.add("rolling_resistance")
             if any(kind != "static" and kind[0] == "free" for kind in plan.values()):
                 fx.add("torsional_friction")
+    if any(kind != "static" and kind[0] == "jointed" for kind in plan.values()):
+        fx.add("joint")
+        if any(j.kind == "revolute" for j in scene.joints):
+            fx.add("rotation")
     return frozenset(fx)
 
 
@@ -842,6 +884,16 @@ class DrakeAdapter(Adapter):
             contact_points=point,       # hydroelastic: one resultant per surface only
             contact_laws=frozenset({"hooke"}) if point else frozenset(),
             impact_model="compliant",
+            # a body on a scene joint to the world (or a static body) hangs on Drake's joint of
+            # that kind (DrakeSimulation._add_body): reduced coordinates
+            joints=frozenset({"revolute", "prismatic", "fixed"}),
+            coordinates="reduced",
+            why_not=(("joint", "Drake's ball joint is a BallRpyJoint, singular at a pitch of pi/2, where a swing "
+                               "of 90 deg stops the simulator (measured); a quaternion ball joint is not in Drake "
+                               "(https://github.com/RobotLocomotion/drake/issues/12404)"),
+                     ("limit", "joint limits are not mapped (Drake enforces them only under SAP)"),
+                     ("load", "the adapter applies no external forces (MultibodyPlant's applied spatial force "
+                              "port is not connected)")),
         )
         tunables = {
             "contact_steps": Tunable(2.0, 1000.0, float(CONTACT_STEPS),
@@ -874,4 +926,5 @@ class DrakeAdapter(Adapter):
         reason = self.capabilities.cannot_run(scene) or _unrepresentable(scene, self.contact_model)
         if reason:
             raise Unsupported(reason)
+        world_joints(scene, "one tree of both")  # Unsupported for the joints the adapter does not map
         return DrakeSimulation(scene, settings, self.approximation, self.contact_model, self._options(settings))

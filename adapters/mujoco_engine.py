@@ -45,7 +45,8 @@ from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, 
 from adapters.lazy import require
 from adapters.frames import about_y_many, multiply_many, rotate_many
 from adapters.solids import polygon_prism, triangle_prisms
-from cases.scene import Body, Box, Capsule, Circle, Cylinder, Hull, Mesh, Plane, Polygon, Rect, Scene, Sphere, pair_key
+from cases.scene import (Body, Box, Capsule, Circle, Cylinder, Hull, Joint, Mesh, Plane, Polygon, Rect, Scene, Sphere,
+                         pair_key)
 from cases.trajectory import ContactPoint
 
 # mujoco (~0.15 s to import) is imported when a scene is first built (adapters/lazy.py)
@@ -449,6 +450,120 @@ def _body_xml(body: Body, dimension: int, knobs: dict, ground: str = "plane", me
     return _element("body", frame, joint_xml + _element("inertial", inertial) + _element("geom", geom))
 
 
+# --- joints (cases.scene.Joint): MuJoCo's kinematic tree --------------------------------------
+# MuJoCo is a reduced-coordinate engine: a jointed body is a child <body> of the body it hangs
+# on, with the joint's own coordinates as its qpos (a hinge one angle), so a joint holds
+# exactly. A fixed joint is a child body with no joint at all (welded). The tree cannot close a
+# loop (a four-bar linkage needs an equality constraint, not mapped here): a body that is the
+# `body` of two joints is unsupported.
+_JOINT_TYPES = {"revolute": "hinge", "prismatic": "slide", "ball": "ball"}  # "fixed": welded, no joint
+
+
+def _tree(scene: Scene) -> dict[str, tuple[str | None, Joint]]:
+    """Each jointed dynamic body's parent in the tree (None: the world, or a static body)
+    and its scene joint; Unsupported where the joints do not form a tree."""
+    static = {b.name for b in scene.bodies if b.static}
+    parent: dict[str, tuple[str | None, Joint]] = {}
+    for joint in scene.joints:
+        if joint.body in static:
+            raise Unsupported(f"joint of {joint.body!r}: a static body as the joint's `body`: MuJoCo's tree hangs "
+                              "the moving body on the other (name the dynamic body as `body`)")
+        if joint.body in parent:
+            raise Unsupported(f"body {joint.body!r} is the `body` of two joints: they close a loop, which MuJoCo's "
+                              "kinematic tree cannot hold (equality constraints are not mapped)")
+        parent[joint.body] = (None if joint.parent is None or joint.parent in static else joint.parent, joint)
+    for name in parent:
+        seen, up = {name}, parent[name][0]
+        while up is not None:
+            if up in seen:
+                raise Unsupported(f"the joints of {name!r} close a loop, which MuJoCo's kinematic tree cannot hold")
+            seen.add(up)
+            up = parent[up][0] if up in parent else None
+    return parent
+
+
+def _conj(q) -> np.ndarray:
+    return np.asarray(q, float) * [1.0, -1.0, -1.0, -1.0]
+
+
+def _relative(frame: Body | None, point, quat=None) -> tuple[list, list | None]:
+    """A world point (and orientation) in the frame of `frame`'s start pose (None: world)."""
+    if frame is None:
+        return list(point), (None if quat is None else list(quat))
+    inverse = _conj(frame.orientation)
+    local = _rotate(inverse.tolist(), (np.asarray(point, float) - frame.position).tolist())
+    if quat is None:
+        return list(local), None
+    q = np.zeros(4)
+    mujoco.mju_mulQuat(q, inverse, np.asarray(quat, float))
+    return list(local), q.tolist()
+
+
+def _limit_row(n: float, dt: float) -> dict:
+    """A joint limit is a contact-like constraint row: the plastic (e = 0) contact's
+    spring-damper over n steps (contact_spring_damper) and the contact's impedance."""
+    k, b = contact_spring_damper(0.0, n, dt)
+    return {"solreflimit": [-k, -b], "solimplimit": list(SOLIMP)}
+
+
+def _tree_body_xml(scene: Scene, body: Body, tree: dict, children: dict, knobs: dict, meshes: dict,
+                   n: float, dt: float) -> str:
+    """The <body> of a dynamic body and, nested in it, those hanging on it: its frame the
+    scene body's frame (relative to its parent's start pose), so xpos and xquat are its
+    position and orientation; its joint from the scene joint, or free (3D) or planar (2D)."""
+    up, joint = tree.get(body.name, (None, None))
+    above = None if up is None else scene.body(up)
+    pos, quat = _relative(above, body.position, body.orientation)
+    frame = {"name": body.name, "pos": pos, "quat": quat}
+    inverse = _conj(body.orientation).tolist()
+    off = {"damping": 0, "stiffness": 0, "armature": 0, "frictionloss": 0}
+    if joint is None and scene.dimension == 3:
+        joints = [_element("freejoint", _known("(world)body/freejoint", {"align": "false"}, knobs["left_out"]))]
+        knobs["joint"][body.name] = "free"
+    elif joint is None:  # a free 2D body: slides along world x and z, a hinge about world y
+        spec = [{"name": f"{body.name}:{t}{i}", "type": t, "axis": list(_rotate(inverse, axis)), **off,
+                 "limited": "false"} for i, (t, axis) in enumerate(_SLIDES_2D + _HINGE_Y)]
+        joints = [_element("joint", j) for j in spec]
+        knobs["joint"][body.name] = spec
+    elif joint.kind == "fixed":
+        joints = []
+        knobs["joint"][body.name] = {"kind": "fixed", "on": up or "world", "mjcf": "child body without a joint"}
+    else:
+        spec = {"name": f"{body.name}:{joint.kind}", "type": _JOINT_TYPES[joint.kind],
+                "pos": list(_rotate(inverse, (np.asarray(joint.anchor) - body.position).tolist())), **off}
+        if joint.kind != "ball":
+            spec["axis"] = list(_rotate(inverse, joint.unit_axis))
+        if joint.limits is not None:
+            spec.update(limited="true", range=list(joint.limits), **_limit_row(n, dt))
+        else:
+            spec["limited"] = "false"
+        joints = [_element("joint", spec)]
+        knobs["joint"][body.name] = {**spec, "on": up or "world"}
+    geom = {"name": body.name, **_geom(body, [1, 0, 0, 0], meshes=meshes), "contype": 0, "conaffinity": 0}
+    inertial = {"pos": [0, 0, 0], "quat": [1, 0, 0, 0], "mass": body.mass, "diaginertia": list(body.principal_inertia)}
+    knobs["geom"][body.name] = geom
+    knobs["inertial"][body.name] = inertial
+    inner = "".join(_tree_body_xml(scene, c, tree, children, knobs, meshes, n, dt) for c in children.get(body.name, ()))
+    return _element("body", frame, "".join(joints) + _element("inertial", inertial) + _element("geom", geom) + inner)
+
+
+def _tree_xml(scene: Scene, knobs: dict, ground: str, meshes: dict, n: float, dt: float) -> str:
+    """The worldbody's content of a scene with joints or loads: static bodies as _body_xml
+    writes them, dynamic bodies as a kinematic tree (_tree_body_xml)."""
+    for body in scene.dynamic_bodies:
+        if not body.rotates:
+            raise Unsupported(f"body {body.name!r} held from rotating (rotates=False) in a scene with joints or "
+                              "loads: not mapped (its slides would need the tree's frames)")
+    tree = _tree(scene)
+    children: dict[str, list[Body]] = {}
+    for body in scene.dynamic_bodies:
+        if tree.get(body.name, (None,))[0] is not None:
+            children.setdefault(tree[body.name][0], []).append(body)
+    static = "".join(_body_xml(b, scene.dimension, knobs, ground, meshes) for b in scene.bodies if b.static)
+    roots = [b for b in scene.dynamic_bodies if tree.get(b.name, (None,))[0] is None]
+    return static + "".join(_tree_body_xml(scene, b, tree, children, knobs, meshes, n, dt) for b in roots)
+
+
 def _pair_xml(scene: Scene, n: float, dt: float, knobs: dict, invweight: dict | None,
               defaults: frozenset = frozenset()) -> str:
     out = []
@@ -528,7 +643,10 @@ def scene_mjcf(scene: Scene, settings: Settings, iterations: int, n: float,
                 if "hooke" in scene.contact_laws else {}),
              "ground": ground, "joint": {}, "inertial": {}, "geom": {}, "pair": {}, "left_out": left_out}
     meshes: dict[str, dict] = {}  # <mesh> assets by name
-    bodies = "".join(_body_xml(b, scene.dimension, knobs, ground, meshes) for b in scene.bodies)
+    if scene.joints or scene.loads:
+        bodies = _tree_xml(scene, knobs, ground, meshes, n, settings.dt)
+    else:
+        bodies = "".join(_body_xml(b, scene.dimension, knobs, ground, meshes) for b in scene.bodies)
     pairs = _pair_xml(scene, n, settings.dt, knobs, invweight, defaults)
     if meshes:
         knobs["mesh"] = {"maxhullvert": MAXHULLVERT, "scale": [1.0, 1.0, 1.0],
@@ -565,8 +683,13 @@ def model_effects(m, knobs: dict) -> frozenset[str]:
             fx.add("torsional_friction")
         if np.any(m.pair_dim == 6):
             fx.add("rolling_resistance")
-    if np.any(np.isin(m.jnt_type, (mujoco.mjtJoint.mjJNT_FREE, mujoco.mjtJoint.mjJNT_HINGE))):
+    if np.any(np.isin(m.jnt_type, (mujoco.mjtJoint.mjJNT_FREE, mujoco.mjtJoint.mjJNT_HINGE,
+                                   mujoco.mjtJoint.mjJNT_BALL))):
         fx.add("rotation")
+    if any(j != "free" and isinstance(j, dict) for j in knobs.get("joint", {}).values()):
+        fx.add("joint")  # a scene joint (the tree's records are dicts; a free body's "free", a planar one's list)
+    if np.any(m.jnt_limited):
+        fx.add("limit")
     return frozenset(fx)
 
 
@@ -577,25 +700,7 @@ class MuJoCoSimulation(Simulation):
         self._scene = scene  # to build again after a planted change (plant)
         self._model = model
         self._data = d = mujoco.MjData(model)
-        # per dynamic body: name, qpos address, dof address, and for bodies on joints other
-        # than a free joint: start position, start quat, slide axes (rows), has a hinge
-        self._bodies = []
-        for body in scene.dynamic_bodies:
-            jnt = model.body_jntadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body.name)]
-            qa, va = model.jnt_qposadr[jnt], model.jnt_dofadr[jnt]
-            joints = _joints(body, scene.dimension)
-            q0 = np.asarray(body.orientation, float)
-            v, w = np.asarray(body.velocity, float), np.asarray(body.angular_velocity, float)
-            if joints == "free":
-                d.qvel[va:va + 3] = v                                    # world frame
-                d.qvel[va + 3:va + 6] = _rotate((q0 * [1, -1, -1, -1]).tolist(), w.tolist())  # body frame
-                self._bodies.append((body.name, qa, va, None))
-                continue
-            for i, (kind, axis) in enumerate(joints):
-                d.qvel[va + i] = (w if kind == "hinge" else v) @ np.asarray(axis, float)
-            slides = np.array([axis for kind, axis in joints if kind == "slide"], float)
-            hinge = joints[-1][0] == "hinge"
-            self._bodies.append((body.name, qa, va, (np.asarray(body.position, float), q0, slides, hinge)))
+        self._bodies = self._start(scene, model, d)
         body_of = geom_bodies(scene)
         names = [body_of[mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g)] for g in range(model.ngeom)]
         self._names = names  # geom id -> the scene body's name
@@ -621,6 +726,29 @@ class MuJoCoSimulation(Simulation):
         self._state = self._buffer = self._warm = None  # run()'s buffers
         mujoco.mj_forward(model, d)  # start-state quantities, so build cost stays out of step()
         self.effects = self._built_effects(knobs)
+
+    def _start(self, scene: Scene, model, d) -> list:
+        """Set the start velocities; per dynamic body: name, qpos address, dof address, and
+        for bodies on joints other than a free joint: start position, start quat, slide axes
+        (rows), has a hinge."""
+        bodies = []
+        for body in scene.dynamic_bodies:
+            jnt = model.body_jntadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body.name)]
+            qa, va = model.jnt_qposadr[jnt], model.jnt_dofadr[jnt]
+            joints = _joints(body, scene.dimension)
+            q0 = np.asarray(body.orientation, float)
+            v, w = np.asarray(body.velocity, float), np.asarray(body.angular_velocity, float)
+            if joints == "free":
+                d.qvel[va:va + 3] = v                                    # world frame
+                d.qvel[va + 3:va + 6] = _rotate((q0 * [1, -1, -1, -1]).tolist(), w.tolist())  # body frame
+                bodies.append((body.name, qa, va, None))
+                continue
+            for i, (kind, axis) in enumerate(joints):
+                d.qvel[va + i] = (w if kind == "hinge" else v) @ np.asarray(axis, float)
+            slides = np.array([axis for kind, axis in joints if kind == "slide"], float)
+            hinge = joints[-1][0] == "hinge"
+            bodies.append((body.name, qa, va, (np.asarray(body.position, float), q0, slides, hinge)))
+        return bodies
 
     def _built_effects(self, knobs: dict) -> frozenset[str]:
         return model_effects(self._model, knobs)
@@ -855,7 +983,84 @@ class MuJoCoSimulation(Simulation):
             return self
         else:
             return super().plant(change, size)
-        return MuJoCoSimulation(self._scene, model, self.knobs, self.iterations)
+        return type(self)(self._scene, model, self.knobs, self.iterations)
+
+
+class MuJoCoTreeSimulation(MuJoCoSimulation):
+    """A scene with joints or loads (_tree_xml): each body's state is read from MuJoCo's own
+    kinematics of qpos and qvel (a child's pose and velocity follow from its ancestors'
+    joints), its start velocities are the joint velocities that give them, and loads are
+    MuJoCo's applied forces (xfrc_applied: world force at the centre of mass and torque,
+    held from step to step). No rollout: each step's state is read through mj_kinematics."""
+
+    run = None  # the bulk run's rollout does not carry xfrc_applied; step() does
+
+    def _start(self, scene: Scene, model, d) -> list:
+        ids = {b.name: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, b.name) for b in scene.dynamic_bodies}
+        for load in scene.loads:
+            d.xfrc_applied[ids[load.body]] = list(load.force) + list(load.torque)
+        # the joint velocities qdot that give every body its start velocity: J qdot = (v, w),
+        # exact where the start velocities respect the joints, else unsupported
+        mujoco.mj_forward(model, d)
+        jacp, jacr = np.zeros((3, model.nv)), np.zeros((3, model.nv))
+        rows, target = [], []
+        for body in scene.dynamic_bodies:
+            mujoco.mj_jacBody(model, d, jacp, jacr, ids[body.name])
+            rows += [jacp.copy(), jacr.copy()]
+            target += [body.velocity, body.angular_velocity]
+        J, y = np.vstack(rows), np.concatenate(target)
+        qvel = np.linalg.lstsq(J, y, rcond=None)[0] if model.nv else np.zeros(0)
+        miss = float(np.max(np.abs(J @ qvel - y))) if len(y) else 0.0
+        if miss > 1e-9 * max(1.0, float(np.max(np.abs(y)))):
+            raise Unsupported(f"the start velocities break the joints (the nearest joint velocities miss them by "
+                              f"{miss:.3g}): a jointed body's start velocity must be one its joints allow")
+        d.qvel[:] = qvel
+        self._ids = np.array([ids[b.name] for b in scene.dynamic_bodies])
+        self._roots = model.body_rootid[self._ids]
+        return [(b.name, None, None, None) for b in scene.dynamic_bodies]
+
+    def _built_effects(self, knobs: dict) -> frozenset[str]:
+        loaded = np.any(self._data.xfrc_applied != 0)
+        return model_effects(self._model, knobs) | ({"load"} if loaded else set())
+
+    # Bulk reads: a raw row is each body's xpos, xquat, cvel and its subtree's centre of mass,
+    # from MuJoCo's own kinematics of the state after the step (mj_kinematics, mj_comPos,
+    # mj_comVel on the live data: mj_step recomputes all of them from qpos and qvel at its
+    # start, so this changes nothing it steps), decoded with numpy.
+    _ROW = 16  # xpos 3, xquat 4, cvel 6 (rotation, translation), subtree_com 3
+
+    def states(self) -> dict[str, np.ndarray]:
+        raw = np.empty((1, self.state_size()))
+        self.write_state(raw[0])
+        return dict(zip(self.body_order(), self.decode_states(raw)[0]))
+
+    def state_size(self) -> int:
+        return self._ROW * len(self._ids)
+
+    def write_state(self, out: np.ndarray) -> None:
+        m, d, ids = self._model, self._data, self._ids
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_comVel(m, d)
+        n = len(ids)
+        out[0:3 * n] = d.xpos[ids].ravel()
+        out[3 * n:7 * n] = d.xquat[ids].ravel()
+        out[7 * n:13 * n] = d.cvel[ids].ravel()
+        out[13 * n:16 * n] = d.subtree_com[self._roots].ravel()
+
+    def decode_states(self, raw: np.ndarray) -> np.ndarray:
+        n = len(self._ids)
+        xpos = raw[:, 0:3 * n].reshape(-1, n, 3)
+        cvel = raw[:, 7 * n:13 * n].reshape(-1, n, 6)
+        com = raw[:, 13 * n:16 * n].reshape(-1, n, 3)
+        out = np.empty((len(raw), n, 13))
+        out[:, :, 0:3] = xpos
+        out[:, :, 3:7] = raw[:, 3 * n:7 * n].reshape(-1, n, 4)
+        # cvel is (w, v) at the subtree's centre of mass, world axes: the body origin's
+        # velocity is v + w x (xpos - subtree_com) (MuJoCo's mj_objectVelocity)
+        out[:, :, 7:10] = cvel[:, :, 3:6] + np.cross(cvel[:, :, 0:3], xpos - com)
+        out[:, :, 10:13] = cvel[:, :, 0:3]
+        return out
 
 
 class MuJoCoAdapter(Adapter):
@@ -884,6 +1089,11 @@ class MuJoCoAdapter(Adapter):
         # Settings.threads: a thread pool bound to the MjData (mju_threadpool); a whole state
         # through mj_getState / mj_setState (mjSTATE_INTEGRATION, the warm start included)
         modes=frozenset({"threads", "save_restore"}),
+        # joints as MuJoCo's kinematic tree (_tree_xml): reduced coordinates; loads as xfrc_applied
+        joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
+        joint_limits=True,
+        coordinates="reduced",
+        loads=True,
     )
     # Settings.options: the contact time scale n (the module notes), which with e sets the
     # contact row's solref (k, b) and the friction rows' slip time n dt. From 2 steps (stiff:
@@ -914,7 +1124,8 @@ class MuJoCoAdapter(Adapter):
         return metadata.version("mujoco")
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
-        sim = MuJoCoSimulation(scene, *self.model(scene, settings))
+        kind = MuJoCoTreeSimulation if scene.joints or scene.loads else MuJoCoSimulation
+        sim = kind(scene, *self.model(scene, settings))
         if (settings.threads or 1) > 1:
             sim.use_threads(settings.threads)
         return sim

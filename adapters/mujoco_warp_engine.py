@@ -188,6 +188,9 @@ class MuJoCoWarpAdapter(MuJoCoAdapter):
         contact_torques=MuJoCoAdapter.capabilities.contact_torques,
         float_bits=32,  # qpos, qvel, masses and every kernel's arithmetic in single precision
         substeps=False,  # Settings.iterations caps the Newton solver's iterations
+        why_not=(("joint", "the MuJoCo adapter's joint tree reads states through MuJoCo C's mj_kinematics "
+                           "(MuJoCoTreeSimulation); the Warp read-out decodes free and planar bodies from qpos only"),
+                 ("load", "loads are MuJoCo C's xfrc_applied, not copied into the Warp data")),
     )
 
     # A default run (and the default test suite) runs the core families and the conformance

@@ -199,6 +199,12 @@ def reduced_mass(a: Body, b: Body) -> float:
     return a.mass * b.mass / (a.mass + b.mass)
 
 
+# Newton's models are built from the scene's free bodies; the scene's joints (Newton's
+# add_joint_revolute and the like, which each of its solvers treats its own way) are not mapped.
+NEWTON_NO_JOINTS = (("joint", "the adapter builds every body on a free joint; Newton's own joints (add_joint_*) "
+                              "are not mapped, and each of its solvers treats them its own way"),
+                    ("load", "the adapter sets no body forces (State.body_f stays zero)"))
+
 class NewtonAdapter(Adapter):
     package = "newton"
     # the release the conformance battery passes on. Newton is at 1.x and changes its API within
@@ -235,6 +241,7 @@ class NewtonAdapter(Adapter):
             impact_model="simultaneous" if solver in ("xpbd", "kamino") else "compliant",
             contact_torques=frozenset({"rolling_resistance", "torsional_friction"}) if solver == "xpbd" else frozenset(),
             float_bits=32,
+            why_not=NEWTON_NO_JOINTS,
         )
         self.tunables = {}
         if penalty:
@@ -254,7 +261,7 @@ class NewtonAdapter(Adapter):
         self.capabilities = Capabilities(
             dimensions=frozenset({3}),  # 2D scenes would need planar joints: not adapted
             shapes=frozenset({"sphere", "box", "plane"}),
-            why_not=NEWTON_MUJOCO_SHAPES,
+            why_not=NEWTON_MUJOCO_SHAPES + NEWTON_NO_JOINTS,
             native_restitution=False,  # e mapped onto the pair's solref, as MuJoCo's adapter does
             static_kinetic=False,
             contact_forces=True,

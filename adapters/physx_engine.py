@@ -141,6 +141,9 @@ class PhysXAdapter(Adapter):
         contact_forces=True,
         iterations=True,        # position iterations a step
         float_bits=32,          # PhysX stores poses and velocities in single precision
+        why_not=(("joint", "the adapter's USD layer holds rigid bodies only; PhysX's joints (UsdPhysics "
+                           "RevoluteJoint and the like) are not written"),
+                 ("load", "the adapter writes no forces into the USD layer")),
     )
 
     def __init__(self, name: str = "physx", solver: str = "TGS"):

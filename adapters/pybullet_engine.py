@@ -83,6 +83,7 @@ import numpy as np
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
 from adapters.frames import require_turn_about_y, state_row, wxyz_to_xyzw, xyzw_to_wxyz, z_to
+from adapters.joints import world_joints
 from adapters.solids import polygon_prism
 from cases.scene import Body, Scene, pair_key
 from cases.trajectory import ContactPoint
@@ -197,6 +198,14 @@ class PyBulletAdapter(Adapter):
         # together at e v, a struck row of two leaves as one body, both paths)
         impact_model="simultaneous",
         contact_torques=frozenset({"rolling_resistance", "torsional_friction"}),  # TORQUE_KNOBS
+        # a body on a scene joint to the world (or a static body) is the one link of a
+        # multibody on a fixed base at the anchor (PyBulletSimulation._jointed_body):
+        # Featherstone's reduced coordinates
+        joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
+        joint_limits=True,
+        coordinates="reduced",
+        why_not=(("load", "the adapter applies no external forces (applyExternalForce, cleared by each step, "
+                          "is not mapped)"),),
     )
     # planted changes (PyBulletSimulation.plant)
     plantable = frozenset({"square friction cone", "velocity damping", "restitution threshold"})
@@ -218,11 +227,15 @@ class PyBulletAdapter(Adapter):
         self.config = {"bodies": bodies, "friction_anchor": bool(friction_anchor), "ground": ground,
                        "solver": solver}
         if bodies == "rigid":  # 2D bodies stay in their plane on joints, which need reduced coordinates
-            self.capabilities = replace(self.capabilities, dimensions=frozenset({3}))
+            self.capabilities = replace(
+                self.capabilities, dimensions=frozenset({3}), joints=frozenset(), joint_limits=False, coordinates=None,
+                why_not=self.capabilities.why_not + (
+                    ("joint", "the rigid variant keeps every body a maximal-coordinate btRigidBody: a scene joint "
+                              "would be a Bullet constraint (createConstraint), not mapped"),))
         if solver != "si":  # the MLCP solvers: rolling rows only on Dantzig's 2D path (MLCP_DROPS_TORQUES)
             self.capabilities = replace(
                 self.capabilities, contact_torques=frozenset({"rolling_resistance"} if solver == "dantzig" else ()),
-                why_not=tuple((effect, MLCP_DROPS_TORQUES) for effect in TORQUE_KNOBS))
+                why_not=self.capabilities.why_not + tuple((effect, MLCP_DROPS_TORQUES) for effect in TORQUE_KNOBS))
 
     def version(self) -> str:
         return metadata.version("pybullet")
@@ -231,6 +244,7 @@ class PyBulletAdapter(Adapter):
         reason = self.capabilities.cannot_run(scene) or self._spin_without_roll(scene) or self._mlcp_torques(scene)
         if reason:
             raise Unsupported(reason)
+        world_joints(scene, "one multibody of both")  # Unsupported for the joints the adapter does not map
         if self.config["solver"] == "pgs" and scene.dimension == 2:
             raise Unsupported("2D scene: pybullet's MLCP projected Gauss-Seidel leaves NaN in the state in the "
                               "first step a contact acts on the planar joint chain of a 2D body (SOLVERS)")
@@ -512,6 +526,7 @@ class PyBulletSimulation(Simulation):
             "constraintSolverType": f"CONSTRAINT_SOLVER_LCP_{self._solver.upper()}",
             "bodies": {},
         }
+        self._hung = world_joints(scene, "one multibody of both")  # joints to the world or a static body
         self._ids: dict[tuple[int, int], str] = {}  # (body unique id, link index) -> name
         self._dynamic: list[tuple[str, int, int]] = []  # (name, body id, link index or -1)
         for body in scene.bodies:
@@ -530,7 +545,9 @@ class PyBulletSimulation(Simulation):
             position = [body.shape.offset * n for n in body.shape.normal]
             orientation = [0.0, 0.0, 0.0, 1.0]
         record = {"createCollisionShape": shape_record}
-        if dimension == 2 and body.dynamic:
+        if body.name in self._hung:
+            uid, link, record["createMultiBody"] = self._jointed_body(body, shape, self._hung[body.name])
+        elif dimension == 2 and body.dynamic:
             uid, link, record["createMultiBody"] = self._planar_body(body, shape)
         else:
             mass = 0.0 if body.static else body.mass
@@ -589,6 +606,40 @@ class PyBulletSimulation(Simulation):
                   "setJointMotorControl2": {"controlMode": "VELOCITY_CONTROL", "force": 0.0}}
         return uid, n - 1, record
 
+    def _jointed_body(self, body: Body, shape: int, joint) -> tuple[int, int, dict]:
+        """A fixed, shapeless base at the joint's anchor, world-aligned; a massless link on
+        the scene joint at the anchor (a multibody joint turns about its link's frame
+        origin), its axis the scene's; and the body as a second link welded to it at its
+        start pose, so the joint's coordinate is 0 at the start. Reduced coordinates
+        (Featherstone), whatever the scene's friction; the joint's motor released (force 0)."""
+        c = self._client
+        kind = {"revolute": p.JOINT_REVOLUTE, "prismatic": p.JOINT_PRISMATIC, "ball": p.JOINT_SPHERICAL,
+                "fixed": p.JOINT_FIXED}[joint.kind]
+        axis = list(joint.unit_axis)
+        offset = list(np.asarray(body.position, float) - np.asarray(joint.anchor, float))
+        uid = p.createMultiBody(
+            0.0, -1, basePosition=list(joint.anchor), linkMasses=[0.0, body.mass],
+            linkCollisionShapeIndices=[-1, shape], linkVisualShapeIndices=[-1, -1],
+            linkPositions=[[0.0, 0.0, 0.0], offset], linkOrientations=[[0.0, 0.0, 0.0, 1.0], wxyz_to_xyzw(body.orientation)],
+            linkInertialFramePositions=[[0.0, 0.0, 0.0]] * 2, linkInertialFrameOrientations=[[0.0, 0.0, 0.0, 1.0]] * 2,
+            linkParentIndices=[0, 1], linkJointTypes=[kind, p.JOINT_FIXED], linkJointAxis=[axis, [0.0, 0.0, 1.0]],
+            useMaximalCoordinates=False, physicsClientId=c)
+        if joint.kind == "ball":
+            p.setJointMotorControlMultiDof(uid, 0, p.POSITION_CONTROL, targetPosition=[0, 0, 0, 1],
+                                           positionGain=0, velocityGain=0, force=[0, 0, 0], physicsClientId=c)
+        elif joint.kind != "fixed":
+            p.setJointMotorControl2(uid, 0, p.VELOCITY_CONTROL, force=0.0, physicsClientId=c)
+        record = {"baseMass": 0.0, "basePosition": list(joint.anchor), "linkMasses": [0.0, body.mass],
+                  "linkJointTypes": [f"JOINT_{joint.kind.upper() if joint.kind != 'ball' else 'SPHERICAL'}",
+                                     "JOINT_FIXED"],
+                  "linkJointAxis": [axis, None], "linkPositions": [[0.0, 0.0, 0.0], offset],
+                  "useMaximalCoordinates": False, "motor": "released (force 0)"}
+        if joint.limits is not None:
+            p.changeDynamics(uid, 0, jointLowerLimit=float(joint.limits[0]), jointUpperLimit=float(joint.limits[1]),
+                             physicsClientId=c)
+            record["changeDynamics"] = {"jointLowerLimit": joint.limits[0], "jointUpperLimit": joint.limits[1]}
+        return uid, 1, record
+
     def _set_dynamics(self, body: Body, uid: int, link: int, mu: float, e: float) -> list[dict]:
         """Two changeDynamics calls, recorded as made: the collider's own values, then the
         whole body's. They must not share a call: given with a link's mass, the
@@ -645,6 +696,10 @@ class PyBulletSimulation(Simulation):
                 fx.add(effect)
         if any(b.rotates for b in scene.dynamic_bodies):
             fx.add("rotation")
+        if self._hung:
+            fx.add("joint")
+        if any(j.limits is not None for j in self._hung.values()):
+            fx.add("limit")
         return frozenset(fx)
 
     # --- running ------------------------------------------------------------------------

@@ -53,6 +53,9 @@ from cases.scene import Body, Circle, Plane, Scene, pair_key, quat_about_y
 from cases.trajectory import ContactPoint
 
 DEFAULT_ITERATIONS = 10  # Pymunk's own default Space.iterations, stated here
+# An unlimited prismatic joint is a groove this long each way from the start (m): Chipmunk's
+# groove has two ends, and 1 km lies beyond any scene's travel.
+GROOVE_HALF_LENGTH = 1e3
 # Overlap the solver leaves alone (m). Pymunk's default 0.1 is pixel scale: bodies would rest
 # up to 0.1 m deep. 0.1 mm is far below the scenes' sizes and above rounding; 1e-5 m with
 # beta = 0.2 lets a five-box stack at dt = 5e-3 walk sideways 1.5 mm/s (measured). The cost
@@ -117,6 +120,12 @@ class PymunkAdapter(Adapter):
         modes=frozenset({"threads"}),
         why_not=(("save_restore", "a pickled Space restarts without Chipmunk's cached arbiters, whose "
                                   "accumulated impulses warm-start the next step: no whole state to save"),),
+        # Chipmunk's constraints (_joint): impulse rows between two bodies' own coordinates,
+        # solved with the contacts, their drift corrected by error_bias
+        joints=frozenset({"revolute", "prismatic", "fixed"}),
+        joint_limits=True,
+        coordinates="maximal",
+        loads=True,  # Body.apply_force_at_world_point and .torque before each step (Chipmunk clears them)
     )
 
     def __init__(self, name: str = "pymunk", collision_slop: float = COLLISION_SLOP):
@@ -228,6 +237,12 @@ class PymunkSimulation(Simulation):
         self.knobs["contact_points"] = "one per touching pair: mean of its points, smallest distance"
         space.reindex_static()
 
+        every = {name: shape.body for name, shape in shapes.items()}
+        self._constraints = [c for j, joint in enumerate(scene.joints) for c in self._joint(joint, j, every)]
+        self._loads = [(self._bodies[load.body], (float(load.force[0]), float(load.force[2])), -float(load.torque[1]))
+                       for load in scene.loads if load.acts]  # a torque about scene +y is -torque in Pymunk
+        if self._loads:
+            self.knobs["loads"] = "Body.force and Body.torque set before each step (Chipmunk clears them after it)"
         self.effects = self._built_effects()
 
     def _add(self, body: Body) -> pymunk.Shape:
@@ -276,6 +291,42 @@ class PymunkSimulation(Simulation):
         tx, ty = -nz * PLANE_HALF_LENGTH, nx * PLANE_HALF_LENGTH  # along the line
         return pymunk.Segment(pb, (cx - tx, cy - ty), (cx + tx, cy + ty), PLANE_DEPTH)
 
+    def _joint(self, joint, j: int, every: dict) -> list:
+        """A scene joint as Chipmunk constraints between the two bodies (the world: the
+        space's static body): revolute a PivotJoint at the anchor; prismatic a GrooveJoint
+        (the child's anchor on a groove of the parent along the axis, as long as the limits,
+        else GROOVE_HALF_LENGTH each way) and a GearJoint (no relative turn); fixed a
+        PivotJoint and a GearJoint; a revolute limit a RotaryLimitJoint. Every constraint at
+        Chipmunk's defaults, stated (max_force, max_bias infinite; error_bias), and
+        collide_bodies off: the two bodies do not collide (cases.scene.Joint)."""
+        a = self._space.static_body if joint.parent is None else every[joint.parent]
+        b = every[joint.body]
+        anchor = (float(joint.anchor[0]), float(joint.anchor[2]))
+        ux, _, uz = joint.unit_axis
+        made, record = [], {"kind": joint.kind}
+        if joint.kind in ("revolute", "fixed"):
+            made.append(pymunk.PivotJoint(a, b, anchor))
+        if joint.kind in ("prismatic", "fixed"):
+            made.append(pymunk.GearJoint(a, b, b.angle - a.angle, 1.0))
+        if joint.kind == "prismatic":
+            low, high = joint.limits if joint.limits is not None else (-GROOVE_HALF_LENGTH, GROOVE_HALF_LENGTH)
+            ends = [a.world_to_local((anchor[0] + s * ux, anchor[1] + s * uz)) for s in (low, high)]
+            made.append(pymunk.GrooveJoint(a, b, ends[0], ends[1], b.world_to_local(anchor)))
+            record["groove"] = [list(e) for e in ends]
+        if joint.kind == "revolute" and joint.limits is not None:
+            # the scene's turn q about +y is minus Pymunk's angle difference (module docstring)
+            low, high = (-joint.limits[1], -joint.limits[0]) if joint.unit_axis[1] > 0 else joint.limits
+            rest = b.angle - a.angle
+            made.append(pymunk.RotaryLimitJoint(a, b, rest + low, rest + high))
+            record["rotary_limit"] = [rest + low, rest + high]
+        for c in made:
+            c.collide_bodies = False
+        self._space.add(*made)
+        record.update(constraints=[type(c).__name__ for c in made], error_bias=made[0].error_bias,
+                      max_bias=_json(made[0].max_bias), max_force=_json(made[0].max_force), collide_bodies=False)
+        self.knobs.setdefault("joints", {})[f"joints[{j}]"] = record
+        return made
+
     def _built_effects(self) -> frozenset[str]:
         fx = set()
         if any(g != 0.0 for g in self._space.gravity):
@@ -288,6 +339,14 @@ class PymunkSimulation(Simulation):
                 fx.add("friction")
         if any(math.isfinite(b.moment) for b in self._bodies.values()):
             fx.add("rotation")
+        if self._constraints:
+            fx.add("joint")
+        if any(isinstance(c, pymunk.RotaryLimitJoint) for c in self._constraints) or any(
+                "groove" in r and j.limits is not None for r, j in zip(self.knobs.get("joints", {}).values(),
+                                                                       self._scene.joints)):
+            fx.add("limit")
+        if self._loads:
+            fx.add("load")
         return frozenset(fx)
 
     # --- callbacks, once per touching pair and step -----------------------------------
@@ -314,6 +373,8 @@ class PymunkSimulation(Simulation):
 
     def step(self) -> None:
         self._solved = []
+        for body, force, torque in self._loads:
+            body.force, body.torque = force, torque  # at the centre of mass (the body's origin)
         self._space.step(self._dt)
 
     def states(self):

@@ -87,6 +87,7 @@ from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, 
 from adapters.combination import RULES as COMBINE, per_body_values
 from adapters.frames import require_turn_about_y, state_row
 from adapters.solids import embedded_half_depth, polygon_prism
+from cases.overlap import rotation_matrix
 from cases.scene import Body, Box, Circle, Hull, Plane, Rect, Scene, Sphere, pair_key
 
 DEFAULT_SUBSTEPS = 4  # Rapier's own default num_solver_iterations, stated
@@ -150,6 +151,12 @@ class RapierAdapter(Adapter):
         restitution_law="two_phase",  # restitution in a pass of its own after the sub-steps, without friction
         float_bits=32,         # positions, velocities and masses in single precision (checked: 0.1 m/s reads back as float32(0.1))
         substeps=True,         # Settings.iterations is the sub-step count
+        # impulse joints (_joint): constraint rows between the bodies' own coordinates, solved
+        # in the sub-steps with the contacts (Rapier's multibody joints are not mapped)
+        joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
+        joint_limits=True,
+        coordinates="maximal",
+        loads=True,  # RigidBody.add_force / add_torque once: Rapier keeps user forces until reset
     )
     tunables = {
         "contact_natural_frequency": Tunable(
@@ -288,12 +295,24 @@ class RapierSimulation(Simulation):
         self._pairs = {pair_key(a.name, b.name): scene.material_of(a.name, b.name)
                        for a, b in scene.contact_pairs()}
         self._handles: dict[str, r.RigidBodyHandle] = {}  # dynamic bodies
+        self._every: dict[str, r.RigidBodyHandle] = {}  # every body, for joints
+        # a 2D scene's jointed bodies are held in the plane by their joints (a revolute joint
+        # about y, a slide in x-z, a weld), not by locked axes: with locks and a joint Rapier
+        # blew the 2D pendulum up (energy 5e5 J in 10 s, measured with 0.36.1)
+        self._jointed = {j.body for j in scene.joints}
         self._collider_of: dict[int, str] = {}  # collider index -> body name
         self._meshes: set[str] = set()  # bodies that are trimeshes (contact_forces)
         self._frictional = "friction" in scene.effects
         for body in scene.bodies:
             self._add(body, scene.dimension, mu[body.name], e[body.name], RULES[rule_mu], RULES[rule_e])
+        self._joints = [self._joint(scene, joint, j) for j, joint in enumerate(scene.joints)]
         bodies = self._world.rigid_bodies
+        for load in scene.loads:
+            if load.acts:
+                bodies[self._handles[load.body]].add_force(tuple(float(c) for c in load.force), True)
+                bodies[self._handles[load.body]].add_torque(tuple(float(c) for c in load.torque), True)
+                self.knobs.setdefault("loads", {})[load.body] = {"user_force": list(load.force),
+                                                                 "user_torque": list(load.torque)}
         self._live = [bodies[h] for h in self._handles.values()]  # write_state reads these
         self.effects = self._built_effects(scene, COMBINE[rule_mu], mu, COMBINE[rule_e], e)
 
@@ -312,7 +331,7 @@ class RapierSimulation(Simulation):
                       "ccd_enabled": False, "soft_ccd_prediction": 0.0, "gyroscopic_forces": gyroscopic,
                       "allow_fast_rotation": True}  # default False: angular speed capped at ~45 deg/step
             locks = r.LockedAxes.empty()
-            if dimension == 2:
+            if dimension == 2 and body.name not in self._jointed:
                 locks = _planar_locks(body, self._frictional)
             if not body.rotates:
                 locks = locks | r.LockedAxes.ROTATION_LOCKED
@@ -336,6 +355,7 @@ class RapierSimulation(Simulation):
         else:
             collider = collider.density(0.0)
         handle = self._world.add_body(builder)
+        self._every[body.name] = handle
         ch = self._world.add_collider(collider, handle)
         self._collider_of[ch.index] = body.name
         if body.shape.kind == "mesh":
@@ -344,6 +364,45 @@ class RapierSimulation(Simulation):
             self._handles[body.name] = handle
         record.update(collider=shape_record, friction=mu, restitution=e, contact_skin=0.0)
         self.knobs["bodies"][body.name] = record
+
+    def _joint(self, scene: Scene, joint, j: int) -> str:
+        """A scene joint as an impulse joint between the parent (body 1; the world: a fixed
+        body at the origin, made once) and the body (body 2), anchors and axes in each
+        body's frame: revolute a RevoluteJoint about the axis, prismatic a PrismaticJoint
+        along it (no relative turn), ball a SphericalJoint, fixed a FixedJoint; a limit on
+        the joint's coordinate, body 2 relative to body 1 about (along) the axis. Contacts
+        between the two off (cases.scene.Joint); the joints' softness Rapier's default
+        (SpringCoefficients.joint_defaults, recorded)."""
+        if joint.parent is None and "world" not in self._every:
+            self._every["world"] = self._world.add_body(r.RigidBody.fixed())
+        frames = [None if joint.parent is None else scene.body(joint.parent), scene.body(joint.body)]
+        anchor, axis = np.asarray(joint.anchor, float), np.asarray(joint.unit_axis, float)
+        local = []
+        for body in frames:
+            R = np.eye(3) if body is None else rotation_matrix(body.orientation)
+            x0 = np.zeros(3) if body is None else np.asarray(body.position, float)
+            local.append((tuple(float(c) for c in R.T @ (anchor - x0)), tuple(float(c) for c in R.T @ axis)))
+        if joint.kind in ("revolute", "prismatic"):
+            maker = r.RevoluteJointBuilder if joint.kind == "revolute" else r.PrismaticJointBuilder
+            builder = maker(local[0][1]).local_axis1(local[0][1]).local_axis2(local[1][1])
+            if joint.limits is not None:
+                builder = builder.limits(float(joint.limits[0]), float(joint.limits[1]))
+        elif joint.kind == "ball":
+            builder = r.SphericalJointBuilder()
+        else:
+            builder = r.FixedJointBuilder()
+            if frames[0] is not None or frames[1].orientation != (1.0, 0.0, 0.0, 0.0):
+                raise Unsupported(f"joints[{j}]: a fixed joint between turned frames: FixedJointBuilder's local "
+                                  "frames are not mapped (only the anchors)")
+        builder = builder.local_anchor1(local[0][0]).local_anchor2(local[1][0]).contacts_enabled(False)
+        soft = r.SpringCoefficients.joint_defaults()
+        self._world.impulse_joints.insert(self._every["world" if joint.parent is None else joint.parent],
+                                          self._every[joint.body], builder, True)
+        self.knobs.setdefault("joints", {})[f"joints[{j}]"] = {
+            "kind": joint.kind, "local_anchors": [list(a) for a, _ in local], "local_axes": [list(x) for _, x in local],
+            "limits": None if joint.limits is None else list(joint.limits), "contacts_enabled": False,
+            "softness": {"natural_frequency": soft.natural_frequency, "damping_ratio": soft.damping_ratio}}
+        return joint.kind
 
     def _built_effects(self, scene: Scene, combine_mu, mu: dict, combine_e, e: dict) -> frozenset[str]:
         """What the built world simulates, from the values given to the engine and its rules."""
@@ -359,6 +418,12 @@ class RapierSimulation(Simulation):
         bodies = self._world.rigid_bodies
         if any(not bodies[h].locked_axes.contains(r.LockedAxes.ROTATION_LOCKED) for h in self._handles.values()):
             fx.add("rotation")
+        if self._joints:
+            fx.add("joint")
+        if any(r_["limits"] is not None for r_ in self.knobs.get("joints", {}).values()):
+            fx.add("limit")
+        if self.knobs.get("loads"):
+            fx.add("load")
         return frozenset(fx)
 
     # --- the contract -------------------------------------------------------------------

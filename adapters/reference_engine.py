@@ -74,7 +74,10 @@ class ReferenceAdapter(Adapter):
         why_not=(("threads", "the reference steps on one thread: it has no pool"),
                  *((kind, "the reference's collision detection is closed-form for spheres, boxes and planes "
                           "(circles and rects in 2D) only; it has no narrow phase for other shapes yet")
-                   for kind in ("capsule", "cylinder", "hull", "mesh", "polygon"))),
+                   for kind in ("capsule", "cylinder", "hull", "mesh", "polygon")),
+                 ("joint", "the reference's formulations solve contact rows only: joints as bilateral rows in "
+                           "PGS, Lemke and SPOOK are not written yet (issue 39, item 2)"),
+                 ("load", "the reference's step applies gravity as its only external force")),
     )
 
     def __init__(self, formulation: str = "si", name: str | None = None, params: dict | None = None):

@@ -172,7 +172,7 @@ class Motion(Relation):
         return self.planar
 
     def applies(self, scene: Scene) -> str | None:
-        return self.planar_why if scene.dimension == 2 and self.planar is None else None
+        return _unmoved(scene) or (self.planar_why if scene.dimension == 2 and self.planar is None else None)
 
     def offset(self, scene: Scene) -> float:
         return float(np.linalg.norm(self._in(scene).shift))
@@ -238,6 +238,14 @@ class Motion(Relation):
 
 
 
+def _unmoved(scene: Scene) -> str | None:
+    """Why a rigid motion or a scaling does not apply: joints and loads (their anchors, axes,
+    limits and forces) are not transformed with the bodies yet."""
+    if scene.joints or scene.loads:
+        return "the scene has joints or loads, which this relation does not transform yet"
+    return None
+
+
 def _vec(x) -> tuple:
     return tuple(float(c) for c in x)
 
@@ -269,6 +277,9 @@ class Scale(Relation):
     absolute units (a slop, a margin, a speculative distance, a velocity threshold) does not
     scale, and that is what a broken scale invariance finds."""
     k: float = 4.0
+
+    def applies(self, scene: Scene) -> str | None:
+        return _unmoved(scene)
 
     def transform(self, scene: Scene) -> Scene:
         k, r = self.k, math.sqrt(self.k)

@@ -31,8 +31,10 @@ from cases.overlap import exact, may_touch, penetration
 # with e > 0), "friction" (a pair with mu_s > 0), "rotation" (a dynamic body that rotates),
 # "rolling_resistance" / "torsional_friction" (a pair with Material.rolling_resistance /
 # Material.torsional_friction > 0: the contact torques of CONTACT_TORQUES).
+# "joint" (a scene with Joints), "limit" (a joint with limits), "load" (a constant external
+# force or torque, Scene.loads).
 EFFECTS = ("gravity", "contact", "restitution", "friction", "rotation", "rolling_resistance",
-           "torsional_friction")
+           "torsional_friction", "joint", "limit", "load")
 # The effects that are torques a contact exerts (about the rolling axes, about the normal);
 # an engine declares the ones it models in Capabilities.contact_torques.
 CONTACT_TORQUES = ("rolling_resistance", "torsional_friction")
@@ -785,6 +787,114 @@ class Body:
                 _positive(i, f"{where}.inertia.{axis}")
 
 
+# --- joints and applied loads ----------------------------------------------------------------
+
+# The joints a scene may hold (Joint.kind), by the relative motion they leave between the
+# two bodies: "revolute" a rotation about `axis` through `anchor` (a hinge: 1 dof),
+# "prismatic" a translation along `axis` (a slider: 1 dof), "ball" every rotation about
+# `anchor` (3 dof), "fixed" none (a weld). An engine declares the kinds it builds in
+# Capabilities.joints; a scene with another kind is `unsupported` there.
+JOINT_KINDS = ("revolute", "prismatic", "ball", "fixed")
+# The kinds whose one coordinate a limit bounds (an angle in rad, a displacement in m).
+LIMITED_KINDS = ("revolute", "prismatic")
+# An axis shorter than this (m, or rad for a direction) has no direction to rounding.
+SHORT_AXIS = 1e-12
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A joint between `body` and `parent` (another body's name, or None for the world).
+
+    - `kind`: one of JOINT_KINDS;
+    - `anchor`: the joint's point, m, in the world frame at the start (both bodies carry it
+      along: it stays one point of both while the joint holds);
+    - `axis`: the hinge axis (revolute) or the slide direction (prismatic), world frame at
+      the start, any length > 0 (normalised here); ignored by ball and fixed joints;
+    - `limits`: (lower, upper) of the joint's coordinate, the turn of `body` relative to
+      `parent` about `axis` (rad, right-handed) or its slide along `axis` (m), both 0 at the
+      start, so lower <= 0 <= upper; None: unlimited. Revolute and prismatic joints only.
+    Two bodies a joint connects do not collide with each other (the pair is left out of
+    Scene.contact_pairs), as in every engine's default for jointed bodies."""
+    kind: str
+    body: str
+    parent: str | None = None  # None: the world
+    anchor: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    axis: tuple[float, float, float] = (0.0, 1.0, 0.0)
+    limits: tuple[float, float] | None = None
+
+    @property
+    def unit_axis(self) -> tuple[float, float, float]:
+        """`axis` normalised to length 1."""
+        a = np.asarray(self.axis, float)
+        return tuple(float(c) for c in a / np.linalg.norm(a))
+
+    def validate(self, where: str, names: set[str], dimension: int) -> None:
+        if self.kind not in JOINT_KINDS:
+            raise SceneError(f"{where}.kind = {self.kind!r}: must be one of {', '.join(JOINT_KINDS)}")
+        for field_, name in (("body", self.body), ("parent", self.parent)):
+            if field_ == "parent" and name is None:
+                continue
+            if name not in names:
+                raise SceneError(f"{where}.{field_} = {name!r}: no body of that name "
+                                 f"({', '.join(sorted(names))}{'' if field_ == 'body' else ', or None for the world'})")
+        if self.parent == self.body:
+            raise SceneError(f"{where}.parent = {self.parent!r}: a joint connects two different bodies "
+                             "(None for the world)")
+        anchor = _finite(self.anchor, f"{where}.anchor", (3,))
+        axis = _finite(self.axis, f"{where}.axis", (3,))
+        if np.linalg.norm(axis) <= SHORT_AXIS:
+            raise SceneError(f"{where}.axis = {self.axis!r}: must have a length > 0 (a direction)")
+        if self.limits is not None:
+            if self.kind not in LIMITED_KINDS:
+                raise SceneError(f"{where}.limits = {self.limits!r}: only {' and '.join(LIMITED_KINDS)} joints "
+                                 "have limits (None for a ball or fixed joint)")
+            lim = _finite(self.limits, f"{where}.limits", (2,))
+            if lim[0] > lim[1]:
+                raise SceneError(f"{where}.limits = {self.limits!r}: lower must be <= upper")
+            if not lim[0] <= 0.0 <= lim[1]:
+                raise SceneError(f"{where}.limits = {self.limits!r}: must hold the start, 0 "
+                                 "(lower <= 0 <= upper: the coordinate is 0 at the start)")
+        if dimension == 2:
+            u = axis / np.linalg.norm(axis)
+            if self.kind == "ball":
+                raise SceneError(f"{where}.kind = 'ball': a 2D scene's joints are revolute (about y), prismatic "
+                                 "(along x-z) or fixed")
+            if anchor[1] != 0:
+                raise SceneError(f"{where}.anchor = {self.anchor!r}: a 2D scene lies in the x-z plane: "
+                                 "anchor.y must be 0")
+            if self.kind == "revolute" and abs(abs(u[1]) - 1.0) > 1e-12:
+                raise SceneError(f"{where}.axis = {self.axis!r}: a 2D revolute joint turns about y: "
+                                 "axis must be (0, +-1, 0)")
+            if self.kind == "prismatic" and u[1] != 0:
+                raise SceneError(f"{where}.axis = {self.axis!r}: a 2D prismatic joint slides in the x-z plane: "
+                                 "axis.y must be 0")
+
+
+@dataclass(frozen=True)
+class Load:
+    """A constant external `force` (N) and `torque` (N m) on `body`, world frame, the force
+    acting at the body's centre of mass, for the whole run (a pad pressed on, a motor's
+    torque). A 2D scene's force lies in the x-z plane and its torque is about y."""
+    body: str
+    force: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    torque: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    @property
+    def acts(self) -> bool:
+        """True when the force or the torque is not zero."""
+        return any(c != 0.0 for c in self.force) or any(c != 0.0 for c in self.torque)
+
+    def validate(self, where: str, dynamic: set[str], dimension: int) -> None:
+        if self.body not in dynamic:
+            raise SceneError(f"{where}.body = {self.body!r}: must name a dynamic body "
+                             f"({', '.join(sorted(dynamic))})")
+        force = _finite(self.force, f"{where}.force", (3,))
+        torque = _finite(self.torque, f"{where}.torque", (3,))
+        if dimension == 2 and (force[1] != 0 or torque[0] != 0 or torque[2] != 0):
+            raise SceneError(f"{where}: a 2D scene lies in the x-z plane: force.y must be 0 and the torque "
+                             "about y only (torque.x = torque.z = 0)")
+
+
 def pair_key(a: str, b: str) -> tuple[str, str]:
     """Pairs are unordered: one key for (a, b) and (b, a)."""
     return (a, b) if a <= b else (b, a)
@@ -805,6 +915,9 @@ class Scene:
       and rotations about x and z, stay zero), which the 2D engines run too;
     - `allowed_overlap`: m the bodies may start inside each other (default 1 um: contact
       built by hand is exact to rounding); a scene that starts deeper on purpose says so;
+    - `joints`: Joints between bodies, or a body and the world (a pair a joint connects
+      does not collide);
+    - `loads`: constant external forces and torques on bodies (Load);
     - `effects`: derived, not given: the physics the scene calls for (EFFECTS).
     """
     bodies: tuple[Body, ...]
@@ -813,11 +926,15 @@ class Scene:
     pairs: tuple[tuple[str, str, Material], ...] = ()  # per-pair overrides (a, b, material)
     dimension: int = 3
     allowed_overlap: float = DEFAULT_ALLOWED_OVERLAP
+    joints: tuple[Joint, ...] = ()
+    loads: tuple[Load, ...] = ()
     effects: frozenset[str] = field(init=False)
 
     def __post_init__(self):
         object.__setattr__(self, "bodies", tuple(self.bodies))
         object.__setattr__(self, "pairs", tuple(self.pairs))
+        object.__setattr__(self, "joints", tuple(self.joints))
+        object.__setattr__(self, "loads", tuple(self.loads))
         self._validate()
         object.__setattr__(self, "effects", self._derive_effects())
 
@@ -849,11 +966,13 @@ class Scene:
         return tuple(b for b in self.bodies if b.dynamic)
 
     def contact_pairs(self) -> list[tuple[Body, Body]]:
-        """Every pair that may touch: all pairs with at least one dynamic body."""
+        """Every pair that may touch: all pairs with at least one dynamic body, but those a
+        joint connects."""
+        joined = {pair_key(j.body, j.parent) for j in self.joints if j.parent is not None}
         out = []
         for i, a in enumerate(self.bodies):
             for b in self.bodies[i + 1:]:
-                if a.dynamic or b.dynamic:
+                if (a.dynamic or b.dynamic) and pair_key(a.name, b.name) not in joined:
                     out.append((a, b))
         return out
 
@@ -873,6 +992,12 @@ class Scene:
             fx.update(effect for effect in CONTACT_TORQUES if any(m.torque(effect) > 0 for m in mats))
         if any(b.rotates for b in self.dynamic_bodies):
             fx.add("rotation")
+        if self.joints:
+            fx.add("joint")
+        if any(j.limits is not None for j in self.joints):
+            fx.add("limit")
+        if any(load.acts for load in self.loads):
+            fx.add("load")
         return frozenset(fx)
 
     def _validate(self) -> None:
@@ -906,6 +1031,19 @@ class Scene:
                 if n not in names:
                     raise SceneError(f"pairs[{j}] names body {n!r}: not in the scene ({', '.join(sorted(names))})")
             mat.validate(f"pairs[{j}]({a},{b})")
+        for j, joint in enumerate(self.joints):
+            if not isinstance(joint, Joint):
+                raise SceneError(f"joints[{j}] = {joint!r}: must be a cases.scene.Joint")
+            joint.validate(f"joints[{j}]", names, self.dimension)
+            if self.body(joint.body).static and (joint.parent is None or self.body(joint.parent).static):
+                raise SceneError(f"joints[{j}]: joins {joint.body!r} to "
+                                 f"{'the world' if joint.parent is None else repr(joint.parent)}, both static: "
+                                 "a joint needs a dynamic body")
+        dynamic = {b.name for b in self.dynamic_bodies}
+        for j, load in enumerate(self.loads):
+            if not isinstance(load, Load):
+                raise SceneError(f"loads[{j}] = {load!r}: must be a cases.scene.Load")
+            load.validate(f"loads[{j}]", dynamic, self.dimension)
         if self.dimension == 2:
             self._validate_planar()
         pairs = self.contact_pairs()

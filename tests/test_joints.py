@@ -1,0 +1,277 @@
+"""Joints and loads (issue 39): the scene vocabulary's checks and effects, the capability gate,
+the pendulum family's graders against integrators of known order, and each engine that
+declares joints or loads doing what the scene asks (a limit stops where it says, a force
+accelerates at F / m). Tiny scenes: seconds of CPU for the whole file."""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from adapters import registry
+from adapters.base import Capabilities, Settings
+from cases import pendulum
+from cases.scene import Body, Joint, Load, Scene, SceneError, ball, ground
+from cases.trajectory import Trajectory
+from tests.helpers import adapter_or_skip
+
+G = 9.81
+
+
+def _bob(dim: int = 3, name: str = "bob", x: float = 0.5) -> Body:
+    return Body(name, ball(0.05, dim), mass=1.0, position=(x, 0.0, 1.0))
+
+
+# --- the vocabulary ------------------------------------------------------------------------
+
+@pytest.mark.parametrize("joints,loads,dim,message", [
+    ((Joint("revolute", "nobody"),), (), 3, r"joints[0].body = 'nobody': no body of that name (bob)"),
+    ((Joint("revolute", "bob", parent="ghost"),), (), 3, r"joints[0].parent = 'ghost': no body of that name"),
+    ((Joint("revolute", "bob", parent="bob"),), (), 3, r"joints[0].parent = 'bob': a joint connects two different"),
+    ((Joint("hinge", "bob"),), (), 3, r"joints[0].kind = 'hinge': must be one of revolute, prismatic, ball, fixed"),
+    ((Joint("revolute", "bob", axis=(0, 0, 0)),), (), 3, r"joints[0].axis = (0, 0, 0): must have a length > 0"),
+    ((Joint("prismatic", "bob", axis=(1, 0, 0), limits=(0.5, -0.5)),), (), 3,
+     r"joints[0].limits = (0.5, -0.5): lower must be <= upper"),
+    ((Joint("revolute", "bob", limits=(0.1, 0.5)),), (), 3, r"joints[0].limits = (0.1, 0.5): must hold the start, 0"),
+    ((Joint("ball", "bob", limits=(-1, 1)),), (), 3, r"joints[0].limits = (-1, 1): only revolute and prismatic"),
+    ((Joint("revolute", "bob", anchor=(0, 0, math.nan)),), (), 3, r"joints[0].anchor = (0, 0, nan): must be finite"),
+    ((Joint("ball", "bob"),), (), 2, r"joints[0].kind = 'ball': a 2D scene's joints are revolute (about y)"),
+    ((Joint("revolute", "bob", axis=(0, 0, 1)),), (), 2, r"joints[0].axis = (0, 0, 1): a 2D revolute joint turns about y"),
+    ((), (Load("ghost", force=(1, 0, 0)),), 3, r"loads[0].body = 'ghost': must name a dynamic body (bob)"),
+    ((), (Load("bob", force=(1, 0)),), 3, r"loads[0].force = (1, 0): must have 3 components"),
+    ((), (Load("bob", torque=(1, 0, 0)),), 2, r"loads[0]: a 2D scene lies in the x-z plane"),
+])
+def test_bad_joints_and_loads_name_the_field(joints, loads, dim, message):
+    with pytest.raises(SceneError) as caught:
+        Scene(bodies=(_bob(dim),), joints=joints, loads=loads, dimension=dim)
+    assert message in str(caught.value) and "\n" not in str(caught.value)
+
+
+def test_a_joint_needs_a_dynamic_body():
+    with pytest.raises(SceneError, match=r"joints\[0\]: joins 'ground' to the world, both static"):
+        Scene(bodies=(ground(), _bob()), joints=(Joint("fixed", "ground"),))
+
+
+def test_effects_name_joints_limits_and_loads():
+    plain = Scene(bodies=(_bob(),))
+    assert not {"joint", "limit", "load"} & plain.effects
+    hinged = Scene(bodies=(_bob(),), joints=(Joint("revolute", "bob", anchor=(0, 0, 1)),))
+    assert "joint" in hinged.effects and "limit" not in hinged.effects
+    limited = Scene(bodies=(_bob(),), joints=(Joint("revolute", "bob", limits=(-1.0, 0.0)),))
+    assert {"joint", "limit"} <= limited.effects
+    assert "load" in Scene(bodies=(_bob(),), loads=(Load("bob", torque=(0, 1, 0)),)).effects
+    assert "load" not in Scene(bodies=(_bob(),), loads=(Load("bob"),)).effects  # a zero load asks for nothing
+
+
+def test_jointed_bodies_do_not_collide():
+    a, b = _bob(name="a", x=0.0), _bob(name="b", x=0.1)  # touching spheres
+    free = Scene(bodies=(ground(), a, b))
+    joined = Scene(bodies=(ground(), a, b), joints=(Joint("fixed", "b", parent="a", anchor=(0.05, 0, 1)),))
+    assert {(x.name, y.name) for x, y in free.contact_pairs()} - {(x.name, y.name) for x, y in joined.contact_pairs()} \
+        == {("a", "b")}
+
+
+def test_an_engine_without_joints_says_so():
+    bare = Capabilities(dimensions=frozenset({3}), shapes=frozenset({"sphere"}), native_restitution=True,
+                        static_kinetic=False, contact_forces=False, iterations=False)
+    hinged = Scene(bodies=(_bob(),), joints=(Joint("revolute", "bob", limits=(-1.0, 0.0)),))
+    assert bare.cannot_run(hinged) == "revolute joint asked for: the adapter builds no joints"
+    some = Capabilities(**{**bare.__dict__, "joints": frozenset({"revolute"}), "coordinates": "maximal"})
+    assert some.cannot_run(hinged) == "joint limits asked for: the adapter builds no joint limits"
+    assert some.cannot_run(Scene(bodies=(_bob(),), loads=(Load("bob", force=(1, 0, 0)),))).startswith(
+        "a constant external force or torque asked for")
+    with pytest.raises(ValueError, match="coordinates = None: an engine with joints says which it uses"):
+        Capabilities(**{**bare.__dict__, "joints": frozenset({"revolute"})})
+
+
+def test_a_bad_joint_in_a_users_case_is_one_line_and_exit_2(tmp_path):
+    (tmp_path / "cases").mkdir()
+    (tmp_path / "cases" / "mine.py").write_text(textwrap.dedent("""
+        from cases.family import CaseFamily, Check
+        from cases.scene import Body, Joint, Scene, Sphere
+        FAMILY = CaseFamily(
+            name="my_hinge", summary="", source="", grid=({"a": 1},),
+            scene=lambda p: Scene(bodies=(Body("bob", Sphere(0.1), mass=1.0),),
+                                  joints=(Joint("revolute", "bob", axis=(0, 0, 0)),)),
+            duration=lambda p: 1.0, observe=lambda t, p: {"x": 0.0},
+            expect=lambda p, dt: [Check("x", "m", 0.0, 0.1, "abs", "why")])
+    """))
+    out = subprocess.run([sys.executable, "-m", "physval", "run", "--cases-dir", str(tmp_path / "cases"),
+                          "--out", str(tmp_path / "out"), "--engines", "mujoco"], capture_output=True, text=True)
+    assert out.returncode == 2, out.stderr
+    assert "my_hinge[a=1]: joints[0].axis = (0, 0, 0): must have a length > 0" in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1 and "Traceback" not in out.stderr
+    assert not (tmp_path / "out" / "results.csv").exists()
+
+
+# --- the pendulum's graders against integrators of known order -------------------------------
+
+def _swing(p, dt: float, symplectic: bool) -> Trajectory:
+    """The pendulum of variant `p` stepped in its angle: symplectic Euler (velocity, then
+    position with the new velocity) or explicit Euler (position with the old velocity)."""
+    I_p = pendulum.pivot_inertia(p["dim"])
+    mgL = pendulum.MASS * G * pendulum.LENGTH
+    n = round(pendulum.duration(p) / dt)
+    th, w = math.radians(p["amplitude"]), 0.0
+    rows = np.zeros((n + 1, 13))
+    for k in range(n + 1):
+        s, c = math.sin(th), math.cos(th)
+        L = pendulum.LENGTH
+        rows[k, 0:3] = (L * s, 0.0, pendulum.PIVOT[2] - L * c)
+        rows[k, 3:7] = (math.cos(-th / 2), 0.0, math.sin(-th / 2), 0.0)  # turned with the arm (unused by E)
+        rows[k, 7:10] = (L * c * w, 0.0, L * s * w)
+        rows[k, 10:13] = (0.0, -w, 0.0)  # theta grows turning about -y
+        a = -mgL * s / I_p
+        if symplectic:
+            w += a * dt
+            th += w * dt
+        else:
+            th, w = th + w * dt, w + a * dt
+    return Trajectory(dt=dt, t=np.arange(n + 1) * dt, states={"bob": rows})
+
+
+@pytest.mark.parametrize("params", [p for p in pendulum.GRID if p["joint"] == "revolute"], ids=pendulum.variant_id)
+def test_pendulum_checks_pass_symplectic_euler_and_catch_explicit_euler(params):
+    dt = pendulum.FAMILY.dt_for(params)
+    checks = {c.metric: c for c in pendulum.expect(params, dt)}
+
+    def misses(traj):
+        got = pendulum.observe(traj, params)
+        return {m for m, c in checks.items() if abs(got[m] - c.expected) > c.tolerance}
+
+    assert misses(_swing(params, dt, symplectic=True)) == set()
+    assert misses(_swing(params, dt, symplectic=False)) == {"period", "energy_drift"}
+
+
+def test_pendulum_period_is_the_elliptic_integral():
+    w0 = pendulum.small_frequency()
+    assert pendulum.period(1e-6, w0) == pytest.approx(2 * math.pi / w0, rel=1e-12)
+    # Landau & Lifshitz: T = T_0 (1 + theta_0^2 / 16 + 11 theta_0^4 / 3072 + ...)
+    th = math.radians(20.0)
+    assert pendulum.period(th, w0) == pytest.approx(2 * math.pi / w0 * (1 + th**2 / 16 + 11 * th**4 / 3072), rel=1e-6)
+
+
+# --- the engines that declare joints and loads ---------------------------------------------
+
+def _jointed_engines(need) -> list[str]:
+    out = []
+    for name in registry.engine_names():
+        try:
+            caps = registry.get(name).capabilities
+        except Exception:
+            continue
+        if need(caps):
+            out.append(name)
+    return out
+
+
+@pytest.mark.parametrize("engine", _jointed_engines(lambda c: c.joint_limits and "revolute" in c.joints))
+def test_a_revolute_limit_stops_the_swing_where_the_scene_says(engine):
+    """Let go at 60 deg, the bob swings back towards the vertical, a turn about +y (positive:
+    cases.scene.Joint); the limit's upper bound 0.3 rad stops it at 60 deg - 0.3 rad. The
+    unlimited swing passes through the vertical, and a limit turned the wrong way would stop
+    it at 60 deg - 1 rad. This checks the mapping (which way, where), not the limit's
+    stiffness: the stop must lie nearer the limit than halfway to the reversed limit's stop
+    (a soft limit gives: Box2D's soft rows 0.085 rad, Box3D's 0.100 rad, measured), and a
+    limit may not stop the swing early by more than 0.05 rad (MuJoCo's soft row acts as it
+    nears the bound)."""
+    adapter = adapter_or_skip(engine)
+    dim = 3 if 3 in adapter.capabilities.dimensions else 2
+    th0 = math.radians(60.0)
+    bob = Body("bob", ball(0.05, dim), mass=1.0, position=(0.5 * math.sin(th0), 0.0, 1.0 - 0.5 * math.cos(th0)))
+    least = {}
+    for limits in (None, (-1.0, 0.3)):
+        hinge = Joint("revolute", "bob", anchor=(0.0, 0.0, 1.0), axis=(0.0, 1.0, 0.0), limits=limits)
+        sim = adapter.build(Scene(bodies=(bob,), joints=(hinge,), dimension=dim), Settings(dt=1e-3))
+        theta = []
+        for _ in range(500):
+            sim.step()
+            x = sim.states()["bob"]
+            theta.append(math.atan2(x[0], 1.0 - x[2]))
+        sim.close()
+        least[limits] = min(theta)
+    stop, reversed_stop = th0 - 0.3, th0 - 1.0
+    assert (stop + reversed_stop) / 2 < least[(-1.0, 0.3)] < stop + 0.05
+    assert least[None] < 0.0
+
+
+@pytest.mark.parametrize("engine", _jointed_engines(lambda c: c.loads))
+def test_a_load_accelerates_at_force_over_mass(engine):
+    """A free ball, no gravity, pushed by F = 2 N along x and turned by 0.01 N m about y:
+    after 100 steps of 1 ms, v = F t / m = 0.2 m/s and w = tau t / I = 0.1 rad/s (I = 0.01 kg
+    m^2). Exact in every consistent integrator; 1e-4 relative allows float32."""
+    adapter = adapter_or_skip(engine)
+    dim = 3 if 3 in adapter.capabilities.dimensions else 2
+    body = Body("ball", ball(0.1, dim), mass=1.0, inertia=(0.01, 0.01, 0.01), position=(0, 0, 1))
+    scene = Scene(bodies=(body,), gravity=(0, 0, 0), dimension=dim,
+                  loads=(Load("ball", force=(2.0, 0.0, 0.0), torque=(0.0, 0.01, 0.0)),))
+    sim = adapter.build(scene, Settings(dt=1e-3))
+    assert "load" in sim.effects
+    for _ in range(100):
+        sim.step()
+    state = sim.states()["ball"]
+    sim.close()
+    assert state[7] == pytest.approx(0.2, rel=1e-4)
+    assert state[11] == pytest.approx(0.1, rel=1e-4)
+
+
+@pytest.mark.parametrize("motion", ["slow mode", "fast mode"])
+def test_double_pendulum_modes_are_the_linear_normal_modes_at_2_deg(motion):
+    """The expected period (the full equations integrated, read at their zero crossings) is
+    the linear mode's 2 pi / w to the O(theta^2) shift at 2 deg: 1e-4 for the slow mode (a
+    single pendulum's theta^2/16 is 7.6e-5), 2e-3 for the fast one, whose opposed arms meet
+    the coupling cos(theta_1 - theta_2) and the theta'^2 terms at their difference (measured
+    1.1e-3); and the two modes differ: the start shapes are the modes'."""
+    from cases import double_pendulum as dp
+    w, shapes = dp.normal_modes(3)
+    k = 0 if motion == "slow mode" else 1
+    T, _ = dp._swing(motion, 3, 1e-3)
+    assert T == pytest.approx(2 * math.pi / w[k], rel=1e-4 if k == 0 else 2e-3)
+    assert w[0] < w[1] and shapes[0, 0] * shapes[1, 0] > 0 > shapes[0, 1] * shapes[1, 1]  # in phase, then opposed
+
+
+def test_rigid_motions_and_scalings_do_not_apply_to_jointed_scenes():
+    """They move the bodies, not yet the joints' anchors and axes or the loads: a moved
+    scene would hang its bodies on the old anchors, so the relation says it does not apply."""
+    from cases import relations
+    hinged = pendulum.scene(pendulum.GRID[0])
+    moved = [r for r in relations.RELATIONS if isinstance(r, (relations.Motion, relations.Scale))]
+    assert moved and all(r.applies(hinged) == "the scene has joints or loads, which this relation does not "
+                                              "transform yet" for r in moved)
+    assert all(r.applies(Scene(bodies=(_bob(),))) is None for r in moved)
+
+
+def test_pinch_grasp_holds_exactly_at_2_mu_F_equal_to_m_g():
+    from cases import pinch_grasp as pg
+    assert pg.holds({"ratio": 1.0, "dim": 3}) and not pg.holds({"ratio": 0.999, "dim": 3})
+    mu = pg.friction({"ratio": 0.8, "dim": 3})
+    assert 2 * mu * pg.F == pytest.approx(0.8 * pg.MASS * G)
+    assert pg.sliding_acceleration(mu) == pytest.approx(0.2 * G)
+    # a slipping block stays between the pads for the whole run: at the grid's lowest ratio
+    # (0.8) it falls (1 - 0.8) g T^2 / 2, less than the pads reach below it
+    lowest = min(p["ratio"] for p in pg.GRID)
+    assert (1 - lowest) * G * pg.T**2 / 2 < pg.PAD_HALF[2] - pg.HALF
+
+
+@pytest.mark.parametrize("engine", _jointed_engines(lambda c: "revolute" in c.joints))
+def test_a_jointed_scenes_bulk_read_is_its_states(engine):
+    """The harness records through write_state and decode_states: on a swinging hinge they
+    give every engine's states() (a MuJoCo tree and a DART or PyBullet jointed body read
+    their states another way than their free bodies do)."""
+    adapter = adapter_or_skip(engine)
+    dim = 3 if 3 in adapter.capabilities.dimensions else 2
+    p = {"joint": "revolute", "amplitude": 150.0, "dim": dim}
+    sim = adapter.build(pendulum.scene(p), Settings(dt=1e-3))
+    for _ in range(50):
+        sim.step()
+    raw = np.empty((1, sim.state_size()))
+    sim.write_state(raw[0])
+    decoded = sim.decode_states(raw)[0]
+    states = sim.states()
+    sim.close()
+    for i, name in enumerate(sim.body_order()):
+        np.testing.assert_allclose(decoded[i], states[name], rtol=0, atol=1e-12)
