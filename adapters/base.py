@@ -87,6 +87,9 @@ class Capabilities:
     contact_forces: bool              # normal forces can be read out
     iterations: bool                  # the solver has an iteration count to set
     contact_points: bool = False      # Simulation.contact_points reports each point's forces
+    # contact forces can be read also in a scene with joints (False where they are worked out from the bodies'
+    # momenta, which a joint's impulses change too)
+    contact_forces_beside_joints: bool = True
     contact_laws: frozenset[str] = frozenset()  # compliant laws of cases.scene.Compliance it models
     # How the engine resolves impacts at several contacts within one step (IMPACT_MODELS);
     # None: not declared.
@@ -198,6 +201,9 @@ class Capabilities:
                     "model that contact law")
         if "contact_forces" in needs and not self.contact_forces:
             return "the case reads contact forces, which this engine does not report"
+        if "contact_forces" in needs and scene.joints and not self.contact_forces_beside_joints:
+            return ("the case reads contact forces in a scene with joints: the engine's contact forces are worked "
+                    "out from the bodies' momenta, which the joints' impulses change too")
         for need in sorted(needs):
             if need.startswith(IMPACT_MODEL_NEED):
                 model = need[len(IMPACT_MODEL_NEED):]

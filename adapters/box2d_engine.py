@@ -142,6 +142,7 @@ class Box2DAdapter(Adapter):
         native_restitution=True,
         static_kinetic=False,  # one friction coefficient per shape
         contact_forces=True,   # from the bodies' momenta, see the module notes
+        contact_forces_beside_joints=False,  # the momenta hold the joints' impulses too
         iterations=True,       # the sub-step count
         contact_points=False,
         impact_model=IMPACT_MODEL_MEASURED,  # neither model: see the note above the class

@@ -174,6 +174,7 @@ class Box3DAdapter(Adapter):
         native_restitution=True,
         static_kinetic=False,  # one friction coefficient per pair
         contact_forces=True,
+        contact_forces_beside_joints=False,  # the momenta hold the joints' impulses too
         iterations=True,       # the sub-step count
         contact_points=False,
         impact_model=IMPACT_MODEL_MEASURED,  # touching bodies take an impact one pair a step

@@ -88,6 +88,27 @@ def test_an_engine_without_joints_says_so():
         Capabilities(**{**bare.__dict__, "joints": frozenset({"revolute"})})
 
 
+def test_contact_forces_from_momenta_are_not_read_in_a_scene_with_joints():
+    """Box2D's and Box3D's contact forces are worked out from the bodies' momenta: in a scene
+    with joints these hold the joints' impulses too, so a case that reads contact forces
+    there is unsupported, with that reason; without joints, or with forces read apart, it runs."""
+    hinged = Scene(bodies=(ground(), _bob()), joints=(Joint("revolute", "bob"),))
+    free = Scene(bodies=(ground(), _bob()))
+    forces = frozenset({"contact_forces"})
+    base = dict(dimensions=frozenset({3}), shapes=frozenset({"sphere", "plane"}), native_restitution=True,
+                static_kinetic=False, contact_forces=True, iterations=False, joints=frozenset({"revolute"}),
+                coordinates="maximal")
+    from_momenta = Capabilities(**base, contact_forces_beside_joints=False)
+    assert "joints' impulses change too" in from_momenta.cannot_run(hinged, forces)
+    assert from_momenta.cannot_run(free, forces) is None and from_momenta.cannot_run(hinged) is None
+    assert Capabilities(**base).cannot_run(hinged, forces) is None
+    for engine in ("box2d", "box3d"):
+        try:
+            assert not registry.get(engine).capabilities.contact_forces_beside_joints, engine
+        except registry.EngineError:
+            continue  # not installed
+
+
 def test_a_bad_joint_in_a_users_case_is_one_line_and_exit_2(tmp_path):
     (tmp_path / "cases").mkdir()
     (tmp_path / "cases" / "mine.py").write_text(textwrap.dedent("""
