@@ -5,10 +5,10 @@ Imports the standard library, numpy and numba only; nothing from `cases`, `adapt
 
 Speed: the whole step is compiled. Each function is written once, in plain Python on numpy
 arrays, floats and named tuples, and compiled by numba (`compiled.njit`, nopython, no
-fastmath, so every operation rounds as in Python); `World.step` is one call of the compiled
-`world.step`, which runs the broad and narrow phase, the rows, the warm start, gravity,
-the formulation's solve and the integration with nothing per body or per contact in
-Python. Where the previous, partly Python version of this engine summed with numpy (einsum,
+fastmath, so every operation rounds as in Python); `World.step` is two compiled calls,
+`world.begin` (the broad and narrow phase, the rows, the warm start, gravity: compiled
+once for every formulation) and `world.end` (the formulation's solve and the integration:
+compiled per formulation), with nothing per body or per contact in Python. Where the previous, partly Python version of this engine summed with numpy (einsum,
 BLAS products, LAPACK), the compiled code sums in numpy's order or calls the same BLAS and
 LAPACK routines, so its results are those of that version to the last bit. numba is a
 dependency of the project; without it, or with NUMBA_DISABLE_JIT=1, the same functions
@@ -25,7 +25,7 @@ Modules:
 - `sequential_impulses`  the default formulation "si" (note 001, "sequential impulses")
 - `world`       `World`: bodies, pair materials, gravity; `step(dt)`
 
-One step (`world.step`, note 001, "simulation loop"):
+One step (`World.step`: `world.begin`, then `world.end`; note 001, "simulation loop"):
 
 1. collide: broad phase, narrow phase (shapes up to `config.margin` apart, plus the
    step each body can travel); each contact gets its rows (`contact.prepare`), its
@@ -49,7 +49,7 @@ Formulation interface -- one module per formulation:
               settings: Settings) -> int          # bit k set: STAGES[k] ran
 
 - Name: `config.formulation = "<name>"` imports `reference_impl.<name>`; the only alias is
-  "si" -> `sequential_impulses`. The type of its `Settings` picks its `solve` when the step
+  "si" -> `sequential_impulses`. The type of its `Settings` picks its `solve` when `world.end`
   compiles (world.solve), so adding a formulation is adding one file; formulation-specific
   settings go in `config.params` (document the keys in the module docstring).
 - Called after external forces are in the velocities (`bodies.v`, `bodies.w`) and before

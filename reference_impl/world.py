@@ -1,10 +1,14 @@
 """The world: bodies, pair materials, gravity, and the time step (see __init__.py).
 
 `World` is the Python front: it collects bodies and materials, then keeps everything a
-step reads and writes in one `State` (bodies and contacts as arrays, the formulation's
-settings), and each `World.step(dt)` is one call of the compiled `step` below: broad and
-narrow phase, rows, warm start, gravity, the formulation's solve and the integration run
-compiled end to end (compiled.py), with nothing per body or per contact in Python.
+step reads and writes in one `State` (bodies and contacts as arrays), and each
+`World.step(dt)` is two compiled calls (compiled.py), with nothing per body or per
+contact in Python: `begin` (broad and narrow phase, rows, warm start, gravity) and `end`
+(the formulation's solve, then the integration). `begin` takes no formulation's type, so
+a process compiles it once for every formulation; `end` is compiled per formulation (the
+type of its `Stepper`'s settings picks the solve). numba optimises a function together
+with everything it calls, so a single compiled step per formulation compiled the world's
+collision phase again for each formulation.
 """
 from __future__ import annotations
 
@@ -99,11 +103,18 @@ class State:
     materials: np.ndarray    # (M, 5): e, mu_s, mu_k, rolling, torsion; row 0 the world's own
     material_of: np.ndarray  # (N, N) int: the row of materials of each pair of bodies
     phases: Phases
-    settings: tuple          # the formulation's Settings (its type picks the formulation)
     features: dict           # clip-node ids of the narrow phase (geometry._clip_feature)
     contacts: Contacts       # the last step's (their impulses warm-start the next)
     pairs: np.ndarray        # (P, 2) body pairs in contact in the last step
     impulses: np.ndarray     # (P,) their normal impulse, N s
+
+
+@structure
+class Stepper:
+    """A world's State and its formulation's Settings: what `end` takes (one type per
+    formulation, so that `end` compiles once per formulation and `begin` once)."""
+    state: State
+    settings: tuple
 
 
 class Saved(NamedTuple):
@@ -133,6 +144,8 @@ class World:
         self.stages: tuple[str, ...] = ()
         self.settings = None   # the formulation's Settings, made with the State
         self._state = None     # built at the first step, again after the world changes
+        self._stepper = None   # the State with the formulation's settings (built with the State)
+        self._end = end        # end, or _end_two_phase when the Phases ask for it
         self._contacts = None  # the last step's contacts as contact.Contact, made when asked for
         self._stage_names: dict[int, tuple[str, ...]] = {}
 
@@ -223,16 +236,20 @@ class World:
             features, contacts, (pairs, impulses) = _features(self._state), _contacts(self._state), \
                 _impulses(self._state)
         self.settings = self.solver.settings(c)  # the formulation's (compiled code shares its arrays)
-        return new_state(bodies, np.array(self.gravity, dtype=float), materials, material_of, phases,
-                         self.settings, features, contacts, pairs, impulses)
+        state = new_state(bodies, np.array(self.gravity, dtype=float), materials, material_of, phases,
+                          features, contacts, pairs, impulses)
+        self._stepper = new_stepper(state, self.settings)
+        self._end = _end_two_phase if phases.two_phase else end
+        return state
 
     # --- stepping --------------------------------------------------------------------------
 
     def step(self, dt: float) -> None:
-        """One step: `step` below, compiled."""
+        """One step (note 001, "simulation loop"): `begin` and `end` below, compiled."""
         if self._state is None:
             self._state = self._build()
-        ran = step(self._state, float(dt))
+        dt = float(dt)
+        ran = begin(self._state, dt) | self._end(self._stepper, dt)
         self._contacts = None
         names = self._stage_names.get(ran)
         if names is None:
@@ -269,8 +286,13 @@ class World:
 
 
 @njit
-def new_state(bodies, gravity, materials, material_of, phases, settings, features, contacts, pairs, impulses):
-    return State(bodies, gravity, materials, material_of, phases, settings, features, contacts, pairs, impulses)
+def new_state(bodies, gravity, materials, material_of, phases, features, contacts, pairs, impulses):
+    return State(bodies, gravity, materials, material_of, phases, features, contacts, pairs, impulses)
+
+
+@njit
+def new_stepper(state, settings):
+    return Stepper(state, settings)
 
 
 # Python reads a State's fields through compiled getters
@@ -289,7 +311,7 @@ def _features(state):
     return state.features
 
 
-# the stages of a step, bits of `step`'s result: the world's, and from SOLVER_SHIFT on the
+# the stages of a step, bits of World.step's mask: the world's, and from SOLVER_SHIFT on the
 # formulation's (bit SOLVER_SHIFT + k: its STAGES[k])
 WORLD_STAGES = ("collide", "gravity", "positions", "rotations")
 COLLIDE, GRAVITY, POSITIONS, ROTATIONS = 1, 2, 4, 8
@@ -303,21 +325,23 @@ def solve(contacts, bodies, dt, settings):
 
 @overload(solve)
 def _solve_of(contacts, bodies, dt, settings):
-    """Compiled, the same choice made once, when `step` compiles for a formulation."""
+    """Compiled, the same choice made once, when the caller compiles for a formulation."""
     chosen = sys.modules[settings.instance_class.__module__].solve
     return lambda contacts, bodies, dt, settings: chosen(contacts, bodies, dt, settings)
 
 
 @njit
-def step(state, dt) -> int:
-    """One step (note 001, "simulation loop"); returns the stages that ran (bits, above).
+def begin(state, dt) -> int:
+    """The world's part of a step before the formulation's (note 001, "simulation loop"),
+    the same for every formulation:
 
     1. collide: broad phase, narrow phase (shapes up to config.margin apart, plus the step
        each body can travel), each contact's rows, approach velocity, target and bias
        (contact.prepare), and last step's impulses of the same contacts (warm start);
-    2. gravity: v += g dt (skipped when gravity is zero);
-    3. solve: the formulation of `state.settings` changes the body velocities;
-    4. integrate positions and orientations from v + vp, w + wp, then clear vp, wp."""
+       they are state.contacts from now on;
+    2. gravity: v += g dt (skipped when gravity is zero).
+
+    Returns the stages that ran (bits, above)."""
     bodies = state.bodies
     N = len(bodies.x)
     for i in range(N):  # velocities before external forces
@@ -325,7 +349,8 @@ def step(state, dt) -> int:
             for k in range(3):
                 bodies.v0[i, k], bodies.w0[i, k] = bodies.v[i, k], bodies.w[i, k]
     ran = COLLIDE
-    contacts = collide(bodies, state.contacts, state.features, state.materials, state.material_of, dt, state.phases)
+    state.contacts = collide(bodies, state.contacts, state.features, state.materials, state.material_of, dt,
+                             state.phases)
 
     g = state.gravity  # integrate forces: gravity into the velocities
     if g[0] != 0.0 or g[1] != 0.0 or g[2] != 0.0:
@@ -334,24 +359,45 @@ def step(state, dt) -> int:
             if not bodies.static[i]:
                 for k in range(3):
                     bodies.v[i, k] += g[k] * dt
+    return ran
 
-    if len(contacts.a):  # solve the contacts with the configured formulation
-        if state.phases.two_phase:  # the planted fault of Phases
-            ran |= _two_phase(contacts, bodies, dt, state.settings, state.phases) << SOLVER_SHIFT
-        else:
-            ran |= solve(contacts, bodies, dt, state.settings) << SOLVER_SHIFT
 
-    ran |= POSITIONS  # integrate positions (and orientations of the bodies that rotate)
-    for i in range(N):
+@njit
+def end(stepper, dt) -> int:
+    """The rest of a step: 3. solve: the formulation of `stepper.settings` changes the body
+    velocities (when there are contacts); 4. integrate (`finish`). Returns the stages
+    that ran (bits, above)."""
+    state = stepper.state
+    ran = 0
+    if len(state.contacts.a):
+        ran = solve(state.contacts, state.bodies, dt, stepper.settings) << SOLVER_SHIFT
+    return ran | finish(state, dt)
+
+
+@njit
+def _end_two_phase(stepper, dt) -> int:
+    """`end` with the two-phase law of Phases (a planted fault) in place of the solve."""
+    state = stepper.state
+    ran = 0
+    if len(state.contacts.a):
+        ran = _two_phase(state.contacts, state.bodies, dt, stepper.settings, state.phases) << SOLVER_SHIFT
+    return ran | finish(state, dt)
+
+
+@njit
+def finish(state, dt) -> int:
+    """4. integrate positions and orientations from v + vp, w + wp, then clear vp, wp;
+    and each body pair's normal impulse of the step. Returns the stages that ran."""
+    bodies = state.bodies
+    ran = POSITIONS  # integrate positions (and orientations of the bodies that rotate)
+    for i in range(len(bodies.x)):
         if not bodies.static[i]:
             if bodies.can_rotate[i]:
                 ran |= ROTATIONS
             integrate_position(bodies, i, dt)
             for k in range(3):
                 bodies.vp[i, k], bodies.wp[i, k] = 0.0, 0.0
-
-    state.contacts = contacts
-    state.pairs, state.impulses = _pair_impulses(contacts)
+    state.pairs, state.impulses = _pair_impulses(state.contacts)
     return ran
 
 

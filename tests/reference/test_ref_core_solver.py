@@ -5,6 +5,7 @@ import math
 
 import pytest
 
+from reference_impl.compiled import JIT
 from reference_impl.config import Config
 from reference_impl.geometry import Box, Circle, Plane, Rect, Sphere
 from reference_impl.rigid_body import RigidBody, mat_vec, similarity
@@ -238,3 +239,19 @@ def test_a_touching_row_passes_elastic_impacts_on_without_losing_energy():
         w.step(1e-3)
     energy = sum(0.5 * b.v[0] ** 2 for b in balls)
     assert energy == pytest.approx(0.5, rel=1e-9)
+
+
+@pytest.mark.skipif(not JIT, reason="compiled code only (numba installed, NUMBA_DISABLE_JIT unset)")
+def test_the_collision_phase_compiles_once_for_every_formulation():
+    # a step is world.begin (broad and narrow phase, rows, warm start, gravity), which takes
+    # no formulation's type, then world.end (the formulation's solve, the integration): a
+    # process compiles (or loads) begin once however many formulations it runs, end once each
+    from reference_impl import world
+    for name in ("si", "pgs"):
+        w = World(config=Config(formulation=name))
+        w.add(RigidBody("ground", Plane(), static=True))
+        w.add(RigidBody("ball", Sphere(0.1), 1.0, (0.004,) * 3, x=(0.0, 0.0, 0.1), can_rotate=False))
+        w.step(1e-3)
+        assert f"{name}:velocity" in w.stages
+    assert len(world.begin.signatures) == 1
+    assert len(world.end.signatures) >= 2
