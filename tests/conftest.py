@@ -31,6 +31,31 @@ if "PHYSVAL_TEST_ROWS" not in os.environ:
     atexit.register(shutil.rmtree, os.environ["PHYSVAL_TEST_ROWS"], ignore_errors=True)
 
 
+@pytest.fixture(scope="session", autouse=True)
+def reference_compiled_once(request):
+    """Under pytest-xdist, one worker compiles the reference formulations (numba, into its
+    cache on disk) while the other waits, then loads what it compiled: each worker used to
+    compile them itself at once, and on an empty cache (a fresh clone) that is minutes of
+    CPU twice. The warm-up runs jobs of the battery (the first conformance job each
+    formulation represents), whose rows the battery then reads (tests.helpers.shared_rows):
+    nothing is run for the warm-up alone. Without xdist a process compiles where it first
+    needs to, as before."""
+    folder = os.environ.get("PHYSVAL_TEST_ROWS")
+    if not os.environ.get("PYTEST_XDIST_WORKER") or not folder:
+        return
+    import fcntl
+    from adapters.registry import available
+    from physval.testing import engine_checks
+    from tests.helpers import shared_rows
+    engines = [e for e in selected_engines(request.config)[0] if e.startswith("reference") and available(e)]
+    with open(Path(folder) / "reference-compiled.lock", "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        for engine in engines:
+            for param in engine_checks([engine], conformance=True):
+                if any(r["status"] != "unsupported" for r in shared_rows(param.values[0])):
+                    break  # one job it can represent has compiled its step
+
+
 # Hypothesis profiles. "ci" (the default): derandomized, so every run draws the same
 # examples and a test fails only when the code changes; 60 examples a test unless the test
 # sets its own max_examples. "wide", on demand: a fresh random search with 2000 examples a
