@@ -197,11 +197,16 @@ def pytest_xdist_make_scheduler(config, log):
 
     class OneWorkerFiles(LoadScopeScheduling):
         def _split_scope(self, nodeid: str) -> str:
-            file = nodeid.split("::", 1)[0]
-            return file if file.rsplit("/", 1)[-1] in ONE_WORKER else nodeid
+            return one_worker_unit(nodeid)
 
     config.option.loadscopereorder = False  # keep in_worker_order's order (not the scopes' sizes)
     return OneWorkerFiles(config, log)
+
+
+def one_worker_unit(nodeid: str) -> str:
+    """What pytest-xdist hands to one worker at once: a file of ONE_WORKER whole, else the test."""
+    file = nodeid.split("::", 1)[0]
+    return file if file.rsplit("/", 1)[-1] in ONE_WORKER else nodeid
 
 
 def in_worker_order(items) -> None:
