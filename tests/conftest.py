@@ -42,7 +42,7 @@ def reference_compiled_once(request):
     shared_rows): nothing is run for the warm-up alone. Without xdist a process compiles
     where it first needs to, as before."""
     folder = os.environ.get("PHYSVAL_TEST_ROWS")
-    if not os.environ.get("PYTEST_XDIST_WORKER") or not folder:
+    if not hasattr(request.config, "workerinput") or not folder:  # not a pytest-xdist worker
         return
     import fcntl
     from adapters.registry import available
