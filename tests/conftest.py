@@ -20,15 +20,17 @@ from hypothesis import settings
 ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
-# engine-wide readings cache their jobs here (physval.core.store.cache_dir), not in the user's cache
-os.environ.setdefault("PHYSVAL_CACHE_DIR", tempfile.mkdtemp(prefix="physval-test-cache-"))
-# one run's rows of each built-in job, shared by the tests that read them (tests.helpers.shared_rows):
-# made by the session's first process, inherited by its pytest-xdist workers, removed at its end
-if "PHYSVAL_TEST_ROWS" not in os.environ:
-    import atexit
-    import shutil
-    os.environ["PHYSVAL_TEST_ROWS"] = tempfile.mkdtemp(prefix="physval-test-rows-")
-    atexit.register(shutil.rmtree, os.environ["PHYSVAL_TEST_ROWS"], ignore_errors=True)
+# Folders made by the session's first process, inherited by its pytest-xdist workers (and the
+# processes tests start), removed at its end (one was left behind by every pytest process):
+# PHYSVAL_CACHE_DIR: engine-wide readings cache their jobs here (physval.core.store.cache_dir),
+# not in the user's cache; PHYSVAL_TEST_ROWS: one run's rows of each built-in job, shared by the
+# tests that read them (tests.helpers.shared_rows)
+for _name, _prefix in (("PHYSVAL_CACHE_DIR", "physval-test-cache-"), ("PHYSVAL_TEST_ROWS", "physval-test-rows-")):
+    if _name not in os.environ:
+        import atexit
+        import shutil
+        os.environ[_name] = tempfile.mkdtemp(prefix=_prefix)
+        atexit.register(shutil.rmtree, os.environ[_name], ignore_errors=True)
 
 
 @pytest.fixture(scope="session", autouse=True)
