@@ -33,45 +33,6 @@ for _name, _prefix in (("PHYSVAL_CACHE_DIR", "physval-test-cache-"), ("PHYSVAL_T
         atexit.register(shutil.rmtree, os.environ[_name], ignore_errors=True)
 
 
-@pytest.fixture(scope="session", autouse=True)
-def reference_compiled_once(request):
-    """Under pytest-xdist, each reference formulation is compiled (numba, into its cache on
-    disk) by one worker: a worker compiles the formulations no other worker is compiling,
-    then waits for the others' and loads them from the cache. Each worker used to compile
-    every formulation itself, at the same time, and on an empty cache (a fresh clone) that
-    is minutes of CPU twice. The warm-up runs jobs of the battery (the first conformance job
-    each formulation represents), whose rows the battery then reads (tests.helpers.
-    shared_rows): nothing is run for the warm-up alone. Without xdist a process compiles
-    where it first needs to, as before."""
-    folder = os.environ.get("PHYSVAL_TEST_ROWS")
-    if not hasattr(request.config, "workerinput") or not folder:  # not a pytest-xdist worker
-        return
-    import fcntl
-    from adapters.registry import available
-    from physval.testing import engine_checks
-    from tests.helpers import shared_rows
-
-    def compile_by_one_job(engine: str) -> None:
-        for param in engine_checks([engine], conformance=True):
-            if any(r["status"] != "unsupported" for r in shared_rows(param.values[0])):
-                return  # one job it can represent has compiled its step
-
-    engines = [e for e in selected_engines(request.config)[0] if e.startswith("reference") and available(e)]
-    busy = []
-    for engine in engines:  # the formulations no other worker is compiling now
-        with open(Path(folder) / f"compiling-{engine}.lock", "a") as lock:
-            try:
-                fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                busy.append(engine)
-                continue
-            compile_by_one_job(engine)
-    for engine in busy:  # then the others', once compiled (their rows are read, not run again)
-        with open(Path(folder) / f"compiling-{engine}.lock", "a") as lock:
-            fcntl.flock(lock, fcntl.LOCK_EX)
-            compile_by_one_job(engine)
-
-
 # Hypothesis profiles. "ci" (the default): derandomized, so every run draws the same
 # examples and a test fails only when the code changes; 60 examples a test unless the test
 # sets its own max_examples. "wide", on demand: a fresh random search with 2000 examples a
