@@ -14,20 +14,23 @@ import sys
 import tempfile
 from pathlib import Path
 
+import pytest
 from hypothesis import settings
 
 ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
-# engine-wide readings cache their jobs here (physval.core.store.cache_dir), not in the user's cache
-os.environ.setdefault("PHYSVAL_CACHE_DIR", tempfile.mkdtemp(prefix="physval-test-cache-"))
-# one run's rows of each built-in job, shared by the tests that read them (tests.helpers.shared_rows):
-# made by the session's first process, inherited by its pytest-xdist workers, removed at its end
-if "PHYSVAL_TEST_ROWS" not in os.environ:
-    import atexit
-    import shutil
-    os.environ["PHYSVAL_TEST_ROWS"] = tempfile.mkdtemp(prefix="physval-test-rows-")
-    atexit.register(shutil.rmtree, os.environ["PHYSVAL_TEST_ROWS"], ignore_errors=True)
+# Folders made by the session's first process, inherited by its pytest-xdist workers (and the
+# processes tests start), removed at its end (one was left behind by every pytest process):
+# PHYSVAL_CACHE_DIR: engine-wide readings cache their jobs here (physval.core.store.cache_dir),
+# not in the user's cache; PHYSVAL_TEST_ROWS: one run's rows of each built-in job, shared by the
+# tests that read them (tests.helpers.shared_rows)
+for _name, _prefix in (("PHYSVAL_CACHE_DIR", "physval-test-cache-"), ("PHYSVAL_TEST_ROWS", "physval-test-rows-")):
+    if _name not in os.environ:
+        import atexit
+        import shutil
+        os.environ[_name] = tempfile.mkdtemp(prefix=_prefix)
+        atexit.register(shutil.rmtree, os.environ[_name], ignore_errors=True)
 
 
 # Hypothesis profiles. "ci" (the default): derandomized, so every run draws the same
@@ -56,7 +59,6 @@ def pytest_addoption(parser):
 
 def selected_engines(config) -> tuple[list[str], bool]:
     """(engines, named): the --engine selection, or every registered engine."""
-    import pytest
     from adapters.registry import engine_names
     from physval.core.selection import SelectionError, select_engines
     values = config.getoption("--engine")
@@ -93,7 +95,6 @@ SLOW_IN_THE_SUITE = {
 
 def _suite_speed(param):
     from fnmatch import fnmatchcase
-    import pytest
     job = param.values[0]
     slow = any(fnmatchcase(job.engine, e) and fnmatchcase(job.variant.test_id, v) for e, v in SLOW_IN_THE_SUITE)
     return pytest.param(*param.values, id=param.id, marks=[*param.marks, pytest.mark.slow]) if slow else param
@@ -122,7 +123,101 @@ def engines_of(item) -> tuple[set[str], list[str]]:
 
 
 def pytest_collection_modifyitems(config, items):
-    """Under --engine, deselect every test that is not about a selected engine."""
+    """Under --engine, deselect every test that is not about a selected engine; then put
+    the tests in the order the suite's workers take them (in_worker_order)."""
+    _deselect_other_engines(config, items)
+    in_worker_order(items)
+
+
+# Test files whose tests share one costly set-up (a module fixture, or rows cached in the
+# process) run on one pytest-xdist worker (pytest_xdist_make_scheduler): with `-n 2`'s
+# `--dist load` each worker that ran one of their tests made the set-up again. Heaviest
+# first where measured (CPU s of the file in an earlier `pytest -n 2` under load: installed
+# 187, faults 185, plugins 58, real 38, catches 35), so that the longest chain starts at once
+# and the other worker fills in beside it.
+ONE_WORKER = {
+    "test_installed.py": "the wheel built and installed in a fresh environment, whose first reference run compiles",
+    "test_faults.py": "each fault's rows on each engine, cached in the process (and the unmodified wrapper's)",
+    "test_plugins.py": "the example plug-in installed by pip",
+    "test_real.py": "the packaged tosses and the synthetic tosses MuJoCo makes",
+    "test_testing.py": "physval and the example plug-in installed by pip",
+    "test_catches.py": "each variant's rows without the fault, cached in the process",
+    "test_site.py": "a small run's report",
+    "test_releases.py": "the release environments, made once and reused",
+    "test_observer_faults.py": "each fault's rows, cached in the process",
+    "test_shape_mapping.py": "each engine's run of the shape scene, cached in the process",
+}
+
+
+@pytest.hookimpl(tryfirst=True, optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """`-n N` as `--dist load` hands out tests (one at a time as a worker runs short of
+    them, in the order in_worker_order gives), except that each file of ONE_WORKER goes to
+    one worker whole. (`--dist loadgroup` would do it from marks, but with pytest 9.2 it
+    silently stops grouping: pytest-xdist marks a group in the test's id, which pytest no
+    longer reads, pytest-dev/pytest-xdist#1386.) Another --dist is left as asked."""
+    if config.getvalue("dist") != "load":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class OneWorkerFiles(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return one_worker_unit(nodeid)
+
+    config.option.loadscopereorder = False  # keep in_worker_order's order (not the scopes' sizes)
+    return OneWorkerFiles(config, log)
+
+
+def one_worker_unit(nodeid: str) -> str:
+    """What pytest-xdist hands to one worker at once: a file of ONE_WORKER whole, else the test."""
+    file = nodeid.split("::", 1)[0]
+    return file if file.rsplit("/", 1)[-1] in ONE_WORKER else nodeid
+
+
+def in_worker_order(items) -> None:
+    """The order pytest-xdist hands the tests out in: first the files of ONE_WORKER
+    (heaviest first), then the jobs of the battery, the costliest first by the shipped cost
+    table (physval/readings/costs.csv, as `physval run --plan` prices a job), then the rest
+    as collected, short tests, so that the workers end together. Without xdist the order
+    changes nothing but when a test runs."""
+    order = list(ONE_WORKER)
+    grouped, jobs, rest = [], [], []
+    for item in items:
+        if item.path.name in ONE_WORKER:
+            grouped.append(item)
+        elif _job_of(item) is not None:
+            jobs.append(item)
+        else:
+            rest.append(item)
+    grouped.sort(key=lambda item: order.index(item.path.name))  # stable: a file keeps its own order
+    cost = _job_cost()
+    jobs.sort(key=lambda item: -cost(_job_of(item)))
+    items[:] = grouped + jobs + rest
+
+
+def _job_of(item):
+    params = getattr(item, "callspec", None)
+    return params.params.get("job", params.params.get("conformance_job")) if params else None
+
+
+def _job_cost():
+    """Predicted seconds of a job (0 where the table cannot price it)."""
+    import math
+    from physval.core.jobs import steps_of
+    from physval.readings.cost import Model, load_table
+    from cases.registry import builtin_families
+    model, families = Model.of(load_table(), "shipped"), builtin_families()
+
+    def cost(job) -> float:
+        family = families.get(job.family)
+        if family is None:
+            return 0.0
+        seconds, _ = model.predict(job.engine, job.family, steps_of(job, family))
+        return 0.0 if math.isnan(seconds) else seconds
+    return cost
+
+
+def _deselect_other_engines(config, items) -> None:
     if not config.getoption("--engine"):
         return
     from fnmatch import fnmatchcase

@@ -3,6 +3,7 @@ one run's rows of a built-in job shared by every test that reads them; and a bui
 variant's scene at its family's dt, for the tests that build an engine directly."""
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import os
 import pickle
@@ -20,18 +21,25 @@ def shared_rows(job: Job) -> list[dict]:
     ran it once: the battery (tests/test_cases.py), the agreement tests and the faults'
     unmodified runs read the same job's rows, and run it only if no test of the session
     has, in this process or in another pytest-xdist worker (the folder $PHYSVAL_TEST_ROWS
-    they share; without it, this process only). Each caller gets its own copies."""
+    they share, one lock file a job; without it, this process only). Each caller gets its
+    own copies."""
     if job.key not in _rows:
         folder = os.environ.get(SHARED_ROWS)
-        path = Path(folder) / (hashlib.sha256(job.key.encode()).hexdigest()[:32] + ".pickle") if folder else None
-        if path is not None and path.is_file():
-            _rows[job.key] = pickle.loads(path.read_bytes())
-        else:
+        if not folder:
             _rows[job.key] = tuple(execute(job, Context().resolver()).rows)
-            if path is not None:
-                tmp = path.with_name(f".{path.name}.{os.getpid()}")
-                tmp.write_bytes(pickle.dumps(_rows[job.key]))
-                os.replace(tmp, path)  # whole or absent for a reader in another worker
+        else:
+            path = Path(folder) / (hashlib.sha256(job.key.encode()).hexdigest()[:32] + ".pickle")
+            # one process runs the job while another that wants it waits for its rows (two
+            # workers asking at once both ran it); the lock goes with its holder's death
+            with open(path.with_suffix(".lock"), "a") as lock:
+                fcntl.flock(lock, fcntl.LOCK_EX)
+                if path.is_file():
+                    _rows[job.key] = pickle.loads(path.read_bytes())
+                else:
+                    _rows[job.key] = tuple(execute(job, Context().resolver()).rows)
+                    tmp = path.with_name(f".{path.name}.{os.getpid()}")
+                    tmp.write_bytes(pickle.dumps(_rows[job.key]))
+                    os.replace(tmp, path)  # whole or absent
     return [dict(r) for r in _rows[job.key]]
 
 
