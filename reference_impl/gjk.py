@@ -58,6 +58,9 @@ GJK_TOUCH = 1e-10
 # EPA stops when the support along the nearest face's normal is within this (m) of it:
 # the depth is then exact to this, far below the slop (1e-5 m) the solver works to.
 EPA_TOLERANCE = 1e-10
+# B is moved this far (m) apart for GJK when EPA cannot start (cores touching where MD
+# is flat): more than any overlap the solver leaves (its slop, 1e-5 m), small beside the shapes.
+SHIFT = 1e-3
 MAX_ITERATIONS = 64   # GJK passes (it converges in a handful on polytopes; cylinders take more)
 EPA_FACES = 256       # polytope faces kept by EPA (64 passes add at most 2 faces net each)
 # Two segment features at least this far from parallel (sine of the angle) touch at one
@@ -149,12 +152,13 @@ def core_support(C, d):
 
 
 @njit
-def _md_support(A, B, d, W, SA, SB, k):
-    """s_MD(d) = s_A(d) - s_B(-d) into row k of W, with its parts in SA, SB."""
+def _md_support(A, B, d, W, SA, SB, k, shift):
+    """s_MD(d) = s_A(d) - s_B(-d) into row k of W, with its parts in SA, SB (B moved by shift)."""
     a = core_support(A, d)
     b = core_support(B, _scaled(d, -1.0))
     for c in range(3):
-        SA[k, c], SB[k, c], W[k, c] = a[c], b[c], a[c] - b[c]
+        SA[k, c], SB[k, c] = a[c], b[c] + shift[c]
+        W[k, c] = a[c] - SB[k, c]
 
 
 # --- GJK (note 003, "GJK Algorithm: origin in Minkowski Difference") -----------------------
@@ -246,13 +250,13 @@ def _closest_on_simplex(W, simplex, n):
 
 
 @njit
-def gjk(A, B):
-    """GJK on the cores of A and B: (distance, a, b, W, SA, SB, simplex, n): the closest
-    points a of A and b of B (distance |a - b|, 0 when the cores overlap: then the
-    simplex W[simplex[:n]] holds the origin, for EPA)."""
+def gjk(A, B, shift):
+    """GJK on the cores of A and of B moved by `shift`: (distance, a, b, W, SA, SB,
+    simplex, n, used): the closest points a of A and b of B (distance |a - b|, 0 when the
+    cores overlap: then the simplex W[simplex[:n]] holds the origin, for EPA)."""
     W, SA, SB = np.zeros((MAX_ITERATIONS + 4, 3)), np.zeros((MAX_ITERATIONS + 4, 3)), np.zeros((MAX_ITERATIONS + 4, 3))
     d = np.array([1.0, 0.0, 0.0])
-    _md_support(A, B, d, W, SA, SB, 0)
+    _md_support(A, B, d, W, SA, SB, 0, shift)
     simplex, n, used = np.zeros(4, np.int64), 1, 1
     lam = np.zeros(4)
     lam[0] = 1.0
@@ -261,7 +265,7 @@ def gjk(A, B):
         vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
         if vv <= GJK_TOUCH * GJK_TOUCH:
             break
-        _md_support(A, B, _scaled(v, -1.0), W, SA, SB, used)  # Dir: from v to the origin
+        _md_support(A, B, _scaled(v, -1.0), W, SA, SB, used, shift)  # Dir: from v to the origin
         w = W[used]
         if vv - (v[0] * w[0] + v[1] * w[1] + v[2] * w[2]) <= GJK_RELATIVE * vv:
             break  # no nearer: v is the nearest point of MD
@@ -290,8 +294,10 @@ def _face(W, F, N, D, f, i, j, k):
     e1, e2 = _minus(W[j], W[i]), _minus(W[k], W[i])
     nx, ny, nz = e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]
     norm = math.sqrt(nx * nx + ny * ny + nz * nz)
-    if norm <= 0.0:
-        norm = 1e-300
+    if norm <= 1e-300:  # no area: never the nearest face, never seen
+        F[f, 0], F[f, 1], F[f, 2] = i, j, k
+        N[f, 0], N[f, 1], N[f, 2], D[f] = 0.0, 0.0, 0.0, np.inf
+        return
     nx, ny, nz = nx / norm, ny / norm, nz / norm
     dist = nx * W[i, 0] + ny * W[i, 1] + nz * W[i, 2]
     if dist < 0.0:  # wound the other way: flip
@@ -317,7 +323,7 @@ def _blow_up(A, B, W, SA, SB, simplex, n, used):
                             1.0 if t % 2 == 0 else -1.0)
             if d[0] * d[0] + d[1] * d[1] + d[2] * d[2] <= 1e-300:
                 continue
-            _md_support(A, B, d, W, SA, SB, used)
+            _md_support(A, B, d, W, SA, SB, used, np.zeros(3))
             # how far the new point is from the simplex's affine hull
             gap = _affine_gap(W, simplex, n, used)
             if gap > best:
@@ -385,7 +391,7 @@ def epa(A, B, W, SA, SB, simplex, n, used):
         for f in range(faces):
             if alive[f] and D[f] < nearest:
                 best, nearest = f, D[f]
-        _md_support(A, B, N[best], W, SA, SB, used)
+        _md_support(A, B, N[best], W, SA, SB, used, np.zeros(3))
         w = W[used]
         if w[0] * N[best, 0] + w[1] * N[best, 1] + w[2] * N[best, 2] - nearest <= EPA_TOLERANCE:
             break
@@ -440,15 +446,40 @@ def separation(A, B):
     n the unit normal from A to B; a, b the closest (or deepest) points of the rounded
     shapes' surfaces."""
     rA, rB = A[3], B[3]
-    dist, a, b, W, SA, SB, simplex, n, used = gjk(A, B)
+    dist, a, b, W, SA, SB, simplex, n, used = gjk(A, B, np.zeros(3))
     if dist > GJK_TOUCH:
         normal = _scaled(_minus(b, a), 1.0 / dist)
         return rA + rB - dist, normal, _along(a, rA, normal), _along(b, -rB, normal)
     depth, normal, a, b = epa(A, B, W, SA, SB, simplex, n, used)
-    if depth < 0.0:  # MD flat at the origin (touching cores with no volume): any normal
-        normal = np.array([0.0, 0.0, 1.0])
-        depth = 0.0
+    if not (depth >= 0.0 and abs(normal[0] ** 2 + normal[1] ** 2 + normal[2] ** 2 - 1.0) < 1e-6):
+        # the cores touch where MD has no volume at the origin (EPA cannot start): GJK
+        # again with B moved apart by SHIFT along the line of the centres; what the shift
+        # adds along the normal found comes off the depth again
+        u = _minus(_centre(B), _centre(A))
+        norm = math.sqrt(u[0] ** 2 + u[1] ** 2 + u[2] ** 2)
+        u = _scaled(u, 1.0 / norm) if norm > 0.0 else np.array([0.0, 0.0, 1.0])
+        shift = _scaled(u, SHIFT)
+        dist, a, b, W, SA, SB, simplex, n, used = gjk(A, B, shift)
+        if dist <= GJK_TOUCH:
+            normal, depth = u, SHIFT
+        else:
+            normal = _scaled(_minus(b, a), 1.0 / dist)
+            depth = SHIFT * (u[0] * normal[0] + u[1] * normal[1] + u[2] * normal[2]) - dist
+        b = _along(b, -1.0, shift)
     return depth + rA + rB, normal, _along(a, -rA, normal), _along(b, rB, normal)
+
+
+@njit
+def _centre(C):
+    """A point inside C's core: its vertices' mean, or the cylinder's centre."""
+    if C[0] == CYLINDER:
+        return C[4].copy()
+    P = C[1]
+    out = np.zeros(3)
+    for k in range(len(P)):
+        for c in range(3):
+            out[c] += P[k, c] / len(P)
+    return out
 
 
 # --- features and clipping (the manifold) -----------------------------------------------------
@@ -485,7 +516,14 @@ def feature(C, d, tol, P, ids):
     for c in range(3):  # the side line along d: its end on the supporting cap (top) and on the other
         cand[2 * RIM, c] = top[c]
         cand[2 * RIM + 1, c] = top[c] - 2.0 * side * h * R[c, 2]
+    # the rim samples only when the whole cap lies within tol of the support plane (a flat
+    # face down): on a cylinder rolling on its side they would be points of a curved
+    # surface, whose gap the solver's speculative contact (gap / dt, linear) mistakes for
+    # an approach, braking the roll
+    flat_cap = 2.0 * radius * math.sqrt(max(0.0, 1.0 - along * along)) <= tol
     for k in range(2 * RIM + 2):
+        if k < 2 * RIM and not flat_cap:
+            continue
         if cand[k, 0] * d[0] + cand[k, 1] * d[1] + cand[k, 2] * d[2] >= level - tol and m < FEATURE_POINTS:
             seen = False  # a side line's end on a rim sample (the cylinder turned just so): once
             for t in range(m):
