@@ -289,8 +289,10 @@ def gjk(A, B, shift):
 # --- EPA: the depth of overlapping cores ---------------------------------------------------
 
 @njit
-def _face(W, F, N, D, f, i, j, k):
-    """Face f = (i, j, k) of the polytope, its normal turned away from the origin."""
+def _face(W, F, N, D, f, i, j, k, inner):
+    """Face f = (i, j, k) of the polytope, its normal turned away from the point `inner`
+    inside it (not from the origin: a face through the origin, the shapes just touching,
+    would take either side by rounding, and EPA would push them through each other)."""
     e1, e2 = _minus(W[j], W[i]), _minus(W[k], W[i])
     nx, ny, nz = e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]
     norm = math.sqrt(nx * nx + ny * ny + nz * nz)
@@ -299,10 +301,10 @@ def _face(W, F, N, D, f, i, j, k):
         N[f, 0], N[f, 1], N[f, 2], D[f] = 0.0, 0.0, 0.0, np.inf
         return
     nx, ny, nz = nx / norm, ny / norm, nz / norm
+    if nx * (W[i, 0] - inner[0]) + ny * (W[i, 1] - inner[1]) + nz * (W[i, 2] - inner[2]) < 0.0:
+        j, k = k, j  # wound the other way: flip
+        nx, ny, nz = -nx, -ny, -nz
     dist = nx * W[i, 0] + ny * W[i, 1] + nz * W[i, 2]
-    if dist < 0.0:  # wound the other way: flip
-        j, k = k, j
-        nx, ny, nz, dist = -nx, -ny, -nz, -dist
     F[f, 0], F[f, 1], F[f, 2] = i, j, k
     N[f, 0], N[f, 1], N[f, 2], D[f] = nx, ny, nz, dist
 
@@ -377,10 +379,14 @@ def epa(A, B, W, SA, SB, simplex, n, used):
     F, N, D = np.zeros((EPA_FACES, 3), np.int64), np.zeros((EPA_FACES, 3)), np.zeros(EPA_FACES)
     alive = np.zeros(EPA_FACES, np.bool_)
     s = simplex
-    _face(W, F, N, D, 0, s[0], s[1], s[2])
-    _face(W, F, N, D, 1, s[0], s[1], s[3])
-    _face(W, F, N, D, 2, s[0], s[2], s[3])
-    _face(W, F, N, D, 3, s[1], s[2], s[3])
+    inner = np.zeros(3)  # the first tetrahedron's centroid: inside every polytope grown from it
+    for t in range(4):
+        for c in range(3):
+            inner[c] += 0.25 * W[s[t], c]
+    _face(W, F, N, D, 0, s[0], s[1], s[2], inner)
+    _face(W, F, N, D, 1, s[0], s[1], s[3], inner)
+    _face(W, F, N, D, 2, s[0], s[2], s[3], inner)
+    _face(W, F, N, D, 3, s[1], s[2], s[3], inner)
     for f in range(4):
         alive[f] = True
     faces = 4
@@ -418,7 +424,7 @@ def epa(A, B, W, SA, SB, simplex, n, used):
         if faces + n_edges > EPA_FACES:
             break
         for t in range(n_edges):
-            _face(W, F, N, D, faces, edges[t, 0], edges[t, 1], used)
+            _face(W, F, N, D, faces, edges[t, 0], edges[t, 1], used, inner)
             alive[faces] = True
             faces += 1
         used += 1
@@ -427,7 +433,7 @@ def epa(A, B, W, SA, SB, simplex, n, used):
     # the point of the nearest face nearest the origin, in barycentric weights
     i, j, k = F[best, 0], F[best, 1], F[best, 2]
     nb = N[best]
-    depth = D[best]
+    depth = max(D[best], 0.0)  # the origin on the face: touching
     rows = np.array([i, j, k, 0])
     lam, ok = _solve_affine(W, rows, 3)
     if not ok:
@@ -453,19 +459,34 @@ def separation(A, B):
     depth, normal, a, b = epa(A, B, W, SA, SB, simplex, n, used)
     if not (depth >= 0.0 and abs(normal[0] ** 2 + normal[1] ** 2 + normal[2] ** 2 - 1.0) < 1e-6):
         # the cores touch where MD has no volume at the origin (EPA cannot start): GJK
-        # again with B moved apart by SHIFT along the line of the centres; what the shift
-        # adds along the normal found comes off the depth again
-        u = _minus(_centre(B), _centre(A))
-        norm = math.sqrt(u[0] ** 2 + u[1] ** 2 + u[2] ** 2)
-        u = _scaled(u, 1.0 / norm) if norm > 0.0 else np.array([0.0, 0.0, 1.0])
-        shift = _scaled(u, SHIFT)
-        dist, a, b, W, SA, SB, simplex, n, used = gjk(A, B, shift)
-        if dist <= GJK_TOUCH:
+        # again with B moved SHIFT apart along a guess of the normal (GJK's last face of
+        # MD, a triangle's own normal, the line of the centres: the first that parts
+        # them); what the shift adds along the normal found comes off the depth again
+        inside = _minus(_centre(A), _centre(B))  # a point inside MD
+        for guess in range(3):
+            u = np.zeros(3)
+            if guess == 0 and n == 3:
+                u = _cross(_minus(W[simplex[1]], W[simplex[0]]), _minus(W[simplex[2]], W[simplex[0]]))
+            elif guess == 1 and A[0] == POLYTOPE and len(A[1]) == 3:
+                P = A[1]
+                u = _cross(_minus(P[1], P[0]), _minus(P[2], P[0]))
+            elif guess == 2:
+                u = _scaled(inside, -1.0)
+            norm = math.sqrt(u[0] ** 2 + u[1] ** 2 + u[2] ** 2)
+            if norm <= 0.0:
+                continue
+            if u[0] * inside[0] + u[1] * inside[1] + u[2] * inside[2] > 0.0:
+                norm = -norm  # away from MD's inside
+            u = _scaled(u, 1.0 / norm)
+            shift = _scaled(u, SHIFT)
+            dist, a, b, W2, SA2, SB2, simplex2, n2, used2 = gjk(A, B, shift)
             normal, depth = u, SHIFT
-        else:
-            normal = _scaled(_minus(b, a), 1.0 / dist)
-            depth = SHIFT * (u[0] * normal[0] + u[1] * normal[1] + u[2] * normal[2]) - dist
-        b = _along(b, -1.0, shift)
+            if dist > GJK_TOUCH:
+                normal = _scaled(_minus(b, a), 1.0 / dist)
+                depth = SHIFT * (u[0] * normal[0] + u[1] * normal[1] + u[2] * normal[2]) - dist
+                b = _along(b, -1.0, shift)
+                break
+            b = _along(b, -1.0, shift)
     return depth + rA + rB, normal, _along(a, -rA, normal), _along(b, rB, normal)
 
 
@@ -719,6 +740,16 @@ def manifold(A, B, margin, points, depths, ids):
             level = -np.inf
             for k in range(mA):
                 level = max(level, PA[k, 0] * n[0] + PA[k, 1] * n[1] + PA[k, 2] * n[2])
+        if len(ref) >= 3:  # a face: its own normal (exact for a face along the axes), not EPA's
+            nf = _cross(_minus(ref[1], ref[0]), _minus(ref[2], ref[0]))
+            norm = math.sqrt(nf[0] ** 2 + nf[1] ** 2 + nf[2] ** 2)
+            if nf[0] * n[0] + nf[1] * n[1] + nf[2] * n[2] < 0.0:
+                norm = -norm
+            n = _scaled(nf, 1.0 / norm)
+            level = np.inf if flip else -np.inf
+            for k in range(len(ref)):
+                h = ref[k, 0] * n[0] + ref[k, 1] * n[1] + ref[k, 2] * n[2]
+                level = min(level, h) if flip else max(level, h)
         poly, pid, m = _clip(inc, iid, mi, ref, n)
         P, dep, fid = np.empty((m, 3)), np.empty(m), np.empty(m, np.int64)
         for k in range(m):
