@@ -5,8 +5,10 @@
 reference_impl with a `solve` (named "reference-<formulation>" unless `name` says
 otherwise), with `params` as its `Config.params`. The scene maps one to one: the
 engine has pair materials (e, mu_s, mu_k) and the shapes it declares (sphere, box, plane,
-circle, rect; a scene with another is `unsupported`), so nothing is combined or
-approximated. It has no damping, sleeping or restitution threshold to
+capsule, cylinder, hull, static triangle mesh; circle and rect in 2D; a scene with another
+is `unsupported`), so nothing is combined or approximated: spheres, boxes and planes meet by
+closed-form routines, the other shapes by GJK on their support functions
+(reference_impl/gjk.py). It has no damping, sleeping or restitution threshold to
 switch off; the knobs record every setting of `reference_impl.config.Config` in force.
 
 2D scenes (x-z plane) run as planar bodies: positions stay at y = 0, rotation about y only.
@@ -21,9 +23,9 @@ import numpy as np
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.frames import state_row
 from adapters.planting import Passthrough
-from cases.scene import Body, Box, Circle, Plane, Rect, Scene, Sphere, pair_key
+from cases.scene import Body, Box, Capsule, Circle, Cylinder, Hull, Mesh, Plane, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
-from reference_impl import geometry
+from reference_impl import geometry, gjk
 from reference_impl.config import Config
 from reference_impl.contact import contact_arrays, new_contacts
 from reference_impl.rigid_body import RigidBody
@@ -57,7 +59,7 @@ class ReferenceAdapter(Adapter):
     supported = None  # part of physval itself: no engine release to check
     capabilities = Capabilities(
         dimensions=frozenset({2, 3}),
-        shapes=frozenset({"sphere", "box", "plane", "circle", "rect"}),
+        shapes=frozenset({"sphere", "box", "plane", "circle", "rect", "capsule", "cylinder", "hull", "mesh"}),
         native_restitution=True,
         static_kinetic=True,
         contact_forces=True,
@@ -72,9 +74,8 @@ class ReferenceAdapter(Adapter):
         # share nothing but the process and its compiled loops
         modes=frozenset({"save_restore", "worlds"}),
         why_not=(("threads", "the reference steps on one thread: it has no pool"),
-                 *((kind, "the reference's collision detection is closed-form for spheres, boxes and planes "
-                          "(circles and rects in 2D) only; it has no narrow phase for other shapes yet")
-                   for kind in ("capsule", "cylinder", "hull", "mesh", "polygon")),
+                 ("polygon", "the reference's 2D narrow phase is closed-form for circles and rects only; its GJK "
+                             "(reference_impl/gjk.py) takes 3D shapes"),
                  ("joint", "the reference's formulations solve contact rows only: joints as bilateral rows in "
                            "PGS, Lemke and SPOOK are not written yet (issue 39, item 2)"),
                  ("load", "the reference's step applies gravity as its only external force")),
@@ -127,6 +128,15 @@ def _shape(body: Body):
         return geometry.Circle(s.radius)
     if isinstance(s, Rect):
         return geometry.Rect(tuple(float(h) for h in s.half_extents))
+    if isinstance(s, Capsule):
+        return geometry.Capsule(float(s.radius), float(s.half_length))
+    if isinstance(s, Cylinder):
+        return geometry.Cylinder(float(s.radius), float(s.half_length))
+    if isinstance(s, Hull):
+        return geometry.Hull(tuple(tuple(float(c) for c in v) for v in s.vertices))
+    if isinstance(s, Mesh):
+        return geometry.Mesh(tuple(tuple(float(c) for c in v) for v in s.vertices),
+                             tuple(tuple(int(i) for i in t) for t in s.triangles))
     raise Unsupported(f"shape {s.kind}: not available in the reference engine")
 
 
@@ -193,6 +203,10 @@ class ReferenceSimulation(Simulation):
             # how a scene Plane is built: the exact half-space (every vertex of a box within
             # the margin is a contact point, so a face lands on all its corners at once)
             "ground": "plane",
+            # how shapes meet (reference_impl/geometry.py dispatches, gjk.py for the convex rest)
+            "narrow_phase": "closed form for sphere, box, plane (circle, rect); GJK and EPA on support functions, "
+                            "points by clipping on the features, for capsule, cylinder, hull; a mesh through its "
+                            f"bounding-volume tree, each triangle by GJK (cylinder rim: {gjk.RIM} samples per cap)",
             "bodies": {body.name: {"static": body.static, "can_rotate": body.can_rotate}
                        for body in world.bodies},
         }

@@ -33,7 +33,7 @@ from reference_impl.vectors import copy, dot
 # --- shapes --------------------------------------------------------------------------------
 
 # shape kinds, as the bodies' arrays hold them (NONE: a body without a shape, which touches nothing)
-NONE, SPHERE, BOX, PLANE, CIRCLE, RECT = range(6)
+NONE, SPHERE, BOX, PLANE, CIRCLE, RECT, CAPSULE, CYLINDER, HULL, MESH = range(10)
 
 
 @dataclass(frozen=True)
@@ -85,7 +85,52 @@ class Rect:
         return math.hypot(*self.half)
 
 
-KINDS = {"sphere": SPHERE, "box": BOX, "plane": PLANE, "circle": CIRCLE, "rect": RECT}
+@dataclass(frozen=True)
+class Capsule:
+    """Points within `radius` of the segment from -half_length to +half_length on body z."""
+    radius: float
+    half_length: float
+    kind = "capsule"
+
+    @property
+    def bounding_radius(self) -> float:
+        return self.radius + self.half_length
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    """A solid cylinder about body z, its flat ends at z = -half_length and +half_length."""
+    radius: float
+    half_length: float
+    kind = "cylinder"
+
+    @property
+    def bounding_radius(self) -> float:
+        return math.hypot(self.radius, self.half_length)
+
+
+@dataclass(frozen=True)
+class Hull:
+    """The convex hull of `vertices` (body frame): GJK needs its corners only (gjk.py)."""
+    vertices: tuple[tuple[float, float, float], ...]
+    kind = "hull"
+
+    @property
+    def bounding_radius(self) -> float:
+        return max(math.sqrt(x * x + y * y + z * z) for x, y, z in self.vertices)
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """A static triangle mesh (body frame), wound counterclockwise seen from outside."""
+    vertices: tuple[tuple[float, float, float], ...]
+    triangles: tuple[tuple[int, int, int], ...]
+    kind = "mesh"
+    bounding_radius = 0.0  # static: never moves
+
+
+KINDS = {"sphere": SPHERE, "box": BOX, "plane": PLANE, "circle": CIRCLE, "rect": RECT,
+         "capsule": CAPSULE, "cylinder": CYLINDER, "hull": HULL, "mesh": MESH}
 
 
 def shape_columns(shape) -> tuple:
@@ -94,10 +139,23 @@ def shape_columns(shape) -> tuple:
     if shape is None:
         return NONE, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, 0.0
     kind = KINDS[shape.kind]
-    radius = shape.radius if kind in (SPHERE, CIRCLE) else 0.0
+    radius = shape.radius if kind in (SPHERE, CIRCLE, CAPSULE, CYLINDER) else 0.0
     half = shape.half if kind == BOX else ((shape.half[0], 0.0, shape.half[1]) if kind == RECT else (0.0, 0.0, 0.0))
+    if kind in (CAPSULE, CYLINDER):
+        half = (0.0, 0.0, shape.half_length)
     normal, offset = (shape.normal, shape.offset) if kind == PLANE else ((0.0, 0.0, 0.0), 0.0)
     return kind, radius, half, normal, offset, shape.bounding_radius
+
+
+def shape_arrays(shape) -> tuple[np.ndarray, np.ndarray]:
+    """A shape's rows of the bodies' `vertices` and `bvh` arrays: a hull's corners (V, 3)
+    (body frame), or a mesh's triangles' corners in its tree's order (3 rows a triangle)
+    and the tree's nodes (K, 8) (gjk.build_bvh); empty for the other shapes."""
+    if shape is not None and shape.kind == "hull":
+        return np.asarray(shape.vertices, dtype=float).reshape(-1, 3), np.zeros((0, 8))
+    if shape is not None and shape.kind == "mesh":
+        return gjk.build_bvh(shape.vertices, shape.triangles)
+    return np.zeros((0, 3)), np.zeros((0, 8))
 
 
 class Points(NamedTuple):
@@ -131,6 +189,9 @@ def box_bounds(bodies, i):
     if kind == SPHERE or kind == CIRCLE:
         r = bodies.radius[i]
         return (c[0] - r, c[1] - r, c[2] - r), (c[0] + r, c[1] + r, c[2] + r)
+    if kind >= CAPSULE:  # from the support function (gjk.py)
+        lo, hi = gjk.body_bounds(bodies, i)
+        return (lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2])
     h, R = bodies.half[i], bodies.R[i]
     e0 = abs(R[0, 0]) * h[0] + abs(R[0, 1]) * h[1] + abs(R[0, 2]) * h[2]
     e1 = abs(R[1, 0]) * h[0] + abs(R[1, 1]) * h[1] + abs(R[1, 2]) * h[2]
@@ -559,6 +620,13 @@ def _routine(bodies, first, second, margin, features, out, k) -> int:
         return plane_box(bodies, first, second, margin, features, out, k)
     if (A == BOX and B == BOX) or (A == RECT and B == RECT):
         return box_box(bodies, first, second, margin, features, out, k)
+    # the shapes the notes' GJK takes (gjk.py): by their support functions
+    if A == PLANE and B >= CAPSULE and B != MESH:
+        return gjk.plane_convex(bodies, first, second, margin, features, out, k)
+    if A == MESH and (B == SPHERE or B == BOX or (B >= CAPSULE and B != MESH)):
+        return gjk.mesh_convex(bodies, first, second, margin, features, out, k)
+    if A >= CAPSULE and A != MESH and (B == SPHERE or B == BOX or (B >= CAPSULE and B != MESH)):
+        return gjk.convex_convex(bodies, first, second, margin, features, out, k)
     return -1
 
 
@@ -588,3 +656,6 @@ def collide(A, B, margin: float):
     points = [(tuple(out.point[t].tolist()), tuple(out.n[t].tolist()), float(out.depth[t]), int(out.feature[t]))
               for t in range(count)]
     return (A, B, points) if first == 0 else (B, A, points)
+
+
+from reference_impl import gjk  # noqa: E402 (gjk.py reads the shape kinds above)

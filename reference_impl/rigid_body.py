@@ -47,6 +47,9 @@ class BodyArrays(NamedTuple):
     w0: np.ndarray               # (N, 3)
     R: np.ndarray                # (N, 3, 3) rotation matrix of q
     inv_I: np.ndarray            # (N, 3, 3) world inverse inertia
+    vertices: np.ndarray         # (N, V, 3) a hull's corners, a mesh's triangles (geometry.shape_arrays), padded
+    n_vertices: np.ndarray       # (N,) int: the rows of `vertices` in use
+    bvh: np.ndarray              # (N, K, 8) a mesh's tree (gjk.build_bvh), padded
 
 
 Bodies = structure(BodyArrays, "Bodies")
@@ -62,16 +65,25 @@ def stack(bodies: list[RigidBody]) -> BodyArrays:
     """The bodies' rows, copied into one `BodyArrays` in list order."""
     if not bodies:
         return _empty(0)
-    return BodyArrays(*(np.concatenate([getattr(b._arrays, f)[b._row:b._row + 1] for b in bodies])
+    return BodyArrays(*(_padded([getattr(b._arrays, f)[b._row:b._row + 1] for b in bodies])
                         for f in BodyArrays._fields))
 
 
-def _empty(n: int) -> BodyArrays:
+def _padded(rows: list[np.ndarray]) -> np.ndarray:
+    """The rows concatenated, each padded with zeros to the longest along axis 1 when
+    they differ there (the shapes' vertices and trees)."""
+    if rows[0].ndim >= 3 and len({r.shape[1] for r in rows}) > 1:
+        longest = max(r.shape[1] for r in rows)
+        rows = [np.pad(r, [(0, 0), (0, longest - r.shape[1])] + [(0, 0)] * (r.ndim - 2)) for r in rows]
+    return np.concatenate(rows)
+
+
+def _empty(n: int, V: int = 0, K: int = 0) -> BodyArrays:
     return BodyArrays(np.zeros(n, np.int64), np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n), np.zeros(n),
                   np.zeros(n, np.bool_), np.zeros(n, np.bool_), np.zeros(n, np.bool_), np.zeros(n),
                   np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 4)), np.zeros((n, 3)), np.zeros((n, 3)),
                   np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3, 3)),
-                  np.zeros((n, 3, 3)))
+                  np.zeros((n, 3, 3)), np.zeros((n, V, 3)), np.zeros(n, np.int64), np.zeros((n, K, 8)))
 
 
 # --- the body ------------------------------------------------------------------------------
@@ -95,7 +107,9 @@ class RigidBody:
         self.inv_mass = 0.0 if static else 1.0 / mass
         self.inertia = tuple(float(i) for i in inertia)  # principal, body frame
         self.index = -1  # position in the world's body list
-        row = _empty(1)
+        vertices, bvh = geometry.shape_arrays(shape)
+        row = _empty(1, len(vertices), len(bvh))
+        row.vertices[0], row.n_vertices[0], row.bvh[0] = vertices, len(vertices), bvh
         kind, radius, half, normal, offset, bounding = geometry.shape_columns(shape)
         row.shape[0], row.radius[0], row.half[0], row.normal[0], row.offset[0] = kind, radius, half, normal, offset
         row.bounding_radius[0] = bounding

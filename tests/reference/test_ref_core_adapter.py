@@ -19,7 +19,8 @@ def test_name_and_capabilities():
     adapter = ReferenceAdapter()
     assert adapter.name == "reference"
     caps = adapter.capabilities
-    assert caps.dimensions == {2, 3} and caps.shapes == {"sphere", "box", "plane", "circle", "rect"}
+    assert caps.dimensions == {2, 3}
+    assert caps.shapes == {"sphere", "box", "plane", "circle", "rect", "capsule", "cylinder", "hull", "mesh"}
     assert caps.native_restitution and caps.static_kinetic and caps.contact_forces and caps.iterations
     with pytest.raises(ValueError, match="no_such"):
         ReferenceAdapter("no_such")

@@ -1,0 +1,212 @@
+"""The reference's GJK narrow phase (reference_impl/gjk.py): against the box-box separating
+axis routine on random poses, against exact geometry on a catalogue of convex pairs, and
+against an independent collision library (python-fcl: FCL's primitive routines and
+libccd's GJK/EPA for convex meshes) on the same catalogue."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from reference_impl import gjk
+from reference_impl.geometry import Box, Capsule, Cylinder, Hull, Mesh, Plane, Sphere, _separating_axes, collide
+from reference_impl.rigid_body import RigidBody
+
+# GJK stops at a relative progress of 1e-12 and EPA within 1e-10 m of the boundary
+# (gjk.GJK_RELATIVE, gjk.EPA_TOLERANCE); the separating axis routine is exact to
+# rounding. Depths of shapes of size ~1 m then agree to EPA's tolerance plus a few
+# roundings of the coordinates (1e-15 m each): 1e-9 m leaves an order of magnitude.
+DEPTH_TOLERANCE = 1e-9  # m
+
+
+def body(shape, x=(0.0, 0.0, 0.0), q=(1.0, 0.0, 0.0, 0.0), static=False):
+    if static:
+        return RigidBody("s", shape, x=x, q=q, static=True)
+    return RigidBody("d", shape, 1.0, (1.0, 1.0, 1.0), x=x, q=q)
+
+
+def about(axis, angle: float):
+    """Quaternion (w, x, y, z) of a rotation by `angle` about the unit vector `axis`."""
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    s = math.sin(angle / 2)
+    return (math.cos(angle / 2), *(s * a))
+
+
+CUBE = tuple((x, y, z) for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5))
+
+
+# --- GJK and the separating axis test agree on boxes (decision 11) -----------------------
+
+quaternions = st.tuples(*[st.floats(-1.0, 1.0)] * 4).filter(lambda q: sum(c * c for c in q) > 0.01).map(
+    lambda q: tuple(c / math.sqrt(sum(c * c for c in q)) for c in q))
+halves = st.tuples(*[st.floats(0.05, 1.0)] * 3)
+
+
+@given(ha=halves, hb=halves, qa=quaternions, qb=quaternions,
+       offset=st.tuples(*[st.floats(-1.5, 1.5)] * 3))
+def test_gjk_and_separating_axes_agree_on_boxes(ha, hb, qa, qb, offset):
+    """Overlapping boxes: EPA's depth is the separating axis test's least overlap (the
+    minimum translation of two convex polytopes lies along a face normal or an edge
+    cross product), and its normal separates them by exactly that; boxes apart: both
+    say so, and GJK's distance is at least the separating axis's gap (a lower bound)."""
+    A, B = body(Box(ha), q=qa), body(Box(hb), x=offset, q=qb)
+    kind, sat_depth, *_ = _separating_axes(A.R, A.x, np.asarray(ha), B.R, B.x, np.asarray(hb), 0.0, False)
+    depth, n, a, b = gjk.separation(gjk.convex_of(A._bodies, 0), gjk.convex_of(B._bodies, 0))
+    if kind == 0:  # apart along some axis
+        assert depth <= sat_depth + DEPTH_TOLERANCE, f"GJK gap {-depth}, but the separating axis's is {-sat_depth}"
+        return
+    assert depth == pytest.approx(sat_depth, abs=DEPTH_TOLERANCE), \
+        f"EPA depth {depth}, but the separating axis test's is {sat_depth}"
+    # the overlap of the two boxes' projections on n is the depth
+    radius = lambda R, h: sum(h[k] * abs(float(np.dot(R[:, k], n))) for k in range(3))  # noqa: E731
+    overlap = radius(A.R, ha) + radius(B.R, hb) - float(np.dot(B.x - A.x, n))
+    assert overlap == pytest.approx(depth, abs=DEPTH_TOLERANCE), f"projections overlap {overlap} along n, depth {depth}"
+
+
+# --- a catalogue of convex pairs at known poses --------------------------------------------
+
+S2 = math.sqrt(0.5)
+ON_SIDE_X = (S2, 0.0, S2, 0.0)   # body z along world x
+ON_SIDE_Y = (S2, -S2, 0.0, 0.0)  # body z along world y
+VERTEX_DOWN = about((1.0, -1.0, 0.0), math.atan(math.sqrt(2.0)))  # the cube's (-,-,-)... corner straight down
+
+
+def _catalogue():
+    """(name, A, B, exact n (A to B), exact depth, the exact contact region: a function
+    true for a point in it)."""
+    h = 0.5
+    yield ("sphere-capsule", body(Capsule(0.1, 0.3)), body(Sphere(0.2), x=(0.25, 0.0, 0.1)),
+           (1.0, 0.0, 0.0), 0.05, lambda p: abs(p[1]) < 1e-9 and abs(p[2] - 0.1) < 1e-9 and 0.05 - 1e-9 <= p[0] <= 0.1 + 1e-9)
+    yield ("crossed capsules", body(Capsule(0.1, 0.5), q=ON_SIDE_X), body(Capsule(0.1, 0.5), x=(0.0, 0.0, 0.15), q=ON_SIDE_Y),
+           (0.0, 0.0, 1.0), 0.05, lambda p: abs(p[0]) < 1e-9 and abs(p[1]) < 1e-9 and 0.05 - 1e-9 <= p[2] <= 0.1 + 1e-9)
+    yield ("box-cylinder on its end", body(Box((h, h, h))), body(Cylinder(0.2, 0.3), x=(0.1, 0.0, h + 0.3 - 0.01)),
+           (0.0, 0.0, 1.0), 0.01,
+           lambda p: math.hypot(p[0] - 0.1, p[1]) <= 0.2 + 1e-9 and h - 0.01 - 1e-9 <= p[2] <= h + 1e-9)
+    yield ("box-cylinder on its side", body(Box((h, h, h))), body(Cylinder(0.2, 0.3), x=(0.0, 0.1, h + 0.2 - 0.01), q=ON_SIDE_X),
+           (0.0, 0.0, 1.0), 0.01, lambda p: abs(p[1] - 0.1) < 1e-9 and abs(p[0]) <= 0.3 + 1e-9 and h - 0.01 - 1e-9 <= p[2] <= h + 1e-9)
+    yield ("hull-hull face", body(Hull(CUBE)), body(Hull(CUBE), x=(0.3, 0.2, 1.0 - 0.02)),
+           (0.0, 0.0, 1.0), 0.02, lambda p: -0.2 - 1e-9 <= p[0] <= 0.5 + 1e-9 and -0.3 - 1e-9 <= p[1] <= 0.5 + 1e-9
+           and h - 0.02 - 1e-9 <= p[2] <= h + 1e-9)
+    edge = h * math.sqrt(2.0)
+    yield ("hull-hull edge", body(Hull(CUBE)), body(Hull(CUBE), x=(0.0, 0.1, h + edge - 0.02), q=about((1, 0, 0), math.pi / 4)),
+           (0.0, 0.0, 1.0), 0.02, lambda p: abs(p[1] - 0.1) < 1e-9 and abs(p[0]) <= h + 1e-9 and h - 0.02 - 1e-9 <= p[2] <= h + 1e-9)
+    corner = h * math.sqrt(3.0)
+    yield ("hull-hull vertex", body(Hull(CUBE)), body(Hull(CUBE), x=(0.1, 0.1, h + corner - 0.02), q=VERTEX_DOWN),
+           (0.0, 0.0, 1.0), 0.02, lambda p: abs(p[0] - 0.1) < 1e-6 and abs(p[1] - 0.1) < 1e-6 and h - 0.02 - 1e-6 <= p[2] <= h + 1e-6)
+
+
+CATALOGUE = list(_catalogue())
+
+
+@pytest.mark.parametrize("name, A, B, n, depth, inside", CATALOGUE, ids=[c[0] for c in CATALOGUE])
+def test_catalogue_against_exact_geometry(name, A, B, n, depth, inside):
+    """Each pair's normal and depth as the geometry gives them, every point in the exact
+    contact region (a rounding-level 1e-9 m; 1e-6 m for the vertex turned by an angle
+    whose sine and cosine round)."""
+    first, second, points = collide(A, B, 1e-9)
+    sign = 1.0 if first is A else -1.0
+    assert points, f"{name}: no contact, but they overlap by {depth} m"
+    for p, normal, d, _ in points:
+        assert np.allclose(sign * np.asarray(normal), n, atol=1e-9), f"{name}: n = {normal}, but should be {n}"
+        assert d <= depth + DEPTH_TOLERANCE, f"{name}: depth {d} deeper than the overlap {depth}"
+        assert inside(p), f"{name}: point {p} outside the contact region"
+    assert max(d for _, _, d, _ in points) == pytest.approx(depth, abs=1e-6), f"{name}: deepest {points}"
+
+
+def test_line_and_face_contacts_have_their_ends():
+    """A cylinder on its side touches along a line: two points, at its ends; on its end,
+    a disc: at least three points around the rim, so neither rocks."""
+    ground = body(Plane(), static=True)
+    lying = body(Cylinder(0.1, 0.5), x=(0.0, 0.0, 0.1 - 1e-4), q=ON_SIDE_X)
+    _, _, points = collide(ground, lying, 1e-9)
+    assert sorted(round(p[0], 9) for p, *_ in points) == [-0.5, 0.5]
+    standing = body(Cylinder(0.1, 0.5), x=(0.0, 0.0, 0.5 - 1e-4))
+    _, _, points = collide(ground, standing, 1e-9)
+    assert len(points) >= 3 and all(math.hypot(p[0], p[1]) == pytest.approx(0.1, abs=1e-12) for p, *_ in points)
+
+
+def test_mesh_ground_is_the_plane():
+    """A box resting across the two triangles of a square mesh gets the contact points a
+    plane gives it (its four bottom corners, depth and normal the same)."""
+    mesh = body(Mesh(((-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0)), ((0, 1, 2), (0, 2, 3))), static=True)
+    box = body(Box((0.5, 0.4, 0.3)), x=(0.2, -0.1, 0.3 - 1e-4), q=about((0, 0, 1), 0.3))
+    on_mesh = sorted((tuple(np.round(p, 9)), round(d, 12)) for p, _, d, _ in collide(mesh, box, 1e-9)[2])
+    on_plane = sorted((tuple(np.round(p, 9)), round(d, 12)) for p, _, d, _ in collide(body(Plane(), static=True), box, 1e-9)[2])
+    assert on_mesh == on_plane
+
+
+def test_mesh_tree_finds_only_triangles_under_the_box():
+    """The bounding-volume tree of a 20 x 20 grid of squares returns every triangle whose
+    box meets the query box (checked against every triangle's box), and besides them only
+    their leaf-mates (a leaf holds gjk.LEAF_SIZE triangles: within one 1 m cell of it)."""
+    k = 20
+    V = [(float(i), float(j), 0.0) for j in range(k + 1) for i in range(k + 1)]
+    T = [t for j in range(k) for i in range(k) for t in (
+        (j * (k + 1) + i, j * (k + 1) + i + 1, (j + 1) * (k + 1) + i + 1),
+        (j * (k + 1) + i, (j + 1) * (k + 1) + i + 1, (j + 1) * (k + 1) + i))]
+    corners, nodes = gjk.build_bvh(np.array(V), np.array(T))
+    lo, hi = np.array([3.5, 7.2, -0.1]), np.array([5.1, 8.9, 0.1])
+    found = set(gjk.mesh_candidates(nodes, lo, hi).tolist())
+    boxes = corners.reshape(-1, 3, 3)
+    meets = {t for t in range(len(boxes)) if np.all(boxes[t].min(axis=0) <= hi) and np.all(boxes[t].max(axis=0) >= lo)}
+    near = {t for t in range(len(boxes)) if np.all(boxes[t].min(axis=0) <= hi + 1.0)
+            and np.all(boxes[t].max(axis=0) >= lo - 1.0)}
+    assert meets <= found <= near and 0 < len(found) < len(T) // 10
+
+
+# --- the same catalogue against an independent library ---------------------------------------
+
+def _fcl_object(fcl, rb):
+    s = rb.shape
+    if isinstance(s, Sphere):
+        geometry = fcl.Sphere(s.radius)
+    elif isinstance(s, Capsule):
+        geometry = fcl.Capsule(s.radius, 2 * s.half_length)
+    elif isinstance(s, Cylinder):
+        geometry = fcl.Cylinder(s.radius, 2 * s.half_length)
+    elif isinstance(s, Box):
+        geometry = fcl.Box(*(2 * h for h in s.half))
+    else:  # a hull as a convex mesh: libccd's GJK and EPA
+        from scipy.spatial import ConvexHull
+        V = np.asarray(s.vertices, float)
+        tri = ConvexHull(V).simplices
+        geometry = fcl.Convex(V, len(tri), np.column_stack([np.full(len(tri), 3), tri]).ravel())
+    w, x, y, z = rb.q
+    return fcl.CollisionObject(geometry, fcl.Transform(np.array([w, x, y, z]), np.array(rb.x)))
+
+
+# FCL's contact for a pair: its primitive routines (sphere-capsule, box-box, ...) are
+# exact to rounding, libccd's EPA (convex meshes, cylinders) stops within its tolerance
+# (1e-6, FCL's GJKSolver_libccd): depths agree to that; its normal for a flat contact is
+# the face's, for a curved one the direction between the deepest points, within
+# sqrt(2 * 1e-6 / 0.1 m) ~ 5e-3 of the true one (a support point off by 1e-6 m on a
+# curvature radius of 0.1 m); its one point is a point of the overlap, which is `depth`
+# thick along n: the reference's midway points lie within depth of it along n.
+FCL_DEPTH = 1e-6  # m
+FCL_NORMAL = 5e-3
+
+
+@pytest.mark.parametrize("name, A, B, n, depth, inside", CATALOGUE, ids=[c[0] for c in CATALOGUE])
+def test_catalogue_against_fcl(name, A, B, n, depth, inside):
+    fcl = pytest.importorskip("fcl", reason="python-fcl (the test extra) is not installed")
+    request = fcl.CollisionRequest(enable_contact=True, num_max_contacts=8)
+    result = fcl.CollisionResult()
+    assert fcl.collide(_fcl_object(fcl, A), _fcl_object(fcl, B), request, result) > 0, f"{name}: FCL finds no contact"
+    first, _, points = collide(A, B, 1e-9)
+    sign = 1.0 if first is A else -1.0
+    ours_n = sign * np.asarray(points[0][1])
+    ours_depth = max(d for _, _, d, _ in points)
+    theirs = max(result.contacts, key=lambda c: c.penetration_depth)
+    assert theirs.penetration_depth == pytest.approx(ours_depth, abs=FCL_DEPTH), \
+        f"{name}: depth {ours_depth}, but FCL's is {theirs.penetration_depth}"
+    assert np.linalg.norm(np.asarray(theirs.normal) - ours_n) <= FCL_NORMAL, \
+        f"{name}: n = {ours_n}, but FCL's is {theirs.normal}"
+    ours = np.array([p for p, *_ in points])
+    along = (np.asarray(theirs.pos) - ours) @ ours_n
+    assert np.min(np.abs(along)) <= ours_depth + FCL_DEPTH, f"{name}: FCL's point {theirs.pos} off our contact plane"
+    if len(ours) == 1:  # one point: FCL's lies on the segment through it along n
+        across = (np.asarray(theirs.pos) - ours[0]) - along[0] * ours_n
+        assert np.linalg.norm(across) <= FCL_DEPTH + FCL_NORMAL * depth, f"{name}: FCL's point {theirs.pos}, ours {ours[0]}"
