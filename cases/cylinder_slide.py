@@ -16,9 +16,8 @@ It does not tip: friction at the face turns it forward, and the normal force mov
 by mu_k h (h the half-height) to balance that, which stays inside the radius r for
 mu_k < r / h (here 1).
 
-The reference implementation has no narrow phase for cylinders yet (issue 36, item 2): it
-reports the family unsupported, so the wrong answers below are planted on an engine that
-represents cylinders and passes the variant as it is.
+The wrong answers below are planted on the reference (its GJK narrow phase,
+reference_impl/gjk.py, takes the cylinder's support function).
 """
 from __future__ import annotations
 
@@ -28,12 +27,6 @@ from cases.slide_to_stop import AFTER_STOP, G, expect, heading, slide_readings, 
 
 R = 0.1   # radius, m
 H = 0.1   # half-height, m: a squat cylinder (diameter 2, height 2), far from tipping (mu_k h < r)
-# Where the wrong answers are planted (see the docstring): engines that pass mu=0.5,v0=2 as
-# they are. DART takes the faults any engine can be handed; PyBullet without its friction
-# anchor the kinetic-friction fault, written for PyBullet's own coefficient. No engine that
-# a friction-cone fault is written for (MuJoCo, PyBullet) passes the off-axis variant, so
-# that catch waits for the reference's narrow phase (issue 36 item 2).
-PLANTED_ON = "dart"
 
 # Grid: mu = 0.5 at 2 m/s (0.41 m, 0.41 s), along x and 22.5 deg off it (where a friction
 # bound per tangent axis shows); 3D only (a standing cylinder in 2D is a rect).
@@ -64,8 +57,9 @@ FAMILY = CaseFamily(
     dt=1e-3,
     variant_id=variant_id,
     catches=(
-        Catch("friction off", "mu=0.5,v0=2", PLANTED_ON),
-        Catch("kinetic friction", "mu=0.5,v0=2", "pybullet-noanchor"),
-        Catch("friction doubled", "mu=0.5,v0=2", PLANTED_ON),
+        Catch("friction off", "mu=0.5,v0=2"),
+        Catch("kinetic friction", "mu=0.5,v0=2"),
+        Catch("friction doubled", "mu=0.5,v0=2"),
+        Catch("friction cone", "mu=0.5,v0=2,heading=22.5deg"),
     ),
 )

@@ -18,9 +18,8 @@ torque and no rolling resistance enter: the closed forms are those of the ball.
 
 The body lies with its axis along y (a quarter turn about x), so it rolls downhill along +x
 (the incline is tilted gravity over the plane z = 0, cases.scene.tilted_gravity) with
-omega along +y. The reference implementation has no narrow phase for these shapes yet
-(issue 36, item 2): it reports the family unsupported, so the wrong answers below are
-planted on an engine that represents the shapes and passes the variant as it is.
+omega along +y. The wrong answers below are planted on the reference (its GJK narrow phase,
+reference_impl/gjk.py, takes the shapes' support functions).
 """
 from __future__ import annotations
 
@@ -35,9 +34,6 @@ H = 0.1        # half-length of the cylinder, and of the capsule's straight part
 T = 1.0        # simulated time, s (the body rolls 1.1-3.5 m)
 ACROSS_SLOPE = (math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0)  # body z (the axis) onto world -y
 SHAPES = {"cylinder": Cylinder(R, H), "capsule": Capsule(R, H)}
-# The engine the wrong answers are planted on: it represents both shapes and passes every
-# variant below as it is (tests/test_catches.py asserts both).
-PLANTED_ON = "mujoco"
 
 # Grid: mu = 0.2, where the cylinder rolls up to 31.0 deg and the capsule up to 32.4 deg:
 # well inside (20 deg: the cylinder needs 61 % of mu_s) and slipping (45 deg); and the
@@ -90,9 +86,9 @@ FAMILY = CaseFamily(
     dt=1e-3,
     variant_id=variant_id,
     catches=(
-        Catch("friction off", "cylinder,theta=20deg,mu=0.2", PLANTED_ON),
-        Catch("friction doubled", "capsule,theta=45deg,mu=0.2", PLANTED_ON),
-        Catch("inertia", "capsule,theta=20deg,mu=0.2", PLANTED_ON),
-        Catch("contact offset", "cylinder,theta=20deg,mu=0.2", PLANTED_ON),
+        Catch("friction off", "cylinder,theta=20deg,mu=0.2"),
+        Catch("friction doubled", "capsule,theta=45deg,mu=0.2"),
+        Catch("inertia", "capsule,theta=20deg,mu=0.2"),
+        Catch("contact offset", "cylinder,theta=20deg,mu=0.2"),
     ),
 )

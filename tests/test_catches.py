@@ -6,10 +6,10 @@ cannot see: its docstring's claims are faults its checks are shown to fail.
 The faults are planted at the adapter layer (adapters.planting.Planted) on the
 reference engine (or the reference formulation a variant needs), in this process: one
 variant per fault, each in well under a second of simulation but a few. A family whose
-shapes the reference cannot run yet (capsules and cylinders: its narrow phase is issue 36
-item 2) names an engine that represents them and passes the variant as it is; there only
-the faults that engine can take (adapters.planting.why_not) can be planted, and the catch is
-skipped where that engine is not installed.
+scenes the reference cannot build (joints, until its bilateral rows exist) names an engine
+that represents them and passes the variant as it is; there only the faults that engine can
+take (adapters.planting.why_not) can be planted, and the catch is skipped where that engine
+is not installed.
 """
 from __future__ import annotations
 
