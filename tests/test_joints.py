@@ -5,6 +5,7 @@ accelerates at F / m). Tiny scenes: seconds of CPU for the whole file."""
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 import sys
 import textwrap
@@ -296,3 +297,62 @@ def test_a_jointed_scenes_bulk_read_is_its_states(engine):
     sim.close()
     for i, name in enumerate(sim.body_order()):
         np.testing.assert_allclose(decoded[i], states[name], rtol=0, atol=1e-12)
+
+
+# --- closed loops: the four-bar linkage ----------------------------------------------------
+
+def test_freudenstein_closes_the_loop_along_the_whole_turn():
+    """theta_4(theta_2) from Freudenstein's equation puts the rocker's end B at the coupler's
+    length from the crank's end A for every crank angle, and the start's rocker on the branch."""
+    from cases import four_bar as fb
+    th2 = np.linspace(0.0, 2 * math.pi, 721)
+    th4 = fb.output_angle(th2, fb._branch())
+    a = np.stack([fb.A * np.cos(th2), fb.A * np.sin(th2)], 1)
+    b = np.stack([fb.D + fb.C * np.cos(th4), fb.C * np.sin(th4)], 1)
+    np.testing.assert_allclose(np.linalg.norm(b - a, axis=1), fb.B, rtol=0, atol=1e-12)
+    o2, _, b0, o4 = fb.start_points()
+    assert math.atan2(b0[1] - o4[1], b0[0] - o4[0]) == pytest.approx(float(fb.output_angle(fb.THETA_2, fb._branch())),
+                                                                     abs=1e-12)
+
+
+def test_four_bar_tolerances_follow_the_step():
+    """The loop's one-step gap is the centripetal term, dt^2; the energy's the modified
+    energy's, dt; both from the closed-form motion (the crank turns down to where V is back at
+    its start value, past a full half turn)."""
+    from cases import four_bar as fb
+    assert fb.loop_gap(5e-4, 3) == pytest.approx(fb.loop_gap(1e-3, 3) / 4, rel=1e-12)
+    checks = {c.metric: c for c in fb.expect({"dim": 3}, 1e-3)}
+    assert checks["output_angle_error"].tolerance == pytest.approx(
+        2 * fb.loop_gap(1e-3, 3) * fb.rocker_sensitivity(3), rel=1e-12)
+    theta_2 = fb._motion(3)["theta"][0]
+    assert theta_2.max() == pytest.approx(fb.THETA_2, abs=1e-3) and theta_2.min() < fb.THETA_2 - math.pi
+
+
+def test_mujoco_closes_the_loop_with_a_connect():
+    """The coupler's second joint, which the tree cannot hold, is an equality connect at its
+    anchor, in the coupler's frame, to the rocker; with MuJoCo's defaults their solref."""
+    adapter_or_skip("mujoco")
+    from adapters.mujoco_engine import CONTACT_STEPS, DEFAULT_SOLREF, scene_mjcf
+    from cases import four_bar as fb
+    scene = fb.scene({"dim": 3})
+    xml, knobs = scene_mjcf(scene, Settings(dt=1e-3), 50, CONTACT_STEPS)
+    assert xml.count("<connect ") == 1 and list(knobs["loop"]) == ["joints[3]"]
+    loop = knobs["loop"]["joints[3]"]
+    assert (loop["body1"], loop["body2"], loop["solref"]) == ("coupler", "rocker", [2e-3, 1.0])
+    np.testing.assert_allclose(loop["anchor"], [fb.B / 2, 0.0, 0.0], atol=1e-12)  # the coupler's end, on its x axis
+    _, defaults = scene_mjcf(scene, Settings(dt=1e-3), 50, CONTACT_STEPS, defaults=frozenset({"solref", "solimp"}))
+    assert defaults["loop"]["joints[3]"]["solref"] == list(DEFAULT_SOLREF)
+
+
+@pytest.mark.parametrize("closing,message", [
+    (Joint("prismatic", "b", "a", anchor=(0.5, 0, 1), axis=(1, 0, 0)), "(prismatic) closes a loop"),
+    (Joint("revolute", "b", "a", anchor=(0.5, 0, 1), axis=(1, 0, 0)), "closes a loop that is not planar"),
+])
+def test_mujoco_says_which_loops_it_cannot_close(closing, message):
+    adapter = adapter_or_skip("mujoco")
+    from adapters.base import Unsupported
+    a, b = _bob(name="a", x=0.3), _bob(name="b", x=0.7)
+    scene = Scene(bodies=(a, b), gravity=(0, 0, -G), joints=(
+        Joint("revolute", "a", None, anchor=(0.0, 0, 1)), Joint("revolute", "b", None, anchor=(1.0, 0, 1)), closing))
+    with pytest.raises(Unsupported, match=re.escape(message)):
+        adapter.build(scene, Settings(dt=1e-3))
