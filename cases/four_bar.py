@@ -38,6 +38,7 @@ deviations). DART, Drake and PyBullet map joints to the world only: unsupported.
 """
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -89,6 +90,7 @@ def _branch() -> float:
 
 # --- the linkage as a one-degree-of-freedom system (for the tolerances) ---------------------
 
+@functools.lru_cache(maxsize=None)  # a pure function of dim, read by every check's tolerance
 def _motion(dim: int) -> dict:
     """The linkage's state along its path, on a grid of crank angles theta_2 reachable from
     the release at rest: every link's angle (theta_3 of the coupler from A to B) and its
