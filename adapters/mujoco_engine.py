@@ -583,6 +583,8 @@ def _tree_body_xml(scene: Scene, body: Body, tree: dict, children: dict, knobs: 
             spec.update(limited="true", range=list(joint.limits), **_limit_row(n, dt))
         else:
             spec["limited"] = "false"
+        if joint.friction > 0:  # dry friction: a frictionloss row, slip removed over n dt as the pairs' friction rows
+            spec.update(frictionloss=joint.friction, solreffriction=[0, -1.0 / (n * dt)], solimpfriction=list(SOLIMP))
         joints = [_element("joint", spec)]
         knobs["joint"][body.name] = {**spec, "on": up or "world"}
     geom = {"name": body.name, **_geom(body, [1, 0, 0, 0], meshes=meshes), "contype": 0, "conaffinity": 0}
@@ -741,6 +743,8 @@ def model_effects(m, knobs: dict) -> frozenset[str]:
         fx.add("joint")  # a scene joint (the tree's records are dicts; a free body's "free", a planar one's list)
     if np.any(m.jnt_limited):
         fx.add("limit")
+    if np.any(m.dof_frictionloss > 0):
+        fx.add("joint_friction")
     return frozenset(fx)
 
 
@@ -1143,6 +1147,7 @@ class MuJoCoAdapter(Adapter):
         # joints as MuJoCo's kinematic tree (_tree_xml): reduced coordinates; loads as xfrc_applied
         joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
         joint_limits=True,
+        joint_friction=True,
         coordinates="reduced",
         loads=True,
     )
