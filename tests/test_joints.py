@@ -39,6 +39,8 @@ def _bob(dim: int = 3, name: str = "bob", x: float = 0.5) -> Body:
      r"joints[0].limits = (0.5, -0.5): lower must be <= upper"),
     ((Joint("revolute", "bob", limits=(0.1, 0.5)),), (), 3, r"joints[0].limits = (0.1, 0.5): must hold the start, 0"),
     ((Joint("ball", "bob", limits=(-1, 1)),), (), 3, r"joints[0].limits = (-1, 1): only revolute and prismatic"),
+    ((Joint("revolute", "bob", friction=-1.0),), (), 3, r"joints[0].friction = -1.0: must be a finite force or torque >= 0"),
+    ((Joint("ball", "bob", friction=0.5),), (), 3, r"joints[0].friction = 0.5: only revolute and prismatic joints have"),
     ((Joint("revolute", "bob", anchor=(0, 0, math.nan)),), (), 3, r"joints[0].anchor = (0, 0, nan): must be finite"),
     ((Joint("ball", "bob"),), (), 2, r"joints[0].kind = 'ball': a 2D scene's joints are revolute (about y)"),
     ((Joint("revolute", "bob", axis=(0, 0, 1)),), (), 2, r"joints[0].axis = (0, 0, 1): a 2D revolute joint turns about y"),
@@ -66,6 +68,8 @@ def test_effects_name_joints_limits_and_loads():
     assert {"joint", "limit"} <= limited.effects
     assert "load" in Scene(bodies=(_bob(),), loads=(Load("bob", torque=(0, 1, 0)),)).effects
     assert "load" not in Scene(bodies=(_bob(),), loads=(Load("bob"),)).effects  # a zero load asks for nothing
+    assert "joint_friction" not in limited.effects
+    assert "joint_friction" in Scene(bodies=(_bob(),), joints=(Joint("prismatic", "bob", friction=1.0),)).effects
 
 
 def test_jointed_bodies_do_not_collide():
@@ -356,3 +360,21 @@ def test_mujoco_says_which_loops_it_cannot_close(closing, message):
         Joint("revolute", "a", None, anchor=(0.0, 0, 1)), Joint("revolute", "b", None, anchor=(1.0, 0, 1)), closing))
     with pytest.raises(Unsupported, match=re.escape(message)):
         adapter.build(scene, Settings(dt=1e-3))
+
+
+# --- joint friction: the slider on a rail -------------------------------------------------
+
+def test_rail_slide_closed_form_and_its_discrete_stop():
+    """x_s = v_0^2 / (2 mu g) at t_s = v_0 / (mu g); semi-implicit Euler with the friction's
+    exact decrement stops within the family's tolerance, v_0 dt, of it."""
+    from cases import rail_slide as rs
+    p = rs.GRID[0]
+    mu, v0, dt = p["mu"], p["v0"], rs.FAMILY.dt_for(p)
+    assert rs.stop_time(mu, v0) == pytest.approx(v0 / (mu * G)) and rs.stop_distance(mu, v0) == pytest.approx(
+        v0 * rs.stop_time(mu, v0) / 2)
+    x, v = 0.0, v0
+    for _ in range(round(rs.T / dt)):
+        v = max(v - mu * G * dt, 0.0)
+        x += v * dt
+    check = {c.metric: c for c in rs.expect(p, dt)}["stop_distance"]
+    assert abs(x - check.expected) <= check.tolerance and abs(x - check.expected) > check.tolerance / 4
