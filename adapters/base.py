@@ -243,7 +243,8 @@ class Capabilities:
         floats = f"; float{self.float_bits}" + (", sub-steps" if self.substeps else "")
         modes = f"; runs: {','.join(sorted(self.modes))}" if self.modes else ""
         joints = (f"; joints: {','.join(k for k in JOINT_KINDS if k in self.joints)}"
-                  f"{' with limits' if self.joint_limits else ''} ({self.coordinates} coordinates)"
+                  f"{' with limits' if self.joint_limits else ''}{' and friction' if self.joint_friction else ''} "
+                  f"({self.coordinates} coordinates)"
                   if self.joints else "; joints: none")
         loads = ", loads" if self.loads else ""
         return f"{dims}; " + ", ".join(flags) + laws + impacts + torques + restitution + floats + modes + joints + loads
