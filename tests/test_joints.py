@@ -378,3 +378,29 @@ def test_rail_slide_closed_form_and_its_discrete_stop():
         x += v * dt
     check = {c.metric: c for c in rs.expect(p, dt)}["stop_distance"]
     assert abs(x - check.expected) <= check.tolerance and abs(x - check.expected) > check.tolerance / 4
+
+
+@pytest.mark.parametrize("engine", _jointed_engines(lambda c: c.joint_friction))
+def test_an_engine_that_declares_joint_friction_stops_the_slider(engine):
+    """With the friction the launched slider stops where rail_slide says (and reports the
+    effect); with none it keeps its speed: the engine simulates the friction it declares."""
+    from dataclasses import replace
+
+    from cases import rail_slide as rs
+    adapter = adapter_or_skip(engine)
+    p = {**rs.GRID[0], "dim": 3 if 3 in adapter.capabilities.dimensions else 2}
+    dt, steps = 1e-3, round(rs.T / 1e-3)
+    for friction in (True, False):
+        scene = rs.scene(p)
+        if not friction:
+            scene = replace(scene, joints=(replace(scene.joints[0], friction=0.0),))
+        sim = adapter.build(scene, Settings(dt=dt))
+        for _ in range(steps):
+            sim.step()
+        x, v = sim.states()["slider"][0] - rs.START[0], sim.states()["slider"][7]
+        assert ("joint_friction" in sim.effects) == friction
+        sim.close()
+        if friction:
+            assert abs(x - rs.stop_distance(p["mu"], p["v0"])) <= p["v0"] * dt and abs(v) < rs.REST
+        else:
+            assert v == pytest.approx(p["v0"], rel=1e-5)
