@@ -125,6 +125,7 @@ class Capabilities:
     # with the why_not reason of "joint", "limit" or "load" where the adapter gives one.
     joints: frozenset[str] = frozenset()
     joint_limits: bool = False
+    joint_friction: bool = False  # a joint's dry friction (cases.scene.Joint.friction)
     coordinates: str | None = None
     loads: bool = False
 
@@ -193,6 +194,8 @@ class Capabilities:
             return f"{', '.join(kinds)} joint asked for: {why.get('joint', built)}"
         if "limit" in scene.effects and not self.joint_limits:
             return f"joint limits asked for: {why.get('limit', 'the adapter builds no joint limits')}"
+        if "joint_friction" in scene.effects and not self.joint_friction:
+            return f"joint friction asked for: {why.get('joint_friction', 'the adapter builds no joint friction')}"
         if "load" in scene.effects and not self.loads:
             return f"a constant external force or torque asked for: {why.get('load', 'the adapter applies no loads')}"
         laws = scene.contact_laws - self.contact_laws
@@ -240,7 +243,8 @@ class Capabilities:
         floats = f"; float{self.float_bits}" + (", sub-steps" if self.substeps else "")
         modes = f"; runs: {','.join(sorted(self.modes))}" if self.modes else ""
         joints = (f"; joints: {','.join(k for k in JOINT_KINDS if k in self.joints)}"
-                  f"{' with limits' if self.joint_limits else ''} ({self.coordinates} coordinates)"
+                  f"{' with limits' if self.joint_limits else ''}{' and friction' if self.joint_friction else ''} "
+                  f"({self.coordinates} coordinates)"
                   if self.joints else "; joints: none")
         loads = ", loads" if self.loads else ""
         return f"{dims}; " + ", ".join(flags) + laws + impacts + torques + restitution + floats + modes + joints + loads

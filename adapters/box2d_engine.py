@@ -162,6 +162,7 @@ class Box2DAdapter(Adapter):
         # solved in the sub-steps with the contacts
         joints=frozenset({"revolute", "prismatic", "fixed"}),
         joint_limits=True,
+        joint_friction=True,
         coordinates="maximal",
         loads=True,  # apply_force_to_center and apply_torque before each step (Box2D clears them)
     )
@@ -489,7 +490,9 @@ class Box2DSimulation(Simulation):
         the origin, made once): revolute a revolute joint at the anchor, its limit in Box2D's
         angle (minus the scene's turn about +y); prismatic a prismatic joint along the axis
         (Box2D's holds the relative turn too); fixed a weld joint with rigid (0 Hz) linear
-        and angular rows. No springs, no motors, collide_connected off (cases.scene.Joint).
+        and angular rows. No springs, no motors but a joint's dry friction (Box2D's own idiom: a
+        motor at speed 0 with its force or torque bounded by the friction), collide_connected
+        off (cases.scene.Joint).
         The joints' softness is Box2D's own (b2WorldDef jointHertz and jointDampingRatio,
         which pyb2d3 0.11.1 does not expose)."""
         if joint.parent is None and "world" not in self._every:
@@ -504,7 +507,10 @@ class Box2DSimulation(Simulation):
                   "joint_softness": "Box2D's default (jointHertz, jointDampingRatio: not exposed by pyb2d3)"}
         if joint.kind == "revolute":
             made = b2.revolute_joint_def(**common, reference_angle=reference, enable_spring=False,
-                                         enable_motor=False, enable_limit=joint.limits is not None)
+                                         enable_motor=joint.friction > 0, enable_limit=joint.limits is not None)
+            if joint.friction > 0:  # dry friction: a motor held at speed 0 whose torque is bounded by it
+                made.motor_speed, made.max_motor_torque = 0.0, joint.friction
+                record.update(friction="motor at speed 0", max_motor_torque=joint.friction)
             if joint.limits is not None:  # the scene's turn about +y is minus Box2D's angle
                 low, high = (-joint.limits[1], -joint.limits[0]) if joint.unit_axis[1] > 0 else joint.limits
                 made.lower_angle, made.upper_angle = low, high
@@ -513,8 +519,11 @@ class Box2DSimulation(Simulation):
         elif joint.kind == "prismatic":
             ux, _, uz = joint.unit_axis
             made = b2.prismatic_joint_def(**common, local_axis_a=a.local_vector((ux, uz)), reference_angle=reference,
-                                          enable_spring=False, enable_motor=False,
+                                          enable_spring=False, enable_motor=joint.friction > 0,
                                           enable_limit=joint.limits is not None)
+            if joint.friction > 0:  # dry friction: a motor held at speed 0 whose force is bounded by it
+                made.motor_speed, made.max_motor_force = 0.0, joint.friction
+                record.update(friction="motor at speed 0", max_motor_force=joint.friction)
             if joint.limits is not None:
                 made.lower_translation, made.upper_translation = joint.limits
                 record["limits"] = list(joint.limits)
@@ -546,6 +555,8 @@ class Box2DSimulation(Simulation):
             fx.add("joint")
         if any("limits" in r for r in self.knobs.get("joints", {}).values()):
             fx.add("limit")
+        if any("friction" in r for r in self.knobs.get("joints", {}).values()):
+            fx.add("joint_friction")
         if self._loads:
             fx.add("load")
         return frozenset(fx)

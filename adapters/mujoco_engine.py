@@ -454,32 +454,78 @@ def _body_xml(body: Body, dimension: int, knobs: dict, ground: str = "plane", me
 # MuJoCo is a reduced-coordinate engine: a jointed body is a child <body> of the body it hangs
 # on, with the joint's own coordinates as its qpos (a hinge one angle), so a joint holds
 # exactly. A fixed joint is a child body with no joint at all (welded). The tree cannot close a
-# loop (a four-bar linkage needs an equality constraint, not mapped here): a body that is the
-# `body` of two joints is unsupported.
+# loop: the joint that would (a body's second joint, or one whose parent hangs on its body) is
+# an equality constraint instead, <equality><connect> (_loop_xml).
 _JOINT_TYPES = {"revolute": "hinge", "prismatic": "slide", "ball": "ball"}  # "fixed": welded, no joint
 
 
-def _tree(scene: Scene) -> dict[str, tuple[str | None, Joint]]:
+def _tree(scene: Scene) -> tuple[dict[str, tuple[str | None, Joint]], list[tuple[int, Joint]]]:
     """Each jointed dynamic body's parent in the tree (None: the world, or a static body)
-    and its scene joint; Unsupported where the joints do not form a tree."""
+    and its scene joint, and the joints (index, joint) that close a loop: those the tree
+    cannot hold, in scene order (the first joint of a body hangs it)."""
     static = {b.name for b in scene.bodies if b.static}
     parent: dict[str, tuple[str | None, Joint]] = {}
-    for joint in scene.joints:
+    closing: list[tuple[int, Joint]] = []
+    for j, joint in enumerate(scene.joints):
         if joint.body in static:
             raise Unsupported(f"joint of {joint.body!r}: a static body as the joint's `body`: MuJoCo's tree hangs "
                               "the moving body on the other (name the dynamic body as `body`)")
-        if joint.body in parent:
-            raise Unsupported(f"body {joint.body!r} is the `body` of two joints: they close a loop, which MuJoCo's "
-                              "kinematic tree cannot hold (equality constraints are not mapped)")
-        parent[joint.body] = (None if joint.parent is None or joint.parent in static else joint.parent, joint)
-    for name in parent:
-        seen, up = {name}, parent[name][0]
-        while up is not None:
-            if up in seen:
-                raise Unsupported(f"the joints of {name!r} close a loop, which MuJoCo's kinematic tree cannot hold")
-            seen.add(up)
-            up = parent[up][0] if up in parent else None
-    return parent
+        up = None if joint.parent is None or joint.parent in static else joint.parent
+        seen = up
+        while seen is not None and seen != joint.body:
+            seen = parent[seen][0] if seen in parent else None
+        if joint.body in parent or seen == joint.body:
+            closing.append((j, joint))
+        else:
+            parent[joint.body] = (up, joint)
+    return parent, closing
+
+
+# A loop's closing joint is MuJoCo's <connect>: it holds the joint's point on both bodies
+# together (three rows, a ball joint). That is a revolute joint too where the loop is planar
+# (every joint a hinge about the same axis, or welded): the tree's hinges already keep the two
+# bodies from turning about any other axis, and connect's row along the axis is redundant.
+# Other closing joints (prismatic, fixed, a non-planar revolute) are not mapped.
+# An equality is a soft constraint: its solref makes the gap a spring-damper, which each
+# step's second-order drift (cases/four_bar.py, loop_gap) loads, so the loop stays open by
+# about that drift over k dt^2. Measured on four_bar (dt 1e-3, the largest gap over 1 s and the
+# rocker's miss of Freudenstein's equation): MuJoCo's default solref (0.02 1): 0.81 mm, 2.0e-3
+# rad; the plastic contact's row over 16 steps (-38553 -1000): 0.59 mm, 1.9e-3 rad; solref
+# (2 dt, 1), the stiffest time constant MuJoCo's documentation calls stable: 0.11 mm, 3.7e-4
+# rad. solimp does not matter here (0.9-0.95 or 0.9999: the same gap to 1 %): the impedance
+# scales the force the gap needs, which its d of 0.9 or more leaves near the rigid one.
+# The loop gets solref (2 dt, 1) and the adapter's SOLIMP; "mujoco-defaults" MuJoCo's own.
+LOOP_TIME_STEPS = 2.0  # solref's time constant, in steps: MuJoCo's stable minimum
+
+
+def _loop_xml(scene: Scene, closing: list[tuple[int, Joint]], knobs: dict, dt: float, defaults: frozenset) -> str:
+    """The <equality> of the joints that close a loop (_tree), one <connect> each, recorded
+    in knobs["loop"]; Unsupported for a closing joint connect does not hold."""
+    if not closing:
+        return ""
+    row = {"solref": list(DEFAULT_SOLREF) if "solref" in defaults else [LOOP_TIME_STEPS * dt, 1.0],
+           "solimp": list(DEFAULT_SOLIMP if "solimp" in defaults else SOLIMP)}
+    out = []
+    for j, joint in closing:
+        if joint.kind == "revolute":
+            others = [o for o in scene.joints if o is not joint and o.kind != "fixed"]
+            if any(o.kind != "revolute" or abs(abs(float(np.dot(o.unit_axis, joint.unit_axis))) - 1.0) > 1e-9
+                   for o in others):
+                raise Unsupported(f"joints[{j}] closes a loop that is not planar: MuJoCo's connect holds its point "
+                                  "but not its axis (a weld-free hinge equality does not exist); only planar loops "
+                                  "(parallel hinges) are mapped")
+        elif joint.kind != "ball":
+            raise Unsupported(f"joints[{j}] ({joint.kind}) closes a loop: only revolute and ball joints close a loop "
+                              "in MuJoCo's mapping (<connect>)")
+        body = scene.body(joint.body)
+        anchor, _ = _relative(body, joint.anchor)
+        spec = {"name": f"loop{j}", "body1": joint.body, "anchor": anchor, **row}
+        up = None if joint.parent is None or scene.body(joint.parent).static else joint.parent
+        if up is not None:
+            spec["body2"] = up
+        out.append(_element("connect", spec))
+        knobs["loop"][f"joints[{j}]"] = {**spec, "kind": joint.kind, "mjcf": "equality/connect"}
+    return _element("equality", {}, "".join(out))
 
 
 def _conj(q) -> np.ndarray:
@@ -537,6 +583,8 @@ def _tree_body_xml(scene: Scene, body: Body, tree: dict, children: dict, knobs: 
             spec.update(limited="true", range=list(joint.limits), **_limit_row(n, dt))
         else:
             spec["limited"] = "false"
+        if joint.friction > 0:  # dry friction: a frictionloss row, slip removed over n dt as the pairs' friction rows
+            spec.update(frictionloss=joint.friction, solreffriction=[0, -1.0 / (n * dt)], solimpfriction=list(SOLIMP))
         joints = [_element("joint", spec)]
         knobs["joint"][body.name] = {**spec, "on": up or "world"}
     geom = {"name": body.name, **_geom(body, [1, 0, 0, 0], meshes=meshes), "contype": 0, "conaffinity": 0}
@@ -547,21 +595,22 @@ def _tree_body_xml(scene: Scene, body: Body, tree: dict, children: dict, knobs: 
     return _element("body", frame, "".join(joints) + _element("inertial", inertial) + _element("geom", geom) + inner)
 
 
-def _tree_xml(scene: Scene, knobs: dict, ground: str, meshes: dict, n: float, dt: float) -> str:
+def _tree_xml(scene: Scene, knobs: dict, ground: str, meshes: dict, n: float, dt: float) -> tuple[str, list]:
     """The worldbody's content of a scene with joints or loads: static bodies as _body_xml
-    writes them, dynamic bodies as a kinematic tree (_tree_body_xml)."""
+    writes them, dynamic bodies as a kinematic tree (_tree_body_xml); and the joints that
+    close a loop (_tree), for _loop_xml."""
     for body in scene.dynamic_bodies:
         if not body.rotates:
             raise Unsupported(f"body {body.name!r} held from rotating (rotates=False) in a scene with joints or "
                               "loads: not mapped (its slides would need the tree's frames)")
-    tree = _tree(scene)
+    tree, closing = _tree(scene)
     children: dict[str, list[Body]] = {}
     for body in scene.dynamic_bodies:
         if tree.get(body.name, (None,))[0] is not None:
             children.setdefault(tree[body.name][0], []).append(body)
     static = "".join(_body_xml(b, scene.dimension, knobs, ground, meshes) for b in scene.bodies if b.static)
     roots = [b for b in scene.dynamic_bodies if tree.get(b.name, (None,))[0] is None]
-    return static + "".join(_tree_body_xml(scene, b, tree, children, knobs, meshes, n, dt) for b in roots)
+    return static + "".join(_tree_body_xml(scene, b, tree, children, knobs, meshes, n, dt) for b in roots), closing
 
 
 def _pair_xml(scene: Scene, n: float, dt: float, knobs: dict, invweight: dict | None,
@@ -643,8 +692,12 @@ def scene_mjcf(scene: Scene, settings: Settings, iterations: int, n: float,
                 if "hooke" in scene.contact_laws else {}),
              "ground": ground, "joint": {}, "inertial": {}, "geom": {}, "pair": {}, "left_out": left_out}
     meshes: dict[str, dict] = {}  # <mesh> assets by name
+    loops = ""
     if scene.joints or scene.loads:
-        bodies = _tree_xml(scene, knobs, ground, meshes, n, settings.dt)
+        bodies, closing = _tree_xml(scene, knobs, ground, meshes, n, settings.dt)
+        if closing:
+            knobs["loop"] = {}
+            loops = _loop_xml(scene, closing, knobs, settings.dt, defaults)
     else:
         bodies = "".join(_body_xml(b, scene.dimension, knobs, ground, meshes) for b in scene.bodies)
     pairs = _pair_xml(scene, n, settings.dt, knobs, invweight, defaults)
@@ -654,7 +707,7 @@ def scene_mjcf(scene: Scene, settings: Settings, iterations: int, n: float,
     assets = "<asset>" + "".join(_element("mesh", m) for m in meshes.values()) + "</asset>" if meshes else ""
     xml = ('<mujoco model="physval">' + _element("compiler", compiler)
            + _element("option", option, _element("flag", flag)) + assets
-           + f"<worldbody>{bodies}</worldbody><contact>{pairs}</contact></mujoco>")
+           + f"<worldbody>{bodies}</worldbody><contact>{pairs}</contact>{loops}</mujoco>")
     return xml, knobs
 
 
@@ -690,6 +743,8 @@ def model_effects(m, knobs: dict) -> frozenset[str]:
         fx.add("joint")  # a scene joint (the tree's records are dicts; a free body's "free", a planar one's list)
     if np.any(m.jnt_limited):
         fx.add("limit")
+    if np.any(m.dof_frictionloss > 0):
+        fx.add("joint_friction")
     return frozenset(fx)
 
 
@@ -1092,6 +1147,7 @@ class MuJoCoAdapter(Adapter):
         # joints as MuJoCo's kinematic tree (_tree_xml): reduced coordinates; loads as xfrc_applied
         joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
         joint_limits=True,
+        joint_friction=True,
         coordinates="reduced",
         loads=True,
     )

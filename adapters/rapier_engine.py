@@ -83,6 +83,8 @@ from importlib import metadata
 import numpy as np
 import rapier3d as r
 
+FRICTION_MOTOR = 1e9  # the joint-friction motor's damping factor: far stiffer than the bound it is clamped to
+
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.combination import RULES as COMBINE, per_body_values
 from adapters.frames import require_turn_about_y, state_row
@@ -155,6 +157,7 @@ class RapierAdapter(Adapter):
         # in the sub-steps with the contacts (Rapier's multibody joints are not mapped)
         joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
         joint_limits=True,
+        joint_friction=True,
         coordinates="maximal",
         loads=True,  # RigidBody.add_force / add_torque once: Rapier keeps user forces until reset
     )
@@ -372,7 +375,9 @@ class RapierSimulation(Simulation):
         along it (no relative turn), ball a SphericalJoint, fixed a FixedJoint; a limit on
         the joint's coordinate, body 2 relative to body 1 about (along) the axis. Contacts
         between the two off (cases.scene.Joint); the joints' softness Rapier's default
-        (SpringCoefficients.joint_defaults, recorded)."""
+        (SpringCoefficients.joint_defaults, recorded). A joint's dry friction is a force-based
+        velocity motor at speed 0, its damping factor FRICTION_MOTOR (rigid), its force
+        clamped to the friction."""
         if joint.parent is None and "world" not in self._every:
             self._every["world"] = self._world.add_body(r.RigidBody.fixed())
         frames = [None if joint.parent is None else scene.body(joint.parent), scene.body(joint.body)]
@@ -387,6 +392,9 @@ class RapierSimulation(Simulation):
             builder = maker(local[0][1]).local_axis1(local[0][1]).local_axis2(local[1][1])
             if joint.limits is not None:
                 builder = builder.limits(float(joint.limits[0]), float(joint.limits[1]))
+            if joint.friction > 0:  # dry friction: a velocity motor at 0, rigid (factor FRICTION_MOTOR), bounded by it
+                builder = (builder.motor_model(r.MotorModel.FORCE_BASED).motor_velocity(0.0, FRICTION_MOTOR)
+                           .motor_max_force(float(joint.friction)))
         elif joint.kind == "ball":
             builder = r.SphericalJointBuilder()
         else:
@@ -401,7 +409,9 @@ class RapierSimulation(Simulation):
         self.knobs.setdefault("joints", {})[f"joints[{j}]"] = {
             "kind": joint.kind, "local_anchors": [list(a) for a, _ in local], "local_axes": [list(x) for _, x in local],
             "limits": None if joint.limits is None else list(joint.limits), "contacts_enabled": False,
-            "softness": {"natural_frequency": soft.natural_frequency, "damping_ratio": soft.damping_ratio}}
+            "softness": {"natural_frequency": soft.natural_frequency, "damping_ratio": soft.damping_ratio},
+            **({"friction": {"motor": "force-based, velocity 0", "factor": FRICTION_MOTOR, "max_force": joint.friction}}
+               if joint.friction > 0 else {})}
         return joint.kind
 
     def _built_effects(self, scene: Scene, combine_mu, mu: dict, combine_e, e: dict) -> frozenset[str]:
@@ -422,6 +432,8 @@ class RapierSimulation(Simulation):
             fx.add("joint")
         if any(r_["limits"] is not None for r_ in self.knobs.get("joints", {}).values()):
             fx.add("limit")
+        if any("friction" in r_ for r_ in self.knobs.get("joints", {}).values()):
+            fx.add("joint_friction")
         if self.knobs.get("loads"):
             fx.add("load")
         return frozenset(fx)

@@ -32,9 +32,9 @@ from cases.overlap import exact, may_touch, penetration
 # "rolling_resistance" / "torsional_friction" (a pair with Material.rolling_resistance /
 # Material.torsional_friction > 0: the contact torques of CONTACT_TORQUES).
 # "joint" (a scene with Joints), "limit" (a joint with limits), "load" (a constant external
-# force or torque, Scene.loads).
+# force or torque, Scene.loads), "joint_friction" (a joint with Joint.friction > 0).
 EFFECTS = ("gravity", "contact", "restitution", "friction", "rotation", "rolling_resistance",
-           "torsional_friction", "joint", "limit", "load")
+           "torsional_friction", "joint", "limit", "load", "joint_friction")
 # The effects that are torques a contact exerts (about the rolling axes, about the normal);
 # an engine declares the ones it models in Capabilities.contact_torques.
 CONTACT_TORQUES = ("rolling_resistance", "torsional_friction")
@@ -813,6 +813,11 @@ class Joint:
     - `limits`: (lower, upper) of the joint's coordinate, the turn of `body` relative to
       `parent` about `axis` (rad, right-handed) or its slide along `axis` (m), both 0 at the
       start, so lower <= 0 <= upper; None: unlimited. Revolute and prismatic joints only.
+    - `friction`: the joint's dry (Coulomb) friction, the largest force (prismatic, N) or
+      torque (revolute, N m) with which it resists motion along its coordinate: it stops
+      the joint when that suffices and opposes its motion with exactly this much while it
+      slides (a constant bound: Coulomb's mu N where the joint's reaction N is constant).
+      0: none. Revolute and prismatic joints only.
     Two bodies a joint connects do not collide with each other (the pair is left out of
     Scene.contact_pairs), as in every engine's default for jointed bodies."""
     kind: str
@@ -821,6 +826,7 @@ class Joint:
     anchor: tuple[float, float, float] = (0.0, 0.0, 0.0)
     axis: tuple[float, float, float] = (0.0, 1.0, 0.0)
     limits: tuple[float, float] | None = None
+    friction: float = 0.0
 
     @property
     def unit_axis(self) -> tuple[float, float, float]:
@@ -854,6 +860,11 @@ class Joint:
             if not lim[0] <= 0.0 <= lim[1]:
                 raise SceneError(f"{where}.limits = {self.limits!r}: must hold the start, 0 "
                                  "(lower <= 0 <= upper: the coordinate is 0 at the start)")
+        if not (math.isfinite(self.friction) and self.friction >= 0.0):
+            raise SceneError(f"{where}.friction = {self.friction!r}: must be a finite force or torque >= 0")
+        if self.friction > 0.0 and self.kind not in LIMITED_KINDS:
+            raise SceneError(f"{where}.friction = {self.friction!r}: only {' and '.join(LIMITED_KINDS)} joints "
+                             "have a dry friction (0 for a ball or fixed joint)")
         if dimension == 2:
             u = axis / np.linalg.norm(axis)
             if self.kind == "ball":
@@ -996,6 +1007,8 @@ class Scene:
             fx.add("joint")
         if any(j.limits is not None for j in self.joints):
             fx.add("limit")
+        if any(j.friction > 0 for j in self.joints):
+            fx.add("joint_friction")
         if any(load.acts for load in self.loads):
             fx.add("load")
         return frozenset(fx)

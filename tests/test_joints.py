@@ -5,6 +5,7 @@ accelerates at F / m). Tiny scenes: seconds of CPU for the whole file."""
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 import sys
 import textwrap
@@ -38,6 +39,8 @@ def _bob(dim: int = 3, name: str = "bob", x: float = 0.5) -> Body:
      r"joints[0].limits = (0.5, -0.5): lower must be <= upper"),
     ((Joint("revolute", "bob", limits=(0.1, 0.5)),), (), 3, r"joints[0].limits = (0.1, 0.5): must hold the start, 0"),
     ((Joint("ball", "bob", limits=(-1, 1)),), (), 3, r"joints[0].limits = (-1, 1): only revolute and prismatic"),
+    ((Joint("revolute", "bob", friction=-1.0),), (), 3, r"joints[0].friction = -1.0: must be a finite force or torque >= 0"),
+    ((Joint("ball", "bob", friction=0.5),), (), 3, r"joints[0].friction = 0.5: only revolute and prismatic joints have"),
     ((Joint("revolute", "bob", anchor=(0, 0, math.nan)),), (), 3, r"joints[0].anchor = (0, 0, nan): must be finite"),
     ((Joint("ball", "bob"),), (), 2, r"joints[0].kind = 'ball': a 2D scene's joints are revolute (about y)"),
     ((Joint("revolute", "bob", axis=(0, 0, 1)),), (), 2, r"joints[0].axis = (0, 0, 1): a 2D revolute joint turns about y"),
@@ -65,6 +68,8 @@ def test_effects_name_joints_limits_and_loads():
     assert {"joint", "limit"} <= limited.effects
     assert "load" in Scene(bodies=(_bob(),), loads=(Load("bob", torque=(0, 1, 0)),)).effects
     assert "load" not in Scene(bodies=(_bob(),), loads=(Load("bob"),)).effects  # a zero load asks for nothing
+    assert "joint_friction" not in limited.effects
+    assert "joint_friction" in Scene(bodies=(_bob(),), joints=(Joint("prismatic", "bob", friction=1.0),)).effects
 
 
 def test_jointed_bodies_do_not_collide():
@@ -296,3 +301,106 @@ def test_a_jointed_scenes_bulk_read_is_its_states(engine):
     sim.close()
     for i, name in enumerate(sim.body_order()):
         np.testing.assert_allclose(decoded[i], states[name], rtol=0, atol=1e-12)
+
+
+# --- closed loops: the four-bar linkage ----------------------------------------------------
+
+def test_freudenstein_closes_the_loop_along_the_whole_turn():
+    """theta_4(theta_2) from Freudenstein's equation puts the rocker's end B at the coupler's
+    length from the crank's end A for every crank angle, and the start's rocker on the branch."""
+    from cases import four_bar as fb
+    th2 = np.linspace(0.0, 2 * math.pi, 721)
+    th4 = fb.output_angle(th2, fb._branch())
+    a = np.stack([fb.A * np.cos(th2), fb.A * np.sin(th2)], 1)
+    b = np.stack([fb.D + fb.C * np.cos(th4), fb.C * np.sin(th4)], 1)
+    np.testing.assert_allclose(np.linalg.norm(b - a, axis=1), fb.B, rtol=0, atol=1e-12)
+    o2, _, b0, o4 = fb.start_points()
+    assert math.atan2(b0[1] - o4[1], b0[0] - o4[0]) == pytest.approx(float(fb.output_angle(fb.THETA_2, fb._branch())),
+                                                                     abs=1e-12)
+
+
+def test_four_bar_tolerances_follow_the_step():
+    """The loop's one-step gap is the centripetal term, dt^2; the energy's the modified
+    energy's, dt; both from the closed-form motion (the crank turns down to where V is back at
+    its start value, past a full half turn)."""
+    from cases import four_bar as fb
+    assert fb.loop_gap(5e-4, 3) == pytest.approx(fb.loop_gap(1e-3, 3) / 4, rel=1e-12)
+    checks = {c.metric: c for c in fb.expect({"dim": 3}, 1e-3)}
+    assert checks["output_angle_error"].tolerance == pytest.approx(
+        2 * fb.loop_gap(1e-3, 3) * fb.rocker_sensitivity(3), rel=1e-12)
+    theta_2 = fb._motion(3)["theta"][0]
+    assert theta_2.max() == pytest.approx(fb.THETA_2, abs=1e-3) and theta_2.min() < fb.THETA_2 - math.pi
+
+
+def test_mujoco_closes_the_loop_with_a_connect():
+    """The coupler's second joint, which the tree cannot hold, is an equality connect at its
+    anchor, in the coupler's frame, to the rocker; with MuJoCo's defaults their solref."""
+    adapter_or_skip("mujoco")
+    from adapters.mujoco_engine import CONTACT_STEPS, DEFAULT_SOLREF, scene_mjcf
+    from cases import four_bar as fb
+    scene = fb.scene({"dim": 3})
+    xml, knobs = scene_mjcf(scene, Settings(dt=1e-3), 50, CONTACT_STEPS)
+    assert xml.count("<connect ") == 1 and list(knobs["loop"]) == ["joints[3]"]
+    loop = knobs["loop"]["joints[3]"]
+    assert (loop["body1"], loop["body2"], loop["solref"]) == ("coupler", "rocker", [2e-3, 1.0])
+    np.testing.assert_allclose(loop["anchor"], [fb.B / 2, 0.0, 0.0], atol=1e-12)  # the coupler's end, on its x axis
+    _, defaults = scene_mjcf(scene, Settings(dt=1e-3), 50, CONTACT_STEPS, defaults=frozenset({"solref", "solimp"}))
+    assert defaults["loop"]["joints[3]"]["solref"] == list(DEFAULT_SOLREF)
+
+
+@pytest.mark.parametrize("closing,message", [
+    (Joint("prismatic", "b", "a", anchor=(0.5, 0, 1), axis=(1, 0, 0)), "(prismatic) closes a loop"),
+    (Joint("revolute", "b", "a", anchor=(0.5, 0, 1), axis=(1, 0, 0)), "closes a loop that is not planar"),
+])
+def test_mujoco_says_which_loops_it_cannot_close(closing, message):
+    adapter = adapter_or_skip("mujoco")
+    from adapters.base import Unsupported
+    a, b = _bob(name="a", x=0.3), _bob(name="b", x=0.7)
+    scene = Scene(bodies=(a, b), gravity=(0, 0, -G), joints=(
+        Joint("revolute", "a", None, anchor=(0.0, 0, 1)), Joint("revolute", "b", None, anchor=(1.0, 0, 1)), closing))
+    with pytest.raises(Unsupported, match=re.escape(message)):
+        adapter.build(scene, Settings(dt=1e-3))
+
+
+# --- joint friction: the slider on a rail -------------------------------------------------
+
+def test_rail_slide_closed_form_and_its_discrete_stop():
+    """x_s = v_0^2 / (2 mu g) at t_s = v_0 / (mu g); semi-implicit Euler with the friction's
+    exact decrement stops within the family's tolerance, v_0 dt, of it."""
+    from cases import rail_slide as rs
+    p = rs.GRID[0]
+    mu, v0, dt = p["mu"], p["v0"], rs.FAMILY.dt_for(p)
+    assert rs.stop_time(mu, v0) == pytest.approx(v0 / (mu * G)) and rs.stop_distance(mu, v0) == pytest.approx(
+        v0 * rs.stop_time(mu, v0) / 2)
+    x, v = 0.0, v0
+    for _ in range(round(rs.T / dt)):
+        v = max(v - mu * G * dt, 0.0)
+        x += v * dt
+    check = {c.metric: c for c in rs.expect(p, dt)}["stop_distance"]
+    assert abs(x - check.expected) <= check.tolerance and abs(x - check.expected) > check.tolerance / 4
+
+
+@pytest.mark.parametrize("engine", _jointed_engines(lambda c: c.joint_friction))
+def test_an_engine_that_declares_joint_friction_stops_the_slider(engine):
+    """With the friction the launched slider stops where rail_slide says (and reports the
+    effect); with none it keeps its speed: the engine simulates the friction it declares."""
+    from dataclasses import replace
+
+    from cases import rail_slide as rs
+    adapter = adapter_or_skip(engine)
+    p = {**rs.GRID[0], "dim": 3 if 3 in adapter.capabilities.dimensions else 2}
+    dt, steps = 1e-3, round(rs.T / 1e-3)
+    for friction in (True, False):
+        scene = rs.scene(p)
+        if not friction:
+            scene = replace(scene, joints=(replace(scene.joints[0], friction=0.0),))
+        sim = adapter.build(scene, Settings(dt=dt))
+        for _ in range(steps):
+            sim.step()
+        x, v = sim.states()["slider"][0] - rs.START[0], sim.states()["slider"][7]
+        assert ("joint_friction" in sim.effects) == friction
+        sim.close()
+        if friction:
+            assert abs(x - rs.stop_distance(p["mu"], p["v0"])) <= p["v0"] * dt and abs(v) < rs.REST
+        else:
+            assert v == pytest.approx(p["v0"], rel=1e-5)
