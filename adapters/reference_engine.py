@@ -76,8 +76,8 @@ class ReferenceAdapter(Adapter):
                           "(circles and rects in 2D) only; it has no narrow phase for other shapes yet")
                    for kind in ("capsule", "cylinder", "hull", "mesh", "polygon")),
                  ("joint", "this formulation solves contact rows only: ball and revolute joints are equality rows "
-                           "of 'pgs' and 'spook' (reference_impl/joints.py); Lemke, the sequential impulses "
-                           "and the prismatic and fixed joints are not written yet (issue 39, item 2)"),
+                           "of 'pgs', 'spook' and 'lemke' (reference_impl/joints.py); the sequential impulses' "
+                           "joint rows and prismatic and fixed joints are not written yet (issue 39, item 2)"),
                  ("load", "the reference's step applies gravity as its only external force")),
     )
 

@@ -13,12 +13,12 @@ from reference_impl.geometry import Box, Sphere
 from reference_impl.rigid_body import RigidBody
 from reference_impl.world import World
 
-FORMULATIONS = ("pgs", "spook")
+FORMULATIONS = ("pgs", "spook", "lemke")
 # steps for a joint to take out a velocity that breaks it: PGS solves G v = 0 in one step
 # (to its tolerance); SPOOK is a critically damped stiff spring relaxing over d = 4 steps
 # (each step leaves 1 / (1 + 4d) of the row velocity and restores the error it made):
 # under 1 % left after 20 steps (measured: 0.3 %)
-SETTLE = {"pgs": 1, "spook": 20}
+SETTLE = {"pgs": 1, "spook": 20, "lemke": 1}
 DT = 1e-3
 G = 9.81
 
