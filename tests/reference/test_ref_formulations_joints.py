@@ -99,3 +99,22 @@ def test_a_formulation_without_joint_rows_refuses_a_joint():
     world, _ = pendulum("si", "ball")
     assert "ball joint asked" in world.unsupported()
     assert pendulum("pgs", "ball")[0].unsupported() is None
+
+
+def test_pgs_and_lemke_solve_the_same_joint_rows():
+    """PGS swept to convergence and Lemke's exact mixed LCP give the same steps for the
+    same rows: a hinged bob swinging 0.3 s from 90 deg, positions within 1e-12 m
+    (measured 1.7e-16). With the default 200 sweeps stopping at a 1e-10 m/s change, PGS
+    is 1.3e-6 m off: the bob's small inertia (1e-3 against m L^2 = 0.25) couples the
+    hinge's five rows tightly, and Gauss-Seidel converges slowly on them (note 004,
+    "pairwise iterative solvers")."""
+    ends = []
+    for config in (Config(formulation="pgs", iterations=20000, position_iterations=20000, tolerance=0.0),
+                   Config(formulation="lemke")):
+        world = World(gravity=(0.0, 0.0, -G), config=config)
+        bob = world.add(RigidBody("bob", Sphere(0.05), 1.0, (1e-3,) * 3, x=(0.5, 0.0, 0.0)))
+        world.join("revolute", bob, None, anchor=(0.0, 0.0, 0.0), axis=(0.0, 1.0, 0.0))
+        for _ in range(300):
+            world.step(DT)
+        ends.append(bob.x.copy())
+    assert np.max(np.abs(ends[0] - ends[1])) < 1e-12
