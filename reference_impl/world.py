@@ -6,7 +6,8 @@ step reads and writes in one `State` (bodies and contacts as arrays), and each
 contact in Python: `begin` (broad and narrow phase, rows, warm start, gravity) and `end`
 (the formulation's solve, then the integration). `begin` takes no formulation's type, so
 a process compiles it once for every formulation; `end` is compiled per formulation (the
-type of its `Stepper`'s settings picks the solve). numba optimises a function together
+type of its `Stepper`'s settings picks the solve); a world with joints calls `end_joints`
+in its place (joints.py), compiled only where a world has joints. numba optimises a function together
 with everything it calls, so a single compiled step per formulation compiled the world's
 collision phase again for each formulation.
 """
@@ -163,7 +164,7 @@ class World:
         self.settings = None   # the formulation's Settings, made with the State
         self._state = None     # built at the first step, again after the world changes
         self._stepper = None   # the State with the formulation's settings (built with the State)
-        self._end = end        # end, or _end_two_phase when the Phases ask for it
+        self._end = end        # end, end_joints for a world with joints, or _end_two_phase when the Phases ask for it
         self._contacts = None  # the last step's contacts as contact.Contact, made when asked for
         self._stage_names: dict[int, tuple[str, ...]] = {}
 
@@ -294,7 +295,7 @@ class World:
         state = new_state(bodies, np.array(self.gravity, dtype=float), materials, material_of, phases,
                           features, contacts, pairs, impulses, joints, joined)
         self._stepper = new_stepper(state, self.settings)
-        self._end = _end_two_phase if phases.two_phase else end
+        self._end = _end_two_phase if phases.two_phase else (end_joints if self.joints else end)
         return state
 
     # --- stepping --------------------------------------------------------------------------
@@ -427,8 +428,6 @@ def begin(state, dt) -> int:
     ran = COLLIDE
     state.contacts = collide(bodies, state.contacts, state.features, state.materials, state.material_of, dt,
                              state.phases, state.joined)
-    if len(state.joints.a):  # the joints' rows at the step's start (joints.py)
-        prepare_joints(state.joints, bodies)
 
     g = state.gravity  # integrate forces: gravity into the velocities
     if g[0] != 0.0 or g[1] != 0.0 or g[2] != 0.0:
@@ -447,10 +446,21 @@ def end(stepper, dt) -> int:
     that ran (bits, above)."""
     state = stepper.state
     ran = 0
-    if len(state.joints.a):
-        ran = solve_joints(state.contacts, state.joints, state.bodies, dt, stepper.settings) << SOLVER_SHIFT
-    elif len(state.contacts.a):
+    if len(state.contacts.a):
         ran = solve(state.contacts, state.bodies, dt, stepper.settings) << SOLVER_SHIFT
+    return ran | finish(state, dt)
+
+
+@njit
+def end_joints(stepper, dt) -> int:
+    """`end` of a world with joints: their rows and position errors at the step's start
+    (the bodies have not moved since `begin`; joints.prepare), then the formulation's
+    solve_joints of contacts and joints together. A separate function that World.step
+    calls only for a world with joints, so that a world without them compiles and runs
+    `end` alone, as before joints existed."""
+    state = stepper.state
+    prepare_joints(state.joints, state.bodies)
+    ran = solve_joints(state.contacts, state.joints, state.bodies, dt, stepper.settings) << SOLVER_SHIFT
     return ran | finish(state, dt)
 
 
