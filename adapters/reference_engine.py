@@ -76,8 +76,9 @@ class ReferenceAdapter(Adapter):
         why_not=(("threads", "the reference steps on one thread: it has no pool"),
                  ("polygon", "the reference's 2D narrow phase is closed-form for circles and rects only; its GJK "
                              "(reference_impl/gjk.py) takes 3D shapes"),
-                 ("joint", "the reference's formulations solve contact rows only: joints as bilateral rows in "
-                           "PGS, Lemke and SPOOK are not written yet (issue 39, item 2)"),
+                 ("joint", "this formulation solves contact rows only: ball and revolute joints are equality rows "
+                           "of 'pgs', 'spook' and 'lemke' (reference_impl/joints.py); the sequential impulses' "
+                           "joint rows and prismatic and fixed joints are not written yet (issue 39, item 2)"),
                  ("load", "the reference's step applies gravity as its only external force")),
     )
 
@@ -96,6 +97,9 @@ class ReferenceAdapter(Adapter):
         self.capabilities = replace(self.capabilities, impact_model=IMPACT_MODEL.get(formulation, "simultaneous"))
         if formulation != "si":  # only the sequential impulses have torque rows
             self.capabilities = replace(self.capabilities, contact_torques=frozenset())
+        joints = getattr(find_formulation(formulation), "JOINT_KINDS", frozenset())
+        if joints:  # equality rows beside the contacts' (reference_impl/joints.py)
+            self.capabilities = replace(self.capabilities, joints=joints, coordinates="maximal")
         if formulation == "compliant":  # the one force law it is configured with
             law = self.params.get("compliant_law", "hertz")
             self.capabilities = replace(self.capabilities, contact_laws=frozenset({law}))
@@ -177,6 +181,9 @@ class ReferenceSimulation(Simulation):
         by_name = {body.name: body for body in world.bodies}
         for a, b, m in scene.pairs:
             world.set_material(by_name[a], by_name[b], _material(m))
+        for j in scene.joints:
+            world.join(j.kind, by_name[j.body], None if j.parent is None else by_name[j.parent], j.anchor,
+                       j.unit_axis)
         reason = world.unsupported()
         if reason:
             raise Unsupported(f"formulation {config.formulation!r}: {reason}")
@@ -221,8 +228,9 @@ class ReferenceSimulation(Simulation):
         fx = set()
         if any(g != 0.0 for g in world.gravity):
             fx.add("gravity")
+        joined = {frozenset((j.body, j.parent)) for j in world.joints}  # never collide
         pairs = [(a, b) for i, a in enumerate(world.bodies) for b in world.bodies[i + 1:]
-                 if not (a.static and b.static)]
+                 if not (a.static and b.static) and frozenset((a.index, b.index)) not in joined]
         if pairs:
             fx.add("contact")
             mats = [world.material_of(a, b) for a, b in pairs]
@@ -236,6 +244,8 @@ class ReferenceSimulation(Simulation):
                 fx.add("torsional_friction")
         if any(b.can_rotate for b in self._dynamic):
             fx.add("rotation")
+        if world.joints:
+            fx.add("joint")
         return frozenset(fx)
 
     @property

@@ -166,9 +166,11 @@ FAMILY = CaseFamily(
     dt=1e-3,
     variant_id=variant_id,
     catches=(
-        # planted on MuJoCo: the reference builds no joints yet (issue 39 item 2)
-        Catch("gravity", "revolute,amplitude=150", "mujoco"),
-        Catch("time step", "revolute,amplitude=5", "mujoco"),
+        # planted on the reference's PGS formulation, whose joint rows pass the small swing
+        # (its large swings lose energy: a known deviation); the reference's damping is
+        # planted in its default formulation only, which has no joint rows yet: on MuJoCo
+        Catch("gravity", "revolute,amplitude=5", "reference-pgs"),
+        Catch("time step", "revolute,amplitude=5", "reference-pgs"),
         Catch("damping", "revolute,amplitude=150", "mujoco"),
     ),
 )

@@ -23,7 +23,8 @@ Modules:
 - `broadphase`  sort-and-sweep along one axis (note 001, "broad phase sweep")
 - `contact`     contacts and their constraint rows (normal, tangents), `r x n` terms, effective mass
 - `sequential_impulses`  the default formulation "si" (note 001, "sequential impulses")
-- `world`       `World`: bodies, pair materials, gravity; `step(dt)`
+- `joints`      ball and revolute joints as equality rows beside the contact rows
+- `world`       `World`: bodies, pair materials, gravity, joints (`join`); `step(dt)`
 
 One step (`World.step`: `world.begin`, then `world.end`; note 001, "simulation loop"):
 
@@ -71,6 +72,11 @@ Formulation interface -- one module per formulation:
   cannot represent this world faithfully (adapters raise `Unsupported` with it);
   `CONTACT_TORQUES` (it has torque rows) and `KEEP_LATE_CONTACTS` (it keeps the contacts
   that touch late in the step: a force law must see them).
+- Optional, joints: `JOINT_KINDS` (the joints.KINDS it solves) and, compiled,
+  `solve_joints(contacts, joints, bodies, dt, settings) -> int`, which `world.end` calls
+  in place of `solve` for a world with joints (joints.Joints: their rows and position
+  errors made at the step's start, their impulses kept in `P` for the warm start). A
+  formulation without them refuses a world with joints (World.unsupported).
 
 Contacts (`contact.Contacts`, a struct of arrays, row j the contact j) give every
 formulation the same pieces: for each contact its bodies `a`, `b` (indices into the

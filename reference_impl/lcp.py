@@ -264,9 +264,13 @@ def impact_rhs(rows: Rows, u_minus: np.ndarray) -> np.ndarray:
 @njit
 def bounds(rows: Rows, gamma: np.ndarray):
     """Lower and upper bound of every row given gamma: [0, inf) on normal rows,
-    [-mu gamma_n, mu gamma_n] on tangent rows (note 000, "PGS for friction")."""
+    [-mu gamma_n, mu gamma_n] on tangent rows (note 000, "PGS for friction"), (-inf, inf)
+    on a joint's equality rows (normal < 0, joints.py)."""
     lo, hi = np.empty(len(gamma)), np.empty(len(gamma))
     for k in range(len(gamma)):
+        if rows.normal[k] < 0:  # a joint's equality row (joints.BILATERAL)
+            lo[k], hi[k] = -np.inf, np.inf
+            continue
         limit = rows.mu[k] * gamma[rows.normal[k]]
         lo[k], hi[k] = (0.0, np.inf) if rows.normal[k] == k else (-limit, limit)
     return lo, hi
@@ -392,3 +396,19 @@ def world_bias(contacts, bodies) -> np.ndarray:
         a, b = c.a[j], c.b[j]
         bias[j] = c.bias[j] - max(velocity(c.normal[j], bodies.v[a], bodies.w[a], bodies.v[b], bodies.w[b]), 0.0)
     return bias
+
+
+@njit
+def stack_rows(first: Rows, second: Rows) -> Rows:
+    """The rows of `first`, then those of `second` (their `normal` indices moved along;
+    a joint's equality rows keep theirs, joints.BILATERAL)."""
+    K, L = len(first.a), len(second.a)
+    out = Rows(np.empty(K + L, np.int64), np.empty(K + L, np.int64), np.empty((K + L, 6)), np.empty((K + L, 6)),
+               np.empty(K + L, np.int64), np.empty(K + L), np.empty(K + L))
+    for k in range(K + L):
+        rows, m = (first, k) if k < K else (second, k - K)
+        out.a[k], out.b[k], out.mu[k], out.c_r[k] = rows.a[m], rows.b[m], rows.mu[m], rows.c_r[m]
+        out.normal[k] = rows.normal[m] + (K if k >= K and rows.normal[m] >= 0 else 0)
+        for e in range(6):
+            out.J_a[k, e], out.J_b[k, e] = rows.J_a[m, e], rows.J_b[m, e]
+    return out

@@ -283,16 +283,47 @@ def _take(A, rows, columns):
     return out
 
 
+@njit
+def mixed_lcp(A, b, rows, C, tally) -> np.ndarray:
+    """gamma of rows 0 .. C-1 (contact rows, pyramid_lcp's problem) and lambda of rows C ..
+    (a joint's equality rows, joints.py: free variables, A gamma - b = 0 there) together.
+    The free variables are eliminated (the standard reduction of a mixed LCP; note 004's
+    "mixed LCP"): lambda = A_JJ^+ (b_J - A_JC gamma), which leaves the LCP of
+    pyramid_lcp on the Schur complement A_CC - A_CJ A_JJ^+ A_JC with
+    b_C - A_CJ A_JJ^+ b_J, solved exactly. A_JJ^+ is the pseudo-inverse: a planar body's
+    rows out of its plane, and a hinge's angular rows on a ball that cannot turn, are zero."""
+    K = len(b)
+    contact, joint = np.arange(C), np.arange(C, K)
+    A_CC, A_CJ, A_JC, A_JJ = _take(A, contact, contact), _take(A, contact, joint), _take(A, joint, contact), \
+        _take(A, joint, joint)
+    inverse = np.linalg.pinv(A_JJ)
+    b_C, b_J = b[:C].copy(), b[C:].copy()
+    gamma = np.zeros(K)
+    if C:
+        rows_C = lcp.Rows(rows.a[:C].copy(), rows.b[:C].copy(), rows.J_a[:C].copy(), rows.J_b[:C].copy(),
+                          rows.normal[:C].copy(), rows.mu[:C].copy(), rows.c_r[:C].copy())
+        gamma_C = pyramid_lcp(A_CC - A_CJ @ inverse @ A_JC, b_C - A_CJ @ (inverse @ b_J), rows_C, tally)
+        for k in range(C):
+            gamma[k] = gamma_C[k]
+        b_J = b_J - A_JC @ gamma_C
+    lam = inverse @ b_J
+    for k in range(K - C):
+        gamma[C + k] = lam[k]
+    return gamma
+
+
 class Settings(NamedTuple):
     tally: np.ndarray  # lemke_or_retry's counts over the world's steps (TALLY entries)
+    beta: float        # a joint's position error corrected per step (config.beta)
 
 
 def settings(config) -> Settings:
-    return Settings(np.zeros(TALLY, np.int64))
+    return Settings(np.zeros(TALLY, np.int64), float(config.beta))
 
 
-STAGES = ("velocity", "friction", "position")
-VELOCITY, FRICTION, POSITION = 1, 2, 4
+STAGES = ("velocity", "friction", "position", "joints")
+VELOCITY, FRICTION, POSITION, JOINTS = 1, 2, 4, 8
+JOINT_KINDS = frozenset({"ball", "revolute"})  # the joints solve_joints takes (joints.py)
 
 
 @njit
@@ -314,6 +345,41 @@ def solve(contacts, bodies, dt, settings) -> int:
     return stages
 
 
+@njit
+def solve_joints(contacts, joints, bodies, dt, settings) -> int:
+    """`solve` with the joints' equality rows (joints.py) after the contact rows, as free
+    variables of one mixed LCP (mixed_lcp), solved exactly; then the overlap repair with
+    each joint row's pseudo-velocity target -beta/dt g beside the contacts' (as pgs.py's
+    solve_joints)."""
+    rows, data, u = lcp.world_rows(contacts, bodies)
+    C, K = len(rows.a), len(joints.g)
+    every = lcp.stack_rows(rows, joints.rows)
+    rhs, contact_rhs, joint_v = np.empty(C + K), lcp.world_rhs(contacts, rows, u), lcp.row_velocity(joints.rows, u)
+    for k in range(C):
+        rhs[k] = contact_rhs[k]
+    for k in range(K):
+        rhs[C + k] = -joint_v[k]
+    gamma = mixed_lcp(lcp.delassus(every, data), rhs, every, C, settings.tally)
+    lcp.apply_velocity_change(bodies, lcp.velocity_change(every, data, gamma), False)
+    lcp.store_impulses(contacts, gamma[:C])
+    for k in range(K):
+        joints.P[k] = gamma[C + k]
+    stages = VELOCITY | (FRICTION if C > len(contacts.a) else 0) | JOINTS
+    overlap = lcp.world_bias(contacts, bodies)
+    n = len(overlap)
+    bias = np.empty(n + K)
+    for k in range(n):
+        bias[k] = overlap[k]
+    for k in range(K):
+        bias[n + k] = -settings.beta / dt * joints.g[k]
+    if np.any(bias != 0.0):
+        stages |= POSITION
+        normal = lcp.stack_rows(lcp.normal_rows(rows), joints.rows)
+        P = mixed_lcp(lcp.delassus(normal, data), bias, normal, n, settings.tally)
+        lcp.apply_velocity_change(bodies, lcp.velocity_change(normal, data, P), True)
+    return stages
+
+
 def knobs(config) -> dict:
     """What this formulation does with the world's contacts, for the adapter's record."""
     return {"solver": "Lemke, lexicographic pivoting on a dense tableau; refuses a result that fails its check "
@@ -321,4 +387,7 @@ def knobs(config) -> dict:
                       f"{', '.join(f'{e:g}' for e in RETRY_EPS)} (degenerate contact sets)",
             "friction_set": "pyramid as a friction-polyhedron LCP (corners +-t1 +-t2)",
             "restitution": "v_n+ >= contact.normal_target (-e vn0, vn0 before external forces)",
-            "depenetration": "split impulse: Lemke on pseudo-velocities", "warm_start": False}
+            "depenetration": "split impulse: Lemke on pseudo-velocities", "warm_start": False,
+            "joints": "ball and revolute joints as free variables of a mixed LCP, eliminated through the "
+                      "pseudo-inverse of their block (Schur complement), their position error taken back on "
+                      "pseudo-velocities (-beta/dt g)"}

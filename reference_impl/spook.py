@@ -33,8 +33,8 @@ import numpy as np
 
 from reference_impl import pgs
 from reference_impl.compiled import njit
-from reference_impl.lcp import (Bodies, Rows, apply_velocity_change, row_velocity, store_impulses, world_impulses,
-                                world_rows)
+from reference_impl.lcp import (Bodies, Rows, apply_velocity_change, row_velocity, stack_rows, store_impulses,
+                                world_impulses, world_rows)
 
 
 # world defaults: a stiff contact (a 1 kg box on its 4 corners sinks 0.025 um) whose
@@ -75,7 +75,8 @@ def step_velocities(rows: Rows, bodies: Bodies, W: np.ndarray, a_ext: np.ndarray
                     h: float, settings: SpookSettings, lam0: np.ndarray | None = None) -> SpookStep:
     """One SPOOK velocity update. W (N, 6) is the velocity at the start of the step,
     a_ext = M^-1 f (N, 6) the external acceleration (linear; angular), q the gap of each
-    contact, one per normal row in row order; lam0 warm-starts PGS."""
+    contact, one per normal row in row order (and a joint's error g per equality row,
+    joints.py, in row order with them: both are note 004's q); lam0 warm-starts PGS."""
     return spook_velocities(rows, bodies, np.asarray(W, dtype=float), np.asarray(a_ext, dtype=float),
                             np.asarray(q, dtype=float), float(h), float(settings.k), float(settings.d),
                             int(settings.pgs.iterations), float(settings.pgs.tolerance),
@@ -89,7 +90,7 @@ def spook_velocities(rows, bodies, W, a_ext, q, h, k, d, iterations, tolerance, 
     GW, GA = row_velocity(rows, W), row_velocity(rows, a_ext)
     rhs, sigma, c = np.empty(len(GW)), np.zeros(len(GW)), 0
     for r in range(len(GW)):
-        if rows.normal[r] == r:  # a normal row: its contact's gap, regularised
+        if rows.normal[r] == r or rows.normal[r] < 0:  # a normal row's gap, a joint row's g: regularised
             rhs[r] = -a * q[c] - b * GW[r] - h * GA[r]
             sigma[r] = eps
             c += 1
@@ -113,8 +114,9 @@ def settings(config) -> Settings:
     return Settings(found.k, found.d, config.iterations, float(config.tolerance), config.warm_start)
 
 
-STAGES = ("warm_start", "velocity", "friction")
-WARM_START, VELOCITY, FRICTION = 1, 2, 4
+STAGES = ("warm_start", "velocity", "friction", "joints")
+WARM_START, VELOCITY, FRICTION, JOINTS = 1, 2, 4, 8
+JOINT_KINDS = frozenset({"ball", "revolute"})  # the joints solve_joints takes (joints.py)
 
 
 def unsupported(world) -> str | None:
@@ -147,6 +149,38 @@ def solve(contacts, bodies, dt, settings) -> int:
     return (WARM_START if warm else 0) | VELOCITY | (FRICTION if len(rows.a) > len(contacts.a) else 0)
 
 
+@njit
+def solve_joints(contacts, joints, bodies, dt, settings) -> int:
+    """`solve` with the joints' equality rows (joints.py) after the contact rows, each
+    regularised and stabilised as a contact's normal row (note 004: eps on the diagonal,
+    rhs -a g - b G W - h G M^-1 f, q = g the joint's position error), with the contacts'
+    k and d: a joint is a stiff spring of k N/m (N m/rad on a hinge's angular rows)
+    critically damped over d steps. The impulse of an equality row is unbounded."""
+    rows, data, u = world_rows(contacts, bodies)
+    C, K, N = len(rows.a), len(joints.g), len(u)
+    W = np.empty_like(u)
+    for i in range(N):
+        for e in range(3):
+            W[i, e], W[i, 3 + e] = bodies.v0[i, e], bodies.w0[i, e]
+    n = len(contacts.a)
+    q, start = np.empty(n + K), np.empty(C + K)
+    contact_start = world_impulses(contacts)
+    for j in range(n):
+        q[j] = -contacts.depth[j]
+    for k in range(C):
+        start[k] = contact_start[k]
+    for k in range(K):
+        q[n + k], start[C + k] = joints.g[k], joints.P[k]
+    warm = settings.warm_start and (np.any(contacts.Pn != 0.0) or np.any(joints.P != 0.0))
+    step = spook_velocities(stack_rows(rows, joints.rows), data, W, (u - W) / dt, q, dt, settings.k, settings.d,
+                            settings.iterations, settings.tolerance, start, warm)
+    apply_velocity_change(bodies, step.u - u, False)
+    store_impulses(contacts, step.lam[:C])
+    for k in range(K):
+        joints.P[k] = step.lam[C + k]
+    return (WARM_START if warm else 0) | VELOCITY | (FRICTION if C > n else 0) | JOINTS
+
+
 def knobs(config) -> dict:
     """What this formulation does with the world's contacts, for the adapter's record."""
     return {"solver": "SPOOK (note 004) by projected Gauss-Seidel",
@@ -155,4 +189,6 @@ def knobs(config) -> dict:
             "friction_set": "pyramid: |Pt_k| <= mu Pn on each tangent row, no regularisation",
             "restitution": "none: inelastic (scenes with e > 0 are refused)",
             "depenetration": "SPOOK's own -a q term (no pseudo-velocities)",
+            "joints": "ball and revolute joints as equality rows, regularised and stabilised as the contacts "
+                      "(eps, -a g) with spook_k and spook_d",
             "iterations": config.iterations, "tolerance": config.tolerance, "warm_start": config.warm_start}

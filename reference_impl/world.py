@@ -6,7 +6,8 @@ step reads and writes in one `State` (bodies and contacts as arrays), and each
 contact in Python: `begin` (broad and narrow phase, rows, warm start, gravity) and `end`
 (the formulation's solve, then the integration). `begin` takes no formulation's type, so
 a process compiles it once for every formulation; `end` is compiled per formulation (the
-type of its `Stepper`'s settings picks the solve). numba optimises a function together
+type of its `Stepper`'s settings picks the solve); a world with joints calls `end_joints`
+in its place (joints.py), compiled only where a world has joints. numba optimises a function together
 with everything it calls, so a single compiled step per formulation compiled the world's
 collision phase again for each formulation.
 """
@@ -25,6 +26,7 @@ from reference_impl.config import Config
 from reference_impl.contact import (MASS, RB_D, Contact, ContactArrays, Contacts, apply, compact, contact_arrays,
                                     new_contacts, prepare, velocity)
 from reference_impl.geometry import MAX_PAIR_POINTS, narrow_phase, new_points
+from reference_impl.joints import KINDS as JOINT_KINDS, STATIC, Joints, new_joints, prepare as prepare_joints
 from reference_impl.rigid_body import (Bodies, BodyArrays, RigidBody, integrate_position, new_bodies, speed_bound,
                                        stack)
 from reference_impl.vectors import copy
@@ -107,6 +109,8 @@ class State:
     contacts: Contacts       # the last step's (their impulses warm-start the next)
     pairs: np.ndarray        # (P, 2) body pairs in contact in the last step
     impulses: np.ndarray     # (P,) their normal impulse, N s
+    joints: Joints           # joints.py: the joints' rows (their impulses warm-start the next step)
+    joined: np.ndarray       # (N, N) bool: a joint connects the pair, which then never collides
 
 
 @structure
@@ -126,6 +130,20 @@ class Saved(NamedTuple):
     contacts: ContactArrays
     pairs: np.ndarray
     impulses: np.ndarray
+    joint_impulses: np.ndarray | None = None  # the joints' last impulses (joints.Joints.P)
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A joint of the world (World.join), its anchor and axis in each body's frame
+    (for the world as parent: world frame)."""
+    kind: str
+    body: int
+    parent: int            # joints.STATIC: the world
+    p_a: tuple
+    p_b: tuple
+    n_a: tuple
+    n_b: tuple
 
 
 class World:
@@ -141,11 +159,12 @@ class World:
         self.solver = formulation(config.formulation)
         self.bodies: list[RigidBody] = []
         self.pair_materials: dict[tuple[int, int], Material] = {}
+        self.joints: list[Joint] = []
         self.stages: tuple[str, ...] = ()
         self.settings = None   # the formulation's Settings, made with the State
         self._state = None     # built at the first step, again after the world changes
         self._stepper = None   # the State with the formulation's settings (built with the State)
-        self._end = end        # end, or _end_two_phase when the Phases ask for it
+        self._end = end        # end, end_joints for a world with joints, or _end_two_phase when the Phases ask for it
         self._contacts = None  # the last step's contacts as contact.Contact, made when asked for
         self._stage_names: dict[int, tuple[str, ...]] = {}
 
@@ -174,11 +193,37 @@ class World:
             self.config = replace(self.config, params={**self.config.params, **params})
         self._state = None
 
+    def join(self, kind: str, body: RigidBody, parent: RigidBody | None = None, anchor=(0.0, 0.0, 0.0),
+             axis=(0.0, 1.0, 0.0)) -> Joint:
+        """A joint of `kind` (joints.KINDS) holding `body` to `parent` (None: the world) at
+        the world point `anchor`, a hinge about the world direction `axis`, both taken as
+        the bodies stand now. Joined bodies do not collide with each other."""
+        if kind not in JOINT_KINDS:
+            raise ValueError(f"joint kind {kind!r}: must be one of {', '.join(JOINT_KINDS)}")
+        anchor = np.asarray(anchor, dtype=float)
+        n = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+
+        def local(b, vector, point):  # world vector (and point) into b's body frame
+            R = b.R
+            return tuple(R.T @ (vector - b.x if point else vector))
+        if parent is None:
+            p_b, n_b, index = tuple(anchor), tuple(n), STATIC
+        else:
+            p_b, n_b, index = local(parent, anchor, True), local(parent, n, False), parent.index
+        joint = Joint(kind, body.index, index, local(body, anchor, True), p_b, local(body, n, False), n_b)
+        self.joints.append(joint)
+        self._state = None
+        return joint
+
     def material_of(self, a: RigidBody, b: RigidBody) -> Material:
         return self.pair_materials.get((min(a.index, b.index), max(a.index, b.index)), self.material)
 
     def unsupported(self) -> str | None:
         """Why the configured formulation cannot run this world faithfully, or None."""
+        kinds = sorted({j.kind for j in self.joints} - getattr(self.solver, "JOINT_KINDS", frozenset()))
+        if kinds:
+            return (f"{', '.join(kinds)} joint asked: this formulation solves "
+                    f"{', '.join(sorted(getattr(self.solver, 'JOINT_KINDS', ()))) or 'no'} joint rows")
         if not getattr(self.solver, "CONTACT_TORQUES", False) and any(
                 m.torques for m in (self.material, *self.pair_materials.values())):
             return ("rolling resistance or torsional friction asked: this formulation has no torque "
@@ -194,7 +239,7 @@ class World:
         pairs, impulses = _impulses(self._state)
         return Saved(stack(self.bodies), dict(_features(self._state).items()),
                      ContactArrays(*(a.copy() for a in contact_arrays(_contacts(self._state)))),
-                     pairs.copy(), impulses.copy())
+                     pairs.copy(), impulses.copy(), _joints(self._state).P.copy())
 
     def restore(self, saved: Saved) -> None:
         """Continue from `saved` (`save` of a world with the same bodies, materials and
@@ -208,6 +253,8 @@ class World:
             features[key] = value
         self._state = self._build((features, Contacts(*(a.copy() for a in saved.contacts)), saved.pairs.copy(),
                                    saved.impulses.copy()))
+        if saved.joint_impulses is not None:
+            _joints(self._state).P[:] = saved.joint_impulses
         self._contacts = None
 
     def _build(self, warm: tuple | None = None) -> State:
@@ -235,11 +282,20 @@ class World:
         else:  # the last step's, for the warm start
             features, contacts, (pairs, impulses) = _features(self._state), _contacts(self._state), \
                 _impulses(self._state)
+        js = self.joints
+        joints = new_joints([j.body for j in js], [j.parent for j in js], [JOINT_KINDS[j.kind] for j in js],
+                            [j.p_a for j in js], [j.p_b for j in js], [j.n_a for j in js], [j.n_b for j in js])
+        if self._state is not None and warm is None:  # the joints' last impulses, for the warm start
+            joints.P[:] = _joints(self._state).P
+        joined = np.zeros((N, N), np.bool_)
+        for j in js:
+            if j.parent != STATIC:
+                joined[j.body, j.parent] = joined[j.parent, j.body] = True
         self.settings = self.solver.settings(c)  # the formulation's (compiled code shares its arrays)
         state = new_state(bodies, np.array(self.gravity, dtype=float), materials, material_of, phases,
-                          features, contacts, pairs, impulses)
+                          features, contacts, pairs, impulses, joints, joined)
         self._stepper = new_stepper(state, self.settings)
-        self._end = _end_two_phase if phases.two_phase else end
+        self._end = _end_two_phase if phases.two_phase else (end_joints if self.joints else end)
         return state
 
     # --- stepping --------------------------------------------------------------------------
@@ -286,8 +342,9 @@ class World:
 
 
 @njit
-def new_state(bodies, gravity, materials, material_of, phases, features, contacts, pairs, impulses):
-    return State(bodies, gravity, materials, material_of, phases, features, contacts, pairs, impulses)
+def new_state(bodies, gravity, materials, material_of, phases, features, contacts, pairs, impulses, joints, joined):
+    return State(bodies, gravity, materials, material_of, phases, features, contacts, pairs, impulses, joints,
+                 joined)
 
 
 @njit
@@ -311,6 +368,11 @@ def _features(state):
     return state.features
 
 
+@njit
+def _joints(state):
+    return state.joints
+
+
 # the stages of a step, bits of World.step's mask: the world's, and from SOLVER_SHIFT on the
 # formulation's (bit SOLVER_SHIFT + k: its STAGES[k])
 WORLD_STAGES = ("collide", "gravity", "positions", "rotations")
@@ -328,6 +390,21 @@ def _solve_of(contacts, bodies, dt, settings):
     """Compiled, the same choice made once, when the caller compiles for a formulation."""
     chosen = sys.modules[settings.instance_class.__module__].solve
     return lambda contacts, bodies, dt, settings: chosen(contacts, bodies, dt, settings)
+
+
+def solve_joints(contacts, joints, bodies, dt, settings):
+    """The formulation's solve of contacts and joints (its `solve_joints`; joints.py)."""
+    return sys.modules[type(settings).__module__].solve_joints(contacts, joints, bodies, dt, settings)
+
+
+@overload(solve_joints)
+def _solve_joints_of(contacts, joints, bodies, dt, settings):
+    """Compiled: the formulation's solve_joints, or for one without joint rows nothing
+    (World.unsupported refuses a world with joints for it, so this never runs)."""
+    chosen = getattr(sys.modules[settings.instance_class.__module__], "solve_joints", None)
+    if chosen is None:
+        return lambda contacts, joints, bodies, dt, settings: 0
+    return lambda contacts, joints, bodies, dt, settings: chosen(contacts, joints, bodies, dt, settings)
 
 
 @njit
@@ -350,7 +427,7 @@ def begin(state, dt) -> int:
                 bodies.v0[i, k], bodies.w0[i, k] = bodies.v[i, k], bodies.w[i, k]
     ran = COLLIDE
     state.contacts = collide(bodies, state.contacts, state.features, state.materials, state.material_of, dt,
-                             state.phases)
+                             state.phases, state.joined)
 
     g = state.gravity  # integrate forces: gravity into the velocities
     if g[0] != 0.0 or g[1] != 0.0 or g[2] != 0.0:
@@ -371,6 +448,19 @@ def end(stepper, dt) -> int:
     ran = 0
     if len(state.contacts.a):
         ran = solve(state.contacts, state.bodies, dt, stepper.settings) << SOLVER_SHIFT
+    return ran | finish(state, dt)
+
+
+@njit
+def end_joints(stepper, dt) -> int:
+    """`end` of a world with joints: their rows and position errors at the step's start
+    (the bodies have not moved since `begin`; joints.prepare), then the formulation's
+    solve_joints of contacts and joints together. A separate function that World.step
+    calls only for a world with joints, so that a world without them compiles and runs
+    `end` alone, as before joints existed."""
+    state = stepper.state
+    prepare_joints(state.joints, state.bodies)
+    ran = solve_joints(state.contacts, state.joints, state.bodies, dt, stepper.settings) << SOLVER_SHIFT
     return ran | finish(state, dt)
 
 
@@ -431,10 +521,11 @@ def _two_phase(contacts, bodies, dt, settings, phases) -> int:
 
 
 @njit
-def collide(bodies, previous, features, materials, material_of, dt, phases):
+def collide(bodies, previous, features, materials, material_of, dt, phases, joined):
     """Contacts up to phases.margin apart, plus the step each body may travel (so a
     contact this step will make is seen now: contact.normal_target), with their rows, and
-    warm-started from `previous` (the last step's contacts)."""
+    warm-started from `previous` (the last step's contacts). Pairs `joined` (by a
+    joint) have none."""
     N = len(bodies.x)
     reach = np.zeros(N)
     for i in range(N):
@@ -446,6 +537,8 @@ def collide(bodies, previous, features, materials, material_of, dt, phases):
     count = 0
     for p in range(len(pairs)):
         i, j = pairs[p, 0], pairs[p, 1]
+        if joined[i, j]:
+            continue
         a, b, m = narrow_phase(bodies, i, j, phases.margin + reach[i] + reach[j], features, found, count)
         for t in range(count, count + m):
             first[t], second[t] = a, b
