@@ -185,8 +185,9 @@ def plan_text(planned: pd.DataFrame, workers: int, model: Model, readings: str =
                 else f"{total / (BUDGET_S * BUDGET_WORKERS):.0%} of it" + (" before the unpriced jobs" if unpriced else ""))]
     if readings:
         lines.append(readings)
-    lines += ["", "per engine:", _text_table(plan_summary(planned, workers, "engine")), "",
-              "largest families:", _text_table(plan_summary(planned, workers, "case").head(12))]
+    if len(planned):  # (nothing to run: no tables of nothing)
+        lines += ["", "per engine:", _text_table(plan_summary(planned, workers, "engine")), "",
+                  "largest families:", _text_table(plan_summary(planned, workers, "case").head(12))]
     return "\n".join(lines)
 
 
