@@ -48,6 +48,16 @@ def test_the_plan_prices_from_the_last_run_counts_an_unmeasured_engine_apart_and
     assert "finished before" in text and "jobs with no measured cost (not counted)" in text
 
 
+def test_a_plan_with_nothing_left_to_run_says_so_without_empty_tables():
+    """Every job finished before: one line says 0 jobs, and no per-engine or per-family table of
+    nothing follows (it printed pandas' 'Empty DataFrame')."""
+    table = pd.DataFrame([{"engine": "e", "case": "c", "jobs": 2, "steps": 2000, "stepping_s": 2.0, "job_s": 3.0}])
+    nothing = pd.DataFrame(columns=["engine", "case", "predicted_s", "how"])
+    text = cost.plan_text(nothing, 2, cost.Model.of(table, "a test"))
+    assert text.startswith("0 jobs; predicted from a test: 0 worker-seconds")
+    assert "Empty DataFrame" not in text and "per engine:" not in text
+
+
 def test_the_report_says_where_the_time_went_and_the_parts_add_up(tmp_path):
     out = tmp_path / "out"
     assert main(["run", "--adapter", f"{FAKES}:OtherFake", "--engines", "fake-2", "--cases", "central_impact",
