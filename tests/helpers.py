@@ -23,10 +23,11 @@ def shared_rows(job: Job) -> list[dict]:
     has, in this process or in another pytest-xdist worker (the folder $PHYSVAL_TEST_ROWS
     they share, one lock file a job; without it, this process only). Each caller gets its
     own copies."""
-    if job.key not in _rows:
+    rows = _rows.get(job.key)
+    if rows is None:
         folder = os.environ.get(SHARED_ROWS)
         if not folder:
-            _rows[job.key] = tuple(execute(job, Context().resolver()).rows)
+            rows = tuple(execute(job, Context().resolver()).rows)
         else:
             path = Path(folder) / (hashlib.sha256(job.key.encode()).hexdigest()[:32] + ".pickle")
             # one process runs the job while another that wants it waits for its rows (two
@@ -34,13 +35,14 @@ def shared_rows(job: Job) -> list[dict]:
             with open(path.with_suffix(".lock"), "a") as lock:
                 fcntl.flock(lock, fcntl.LOCK_EX)
                 if path.is_file():
-                    _rows[job.key] = pickle.loads(path.read_bytes())
+                    rows = pickle.loads(path.read_bytes())
                 else:
-                    _rows[job.key] = tuple(execute(job, Context().resolver()).rows)
+                    rows = tuple(execute(job, Context().resolver()).rows)
                     tmp = path.with_name(f".{path.name}.{os.getpid()}")
-                    tmp.write_bytes(pickle.dumps(_rows[job.key]))
+                    tmp.write_bytes(pickle.dumps(rows))
                     os.replace(tmp, path)  # whole or absent
-    return [dict(r) for r in _rows[job.key]]
+        _rows[job.key] = rows
+    return [dict(r) for r in rows]  # from this call's own reference: another thread may clear _rows
 
 
 def run_job(job: Job, family=None, adapter=None, known=None) -> list[dict]:
