@@ -204,6 +204,8 @@ class Capabilities:
                     "model that contact law")
         if "contact_forces" in needs and not self.contact_forces:
             return "the case reads contact forces, which this engine does not report"
+        if "contact_points" in needs and not self.contact_points:
+            return "the case reads the engine's contact points, which this adapter does not report"
         if "contact_forces" in needs and scene.joints and not self.contact_forces_beside_joints:
             return ("the case reads contact forces in a scene with joints: the engine's contact forces are worked "
                     "out from the bodies' momenta, which the joints' impulses change too")

@@ -57,6 +57,8 @@ class Trajectory:
     docstring); `forces[pair]` the normal force between a pair at every sample (sample k:
     step k's force, zero at sample 0), recorded only when the family declares
     needs={"contact_forces"}. `bodies` names every body of the scene, static ones too.
+    `points` the contact points the engine reported after its last step, recorded only
+    when the family declares needs={"contact_points"} (None: not recorded).
     """
     dt: float
     t: np.ndarray                      # (n+1,) simulated time of each sample
@@ -64,6 +66,7 @@ class Trajectory:
     forces: dict[tuple[str, str], np.ndarray] | None = field(default_factory=dict)  # None: not recorded
     effects: frozenset[str] = frozenset()  # what the engine says it simulated (Simulation.effects)
     bodies: frozenset[str] = frozenset()   # every body of the scene (empty: not checked)
+    points: list[ContactPoint] | None = None  # after the last step; None: not recorded
 
     def _state(self, name: str) -> np.ndarray:
         try:
@@ -97,6 +100,13 @@ class Trajectory:
             if self.bodies and n not in self.bodies:
                 raise TrajectoryError(f"no body {n!r} in this scene (bodies: {', '.join(sorted(self.bodies))})")
         return self.forces.get(pair_key(a, b), np.zeros_like(self.t))
+
+    def last_points(self) -> list[ContactPoint]:
+        """The contact points the engine reported after the last step (ContactPoint)."""
+        if self.points is None:
+            raise TrajectoryError("contact points were not recorded: the family must declare "
+                                  "needs={'contact_points'} to read them")
+        return list(self.points)
 
     def after(self, t0: float) -> np.ndarray:
         """Boolean mask of the samples at or after time t0."""

@@ -4,7 +4,8 @@ reads them, and the wall time of stepping alone.
 Recording is kept to a copy per step: each step's raw engine state goes into one row of a
 preallocated array (`Simulation.write_state`) and is decoded into state rows in blocks
 (`Simulation.decode_states`), which is also when a blow-up is looked for. Contact forces
-are read only when asked for (a family that declares needs={"contact_forces"}).
+are read only when asked for (a family that declares needs={"contact_forces"}), and so are
+the contact points after the last step (needs={"contact_points"}).
 """
 from __future__ import annotations
 
@@ -58,10 +59,10 @@ def _blow_up(states: np.ndarray, first: int, dt: float, v_max: float) -> str | N
 
 
 def simulate(sim: Simulation, scene: Scene, dt: float, steps: int, forces: bool = False, warmup: int = 0,
-             on_step=None) -> Run:
+             on_step=None, points: bool = False) -> Run:
     """Step a built simulation `steps` times, recording every step; `Run.wall_s` is the
     time of the steps after the first `warmup`. `forces`: read the pair normal forces
-    each step. `on_step(sim, k)`: a reading that looks at the engine after step k (and at
+    each step; `points`: read the contact points after the last step. `on_step(sim, k)`: a reading that looks at the engine after step k (and at
     its start, k = 0).
     Raises Unstable (NaN, infinity, blow-up of the engine's state) or what the engine raises."""
     cpu0, start = time.thread_time(), time.perf_counter()
@@ -80,7 +81,7 @@ def simulate(sim: Simulation, scene: Scene, dt: float, steps: int, forces: bool 
     k = 0
     if on_step is not None:
         on_step(sim, 0)
-    if sim.run is not None and not forces and on_step is None:
+    if sim.run is not None and not forces and on_step is None and not points:
         return _run_in_blocks(sim, scene, dt, steps, warmup, names, raw, decoded, v_max, cpu0, start)
     try:
         for k in range(1, steps + 1):
@@ -117,7 +118,8 @@ def simulate(sim: Simulation, scene: Scene, dt: float, steps: int, forces: bool 
     traj = Trajectory(dt=dt, t=np.arange(steps + 1) * dt,
                       states={n: states[:, i] for i, n in enumerate(names)},
                       forces=_stack_forces(pair_forces, steps) if forces else None,
-                      effects=frozenset(sim.effects), bodies=frozenset(b.name for b in scene.bodies))
+                      effects=frozenset(sim.effects), bodies=frozenset(b.name for b in scene.bodies),
+                      points=sim.contact_points() if points else None)
     return Run(traj, wall, steps, dict(sim.knobs), frozenset(sim.effects), sim.iterations, time.thread_time() - cpu0,
                time.perf_counter() - start)
 
