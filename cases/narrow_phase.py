@@ -13,8 +13,12 @@ the step) are set against the geometry, which is exact for every pair:
     box-cylinder-end   cube 1 m / cylinder on its end     +z                0.01    a disc of r 0.2 on the face
     box-cylinder-side  cube 1 m / cylinder on its side    +z                0.01    a segment of 0.6 m on the face
     hull-face          two cubes as hulls, face on face   +z                0.02    a 0.7 x 0.8 m rectangle
-    hull-edge          a cube hull on an edge             +z                0.02    a segment of 1 m across the face
+    hull-edge          a cube hull on an edge             +z                0.02    a segment of 0.9 m to the face's edge
     hull-vertex        a cube hull on a corner            +z                0.02    a point
+
+The poses are those the reference's GJK is checked on (tests/reference/test_ref_core_gjk.py)
+but the edge, which is moved 0.1 m along itself so that its ends do not lie in the base's
+side faces: a generic pose, not a tie between coplanar faces.
 
 The overlap of a pair is the slab between the base's surface and the top's, `depth` thick
 along n, over the region's footprint in the contact plane (a point, segment, rectangle or
@@ -99,8 +103,8 @@ def _catalogue() -> dict[str, Pair]:
                                   (0.0, 0.0, 1.0), 0.01, H, ((-0.3, 0.1, H), (0.3, 0.1, H)), patch=True),
         "hull-face": Pair(static(Hull(CUBE)), top(Hull(CUBE), position=(0.3, 0.2, 2 * H - 0.02)),
                           (0.0, 0.0, 1.0), 0.02, H, ((-0.2, -0.3, H), (H, -0.3, H), (H, H, H), (-0.2, H, H)), patch=True),
-        "hull-edge": Pair(static(Hull(CUBE)), top(Hull(CUBE), position=(0.0, 0.1, H + edge - 0.02), orientation=EDGE_DOWN),
-                          (0.0, 0.0, 1.0), 0.02, H, ((-H, 0.1, H), (H, 0.1, H)), patch=True),
+        "hull-edge": Pair(static(Hull(CUBE)), top(Hull(CUBE), position=(0.1, 0.1, H + edge - 0.02), orientation=EDGE_DOWN),
+                          (0.0, 0.0, 1.0), 0.02, H, ((-0.4, 0.1, H), (H, 0.1, H)), patch=True),
         "hull-vertex": Pair(static(Hull(CUBE)), top(Hull(CUBE), position=(0.1, 0.1, H + corner - 0.02),
                                                     orientation=VERTEX_DOWN),
                             (0.0, 0.0, 1.0), 0.02, H, ((0.1, 0.1, H),)),
