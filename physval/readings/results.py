@@ -28,7 +28,8 @@ import pandas as pd
 
 from physval.core import COLUMNS
 from physval.core.verdicts import VANISHED
-from physval.readings import agreement, closest, cost, effective, invariance, laws, parity, scorecard, site
+from physval.readings import (agreement, closest, cost, effective, invariance, laws, narrow_phase, parity, scorecard,
+                              site)
 from physval.readings.checks import (deviation_summary, deviation_table, engine_groups, engine_versions, family_table,
                                      frame, per_engine_counts, problems_section, status_class, status_counts,
                                      summary_matrix, tolerance_reasons, unsupported_section)
@@ -420,6 +421,7 @@ SECTIONS = (
     InFolder(agreement, cross_engine),
     InFolder(parity, lambda run: run.beside.parity),
     InFolder(laws, lambda run: run.engine_wide.get("laws")),
+    InFolder(narrow_phase, lambda run: narrow_phase.measure(run.df)),
     Families(),
     Settings(),
     InFolder(cost, lambda run: cost.measured(run.rows, run.phases, run.out)),  # last but one: its report time covers the others

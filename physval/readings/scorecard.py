@@ -78,6 +78,7 @@ EFFECTS = {
     "compliant contact": (("hertz_impact", "*"),),
     "joints": (("pendulum", "*"), ("double_pendulum", "*"), ("four_bar", "*"), ("rail_slide", "*")),
     "grasp": (("pinch_grasp", "*"),),
+    "contact geometry": (("narrow_phase", "*"),),
     # the checks that measure an integrator's order, not physics (Check.measures =
     # "integrator"): graded here, whatever family they are in, and under no physical effect
     INTEGRATION: (),
