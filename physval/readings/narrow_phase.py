@@ -82,7 +82,7 @@ def plot(rows: pd.DataFrame, path: Path) -> None:
             mine = these[these.engine == engine]
             if not len(mine):
                 continue
-            x = np.array([pairs.index(p) for p in mine.pair]) + (k - len(styles) / 2) * 0.03
+            x = np.array([pairs.index(p) for p in mine.pair]) + (k - len(styles) / 2) * 0.6 / len(styles)
             y = np.where(np.isfinite(mine.error), np.clip(mine.error, FLOOR, CEILING), CEILING)
             ax.scatter(x, y, s=22, label=engine, **style)
         for tol in these.tolerance.dropna().unique():
@@ -91,6 +91,7 @@ def plot(rows: pd.DataFrame, path: Path) -> None:
         ax.set_ylim(FLOOR / 3, CEILING * 3)
         ax.set_xticks(range(len(pairs)), pairs, rotation=40, ha="right", fontsize=8)
         ax.set_title(f"{metric} error ({UNITS[metric]}); dashed: tolerance", fontsize=9)
+        ax.set_ylabel(f"|error| (0 drawn at {FLOOR:g}, no point at {CEILING:g})", fontsize=8)
     axes[0][-1].legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
     save_figure(fig, path)
 
