@@ -29,6 +29,15 @@ same landing (measured, so no variant); DART's adapter always uses a box (its Pl
 gives one contact point); the reference's plane is the exact half-space (every corner
 within its margin is a contact); Pymunk's is a thick segment (two points for a square).
 
+A hull lands the same way: a regular hexagonal prism given as a convex hull (`Hull` of its
+twelve corners: circumradius HALF, half-height HALF) dropped flat on its hexagonal face
+meets the ground at six corners at once, symmetric about the centre's vertical, so the
+LCP's symmetric solution again leaves it in pure translation at e v_in (and the plastic
+landing, e = 0, at rest on the face). Its two variants (restitutive and frictionless,
+plastic with friction) pose the multi-point impact through each engine's convex-hull
+collision instead of its box routine; the tolerances are the cube's, with the same lever
+HALF (the prism's corners lie HALF from its axis).
+
 Readings: the rebound height (apex of the centre's free arc after the first impact,
 fitted to the samples as cases.central_impact does, 0 if the cube never leaves the
 ground), the largest spin over the run, and, at the end, how well the face it fell on
@@ -45,7 +54,7 @@ import numpy as np
 
 from cases.family import CaseFamily, Catch, Check, plane_label
 from cases.observables import arc_apex, first_impact, free_arc_start, rotations
-from cases.scene import Body, Material, Scene, cube, ground
+from cases.scene import Body, Hull, Material, Scene, cube, ground
 
 HALF = 0.1      # half-extent of the cube, m
 M = 1.0         # kg
@@ -57,7 +66,13 @@ PENETRATION = 1e-3  # m: the depth a solver may rest at (stack_forces: 0.5 % of 
 # Grid: a bounce with no friction (PyBullet then takes maximal coordinates) and with
 # friction (reduced coordinates, cone friction, anchors), and a plastic landing with
 # friction; 3D (four corners at once) and 2D (two), so Pymunk takes part.
-GRID = tuple({"e": e, "mu": mu, "dim": dim} for dim in (3, 2) for e, mu in ((0.5, 0.0), (0.5, 0.5), (0.0, 0.5)))
+GRID = tuple({"e": e, "mu": mu, "dim": dim} for dim in (3, 2) for e, mu in ((0.5, 0.0), (0.5, 0.5), (0.0, 0.5))) + \
+    tuple({"e": e, "mu": mu, "dim": 3, "shape": "hull"} for e, mu in ((0.5, 0.0), (0.0, 0.5)))
+# the hull: a regular hexagonal prism about z, its corners HALF from the axis, its faces HALF
+# above and below the centre (centred and principal, as a Hull must be: the hexagon's second
+# moments are isotropic)
+HEX_PRISM = Hull(tuple((HALF * math.cos(k * math.pi / 3), HALF * math.sin(k * math.pi / 3), z)
+                       for z in (-HALF, HALF) for k in range(6)))
 
 
 # --- closed forms ---------------------------------------------------------------------------
@@ -75,7 +90,8 @@ def rebound_height(e: float, h: float = H) -> float:
 # --- scene ----------------------------------------------------------------------------------
 
 def scene(p) -> Scene:
-    box = Body("box", cube(HALF, p["dim"]), mass=M, position=(0.0, 0.0, HALF + H))
+    shape = HEX_PRISM if p.get("shape") == "hull" else cube(HALF, p["dim"])
+    box = Body("box", shape, mass=M, position=(0.0, 0.0, HALF + H))
     return Scene(bodies=(ground(), box), gravity=(0.0, 0.0, -G), material=Material(e=p["e"], mu_s=p["mu"]),
                  dimension=p["dim"])
 
@@ -137,13 +153,13 @@ def expect(p, dt) -> list[Check]:
 
 
 def variant_id(p) -> str:
-    return f"e={p['e']},mu={p['mu']}{plane_label(p)}"
+    return f"e={p['e']},mu={p['mu']}{plane_label(p)}" + (",hexagonal prism hull" if p.get("shape") == "hull" else "")
 
 
 FAMILY = CaseFamily(
     name="face_landing",
-    summary="a cube dropped flat lands on all its corners at once: rebound height e^2 h, no spin, at rest on the "
-            "face it fell on",
+    summary="a cube (and a hexagonal prism hull) dropped flat lands on all its corners at once: rebound height "
+            "e^2 h, no spin, at rest on the face it fell on",
     source="note 000 (simultaneous impulses as an LCP); note 001 (CG3 II.5), Newton's restitution law, impulse "
            "with lever arms",
     grid=GRID,

@@ -272,14 +272,15 @@ def test_edge_sticking_ratio_is_the_quoted_one():
 
 # --- face landing ---------------------------------------------------------------------------------
 
-def corner_impacts(levers, e, v_in):
+def corner_impacts(levers, e, v_in, inertia=None):
     """Velocity and spin after every listed corner strikes at once (note 000's LCP with the
     rigid-body rows n . (v + w x r)): the active set is all of them; A is singular (four
     contacts, three motions they constrain), so the impulses come as the least-norm
     solution, which is complementary here."""
     n = np.array([0.0, 0.0, 1.0])
     J = np.array([np.concatenate([n, np.cross(r, n)]) for r in levers])  # row: (n, r x n)
-    Minv = np.diag([1 / fl.M] * 3 + [1 / (2 / 3 * fl.M * fl.HALF**2)] * 3)
+    inertia = [2 / 3 * fl.M * fl.HALF**2] * 3 if inertia is None else inertia  # the cube's by default
+    Minv = np.diag([1 / fl.M] * 3 + [1 / i for i in inertia])
     u = np.concatenate([[0.0, 0.0, -v_in], np.zeros(3)])
     A = J @ Minv @ J.T
     b = (1 + e) * (J @ u)
@@ -297,6 +298,21 @@ def test_face_landing_is_pure_translation(e):
     assert v == pytest.approx([0.0, 0.0, e * v_in], abs=1e-12)
     assert w == pytest.approx(np.zeros(3), abs=1e-12)
     assert (e * v_in) ** 2 / (2 * fl.G) == pytest.approx(fl.rebound_height(e), abs=1e-12)
+
+
+@pytest.mark.parametrize("e", [0.0, 0.5])
+def test_hull_face_landing_is_pure_translation(e):
+    """The hexagonal prism hull lands on its six bottom corners at once: the same LCP with
+    the prism's own inertia (the scene vocabulary's polyhedral integral) leaves it in pure
+    translation at e v_in; and the six corners are the hull's lowest, HALF below the centre."""
+    corners = np.asarray(fl.HEX_PRISM.vertices)
+    bottom = corners[corners[:, 2] == corners[:, 2].min()]
+    assert len(bottom) == 6 and bottom[0, 2] == pytest.approx(-fl.HALF)
+    assert np.linalg.norm(bottom[:, :2], axis=1) == pytest.approx(np.full(6, fl.HALF))
+    v, w = corner_impacts(list(bottom), e, fl.impact_speed(), inertia=fl.HEX_PRISM.inertia(fl.M))
+    assert v == pytest.approx([0.0, 0.0, e * fl.impact_speed()], abs=1e-12)
+    assert w == pytest.approx(np.zeros(3), abs=1e-12)
+    assert fl.scene({"e": e, "mu": 0.0, "dim": 3, "shape": "hull"}).body("box").shape is fl.HEX_PRISM
 
 
 @pytest.mark.parametrize("e, spin", [(0.0, 12.9), (0.5, 19.3)])
