@@ -36,6 +36,16 @@ declares (Capabilities.restitution_law; the other reports unsupported). Poisson'
 Newton's here: the cube lands without slip, so both phases stick (or slide along the same
 direction) and e times the compression impulse is the impulse that restores e v_in.
 
+A hull on an edge: a regular hexagonal prism given as a convex hull (circumradius and
+half-height HALF; `Hull` of its twelve corners), turned so that an edge of its bottom
+hexagon lies along y, tilted 15 deg about y, lands on that edge (two corners at once,
+through each engine's convex-hull collision). The same impulse with the prism's own
+inertia: its principal moments (the polyhedral integral cases.scene.Hull computes: with
+the corners a from the axis and the faces a from the centre, I_z = 5/12 m a^2, the regular
+hexagon's polar moment, and I_x = I_y = m (5/24 a^2 + a^2/3)) turned into the world, I_w = R diag(I) R^T, in K = 1/m 1 - r* I_w^-1 r* and w' = I_w^-1 (r x p).
+The tilt about y keeps y a principal axis, so the spin is about y alone and stays so in
+free flight. Frictionless and sticking (mu = 0.8), as the cube's edge.
+
 The approach: the cube starts GAP = 1 mm above the ground moving down at the speed that
 brings it to V_IN = 2 m/s at the touch (that of a 0.20 m drop), so the run is 30 ms. The
 time-stepping error of the outcome is about g dt / v_in (a contact found a step late, the
@@ -68,7 +78,7 @@ import numpy as np
 from cases.family import CaseFamily, Catch, Check, plane_label
 from cases.impact_laws import IMPULSE_OF_LAW, law_label, law_needs, law_of, outcomes_differ, with_laws
 from cases.observables import first_impact
-from cases.scene import Body, Material, Scene, cube, ground, quat_about_y
+from cases.scene import Body, Hull, Material, Scene, cube, ground, quat_about_y
 from cases.tumbling_box import corners, rotation
 
 HALF = 0.1      # half-extent of the cube, m
@@ -86,7 +96,12 @@ DT = 2e-4       # s: the bands are ~ g dt / v_in (expect): 0.2 % and 0.6 % here
 # corners at once; 2D: one corner of the square), and a corner landing frictionless and
 # sticking.
 GRID = tuple({"tilt": "y", "mu": mu, "dim": dim} for dim in (3, 2) for mu in (0.0, 0.3, 0.8)) + \
-       tuple({"tilt": "diag", "mu": mu, "dim": 3} for mu in (0.0, 0.8))
+       tuple({"tilt": "diag", "mu": mu, "dim": 3} for mu in (0.0, 0.8)) + \
+       tuple({"tilt": "y", "mu": mu, "dim": 3, "shape": "hull"} for mu in (0.0, 0.8))
+# the hull: a regular hexagonal prism about z (circumradius and half-height HALF) turned so
+# that an edge of its bottom hexagon lies along y at +x; tilted about y it lands on that edge
+HEX_PRISM = Hull(tuple((HALF * math.cos(math.radians(30 + 60 * k)), HALF * math.sin(math.radians(30 + 60 * k)), z)
+                       for z in (-HALF, HALF) for k in range(6)))
 
 
 # --- geometry -------------------------------------------------------------------------------
@@ -105,10 +120,29 @@ def orientation(p) -> tuple[float, float, float, float]:
     return (math.cos(angle / 2), float(u[0]), float(u[1]), float(u[2]))
 
 
+def is_hull(p) -> bool:
+    return p.get("shape") == "hull"
+
+
+def vertices(p) -> np.ndarray:
+    """The body-frame corners: the cube's (the square's), or the hexagonal prism's."""
+    return np.asarray(HEX_PRISM.vertices) if is_hull(p) else corners(HALF, p["dim"])
+
+
+def inertia(p) -> np.ndarray:
+    """The inertia tensor in the world frame at the touch: I for the cube (isotropic), and
+    R diag(I_x, I_y, I_z) R^T for the prism (its polyhedral moments; a tilt about y keeps y
+    principal, so the spin stays about y)."""
+    if not is_hull(p):
+        return I * np.eye(3)
+    R = rotation(orientation(p))
+    return R @ np.diag(HEX_PRISM.inertia(M)) @ R.T
+
+
 def lever(p) -> np.ndarray:
     """r: from the centre to the contact point at touching, world frame: the mean of the
     lowest vertices (an edge's midpoint, or the one corner)."""
-    world = corners(HALF, p["dim"]) @ rotation(orientation(p)).T
+    world = vertices(p) @ rotation(orientation(p)).T
     z = world[:, 2]
     return world[np.isclose(z, z.min(), atol=1e-12)].mean(axis=0)
 
@@ -143,18 +177,21 @@ def cross_matrix(r) -> np.ndarray:
     return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
 
 
-def collision_matrix(r) -> np.ndarray:
-    """K = 1/m 1 - r* I^-1 r* of the cube against the fixed ground (note 004)."""
+def collision_matrix(r, inertia_w: np.ndarray | None = None) -> np.ndarray:
+    """K = 1/m 1 - r* I^-1 r* of the body against the fixed ground (note 004); I the
+    world-frame inertia tensor (default: the cube's, I 1)."""
     r_star = cross_matrix(r)
-    return np.eye(3) / M - r_star @ r_star / I
+    I_inv = np.eye(3) / I if inertia_w is None else np.linalg.inv(inertia_w)
+    return np.eye(3) / M - r_star @ I_inv @ r_star
 
 
-def impact_impulse(r, mu: float, e: float, v_in: float, law: str = "newton") -> np.ndarray:
-    """The impulse p on the cube by restitution law `law` (cases/impact_laws.py; Newton's,
+def impact_impulse(r, mu: float, e: float, v_in: float, law: str = "newton",
+                   inertia_w: np.ndarray | None = None) -> np.ndarray:
+    """The impulse p on the body by restitution law `law` (cases/impact_laws.py; Newton's,
     note 004: sticking if it lies in the cone, else sliding against the slip it leaves,
     module docstring)."""
     n = np.array([0.0, 0.0, 1.0])
-    return IMPULSE_OF_LAW[law](collision_matrix(r), -v_in * n, n, e, mu, mu)
+    return IMPULSE_OF_LAW[law](collision_matrix(r, inertia_w), -v_in * n, n, e, mu, mu)
 
 
 def impact_speed() -> float:
@@ -169,9 +206,9 @@ def after_impact(p, depth: float = 0.0) -> dict[str, float]:
     may put the contact point anywhere between the corner and the ground's surface)."""
     r = lever(p) + np.array([0.0, 0.0, depth])
     v_in = impact_speed()
-    P = impact_impulse(r, p["mu"], E, v_in, law_of(p))
+    P = impact_impulse(r, p["mu"], E, v_in, law_of(p), inertia(p))
     v = np.array([0.0, 0.0, -v_in]) + P / M
-    w = np.cross(r, P) / I
+    w = np.linalg.solve(inertia(p), np.cross(r, P))
     return {"v_slide_after": float(v @ slide_direction(p)), "vz_after": float(v[2]),
             "spin_after": float(w @ axis(p)), "contact_rebound": float((v + np.cross(w, r))[2]),
             "off_axis_spin": float(np.linalg.norm(w - (w @ axis(p)) * axis(p)))}
@@ -179,7 +216,7 @@ def after_impact(p, depth: float = 0.0) -> dict[str, float]:
 
 def sticks(p) -> bool:
     """Whether the impact sticks: Newton's sticking impulse inside the friction cone."""
-    P = impact_impulse(lever(p), math.inf, E, impact_speed())
+    P = impact_impulse(lever(p), math.inf, E, impact_speed(), inertia_w=inertia(p))
     return bool(np.linalg.norm(P[:2]) <= p["mu"] * P[2])
 
 
@@ -197,7 +234,7 @@ def law_matters(p) -> bool:
 # --- scene ----------------------------------------------------------------------------------
 
 def scene(p) -> Scene:
-    box = Body("box", cube(HALF, p["dim"]), mass=M, position=(0.0, 0.0, release_height(p)),
+    box = Body("box", HEX_PRISM if is_hull(p) else cube(HALF, p["dim"]), mass=M, position=(0.0, 0.0, release_height(p)),
                orientation=orientation(p), velocity=(0.0, 0.0, -start_speed()))
     return Scene(bodies=(ground(), box), gravity=(0.0, 0.0, -G), material=Material(e=E, mu_s=p["mu"]),
                  dimension=p["dim"])
@@ -267,7 +304,7 @@ def expect(p, dt) -> list[Check]:
 
 
 def variant_id(p) -> str:
-    return f"tilt={p['tilt']},mu={p['mu']}{law_label(p)}{plane_label(p)}"
+    return f"tilt={p['tilt']},mu={p['mu']}{law_label(p)}{plane_label(p)}" + (",hexagonal prism hull" if is_hull(p) else "")
 
 
 def needs(p) -> frozenset[str]:

@@ -98,8 +98,8 @@ def oblique(p):
 
 def edge(p):
     n = np.array([0.0, 0.0, 1.0])
-    return (el.collision_matrix(el.lever(p)), -el.V_IN * n, n, el.E, p["mu"], laws.law_of(p),
-            el.impact_impulse(el.lever(p), p["mu"], el.E, el.V_IN, laws.law_of(p)))
+    return (el.collision_matrix(el.lever(p), el.inertia(p)), -el.V_IN * n, n, el.E, p["mu"], laws.law_of(p),
+            el.impact_impulse(el.lever(p), p["mu"], el.E, el.V_IN, laws.law_of(p), el.inertia(p)))
 
 
 CASES = ([(f"eccentric_impact[{v.id}]", eccentric, v.params) for v in ei.FAMILY.all_variants if v.params["mu"] > 0]

@@ -182,10 +182,11 @@ def test_column_variants_need_their_model():
 
 # --- edge landing: collision matrix and Newton-Coulomb impulse ------------------------------------
 
-def contact_velocity_change(r, P):
+def contact_velocity_change(r, P, inertia=None):
     """Change of the contact point's velocity from the impulse P at r, from the rigid-body
-    impulse equations: dv = P / m, dw = I^-1 (r x P), du = dv + dw x r."""
-    dw = np.cross(r, P) / el.I
+    impulse equations: dv = P / m, dw = I^-1 (r x P), du = dv + dw x r (I the world-frame
+    tensor; default the cube's el.I 1)."""
+    dw = np.cross(r, P) / el.I if inertia is None else np.linalg.solve(inertia, np.cross(r, P))
     return P / el.M + np.cross(dw, r)
 
 
@@ -196,11 +197,11 @@ def test_collision_matrix_is_the_impulse_response(r, P):
     assert el.collision_matrix(r) @ P == pytest.approx(contact_velocity_change(r, P), abs=1e-12)
 
 
-def impact_conditions(r, P, mu, e, v_in):
+def impact_conditions(r, P, mu, e, v_in, inertia=None):
     """Post-impact contact velocity u' and whether it sticks, after asserting what defines
     the impact: u'_n = e v_in, the impulse inside the cone, and either no slip or
     |P_t| = mu P_n against the slip."""
-    u = np.array([0.0, 0.0, -v_in]) + contact_velocity_change(r, P)
+    u = np.array([0.0, 0.0, -v_in]) + contact_velocity_change(r, P, inertia)
     assert u[2] == pytest.approx(e * v_in, abs=1e-12)
     P_t, u_t = P[:2], u[:2]
     assert np.linalg.norm(P_t) <= mu * P[2] + 1e-12
@@ -213,13 +214,13 @@ def impact_conditions(r, P, mu, e, v_in):
 
 @pytest.mark.parametrize("p", [v.params for v in el.FAMILY.variants], ids=lambda p: el.variant_id(p))
 def test_edge_impulse_meets_the_impact_conditions(p):
-    r, v_in = el.lever(p), el.impact_speed()
-    P = el.impact_impulse(r, p["mu"], el.E, v_in)
-    _, stuck = impact_conditions(r, P, p["mu"], el.E, v_in)
+    r, v_in, I_w = el.lever(p), el.impact_speed(), el.inertia(p)
+    P = el.impact_impulse(r, p["mu"], el.E, v_in, inertia_w=I_w)
+    _, stuck = impact_conditions(r, P, p["mu"], el.E, v_in, I_w)
     assert stuck == el.sticks(p) == (p["mu"] == 0.8)
     v = np.array([0.0, 0.0, -v_in]) + P / el.M
-    w = np.cross(r, P) / el.I
-    assert 0.5 * el.M * v @ v + 0.5 * el.I * w @ w <= 0.5 * el.M * v_in**2  # no energy created
+    w = np.linalg.solve(I_w, np.cross(r, P))
+    assert 0.5 * el.M * v @ v + 0.5 * w @ I_w @ w <= 0.5 * el.M * v_in**2  # no energy created
     cf = el.after_impact(p)
     assert cf["contact_rebound"] == pytest.approx(el.E * v_in, abs=1e-12)
     assert cf["off_axis_spin"] == pytest.approx(0.0, abs=1e-12)  # the motion stays in the symmetry plane
@@ -250,6 +251,8 @@ def test_edge_geometry():
     ground at V_IN at the touch time, by the free-fall position and velocity."""
     for v in el.FAMILY.variants:
         p = v.params
+        if el.is_hull(p):  # the prism's edge: test_hull_edge_lever_and_inertia
+            continue
         angle = math.radians(el.TILT[p["tilt"]])
         R = Rotation.from_rotvec(angle * el.axis(p)).as_matrix()
         assert el.rotation(el.orientation(p)) == pytest.approx(R, abs=1e-12)
@@ -268,6 +271,32 @@ def test_edge_sticking_ratio_is_the_quoted_one():
         for e, v_in in ((0.5, 1.0), (0.0, 3.0)):
             P = el.impact_impulse(el.lever({"tilt": tilt, "dim": 3}), math.inf, e, v_in)
             assert np.linalg.norm(P[:2]) / P[2] == pytest.approx(ratio, abs=0.005)
+
+
+def test_hull_edge_lever_and_inertia():
+    """The hexagonal prism on its edge: the lever is the bottom edge's midpoint (corners at
+    +-30 deg, a cos 30 from the axis, HALF below the centre) turned 15 deg about y; the world
+    tensor is the prism's principal moments turned the same way, checked against the
+    moments by hand (I_z = 5/12 m a^2, I_x = I_y = m (5/24 a^2 + a^2/3)); and the frictionless
+    impulse from K equals two corner impulses of the rigid-body LCP sharing the edge
+    (note 000's rows n . (v + w x r) at both corners, least-norm)."""
+    a, m = el.HALF, el.M
+    p = {"tilt": "y", "mu": 0.0, "dim": 3, "shape": "hull"}
+    assert el.HEX_PRISM.inertia(m) == pytest.approx((m * (5 / 24 + 1 / 3) * a**2,) * 2 + (5 / 12 * m * a**2,), rel=1e-12)
+    R = Rotation.from_rotvec(math.radians(el.TILT["y"]) * np.array([0.0, 1.0, 0.0])).as_matrix()
+    assert el.lever(p) == pytest.approx(R @ np.array([a * math.cos(math.pi / 6), 0.0, -a]), abs=1e-12)
+    I_w = el.inertia(p)
+    assert I_w == pytest.approx(R @ np.diag(el.HEX_PRISM.inertia(m)) @ R.T, abs=1e-15)
+    ends = [R @ np.array([a * math.cos(math.pi / 6), y, -a]) for y in (-a / 2, a / 2)]
+    n, v_in = np.array([0.0, 0.0, 1.0]), el.impact_speed()
+    J = np.array([np.concatenate([n, np.cross(r, n)]) for r in ends])
+    Minv = np.block([[np.eye(3) / m, np.zeros((3, 3))], [np.zeros((3, 3)), np.linalg.inv(I_w)]])
+    u = np.concatenate([[0.0, 0.0, -v_in], np.zeros(3)])
+    gamma = np.linalg.lstsq(J @ Minv @ J.T, -(1 + el.E) * (J @ u), rcond=None)[0]
+    after = u + Minv @ J.T @ gamma
+    cf = el.after_impact(p)
+    assert after[2] == pytest.approx(cf["vz_after"], abs=1e-12) and after[4] == pytest.approx(cf["spin_after"], abs=1e-12)
+    assert np.delete(after, [2, 4]) == pytest.approx(np.zeros(4), abs=1e-12)  # planar: no slide without friction, spin about y only
 
 
 # --- face landing ---------------------------------------------------------------------------------
