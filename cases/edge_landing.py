@@ -320,8 +320,8 @@ GRID = with_laws(GRID, law_differs)
 
 FAMILY = CaseFamily(
     name="edge_landing",
-    summary="a cube falling tilted at 2 m/s lands on an edge or a corner: velocities and spin after the "
-            "single-point impact (collision matrix, Newton-Coulomb impulse)",
+    summary="a cube (and a hexagonal prism hull) falling tilted at 2 m/s lands on an edge or a corner: velocities "
+            "and spin after the single-point impact (collision matrix, Newton-Coulomb impulse)",
     source="note 004 (collision matrix K, Newton-Coulomb impulse); note 001 (CG3 II.5), inverse mass matrix of "
            "contact, impact with friction",
     grid=GRID,
