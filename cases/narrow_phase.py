@@ -210,8 +210,9 @@ def observe(traj, p) -> dict:
 
 # A contact normal off by an angle a turns a fraction sin(a) of the normal force sideways, as
 # a friction coefficient of tan(a) would on a frictionless pair; 1e-3 rad is a coefficient of
-# 0.001, a tenth of the 0.01 by which the friction families resolve mu (incline_threshold's
-# break-away angle within 0.5 deg near 27 deg). Exact geometry gives it to rounding.
+# 0.001, a twentieth of the 0.02 by which the friction families resolve mu (incline_threshold
+# sets its inclines 1 deg either side of atan(mu_s): (1 + mu^2) x 0.0175 = 0.022 at mu = 0.5).
+# Exact geometry gives it to rounding.
 NORMAL = 1e-3  # rad
 # Depths and points: the resting families allow 1 mm of resting overlap (a solver's
 # stabilising depth: cases/resting_blocks.py, cases/lying_cylinder.py); a tenth of it
@@ -225,7 +226,7 @@ def expect(p, dt) -> list[Check]:
     checks = [
         Check("normal_error", "rad", 0.0, NORMAL, "abs",
               f"a normal {NORMAL:g} rad off turns that share of the normal force sideways: a spurious friction "
-              "coefficient of 0.001, a tenth of what the friction families resolve"),
+              "coefficient of 0.001, a twentieth of the 0.02 the friction families resolve"),
         Check("depth", "m", pair.depth, PLACE, "abs",
               f"the overlap the pose sets ({pair.depth:g} m); {PLACE * 1e3:g} mm is a tenth of the 1 mm resting overlap "
               "the resting families allow"),
