@@ -206,7 +206,9 @@ class PyBulletAdapter(Adapter):
         joint_limits=True,
         coordinates="reduced",
         why_not=(("load", "the adapter applies no external forces (applyExternalForce, cleared by each step, "
-                          "is not mapped)"),),
+                          "is not mapped)"),
+                 ("limit_restitution", "a multibody joint's limit takes a range only (changeDynamics jointLowerLimit, "
+                                       "jointUpperLimit): Bullet's limit rows have no restitution")),
     )
     # planted changes (PyBulletSimulation.plant)
     plantable = frozenset({"square friction cone", "velocity damping", "restitution threshold"})
