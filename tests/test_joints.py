@@ -42,6 +42,9 @@ def _bob(dim: int = 3, name: str = "bob", x: float = 0.5) -> Body:
     ((Joint("revolute", "bob", friction=-1.0),), (), 3, r"joints[0].friction = -1.0: must be a finite force or torque >= 0"),
     ((Joint("ball", "bob", friction=0.5),), (), 3, r"joints[0].friction = 0.5: only revolute and prismatic joints have"),
     ((Joint("revolute", "bob", anchor=(0, 0, math.nan)),), (), 3, r"joints[0].anchor = (0, 0, nan): must be finite"),
+    ((Joint("revolute", "bob", limits=(-1, 1), limit_e=1.5),), (), 3,
+     r"joints[0].limit_e = 1.5: a coefficient of restitution, must lie in [0, 1]"),
+    ((Joint("revolute", "bob", limit_e=0.5),), (), 3, r"joints[0].limit_e = 0.5: a restitution at a limit needs limits"),
     ((Joint("ball", "bob"),), (), 2, r"joints[0].kind = 'ball': a 2D scene's joints are revolute (about y)"),
     ((Joint("revolute", "bob", axis=(0, 0, 1)),), (), 2, r"joints[0].axis = (0, 0, 1): a 2D revolute joint turns about y"),
     ((), (Load("ghost", force=(1, 0, 0)),), 3, r"loads[0].body = 'ghost': must name a dynamic body (bob)"),
@@ -69,6 +72,9 @@ def test_effects_name_joints_limits_and_loads():
     assert "load" in Scene(bodies=(_bob(),), loads=(Load("bob", torque=(0, 1, 0)),)).effects
     assert "load" not in Scene(bodies=(_bob(),), loads=(Load("bob"),)).effects  # a zero load asks for nothing
     assert "joint_friction" not in limited.effects
+    assert "limit_restitution" not in limited.effects  # a plastic limit (limit_e = 0)
+    bouncy = Scene(bodies=(_bob(),), joints=(Joint("revolute", "bob", limits=(-1.0, 0.0), limit_e=0.5),))
+    assert {"limit", "limit_restitution"} <= bouncy.effects
     assert "joint_friction" in Scene(bodies=(_bob(),), joints=(Joint("prismatic", "bob", friction=1.0),)).effects
 
 
@@ -498,3 +504,28 @@ def test_the_rod_stops_rebound_bound_holds_a_stepped_impact_and_catches_a_wrong_
     for tau in np.linspace(0.0, 1.0, 11)[:-1]:
         assert abs(_stepped_rod(e, tau * dt, order, dt) - e) <= tol
     assert abs(_stepped_rod(1.02 * e, 0.5 * dt, order, dt) - e) > tol
+
+
+# --- a joint-limit impact with restitution -------------------------------------------------
+
+@pytest.mark.parametrize("engine", _jointed_engines(lambda c: c.joint_limits and "revolute" in c.joints))
+def test_a_limits_restitution_is_built_or_said_unsupported(engine):
+    """limit_impact[e=0.5]: an engine that declares a restitution at a limit builds it (and
+    says so in its simulated effects), one that does not reports the variant unsupported
+    naming it, never a plastic limit in its place."""
+    from adapters.base import Unsupported
+    from cases import limit_impact
+    adapter = adapter_or_skip(engine)
+    dim = 3 if 3 in adapter.capabilities.dimensions else 2
+    scene = limit_impact.scene({"e": 0.5, "dim": dim})
+    if not adapter.capabilities.limit_restitution:
+        assert "restitution at a joint limit" in adapter.capabilities.cannot_run(scene)
+        with pytest.raises(Unsupported, match="restitution at a joint limit"):
+            adapter.build(scene, Settings(dt=1e-3))
+        return
+    sim = adapter.build(scene, Settings(dt=1e-3))
+    assert "limit_restitution" in sim.effects
+    sim.close()
+    plastic = adapter.build(limit_impact.scene({"e": 0.0, "dim": dim}), Settings(dt=1e-3))
+    assert "limit_restitution" not in plastic.effects
+    plastic.close()

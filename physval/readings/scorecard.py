@@ -77,7 +77,7 @@ EFFECTS = {
                              ("tumbling_box", "*"), ("oblique_landing", "*"), ("brick_tumble", "*")),
     "compliant contact": (("hertz_impact", "*"),),
     "joints": (("pendulum", "*"), ("double_pendulum", "*"), ("four_bar", "*"), ("rail_slide", "*"),
-               ("hinged_rod_stop", "*")),
+               ("hinged_rod_stop", "*"), ("limit_impact", "*")),
     "grasp": (("pinch_grasp", "*"),),
     # the checks that measure an integrator's order, not physics (Check.measures =
     # "integrator"): graded here, whatever family they are in, and under no physical effect
