@@ -12,7 +12,7 @@ dt = 1e-3, worst over ten contact phases):
   pushed out through the velocity, the bias beta/dt * delta of 001 "CG3 Collisions",
   sequential impulses, which adds bounce) and restitution acts on the velocity after
   gravity, a bias of +e g dt / v in the bounce ratio.
-So frictionless 3D scenes without joints use maximal coordinates and the others reduced coordinates;
+So frictionless 3D scenes without joints or loads use maximal coordinates and the others reduced coordinates;
 2D scenes need joints to stay in the x-z plane, which only reduced coordinates have.
 Every parameter set is recorded in `knobs` under pybullet's own name.
 
@@ -174,6 +174,14 @@ SOLVERS = {"si": p.CONSTRAINT_SOLVER_LCP_SI, "dantzig": p.CONSTRAINT_SOLVER_LCP_
 # spin about a normal in the x-z plane.
 MLCP_DROPS_TORQUES = ("pybullet's MLCP solvers (Dantzig, PGS) drop the rolling and spinning rows of a 3D "
                       "contact: a ball rolls and spins on as if the pair had none (measured)")
+# Measured (pybullet 3.2.7): a btRigidBody's first step turns it with the inverse inertia of
+# the shape it was created with, not the scene's set by changeDynamics (localInertiaDiagonal)
+# after it: a free ball (I = 0.01 kg m^2, its shape's 0.004) under a constant torque of
+# 0.01 N m reaches 0.1015 rad/s in 100 steps of 1 ms, not 0.1 (the first step's 2.5 for 1
+# x 1e-3); a multibody takes the scene's from the start. So loads go on multibodies only.
+MAXIMAL_FIRST_STEP_INERTIA = ("a maximal-coordinate btRigidBody's first step uses the inverse inertia of the shape "
+                              "it was created with, not the scene's: a constant torque's first step is off "
+                              "(loads go on multibodies only)")
 BODY_MODELS = ("auto", "rigid")
 GROUNDS = ("plane", "box")
 
@@ -205,10 +213,9 @@ class PyBulletAdapter(Adapter):
         joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
         joint_limits=True,
         coordinates="reduced",
-        why_not=(("load", "the adapter applies no external forces (applyExternalForce, cleared by each step, "
-                          "is not mapped)"),
-                 ("limit_restitution", "a multibody joint's limit takes a range only (changeDynamics jointLowerLimit, "
-                                       "jointUpperLimit): Bullet's limit rows have no restitution")),
+        loads=True,  # applyExternalForce and applyExternalTorque before each step (pybullet clears them)
+        why_not=(("limit_restitution", "a multibody joint's limit takes a range only (changeDynamics jointLowerLimit, "
+                                       "jointUpperLimit): Bullet's limit rows have no restitution"),),
     )
     # planted changes (PyBulletSimulation.plant)
     plantable = frozenset({"square friction cone", "velocity damping", "restitution threshold"})
@@ -232,9 +239,11 @@ class PyBulletAdapter(Adapter):
         if bodies == "rigid":  # 2D bodies stay in their plane on joints, which need reduced coordinates
             self.capabilities = replace(
                 self.capabilities, dimensions=frozenset({3}), joints=frozenset(), joint_limits=False, coordinates=None,
+                loads=False,
                 why_not=self.capabilities.why_not + (
                     ("joint", "the rigid variant keeps every body a maximal-coordinate btRigidBody: a scene joint "
-                              "would be a Bullet constraint (createConstraint), not mapped"),))
+                              "would be a Bullet constraint (createConstraint), not mapped"),
+                    ("load", MAXIMAL_FIRST_STEP_INERTIA)))
         if solver != "si":  # the MLCP solvers: rolling rows only on Dantzig's 2D path (MLCP_DROPS_TORQUES)
             self.capabilities = replace(
                 self.capabilities, contact_torques=frozenset({"rolling_resistance"} if solver == "dantzig" else ()),
@@ -517,10 +526,11 @@ class PyBulletSimulation(Simulation):
 
     def _build(self, scene: Scene, settings: Settings) -> None:
         c = self._client
-        # a scene with joints is all multibody: its contacts on a jointed link are the
+        # a scene with joints or loads is all multibody: its contacts on a jointed link are the
         # multibody solver's, which has no split impulse, so the maximal path's settings
         # would push out through the velocity there (contactERP) and add bounce
-        self._maximal = self._rigid or ("friction" not in scene.effects and scene.dimension == 3 and not scene.joints)
+        self._maximal = self._rigid or ("friction" not in scene.effects and scene.dimension == 3 and not scene.joints
+                                        and "load" not in scene.effects)  # MAXIMAL_FIRST_STEP_INERTIA
         self._planar = scene.dimension == 2
         self._stiffness = _hooke_stiffness(scene)
         warm = WARM_STARTING_FACTOR if self._rigid else PYBULLET_WARM_STARTING_FACTOR
@@ -551,6 +561,15 @@ class PyBulletSimulation(Simulation):
         for body in scene.bodies:
             record = self._add_body(body, scene, friction[body.name], restitution[body.name])
             self.knobs["bodies"][body.name] = record
+        # the scene's constant loads: pybullet clears external forces after each step, so
+        # step() applies them again before each, the force at the body's centre of mass
+        where = {name: (uid, link) for name, uid, link in self._dynamic}
+        self._loads = [(*where[load.body], list(load.force), list(load.torque)) for load in scene.loads if load.acts]
+        if self._loads:
+            self.knobs["loads"] = {load.body: {"applyExternalForce": list(load.force), "posObj": "centre of mass",
+                                               "applyExternalTorque": list(load.torque), "flags": "WORLD_FRAME",
+                                               "when": "before each stepSimulation"}
+                                   for load in scene.loads if load.acts}
         self.effects = self._built_effects(scene, friction, restitution)
 
     def _add_body(self, body: Body, scene: Scene, mu: float, e: float) -> dict:
@@ -730,12 +749,20 @@ class PyBulletSimulation(Simulation):
             fx.add("joint")
         if any(j.limits is not None for j in self._hung.values()):
             fx.add("limit")
+        if self._loads:
+            fx.add("load")
         return frozenset(fx)
 
     # --- running ------------------------------------------------------------------------
 
     def step(self) -> None:
-        p.stepSimulation(physicsClientId=self._client)
+        c = self._client
+        for uid, link, force, torque in self._loads:
+            centre = (p.getBasePositionAndOrientation(uid, physicsClientId=c)[0] if link < 0
+                      else p.getLinkState(uid, link, computeForwardKinematics=1, physicsClientId=c)[0])
+            p.applyExternalForce(uid, link, force, centre, p.WORLD_FRAME, physicsClientId=c)
+            p.applyExternalTorque(uid, link, torque, p.WORLD_FRAME, physicsClientId=c)
+        p.stepSimulation(physicsClientId=c)
 
     def states(self) -> dict[str, np.ndarray]:
         c = self._client
