@@ -126,6 +126,7 @@ class Capabilities:
     joints: frozenset[str] = frozenset()
     joint_limits: bool = False
     joint_friction: bool = False  # a joint's dry friction (cases.scene.Joint.friction)
+    limit_restitution: bool = False  # a restitution at a joint's limit (cases.scene.Joint.limit_e)
     coordinates: str | None = None
     loads: bool = False
 
@@ -194,6 +195,9 @@ class Capabilities:
             return f"{', '.join(kinds)} joint asked for: {why.get('joint', built)}"
         if "limit" in scene.effects and not self.joint_limits:
             return f"joint limits asked for: {why.get('limit', 'the adapter builds no joint limits')}"
+        if "limit_restitution" in scene.effects and not self.limit_restitution:
+            return (f"a restitution at a joint limit asked for: "
+                    f"{why.get('limit_restitution', 'the adapter maps no restitution at a joint limit')}")
         if "joint_friction" in scene.effects and not self.joint_friction:
             return f"joint friction asked for: {why.get('joint_friction', 'the adapter builds no joint friction')}"
         if "load" in scene.effects and not self.loads:
@@ -245,7 +249,9 @@ class Capabilities:
         floats = f"; float{self.float_bits}" + (", sub-steps" if self.substeps else "")
         modes = f"; runs: {','.join(sorted(self.modes))}" if self.modes else ""
         joints = (f"; joints: {','.join(k for k in JOINT_KINDS if k in self.joints)}"
-                  f"{' with limits' if self.joint_limits else ''}{' and friction' if self.joint_friction else ''} "
+                  f"{' with limits' if self.joint_limits else ''}"
+                  f"{' (a restitution at them)' if self.limit_restitution else ''}"
+                  f"{' and friction' if self.joint_friction else ''} "
                   f"({self.coordinates} coordinates)"
                   if self.joints else "; joints: none")
         loads = ", loads" if self.loads else ""

@@ -157,7 +157,10 @@ class Box2DAdapter(Adapter):
         # whatever the worker count (its "cross-thread determinism")
         modes=frozenset({"threads"}),
         why_not=(("save_restore", "Box2D v3 has no snapshot: its contact cache (warm-start impulses) can be "
-                                  "neither read nor written through pyb2d3"),),
+                                  "neither read nor written through pyb2d3"),
+                 ("limit_restitution", "a joint's limit takes a range only (lower_angle and upper_angle, "
+                                       "lower_translation and upper_translation): Box2D's limit rows have no "
+                                       "restitution")),
         # Box2D's joints (_joint): soft constraint rows between the bodies' own coordinates,
         # solved in the sub-steps with the contacts
         joints=frozenset({"revolute", "prismatic", "fixed"}),

@@ -187,7 +187,9 @@ class Box3DAdapter(Adapter):
         joint_limits=True,
         coordinates="maximal",
         why_not=(("load", "the adapter applies no external forces (b3Body_ApplyForceToCenter, cleared by each "
-                          "step, is not mapped)"),),
+                          "step, is not mapped)"),
+                 ("limit_restitution", "a joint's limit takes a range only (lowerAngle and upperAngle, lowerTranslation "
+                                       "and upperTranslation): Box3D's limit rows have no restitution")),
     )
     tunables = {
         "contact_hertz": Tunable(1.0, math.inf, math.inf,

@@ -535,7 +535,9 @@ class DartAdapter(Adapter):
         joint_limits=True,
         coordinates="reduced",
         why_not=(("load", "the adapter applies no external forces (BodyNode.addExtForce, cleared by each step, "
-                          "is not mapped)"),),
+                          "is not mapped)"),
+                 ("limit_restitution", "a joint's limit takes a range only (setPositionLowerLimit, "
+                                       "setPositionUpperLimit): DART's limit constraint has no restitution")),
     )
 
     def version(self) -> str:

@@ -545,10 +545,11 @@ def _relative(frame: Body | None, point, quat=None) -> tuple[list, list | None]:
     return list(local), q.tolist()
 
 
-def _limit_row(n: float, dt: float) -> dict:
-    """A joint limit is a contact-like constraint row: the plastic (e = 0) contact's
-    spring-damper over n steps (contact_spring_damper) and the contact's impedance."""
-    k, b = contact_spring_damper(0.0, n, dt)
+def _limit_row(e: float, n: float, dt: float) -> dict:
+    """A joint limit is a contact-like constraint row: the spring-damper over n steps that
+    gives a contact restitution e (contact_spring_damper; e = 0: plastic, b = 1/dt), here the
+    joint's restitution at its limit (Joint.limit_e), and the contact's impedance."""
+    k, b = contact_spring_damper(e, n, dt)
     return {"solreflimit": [-k, -b], "solimplimit": list(SOLIMP)}
 
 
@@ -580,7 +581,7 @@ def _tree_body_xml(scene: Scene, body: Body, tree: dict, children: dict, knobs: 
         if joint.kind != "ball":
             spec["axis"] = list(_rotate(inverse, joint.unit_axis))
         if joint.limits is not None:
-            spec.update(limited="true", range=list(joint.limits), **_limit_row(n, dt))
+            spec.update(limited="true", range=list(joint.limits), **_limit_row(joint.limit_e, n, dt))
         else:
             spec["limited"] = "false"
         if joint.friction > 0:  # dry friction: a frictionloss row, slip removed over n dt as the pairs' friction rows
@@ -743,6 +744,9 @@ def model_effects(m, knobs: dict) -> frozenset[str]:
         fx.add("joint")  # a scene joint (the tree's records are dicts; a free body's "free", a planar one's list)
     if np.any(m.jnt_limited):
         fx.add("limit")
+    # a limit row damped less than the plastic one's b = 1/dt (direct solref: -b) bounces
+    if np.any(m.jnt_limited.astype(bool) & (-m.jnt_solref[:, 1] < (1.0 - 1e-9) / m.opt.timestep)):
+        fx.add("limit_restitution")
     if np.any(m.dof_frictionloss > 0):
         fx.add("joint_friction")
     return frozenset(fx)
@@ -1148,6 +1152,7 @@ class MuJoCoAdapter(Adapter):
         joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
         joint_limits=True,
         joint_friction=True,
+        limit_restitution=True,  # the limit row's spring-damper from Joint.limit_e, as a contact's from e
         coordinates="reduced",
         loads=True,
     )

@@ -12,7 +12,7 @@ dt = 1e-3, worst over ten contact phases):
   pushed out through the velocity, the bias beta/dt * delta of 001 "CG3 Collisions",
   sequential impulses, which adds bounce) and restitution acts on the velocity after
   gravity, a bias of +e g dt / v in the bounce ratio.
-So frictionless 3D scenes use maximal coordinates and the others reduced coordinates;
+So frictionless 3D scenes without joints or loads use maximal coordinates and the others reduced coordinates;
 2D scenes need joints to stay in the x-z plane, which only reduced coordinates have.
 Every parameter set is recorded in `knobs` under pybullet's own name.
 
@@ -160,7 +160,8 @@ PYBULLET_DEFAULT_MARGIN = 0.001
 # after 2 s (measured), so they are no configuration of their own. "pgs" cannot run 2D
 # scenes: the step in which a contact first acts on a planar joint chain (2D bodies slide
 # and turn on joints, below) leaves NaN in the state, in every 2D scene of the core
-# families (measured), while "dantzig" runs them.
+# families (measured), while "dantzig" runs them; so does the step in which a contact first
+# acts on a jointed body's link (hinged_rod_stop, 3D: NaN at the impact, measured).
 SOLVERS = {"si": p.CONSTRAINT_SOLVER_LCP_SI, "dantzig": p.CONSTRAINT_SOLVER_LCP_DANTZIG,
            "pgs": p.CONSTRAINT_SOLVER_LCP_PGS}
 # What the MLCP solvers do with the contact torques' rows, measured (pybullet 3.2.7, dt = 1e-3,
@@ -173,6 +174,14 @@ SOLVERS = {"si": p.CONSTRAINT_SOLVER_LCP_SI, "dantzig": p.CONSTRAINT_SOLVER_LCP_
 # spin about a normal in the x-z plane.
 MLCP_DROPS_TORQUES = ("pybullet's MLCP solvers (Dantzig, PGS) drop the rolling and spinning rows of a 3D "
                       "contact: a ball rolls and spins on as if the pair had none (measured)")
+# Measured (pybullet 3.2.7): a btRigidBody's first step turns it with the inverse inertia of
+# the shape it was created with, not the scene's set by changeDynamics (localInertiaDiagonal)
+# after it: a free ball (I = 0.01 kg m^2, its shape's 0.004) under a constant torque of
+# 0.01 N m reaches 0.1015 rad/s in 100 steps of 1 ms, not 0.1 (the first step's 2.5 for 1
+# x 1e-3); a multibody takes the scene's from the start. So loads go on multibodies only.
+MAXIMAL_FIRST_STEP_INERTIA = ("a maximal-coordinate btRigidBody's first step uses the inverse inertia of the shape "
+                              "it was created with, not the scene's: a constant torque's first step is off "
+                              "(loads go on multibodies only)")
 BODY_MODELS = ("auto", "rigid")
 GROUNDS = ("plane", "box")
 
@@ -204,8 +213,9 @@ class PyBulletAdapter(Adapter):
         joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
         joint_limits=True,
         coordinates="reduced",
-        why_not=(("load", "the adapter applies no external forces (applyExternalForce, cleared by each step, "
-                          "is not mapped)"),),
+        loads=True,  # applyExternalForce and applyExternalTorque before each step (pybullet clears them)
+        why_not=(("limit_restitution", "a multibody joint's limit takes a range only (changeDynamics jointLowerLimit, "
+                                       "jointUpperLimit): Bullet's limit rows have no restitution"),),
     )
     # planted changes (PyBulletSimulation.plant)
     plantable = frozenset({"square friction cone", "velocity damping", "restitution threshold"})
@@ -229,9 +239,11 @@ class PyBulletAdapter(Adapter):
         if bodies == "rigid":  # 2D bodies stay in their plane on joints, which need reduced coordinates
             self.capabilities = replace(
                 self.capabilities, dimensions=frozenset({3}), joints=frozenset(), joint_limits=False, coordinates=None,
+                loads=False,
                 why_not=self.capabilities.why_not + (
                     ("joint", "the rigid variant keeps every body a maximal-coordinate btRigidBody: a scene joint "
-                              "would be a Bullet constraint (createConstraint), not mapped"),))
+                              "would be a Bullet constraint (createConstraint), not mapped"),
+                    ("load", MAXIMAL_FIRST_STEP_INERTIA)))
         if solver != "si":  # the MLCP solvers: rolling rows only on Dantzig's 2D path (MLCP_DROPS_TORQUES)
             self.capabilities = replace(
                 self.capabilities, contact_torques=frozenset({"rolling_resistance"} if solver == "dantzig" else ()),
@@ -248,6 +260,11 @@ class PyBulletAdapter(Adapter):
         if self.config["solver"] == "pgs" and scene.dimension == 2:
             raise Unsupported("2D scene: pybullet's MLCP projected Gauss-Seidel leaves NaN in the state in the "
                               "first step a contact acts on the planar joint chain of a 2D body (SOLVERS)")
+        jointed = {j.body for j in scene.joints}
+        if self.config["solver"] == "pgs" and any(a.name in jointed or b.name in jointed
+                                                  for a, b in scene.contact_pairs()):
+            raise Unsupported("a jointed body that may touch another: pybullet's MLCP projected Gauss-Seidel leaves "
+                              "NaN in the state in the first step a contact acts on a multibody's link (SOLVERS)")
         return PyBulletSimulation(scene, settings, **self.config)
 
     def _mlcp_torques(self, scene: Scene) -> str | None:
@@ -391,57 +408,65 @@ def _torque_values(scene: Scene, friction: dict[str, float], effect: str) -> dic
                       f"{TORQUE_KNOBS[effect]} under Bullet's rule r_a mu_b + r_b mu_a (with its lateralFriction)")
 
 
-def _collision_shape(body: Body, client: int, ground: str = "plane") -> tuple[int, dict]:
+def _collision_shape(body: Body, client: int, ground: str = "plane",
+                     frame: tuple[list, list] | None = None) -> tuple[int, dict]:
     """The engine shape of a body and the record of how it was made. Capsules and
     cylinders are pybullet's btCapsuleShapeZ and btCylinderShapeZ, whose axis is the body's
     z, as the scene's; `height` is the length of the cylindrical part (2 half_length). A
     hull, a 2D polygon and a static mesh are GEOM_MESH shapes: from vertices alone a
     btConvexHullShape of the corners, with indices a btBvhTriangleMeshShape (double-sided:
-    a triangle is met from either side), each inside a btCompoundShape (`_mesh_shape`)."""
+    a triangle is met from either side), each inside a btCompoundShape (`_mesh_shape`).
+    `frame` (position, xyzw orientation): the body's frame in the frame of the link that
+    holds the shape (a jointed body's link frame is the joint's, `_jointed_body`); None:
+    the two coincide."""
+    at = {} if frame is None else {"collisionFramePosition": list(frame[0]),
+                                   "collisionFrameOrientation": list(frame[1])}
     s = body.shape
     if s.kind == "plane" and ground == "box":
         half, _, _ = _ground_box(s)
-        kw = dict(shapeType=p.GEOM_BOX, halfExtents=half)
+        kw = dict(shapeType=p.GEOM_BOX, halfExtents=half, **at)
     elif s.kind == "sphere":
-        kw = dict(shapeType=p.GEOM_SPHERE, radius=s.radius)
+        kw = dict(shapeType=p.GEOM_SPHERE, radius=s.radius, **at)
     elif s.kind == "box":
-        kw = dict(shapeType=p.GEOM_BOX, halfExtents=list(s.half_extents))
+        kw = dict(shapeType=p.GEOM_BOX, halfExtents=list(s.half_extents), **at)
     elif s.kind == "plane":
-        kw = dict(shapeType=p.GEOM_PLANE, planeNormal=list(s.normal))
+        kw = dict(shapeType=p.GEOM_PLANE, planeNormal=list(s.normal), **at)
     elif s.kind == "circle":  # a cylinder along y; its depth only spreads the contact points
+        turn = Z_TO_Y if frame is None else list(p.multiplyTransforms([0, 0, 0], frame[1], [0, 0, 0], Z_TO_Y)[1])
         kw = dict(shapeType=p.GEOM_CYLINDER, radius=s.radius, height=2 * s.radius,
-                  collisionFrameOrientation=Z_TO_Y)
+                  **{**at, "collisionFrameOrientation": turn})
     elif s.kind == "rect":  # a box as deep along y as its larger half-extent
         a, c = s.half_extents
-        kw = dict(shapeType=p.GEOM_BOX, halfExtents=[a, max(a, c), c])
+        kw = dict(shapeType=p.GEOM_BOX, halfExtents=[a, max(a, c), c], **at)
     elif s.kind == "capsule":  # its margin is its radius: nothing to clear
-        kw = dict(shapeType=p.GEOM_CAPSULE, radius=s.radius, height=2.0 * s.half_length)
+        kw = dict(shapeType=p.GEOM_CAPSULE, radius=s.radius, height=2.0 * s.half_length, **at)
     elif s.kind == "cylinder":
-        kw = dict(shapeType=p.GEOM_CYLINDER, radius=s.radius, height=2.0 * s.half_length)
+        kw = dict(shapeType=p.GEOM_CYLINDER, radius=s.radius, height=2.0 * s.half_length, **at)
         return _no_margin(client, p.createCollisionShape(physicsClientId=client, **kw),
                           {**kw, "shapeType": "GEOM_CYLINDER"})
     elif s.kind == "hull":
-        return _mesh_shape(client, s.vertices, what=f"{len(s.vertices)} corners of the scene's hull, body frame")
+        return _mesh_shape(client, s.vertices, what=f"{len(s.vertices)} corners of the scene's hull, body frame", at=at)
     elif s.kind == "polygon":  # a prism as deep along y as its larger half-extent, as a rect
         half_depth = float(np.ptp(s.corners, axis=0).max()) / 2.0
         what = f"{len(s.corners)} corners of the scene's polygon at y = -+{half_depth:g} m, body frame"
-        return _mesh_shape(client, polygon_prism(s.corners, half_depth)[0], what=what)
+        return _mesh_shape(client, polygon_prism(s.corners, half_depth)[0], what=what, at=at)
     else:  # mesh
         return _mesh_shape(client, s.vertices, s.triangles,
-                           what=f"{len(s.vertices)} vertices of the scene's mesh, body frame")
+                           what=f"{len(s.vertices)} vertices of the scene's mesh, body frame", at=at)
     margin = s.radius if s.kind in ("sphere", "capsule") else PYBULLET_DEFAULT_MARGIN
     record = {**kw, "shapeType": GEOM_NAMES[kw["shapeType"]], "collisionMargin (pybullet's own)": margin}
     return p.createCollisionShape(physicsClientId=client, **kw), record
 
 
-def _mesh_shape(client: int, vertices, triangles=None, what: str = "") -> tuple[int, dict]:
+def _mesh_shape(client: int, vertices, triangles=None, what: str = "", at: dict | None = None) -> tuple[int, dict]:
     """A GEOM_MESH shape of `vertices` (a convex hull) or of `triangles` over them (a static
     triangle mesh), at meshScale 1, without collision margin (`_no_margin`).
     GEOM_CONCAVE_INTERNAL_EDGE is not set: pybullet would build the edge table but adjusts
     contacts by it only on bodies with CF_CUSTOM_MATERIAL_CALLBACK, which it never sets, so
     seams between triangles give their own contacts, as in Bullet."""
-    kw = dict(shapeType=p.GEOM_MESH, vertices=[[float(c) for c in v] for v in vertices], meshScale=[1.0, 1.0, 1.0])
-    record = {"shapeType": "GEOM_MESH", "vertices": what, "meshScale": [1.0, 1.0, 1.0]}
+    kw = dict(shapeType=p.GEOM_MESH, vertices=[[float(c) for c in v] for v in vertices], meshScale=[1.0, 1.0, 1.0],
+              **(at or {}))
+    record = {"shapeType": "GEOM_MESH", "vertices": what, "meshScale": [1.0, 1.0, 1.0], **(at or {})}
     if triangles is None:
         record["engine shape"] = "btConvexHullShape of the vertices, in a btCompoundShape"
     else:
@@ -501,7 +526,11 @@ class PyBulletSimulation(Simulation):
 
     def _build(self, scene: Scene, settings: Settings) -> None:
         c = self._client
-        self._maximal = self._rigid or ("friction" not in scene.effects and scene.dimension == 3)
+        # a scene with joints or loads is all multibody: its contacts on a jointed link are the
+        # multibody solver's, which has no split impulse, so the maximal path's settings
+        # would push out through the velocity there (contactERP) and add bounce
+        self._maximal = self._rigid or ("friction" not in scene.effects and scene.dimension == 3 and not scene.joints
+                                        and "load" not in scene.effects)  # MAXIMAL_FIRST_STEP_INERTIA
         self._planar = scene.dimension == 2
         self._stiffness = _hooke_stiffness(scene)
         warm = WARM_STARTING_FACTOR if self._rigid else PYBULLET_WARM_STARTING_FACTOR
@@ -532,12 +561,25 @@ class PyBulletSimulation(Simulation):
         for body in scene.bodies:
             record = self._add_body(body, scene, friction[body.name], restitution[body.name])
             self.knobs["bodies"][body.name] = record
+        # the scene's constant loads: pybullet clears external forces after each step, so
+        # step() applies them again before each, the force at the body's centre of mass
+        where = {name: (uid, link) for name, uid, link in self._dynamic}
+        self._loads = [(*where[load.body], list(load.force), list(load.torque)) for load in scene.loads if load.acts]
+        if self._loads:
+            self.knobs["loads"] = {load.body: {"applyExternalForce": list(load.force), "posObj": "centre of mass",
+                                               "applyExternalTorque": list(load.torque), "flags": "WORLD_FRAME",
+                                               "when": "before each stepSimulation"}
+                                   for load in scene.loads if load.acts}
         self.effects = self._built_effects(scene, friction, restitution)
 
     def _add_body(self, body: Body, scene: Scene, mu: float, e: float) -> dict:
         dimension = scene.dimension
         c = self._client
-        shape, shape_record = _collision_shape(body, c, self._ground)
+        joint = self._hung.get(body.name)
+        # a jointed body's shape sits in its link's frame, the joint's (_jointed_body)
+        frame = None if joint is None else (list(np.asarray(body.position, float) - np.asarray(joint.anchor, float)),
+                                            wxyz_to_xyzw(body.orientation))
+        shape, shape_record = _collision_shape(body, c, self._ground, frame)
         position, orientation = list(body.position), wxyz_to_xyzw(body.orientation)
         if body.shape.kind == "plane" and self._ground == "box":
             _, position, orientation = _ground_box(body.shape, scene)
@@ -545,8 +587,8 @@ class PyBulletSimulation(Simulation):
             position = [body.shape.offset * n for n in body.shape.normal]
             orientation = [0.0, 0.0, 0.0, 1.0]
         record = {"createCollisionShape": shape_record}
-        if body.name in self._hung:
-            uid, link, record["createMultiBody"] = self._jointed_body(body, shape, self._hung[body.name])
+        if joint is not None:
+            uid, link, record["createMultiBody"] = self._jointed_body(body, shape, joint)
         elif dimension == 2 and body.dynamic:
             uid, link, record["createMultiBody"] = self._planar_body(body, shape)
         else:
@@ -607,38 +649,45 @@ class PyBulletSimulation(Simulation):
         return uid, n - 1, record
 
     def _jointed_body(self, body: Body, shape: int, joint) -> tuple[int, int, dict]:
-        """A fixed, shapeless base at the joint's anchor, world-aligned; a massless link on
-        the scene joint at the anchor (a multibody joint turns about its link's frame
-        origin), its axis the scene's; and the body as a second link welded to it at its
-        start pose, so the joint's coordinate is 0 at the start. Reduced coordinates
-        (Featherstone), whatever the scene's friction; the joint's motor released (force 0)."""
+        """A fixed, shapeless base at the joint's anchor and one link on the scene joint:
+        its frame is the joint's (world-aligned at the anchor; a multibody joint turns
+        about its link's frame origin, its axis the scene's), its inertial frame the body's
+        centre and axes, its shape `shape`, made in that frame (`_collision_shape`), so the
+        joint's coordinate is 0 at the start. Reduced coordinates (Featherstone), whatever
+        the scene's friction; the joint's motor released (force 0).
+        Not the body welded (JOINT_FIXED) to a massless link on the joint, which holds the
+        same motion: pybullet 3.2.7 solves no contact between such a welded link and a static
+        body (a hinged rod fell through a fixed ball, getContactPoints reporting the overlap
+        with normal force 0; the same link on a prismatic joint, or on the hinge itself, is
+        stopped; tests/test_joints.py)."""
         c = self._client
         kind = {"revolute": p.JOINT_REVOLUTE, "prismatic": p.JOINT_PRISMATIC, "ball": p.JOINT_SPHERICAL,
                 "fixed": p.JOINT_FIXED}[joint.kind]
         axis = list(joint.unit_axis)
         offset = list(np.asarray(body.position, float) - np.asarray(joint.anchor, float))
+        turn = wxyz_to_xyzw(body.orientation)
         uid = p.createMultiBody(
-            0.0, -1, basePosition=list(joint.anchor), linkMasses=[0.0, body.mass],
-            linkCollisionShapeIndices=[-1, shape], linkVisualShapeIndices=[-1, -1],
-            linkPositions=[[0.0, 0.0, 0.0], offset], linkOrientations=[[0.0, 0.0, 0.0, 1.0], wxyz_to_xyzw(body.orientation)],
-            linkInertialFramePositions=[[0.0, 0.0, 0.0]] * 2, linkInertialFrameOrientations=[[0.0, 0.0, 0.0, 1.0]] * 2,
-            linkParentIndices=[0, 1], linkJointTypes=[kind, p.JOINT_FIXED], linkJointAxis=[axis, [0.0, 0.0, 1.0]],
+            0.0, -1, basePosition=list(joint.anchor), linkMasses=[body.mass],
+            linkCollisionShapeIndices=[shape], linkVisualShapeIndices=[-1],
+            linkPositions=[[0.0, 0.0, 0.0]], linkOrientations=[[0.0, 0.0, 0.0, 1.0]],
+            linkInertialFramePositions=[offset], linkInertialFrameOrientations=[turn],
+            linkParentIndices=[0], linkJointTypes=[kind], linkJointAxis=[axis],
             useMaximalCoordinates=False, physicsClientId=c)
         if joint.kind == "ball":
             p.setJointMotorControlMultiDof(uid, 0, p.POSITION_CONTROL, targetPosition=[0, 0, 0, 1],
                                            positionGain=0, velocityGain=0, force=[0, 0, 0], physicsClientId=c)
         elif joint.kind != "fixed":
             p.setJointMotorControl2(uid, 0, p.VELOCITY_CONTROL, force=0.0, physicsClientId=c)
-        record = {"baseMass": 0.0, "basePosition": list(joint.anchor), "linkMasses": [0.0, body.mass],
-                  "linkJointTypes": [f"JOINT_{joint.kind.upper() if joint.kind != 'ball' else 'SPHERICAL'}",
-                                     "JOINT_FIXED"],
-                  "linkJointAxis": [axis, None], "linkPositions": [[0.0, 0.0, 0.0], offset],
+        record = {"baseMass": 0.0, "basePosition": list(joint.anchor), "linkMasses": [body.mass],
+                  "linkJointTypes": [f"JOINT_{joint.kind.upper() if joint.kind != 'ball' else 'SPHERICAL'}"],
+                  "linkJointAxis": [axis], "linkPositions": [[0.0, 0.0, 0.0]],
+                  "linkInertialFramePositions": [offset], "linkInertialFrameOrientations": [turn],
                   "useMaximalCoordinates": False, "motor": "released (force 0)"}
         if joint.limits is not None:
             p.changeDynamics(uid, 0, jointLowerLimit=float(joint.limits[0]), jointUpperLimit=float(joint.limits[1]),
                              physicsClientId=c)
             record["changeDynamics"] = {"jointLowerLimit": joint.limits[0], "jointUpperLimit": joint.limits[1]}
-        return uid, 1, record
+        return uid, 0, record
 
     def _set_dynamics(self, body: Body, uid: int, link: int, mu: float, e: float) -> list[dict]:
         """Two changeDynamics calls, recorded as made: the collider's own values, then the
@@ -700,12 +749,20 @@ class PyBulletSimulation(Simulation):
             fx.add("joint")
         if any(j.limits is not None for j in self._hung.values()):
             fx.add("limit")
+        if self._loads:
+            fx.add("load")
         return frozenset(fx)
 
     # --- running ------------------------------------------------------------------------
 
     def step(self) -> None:
-        p.stepSimulation(physicsClientId=self._client)
+        c = self._client
+        for uid, link, force, torque in self._loads:
+            centre = (p.getBasePositionAndOrientation(uid, physicsClientId=c)[0] if link < 0
+                      else p.getLinkState(uid, link, computeForwardKinematics=1, physicsClientId=c)[0])
+            p.applyExternalForce(uid, link, force, centre, p.WORLD_FRAME, physicsClientId=c)
+            p.applyExternalTorque(uid, link, torque, p.WORLD_FRAME, physicsClientId=c)
+        p.stepSimulation(physicsClientId=c)
 
     def states(self) -> dict[str, np.ndarray]:
         c = self._client

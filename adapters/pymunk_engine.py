@@ -119,7 +119,9 @@ class PymunkAdapter(Adapter):
         # solver, Linux and macOS; it uses at most 2)
         modes=frozenset({"threads"}),
         why_not=(("save_restore", "a pickled Space restarts without Chipmunk's cached arbiters, whose "
-                                  "accumulated impulses warm-start the next step: no whole state to save"),),
+                                  "accumulated impulses warm-start the next step: no whole state to save"),
+                 ("limit_restitution", "a limit takes a range only (RotaryLimitJoint min and max, a GrooveJoint's "
+                                       "ends): Chipmunk's limit rows have no restitution")),
         # Chipmunk's constraints (_joint): impulse rows between two bodies' own coordinates,
         # solved with the contacts, their drift corrected by error_bias
         joints=frozenset({"revolute", "prismatic", "fixed"}),

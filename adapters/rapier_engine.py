@@ -160,6 +160,8 @@ class RapierAdapter(Adapter):
         joint_friction=True,
         coordinates="maximal",
         loads=True,  # RigidBody.add_force / add_torque once: Rapier keeps user forces until reset
+        why_not=(("limit_restitution", "a joint's limit takes a range only (Rapier's JointLimits: min, max): its "
+                                       "limit rows have no restitution"),),
     )
     tunables = {
         "contact_natural_frequency": Tunable(

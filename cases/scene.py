@@ -32,9 +32,10 @@ from cases.overlap import exact, may_touch, penetration
 # "rolling_resistance" / "torsional_friction" (a pair with Material.rolling_resistance /
 # Material.torsional_friction > 0: the contact torques of CONTACT_TORQUES).
 # "joint" (a scene with Joints), "limit" (a joint with limits), "load" (a constant external
-# force or torque, Scene.loads), "joint_friction" (a joint with Joint.friction > 0).
+# force or torque, Scene.loads), "joint_friction" (a joint with Joint.friction > 0),
+# "limit_restitution" (a joint with limits and Joint.limit_e > 0).
 EFFECTS = ("gravity", "contact", "restitution", "friction", "rotation", "rolling_resistance",
-           "torsional_friction", "joint", "limit", "load", "joint_friction")
+           "torsional_friction", "joint", "limit", "load", "joint_friction", "limit_restitution")
 # The effects that are torques a contact exerts (about the rolling axes, about the normal);
 # an engine declares the ones it models in Capabilities.contact_torques.
 CONTACT_TORQUES = ("rolling_resistance", "torsional_friction")
@@ -818,6 +819,9 @@ class Joint:
       the joint when that suffices and opposes its motion with exactly this much while it
       slides (a constant bound: Coulomb's mu N where the joint's reaction N is constant).
       0: none. Revolute and prismatic joints only.
+    - `limit_e`: Newton's coefficient of restitution at a limit, in [0, 1]: the joint's rate
+      after it meets a bound is -limit_e times its rate before (0: plastic, the default).
+      Joints with limits only.
     Two bodies a joint connects do not collide with each other (the pair is left out of
     Scene.contact_pairs), as in every engine's default for jointed bodies."""
     kind: str
@@ -827,6 +831,7 @@ class Joint:
     axis: tuple[float, float, float] = (0.0, 1.0, 0.0)
     limits: tuple[float, float] | None = None
     friction: float = 0.0
+    limit_e: float = 0.0
 
     @property
     def unit_axis(self) -> tuple[float, float, float]:
@@ -860,6 +865,12 @@ class Joint:
             if not lim[0] <= 0.0 <= lim[1]:
                 raise SceneError(f"{where}.limits = {self.limits!r}: must hold the start, 0 "
                                  "(lower <= 0 <= upper: the coordinate is 0 at the start)")
+        if isinstance(self.limit_e, bool) or not isinstance(self.limit_e, (int, float)) \
+                or not (math.isfinite(self.limit_e) and 0.0 <= self.limit_e <= 1.0):
+            raise SceneError(f"{where}.limit_e = {self.limit_e!r}: a coefficient of restitution, must lie in [0, 1]")
+        if self.limit_e > 0.0 and self.limits is None:
+            raise SceneError(f"{where}.limit_e = {self.limit_e!r}: a restitution at a limit needs limits "
+                             "(0 for a joint without)")
         if not (math.isfinite(self.friction) and self.friction >= 0.0):
             raise SceneError(f"{where}.friction = {self.friction!r}: must be a finite force or torque >= 0")
         if self.friction > 0.0 and self.kind not in LIMITED_KINDS:
@@ -1007,6 +1018,8 @@ class Scene:
             fx.add("joint")
         if any(j.limits is not None for j in self.joints):
             fx.add("limit")
+        if any(j.limits is not None and j.limit_e > 0.0 for j in self.joints):
+            fx.add("limit_restitution")
         if any(j.friction > 0 for j in self.joints):
             fx.add("joint_friction")
         if any(load.acts for load in self.loads):

@@ -42,6 +42,9 @@ def _bob(dim: int = 3, name: str = "bob", x: float = 0.5) -> Body:
     ((Joint("revolute", "bob", friction=-1.0),), (), 3, r"joints[0].friction = -1.0: must be a finite force or torque >= 0"),
     ((Joint("ball", "bob", friction=0.5),), (), 3, r"joints[0].friction = 0.5: only revolute and prismatic joints have"),
     ((Joint("revolute", "bob", anchor=(0, 0, math.nan)),), (), 3, r"joints[0].anchor = (0, 0, nan): must be finite"),
+    ((Joint("revolute", "bob", limits=(-1, 1), limit_e=1.5),), (), 3,
+     r"joints[0].limit_e = 1.5: a coefficient of restitution, must lie in [0, 1]"),
+    ((Joint("revolute", "bob", limit_e=0.5),), (), 3, r"joints[0].limit_e = 0.5: a restitution at a limit needs limits"),
     ((Joint("ball", "bob"),), (), 2, r"joints[0].kind = 'ball': a 2D scene's joints are revolute (about y)"),
     ((Joint("revolute", "bob", axis=(0, 0, 1)),), (), 2, r"joints[0].axis = (0, 0, 1): a 2D revolute joint turns about y"),
     ((), (Load("ghost", force=(1, 0, 0)),), 3, r"loads[0].body = 'ghost': must name a dynamic body (bob)"),
@@ -69,6 +72,9 @@ def test_effects_name_joints_limits_and_loads():
     assert "load" in Scene(bodies=(_bob(),), loads=(Load("bob", torque=(0, 1, 0)),)).effects
     assert "load" not in Scene(bodies=(_bob(),), loads=(Load("bob"),)).effects  # a zero load asks for nothing
     assert "joint_friction" not in limited.effects
+    assert "limit_restitution" not in limited.effects  # a plastic limit (limit_e = 0)
+    bouncy = Scene(bodies=(_bob(),), joints=(Joint("revolute", "bob", limits=(-1.0, 0.0), limit_e=0.5),))
+    assert {"limit", "limit_restitution"} <= bouncy.effects
     assert "joint_friction" in Scene(bodies=(_bob(),), joints=(Joint("prismatic", "bob", friction=1.0),)).effects
 
 
@@ -404,3 +410,122 @@ def test_an_engine_that_declares_joint_friction_stops_the_slider(engine):
             assert abs(x - rs.stop_distance(p["mu"], p["v0"])) <= p["v0"] * dt and abs(v) < rs.REST
         else:
             assert v == pytest.approx(p["v0"], rel=1e-5)
+
+
+# --- an impact with a pivot: the hinged rod on its stop ------------------------------------
+
+@pytest.mark.parametrize("engine", _jointed_engines(lambda c: "revolute" in c.joints))
+def test_a_hinged_body_is_stopped_by_a_static_body(engine):
+    """The hinged rod of cases/hinged_rod_stop.py, plastic (e = 0), at dt = 1e-3: its face
+    meets the fixed ball at theta_c = 30 deg, and it may not turn past that by more than
+    0.05 rad (2 cm at the lever d = 0.4 m: a soft contact's depth, MuJoCo's ~1 cm). Unstopped
+    it swings through 90 deg. PyBullet failed this with the body welded (JOINT_FIXED) to a
+    massless link on the hinge: its contacts with static bodies got no impulse."""
+    from adapters.base import Unsupported
+    from cases import hinged_rod_stop as rod
+    adapter = adapter_or_skip(engine)
+    dim = 3 if 3 in adapter.capabilities.dimensions else 2
+    try:
+        sim = adapter.build(rod.scene({"e": 0.0, "dim": dim}), Settings(dt=1e-3))
+    except Unsupported as exc:
+        pytest.skip(str(exc))
+    turn = []
+    for _ in range(300):  # the contact at 0.19 s
+        sim.step()
+        x = sim.states()["rod"]
+        turn.append(math.atan2(rod.PIVOT[2] - x[2], x[0] - rod.PIVOT[0]))
+    sim.close()
+    assert rod.THETA_C - 0.01 < max(turn) < rod.THETA_C + 0.05, f"the rod turned to {math.degrees(max(turn)):.1f} deg"
+
+
+def _collision_matrix(r_a: np.ndarray, r_b: np.ndarray, m: float, I_inv: np.ndarray) -> np.ndarray:
+    """Note 001's K_ab = 1/M + r_a*^T I^-1 r_b*: the velocity change at r_a per impulse at r_b."""
+    def star(r):
+        return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+    return np.eye(3) / m + star(r_a).T @ I_inv @ star(r_b)
+
+
+@pytest.mark.parametrize("dim", [3, 2])
+def test_the_stops_collision_matrix_with_the_hinge_is_d2_over_I_p(dim):
+    """The contact's K with the hinge's rows eliminated (the Schur complement n^T (K_cc - K_cj
+    K_jj^-1 K_jc) n, from note 001's blocks of the free rod at the contact) is d^2 / I_p, so
+    the impulse that reverses v_n by (1 + e) gives omega+ = -e omega-, with the pivot still."""
+    from cases import hinged_rod_stop as rod
+    th = rod.THETA_C
+    u, n = np.array([math.cos(th), 0.0, -math.sin(th)]), np.array([-math.sin(th), 0.0, -math.cos(th)])
+    r_c = (rod.LEVER - rod.L / 2) * u + rod.W * n     # the contact from the rod's centre
+    r_j = -rod.L / 2 * u                              # the pivot from the rod's centre
+    R = np.array([[math.cos(th), 0.0, math.sin(th)], [0.0, 1.0, 0.0], [-math.sin(th), 0.0, math.cos(th)]])
+    I_inv = R @ np.diag(1.0 / np.array(rod._rod_shape(dim).inertia(rod.MASS))) @ R.T
+    K = {(a, b): _collision_matrix(ra, rb, rod.MASS, I_inv) for a, ra in (("c", r_c), ("j", r_j))
+         for b, rb in (("c", r_c), ("j", r_j))}
+    k = n @ (K["c", "c"] - K["c", "j"] @ np.linalg.solve(K["j", "j"], K["j", "c"])) @ n
+    assert k == pytest.approx(rod.LEVER ** 2 / rod.pivot_inertia(dim), rel=1e-12)
+    # the impulse for e = 0.5 at omega- = 1 (v_n = d omega- towards the stop, along -n)
+    e, w = 0.5, 1.0
+    p_c = -(1 + e) * rod.LEVER * w / k * n            # the stop pushes the rod along -n
+    p_j = -np.linalg.solve(K["j", "j"], K["j", "c"] @ p_c)
+    omega = np.array([0.0, w, 0.0]) + I_inv @ (np.cross(r_c, p_c) + np.cross(r_j, p_j))
+    assert omega[1] == pytest.approx(-e * w, rel=1e-12)
+    v_centre = np.cross(np.array([0.0, w, 0.0]), -r_j) + (p_c + p_j) / rod.MASS
+    assert v_centre + np.cross(omega, r_j) == pytest.approx(np.zeros(3), abs=1e-12)  # the pivot stays
+
+
+def _stepped_rod(e: float, tau: float, order: str, dt: float) -> float:
+    """The family's reading of a 1-DOF rod stepped by symplectic Euler in its angle, the impact
+    resolved in the step where the face reaches theta_c (tau: where in its step the release
+    puts the contact), the step's gravity acting before, inside or after the impulse."""
+    from cases import hinged_rod_stop as rod
+    I_p = rod.pivot_inertia(3)
+    # start on the exact fall's speed, the contact reached tau after the first step's start
+    theta, omega = rod.THETA_C - tau * rod.impact_speed(3), rod.impact_speed(3)
+    w = [omega]
+    for _ in range(200):
+        alpha = rod.MASS * G * rod.L / 2 * math.cos(theta) / I_p
+        if theta + (omega + alpha * dt) * dt >= rod.THETA_C and omega > 0:
+            omega = {"before": -e * (omega + alpha * dt), "after": -e * omega + alpha * dt,
+                     "inside": -e * omega}[order]
+        else:
+            omega += alpha * dt
+        theta += omega * dt
+        w.append(omega)
+    w = np.array(w)
+    turn = int(np.argmax(w < 0))
+    return float(-np.min(w[turn:]) / np.max(w[:turn]))
+
+
+@pytest.mark.parametrize("order", ["before", "inside", "after"])
+def test_the_rod_stops_rebound_bound_holds_a_stepped_impact_and_catches_a_wrong_e(order):
+    """An ideal stepper meets the family's bound at every contact phase and each order of
+    gravity and impulse; one whose restitution is 2 % off does not."""
+    from cases import hinged_rod_stop as rod
+    dt, e = rod.DT, 0.5
+    tol = rod.rebound_bound(e, 3, dt)
+    for tau in np.linspace(0.0, 1.0, 11)[:-1]:
+        assert abs(_stepped_rod(e, tau * dt, order, dt) - e) <= tol
+    assert abs(_stepped_rod(1.02 * e, 0.5 * dt, order, dt) - e) > tol
+
+
+# --- a joint-limit impact with restitution -------------------------------------------------
+
+@pytest.mark.parametrize("engine", _jointed_engines(lambda c: c.joint_limits and "revolute" in c.joints))
+def test_a_limits_restitution_is_built_or_said_unsupported(engine):
+    """limit_impact[e=0.5]: an engine that declares a restitution at a limit builds it (and
+    says so in its simulated effects), one that does not reports the variant unsupported
+    naming it, never a plastic limit in its place."""
+    from adapters.base import Unsupported
+    from cases import limit_impact
+    adapter = adapter_or_skip(engine)
+    dim = 3 if 3 in adapter.capabilities.dimensions else 2
+    scene = limit_impact.scene({"e": 0.5, "dim": dim})
+    if not adapter.capabilities.limit_restitution:
+        assert "restitution at a joint limit" in adapter.capabilities.cannot_run(scene)
+        with pytest.raises(Unsupported, match="restitution at a joint limit"):
+            adapter.build(scene, Settings(dt=1e-3))
+        return
+    sim = adapter.build(scene, Settings(dt=1e-3))
+    assert "limit_restitution" in sim.effects
+    sim.close()
+    plastic = adapter.build(limit_impact.scene({"e": 0.0, "dim": dim}), Settings(dt=1e-3))
+    assert "limit_restitution" not in plastic.effects
+    plastic.close()

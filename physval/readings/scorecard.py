@@ -76,7 +76,8 @@ EFFECTS = {
     "rotation and inertia": (("free_rigid_body", "*"), ("eccentric_impact", "*"), ("edge_landing", "*"),
                              ("tumbling_box", "*"), ("oblique_landing", "*"), ("brick_tumble", "*")),
     "compliant contact": (("hertz_impact", "*"),),
-    "joints": (("pendulum", "*"), ("double_pendulum", "*"), ("four_bar", "*"), ("rail_slide", "*")),
+    "joints": (("pendulum", "*"), ("double_pendulum", "*"), ("four_bar", "*"), ("rail_slide", "*"),
+               ("hinged_rod_stop", "*"), ("limit_impact", "*")),
     "grasp": (("pinch_grasp", "*"),),
     "contact geometry": (("narrow_phase", "*"),),
     # the checks that measure an integrator's order, not physics (Check.measures =
