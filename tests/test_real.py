@@ -178,17 +178,28 @@ def test_the_noise_floor_is_small_but_not_zero(tosses):
     assert 0 < np.median(nf["pos_err"]) < 1e-2 and 0 < np.median(nf["rot_err"]) < 0.5
 
 
-# --- simulation, cache, fit ---------------------------------------------------------------------
+# --- simulation, row store, fit ---------------------------------------------------------------------
 
-def test_simulate_toss_is_cached_and_the_cache_returns_the_same(tmp_path):
+def test_a_tosss_job_is_kept_in_the_row_store_and_read_back_the_same(tmp_path):
+    """Each batch of tosses is a job of the core whose rows (scores, and the poses of a batch
+    that keeps them) stream to the engine's row store: a second runner reads them back as
+    they were, and runs only the jobs the store lacks (what an interrupted run resumes)."""
     params = real.nominal("mujoco")
-    a = real.simulate_toss("mujoco", 3, params, horizon=0.1, cache=str(tmp_path))
-    assert a["status"] == "ok" and len(list(tmp_path.rglob("*.npz"))) == 1
-    b = real.simulate_toss("mujoco", 3, params, horizon=0.1, cache=str(tmp_path))
-    np.testing.assert_array_equal(a["pos"], b["pos"])
-    np.testing.assert_array_equal(a["corner_err"], b["corner_err"])
-    real.simulate_toss("mujoco", 3, {**params, "mu": 0.3}, horizon=0.1, cache=str(tmp_path))
-    assert len(list(tmp_path.rglob("*.npz"))) == 2  # other parameters, another entry
+    with real.Runner(folder=tmp_path) as runner:
+        first = real.simulate_many("mujoco", params, [3], runner=runner, keep=True, horizon=0.1)
+    assert first[0]["status"] == "ok" and first[0]["cached"] is False
+    store = tmp_path / "mujoco.csv"
+    assert len(pd.read_csv(store)) == 1
+    with real.Runner(folder=tmp_path) as runner:
+        again = real.simulate_many("mujoco", params, [3, 5], runner=runner, keep=True, horizon=0.1, batch=1)
+        other = real.simulate_many("mujoco", {**params, "mu": 0.3}, [3], runner=runner, keep=True, horizon=0.1)
+    assert [r["cached"] for r in again] == [True, False] and other[0]["cached"] is False
+    a, b = first[0], again[0]
+    for k in ("pos", "quat", "corner_err"):
+        np.testing.assert_array_equal(a["trajectory"][k], b["trajectory"][k])
+    np.testing.assert_array_equal([a[k] for k in real.metric_names()], [b[k] for k in real.metric_names()])
+    assert math.isfinite(a["corner_mean"])
+    assert len(pd.read_csv(store)) == 3  # other parameters, another job
 
 
 def test_the_mujoco_tunable_reaches_the_engine():
@@ -257,9 +268,11 @@ def test_the_fit_runs_unchanged_on_a_dask_local_cluster():
     distributed = pytest.importorskip("distributed")
     kw = dict(names=("mu", "e"), popsize=2, generations=1, horizon=0.15, batch=1)
     local = real.fit("mujoco", (0, 2), **kw)
+    from physval.core.session import Execution
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
-                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
-        remote = real.fit("mujoco", (0, 2), map_fn=lambda fn, xs: client.gather(client.map(fn, list(xs))), **kw)
+                                  dashboard_address=None) as cluster:
+        with real.Runner(execution=Execution(scheduler=cluster.scheduler_address, progress=False)) as runner:
+            remote = real.fit("mujoco", (0, 2), runner=runner, **kw)
     assert remote.params == local.params and remote.loss == local.loss
     assert remote.evaluations == local.evaluations > 1
 
@@ -348,7 +361,7 @@ def test_an_adhoc_adapter_reaches_the_workers(tmp_path):
     assert (mine.status == "ok").all() and (mine.steps > 0).all(), mine[["status", "message"]]
 
 
-def test_an_edited_adhoc_adapter_is_simulated_again_not_read_from_the_cache(tmp_path):
+def test_an_edited_adhoc_adapter_is_simulated_again_not_read_from_the_store(tmp_path):
     adapter = tmp_path / "mine.py"
     code = ("from tests.fakes import FakeAdapter\n\nclass Mine(FakeAdapter):\n"
             "    def __init__(self):\n        super().__init__(name='fake-mine', dimensions=frozenset({3}))\n")
