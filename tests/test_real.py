@@ -379,25 +379,25 @@ def test_an_edited_adhoc_adapter_is_simulated_again_not_read_from_the_store(tmp_
     assert cached() == {False}  # its source changed: simulated again
 
 
-# A worker's first batch loads the toss data (~1 CPU s): the time limit leaves room for that
-# on a loaded machine, and only the hanging batch (the given parameters') waits it out.
+# A worker's first job loads the toss data (~1 CPU s): the time limit leaves room for that
+# on a loaded machine, and only the hanging jobs (the given parameters', one per toss) wait it out.
 @pytest.mark.parametrize("fault, limit, why", [("FaultAboveFriction", "900", "the engine raised NotImplementedError"),
                                                ("SegfaultAboveFriction", "900", "killed by signal SIGSEGV"),
                                                ("HangAboveFriction", "10", "per-job time limit of 10 s")])
-def test_a_batch_whose_worker_dies_or_hangs_costs_only_its_tosses(fault, limit, why, tmp_path):
+def test_a_toss_whose_worker_dies_or_hangs_costs_only_its_job(fault, limit, why, tmp_path):
     """The fake engine raises in a step, crashes its worker or hangs at friction above 0.3
-    and runs below: the given parameters' tosses become error rows naming the exception,
-    the signal or the limit, the nominal ones are scored, and the command completes with
-    its report."""
+    and runs below: each of the given parameters' tosses (a job of its own) becomes an
+    error row naming the exception, the signal or the limit, the nominal ones are scored,
+    and the command completes with its report."""
     from tests import fakes
     engine = getattr(fakes, fault).name_
     params, out = tmp_path / "params.json", tmp_path / "out"
     params.write_text(json.dumps({engine: {"mu": 0.5}}))
     assert _cli("--adapter", f"{FAKES}:{fault}", "--engines", engine, "--params", str(params), *QUICK,
-                "--job-timeout", limit, "--no-cache", "--out", str(out)) == 0
+                "--limit", "2", "--job-timeout", limit, "--no-cache", "--out", str(out)) == 0
     scores = pd.read_csv(out / "real_scores.csv")
     nominal, given = (scores[(scores.engine == engine) & (scores.param_set == p)] for p in ("nominal", "fitted"))
-    assert sorted(nominal.toss) == sorted(given.toss) == [3, 5, 7]
+    assert sorted(nominal.toss) == sorted(given.toss) == [3, 5]
     assert (nominal.status == "ok").all(), nominal.message
     assert (given.status == "error").all() and given.message.str.contains(why).all(), given.message
     assert given.corner_mean.isna().all() and (given.loss == real.FAIL_LOSS).all()

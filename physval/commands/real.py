@@ -32,11 +32,12 @@ EPILOG = """examples:
   physval real --tosses my_tosses.csv.gz --fit --out /tmp/mine
   physval real --limit 4 --horizon 0.3 --generations 1 --out /tmp/quick
   physval real --adapter my_engine.py:MyAdapter --engines my-engine --nominal --limit 20
-tosses run as jobs of {batch} in worker processes: a job whose worker crashes or runs over
---job-timeout becomes error rows for its tosses; the run goes on. Each finished job is kept
-in --cache (a row store per engine), so an interrupted run, run again, resumes.
+every toss scored is a job in a worker process (the fit's run {batch} to a job): a job whose
+worker crashes or runs over --job-timeout becomes error rows for its tosses; the run goes on.
+Each finished job is kept in --cache (a row store per engine): an interrupted run resumes.
 exit codes: 0 the run completed (poor agreement is a result); 2 bad input (said before any work);
-1 --out could not be written at the end (the results went to the folder the message names).""".format(
+1 --out could not be written at the end (the results went to the folder the message names);
+130 interrupted (finished jobs are kept in --cache: the same command resumes).""".format(
     batch=BATCH)
 
 
@@ -170,10 +171,11 @@ def read_params(path: str, engines: list[str], known_engines: list[str], ctx) ->
 
 
 def _cpu_seconds() -> float:
-    """CPU time of this process and of its finished child processes (a process pool's)."""
+    """CPU time of this process (its workers' is the runner's `worker_cpu_s`: under the
+    forkserver start method they are no children of this process)."""
     import resource
-    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    return own.ru_utime + own.ru_stime
 
 
 def run(args) -> int:
@@ -318,7 +320,8 @@ def run(args) -> int:
                 f"{sims['cached']} read back from the row store), costing {sims['cpu']:.0f} CPU s when computed (build and "
                 f"stepping, each measured as it ran): about {sims['cpu'] / 2 / 60:.0f} min on two free cores. "
                 f"This run: {time.perf_counter() - started:.0f} s with {args.workers} worker(s) "
-                f"({_cpu_seconds() - started_cpu:.0f} CPU s in this process and its worker processes; "
+                f"({_cpu_seconds() - started_cpu:.0f} CPU s in this process, {runner.worker_cpu_s:.0f} in its worker "
+                f"processes; "
                 f"machine load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores at the end)"
                 f"{' on ' + args.scheduler if args.scheduler else ''}; dt = {DT * 1e3:.4f} ms ({SUBSTEPS} steps per "
                 f"sample); row store {'off' if not cache else 'on'}; engine versions: "

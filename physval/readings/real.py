@@ -116,7 +116,14 @@ NEUTRAL_GRID = 0.005                  # mu and e are rounded to this grid (far b
 POPSIZE = 5
 GENERATIONS = 8
 BOOTSTRAP = 200                       # resamples of the training tosses for the parameters' spread
-BATCH = 8                             # tosses per task: ~0.1 s of stepping for the C++ engines
+# Tosses per job. Measured (MuJoCo, CPU of the main process and its workers beyond the
+# simulations' own, marginal over 128 tosses, 3 repeats): 4.6 ms a toss in jobs of 8, 5.6 ms
+# in jobs of 1 (scoring, the row store's write, reading a kept toss back), against a toss's
+# own 4-1800 ms (MuJoCo as shipped to Newton's XPBD). The fit's thousands of tosses run 8 to
+# a job; a scored toss, whose poses the report keeps, is a job of its own, so an engine that
+# crashes or hangs on it costs that toss alone.
+BATCH = 8
+SCORE_BATCH = 1
 # CPU s per engine for its fit: an engine whose fit over the whole training split would cost
 # more fits on an evenly spread subset (`_fit_plan`). CPU per toss measured: MuJoCo 0.017 s,
 # PyBullet 0.034 s, DART 0.086 s, the reference (sequential impulses) 0.14 s, its PGS 0.23 s,
@@ -457,6 +464,7 @@ class Runner:
         self._stores: dict[str, RowStore] = {}
         self._keys = None
         self._executor = None
+        self.worker_cpu_s = 0.0  # the local workers' CPU so far (user + system), as they reported it
 
     def __enter__(self):
         return self
@@ -495,7 +503,8 @@ class Runner:
         if self._executor is None:
             e = self.execution
             self._executor = make_executor(self.ctx, e.workers, e.scheduler, e.job_timeout, e.start_method)
-        run_streams(list(streams.values()), self.ctx, self.execution, executor=self._executor)
+        use = run_streams(list(streams.values()), self.ctx, self.execution, executor=self._executor)
+        self.worker_cpu_s = max(self.worker_cpu_s, use.worker_cpu_s)  # (the executor's total: it lives on)
         stopped = next((s.results.interrupted for s in streams.values() if s.results.interrupted), "")
         if stopped:  # what finished is in the stores; the command stops as an interrupted one does
             self.close()
@@ -509,7 +518,7 @@ def _chunks(ids, size: int) -> list[tuple[int, ...]]:
     return [tuple(ids[i:i + size]) for i in range(0, len(ids), size)]
 
 
-def simulate_many(engine: str, params: dict, ids, *, runner: Runner | None = None, batch: int = BATCH,
+def simulate_many(engine: str, params: dict, ids, *, runner: Runner | None = None, batch: int = SCORE_BATCH,
                   keep: bool = False, perturb: bool = False, ctx: Context = Context(), **common) -> list[dict]:
     """Score tosses `ids` of one engine at one parameter set, batches of `batch` tosses as
     jobs of `runner` (default: one of its own, one worker, no store)."""
