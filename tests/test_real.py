@@ -404,6 +404,51 @@ def test_a_toss_whose_worker_dies_or_hangs_costs_only_its_job(fault, limit, why,
     assert "## Failed simulations" in (out / "real_report.md").read_text()
 
 
+SLOW = '''
+import time
+from tests.fakes import FakeAdapter
+
+class Slow(FakeAdapter):
+    """Takes half a second to build each toss's scene."""
+    def __init__(self):
+        super().__init__(name="fake-slow", dimensions=frozenset({3}))
+
+    def build(self, scene, settings):
+        time.sleep(0.5)
+        return super().build(scene, settings)
+'''
+
+
+# Two starts of physval and a worker each: 69 s on this loaded machine, so on demand; the
+# read-back it rests on is checked in the default suite (test_a_tosss_job_is_kept_...).
+@pytest.mark.slow
+def test_an_interrupted_run_keeps_what_it_finished_and_the_same_command_resumes(tmp_path):
+    """Ctrl-C once some tosses are done: exit 130, their jobs kept in the engine's row
+    store; the same command again reads those back and simulates only the rest."""
+    import signal
+    import subprocess
+    import sys
+    import time
+    (tmp_path / "slow.py").write_text(SLOW)
+    argv = ["--adapter", f"{tmp_path / 'slow.py'}:Slow", "--engines", "fake-slow", "--nominal", "--limit", "4",
+            "--horizon", "0.1", "--workers", "1", "--cache", str(tmp_path / "cache"), "--out", str(tmp_path / "out")]
+    proc = subprocess.Popen([sys.executable, "-m", "physval", "real", *argv, "--quiet"], cwd=FAKES.parent.parent,
+                            stderr=subprocess.PIPE, text=True)
+    store = tmp_path / "cache" / "fake-slow.csv"
+    deadline = time.monotonic() + 180
+    while time.monotonic() < deadline and proc.poll() is None and not (
+            store.is_file() and len(pd.read_csv(store)) >= 2):
+        time.sleep(0.1)
+    proc.send_signal(signal.SIGINT)
+    err = proc.communicate(timeout=120)[1]
+    assert proc.returncode == 130, err
+    kept = len(pd.read_csv(store))
+    assert 2 <= kept < 8  # 4 tosses at nominal, 4 from a drawn start: not all done
+    assert _cli(*argv) == 0
+    mine = pd.read_csv(tmp_path / "out" / "real_scores.csv").query("engine == 'fake-slow'")
+    assert len(mine) == 8 and (mine.status == "ok").all() and mine.cached.sum() == kept
+
+
 # --- the output folder --------------------------------------------------------------------------
 
 @pytest.mark.parametrize("option", ["--out", "--cache"])
