@@ -10,6 +10,7 @@ import os
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -17,9 +18,10 @@ import pandas as pd
 
 from cases import cube_toss as ct
 from physval.commands import options
+from physval.core.session import Execution
 from physval.readings.real import (BATCH, BOOTSTRAP, DEFAULT_OUT, DT, FIT_LIMIT, GENERATIONS, NEUTRAL, NEUTRAL_GRID,
-                                   MIN_FIT_TOSSES, POPSIZE, SCORE_LIMIT, SUBSTEPS, MapFn, _cost, _flight,
-                                   engine_version, engines_3d, fit, fitted_names, lost_batch, noise_rows, nominal, parameter_space,
+                                   MIN_FIT_TOSSES, POPSIZE, SCORE_LIMIT, SUBSTEPS, Runner, _cost, _flight,
+                                   engine_version, engines_3d, fit, fitted_names, noise_rows, nominal, parameter_space,
                                    rounded, sensitivity, simulate_many, write_report)
 
 
@@ -30,10 +32,12 @@ EPILOG = """examples:
   physval real --tosses my_tosses.csv.gz --fit --out /tmp/mine
   physval real --limit 4 --horizon 0.3 --generations 1 --out /tmp/quick
   physval real --adapter my_engine.py:MyAdapter --engines my-engine --nominal --limit 20
-tosses run in batches of {batch} per worker task: a batch whose worker crashes or runs over
---job-timeout becomes error rows for its tosses; the run goes on.
+every toss scored is a job in a worker process (the fit's run {batch} to a job): a job whose
+worker crashes or runs over --job-timeout becomes error rows for its tosses; the run goes on.
+Each finished job is kept in --cache (a row store per engine): an interrupted run resumes.
 exit codes: 0 the run completed (poor agreement is a result); 2 bad input (said before any work);
-1 --out could not be written at the end (the results went to the folder the message names).""".format(
+1 --out could not be written at the end (the results went to the folder the message names);
+130 interrupted (finished jobs are kept in --cache: the same command resumes).""".format(
     batch=BATCH)
 
 
@@ -56,9 +60,10 @@ def add_parser(sub) -> None:
     how.add_argument("--fit", action="store_true", help="fit on the training split (the default without --params)")
     how.add_argument("--nominal", action="store_true", help="score the nominal parameters only (no fit)")
     options.add_execution(p, str(DEFAULT_OUT))
-    p.add_argument("--cache", metavar="DIR", help="simulation cache (default: real/ in physval's cache folder, "
-                                                  "$PHYSVAL_CACHE_DIR or ~/.cache/physval)")
-    p.add_argument("--no-cache", action="store_true", help="simulate everything again, cache nothing")
+    p.add_argument("--cache", metavar="DIR", help="where finished simulations are kept, a row store per engine, "
+                                                  "and read back by the next run (default: real/ in physval's cache "
+                                                  "folder, $PHYSVAL_CACHE_DIR or ~/.cache/physval)")
+    p.add_argument("--no-cache", action="store_true", help="simulate everything again, keep nothing")
     p.add_argument("--limit", type=options.positive_int, metavar="N",
                    help="only the first N tosses of each split (quick runs)")
     p.add_argument("--horizon", type=options.positive_float, metavar="S",
@@ -131,22 +136,6 @@ def default_cache() -> Path:
     return cache_dir() / "real"
 
 
-def executor_map(ctx, workers: int = 1, scheduler: str | None = None, job_timeout: float | None = None,
-                 start_method: str | None = None) -> MapFn:
-    """map_fn on the harness's executor (physval.core.session.map_calls) with the run's
-    context: each batch of tosses runs in a worker process (a crash or a time-out costs
-    that batch only, its tosses then read as errors: readings.real.lost_batch) or on a
-    Dask cluster, unchanged."""
-    from physval.core.session import Execution, map_calls
-    execution = Execution(workers, scheduler, job_timeout, start_method, progress=False)
-
-    def map_fn(fn, xs):
-        xs = list(xs)
-        return [r.value if not r.error else lost_batch(x, r.error)
-                for x, r in zip(xs, map_calls(fn, xs, ctx, execution=execution))]
-    return map_fn
-
-
 def read_params(path: str, engines: list[str], known_engines: list[str], ctx) -> dict[str, dict]:
     """{engine: parameters} from a --params file for the run's `engines`, every value checked
     against the engine's parameter space before any work; what a fit wrote is taken back as
@@ -182,10 +171,11 @@ def read_params(path: str, engines: list[str], known_engines: list[str], ctx) ->
 
 
 def _cpu_seconds() -> float:
-    """CPU time of this process and of its finished child processes (a process pool's)."""
+    """CPU time of this process (its workers' is the runner's `worker_cpu_s`: under the
+    forkserver start method they are no children of this process)."""
     import resource
-    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    return own.ru_utime + own.ru_stime
 
 
 def run(args) -> int:
@@ -231,15 +221,18 @@ def run(args) -> int:
         raise options.UsageError(f"no test tosses (odd ids) in {source or ct.DATA}")
     if args.limit:
         train, test = train[:args.limit], test[:args.limit]
-    common = {"horizon": args.horizon, "dt": DT, "source": source, "cache": cache, "ctx": ctx}
+    common = {"horizon": args.horizon, "dt": DT, "source": source, "ctx": ctx}
     say(f"{len(train)} training and {len(test)} test tosses from {source or 'the packaged data'}; "
         f"engines {', '.join(engines)}" + (f" (skipped: {', '.join(skipped)})" if skipped else ""))
 
     rows, trajectories, fits, not_fitted, failures, subsets, cost = [], {}, {}, {}, [], {}, []
-    map_fn = executor_map(ctx, args.workers, args.scheduler, args.job_timeout, args.start_method)
+    # every simulation a job of the core, on one executor for the whole command
+    runner = args.held.enter_context(Runner(ctx, replace(Execution.of(args), progress=False), cache))
+    for engine in engines:
+        runner.store(engine)  # each engine's store read (or refused) before any work
     for engine in engines:
         t0 = time.perf_counter()
-        nom = simulate_many(engine, nominal(engine, ctx), test[:1], map_fn=map_fn, keep=True, **common)
+        nom = simulate_many(engine, nominal(engine, ctx), test[:1], runner=runner, keep=True, **common)
         if nom[0]["status"] == "unsupported":
             skipped[engine] = nom[0]["message"]
             say(f"  {engine}: unsupported ({nom[0]['message']})")
@@ -252,7 +245,7 @@ def run(args) -> int:
             subsets[engine] = (f"one toss costs {per_toss:.2g} CPU s: scored on one test toss in {every} "
                                f"({len(scored)} of {len(test)}; --score-limit {args.score_limit:g} s)")
             say(f"  {engine}: {subsets[engine]}")
-        nom += simulate_many(engine, nominal(engine, ctx), scored[1:], map_fn=map_fn, keep=True, **common)
+        nom += simulate_many(engine, nominal(engine, ctx), scored[1:], runner=runner, keep=True, **common)
         params = None
         if engine in given:
             params = given[engine]
@@ -263,7 +256,7 @@ def run(args) -> int:
                 say(f"  {engine}: nominal only: {why}")
             else:
                 say(f"  {engine}: fitting {', '.join(fitted_names(engine, ctx))} on {len(part)} tosses")
-                f = fit(engine, part, map_fn=map_fn, popsize=args.popsize, generations=args.generations,
+                f = fit(engine, part, runner=runner, popsize=args.popsize, generations=args.generations,
                         **common)
                 fits[engine] = {"params": f.params, "names": list(f.names), "loss": f.loss,
                                 "nominal_loss": f.nominal_loss, "evaluations": f.evaluations,
@@ -279,7 +272,7 @@ def run(args) -> int:
             r["param_set"] = "nominal"
         sets = [("nominal", nom)]
         if params is not None:
-            fitted_rows = simulate_many(engine, params, scored, map_fn=map_fn, keep=True, **common)
+            fitted_rows = simulate_many(engine, params, scored, runner=runner, keep=True, **common)
             for r in fitted_rows:
                 r["param_set"] = "fitted"
             sets.append(("fitted", fitted_rows))
@@ -302,13 +295,14 @@ def run(args) -> int:
         # tosses its simulation from the fitted start completed (the others have no reference)
         best = sets[-1]
         completed = [r["toss"] for r in best[1] if r["status"] == "ok"]
-        shaken = simulate_many(engine, params or nominal(engine, ctx), completed, map_fn=map_fn, keep=True,
+        shaken = simulate_many(engine, params or nominal(engine, ctx), completed, runner=runner, keep=True,
                                perturb=True, **common)
         floor = sensitivity(best[1], shaken, source)
         trajectories[(engine, "start noise")] = floor
         rows += floor
         cost.append(_cost(nom + sum((rs for p, rs in sets[1:]), []) + shaken))
         say(f"  {engine}: done in {time.perf_counter() - t0:.0f} s")
+    runner.close()
 
     scores = pd.DataFrame([{k: v for k, v in r.items() if k != "trajectory"} for r in rows])
     sims = {k: sum(c[k] for c in cost) for k in ("computed", "cached", "cpu")}
@@ -323,13 +317,14 @@ def run(args) -> int:
         "noise": noise_table,
         "failures": failures,
         "run": (f"Simulations: {sims['computed'] + sims['cached']} ({sims['computed']} computed in this run, "
-                f"{sims['cached']} read from the cache), costing {sims['cpu']:.0f} CPU s when computed (build and "
+                f"{sims['cached']} read back from the row store), costing {sims['cpu']:.0f} CPU s when computed (build and "
                 f"stepping, each measured as it ran): about {sims['cpu'] / 2 / 60:.0f} min on two free cores. "
                 f"This run: {time.perf_counter() - started:.0f} s with {args.workers} worker(s) "
-                f"({_cpu_seconds() - started_cpu:.0f} CPU s in this process and its worker processes; "
+                f"({_cpu_seconds() - started_cpu:.0f} CPU s in this process, {runner.worker_cpu_s:.0f} in its worker "
+                f"processes; "
                 f"machine load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores at the end)"
                 f"{' on ' + args.scheduler if args.scheduler else ''}; dt = {DT * 1e3:.4f} ms ({SUBSTEPS} steps per "
-                f"sample); cache {'off' if not cache else 'on'}; engine versions: "
+                f"sample); row store {'off' if not cache else 'on'}; engine versions: "
                 + ", ".join(f"{e} {engine_version(e, ctx)}" for e in engines if e not in skipped) + "; command: "
                 + " ".join(["physval"] + sys.argv[1:])),
     }

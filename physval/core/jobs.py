@@ -68,8 +68,8 @@ class Job:
 class Call:
     """A plain call, fn(arg), run like a job: in a worker process (crashes and time-outs
     isolated) or on a Dask cluster. fn must be importable by name (a module's function) and
-    arg picklable: what a reading that is not a case variant (e.g. a batch of measured
-    tosses) hands to an executor."""
+    arg picklable: a value with no rows to store (trying a user's file before use,
+    physval.core.dry_run). Work that gives rows is a Job or a Task."""
     fn: Callable
     arg: object
     tag: int = 0  # the caller's number for it (results come back as they finish)
@@ -77,6 +77,26 @@ class Call:
     @property
     def test_id(self) -> str:
         return getattr(self.fn, "__name__", "call")
+
+
+@dataclass(frozen=True)
+class Task:
+    """A job of a non-family kind (a batch of measured tosses, physval real's): `fn(arg)`
+    gives its rows, `lost(arg, reason)` the rows of one that gave none (it raised, its
+    worker died or it ran over the time limit). With a `key` and an `engine` as a Job has,
+    it runs in the same workers as every job (crashes and time-outs isolated), its rows
+    stream to a row store and are resumed from it. `family`: what its rows' `case` column
+    says (a store's cache key reads it). fn and lost must be importable by name, arg picklable."""
+    fn: Callable
+    arg: object
+    lost: Callable
+    engine: str
+    key: str
+    family: str = ""
+
+    @property
+    def test_id(self) -> str:
+        return self.key
 
 
 @dataclass(frozen=True)
@@ -99,7 +119,7 @@ class CallResult:
 
 
 def perform(task, resolver: Resolver, waited_s: float = 0.0):
-    """Run a Job (-> Outcome) or a Call (-> CallResult) in this process, with its Timing;
+    """Run a Job or a Task (-> Outcome) or a Call (-> CallResult) in this process, with its Timing;
     a Job's rows get its time, `job_s`. Never raises but on Ctrl-C: whatever else the
     code it runs raises, an exit (SystemExit) included, is the task's error (a Job's rows
     say it), so a worker lives on to take the next task."""
@@ -107,6 +127,8 @@ def perform(task, resolver: Resolver, waited_s: float = 0.0):
     try:
         if isinstance(task, Job):
             result = execute(task, resolver)
+        elif isinstance(task, Task):
+            result = Outcome(task, task.fn(task.arg))
         else:
             result = CallResult(task, task.fn(task.arg))
     except KeyboardInterrupt:
@@ -125,6 +147,12 @@ def lost(task, resolver: Resolver, reason: str):
     """The result of a task that produced nothing (its worker died, or it timed out)."""
     if isinstance(task, Job):
         return failed(task, resolver, "error", reason)
+    if isinstance(task, Task):
+        try:
+            return Outcome(task, task.lost(task.arg, reason))
+        except Exception as exc:  # its own lost() fails: one row says both
+            return Outcome(task, [{"engine": task.engine, "case": task.family, "status": "error",
+                                   "message": f"{reason}; and its lost() raised {describe(exc)}"}])
     return CallResult(task, error=reason)
 
 

@@ -5,6 +5,7 @@ Ctrl-C or SIGTERM with everything finished kept.
 from __future__ import annotations
 
 import collections
+import contextlib
 import sys
 import time
 from dataclasses import dataclass, field
@@ -145,12 +146,16 @@ def _waves(plan):
     return (yield from plan)
 
 
-def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Execution" = None) -> PoolUse:
+def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Execution" = None,
+                executor=None) -> PoolUse:
     """Run every stream's jobs that its store does not hold yet on one executor (one set
     of workers, kept busy by all of them: a reading's waves run beside the jobs of the
     command, not after them), streaming each job's rows to its stream's store. A job two
-    streams want runs once, whether the second asks before it ends or after. Never raises on an interrupt: each stream's
-    Results.interrupted says it stopped early (and its value stays None)."""
+    streams want runs once, whether the second asks before it ends or after. `executor`:
+    an open one (make_executor) to run on and leave open, for a caller whose next jobs
+    depend on these (a fit's next generation); else one made for this call. Never raises
+    on an interrupt: each stream's Results.interrupted says it stopped early (and its value
+    stays None)."""
     execution = execution or Execution()
     queue: collections.deque = collections.deque()
     waiting: dict[str, list[Stream]] = {}   # job key -> the streams that wait for its rows
@@ -216,8 +221,8 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
             state[id(s)] = {"gen": _waves(s.plan), "pending": set(), "rows": {}}
             advance(s, None)
         if queue:
-            with sigterm_as_ctrl_c(), make_executor(ctx, execution.workers, execution.scheduler,
-                                                       execution.job_timeout, execution.start_method) as ex:
+            with sigterm_as_ctrl_c(), (contextlib.nullcontext(executor) if executor is not None else make_executor(
+                    ctx, execution.workers, execution.scheduler, execution.job_timeout, execution.start_method)) as ex:
                 for outcome in ex.run(queue):
                     key = outcome.job.key
                     rows = [{**r, **outcome.extra} for r in outcome.rows]

@@ -26,11 +26,12 @@ What it does, per engine (every registered 3D engine that is installed):
    simulation is the core's, as for every job: `physval.core.jobs.run_scene` builds the
    scene, steps and records it (`record.simulate`) and gives a failure the statuses every
    job gets (unsupported, unstable: NaN or a blow-up, or the cube beyond LOST; error: the
-   engine raised, with `describe`'s reason). Tosses travel in batches (`Batch`, run by
-   `run_batch`) as tasks of the core's executor, each in a worker process: a batch whose
-   worker dies (a segfault) or runs over --job-timeout becomes error rows for its tosses
-   (`lost_batch`), and the run goes on. The batch carries the run's Context, so engines
-   from `--adapter` and plug-ins resolve in the workers as in the main process.
+   engine raised, with `describe`'s reason). Tosses run in batches (`Batch`) as jobs of
+   the core (`physval.core.jobs.Task`, `task`): each in a worker process of the command's
+   one executor (`Runner`), or on a Dask cluster; a job whose worker dies (a segfault) or
+   runs over --job-timeout becomes error rows for its tosses (`lost_batch`), and the run
+   goes on. The batch carries the run's Context, so engines from `--adapter` and plug-ins
+   resolve in the workers as in the main process.
 2. Each simulated sample is compared with the measured one: the centre distance in cube
    widths, the geodesic angle between the orientations in degrees, and both together as
    the root mean square distance between corresponding corners, in cube widths
@@ -43,9 +44,9 @@ What it does, per engine (every registered 3D engine that is installed):
    three. The loss is the mean over tosses of each toss's mean corner error; the optimiser
    is scipy's differential evolution (bounded, seeded, a small stated budget; the loss is
    piecewise constant in the parameters at the rounding grid and discontinuous where a
-   contact sequence changes, so a gradient method would stall). Every evaluation of a
-   generation is one `map_fn(run_batch, batches)` call over batches of tosses, so the fit
-   runs on any executor (builtin map, a process pool, Dask: `client.map` + `gather`).
+   contact sequence changes, so a gradient method would stall). A generation's members
+   go to the runner at once, batches of tosses as jobs, so the fit runs wherever jobs run
+   (local workers, a Dask cluster), its simulations kept like any other.
    The parameters' uncertainty is a bootstrap over the training tosses: the training set
    is resampled with replacement BOOTSTRAP times, and each resample picks its best among
    the parameter sets the fit evaluated (their per-toss losses are kept), at no further
@@ -61,30 +62,29 @@ What it does, per engine (every registered 3D engine that is installed):
    its start state (its simulation from the fitted start against one from a start drawn
    from that fit's own uncertainty, `sensitivity`).
 
-Simulations are cached on disk (SimCache), keyed by engine, engine version, the toss's
-content, parameters, dt, horizon and CODE_VERSION (and, for an engine from outside the
-repository, its adapter's source), so a rerun costs only what changed. The core's RowStore
-is not used for them: measured on this data (MuJoCo tosses, ~90 samples each), it would
-hold a simulation's poses as a CSV row of 14 kB (SimCache: a 6.5 kB .npz), read and
-rewrite the whole file at every start (0.73 ms per simulation: 49 s for the 67,414
-simulations of the full run, against 0.29 ms per simulation looked up here), and be
-invalidated by any edit to any source file (its code fingerprint), which costs the full
-run's 3,300 CPU s again.
+Finished jobs are kept in a row store per engine (physval.core.store.RowStore, in
+--cache), as every command keeps its jobs: one row per toss with its scores, and for the
+batches whose poses the report draws (`keep`) the poses too (float64, base64: a row of
+7.4 kB for a MuJoCo toss of ~90 samples; read back at 2 ms of CPU a toss, measured over
+160). A rerun, or an interrupted run run again, reads back every job whose
+key (engine, parameters, tosses and their content, horizon, dt, start draw) and cache key
+(the code's fingerprint, the engine's version, an outside adapter's source) are unchanged;
+an edit to physval's, the cases' or the adapters' code simulates everything again.
 
 The command (options, planning the fit, the progress lines) is physval/commands/real.py.
 """
 from __future__ import annotations
 
+import base64
+import contextlib
 import functools
 import hashlib
 import json
 import math
-import os
-import tempfile
+import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterable
 
 import numpy as np
 import pandas as pd
@@ -93,10 +93,12 @@ from adapters import registry
 from adapters.base import Settings, Tunable
 from cases import cube_toss as ct
 from physval.core.context import Context
-from physval.core.jobs import Failed, run_scene
+from physval.core.executor import make_executor
+from physval.core.jobs import Failed, Task, run_scene
+from physval.core.session import Execution, Stream, run_streams
+from physval.core.store import RowStore, cache_keys
+from physval.interrupts import Terminated
 
-# Bump when a change alters what a cached simulation means (scene, start state, stepping).
-CODE_VERSION = "real-2"
 SUBSTEPS = 7                          # engine steps per measured sample
 DT = ct.SAMPLE_PERIOD / SUBSTEPS      # 0.966 ms: the step the engines' own docs use for contact (~1 ms)
 HORIZONS = (0.1, 0.5)                 # s after the first measured contact; plus the final sample
@@ -115,7 +117,14 @@ NEUTRAL_GRID = 0.005                  # mu and e are rounded to this grid (far b
 POPSIZE = 5
 GENERATIONS = 8
 BOOTSTRAP = 200                       # resamples of the training tosses for the parameters' spread
-BATCH = 8                             # tosses per task: ~0.1 s of stepping for the C++ engines
+# Tosses per job. Measured (MuJoCo, CPU of the main process and its workers beyond the
+# simulations' own, marginal over 128 tosses, 3 repeats): 4.6 ms a toss in jobs of 8, 5.6 ms
+# in jobs of 1 (scoring, the row store's write, reading a kept toss back), against a toss's
+# own 4-1800 ms (MuJoCo as shipped to Newton's XPBD). The fit's thousands of tosses run 8 to
+# a job; a scored toss, whose poses the report keeps, is a job of its own, so an engine that
+# crashes or hangs on it costs that toss alone.
+BATCH = 8
+SCORE_BATCH = 1
 # CPU s per engine for its fit: an engine whose fit over the whole training split would cost
 # more fits on an evenly spread subset (`_fit_plan`). CPU per toss measured: MuJoCo 0.017 s,
 # PyBullet 0.034 s, DART 0.086 s, the reference (sequential impulses) 0.14 s, its PGS 0.23 s,
@@ -125,9 +134,6 @@ MIN_FIT_TOSSES = 16                   # fewer training tosses would fit the nois
 SCORE_LIMIT = 300.0                   # CPU s: an engine slower than this over the test split scores an even subset
 DEFAULT_OUT = Path("reports/real")
 PARAM_SETS = ("fitted", "nominal")
-
-MapFn = Callable[[Callable, Iterable], Iterable]
-
 
 # --- engines and their parameters ---------------------------------------------------------
 
@@ -141,23 +147,6 @@ def _adapter(engine: str, ctx: Context):
 @functools.lru_cache(maxsize=None)
 def engine_version(engine: str, ctx: Context = Context()) -> str:
     return _adapter(engine, ctx).version()
-
-
-@functools.lru_cache(maxsize=None)
-def adapter_source(engine: str, ctx: Context = Context()) -> str:
-    """For an engine from outside the repository (a plug-in or an --adapter): the digest of
-    its adapter's source file and the user modules it imports (physval.core.store.user_sources),
-    so an edited adapter or helper is simulated again rather than read from the cache; ""
-    for a built-in engine (CODE_VERSION and the version cover those)."""
-    if registry.specs(ctx.adapters)[engine].origin == "built-in":
-        return ""
-    import inspect
-
-    from physval.core.store import digest, user_sources
-    try:
-        return digest(user_sources([Path(inspect.getsourcefile(type(_adapter(engine, ctx))))]))
-    except (TypeError, OSError):
-        return "source unknown"
 
 
 def parameter_space(engine: str, ctx: Context = Context()) -> dict[str, Tunable]:
@@ -224,52 +213,15 @@ def _flight(source: str | None, toss_id: int) -> tuple[ct.Toss, ct.FlightFit]:
     return tr, ct.fit_flight(tr)
 
 
-def _toss_digest(tr: ct.Toss) -> str:
+@functools.lru_cache(maxsize=4096)
+def _toss_digest(source: str | None, toss_id: int) -> str:
+    """SHA-1 of a toss's measured samples: a batch's key carries it, so edited data is
+    simulated again."""
+    tr = ct.toss(toss_id, source)
     h = hashlib.sha1()
     for a in (tr.t, tr.pos, tr.quat):
         h.update(np.ascontiguousarray(a, float).tobytes())
     return h.hexdigest()
-
-
-class SimCache:
-    """Simulated trajectories on disk, one .npz per key (a hash of engine, engine version,
-    toss content, parameters, dt, horizon, CODE_VERSION). Writes go through a temporary
-    file and a rename, so concurrent workers never see half a file."""
-
-    def __init__(self, folder: str | Path):
-        self.folder = Path(folder)
-
-    @staticmethod
-    def key(engine: str, tr: ct.Toss, params: dict, dt: float, horizon: float | None,
-            perturb: int | None = None, ctx: Context = Context()) -> str:
-        source = adapter_source(engine, ctx)
-        text = json.dumps([CODE_VERSION, engine, engine_version(engine, ctx), _toss_digest(tr), tr.id,
-                           sorted(params.items()), repr(float(dt)), horizon]
-                          + ([] if perturb is None else [f"perturb {perturb}"])
-                          + ([f"adapter source {source}"] if source else []), sort_keys=True)
-        return hashlib.sha256(text.encode()).hexdigest()[:40]
-
-    def get(self, key: str) -> dict | None:
-        path = self.folder / key[:2] / f"{key}.npz"
-        try:
-            with np.load(path, allow_pickle=False) as z:
-                return {"pos": z["pos"], "quat": z["quat"], **json.loads(str(z["meta"]))}
-        except (OSError, KeyError, ValueError):
-            return None
-
-    def put(self, key: str, sim: dict) -> None:
-        folder = self.folder / key[:2]
-        folder.mkdir(parents=True, exist_ok=True)
-        meta = json.dumps({k: sim[k] for k in ("status", "message", "wall", "cpu", "elapsed", "elapsed_cpu", "steps")})
-        fd, tmp = tempfile.mkstemp(dir=folder, suffix=".tmp")
-        try:
-            with os.fdopen(fd, "wb") as f:
-                np.savez(f, pos=sim["pos"], quat=sim["quat"], meta=np.array(meta))
-            os.replace(tmp, folder / f"{key}.npz")
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
 
 
 def _samples(tr: ct.Toss, fit: ct.FlightFit, horizon: float | None, dt: float) -> tuple[np.ndarray, np.ndarray]:
@@ -312,35 +264,27 @@ def _run(adapter, scene, dt: float, options: dict, steps_at: np.ndarray) -> dict
 
 
 def simulate_toss(engine: str, toss_id: int, params: dict, horizon: float | None = None, dt: float = DT,
-                  source: str | None = None, cache: str | None = None, perturb: int | None = None,
-                  ctx: Context = Context()) -> dict:
-    """Simulate one toss from its start state; a pure function of picklable arguments.
+                  source: str | None = None, perturb: int | None = None, ctx: Context = Context()) -> dict:
+    """Simulate one toss from its start state, in this process; a pure function of
+    picklable arguments (a batch's jobs call it in their workers).
 
     Returns the simulated poses at the measured sample times from the start sample on
     (`pos`, `quat`, NaN after a failure), `status` (ok, unstable, error, unsupported) and
     `message`, the stepping time (`wall`, and `cpu`: this thread's CPU time, which a
     shared machine's load does not inflate), the same with the build (`elapsed`,
-    `elapsed_cpu`), whether it came from the cache (`cached`), and the per-sample errors
-    against the measurement (`errors`). `perturb`: a seed; the start state is then drawn
-    from its own uncertainty (`cases.cube_toss.FlightFit.perturbed`). `ctx`: the run's
-    context (its ad-hoc adapters)."""
+    `elapsed_cpu`), and the per-sample errors against the measurement (`errors`).
+    `perturb`: a seed; the start state is then drawn from its own uncertainty
+    (`cases.cube_toss.FlightFit.perturbed`). `ctx`: the run's context (its ad-hoc adapters)."""
     tr, fit = _flight(source, int(toss_id))
     if perturb is not None:
         fit = fit.perturbed(perturb)
     params = rounded(engine, params, ctx)
     k, steps_at = _samples(tr, fit, horizon, dt)
-    store = SimCache(cache) if cache else None
-    key = SimCache.key(engine, tr, params, dt, horizon, perturb, ctx) if store else None
-    sim = store.get(key) if store else None
-    cached = sim is not None
-    if sim is None:
-        adapter = _adapter(engine, ctx)
-        tunables = getattr(adapter, "tunables", {}) or {}
-        options = {n: v for n, v in params.items() if n in tunables}
-        sim = _run(adapter, ct.scene(tr, params["mu"], params["e"], fit), dt, options, steps_at)
-        if store and sim["status"] != "unsupported":
-            store.put(key, sim)
-    return {"engine": engine, "toss": tr.id, "params": params, "t": tr.t[k] - fit.t0, **sim, "cached": cached,
+    adapter = _adapter(engine, ctx)
+    tunables = getattr(adapter, "tunables", {}) or {}
+    options = {n: v for n, v in params.items() if n in tunables}
+    sim = _run(adapter, ct.scene(tr, params["mu"], params["e"], fit), dt, options, steps_at)
+    return {"engine": engine, "toss": tr.id, "params": params, "t": tr.t[k] - fit.t0, **sim,
             **errors(tr, k, sim["pos"], sim["quat"])}
 
 
@@ -397,34 +341,55 @@ def score(tr: ct.Toss, fit: ct.FlightFit, t: np.ndarray, pos: np.ndarray, quat: 
     return row
 
 
-# --- batches of tosses: the unit of work an executor runs ---------------------------------
+# --- batches of tosses: jobs of the core ----------------------------------------------------
+
+FAMILY = "cube_toss"  # the `case` of the tier's rows (a row store's cache key reads it)
+# The columns of a toss's row as the row store keeps it: `poses` holds the simulated poses
+# of a batch that keeps them (x, y, z, qw, qx, qy, qz per measured sample, float64, base64).
+STORED = ["engine", "case", "toss", "status", "message", "sim_time", "wall", "cpu", "elapsed", "elapsed_cpu",
+          "steps", "params", *metric_names(), "same_face", "loss", "poses"]
+
 
 @dataclass(frozen=True)
 class Batch:
-    """Some tosses of one engine at one parameter set; picklable, so any executor can run
-    `run_batch` on it. `ctx`: the run's context, which resolves the engine in the worker."""
+    """Some tosses of one engine at one parameter set: one job of the core (`task`).
+    `ctx`: the run's context, which resolves the engine in the worker."""
     engine: str
     params: tuple[tuple[str, float], ...]
     tosses: tuple[int, ...]
     horizon: float | None = None
     dt: float = DT
     source: str | None = None
-    cache: str | None = None
-    keep: bool = False  # return the per-sample errors and poses too (reports), not only scores
+    keep: bool = False  # keep the simulated poses (reports), not only the scores
     perturb: bool = False  # start each toss from a start state drawn from its uncertainty (seed: the toss id)
     ctx: Context = Context()
 
+    @property
+    def key(self) -> str:
+        """The job's key: everything that changes what it computes beyond what the row
+        store's cache key covers (the code, the engine's version, an outside adapter's
+        source): parameters, tosses and their measured content, horizon, dt, start draw."""
+        data = hashlib.sha1("".join(_toss_digest(self.source, i) for i in self.tosses).encode()).hexdigest()[:16]
+        return (f"{FAMILY}[{','.join(map(str, self.tosses))}]-{self.engine}@"
+                + ";".join(f"{n}={v!r}" for n, v in self.params)
+                + f";horizon={self.horizon!r};dt={self.dt!r};data={data}"
+                + (";perturbed" if self.perturb else "") + (";poses" if self.keep else ""))
+
+
+def task(batch: Batch) -> Task:
+    """The batch as a job of the core: run in a worker, its rows (one per toss) stored."""
+    return Task(run_batch, batch, lost_batch, batch.engine, batch.key, FAMILY)
+
 
 def run_batch(batch: Batch) -> list[dict]:
-    """Score every toss of a batch (module-level and pure: an executor's task)."""
+    """The stored row of every toss of a batch (module-level and pure: a job's function)."""
     return [_row(batch, toss_id, simulate_toss(batch.engine, toss_id, dict(batch.params), batch.horizon, batch.dt,
-                                               batch.source, batch.cache, toss_id if batch.perturb else None,
-                                               batch.ctx))
+                                               batch.source, toss_id if batch.perturb else None, batch.ctx))
             for toss_id in batch.tosses]
 
 
 def lost_batch(batch: Batch, why: str) -> list[dict]:
-    """The rows of a batch whose task produced nothing (it raised, its worker died, or it
+    """The rows of a batch whose job produced nothing (it raised, its worker died, or it
     ran over the time limit): each of its tosses failed with status error, `why` its message."""
     rows = []
     for toss_id in batch.tosses:
@@ -433,23 +398,120 @@ def lost_batch(batch: Batch, why: str) -> list[dict]:
         pos, quat = np.full((len(k), 3), np.nan), np.full((len(k), 4), np.nan)
         rows.append(_row(batch, toss_id, {
             "params": dict(batch.params), "t": tr.t[k] - fit.t0, "pos": pos, "quat": quat, "status": "error",
-            "message": why, "wall": 0.0, "cpu": 0.0, "elapsed": 0.0, "elapsed_cpu": 0.0, "steps": 0, "cached": False,
-            **errors(tr, k, pos, quat)}))
+            "message": why, "wall": 0.0, "cpu": 0.0, "elapsed": 0.0, "elapsed_cpu": 0.0, "steps": 0}))
     return rows
 
 
 def _row(batch: Batch, toss_id: int, r: dict) -> dict:
-    """A toss's row from its simulation (simulate_toss)."""
+    """A toss's stored row from its simulation (simulate_toss): its scores, and its poses
+    if the batch keeps them."""
     tr, fit = _flight(batch.source, toss_id)
-    row = {"engine": batch.engine, "toss": toss_id, "status": r["status"], "message": r["message"],
+    row = {"engine": batch.engine, "case": FAMILY, "toss": toss_id, "status": r["status"], "message": r["message"],
            "sim_time": float(r["t"][-1]) if len(r["t"]) else 0.0, "wall": r["wall"], "cpu": r["cpu"],
-           "elapsed": r["elapsed"], "elapsed_cpu": r["elapsed_cpu"], "steps": r["steps"], "cached": r["cached"],
+           "elapsed": r["elapsed"], "elapsed_cpu": r["elapsed_cpu"], "steps": r["steps"],
            "params": json.dumps(r["params"], sort_keys=True)}
     if r["status"] != "unsupported":
         row.update(score(tr, fit, r["t"], r["pos"], r["quat"], r["status"]))
-    if batch.keep:
-        row["trajectory"] = {k: r[k] for k in ("t", "pos", "quat", "pos_err", "rot_err", "corner_err")}
+    if batch.keep and r["status"] == "ok":
+        row["poses"] = base64.b64encode(np.hstack([r["pos"], r["quat"]]).astype("<f8").tobytes()).decode()
     return row
+
+
+def _number(value) -> float:
+    return math.nan if value is None or value == "" else float(value)
+
+
+def _read(batch: Batch, row: dict, cached: bool) -> dict:
+    """A toss's row as the reading uses it, from the row its job gave or the store kept
+    (the same fields, there as text): numbers typed, `cached` (read back, not simulated by
+    this call), and for a batch that keeps its poses the `trajectory` (sample times, poses
+    and the per-sample errors against the measurement)."""
+    out = {"engine": batch.engine, "toss": int(row["toss"]), "status": row["status"],
+           "message": row.get("message") or "", "steps": int(row.get("steps") or 0), "cached": cached,
+           "params": row.get("params") or json.dumps(dict(batch.params), sort_keys=True),
+           **{k: _number(row.get(k)) for k in ("sim_time", "wall", "cpu", "elapsed", "elapsed_cpu")}}
+    if out["status"] != "unsupported":
+        out.update({m: _number(row.get(m)) for m in metric_names() + ["loss"]})
+        face = row.get("same_face")
+        out["same_face"] = None if face in (None, "") else face in (True, "True")
+    if batch.keep:
+        tr, fit = _flight(batch.source, out["toss"])
+        if batch.perturb:
+            fit = fit.perturbed(out["toss"])
+        k, _ = _samples(tr, fit, batch.horizon, batch.dt)
+        if row.get("poses"):
+            poses = np.frombuffer(base64.b64decode(row["poses"]), "<f8").reshape(len(k), 7)
+            pos, quat = poses[:, :3].copy(), poses[:, 3:].copy()
+        else:
+            pos, quat = np.full((len(k), 3), np.nan), np.full((len(k), 4), np.nan)
+        out["trajectory"] = {"t": tr.t[k] - fit.t0, "pos": pos, "quat": quat, **errors(tr, k, pos, quat)}
+    return out
+
+
+class Runner:
+    """Runs batches of tosses as jobs of the core (physval.core.jobs.Task) on one executor
+    that lives as long as the runner: each job in a worker process (a crash or a time-out
+    costs that batch only, its tosses then read as errors: `lost_batch`) or on a Dask
+    cluster. With a `folder`, each engine's rows stream to a row store there
+    (physval.core.store.RowStore, `<engine>.csv`), stamped with the fingerprint of the code
+    and the engine's version: a rerun reads back what did not change, and an interrupted
+    run keeps what finished. Call it with batches; it returns each batch's rows (`_read`).
+    Use it as a context manager (its workers stop at the end)."""
+
+    def __init__(self, ctx: Context = Context(), execution: Execution = Execution(progress=False),
+                 folder: str | Path | None = None):
+        self.ctx, self.execution = ctx, execution
+        self.folder = Path(folder) if folder is not None else None
+        self._stores: dict[str, RowStore] = {}
+        self._keys = None
+        self._executor = None
+        self.worker_cpu_s = 0.0  # the local workers' CPU so far (user + system), as they reported it
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self) -> None:
+        if self._executor is not None:
+            self._executor.close()
+            self._executor = None
+
+    def store(self, engine: str) -> RowStore | None:
+        """The engine's row store, loaded on first use (None without a folder)."""
+        if self.folder is None:
+            return None
+        if engine not in self._stores:
+            if self._keys is None:
+                self._keys = cache_keys(self.ctx)
+            store = RowStore(self.folder / (re.sub(r"[^\w.+-]", "_", engine) + ".csv"), STORED)
+            store.load(self._keys.of_row)
+            self._stores[engine] = store
+        return self._stores[engine]
+
+    def __call__(self, batches) -> list[list[dict]]:
+        batches = list(batches)
+        if not batches:
+            return []
+        streams, held = {}, {}
+        for b in batches:
+            if b.engine not in streams:
+                store = self.store(b.engine)
+                held[b.engine] = set(store.rows) if store is not None else set()
+                streams[b.engine] = Stream([], store, self._keys.of_job if store is not None else None, "real")
+            streams[b.engine].plan.append(task(b))
+        if self._executor is None:
+            e = self.execution
+            self._executor = make_executor(self.ctx, e.workers, e.scheduler, e.job_timeout, e.start_method)
+        use = run_streams(list(streams.values()), self.ctx, self.execution, executor=self._executor)
+        self.worker_cpu_s = max(self.worker_cpu_s, use.worker_cpu_s)  # (the executor's total: it lives on)
+        stopped = next((s.results.interrupted for s in streams.values() if s.results.interrupted), "")
+        if stopped:  # what finished is in the stores; the command stops as an interrupted one does
+            self.close()
+            raise Terminated() if stopped == "SIGTERM" else KeyboardInterrupt()
+        return [[_read(b, r, b.key in held[b.engine]) for r in streams[b.engine].results.rows[b.key]]
+                for b in batches]
 
 
 def _chunks(ids, size: int) -> list[tuple[int, ...]]:
@@ -457,12 +519,14 @@ def _chunks(ids, size: int) -> list[tuple[int, ...]]:
     return [tuple(ids[i:i + size]) for i in range(0, len(ids), size)]
 
 
-def simulate_many(engine: str, params: dict, ids, *, map_fn: MapFn = map, batch: int = BATCH,
+def simulate_many(engine: str, params: dict, ids, *, runner: Runner | None = None, batch: int = SCORE_BATCH,
                   keep: bool = False, perturb: bool = False, ctx: Context = Context(), **common) -> list[dict]:
-    """Score tosses `ids` of one engine at one parameter set through `map_fn`."""
+    """Score tosses `ids` of one engine at one parameter set, batches of `batch` tosses as
+    jobs of `runner` (default: one of its own, one worker, no store)."""
     key = tuple(sorted(rounded(engine, params, ctx).items()))
     jobs = [Batch(engine, key, chunk, keep=keep, perturb=perturb, ctx=ctx, **common) for chunk in _chunks(ids, batch)]
-    return [row for rows in map_fn(run_batch, jobs) for row in rows]
+    with contextlib.nullcontext(runner) if runner is not None else Runner(ctx) as run:
+        return [row for rows in run(jobs) for row in rows]
 
 
 # --- the fit ------------------------------------------------------------------------------
@@ -478,7 +542,7 @@ class FitResult:
     tosses: tuple[int, ...]
     seconds: float
     per_toss: dict[tuple, np.ndarray] = field(default_factory=dict)  # parameter set -> loss per toss
-    cost: dict = field(default_factory=dict)  # simulations computed / read from the cache, their CPU s
+    cost: dict = field(default_factory=dict)  # simulations computed / read back from the row store, their CPU s
 
     def bootstrap(self, resamples: int = BOOTSTRAP, seed: int = 0) -> list[dict[str, float]]:
         """The best evaluated parameter set of each of `resamples` resamples (with
@@ -490,16 +554,20 @@ class FitResult:
         return [dict(keys[b]) for b in best.tolist()]
 
 
-def fit(engine: str, ids, *, map_fn: MapFn = map, popsize: int = POPSIZE, generations: int = GENERATIONS,
+def fit(engine: str, ids, *, runner: Runner | None = None, popsize: int = POPSIZE, generations: int = GENERATIONS,
         seed: int = 0, batch: int = BATCH, names: tuple[str, ...] | None = None,
         fixed: dict | None = None, ctx: Context = Context(), **common) -> FitResult:
     """Fit an engine's contact parameters to tosses `ids` by differential evolution.
 
     The loss of a parameter set is the mean over the tosses of each toss's mean corner
-    error (`score`). Each generation's members go to `map_fn(run_batch, batches)` at once
-    (DE's vectorised mode), batches of `batch` tosses per member. `names` restricts the
-    fitted parameters (the others stay at `fixed` or nominal). The nominal point is a
-    member of the first generation."""
+    error (`score`). Each generation's members go to `runner` at once (DE's vectorised
+    mode: jobs of the core, batches of `batch` tosses per member; default: a runner of its
+    own, one worker, no store). `names` restricts the fitted parameters (the others stay at
+    `fixed` or nominal). The nominal point is a member of the first generation."""
+    if runner is None:
+        with Runner(ctx) as own:
+            return fit(engine, ids, runner=own, popsize=popsize, generations=generations, seed=seed, batch=batch,
+                       names=names, fixed=fixed, ctx=ctx, **common)
     from scipy.optimize import differential_evolution
 
     start = time.perf_counter()
@@ -518,7 +586,7 @@ def fit(engine: str, ids, *, map_fn: MapFn = map, popsize: int = POPSIZE, genera
         todo = list(dict.fromkeys(k for k in keys if k not in memo))
         jobs = [Batch(engine, k, chunk, ctx=ctx, **common) for k in todo for chunk in _chunks(ids, batch)]
         per_key: dict[tuple, list[float]] = {k: [] for k in todo}
-        for job, rows in zip(jobs, map_fn(run_batch, jobs)):
+        for job, rows in zip(jobs, runner(jobs)):
             per_key[job.params] += [r.get("loss", FAIL_LOSS) for r in rows]
             for r in rows:
                 cost["cached" if r["cached"] else "computed"] += 1
