@@ -24,6 +24,8 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
+from reference_impl.compile_lock import one_compile_at_a_time
+
 try:
     import numba
     from numba.core import caching as _caching
@@ -47,10 +49,12 @@ _PACKAGE_STAMP = _package_stamp()
 
 if JIT:
     from numba.core import types as _types
+    from numba.core.compiler_lock import global_compiler_lock as _global_compiler_lock
     from numba.core.registry import CPUDispatcher as _CPUDispatcher
 
     class _Dispatcher(_CPUDispatcher):
-        """numba's dispatcher, except that a call from compiled code compiles the callee
+        """numba's dispatcher, except that one process at a time compiles into its cache
+        (compile), and that a call from compiled code compiles the callee
         for its argument types without their constant values: numba would compile one copy
         of a function per constant integer or boolean it is called with (18 copies of a 3x3
         matrix entry indexed by constants, measured)."""
@@ -58,6 +62,12 @@ if JIT:
         def get_call_template(self, args, kws):
             return super().get_call_template(tuple(_types.unliteral(a) for a in args),
                                              {k: _types.unliteral(v) for k, v in kws.items()})
+
+        def compile(self, sig):
+            """numba's compile, the only one into this cache on the machine (compile_lock):
+            a process that finds another compiling waits, then loads what it saved."""
+            with _global_compiler_lock, one_compile_at_a_time(self._cache.cache_path):
+                return super().compile(sig)
 
     def _package_locator(locator):
         """numba's cache locator `locator`, its freshness the package's text, not one file's."""
