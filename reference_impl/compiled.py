@@ -10,10 +10,12 @@ Python's float semantics: no fastmath, so each operation rounds as it does in Py
 
 Numba keeps what it compiled on disk: in `__pycache__` beside each module when that folder
 is writable (a checkout, a virtual environment), else in the user-wide cache
-(~/.cache/numba, or $XDG_CACHE_HOME/numba), or in $NUMBA_CACHE_DIR when set (a read-only
-site-packages of an installed wheel falls back to the user-wide cache by itself; set
-$NUMBA_CACHE_DIR to put it elsewhere, e.g. on a machine whose home is not writable). The
-first process on a fresh install compiles; later ones load. Numba invalidates a cached
+(~/.cache/numba, or $XDG_CACHE_HOME/numba), or in $NUMBA_CACHE_DIR/reference_impl when
+$NUMBA_CACHE_DIR is set (a read-only site-packages of an installed wheel falls back to the
+user-wide cache by itself; set $NUMBA_CACHE_DIR to put it elsewhere, e.g. on a machine whose
+home is not writable; every copy of the package, a checkout's or an installed one, then
+shares that one folder). The first process on a fresh install compiles, and any other that
+needs the same function meanwhile waits for it (compile_lock.py); later ones load. Numba invalidates a cached
 function when its own source file changes, but not when a function it calls in another
 file does; the world's step calls into every module of this package, so here a cached
 function is valid for one exact text of the whole package (`_PACKAGE_STAMP`, a hash of
@@ -37,9 +39,12 @@ except ImportError:  # pragma: no cover - numba is a dependency; this keeps the 
 JIT = numba is not None and not numba.config.DISABLE_JIT
 
 
+_PACKAGE = Path(__file__).resolve().parent
+
+
 def _package_stamp() -> bytes:
     digest = hashlib.sha256()
-    for path in sorted(Path(__file__).parent.glob("*.py")):
+    for path in sorted(_PACKAGE.glob("*.py")):
         digest.update(path.name.encode())
         digest.update(path.read_bytes())
     return digest.digest()
@@ -70,8 +75,22 @@ if JIT:
                 return super().compile(sig)
 
     def _package_locator(locator):
-        """numba's cache locator `locator`, its freshness the package's text, not one file's."""
-        return type(f"Package{locator.__name__}", (locator,), {"get_source_stamp": lambda self: _PACKAGE_STAMP})
+        """numba's cache locator `locator`, its freshness the package's text, not one file's;
+        in $NUMBA_CACHE_DIR, the package's folder there is named after the package, not after
+        where this copy of it lives (numba names it after the path of the source's folder)."""
+        attributes = {"get_source_stamp": lambda self: _PACKAGE_STAMP}
+        if locator is _caching.UserProvidedCacheLocator:
+            attributes["get_suitable_cache_subpath"] = classmethod(_package_subpath)
+        return type(f"Package{locator.__name__}", (locator,), attributes)
+
+    def _package_subpath(cls, py_file):
+        """A copy of this package (a checkout, a virtual environment's, a wheel's) caches in
+        $NUMBA_CACHE_DIR/reference_impl: copies of one text share what one of them compiled
+        (the index is keyed by that text, `_PACKAGE_STAMP`), and the compile lock of that
+        folder serves them all. Any other file compiled by njit is cached as numba would."""
+        if Path(py_file).resolve().parent == _PACKAGE:
+            return _PACKAGE.name
+        return _caching.UserProvidedCacheLocator.get_suitable_cache_subpath.__func__(cls, py_file)
 
     class _PackageCacheImpl(_caching.CompileResultCacheImpl):
         _locator_classes = [_package_locator(c) for c in _caching.CompileResultCacheImpl._locator_classes]

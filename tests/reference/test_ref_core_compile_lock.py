@@ -1,16 +1,22 @@
-"""Processes that start together on an empty numba cache compile a function once: the
-others wait for it and load what it saved (reference_impl/compile_lock.py)."""
+"""What reference_impl compiles, it compiles once per machine: processes that start together
+on an empty numba cache compile a function once (the others wait for it and load what it
+saved: reference_impl/compile_lock.py), and under $NUMBA_CACHE_DIR every copy of the
+package with the same text (a checkout's, an installed wheel's) shares one cache folder
+(reference_impl/compiled.py)."""
 from __future__ import annotations
 
+import os
+import shutil
 import subprocess
 import sys
-import textwrap
 import time
 from pathlib import Path
 
 import pytest
 
 from reference_impl.compiled import JIT
+
+pytestmark = pytest.mark.skipif(not JIT, reason="compiled code only (numba installed, NUMBA_DISABLE_JIT unset)")
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -23,32 +29,58 @@ def twice(x):
     return 2.0 * x
 """
 
-# says it is ready (numba imported), waits for the go file, calls twice (compiled or loaded from the cache), prints what numba
-# counted: the compiles it made (cache misses) and the cached results it loaded (hits)
+# imports `module` from the folder `path` (says so in the file `ready` when there is one,
+# then waits for the file `go`), calls twice, compiled or loaded from the cache, and prints
+# what numba counted: the compiles it made (cache misses), the cached results it loaded (hits)
 CALLER = """
-import os, sys, time
-sys.path[:0] = [sys.argv[1], sys.argv[2]]
-import tiny
-open(os.path.join(sys.argv[1], f"ready{os.getpid()}"), "w").close()
-while not os.path.exists(sys.argv[3]):
-    time.sleep(0.005)
+import importlib, os, sys, time
+path, module, ready, go = sys.argv[1:]
+sys.path[:0] = [path]
+tiny = importlib.import_module(module)
+assert tiny.__file__.startswith(path), tiny.__file__
+if ready:
+    open(ready, "w").close()
+    while not os.path.exists(go):
+        time.sleep(0.005)
 assert tiny.twice(1.5) == 3.0
 stats = tiny.twice.stats
 print(sum(stats.cache_misses.values()), sum(stats.cache_hits.values()))
 """
 
 
-@pytest.mark.skipif(not JIT, reason="compiled code only (numba installed, NUMBA_DISABLE_JIT unset)")
+def _caller(path: Path, module: str, cache: Path, ready: str = "", go: str = "") -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": str(cache)}
+    return subprocess.Popen([sys.executable, "-c", CALLER, str(path), module, ready, go], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _counts(caller: subprocess.Popen) -> tuple[int, int]:
+    out, err = caller.communicate(timeout=120)
+    assert caller.returncode == 0, err[-2000:]
+    compiled, loaded = map(int, out.split())
+    return compiled, loaded
+
+
 def test_two_processes_on_an_empty_cache_compile_once(tmp_path):
-    (tmp_path / "tiny.py").write_text(textwrap.dedent(TINY))
+    (tmp_path / "tiny.py").write_text(TINY)
     go = tmp_path / "go"
-    callers = [subprocess.Popen([sys.executable, "-c", CALLER, str(tmp_path), str(ROOT), str(go)],
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    callers = [_caller(tmp_path, "tiny", tmp_path / "cache", str(tmp_path / f"ready{i}"), str(go)) for i in range(2)]
     deadline = time.monotonic() + 120
     while len(list(tmp_path.glob("ready*"))) < 2 and time.monotonic() < deadline:
         time.sleep(0.01)
     go.touch()  # both call within milliseconds: without the lock, both would compile
-    outs = [c.communicate(timeout=120) for c in callers]
-    assert all(c.returncode == 0 for c in callers), [err[-2000:] for _, err in outs]
-    counts = sorted(tuple(map(int, out.split())) for out, _ in outs)
+    counts = sorted(_counts(c) for c in callers)
     assert counts == [(0, 1), (1, 0)], f"(compiled, loaded) per process: {counts}, should be one each"
+
+
+def test_a_copy_of_the_package_elsewhere_loads_what_another_compiled(tmp_path):
+    """Two copies of reference_impl with the same text in two folders (as the checkout and
+    the wheel installed from it): under one $NUMBA_CACHE_DIR, the second loads."""
+    for copy in ("checkout", "installed"):
+        package = tmp_path / copy / "reference_impl"
+        shutil.copytree(ROOT / "reference_impl", package, ignore=shutil.ignore_patterns("__pycache__"))
+        (package / "tiny.py").write_text(TINY)
+    counts = [_counts(_caller(tmp_path / copy, "reference_impl.tiny", tmp_path / "cache"))
+              for copy in ("checkout", "installed")]
+    assert counts == [(1, 0), (0, 1)], f"(compiled, loaded): {counts}: the installed copy should load"
+    assert [p.name for p in (tmp_path / "cache").iterdir()] == ["reference_impl"]
