@@ -1,22 +1,26 @@
 """One compile per machine and cache: a process that is about to compile a function of this
-package first waits for any other process compiling into the same on-disk cache, then
-finds there what that process saved and loads it instead of compiling it again.
+package for some argument types first waits for any other process compiling the same
+function for the same types into the same on-disk cache, then finds there what that
+process saved and loads it instead of compiling it again.
 
 numba alone has no such lock: processes that start together on an empty cache (the
 workers of a run, the workers of a test session) each compile the same functions, each
 paying the whole compile (minutes of CPU for every formulation), and the last to finish
 writes the cache. With the lock the first compiles and the others wait, then load.
 
-One lock file per cache folder (the folder numba's locator picked, compiled.py), held
-by a process's outermost compile only: compiling a function compiles the functions it
-calls within it, so one lock for the whole package cannot deadlock. It is taken inside
-numba's own compiler lock (one compile at a time per process), so threads of one process
-never contend for it. The operating system drops it when its holder exits or dies.
-Without fcntl (Windows), or where the folder cannot be written, nothing is locked and
-each process compiles for itself, as numba does.
+One lock per function and argument types (a file in the cache folder's `compiling/`), so
+processes compiling different formulations go on side by side and meet only where they
+compile the same function (the collision phase, the contact rows), one of them waiting
+for it only. A compile holds its lock while it compiles the functions it calls; as the
+package's functions do not call themselves, no two processes can each hold a lock the
+other waits for. Taken inside numba's compiler lock (one compile at a time per process).
+The operating system drops a lock when its holder exits or dies. Without fcntl (Windows),
+or where the folder cannot be written, nothing is locked and each process compiles for
+itself, as numba does.
 """
 from __future__ import annotations
 
+import hashlib
 import os
 from contextlib import contextmanager
 
@@ -25,29 +29,36 @@ try:
 except ImportError:  # pragma: no cover - not POSIX
     fcntl = None
 
-LOCK_NAME = "numba-compile.lock"
-_depth = 0  # compiles entered in this process (changed only under numba's compiler lock)
+FOLDER = "compiling"  # in the cache folder: one empty lock file per function and argument types
+_held: set[str] = set()  # this process's (changed only under numba's compiler lock)
+
+
+def key_of(function, argument_types) -> str:
+    """What one compile produces: the function (module, name, first line) and its argument
+    types, the same text in every process and every copy of the package."""
+    code = function.__code__
+    return f"{function.__module__}.{function.__qualname__}:{code.co_firstlineno}{tuple(argument_types)}"
 
 
 @contextmanager
-def one_compile_at_a_time(cache_path: str | None):
-    """While inside: the only process compiling into the cache folder `cache_path` (None: no
-    on-disk cache, no lock). Re-entered by the compiles a compile starts: only the outermost
-    locks. Enter it holding numba's compiler lock."""
-    global _depth
+def compiling(cache_path: str | None, key: str):
+    """While inside: the only process compiling `key` into the cache folder `cache_path`
+    (None: no on-disk cache, no lock). Enter it holding numba's compiler lock."""
     lock = None
-    if _depth == 0 and fcntl is not None and cache_path:
+    if fcntl is not None and cache_path and key not in _held:
         try:
-            os.makedirs(cache_path, exist_ok=True)
-            lock = open(os.path.join(cache_path, LOCK_NAME), "a")
+            folder = os.path.join(cache_path, FOLDER)
+            os.makedirs(folder, exist_ok=True)
+            lock = open(os.path.join(folder, hashlib.sha256(key.encode()).hexdigest()[:24]), "a")
         except OSError:
             lock = None
-        else:
-            fcntl.flock(lock, fcntl.LOCK_EX)
-    _depth += 1
-    try:
+    if lock is None:
         yield
-    finally:
-        _depth -= 1
-        if lock is not None:
-            lock.close()  # releases the lock
+        return
+    with lock:  # closing it releases the lock
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        _held.add(key)
+        try:
+            yield
+        finally:
+            _held.discard(key)

@@ -26,7 +26,7 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
-from reference_impl.compile_lock import one_compile_at_a_time
+from reference_impl.compile_lock import compiling, key_of
 
 try:
     import numba
@@ -53,25 +53,28 @@ def _package_stamp() -> bytes:
 _PACKAGE_STAMP = _package_stamp()
 
 if JIT:
+    from numba.core import sigutils as _sigutils
     from numba.core import types as _types
     from numba.core.compiler_lock import global_compiler_lock as _global_compiler_lock
     from numba.core.registry import CPUDispatcher as _CPUDispatcher
 
     class _Dispatcher(_CPUDispatcher):
-        """numba's dispatcher, except that one process at a time compiles into its cache
-        (compile), and that a call from compiled code compiles the callee
-        for its argument types without their constant values: numba would compile one copy
-        of a function per constant integer or boolean it is called with (18 copies of a 3x3
-        matrix entry indexed by constants, measured)."""
+        """numba's dispatcher, except that one process at a time compiles a function for
+        given argument types into its cache (compile), and that a call from compiled code
+        compiles the callee for its argument types without their constant values: numba
+        would compile one copy of a function per constant integer or boolean it is called
+        with (18 copies of a 3x3 matrix entry indexed by constants, measured)."""
 
         def get_call_template(self, args, kws):
             return super().get_call_template(tuple(_types.unliteral(a) for a in args),
                                              {k: _types.unliteral(v) for k, v in kws.items()})
 
         def compile(self, sig):
-            """numba's compile, the only one into this cache on the machine (compile_lock):
-            a process that finds another compiling waits, then loads what it saved."""
-            with _global_compiler_lock, one_compile_at_a_time(self._cache.cache_path):
+            """numba's compile, the only one of this function for these argument types into
+            this cache on the machine (compile_lock): a process that finds another compiling
+            it waits, then loads what that one saved."""
+            args, _ = _sigutils.normalize_signature(sig)
+            with _global_compiler_lock, compiling(self._cache.cache_path, key_of(self.py_func, args)):
                 return super().compile(sig)
 
     def _package_locator(locator):
