@@ -10,10 +10,12 @@ Python's float semantics: no fastmath, so each operation rounds as it does in Py
 
 Numba keeps what it compiled on disk: in `__pycache__` beside each module when that folder
 is writable (a checkout, a virtual environment), else in the user-wide cache
-(~/.cache/numba, or $XDG_CACHE_HOME/numba), or in $NUMBA_CACHE_DIR when set (a read-only
-site-packages of an installed wheel falls back to the user-wide cache by itself; set
-$NUMBA_CACHE_DIR to put it elsewhere, e.g. on a machine whose home is not writable). The
-first process on a fresh install compiles; later ones load. Numba invalidates a cached
+(~/.cache/numba, or $XDG_CACHE_HOME/numba), or in $NUMBA_CACHE_DIR/reference_impl when
+$NUMBA_CACHE_DIR is set (a read-only site-packages of an installed wheel falls back to the
+user-wide cache by itself; set $NUMBA_CACHE_DIR to put it elsewhere, e.g. on a machine whose
+home is not writable; every copy of the package, a checkout's or an installed one, then
+shares that one folder). The first process on a fresh install compiles, and any other that
+needs the same function meanwhile waits for it (compile_lock.py); later ones load. Numba invalidates a cached
 function when its own source file changes, but not when a function it calls in another
 file does; the world's step calls into every module of this package, so here a cached
 function is valid for one exact text of the whole package (`_PACKAGE_STAMP`, a hash of
@@ -23,6 +25,8 @@ from __future__ import annotations
 
 import hashlib
 from pathlib import Path
+
+from reference_impl.compile_lock import compiling, key_of
 
 try:
     import numba
@@ -35,9 +39,12 @@ except ImportError:  # pragma: no cover - numba is a dependency; this keeps the 
 JIT = numba is not None and not numba.config.DISABLE_JIT
 
 
+_PACKAGE = Path(__file__).resolve().parent
+
+
 def _package_stamp() -> bytes:
     digest = hashlib.sha256()
-    for path in sorted(Path(__file__).parent.glob("*.py")):
+    for path in sorted(_PACKAGE.glob("*.py")):
         digest.update(path.name.encode())
         digest.update(path.read_bytes())
     return digest.digest()
@@ -46,22 +53,47 @@ def _package_stamp() -> bytes:
 _PACKAGE_STAMP = _package_stamp()
 
 if JIT:
+    from numba.core import sigutils as _sigutils
     from numba.core import types as _types
+    from numba.core.compiler_lock import global_compiler_lock as _global_compiler_lock
     from numba.core.registry import CPUDispatcher as _CPUDispatcher
 
     class _Dispatcher(_CPUDispatcher):
-        """numba's dispatcher, except that a call from compiled code compiles the callee
-        for its argument types without their constant values: numba would compile one copy
-        of a function per constant integer or boolean it is called with (18 copies of a 3x3
-        matrix entry indexed by constants, measured)."""
+        """numba's dispatcher, except that one process at a time compiles a function for
+        given argument types into its cache (compile), and that a call from compiled code
+        compiles the callee for its argument types without their constant values: numba
+        would compile one copy of a function per constant integer or boolean it is called
+        with (18 copies of a 3x3 matrix entry indexed by constants, measured)."""
 
         def get_call_template(self, args, kws):
             return super().get_call_template(tuple(_types.unliteral(a) for a in args),
                                              {k: _types.unliteral(v) for k, v in kws.items()})
 
+        def compile(self, sig):
+            """numba's compile, the only one of this function for these argument types into
+            this cache on the machine (compile_lock): a process that finds another compiling
+            it waits, then loads what that one saved."""
+            args, _ = _sigutils.normalize_signature(sig)
+            with _global_compiler_lock, compiling(self._cache.cache_path, key_of(self.py_func, args)):
+                return super().compile(sig)
+
     def _package_locator(locator):
-        """numba's cache locator `locator`, its freshness the package's text, not one file's."""
-        return type(f"Package{locator.__name__}", (locator,), {"get_source_stamp": lambda self: _PACKAGE_STAMP})
+        """numba's cache locator `locator`, its freshness the package's text, not one file's;
+        in $NUMBA_CACHE_DIR, the package's folder there is named after the package, not after
+        where this copy of it lives (numba names it after the path of the source's folder)."""
+        attributes = {"get_source_stamp": lambda self: _PACKAGE_STAMP}
+        if locator is _caching.UserProvidedCacheLocator:
+            attributes["get_suitable_cache_subpath"] = classmethod(_package_subpath)
+        return type(f"Package{locator.__name__}", (locator,), attributes)
+
+    def _package_subpath(cls, py_file):
+        """A copy of this package (a checkout, a virtual environment's, a wheel's) caches in
+        $NUMBA_CACHE_DIR/reference_impl: copies of one text share what one of them compiled
+        (the index is keyed by that text, `_PACKAGE_STAMP`), and the compile lock of that
+        folder serves them all. Any other file compiled by njit is cached as numba would."""
+        if Path(py_file).resolve().parent == _PACKAGE:
+            return _PACKAGE.name
+        return _caching.UserProvidedCacheLocator.get_suitable_cache_subpath.__func__(cls, py_file)
 
     class _PackageCacheImpl(_caching.CompileResultCacheImpl):
         _locator_classes = [_package_locator(c) for c in _caching.CompileResultCacheImpl._locator_classes]

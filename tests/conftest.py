@@ -31,6 +31,11 @@ for _name, _prefix in (("PHYSVAL_CACHE_DIR", "physval-test-cache-"), ("PHYSVAL_T
         import shutil
         os.environ[_name] = tempfile.mkdtemp(prefix=_prefix)
         atexit.register(shutil.rmtree, os.environ[_name], ignore_errors=True)
+# NUMBA_CACHE_DIR (unless set): the reference's compiled functions, kept across sessions in the
+# checkout (tests/__pycache__, ignored by git) and shared by every copy of reference_impl the
+# session runs: its own, the virtual environment's that `physval` subprocesses import, the
+# installed wheel's (tests/test_installed.py): each compiles once for all (reference_impl/compiled.py)
+os.environ.setdefault("NUMBA_CACHE_DIR", str(ROOT / "tests" / "__pycache__" / "numba"))
 
 
 # Hypothesis profiles. "ci" (the default): derandomized, so every run draws the same

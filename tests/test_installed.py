@@ -10,6 +10,10 @@ The environment sees the site packages of the environment the tests run in (the 
 numpy, which pip would otherwise download again; in a virtual environment, as the README's
 test command makes one, those are the virtual environment's) but imports physval, cases,
 adapters and reference_impl from the wheel alone: the first test checks where they come from.
+It also sees the session's numba cache folder ($NUMBA_CACHE_DIR, tests/conftest.py), so the
+wheel's reference_impl, the same text as the checkout's, loads what the session compiled
+rather than compiling it a second time; `physval bench compile` still compiles cold (in a
+cache folder of its own), and the reference_impl tests show that copies share one folder.
 """
 from __future__ import annotations
 
