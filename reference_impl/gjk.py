@@ -52,12 +52,8 @@ from reference_impl.geometry import MESH as MESH_KIND, SPHERE as SPHERE_KIND
 # (relative: shapes of millimetres and of metres alike); float64 gives ~1e-16 per
 # operation, so 1e-12 is reached within a few passes and stays far above rounding.
 GJK_RELATIVE = 1e-12
-# Cores closer than this (m, per metre of the Minkowski difference's size, at least 1 m)
-# are taken as overlapping and handed to EPA: below it the direction v / |v| is rounding
-# noise. v comes from barycentric weights over simplex points as large as the shapes, so
-# its rounding grows with them, and more on a sliver simplex: a box lying on a ground
-# triangle 100 m wide gave |v| = 1.4e-9 m of noise, a direction across the ground (measured
-# on the invariance battery's as_mesh scene), where a relative 1e-10 takes it as touching.
+# Cores closer than this (m) are taken as overlapping and handed to EPA: below it the
+# direction v / |v| is rounding noise (|v| ~ 1e-16 times the coordinates, here < 1e3 m).
 GJK_TOUCH = 1e-10
 # EPA stops when the support along the nearest face's normal is within this (m) of it:
 # the depth is then exact to this, far below the slop (1e-5 m) the solver works to.
@@ -257,8 +253,8 @@ def _closest_on_simplex(W, simplex, n):
 def gjk(A, B, shift):
     """GJK on the cores of A and of B moved by `shift`: (distance, a, b, W, SA, SB,
     simplex, n, used): the closest points a of A and b of B (distance |a - b|, 0 when the
-    cores overlap or touch, within GJK_TOUCH of the points' size: then the simplex
-    W[simplex[:n]] holds the origin, for EPA)."""
+    cores overlap or GJK cannot show them apart within MAX_ITERATIONS passes: then the
+    simplex W[simplex[:n]] holds the origin, for EPA)."""
     W, SA, SB = np.zeros((MAX_ITERATIONS + 4, 3)), np.zeros((MAX_ITERATIONS + 4, 3)), np.zeros((MAX_ITERATIONS + 4, 3))
     d = np.array([1.0, 0.0, 0.0])
     _md_support(A, B, d, W, SA, SB, 0, shift)
@@ -266,15 +262,17 @@ def gjk(A, B, shift):
     lam = np.zeros(4)
     lam[0] = 1.0
     v = W[0].copy()
-    touch = GJK_TOUCH * _size(W[0], 1.0)
+    lower = -np.inf  # the distance is at least v . w / |v| (w: MD's support along -v), at most |v|
     for _ in range(MAX_ITERATIONS):
         vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
-        if vv <= touch * touch:
+        if vv <= GJK_TOUCH * GJK_TOUCH:
             break
         _md_support(A, B, _scaled(v, -1.0), W, SA, SB, used, shift)  # Dir: from v to the origin
         w = W[used]
-        touch = GJK_TOUCH * _size(w, touch / GJK_TOUCH)
-        if vv - (v[0] * w[0] + v[1] * w[1] + v[2] * w[2]) <= GJK_RELATIVE * vv:
+        vw = v[0] * w[0] + v[1] * w[1] + v[2] * w[2]
+        lower = vw / math.sqrt(vv)
+        if vv - vw <= GJK_RELATIVE * vv:
+            lower = math.sqrt(vv)
             break  # no nearer: v is the nearest point of MD
         simplex[n] = used
         n += 1
@@ -291,13 +289,13 @@ def gjk(A, B, shift):
             a[c] += lam[i] * SA[simplex[i], c]
             b[c] += lam[i] * SB[simplex[i], c]
     dist = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
-    return (0.0 if dist <= touch else dist), a, b, W, SA, SB, simplex, n, used
-
-
-@njit
-def _size(w, size):
-    """max(size, |w_x|, |w_y|, |w_z|): the size of the support points seen, in m (at least 1)."""
-    return max(size, abs(w[0]), abs(w[1]), abs(w[2]))
+    if lower <= GJK_TOUCH:
+        # the passes ran out with the distance not bracketed away from 0 (on a sliver simplex
+        # across a triangle 100 m wide: v was 1e-9 m of rounding pointing across the ground,
+        # measured on the invariance battery's as_mesh ground): the cores may touch, and
+        # v's direction is no normal; 0 hands them to EPA
+        dist = 0.0
+    return dist, a, b, W, SA, SB, simplex, n, used
 
 
 # --- EPA: the depth of overlapping cores ---------------------------------------------------
