@@ -253,7 +253,8 @@ def _closest_on_simplex(W, simplex, n):
 def gjk(A, B, shift):
     """GJK on the cores of A and of B moved by `shift`: (distance, a, b, W, SA, SB,
     simplex, n, used): the closest points a of A and b of B (distance |a - b|, 0 when the
-    cores overlap: then the simplex W[simplex[:n]] holds the origin, for EPA)."""
+    cores overlap or GJK cannot show them apart within MAX_ITERATIONS passes: then the
+    simplex W[simplex[:n]] holds the origin, for EPA)."""
     W, SA, SB = np.zeros((MAX_ITERATIONS + 4, 3)), np.zeros((MAX_ITERATIONS + 4, 3)), np.zeros((MAX_ITERATIONS + 4, 3))
     d = np.array([1.0, 0.0, 0.0])
     _md_support(A, B, d, W, SA, SB, 0, shift)
@@ -261,13 +262,17 @@ def gjk(A, B, shift):
     lam = np.zeros(4)
     lam[0] = 1.0
     v = W[0].copy()
+    lower = -np.inf  # the distance is at least v . w / |v| (w: MD's support along -v), at most |v|
     for _ in range(MAX_ITERATIONS):
         vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
         if vv <= GJK_TOUCH * GJK_TOUCH:
             break
         _md_support(A, B, _scaled(v, -1.0), W, SA, SB, used, shift)  # Dir: from v to the origin
         w = W[used]
-        if vv - (v[0] * w[0] + v[1] * w[1] + v[2] * w[2]) <= GJK_RELATIVE * vv:
+        vw = v[0] * w[0] + v[1] * w[1] + v[2] * w[2]
+        lower = vw / math.sqrt(vv)
+        if vv - vw <= GJK_RELATIVE * vv:
+            lower = math.sqrt(vv)
             break  # no nearer: v is the nearest point of MD
         simplex[n] = used
         n += 1
@@ -283,7 +288,14 @@ def gjk(A, B, shift):
         for c in range(3):
             a[c] += lam[i] * SA[simplex[i], c]
             b[c] += lam[i] * SB[simplex[i], c]
-    return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]), a, b, W, SA, SB, simplex, n, used
+    dist = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    if lower <= GJK_TOUCH:
+        # the passes ran out with the distance not bracketed away from 0 (on a sliver simplex
+        # across a triangle 100 m wide: v was 1e-9 m of rounding pointing across the ground,
+        # measured on the invariance battery's as_mesh ground): the cores may touch, and
+        # v's direction is no normal; 0 hands them to EPA
+        dist = 0.0
+    return dist, a, b, W, SA, SB, simplex, n, used
 
 
 # --- EPA: the depth of overlapping cores ---------------------------------------------------

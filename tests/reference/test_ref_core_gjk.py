@@ -138,6 +138,35 @@ def test_mesh_ground_is_the_plane():
     assert on_mesh == on_plane
 
 
+# Poses of the sliding box of slide_to_stop[mu=0.5,v0=2,heading=22.5deg] on reference-lemke
+# after 43 and 44 steps of the as_mesh relation: lying on the 100 m ground, across its diagonal
+SLIDING_ON_MESH = [((0.07516671866077759, 0.03113507430837917, 0.1),
+                    (1.0, -1.7170856750348124e-16, 5.3097717195305255e-17, -1.2867369929975283e-15)),
+                   ((0.07681508604509352, 0.031817850434736415, 0.1),
+                    (1.0, -1.7285825548718487e-16, 5.547537255956598e-17, -1.3678032231151384e-15))]
+
+
+@pytest.mark.parametrize("x, q", SLIDING_ON_MESH)
+def test_box_touching_a_wide_ground_triangle_gets_its_normal(x, q):
+    """A box lying exactly on (within rounding of) the invariance battery's 100 m mesh
+    ground, across its diagonal: every point has the ground's normal, and the points are
+    the box's four bottom corners, as on the plane. GJK on the sliver simplices of a 100 m
+    triangle and a 0.2 m box ran out of passes with 1.4e-9 and 8.4e-9 m of rounding left in
+    its closest point, pointing across the ground, and that direction became a speculative
+    contact's normal: Lemke's exact solve obeyed it and spun the box (invariance_as_mesh
+    0.90 of scale on reference-lemke)."""
+    h = 50.0
+    mesh = body(Mesh(((h, -h, 0.0), (h, h, 0.0), (-h, h, 0.0), (-h, -h, 0.0)), ((0, 1, 2), (0, 2, 3))), static=True)
+    box = body(Box((0.1, 0.1, 0.1)), x=x, q=q)
+    margin = 1e-4 + 2.1e-3  # the world's margin plus the box's reach in a step at 2 m/s
+    _, _, on_mesh = collide(mesh, box, margin)
+    _, _, on_plane = collide(body(Plane(), static=True), box, margin)
+    assert all(np.allclose(n, (0.0, 0.0, 1.0), atol=1e-12) for _, n, _, _ in on_mesh), \
+        [n for _, n, _, _ in on_mesh]
+    corners = sorted(tuple(np.round(p[:2], 9)) for p, *_ in on_plane)
+    assert sorted(tuple(np.round(p[:2], 9)) for p, *_ in on_mesh) == corners
+
+
 def test_mesh_tree_finds_only_triangles_under_the_box():
     """The bounding-volume tree of a 20 x 20 grid of squares returns every triangle whose
     box meets the query box (checked against every triangle's box), and besides them only
