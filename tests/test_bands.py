@@ -260,3 +260,17 @@ def test_the_report_says_which_engines_ran_another_release_than_their_bands(tmp_
     _write_report(_rows(), same)
     assert "another release" not in (same / "report.md").read_text()
     assert "bands measured on" not in (same / engine_page("fake")).read_text()
+
+
+def test_known_writes_the_release_of_the_engines_package_and_none_for_the_reference():
+    from importlib import metadata
+
+    from physval.commands.known import _release
+    from tests.fakes import FakeAdapter
+    adapter = FakeAdapter()
+    adapter.package, adapter.supported = "numpy", ">=1"
+    assert _release(adapter) == metadata.version("numpy")
+    adapter.package = "no-such-engine-package"
+    assert _release(adapter) is None
+    adapter.package, adapter.supported = "physval", None  # the reference: part of physval
+    assert _release(adapter) is None
