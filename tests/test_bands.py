@@ -200,3 +200,77 @@ def test_known_rewrites_bands_where_they_stand_in_the_file(tmp_path):
     again = known.read_text().splitlines()[2:]
     key = lambda line: line.rsplit(" = ", 1)[0]
     assert [key(b) for b in again] == [key(b) for b in shuffled]
+
+
+# --- the release a file's bands were measured on ------------------------------------------
+
+def test_every_engine_file_but_the_references_names_the_release_it_was_measured_on():
+    for path in sorted((ROOT / "adapters" / "xfails").glob("*.txt")):
+        recorded = deviations.measured_on(path)
+        assert (recorded is None) == path.stem.startswith("reference"), f"{path.name}: {recorded}"
+
+
+@pytest.mark.parametrize("name", ["drake", "dart", "mujoco", "pymunk", "box2d"])
+def test_the_recorded_release_is_of_the_adapters_package_and_in_its_supported_range(name):
+    from packaging.specifiers import SpecifierSet
+
+    from adapters import registry
+    try:
+        adapter = registry.get(name)
+    except registry.EngineError as exc:
+        pytest.skip(str(exc))
+    package, release = deviations.measured_on(adapter.deviations_file())
+    assert package == adapter.package and release in SpecifierSet(adapter.supported)
+
+
+def test_a_run_on_another_release_is_named_and_the_same_release_is_not():
+    drake = ("drake", "1.51.1")
+    assert deviations.other_release(drake, "1.58.0") == "bands measured on drake 1.51.1, this run 1.58.0"
+    assert deviations.other_release(drake, "1.51.1") is None
+    assert deviations.other_release(drake, "1.51.10") is not None  # a release, not a prefix of one
+    # version strings that carry more than the release (Box2D's, Pymunk's) still name it
+    assert deviations.other_release(("pyb2d3", "0.11.1"), "pyb2d3 0.11.1") is None
+    assert deviations.other_release(("pymunk", "7.3.1"), "7.3.1 (Munk2D 2.0.1-ade7ed7)") is None
+    assert deviations.other_release(None, "1.58.0") is None and deviations.other_release(drake, "unknown") is None
+
+
+def test_the_measured_on_line_is_replaced_or_put_first_and_parses_as_a_comment(tmp_path):
+    path = tmp_path / "eng.txt"
+    body = "# what the file holds\nfam[*]:v  # the engine is slow\n    eng [a]:v = 1.5 +- 0.01\n"
+    path.write_text(deviations.with_measured_on(body, "eng", "1.0"))
+    assert path.read_text().splitlines()[0] == "# measured-on: eng 1.0"
+    path.write_text(deviations.with_measured_on(path.read_text(), "eng", "2.0"))
+    assert path.read_text().count("measured-on") == 1 and deviations.measured_on(path) == ("eng", "2.0")
+    (entry,) = deviations.parse(path)
+    assert len(entry.bands) == 1 and deviations.rewrite(path, {}) == path.read_text()
+
+
+def test_the_report_says_which_engines_ran_another_release_than_their_bands(tmp_path):
+    from physval.readings.site import engine_page
+    from tests.test_harness import _rows, _write_report
+    note = "bands measured on fake 0.9, this run 1.0"
+    flagged, same = tmp_path / "flagged", tmp_path / "same"
+    for out in (flagged, same):
+        out.mkdir()
+    _write_report(_rows(), flagged, releases={"fake": note})
+    report = (flagged / "report.md").read_text()
+    assert f"fake ({note})" in report.split("## ")[0]  # under the opening count
+    assert f"- fake: {note}" in report  # in Known deviations
+    assert note in (flagged / engine_page("fake")).read_text()
+    _write_report(_rows(), same)
+    assert "another release" not in (same / "report.md").read_text()
+    assert "bands measured on" not in (same / engine_page("fake")).read_text()
+
+
+def test_known_writes_the_release_of_the_engines_package_and_none_for_the_reference():
+    from importlib import metadata
+
+    from physval.commands.known import _release
+    from tests.fakes import FakeAdapter
+    adapter = FakeAdapter()
+    adapter.package, adapter.supported = "numpy", ">=1"
+    assert _release(adapter) == metadata.version("numpy")
+    adapter.package = "no-such-engine-package"
+    assert _release(adapter) is None
+    adapter.package, adapter.supported = "physval", None  # the reference: part of physval
+    assert _release(adapter) is None

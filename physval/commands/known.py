@@ -14,7 +14,8 @@ unless a `# band: WHY` line under the entry says why it is wider. The cause on t
 line and its `# band:` reason stay as the person who measured it wrote them. Without
 `--write` it only says what would change. It also lists failing checks no entry covers
 (write an entry with its cause) and entries that no longer cover anything (remove or
-narrow them).
+narrow them). With --write over an engine's own file and no --cases, the file's
+`# measured-on: PACKAGE RELEASE` line names the release installed (the one its bands now hold for).
 """
 from __future__ import annotations
 
@@ -75,6 +76,18 @@ def _in_place(old: list, new: list, keep) -> list:
         elif keep(b):
             out.append(b)
     return out + list(fresh.values())
+
+
+def _release(adapter) -> str | None:
+    """The installed release of the adapter's engine package; None for the reference (part of
+    physval) or a package not installed as a distribution."""
+    from importlib import metadata
+    if adapter.supported is None or not getattr(adapter, "package", None):
+        return None
+    try:
+        return metadata.version(adapter.package)
+    except metadata.PackageNotFoundError:
+        return None
 
 
 def _refuse_a_borrowed_file(engine: str, adapter) -> None:
@@ -187,7 +200,14 @@ def run(args) -> int:
             print(f"  unrecorded: {r['case']}[{r['variant']}]:{r['metric']} measured {float(r['measured']):.6g}, "
                   f"expected {float(r['expected']):.6g}: write an entry with its cause")
         if args.write:
-            write_atomic(path, deviations.rewrite(path, bands_of))
+            text = deviations.rewrite(path, bands_of)
+            release = None if args.file else _release(adapter)
+            if release is not None and args.cases is None:  # every band measured again: on this release
+                text = deviations.with_measured_on(text, adapter.package, release)
+            elif release is not None and deviations.measured_on(path) not in (None, (adapter.package, release)):
+                print(f"  {path.name} keeps its '# measured-on:' line: only the --cases were measured on "
+                      f"{adapter.package} {release}")
+            write_atomic(path, text)
     if not args.write and changed:
         print("(nothing written: add --write to record these bands)")
     return 0

@@ -215,12 +215,13 @@ def _run(args, after: dict) -> int:
     engine_wide["beside"] = scorecard.companions(out)  # what sweep, stress and real left in their folders under out
     for why in engine_wide["beside"].left_out:
         print(f"physval: left out {why}", file=sys.stderr)
-    from physval.core.deviations import stale_entries
+    from physval.core.deviations import release_notes, stale_entries
     from physval.readings.checks import frame, status_counts
     df = frame(rows, COLUMNS)
     phases.report_started = time.monotonic()
     results.write_run_report(rows, out, families, command=options.command_line(), engine_wide=engine_wide,
-                            stale=stale_entries(df, resolver), phases=phases, draw=results.draw_beside)
+                            stale=stale_entries(df, resolver), releases=release_notes(df, resolver), phases=phases,
+                            draw=results.draw_beside)
     t_report = time.monotonic() - phases.report_started
     total = time.monotonic() - started
     print(f"{len(df)} checks: {status_counts(df)} ({res.ran} runs now, {res.reused} reused; {total:.1f} s: "

@@ -34,6 +34,18 @@ process after other jobs: a history dependence shows) and records the middle of 
 of its check beyond that floor (the tolerance in the check's units: `tolerance`, or
 `tolerance * |expected|` for a relative one): a change of the engine or of its mapping by
 more than that is `fail`.
+A file records the engine release its bands were measured on, machine-readably, in one
+header line (`physval known --write` writes it):
+
+    # measured-on: drake 1.51.1
+
+The bands hold for that release. A run on another release (Python 3.12 resolves Drake 1.58.0,
+where 3.11 gets 1.51.1) is judged by them all the same, and its report says so beside the
+engine ("bands measured on drake 1.51.1, this run 1.58.0": `release_notes`): a `fail` of a
+recorded deviation there may be the release's, not a regression of physval. A band line
+names no release, so a file holds one release's bands; `physval known ENGINE --write` on
+the other release measures them there and moves the header with them.
+
 A wider band needs its reason written under the entry, as a `# band:` line:
 
     stack_strike[*]:stack_displacement  # point contact: the struck stack shuffles sideways
@@ -68,6 +80,7 @@ _BAND = re.compile(r"^\s+(?P<engine>\S+)\s+\[(?P<variant>.*)\]:(?P<metric>[^\s=]
 _VALUE = re.compile(r"^(?P<value>\S+)\s*\+-\s*(?P<width>\S+)$")
 _RAISES = re.compile(r"^raises\s+(?P<exc>[\w.]+)$")
 _BAND_REASON = re.compile(r"^\s*#\s*band:\s*(?P<why>.*?)\s*$")
+_MEASURED_ON = re.compile(r"^#\s*measured-on:\s*(?P<package>\S+)\s+(?P<release>\S+)\s*$")
 
 # The band `physval known` records: the measured values' middle +- half their spread plus a
 # floor. The floor is what float64 rounding can move a value by on another machine (another
@@ -292,6 +305,56 @@ def _text(path: Path) -> str:
                                  f"{exc.start}); a known-deviation file is UTF-8 text") from None
     except OSError as exc:
         raise DeviationFileError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+
+
+def measured_on(path: Path | str | None) -> tuple[str, str] | None:
+    """(package, release) of the file's `# measured-on: PACKAGE RELEASE` header line: the
+    engine release its bands were measured on; None if the file has none (or is missing)."""
+    if path is None or not Path(path).exists():
+        return None
+    for raw in _text(Path(path)).splitlines():
+        if (m := _MEASURED_ON.match(raw.strip())) is not None:
+            return m["package"], m["release"]
+    return None
+
+
+def other_release(recorded: tuple[str, str] | None, version: str) -> str | None:
+    """"bands measured on drake 1.51.1, this run 1.58.0" if the engine's version string
+    (`Adapter.version()`: "1.58.0", "pyb2d3 0.11.1", "7.3.1 (Munk2D ...)") does not name the
+    release its bands were measured on; None if it does, or if the file records none."""
+    if recorded is None or version in ("", "unknown"):
+        return None
+    package, release = recorded
+    if release in re.findall(r"[\w.+!-]+", version):
+        return None
+    return f"bands measured on {package} {release}, this run {version}"
+
+
+def release_notes(df, resolver) -> dict[str, str]:
+    """Engine -> `other_release`'s note, for each engine of the run (rows `df`) whose own
+    known-deviation file records another release than the one that ran."""
+    notes = {}
+    for engine, version in df.groupby("engine", sort=False)["engine_version"].first().items():
+        try:
+            path = resolver.adapter(engine).deviations_file()
+        except Exception:  # an engine that is gone since the run: nothing to compare
+            continue
+        if (note := other_release(measured_on(path), str(version))) is not None:
+            notes[engine] = note
+    return notes
+
+
+def with_measured_on(text: str, package: str, release: str) -> str:
+    """`text` of a deviation file with its `# measured-on:` header line naming this release
+    (replaced where it is, or put first)."""
+    lines = text.splitlines()
+    header = f"# measured-on: {package} {release}"
+    at = next((i for i, raw in enumerate(lines) if _MEASURED_ON.match(raw.strip())), None)
+    if at is None:
+        lines.insert(0, header)
+    else:
+        lines[at] = header
+    return "\n".join(lines) + "\n"
 
 
 def unknown_names(entries: list[Deviation], families, engines: list[str]) -> str | None:

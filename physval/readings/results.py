@@ -46,7 +46,8 @@ class Run:
     """What a run's report reads: its rows (`df`, the frame of physval.readings.checks), its
     folder, its families, the engine-wide readings it measured (`engine_wide`: effective,
     laws), the readings of other commands found beside it, the notes on known-deviation
-    entries gone stale, and whether it completed (an interrupted run draws no plots); for
+    entries gone stale and on engines whose bands were measured on another release (`releases`:
+    physval.core.deviations.release_notes), and whether it completed (an interrupted run draws no plots); for
     the Cost section, its rows as stored (`rows`: with their job keys) and its phases as
     physval run measured them (`phases`, physval.readings.cost.Phases; None: rebuilt)."""
     df: pd.DataFrame
@@ -58,6 +59,7 @@ class Run:
     complete: bool = True
     rows: list = field(default_factory=list)
     phases: cost.Phases | None = None
+    releases: dict[str, str] = field(default_factory=dict)  # engine -> "bands measured on ..., this run ..."
 
     @property
     def plots(self) -> Path | None:
@@ -182,6 +184,15 @@ class Vanished(Section):
         return "\n".join(vanished_section(df))
 
 
+def release_notice(releases: dict[str, str]) -> list[str]:
+    """One line under the opening count if some engine ran another release than its bands were
+    measured on (the Known deviations section lists them)."""
+    if not releases:
+        return []
+    return [f"Known deviations measured on another release than this run's: "
+            + "; ".join(f"{e} ({note})" for e, note in releases.items()) + ".", ""]
+
+
 def vanished_notice(df: pd.DataFrame) -> list[str]:
     """The report's opening line on known deviations that vanished (none: no line)."""
     if not (n := len(vanished_rows(df))):
@@ -211,9 +222,20 @@ class KnownDeviations(Section):
                       "beside the value measured now: [deviations.md](deviations.md).", ""]
         else:
             lines += ["_(none in this run)_", ""]
+        if run.releases:
+            lines += release_lines(run.releases)
         if run.stale:
             lines += ["Entries that no longer deviate or match nothing:", ""] + [f"- {s}" for s in run.stale] + [""]
         return "\n".join(lines)
+
+
+def release_lines(releases: dict[str, str]) -> list[str]:
+    """The engines whose known deviations were measured on another release than the one that
+    ran: a `fail` of theirs may be the release's (physval.core.deviations.release_notes)."""
+    return (["Engines that ran another release than their known deviations were measured on (their bands "
+             "still judge them: a `FAIL` of a recorded deviation may be the release's; `physval known ENGINE "
+             "--write` measures the bands on this one):", ""]
+            + [f"- {engine}: {note}" for engine, note in releases.items()] + [""])
 
 
 def deviations_page(df: pd.DataFrame) -> str:
@@ -432,25 +454,27 @@ INTERRUPTED = (SummaryTable(), Vanished(), Problems())  # an interrupted run's r
 
 def write_run_report(rows: list[dict], out: Path, families: dict, command: str = "", complete: bool = True,
                      planned: int | None = None, engine_wide: dict | None = None, stale: list[str] = (),
-                     phases: cost.Phases | None = None, draw=draw_here) -> None:
+                     phases: cost.Phases | None = None, draw=draw_here, releases: dict[str, str] | None = None) -> None:
     """report.md, report.html and their pages for the rows of a run; `complete` False: an
     interrupted run's report (marked so, without plots). `engine_wide`: the engine-wide
     readings measured (effective, laws) and `beside`, the readings of other commands found
     beside the run (physval.readings.scorecard.companions). `stale`: notes on known-deviation
-    entries. `phases`: the run's time as physval run measured it, for the Cost section.
+    entries; `releases`: engine -> note, for the engines that ran another release than their
+    bands were measured on. `phases`: the run's time as physval run measured it, for the Cost section.
     `draw(drawings)` draws the heat maps, a list of (function, arguments), or starts drawing
     them and returns a function that waits for them (draw_beside: physval run's), called
     once the sections are written."""
     out = Path(out)
     wide = dict(engine_wide or {})
     beside = wide.pop("beside", None) or scorecard.Companions()
-    run = Run(frame(rows, COLUMNS), out, families, wide, beside, list(stale), complete, list(rows), phases)
+    run = Run(frame(rows, COLUMNS), out, families, wide, beside, list(stale), complete, list(rows), phases,
+              dict(releases or {}))
     missing = "" if complete else f"the run was interrupted after {run.runs} of {planned} runs"
     report = Report("physval report", SECTIONS if complete else INTERRUPTED, command,
                     interrupted=missing + (". Finished runs are kept and not recomputed; plots are drawn when it "
                                            "completes." if missing else ""),
                     opening=[INTRO, "", f"{len(run.df)} checks from {run.runs} runs: {status_counts(run.df)}.", ""]
-                    + vanished_notice(run.df), contents=complete)
+                    + vanished_notice(run.df) + release_notice(run.releases), contents=complete)
     html = Html("physval.readings", links=html_link)
     if complete:
         write_pages(out, {"deviations.md": deviations_page(run.df), "knobs.md": knobs_page(run.df),
@@ -465,7 +489,7 @@ def write_run_report(rows: list[dict], out: Path, families: dict, command: str =
         report.write(out, run, html)
         if len(run.df):
             site.write(out, run.df, families, run.card, html, interrupted=f"{missing}; finished runs are kept and "
-                       "not recomputed." if missing else "")
+                       "not recomputed." if missing else "", releases=run.releases)
     except BaseException:
         if waiting is not None:
             waiting(abandon=True)
@@ -495,7 +519,7 @@ def rebuild(folder: Path, command: str | None = None) -> Path:
     (default: the one the folder's report.md names). No engine runs."""
     from cases.registry import builtin_families
     from physval.core import Context
-    from physval.core.deviations import stale_entries
+    from physval.core.deviations import release_notes, stale_entries
     from physval.core.store import read_results
     folder = Path(folder)
     rows = read_results(folder)
@@ -504,8 +528,9 @@ def rebuild(folder: Path, command: str | None = None) -> Path:
     wide = {name: got for name, got in (("effective", effective.read(folder)), ("laws", laws.read(folder)))
             if got is not None}
     wide["beside"] = scorecard.companions(folder)
+    df, resolver = frame(rows, COLUMNS), Context().resolver()
     write_run_report(rows, folder, builtin_families(), command=command, engine_wide=wide,
-                     stale=stale_entries(frame(rows, COLUMNS), Context().resolver()))
+                     stale=stale_entries(df, resolver), releases=release_notes(df, resolver))
     return folder / "report.md"
 
 

@@ -54,11 +54,12 @@ def _pages_in(folder: Path, keep: set[str]) -> None:
 
 
 def write(out: Path, df: pd.DataFrame, families: dict, card: pd.DataFrame, html: Html,
-          interrupted: str = "") -> None:
+          interrupted: str = "", releases: dict[str, str] | None = None) -> None:
     """The family and engine pages of a run's rows in out/html/ (`card`: its scorecard,
     physval.readings.scorecard.measure). `interrupted`: what an interrupted run is missing,
     said on every page (its plots, drawn when the run completes, are not shown: those in
-    the folder may be an earlier run's)."""
+    the folder may be an earlier run's). `releases`: engine -> the note that its known
+    deviations were measured on another release (physval.core.deviations.release_notes)."""
     out = Path(out)
     engines = list(dict.fromkeys(df.engine))
     root = "../../"
@@ -89,6 +90,7 @@ def write(out: Path, df: pd.DataFrame, families: dict, card: pd.DataFrame, html:
         unsupported = mine[mine.status == "unsupported"].drop_duplicates(["case", "reason"])
         pages[out / engine_page(engine)] = html.page(
             "engine.html", title=engine, root=root, interrupted=interrupted, version=mine.iloc[0].engine_version,
+            release=(releases or {}).get(engine, ""),
             counts=status_counts(mine),
             scorecard=scorecard.table_of(card[card.engine == engine], lambda e: engine_page(e, root)),
             causes=table("causes", causes.drop(columns="engine") if len(causes) else causes),
