@@ -166,7 +166,8 @@ class GenesisSimulation(Simulation):
             "gs.init": {"backend": "cpu", "precision": "64"},
             "SimOptions": {"dt": self._dt, "substeps": 1, "gravity": list(gravity)},
             "RigidOptions": {**{k: (v.name if hasattr(v, "name") else v) for k, v in rigid.items()},
-                             "contact_resolution": f"None (Genesis resolves it to {configuration['contact_resolution']})",
+                             # left None: what Genesis resolves it to with this cone and solver
+                             "contact_resolution": configuration["contact_resolution"],
                              "constraint_solver": "Newton (default)", "tolerance": "None (1e-8 in float64, default)",
                              "integrator": "approximate_implicitfast (default)",
                              "contact_pruning_tolerance": "0.02 (default)",
