@@ -92,11 +92,18 @@ def _init():
     return gs
 
 
+# Genesis reads only the positive (timeconst, dampratio) form, in which b = 2 / (dmax timeconst):
+# no row without damping. An elastic contact (e = 1, B = 0) gets this much instead, timeconst
+# 1e6 s: dampratio B / (2 sqrt K) = 5e-9 at n = 16, dt = 1e-3, a rebound of 1 - pi 5e-9.
+LEAST_DAMPING = 2e-6  # 1/s
+
+
 def solver_params(e: float, n: float, dt: float) -> list[float]:
     """Genesis' sol_params (timeconst, dampratio, dmin, dmax, width, mid, power) of the contact
     spring-damper that the MuJoCo adapter's direct solref (-K, -B) gives for restitution e:
-    timeconst = 2 / B, dampratio = B / (2 sqrt K) (module notes)."""
+    timeconst = 2 / B, dampratio = B / (2 sqrt K) (module notes); B at least LEAST_DAMPING."""
     K, B = contact_spring_damper(e, n, dt)
+    B = max(B, LEAST_DAMPING)
     return [2.0 / B, B / (2.0 * math.sqrt(K))] + list(SOLIMP)
 
 
@@ -173,6 +180,7 @@ class GenesisSimulation(Simulation):
                              "contact_pruning_tolerance": "0.02 (default)",
                              "impratio": "None (default: 100 with the elliptic cone, else 1)"},
             "sol_params": {"values": sol, "e": e if "restitution" in effects else 0.0, "contact_steps": CONTACT_STEPS,
+                           "least_damping_1_per_s": LEAST_DAMPING,
                            "mixing": "mean of the two geoms' (all alike)"},
             "friction": {"per_body": mu, "rule": "max of the two geoms'", "floor": FRICTION_FLOOR,
                          "frictionless_pairs_get": FRICTION_FLOOR},

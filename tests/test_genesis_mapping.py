@@ -36,10 +36,23 @@ def test_sol_params_are_the_mujoco_spring_damper(e):
     dt = 1e-3
     tc, zeta, *imp = solver_params(e, CONTACT_STEPS, dt)
     K, B = contact_spring_damper(e, CONTACT_STEPS, dt)
+    assert B > 0  # e < 1: the damping is MuJoCo's own (e = 1: test_an_elastic_contact_keeps_the_least_damping)
     assert math.isclose(2.0 / tc, B, rel_tol=1e-12)
     assert math.isclose(1.0 / (tc * zeta) ** 2, K, rel_tol=1e-12)
     assert imp == list(SOLIMP)
     assert tc >= 2.0 * dt * (1 - 1e-12)  # Genesis' floor on timeconst (collider/contact.py): never raised by it
+
+
+@pytest.mark.skipif(not INSTALLED, reason="Genesis is not installed (extra 'genesis')")
+def test_an_elastic_contact_keeps_the_least_damping():
+    """e = 1 asks for B = 0, which Genesis' positive form cannot write (timeconst = 2 / B): the
+    row keeps LEAST_DAMPING, whose damping ratio costs the rebound pi zeta (< 1e-7 of it)."""
+    from adapters.genesis_engine import LEAST_DAMPING, solver_params
+    from adapters.mujoco_engine import CONTACT_STEPS, contact_spring_damper, restitution_of_damping_ratio
+    tc, zeta, *_ = solver_params(1.0, CONTACT_STEPS, 1e-3)
+    K, _ = contact_spring_damper(1.0, CONTACT_STEPS, 1e-3)
+    assert tc == 2.0 / LEAST_DAMPING and math.isclose(1.0 / (tc * zeta) ** 2, K, rel_tol=1e-12)
+    assert 1.0 - 1e-7 < restitution_of_damping_ratio(zeta) < 1.0
 
 
 @pytest.mark.slow  # Genesis' import (~14 s of CPU) and a scene's kernels (~9 s with a full cache)
