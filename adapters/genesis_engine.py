@@ -140,6 +140,11 @@ class GenesisAdapter(Adapter):
     def version(self) -> str:
         return f"{metadata.version('genesis-world')} (cpu, float64)"
 
+    def release_requirements(self, release: str) -> list[str]:
+        """genesis-world imports torch without declaring it: a release's environment gets the
+        torch the `genesis` extra names beside it."""
+        return [f"genesis-world=={release}", "torch>=2.13.0"]
+
     def build(self, scene: Scene, settings: Settings) -> Simulation:
         reason = self.capabilities.cannot_run(scene)
         if reason:

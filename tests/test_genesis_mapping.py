@@ -80,3 +80,14 @@ def test_a_ball_sliding_on_the_ground_rolls_at_five_sevenths_and_weighs_m_g():
         assert "friction" in sim.effects and sim.knobs["RigidOptions"]["friction_cone"] == "pyramidal"
     finally:
         sim.close()
+
+
+@pytest.mark.skipif(not INSTALLED, reason="Genesis is not installed (extra 'genesis')")
+def test_a_release_environment_gets_the_torch_genesis_does_not_declare():
+    import tomllib
+    from pathlib import Path
+    from packaging.requirements import Requirement
+    extra = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())["project"][
+        "optional-dependencies"]["genesis"]
+    torch = next(r for r in extra if Requirement(r).name == "torch")
+    assert registry.get("genesis").release_requirements("1.4.4") == ["genesis-world==1.4.4", torch]
