@@ -92,11 +92,15 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "newton-vbd": ("adapters.newton_engine", "NewtonAdapter", {"solver": "vbd"}),
     "newton-mujoco": ("adapters.newton_engine", "NewtonAdapter", {"solver": "mujoco"}),
     "newton-kamino": ("adapters.newton_engine", "NewtonAdapter", {"solver": "kamino"}),
+    # Genesis' rigid solver on the CPU (adapters/genesis_engine.py): its default contact
+    # resolution (pyramidal cone, 'convex'), and the elliptic cone, which it resolves to 'signorini'
+    "genesis": ("adapters.genesis_engine", "GenesisAdapter", {}),
+    "genesis-signorini": ("adapters.genesis_engine", "GenesisAdapter", {"configuration": "signorini"}),
 }
 # The pip extra that installs each built-in engine's package (README, pyproject.toml).
 EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "mujoco-warp": "mujoco-warp", "pymunk": "pymunk", "dart": "dart",
           "box2d": "box2d", "box3d": "box3d", "rapier": "rapier", "drake": "drake", "newton": "newton",
-          "physx": "physx"}
+          "physx": "physx", "genesis": "genesis"}
 
 
 class EngineError(ValueError):

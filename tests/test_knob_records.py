@@ -147,13 +147,23 @@ def _newton(sim, record) -> dict:
     return {("solver",): next((key for key, cls in NEWTON_SOLVERS.items() if cls == name), name)}
 
 
+def _genesis(sim, record) -> dict:
+    solver = sim._solver
+    return {("SimOptions", "dt"): solver.dt,
+            ("SimOptions", "gravity"): [float(g) for g in solver.get_gravity().reshape(-1)[:3]],
+            ("RigidOptions", "friction_cone"): solver._options.friction_cone.name,
+            ("RigidOptions", "contact_resolution"): solver._contact_resolution.name,  # as Genesis resolved it
+            ("RigidOptions", "iterations"): solver._options.iterations,
+            ("RigidOptions", "use_hibernation"): solver._options.use_hibernation}
+
+
 # by the module of the simulation's class; None: no read-back written (said when skipped)
 READ_BACK = {
     "adapters.reference_engine": _reference, "adapters.pybullet_engine": _pybullet,
     "adapters.mujoco_engine": _mujoco, "adapters.mujoco_warp_engine": _mujoco,  # the MjModel Warp was given
     "adapters.dart_engine": _dart, "adapters.drake_engine": _drake, "adapters.pymunk_engine": _pymunk,
     "adapters.rapier_engine": _rapier, "adapters.box2d_engine": _box2d, "adapters.box3d_engine": _box3d,
-    "adapters.newton_engine": _newton,
+    "adapters.newton_engine": _newton, "adapters.genesis_engine": _genesis,
     "adapters.physx_engine": None,  # ovphysx is authored from USD; no read-back written (not installed here)
 }
 
