@@ -7,12 +7,13 @@ solver, a pyramidal or elliptic friction cone. The adapter runs it on the CPU ba
 float64 (`gs.init(backend=gs.cpu, precision="64")`, once a process).
 
 Its contact-resolution choices are configurations (adapters/registry.py):
-- `genesis`: what Genesis resolves to by default (1.4.5): the pyramidal cone, and with it the
-  'convex' contact resolution (one convex program per step, MuJoCo's);
-- `genesis-signorini`: the elliptic cone with the Newton solver, which Genesis resolves to
-  the 'signorini' resolution (friction bounded by the normal force the contact has
-  developed; the default of 1.3.1, marked as having convergence issues in 1.4.2), impratio
-  Genesis' default for that cone (100).
+- `genesis`: the elliptic cone with the Newton solver, which Genesis resolves to the
+  'signorini' resolution (friction bounded by the normal force the contact has developed;
+  the default of 1.3.1, marked as having convergence issues in 1.4.2), impratio Genesis'
+  default for that cone (100). The plain name is the more faithful of the two on 1.4.5
+  (it misses no friction check of the battery and the core families);
+- `genesis-defaults`: what Genesis resolves to by default (1.4.5): the pyramidal cone, and
+  with it the 'convex' contact resolution (one convex program per step, MuJoCo's).
 
 Mapping (each setting recorded in `knobs`):
 - every dynamic body is an entity of its own, written as MJCF and parsed by Genesis
@@ -77,8 +78,8 @@ ITERATIONS = 25  # Genesis' default cap of the constraint solver's iterations (R
 # The configurations (module notes): the friction cone, and what Genesis resolves the contact
 # resolution to with it (RigidOptions.contact_resolution None: 'signorini' with the elliptic
 # cone and the Newton solver, 'convex' otherwise)
-CONFIGURATIONS = {"default": {"friction_cone": "pyramidal", "contact_resolution": "convex"},
-                  "signorini": {"friction_cone": "elliptic", "contact_resolution": "signorini"}}
+CONFIGURATIONS = {"signorini": {"friction_cone": "elliptic", "contact_resolution": "signorini"},
+                  "defaults": {"friction_cone": "pyramidal", "contact_resolution": "convex"}}
 
 
 def _init():
@@ -131,11 +132,11 @@ class GenesisAdapter(Adapter):
     # and every new scene its kernels' compile (~9 s of CPU with a full kernel cache).
     default_tags = frozenset({"core", "conformance"})
 
-    def __init__(self, configuration: str = "default", name: str | None = None):
+    def __init__(self, configuration: str = "signorini", name: str | None = None):
         if configuration not in CONFIGURATIONS:
             raise ValueError(f"configuration = {configuration!r}: must be one of {', '.join(CONFIGURATIONS)}")
         self.configuration = configuration
-        self.name = name or ("genesis" if configuration == "default" else f"genesis-{configuration}")
+        self.name = name or ("genesis" if configuration == "signorini" else f"genesis-{configuration}")
 
     def version(self) -> str:
         return f"{metadata.version('genesis-world')} (cpu, float64)"

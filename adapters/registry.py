@@ -92,10 +92,10 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "newton-vbd": ("adapters.newton_engine", "NewtonAdapter", {"solver": "vbd"}),
     "newton-mujoco": ("adapters.newton_engine", "NewtonAdapter", {"solver": "mujoco"}),
     "newton-kamino": ("adapters.newton_engine", "NewtonAdapter", {"solver": "kamino"}),
-    # Genesis' rigid solver on the CPU (adapters/genesis_engine.py): its default contact
-    # resolution (pyramidal cone, 'convex'), and the elliptic cone, which it resolves to 'signorini'
+    # Genesis' rigid solver on the CPU (adapters/genesis_engine.py): the elliptic cone, which it
+    # resolves to 'signorini' (the more faithful), and its default resolution (pyramidal cone, 'convex')
     "genesis": ("adapters.genesis_engine", "GenesisAdapter", {}),
-    "genesis-signorini": ("adapters.genesis_engine", "GenesisAdapter", {"configuration": "signorini"}),
+    "genesis-defaults": ("adapters.genesis_engine", "GenesisAdapter", {"configuration": "defaults"}),
 }
 # The pip extra that installs each built-in engine's package (README, pyproject.toml).
 EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "mujoco-warp": "mujoco-warp", "pymunk": "pymunk", "dart": "dart",

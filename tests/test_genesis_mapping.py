@@ -20,7 +20,7 @@ INSTALLED = importlib.util.find_spec("genesis") is not None and importlib.util.f
 def test_a_missing_genesis_names_its_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "genesis", None)  # as `import` treats a module that is not there
     monkeypatch.delitem(sys.modules, "adapters.genesis_engine", raising=False)
-    for name in ("genesis", "genesis-signorini"):
+    for name in ("genesis", "genesis-defaults"):
         with pytest.raises(registry.EngineError, match=r"pip install '\.\[genesis\]'"):
             registry.get(name)
 
