@@ -16,9 +16,10 @@ the step) are set against the geometry, which is exact for every pair:
     hull-edge          a cube hull on an edge             +z                0.02    a segment of 0.9 m to the face's edge
     hull-vertex        a cube hull on a corner            +z                0.02    a point
 
-The poses are those the reference's GJK is checked on (tests/reference/test_ref_core_gjk.py)
-but the edge, which is moved 0.1 m along itself so that its ends do not lie in the base's
-side faces: a generic pose, not a tie between coplanar faces.
+The edge is 0.1 m along itself off centre so that its ends do not lie in the base's side
+faces: a generic pose, not a tie between coplanar faces. The reference's GJK is checked on
+this catalogue itself, against the exact geometry and against python-fcl
+(tests/reference/test_ref_core_gjk.py), and `physval bench narrow` times it.
 
 The overlap of a pair is the slab between the base's surface and the top's, `depth` thick
 along n, over the region's footprint in the contact plane (a point, segment, rectangle or

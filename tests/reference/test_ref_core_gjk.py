@@ -1,7 +1,8 @@
 """The reference's GJK narrow phase (reference_impl/gjk.py): against the box-box separating
-axis routine on random poses, against exact geometry on a catalogue of convex pairs, and
-against an independent collision library (python-fcl: FCL's primitive routines and
-libccd's GJK/EPA for convex meshes) on the same catalogue."""
+axis routine on random poses, against exact geometry on the narrow-phase family's catalogue of convex pairs
+(cases/narrow_phase.py: the poses every engine is judged on), and against an independent
+collision library (python-fcl: FCL's primitive routines and libccd's GJK/EPA for convex
+meshes) on the same catalogue."""
 from __future__ import annotations
 
 import math
@@ -11,6 +12,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from adapters.reference_engine import _shape as reference_shape
+from cases import narrow_phase
 from reference_impl import gjk
 from reference_impl.geometry import Box, Capsule, Cylinder, Hull, Mesh, Plane, Sphere, _separating_axes, collide
 from reference_impl.rigid_body import RigidBody
@@ -26,16 +29,6 @@ def body(shape, x=(0.0, 0.0, 0.0), q=(1.0, 0.0, 0.0, 0.0), static=False):
     if static:
         return RigidBody("s", shape, x=x, q=q, static=True)
     return RigidBody("d", shape, 1.0, (1.0, 1.0, 1.0), x=x, q=q)
-
-
-def about(axis, angle: float):
-    """Quaternion (w, x, y, z) of a rotation by `angle` about the unit vector `axis`."""
-    a = np.asarray(axis, float) / np.linalg.norm(axis)
-    s = math.sin(angle / 2)
-    return (math.cos(angle / 2), *(s * a))
-
-
-CUBE = tuple((x, y, z) for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5))
 
 
 # --- GJK and the separating axis test agree on boxes (decision 11) -----------------------
@@ -67,60 +60,52 @@ def test_gjk_and_separating_axes_agree_on_boxes(ha, hb, qa, qb, offset):
 
 
 # --- a catalogue of convex pairs at known poses --------------------------------------------
-
-S2 = math.sqrt(0.5)
-ON_SIDE_X = (S2, 0.0, S2, 0.0)   # body z along world x
-ON_SIDE_Y = (S2, -S2, 0.0, 0.0)  # body z along world y
-VERTEX_DOWN = about((1.0, -1.0, 0.0), math.atan(math.sqrt(2.0)))  # the cube's (-,-,-)... corner straight down
-
-
-def _catalogue():
-    """(name, A, B, exact n (A to B), exact depth, the exact contact region: a function
-    true for a point in it)."""
-    h = 0.5
-    yield ("sphere-capsule", body(Capsule(0.1, 0.3)), body(Sphere(0.2), x=(0.25, 0.0, 0.1)),
-           (1.0, 0.0, 0.0), 0.05, lambda p: abs(p[1]) < 1e-9 and abs(p[2] - 0.1) < 1e-9 and 0.05 - 1e-9 <= p[0] <= 0.1 + 1e-9)
-    yield ("crossed capsules", body(Capsule(0.1, 0.5), q=ON_SIDE_X), body(Capsule(0.1, 0.5), x=(0.0, 0.0, 0.15), q=ON_SIDE_Y),
-           (0.0, 0.0, 1.0), 0.05, lambda p: abs(p[0]) < 1e-9 and abs(p[1]) < 1e-9 and 0.05 - 1e-9 <= p[2] <= 0.1 + 1e-9)
-    yield ("box-cylinder on its end", body(Box((h, h, h))), body(Cylinder(0.2, 0.3), x=(0.1, 0.0, h + 0.3 - 0.01)),
-           (0.0, 0.0, 1.0), 0.01,
-           lambda p: math.hypot(p[0] - 0.1, p[1]) <= 0.2 + 1e-9 and h - 0.01 - 1e-9 <= p[2] <= h + 1e-9)
-    yield ("box-cylinder on its side", body(Box((h, h, h))), body(Cylinder(0.2, 0.3), x=(0.0, 0.1, h + 0.2 - 0.01), q=ON_SIDE_X),
-           (0.0, 0.0, 1.0), 0.01, lambda p: abs(p[1] - 0.1) < 1e-9 and abs(p[0]) <= 0.3 + 1e-9 and h - 0.01 - 1e-9 <= p[2] <= h + 1e-9)
-    yield ("hull-hull face", body(Hull(CUBE)), body(Hull(CUBE), x=(0.3, 0.2, 1.0 - 0.02)),
-           (0.0, 0.0, 1.0), 0.02, lambda p: -0.2 - 1e-9 <= p[0] <= 0.5 + 1e-9 and -0.3 - 1e-9 <= p[1] <= 0.5 + 1e-9
-           and h - 0.02 - 1e-9 <= p[2] <= h + 1e-9)
-    edge = h * math.sqrt(2.0)
-    yield ("hull-hull edge", body(Hull(CUBE)), body(Hull(CUBE), x=(0.0, 0.1, h + edge - 0.02), q=about((1, 0, 0), math.pi / 4)),
-           (0.0, 0.0, 1.0), 0.02, lambda p: abs(p[1] - 0.1) < 1e-9 and abs(p[0]) <= h + 1e-9 and h - 0.02 - 1e-9 <= p[2] <= h + 1e-9)
-    corner = h * math.sqrt(3.0)
-    yield ("hull-hull vertex", body(Hull(CUBE)), body(Hull(CUBE), x=(0.1, 0.1, h + corner - 0.02), q=VERTEX_DOWN),
-           (0.0, 0.0, 1.0), 0.02, lambda p: abs(p[0] - 0.1) < 1e-6 and abs(p[1] - 0.1) < 1e-6 and h - 0.02 - 1e-6 <= p[2] <= h + 1e-6)
+# The narrow-phase family's catalogue (cases/narrow_phase.py), so that the reference is
+# checked on the very poses each engine is judged on: its bodies as the reference adapter
+# builds them, its exact normal, depth and contact region (the slab `depth` thick over the
+# footprint: narrow_phase.offset).
 
 
-CATALOGUE = list(_catalogue())
+
+def _reference_body(b):
+    """A scene body (cases.scene.Body) as the reference adapter builds it."""
+    if b.static:
+        return RigidBody(b.name, reference_shape(b), x=b.position, q=b.orientation, static=True)
+    return RigidBody(b.name, reference_shape(b), b.mass, b.principal_inertia, x=b.position, q=b.orientation)
 
 
-@pytest.mark.parametrize("name, A, B, n, depth, inside", CATALOGUE, ids=[c[0] for c in CATALOGUE])
-def test_catalogue_against_exact_geometry(name, A, B, n, depth, inside):
+CATALOGUE = [(name, _reference_body(pair.base), _reference_body(pair.top), pair)
+             for name, pair in narrow_phase.CATALOGUE.items()]
+# A point's distance from the exact region: rounding of the coordinates (1e-9 m), but where
+# the top is turned by an angle whose sine and cosine round (the corner down: atan(sqrt 2)
+# about a diagonal), which moves its corner by up to 1e-6 m
+PLACE = {"hull-vertex": 1e-6}
+
+
+@pytest.mark.parametrize("name, A, B, pair", CATALOGUE, ids=[c[0] for c in CATALOGUE])
+def test_catalogue_against_exact_geometry(name, A, B, pair):
     """Each pair's normal and depth as the geometry gives them, every point in the exact
     contact region (a rounding-level 1e-9 m; 1e-6 m for the vertex turned by an angle
     whose sine and cosine round)."""
     first, second, points = collide(A, B, 1e-9)
     sign = 1.0 if first is A else -1.0
+    depth, place = pair.depth, PLACE.get(name, 1e-9)
     assert points, f"{name}: no contact, but they overlap by {depth} m"
     for p, normal, d, _ in points:
-        assert np.allclose(sign * np.asarray(normal), n, atol=1e-9), f"{name}: n = {normal}, but should be {n}"
+        assert np.allclose(sign * np.asarray(normal), pair.n, atol=1e-9), f"{name}: n = {normal}, but should be {pair.n}"
         assert d <= depth + DEPTH_TOLERANCE, f"{name}: depth {d} deeper than the overlap {depth}"
-        assert inside(p), f"{name}: point {p} outside the contact region"
+        assert narrow_phase.offset(pair, p) <= place, \
+            f"{name}: point {p} {narrow_phase.offset(pair, p):.3g} m outside the contact region"
     assert max(d for _, _, d, _ in points) == pytest.approx(depth, abs=1e-6), f"{name}: deepest {points}"
+    if pair.patch:  # a line or face contact: the points span its corners (a disc: its centre)
+        assert narrow_phase.uncovered(pair, [p for p, *_ in points]) <= place, f"{name}: points {points}"
 
 
 def test_line_and_face_contacts_have_their_ends():
     """A cylinder on its side touches along a line: two points, at its ends; on its end,
     a disc: at least three points around the rim, so neither rocks."""
     ground = body(Plane(), static=True)
-    lying = body(Cylinder(0.1, 0.5), x=(0.0, 0.0, 0.1 - 1e-4), q=ON_SIDE_X)
+    lying = body(Cylinder(0.1, 0.5), x=(0.0, 0.0, 0.1 - 1e-4), q=narrow_phase.ALONG_X)
     _, _, points = collide(ground, lying, 1e-9)
     assert sorted(round(p[0], 9) for p, *_ in points) == [-0.5, 0.5]
     standing = body(Cylinder(0.1, 0.5), x=(0.0, 0.0, 0.5 - 1e-4))
@@ -132,7 +117,7 @@ def test_mesh_ground_is_the_plane():
     """A box resting across the two triangles of a square mesh gets the contact points a
     plane gives it (its four bottom corners, depth and normal the same)."""
     mesh = body(Mesh(((-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0)), ((0, 1, 2), (0, 2, 3))), static=True)
-    box = body(Box((0.5, 0.4, 0.3)), x=(0.2, -0.1, 0.3 - 1e-4), q=about((0, 0, 1), 0.3))
+    box = body(Box((0.5, 0.4, 0.3)), x=(0.2, -0.1, 0.3 - 1e-4), q=narrow_phase.about((0, 0, 1), 0.3))
     on_mesh = sorted((tuple(np.round(p, 9)), round(d, 12)) for p, _, d, _ in collide(mesh, box, 1e-9)[2])
     on_plane = sorted((tuple(np.round(p, 9)), round(d, 12)) for p, _, d, _ in collide(body(Plane(), static=True), box, 1e-9)[2])
     assert on_mesh == on_plane
@@ -218,8 +203,8 @@ FCL_DEPTH = 1e-6  # m
 FCL_NORMAL = 5e-3
 
 
-@pytest.mark.parametrize("name, A, B, n, depth, inside", CATALOGUE, ids=[c[0] for c in CATALOGUE])
-def test_catalogue_against_fcl(name, A, B, n, depth, inside):
+@pytest.mark.parametrize("name, A, B, pair", CATALOGUE, ids=[c[0] for c in CATALOGUE])
+def test_catalogue_against_fcl(name, A, B, pair):
     fcl = pytest.importorskip("fcl", reason="python-fcl (the test extra) is not installed")
     request = fcl.CollisionRequest(enable_contact=True, num_max_contacts=8)
     result = fcl.CollisionResult()
@@ -238,4 +223,4 @@ def test_catalogue_against_fcl(name, A, B, n, depth, inside):
     assert np.min(np.abs(along)) <= ours_depth + FCL_DEPTH, f"{name}: FCL's point {theirs.pos} off our contact plane"
     if len(ours) == 1:  # one point: FCL's lies on the segment through it along n
         across = (np.asarray(theirs.pos) - ours[0]) - along[0] * ours_n
-        assert np.linalg.norm(across) <= FCL_DEPTH + FCL_NORMAL * depth, f"{name}: FCL's point {theirs.pos}, ours {ours[0]}"
+        assert np.linalg.norm(across) <= FCL_DEPTH + FCL_NORMAL * pair.depth, f"{name}: FCL's point {theirs.pos}, ours {ours[0]}"
