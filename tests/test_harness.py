@@ -3,6 +3,7 @@ the results table contract and the report files. Engines are stand-ins (tests/fa
 from __future__ import annotations
 
 import csv
+import importlib.util
 import math
 from pathlib import Path
 
@@ -424,6 +425,32 @@ def test_a_partial_bench_run_keeps_the_other_sections_and_says_so(tmp_path):
     md = (tmp_path / "bench.md").read_text()
     assert "## overhead" in md and "## pgs" in md
     assert "From an earlier `physval bench pgs`" in md and "From an earlier `physval bench overhead`" not in md
+
+
+def test_bench_narrow_times_every_catalogue_pair_on_every_routine(tmp_path):
+    """`physval bench narrow`: a row per pair of the narrow-phase catalogue, a rate for the
+    reference and each routine it names, and each routine's depth the pair's exact one (it
+    did the query's work); the ratio to the fastest is 1 for the fastest."""
+    import csv
+
+    from cases.narrow_phase import CATALOGUE
+    from physval.cli import main
+    from physval.readings import bench
+    engines = [e for e in ("pybullet", "mujoco") if importlib.util.find_spec(e)]
+    old = bench.NARROW_QUERIES, bench.NARROW_ROUNDS
+    bench.NARROW_QUERIES, bench.NARROW_ROUNDS = 3, 1  # the shape of the table, not a timing
+    try:
+        assert main(["bench", "narrow", "--engines", "reference", *engines, "--out", str(tmp_path), "--quiet"]) == 0
+    finally:
+        bench.NARROW_QUERIES, bench.NARROW_ROUNDS = old
+    rows = {r["pair"]: r for r in csv.DictReader(open(tmp_path / "bench_narrow.csv"))}
+    assert set(rows) == set(CATALOGUE)
+    for name, row in rows.items():
+        for routine in ("reference", *engines):
+            assert float(row[f"{routine} queries/s"]) > 0
+            assert float(row[f"{routine} depth m"]) == pytest.approx(CATALOGUE[name].depth, abs=1e-6), (name, routine)
+        assert float(row["reference / fastest"]) >= 1.0 and row["within 20x"] in ("yes", "no")
+    assert "## narrow" in (tmp_path / "bench.md").read_text()
 
 
 def test_bench_step_says_why_an_engine_has_no_time(tmp_path):

@@ -9,8 +9,8 @@ from physval.core.executor import START_METHODS
 from physval.core.selection import select_variants
 from physval.core.session import Execution
 from physval.readings import bench
-from physval.readings.bench import (ON_DEMAND, WHAT, compile_cost, default_run, fault_matrix, overhead, pgs_scaling,
-                                     steps_side_by_side, sweep_workers, write)
+from physval.readings.bench import (ON_DEMAND, WHAT, compile_cost, default_run, fault_matrix, narrow_phase_rate,
+                                     overhead, pgs_scaling, steps_side_by_side, sweep_workers, write)
 from adapters import registry
 from physval.commands import options
 
@@ -63,6 +63,8 @@ def run(args) -> int:
         "sweep-workers": ("the same sweep with 1 and with 2 workers", lambda: sweep_workers(
             [e for e in engines if e in ("reference", "pybullet", "mujoco")], ctx)),
         "pgs": ("PGS sweep cost against contact count", pgs_scaling),
+        "narrow": ("narrow-phase queries per second on the narrow-phase catalogue",
+                   lambda: narrow_phase_rate(ctx, engines)),
         "faults": ("planted faults: the detection matrix", faults),
         "run": ("the default run, cold and then warm (minutes each)", lambda: default_run(
             args.workers, out, (*(("--engines", *args.engines) if args.engines else ()),

@@ -13,6 +13,10 @@ machine is noisy; absolute times are for orientation only). Never a pass/fail te
 - `sweep-workers`: the same small sweep with 1 and with 2 local workers (throughput ratio);
 - `pgs`: the reference's projected Gauss-Seidel, cost of one sweep against the number of
   contacts (doubling the contacts should at most about double the time);
+- `narrow`: narrow-phase queries per second on the narrow-phase family's catalogue of
+  convex pairs: the reference's compiled GJK/EPA against python-fcl and the engines'
+  collision routines that can be called alone (PyBullet's getClosestPoints, MuJoCo's
+  mj_geomDistance), as ratios to the fastest;
 - `faults`: not a speed: the suite's own power. Each fault of physval/faults.py planted in
   each engine it is written for, every family's default variants run on it, and the
   detection matrix written: failing checks per fault and family;
@@ -39,7 +43,7 @@ from physval.core import Context, Job, Probe, run_jobs, simulate
 from physval.core.session import Execution
 from physval.report import md_table, write_atomic
 
-WHAT = ("overhead", "step", "compile", "sweep-workers", "pgs", "faults", "run")
+WHAT = ("overhead", "step", "compile", "sweep-workers", "pgs", "narrow", "faults", "run")
 ON_DEMAND = ("run",)  # not in `physval bench` without names: minutes of a whole default run, twice
 
 
@@ -385,7 +389,7 @@ def _note(name: str) -> str:
     if name == "faults":
         return faults_note()
     return {"overhead": OVERHEAD_NOTE, "step": STEP_NOTE, "compile": COMPILE_NOTE, "sweep-workers": SWEEP_WORKERS_NOTE,
-            "pgs": PGS_NOTE, "run": RUN_NOTE}[name]
+            "pgs": PGS_NOTE, "narrow": NARROW_NOTE, "run": RUN_NOTE}[name]
 
 
 STEP_NOTE = ("Minimum over 2 repeats of the mean wall time per step over 20 steps at dt = 1e-3 (10 warm-up "
@@ -469,6 +473,166 @@ def pgs_scaling(sizes=(250, 500, 1000, 2000, 4000, 8000), repeats: int = 9) -> p
             "setup ms": (one[k] - sweep[k]) * 1e3}
            for k in sizes]
     return pd.DataFrame(out)
+
+
+# --- narrow phase: queries per second on the narrow-phase family's catalogue ------------------
+
+NARROW_BASE = "reference"  # the rows' ratios are to the fastest routine; this one is the one judged
+NARROW_WITHIN = 20.0       # the issue's aim: the reference within 20x of the fastest routine on every pair
+NARROW_QUERIES = 2000      # calls per timing
+NARROW_ROUNDS = 7          # rounds of every routine on every pair in turn; the least time per call kept
+NARROW_NOTE = ("Queries per second of each routine on the pairs of the narrow-phase family (cases/narrow_phase.py, "
+               "the poses the engines are judged on and the reference's GJK is tested on), each called alone "
+               "from Python once per query, as a user of the library calls it: `reference` the reference's "
+               "compiled narrow phase (reference_impl.geometry.narrow_phase: closed forms for spheres and boxes, "
+               "GJK and EPA with clipping for capsules, cylinders and hulls), `fcl` python-fcl's collide with "
+               "contacts (FCL's primitive routines, libccd's GJK/EPA for convex meshes), `pybullet` "
+               "getClosestPoints on the two bodies as its adapter builds them, `mujoco` mj_geomDistance on "
+               "the two geoms of its adapter's model (MuJoCo's narrow phase for the pair alone). All routines "
+               f"timed round-robin, {NARROW_ROUNDS} rounds of {NARROW_QUERIES} calls, the least CPU time per call "
+               "of this process, garbage collector paused. `depth` columns: the overlap each reported (a check "
+               f"that it did the work: the exact depth is the pair's); `reference / fastest`: how many times the "
+               f"fastest routine's time the reference's takes (the aim: within {NARROW_WITHIN:g}x). Engines whose "
+               "collision routine cannot be called alone from Python are not timed (the others build and step a "
+               "world to collide).")
+
+
+def _reference_query(pair):
+    """A call of the reference's compiled narrow phase on the pair, and the depth it finds."""
+    from adapters.reference_engine import _shape
+    from reference_impl.compiled import int_dict
+    from reference_impl.geometry import MAX_PAIR_POINTS, narrow_phase, new_points
+    from reference_impl.rigid_body import RigidBody, new_bodies, stack
+    base = RigidBody("base", _shape(pair.base), x=pair.base.position, q=pair.base.orientation, static=True)
+    top = RigidBody("top", _shape(pair.top), pair.top.mass, pair.top.principal_inertia, x=pair.top.position,
+                    q=pair.top.orientation)
+    bodies, out, features = new_bodies(stack([base, top])), new_points(MAX_PAIR_POINTS), int_dict(4)
+
+    def query():
+        return narrow_phase(bodies, 0, 1, 1e-9, features, out, 0)
+    count = query()[2]
+    return query, max(float(out.depth[t]) for t in range(count)) if count else math.nan
+
+
+def _fcl_query(pair):
+    """A call of python-fcl's collide (with contacts) on the pair, and the depth it finds."""
+    import fcl
+    from scipy.spatial import ConvexHull
+
+    def geometry(s):
+        kind = s.kind
+        if kind == "sphere":
+            return fcl.Sphere(s.radius)
+        if kind == "capsule":
+            return fcl.Capsule(s.radius, 2 * s.half_length)
+        if kind == "cylinder":
+            return fcl.Cylinder(s.radius, 2 * s.half_length)
+        if kind == "box":
+            return fcl.Box(*(2 * h for h in s.half_extents))
+        V = np.asarray(s.vertices, float)  # a hull as a convex mesh: libccd's GJK and EPA
+        tri = ConvexHull(V).simplices
+        return fcl.Convex(V, len(tri), np.column_stack([np.full(len(tri), 3), tri]).ravel())
+
+    a, b = (fcl.CollisionObject(geometry(body.shape), fcl.Transform(np.asarray(body.orientation, float),
+                                                                     np.asarray(body.position, float)))
+            for body in (pair.base, pair.top))
+    request = fcl.CollisionRequest(enable_contact=True, num_max_contacts=8)
+
+    def query():
+        result = fcl.CollisionResult()
+        fcl.collide(a, b, request, result)
+        return result
+    contacts = query().contacts
+    return query, max(c.penetration_depth for c in contacts) if contacts else math.nan
+
+
+def _pair_scene(pair):
+    from cases.scene import Material, Scene
+    return Scene(bodies=(pair.base, pair.top), gravity=(0.0, 0.0, 0.0), material=Material(e=0.0, mu_s=0.0),
+                 allowed_overlap=pair.depth + 1e-6)
+
+
+def _pybullet_query(pair, ctx: Context):
+    """getClosestPoints on the pair's two bodies in the world the pybullet adapter builds."""
+    import pybullet as p
+    from adapters.base import Settings
+    sim = ctx.resolver().adapter("pybullet").build(_pair_scene(pair), Settings(dt=1e-3))
+    ids = {name: uid for (uid, _), name in sim._ids.items()}  # the adapter's (body id, link) -> name
+    a, b, client = ids["base"], ids["top"], sim._client
+
+    def query():
+        return p.getClosestPoints(a, b, 0.0, physicsClientId=client)
+    rows = query()
+    return query, (max(-r[8] for r in rows) if rows else math.nan), sim
+
+
+def _mujoco_query(pair, ctx: Context):
+    """mj_geomDistance on the pair's two geoms in the model the MuJoCo adapter builds."""
+    import mujoco
+    from adapters.base import Settings
+    sim = ctx.resolver().adapter("mujoco").build(_pair_scene(pair), Settings(dt=1e-3))
+    m, d = sim._model, sim._data  # the adapter's model and data
+    g1, g2 = (mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name) for name in ("base", "top"))
+    fromto = np.zeros(6)
+
+    def query():
+        return mujoco.mj_geomDistance(m, d, g1, g2, 1.0, fromto)
+    return query, -float(query()), sim
+
+
+def _call_time(query, calls: int) -> float:
+    """CPU time per call of `calls` calls of query(), garbage collector paused."""
+    import gc
+    gc.disable()
+    try:
+        start = time.process_time()
+        for _ in range(calls):
+            query()
+        return (time.process_time() - start) / calls
+    finally:
+        gc.enable()
+
+
+def narrow_phase_rate(ctx: Context, engines: list[str], queries: int | None = None,
+                      rounds: int | None = None) -> pd.DataFrame:
+    """Queries per second of the reference's narrow phase, python-fcl and the engines'
+    collision routines callable alone, on every pair of the narrow-phase catalogue, timed
+    round-robin (every routine on every pair in turn, each round), least time per call."""
+    from cases.narrow_phase import CATALOGUE
+    queries, rounds = queries or NARROW_QUERIES, rounds or NARROW_ROUNDS
+    makers = {"reference": lambda pair: _reference_query(pair)}
+    try:
+        import fcl  # noqa: F401 (the test extra)
+        makers["fcl"] = lambda pair: _fcl_query(pair)
+    except ImportError:
+        pass
+    for engine, make in (("pybullet", _pybullet_query), ("mujoco", _mujoco_query)):
+        if engine in engines:
+            makers[engine] = lambda pair, make=make: make(pair, ctx)[:2]
+    queries_of, depth = {}, {}
+    keep = []  # the engines' worlds, alive while they are queried
+    for name, pair in CATALOGUE.items():
+        for routine, make in makers.items():
+            built = make(pair)
+            queries_of[name, routine], depth[name, routine] = built[0], built[1]
+            keep.append(built)
+    best = dict.fromkeys(queries_of, math.inf)
+    for _ in range(rounds):
+        for key, query in queries_of.items():
+            best[key] = min(best[key], _call_time(query, queries))
+    rows = []
+    for name, pair in CATALOGUE.items():
+        row = {"pair": name, "exact depth m": pair.depth}
+        for routine in makers:
+            row[f"{routine} queries/s"] = 1.0 / best[name, routine]
+        for routine in makers:
+            row[f"{routine} depth m"] = depth[name, routine]
+        fastest = min(best[name, routine] for routine in makers)
+        row["fastest"] = min(makers, key=lambda r: best[name, r])
+        row[f"{NARROW_BASE} / fastest"] = best[name, NARROW_BASE] / fastest
+        row[f"within {NARROW_WITHIN:g}x"] = "yes" if best[name, NARROW_BASE] <= NARROW_WITHIN * fastest else "no"
+        rows.append(row)
+    return pd.DataFrame(rows)
 
 
 # --- the default run, cold and warm ---------------------------------------------------------
