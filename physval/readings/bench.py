@@ -16,7 +16,7 @@ machine is noisy; absolute times are for orientation only). Never a pass/fail te
 - `narrow`: narrow-phase queries per second on the narrow-phase family's catalogue of
   convex pairs: the reference's compiled GJK/EPA against python-fcl and the engines'
   collision routines that can be called alone (PyBullet's getClosestPoints, MuJoCo's
-  mj_geomDistance), as ratios to the fastest;
+  mj_geomDistance and mj_collision), as ratios to the fastest;
 - `faults`: not a speed: the suite's own power. Each fault of physval/faults.py planted in
   each engine it is written for, every family's default variants run on it, and the
   detection matrix written: failing checks per fault and family;
@@ -488,7 +488,9 @@ NARROW_NOTE = ("Queries per second of each routine on the pairs of the narrow-ph
                "GJK and EPA with clipping for capsules, cylinders and hulls), `fcl` python-fcl's collide with "
                "contacts (FCL's primitive routines, libccd's GJK/EPA for convex meshes), `pybullet` "
                "getClosestPoints on the two bodies as its adapter builds them, `mujoco` mj_geomDistance on "
-               "the two geoms of its adapter's model (MuJoCo's narrow phase for the pair alone). All routines "
+               "the two geoms of its adapter's model (MuJoCo's narrow phase for the pair alone: a distance and its "
+               "two witness points, no manifold), `mujoco mj_collision` its whole collision phase on that model (the "
+               "pair's contacts, a manifold for a face or a line). All routines "
                f"timed round-robin, {NARROW_ROUNDS} rounds of {NARROW_QUERIES} calls, the least CPU time per call "
                "of this process, garbage collector paused. `depth` columns: the overlap each reported (a check "
                f"that it did the work: the exact depth is the pair's); `reference / fastest`: how many times the "
@@ -580,6 +582,20 @@ def _mujoco_query(pair, ctx: Context):
     return query, -float(query()), sim
 
 
+def _mujoco_contacts_query(pair, ctx: Context):
+    """mj_collision on the MuJoCo adapter's model of the pair: its whole collision phase for
+    the one pair (the contacts, a manifold of up to 4 points for a face, written into mjData)."""
+    import mujoco
+    from adapters.base import Settings
+    sim = ctx.resolver().adapter("mujoco").build(_pair_scene(pair), Settings(dt=1e-3))
+    m, d = sim._model, sim._data  # the adapter's model and data
+
+    def query():
+        return mujoco.mj_collision(m, d)
+    query()
+    return query, (-float(min(d.contact.dist[:d.ncon])) if d.ncon else math.nan), sim
+
+
 def _call_time(query, calls: int) -> float:
     """CPU time per call of `calls` calls of query(), garbage collector paused."""
     import gc
@@ -606,9 +622,10 @@ def narrow_phase_rate(ctx: Context, engines: list[str], queries: int | None = No
         makers["fcl"] = lambda pair: _fcl_query(pair)
     except ImportError:
         pass
-    for engine, make in (("pybullet", _pybullet_query), ("mujoco", _mujoco_query)):
+    for routine, engine, make in (("pybullet", "pybullet", _pybullet_query), ("mujoco", "mujoco", _mujoco_query),
+                                  ("mujoco mj_collision", "mujoco", _mujoco_contacts_query)):
         if engine in engines:
-            makers[engine] = lambda pair, make=make: make(pair, ctx)[:2]
+            makers[routine] = lambda pair, make=make: make(pair, ctx)[:2]
     queries_of, depth = {}, {}
     keep = []  # the engines' worlds, alive while they are queried
     for name, pair in CATALOGUE.items():
