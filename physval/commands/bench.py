@@ -64,7 +64,7 @@ def run(args) -> int:
             [e for e in engines if e in ("reference", "pybullet", "mujoco")], ctx)),
         "pgs": ("PGS sweep cost against contact count", pgs_scaling),
         "narrow": ("narrow-phase queries per second on the narrow-phase catalogue",
-                   lambda: narrow_phase_rate(ctx, engines)),
+                   lambda: narrow_phase_rate(engines)),
         "faults": ("planted faults: the detection matrix", faults),
         "run": ("the default run, cold and then warm (minutes each)", lambda: default_run(
             args.workers, out, (*(("--engines", *args.engines) if args.engines else ()),

@@ -31,6 +31,7 @@ so engines are timed side by side in the same conditions.
 """
 from __future__ import annotations
 
+import importlib.util
 import math
 import time
 from pathlib import Path
@@ -487,8 +488,8 @@ NARROW_NOTE = ("Queries per second of each routine on the pairs of the narrow-ph
                "compiled narrow phase (reference_impl.geometry.narrow_phase: closed forms for spheres and boxes, "
                "GJK and EPA with clipping for capsules, cylinders and hulls), `fcl` python-fcl's collide with "
                "contacts (FCL's primitive routines, libccd's GJK/EPA for convex meshes), `pybullet` "
-               "getClosestPoints on the two bodies as its adapter builds them, `mujoco` mj_geomDistance on "
-               "the two geoms of its adapter's model (MuJoCo's narrow phase for the pair alone: a distance and its "
+               "getClosestPoints on the two bodies (shaped as its adapter shapes them, margins cleared), `mujoco` "
+               "mj_geomDistance on the two geoms of a model of the pair (MuJoCo's narrow phase for the pair alone: a distance and its "
                "two witness points, no manifold), `mujoco mj_collision` its whole collision phase on that model (the "
                "pair's contacts, a manifold for a face or a line). All routines "
                f"timed round-robin, {NARROW_ROUNDS} rounds of {NARROW_QUERIES} calls, the least CPU time per call "
@@ -501,17 +502,21 @@ NARROW_NOTE = ("Queries per second of each routine on the pairs of the narrow-ph
 
 def _reference_query(pair):
     """A call of the reference's compiled narrow phase on the pair, and the depth it finds."""
-    from adapters.reference_engine import _shape
+    from reference_impl import geometry as g
     from reference_impl.compiled import int_dict
-    from reference_impl.geometry import MAX_PAIR_POINTS, narrow_phase, new_points
     from reference_impl.rigid_body import RigidBody, new_bodies, stack
-    base = RigidBody("base", _shape(pair.base), x=pair.base.position, q=pair.base.orientation, static=True)
-    top = RigidBody("top", _shape(pair.top), pair.top.mass, pair.top.principal_inertia, x=pair.top.position,
+
+    def shape(s):
+        return {"sphere": lambda: g.Sphere(s.radius), "capsule": lambda: g.Capsule(s.radius, s.half_length),
+                "cylinder": lambda: g.Cylinder(s.radius, s.half_length), "box": lambda: g.Box(tuple(s.half_extents)),
+                "hull": lambda: g.Hull(tuple(map(tuple, s.vertices)))}[s.kind]()
+    base = RigidBody("base", shape(pair.base.shape), x=pair.base.position, q=pair.base.orientation, static=True)
+    top = RigidBody("top", shape(pair.top.shape), pair.top.mass, pair.top.principal_inertia, x=pair.top.position,
                     q=pair.top.orientation)
-    bodies, out, features = new_bodies(stack([base, top])), new_points(MAX_PAIR_POINTS), int_dict(4)
+    bodies, out, features = new_bodies(stack([base, top])), g.new_points(g.MAX_PAIR_POINTS), int_dict(4)
 
     def query():
-        return narrow_phase(bodies, 0, 1, 1e-9, features, out, 0)
+        return g.narrow_phase(bodies, 0, 1, 1e-9, features, out, 0)
     count = query()[2]
     return query, max(float(out.depth[t]) for t in range(count)) if count else math.nan
 
@@ -548,52 +553,85 @@ def _fcl_query(pair):
     return query, max(c.penetration_depth for c in contacts) if contacts else math.nan
 
 
-def _pair_scene(pair):
-    from cases.scene import Material, Scene
-    return Scene(bodies=(pair.base, pair.top), gravity=(0.0, 0.0, 0.0), material=Material(e=0.0, mu_s=0.0),
-                 allowed_overlap=pair.depth + 1e-6)
+# The engines' worlds are built here through their own public APIs, shape by shape as their
+# adapters map them (a capsule's and a cylinder's axis on the body's z, a hull as a convex mesh
+# of its corners, no collision margin): an adapter's built world is private to it.
 
-
-def _pybullet_query(pair, ctx: Context):
-    """getClosestPoints on the pair's two bodies in the world the pybullet adapter builds."""
+def _pybullet_query(pair):
+    """getClosestPoints on the pair's two bodies in a pybullet world of their shapes."""
     import pybullet as p
-    from adapters.base import Settings
-    sim = ctx.resolver().adapter("pybullet").build(_pair_scene(pair), Settings(dt=1e-3))
-    ids = {name: uid for (uid, _), name in sim._ids.items()}  # the adapter's (body id, link) -> name
-    a, b, client = ids["base"], ids["top"], sim._client
+    client = p.connect(p.DIRECT)
+
+    def body(b):
+        s = b.shape
+        kw = {"sphere": dict(shapeType=p.GEOM_SPHERE, radius=getattr(s, "radius", 0.0)),
+              "capsule": dict(shapeType=p.GEOM_CAPSULE, radius=getattr(s, "radius", 0.0),
+                              height=2 * getattr(s, "half_length", 0.0)),
+              "cylinder": dict(shapeType=p.GEOM_CYLINDER, radius=getattr(s, "radius", 0.0),
+                               height=2 * getattr(s, "half_length", 0.0)),
+              "box": dict(shapeType=p.GEOM_BOX, halfExtents=list(getattr(s, "half_extents", ()))),
+              "hull": dict(shapeType=p.GEOM_MESH, vertices=[list(v) for v in getattr(s, "vertices", ())])}[s.kind]
+        w, x, y, z = b.orientation
+        uid = p.createMultiBody(0.0 if b.static else b.mass, p.createCollisionShape(physicsClientId=client, **kw),
+                                basePosition=list(b.position), baseOrientation=[x, y, z, w], physicsClientId=client)
+        if s.kind in ("cylinder", "hull"):  # Bullet's margin lies outside these: cleared, as the adapter does
+            p.changeDynamics(uid, -1, collisionMargin=0.0, physicsClientId=client)
+        return uid
+    a, b = body(pair.base), body(pair.top)
 
     def query():
         return p.getClosestPoints(a, b, 0.0, physicsClientId=client)
     rows = query()
-    return query, (max(-r[8] for r in rows) if rows else math.nan), sim
+    return query, (max(-r[8] for r in rows) if rows else math.nan)
 
 
-def _mujoco_query(pair, ctx: Context):
-    """mj_geomDistance on the pair's two geoms in the model the MuJoCo adapter builds."""
+def _mujoco_model(pair):
+    """MuJoCo's model and data of the pair: a geom per body (a hull a mesh of its corners),
+    the top on a free joint, the two in an explicit contact pair."""
     import mujoco
-    from adapters.base import Settings
-    sim = ctx.resolver().adapter("mujoco").build(_pair_scene(pair), Settings(dt=1e-3))
-    m, d = sim._model, sim._data  # the adapter's model and data
+
+    def geom(b):
+        s = b.shape
+        size = {"sphere": lambda: [s.radius], "capsule": lambda: [s.radius, s.half_length],
+                "cylinder": lambda: [s.radius, s.half_length], "box": lambda: list(s.half_extents),
+                "hull": lambda: None}[s.kind]()
+        shape = (f'type="mesh" mesh="{b.name}"' if size is None
+                 else f'type="{s.kind}" size="{" ".join(map(repr, size))}"')
+        return f'<geom name="{b.name}" {shape}/>'
+    meshes = "".join(f'<mesh name="{b.name}" vertex="{" ".join(repr(float(c)) for v in b.shape.vertices for c in v)}"/>'
+                     for b in (pair.base, pair.top) if b.shape.kind == "hull")
+    bodies = "".join(f'<body name="{b.name}" pos="{" ".join(map(repr, b.position))}" '
+                     f'quat="{" ".join(map(repr, b.orientation))}">{"" if b.static else "<freejoint/>"}{geom(b)}</body>'
+                     for b in (pair.base, pair.top))
+    m = mujoco.MjModel.from_xml_string(f'<mujoco><asset>{meshes}</asset><worldbody>{bodies}</worldbody>'
+                                       '<contact><pair geom1="base" geom2="top"/></contact></mujoco>')
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    return m, d
+
+
+def _mujoco_query(pair):
+    """mj_geomDistance on the pair's two geoms: MuJoCo's narrow phase for the pair alone."""
+    import mujoco
+    m, d = _mujoco_model(pair)
     g1, g2 = (mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, name) for name in ("base", "top"))
     fromto = np.zeros(6)
 
     def query():
         return mujoco.mj_geomDistance(m, d, g1, g2, 1.0, fromto)
-    return query, -float(query()), sim
+    return query, -float(query())
 
 
-def _mujoco_contacts_query(pair, ctx: Context):
-    """mj_collision on the MuJoCo adapter's model of the pair: its whole collision phase for
-    the one pair (the contacts, a manifold of up to 4 points for a face, written into mjData)."""
+def _mujoco_contacts_query(pair):
+    """mj_collision on the pair's model: MuJoCo's whole collision phase for the one pair (the
+    contacts, a manifold of up to 4 points for a face, written into mjData)."""
     import mujoco
-    from adapters.base import Settings
-    sim = ctx.resolver().adapter("mujoco").build(_pair_scene(pair), Settings(dt=1e-3))
-    m, d = sim._model, sim._data  # the adapter's model and data
+    m, d = _mujoco_model(pair)
 
     def query():
         return mujoco.mj_collision(m, d)
     query()
-    return query, (-float(min(d.contact.dist[:d.ncon])) if d.ncon else math.nan), sim
+    return query, (-float(min(d.contact.dist[:d.ncon])) if d.ncon else math.nan)
 
 
 def _call_time(query, calls: int) -> float:
@@ -609,30 +647,24 @@ def _call_time(query, calls: int) -> float:
         gc.enable()
 
 
-def narrow_phase_rate(ctx: Context, engines: list[str], queries: int | None = None,
+def narrow_phase_rate(engines: list[str], queries: int | None = None,
                       rounds: int | None = None) -> pd.DataFrame:
     """Queries per second of the reference's narrow phase, python-fcl and the engines'
     collision routines callable alone, on every pair of the narrow-phase catalogue, timed
     round-robin (every routine on every pair in turn, each round), least time per call."""
     from cases.narrow_phase import CATALOGUE
     queries, rounds = queries or NARROW_QUERIES, rounds or NARROW_ROUNDS
-    makers = {"reference": lambda pair: _reference_query(pair)}
-    try:
-        import fcl  # noqa: F401 (the test extra)
-        makers["fcl"] = lambda pair: _fcl_query(pair)
-    except ImportError:
-        pass
+    makers = {"reference": _reference_query}
+    if importlib.util.find_spec("fcl"):  # python-fcl: the test extra
+        makers["fcl"] = _fcl_query
     for routine, engine, make in (("pybullet", "pybullet", _pybullet_query), ("mujoco", "mujoco", _mujoco_query),
                                   ("mujoco mj_collision", "mujoco", _mujoco_contacts_query)):
-        if engine in engines:
-            makers[routine] = lambda pair, make=make: make(pair, ctx)[:2]
+        if engine in engines and importlib.util.find_spec(engine):
+            makers[routine] = make
     queries_of, depth = {}, {}
-    keep = []  # the engines' worlds, alive while they are queried
     for name, pair in CATALOGUE.items():
         for routine, make in makers.items():
-            built = make(pair)
-            queries_of[name, routine], depth[name, routine] = built[0], built[1]
-            keep.append(built)
+            queries_of[name, routine], depth[name, routine] = make(pair)
     best = dict.fromkeys(queries_of, math.inf)
     for _ in range(rounds):
         for key, query in queries_of.items():
