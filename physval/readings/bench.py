@@ -521,8 +521,11 @@ def _reference_query(pair):
     return query, max(float(out.depth[t]) for t in range(count)) if count else math.nan
 
 
-def _fcl_query(pair):
-    """A call of python-fcl's collide (with contacts) on the pair, and the depth it finds."""
+def fcl_objects(pair):
+    """python-fcl's collision objects of a narrow-phase pair (cases/narrow_phase.py), its base
+    and its top: FCL's primitives for spheres, capsules, cylinders and boxes (a capsule's and a
+    cylinder's axis on z, as the scene's), a hull as a convex mesh of its corners (libccd's GJK
+    and EPA). The reference's GJK test compares with the same objects."""
     import fcl
     from scipy.spatial import ConvexHull
 
@@ -536,13 +539,19 @@ def _fcl_query(pair):
             return fcl.Cylinder(s.radius, 2 * s.half_length)
         if kind == "box":
             return fcl.Box(*(2 * h for h in s.half_extents))
-        V = np.asarray(s.vertices, float)  # a hull as a convex mesh: libccd's GJK and EPA
+        V = np.asarray(s.vertices, float)
         tri = ConvexHull(V).simplices
         return fcl.Convex(V, len(tri), np.column_stack([np.full(len(tri), 3), tri]).ravel())
 
-    a, b = (fcl.CollisionObject(geometry(body.shape), fcl.Transform(np.asarray(body.orientation, float),
-                                                                     np.asarray(body.position, float)))
-            for body in (pair.base, pair.top))
+    return tuple(fcl.CollisionObject(geometry(body.shape), fcl.Transform(np.asarray(body.orientation, float),
+                                                                         np.asarray(body.position, float)))
+                 for body in (pair.base, pair.top))
+
+
+def _fcl_query(pair):
+    """A call of python-fcl's collide (with contacts) on the pair, and the depth it finds."""
+    import fcl
+    a, b = fcl_objects(pair)
     request = fcl.CollisionRequest(enable_contact=True, num_max_contacts=8)
 
     def query():

@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 
 from adapters.reference_engine import _shape as reference_shape
 from cases import narrow_phase
+from physval.readings.bench import fcl_objects
 from reference_impl import gjk
 from reference_impl.geometry import Box, Capsule, Cylinder, Hull, Mesh, Plane, Sphere, _separating_axes, collide
 from reference_impl.rigid_body import RigidBody
@@ -173,25 +174,6 @@ def test_mesh_tree_finds_only_triangles_under_the_box():
 
 # --- the same catalogue against an independent library ---------------------------------------
 
-def _fcl_object(fcl, rb):
-    s = rb.shape
-    if isinstance(s, Sphere):
-        geometry = fcl.Sphere(s.radius)
-    elif isinstance(s, Capsule):
-        geometry = fcl.Capsule(s.radius, 2 * s.half_length)
-    elif isinstance(s, Cylinder):
-        geometry = fcl.Cylinder(s.radius, 2 * s.half_length)
-    elif isinstance(s, Box):
-        geometry = fcl.Box(*(2 * h for h in s.half))
-    else:  # a hull as a convex mesh: libccd's GJK and EPA
-        from scipy.spatial import ConvexHull
-        V = np.asarray(s.vertices, float)
-        tri = ConvexHull(V).simplices
-        geometry = fcl.Convex(V, len(tri), np.column_stack([np.full(len(tri), 3), tri]).ravel())
-    w, x, y, z = rb.q
-    return fcl.CollisionObject(geometry, fcl.Transform(np.array([w, x, y, z]), np.array(rb.x)))
-
-
 # FCL's contact for a pair: its primitive routines (sphere-capsule, box-box, ...) are
 # exact to rounding, libccd's EPA (convex meshes, cylinders) stops within its tolerance
 # (1e-6, FCL's GJKSolver_libccd): depths agree to that; its normal for a flat contact is
@@ -208,7 +190,7 @@ def test_catalogue_against_fcl(name, A, B, pair):
     fcl = pytest.importorskip("fcl", reason="python-fcl (the test extra) is not installed")
     request = fcl.CollisionRequest(enable_contact=True, num_max_contacts=8)
     result = fcl.CollisionResult()
-    assert fcl.collide(_fcl_object(fcl, A), _fcl_object(fcl, B), request, result) > 0, f"{name}: FCL finds no contact"
+    assert fcl.collide(*fcl_objects(pair), request, result) > 0, f"{name}: FCL finds no contact"
     first, _, points = collide(A, B, 1e-9)
     sign = 1.0 if first is A else -1.0
     ours_n = sign * np.asarray(points[0][1])
