@@ -475,4 +475,13 @@ def measure(out: Path) -> pd.DataFrame:
     curves = precision_time(problems)
     write_atomic(Path(out) / "bench_oracle_curves.csv", curves.to_csv(index=False))
     plot(curves, Path(out) / "bench_oracle.png")
-    return agreement(problems)
+    return readable(agreement(problems))
+
+
+def readable(df: pd.DataFrame) -> pd.DataFrame:
+    """`df` with its m/s and N s columns in two significant digits (the bench's tables round
+    to 4 decimals, which would show 1e-12 as 0); not compared: empty."""
+    out = df.copy()
+    for col in [c for c in df.columns if c.endswith(("m/s", "N s"))]:
+        out[col] = [("" if math.isnan(x) else f"{x:.2g}") for x in df[col]]
+    return out
