@@ -89,3 +89,12 @@ def test_a_planted_wrong_reference_parts_from_pinocchio(problems, pinocchio, nam
     wrong = oracle.planted(p, fault)
     d = oracle.differences(p, wrong)
     assert d["velocity m/s"] > 100 * d["tolerance m/s"], f"{name}, {fault} planted: {d}, but should part"
+
+
+def test_bench_oracle_without_pinocchio_says_so_in_one_line(monkeypatch, tmp_path, capsys):
+    from physval.cli import main
+    monkeypatch.setattr(oracle, "available", lambda: False)
+    assert main(["bench", "oracle", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and 'pip install "physval[oracle]"' in err, err
+    assert not (tmp_path / "bench.md").exists()
