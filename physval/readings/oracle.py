@@ -35,8 +35,9 @@ along t1 (the reference turns t1 into the slip before it solves); they part wher
 friction leaves the cone for the pyramid's corners (slip turning during the step). Measured
 figures: `physval bench oracle` (docs/measure/performance.md).
 
-Pinocchio is optional: everything but `solve` and `precision_time` of its solvers runs
-without it, and `available()` says whether it is there.
+Pinocchio is optional: `capture`, `save`, `load`, `planted`, the residuals and the
+reference's solvers run without it; what compares with Pinocchio's needs it, and
+`available()` says whether it is there.
 """
 from __future__ import annotations
 
