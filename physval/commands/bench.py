@@ -8,7 +8,7 @@ from dataclasses import replace
 from physval.core.executor import START_METHODS
 from physval.core.selection import select_variants
 from physval.core.session import Execution
-from physval.readings import bench
+from physval.readings import bench, oracle
 from physval.readings.bench import (ON_DEMAND, WHAT, compile_cost, default_run, fault_matrix, narrow_phase_rate,
                                      overhead, pgs_scaling, steps_side_by_side, sweep_workers, write)
 from adapters import registry
@@ -45,6 +45,8 @@ def run(args) -> int:
     unknown = [w for w in what if w not in WHAT]
     if unknown:
         raise options.UsageError(f"unknown benchmark {unknown[0]!r}: choose from {', '.join(WHAT)}")
+    if "oracle" in what and not oracle.available():
+        raise options.UsageError('benchmark \'oracle\' needs Pinocchio: pip install "physval[oracle]" (the pin package)')
     out = options.held(args, options.output_folder(args.out))
     execution = Execution(1, None, args.job_timeout, args.start_method, not args.quiet)
     say = options.teller(args, "physval bench")
@@ -66,6 +68,7 @@ def run(args) -> int:
         "narrow": ("narrow-phase queries per second on the narrow-phase catalogue",
                    lambda: narrow_phase_rate(engines)),
         "faults": ("planted faults: the detection matrix", faults),
+        "oracle": ("the reference's contact solvers against Pinocchio's", lambda: oracle.measure(out)),
         "run": ("the default run, cold and then warm (minutes each)", lambda: default_run(
             args.workers, out, (*(("--engines", *args.engines) if args.engines else ()),
                                 *(("--cases", *args.cases) if args.cases else ()),

@@ -20,14 +20,19 @@ machine is noisy; absolute times are for orientation only). Never a pass/fail te
 - `faults`: not a speed: the suite's own power. Each fault of physval/faults.py planted in
   each engine it is written for, every family's default variants run on it, and the
   detection matrix written: failing checks per fault and family;
+- `oracle` (only when named: it needs Pinocchio, the `oracle` extra): the reference's contact
+  problems of a few steps of its own scenes solved by its Lemke, PGS and SPOOK and by
+  Pinocchio's ADMM and PGS: where the solutions agree, and residual against CPU time
+  (physval.readings.oracle);
 - `run` (only when named: two whole default runs): `physval run` as a user runs it, in a
   fresh process, cold (empty physval and numba caches) and then warm (the caches filled),
   each timed whole, with where its time went (the run's Cost section: planning, the
   engines' steps, the rest of the jobs, the readings, the workers' overhead per job, the
   report, CPU) and each engine's worker-seconds, against the default run's budget.
 
-Every measurement but `run` runs as a job of the core (physval.core), one worker at a time,
-so engines are timed side by side in the same conditions.
+Every measurement but `run` and `oracle` (the reference's solvers timed in this process) runs
+as a job of the core (physval.core), one worker at a time, so engines are timed side by side
+in the same conditions.
 """
 from __future__ import annotations
 
@@ -42,10 +47,13 @@ import pandas as pd
 from cases.family import Variant
 from physval.core import Context, Job, Probe, run_jobs, simulate
 from physval.core.session import Execution
+from physval.readings import oracle
 from physval.report import md_table, write_atomic
 
-WHAT = ("overhead", "step", "compile", "sweep-workers", "pgs", "narrow", "faults", "run")
-ON_DEMAND = ("run",)  # not in `physval bench` without names: minutes of a whole default run, twice
+WHAT = ("overhead", "step", "compile", "sweep-workers", "pgs", "narrow", "faults", "oracle", "run")
+# not in `physval bench` without names: `run` takes minutes of a whole default run, twice;
+# `oracle` needs Pinocchio (the `oracle` extra)
+ON_DEMAND = ("oracle", "run")
 
 
 # --- overhead: the core's recorded step against a bare step ----------------------------------
@@ -390,7 +398,7 @@ def _note(name: str) -> str:
     if name == "faults":
         return faults_note()
     return {"overhead": OVERHEAD_NOTE, "step": STEP_NOTE, "compile": COMPILE_NOTE, "sweep-workers": SWEEP_WORKERS_NOTE,
-            "pgs": PGS_NOTE, "narrow": NARROW_NOTE, "run": RUN_NOTE}[name]
+            "pgs": PGS_NOTE, "narrow": NARROW_NOTE, "oracle": oracle.NOTE, "run": RUN_NOTE}[name]
 
 
 STEP_NOTE = ("Minimum over 2 repeats of the mean wall time per step over 20 steps at dt = 1e-3 (10 warm-up "
