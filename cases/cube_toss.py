@@ -311,16 +311,21 @@ def first_contact(tr: Toss, surface: float = SURFACE_Z) -> int:
     velocity (KICK), whichever comes first. The kick catches an impact that falls between
     two samples and rebounds clear of the band before the next one."""
     near = np.flatnonzero(lowest_corner(tr.pos, tr.quat) <= surface + CONTACT_BAND)
-    # change of the finite-difference vertical velocity at each interior sample, with
-    # gravity's -g h taken out: zero in free flight
-    h = np.diff(tr.t)
-    vz = np.diff(tr.pos[:, 2]) / h
-    kick = np.flatnonzero(np.diff(vz) + G * 0.5 * (h[1:] + h[:-1]) > KICK) + 1
+    kick = kicks(tr.t, tr.pos[:, 2])
     found = [int(near[0])] if len(near) else []
     found += [int(kick[0]) + 1] if len(kick) else []
     if not found:
         raise TossError(f"toss {tr.id}: the cube never reaches the surface")
     return min(found)
+
+
+def kicks(t: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Indices of the samples where the vertical velocity of a freely falling centre of mass
+    z(t) changes upward by more than KICK: the change of the finite-difference velocity at
+    each interior sample, gravity's -g h taken out, which is zero in free flight."""
+    h = np.diff(t)
+    vz = np.diff(z) / h
+    return np.flatnonzero(np.diff(vz) + G * 0.5 * (h[1:] + h[:-1]) > KICK) + 1
 
 
 def rest_height(tosses, ids=None) -> float:
