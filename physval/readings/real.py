@@ -17,6 +17,11 @@ change the face the cube ends on), the start state carries the capture's noise, 
 fitted parameters absorb whatever the cube and the surface do that no engine models.
 `physval real --tosses FILE --params reports/real/params.json` scores your own tosses
 (same columns) with the saved parameters; `--fit` fits them on your file instead.
+`physval real --data elbow_toss` does all of this for a second data set, 541 tosses of an
+articulated elbow (two boxes and a revolute joint, `cases.elbow_toss`), on the engines that
+build revolute joints: the reading works on pose rows that each toss module defines
+(TOSSES: the cube's centre and quaternion; the elbow's base link and hinge angle), and
+reads every data-set-specific fact (scene, start state, corners, rest face) from it.
 
 What it does, per engine (every registered 3D engine that is installed):
 1. Each toss of the test split (odd toss ids, `cases.cube_toss`) is built as an
@@ -103,8 +108,9 @@ from physval.interrupts import Terminated
 SUBSTEPS = 7                          # engine steps per measured sample
 DT = ct.SAMPLE_PERIOD / SUBSTEPS      # 0.966 ms: the step the engines' own docs use for contact (~1 ms)
 HORIZONS = (0.1, 0.5)                 # s after the first measured contact; plus the final sample
-# Loss of a toss whose simulation blew up or raised: ten cube widths, beyond any real miss
-# (the cubes travel at most ~5 widths), so a fit never prefers a failing parameter.
+# Loss of a toss whose simulation blew up or raised: ten cube widths (elbow: bar lengths),
+# beyond any real miss (the cubes travel at most ~5 widths, the elbows' misses are ~1 bar
+# length), so a fit never prefers a failing parameter.
 FAIL_LOSS = 10.0
 # A simulated cube this far from the origin has left the scene (the tosses stay within 1 m).
 LOST = 100.0                          # m
@@ -819,7 +825,7 @@ def plot_overlays(engine: str, picks: dict[str, tuple[dict, dict | None]], sourc
                               name == "fitted" else "C1", label=f"{engine} ({name})")
             axes[1, col].plot(traj["t"], np.degrees(ct.angle_between(quat, np.broadcast_to(q0, quat.shape))),
                               style, color="C0" if name == "fitted" else "C1")
-        axes[0, col].set(title=f"{label}: toss {row['toss']} (mean corner error {_fmt(row['corner_mean'], 2)} widths)",
+        axes[0, col].set(title=f"{label}: toss {row['toss']} (mean corner error {_fmt(row['corner_mean'], 2)} {ds.UNIT_NAME})",
                          ylabel=f"centre height ({ds.UNIT_NAME})")
         axes[1, col].set(xlabel="time after start (s)", ylabel="rotation since start (deg)")
         axes[0, col].legend(fontsize=7)
