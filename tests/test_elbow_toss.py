@@ -4,6 +4,8 @@ the hinge through an engine, and the command end to end. Every simulation here i
 tosses over short horizons on MuJoCo."""
 from __future__ import annotations
 
+import io
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -151,3 +153,75 @@ def test_an_elbow_job_is_kept_in_the_row_store_and_read_back_the_same(tmp_path):
     assert first[0]["cached"] is False and again[0]["cached"] is True
     np.testing.assert_array_equal(first[0]["trajectory"]["poses"], again[0]["trajectory"]["poses"])
     assert first[0]["trajectory"]["poses"].shape[1] == et.POSE_SIZE
+
+
+# --- the conversion of the source files --------------------------------------------------------
+
+def _converter():
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("convert_elbow", et.DATA.parent.parent / "convert_elbow.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _torch_save(path, array: np.ndarray, monkeypatch) -> None:
+    """A file laid out as torch.save writes a float64 tensor (a zip: archive/data.pkl naming
+    the storage by a persistent id, archive/data/0 its raw little-endian bytes), made without
+    PyTorch: stand-in modules give the pickle torch's global names."""
+    import collections
+    import pickle
+    import sys
+    import types
+    import zipfile
+    torch, utils = types.ModuleType("torch"), types.ModuleType("torch._utils")
+
+    def _rebuild_tensor_v2(*args):
+        raise AssertionError("only pickled here, never called")
+    _rebuild_tensor_v2.__module__, _rebuild_tensor_v2.__qualname__ = "torch._utils", "_rebuild_tensor_v2"
+    storage_type = type("DoubleStorage", (), {"__module__": "torch"})
+    torch.DoubleStorage, torch._utils, utils._rebuild_tensor_v2 = storage_type, utils, _rebuild_tensor_v2
+    monkeypatch.setitem(sys.modules, "torch", torch)
+    monkeypatch.setitem(sys.modules, "torch._utils", utils)
+    storage = object()
+
+    class Tensor:
+        def __reduce__(self):
+            return _rebuild_tensor_v2, (storage, 0, array.shape, (array.shape[1], 1), False, collections.OrderedDict())
+
+    class Pickler(pickle.Pickler):
+        def persistent_id(self, obj):
+            return ("storage", storage_type, "0", "cpu", array.size) if obj is storage else None
+    buf = io.BytesIO()
+    Pickler(buf, protocol=2).dump(Tensor())
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("archive/data.pkl", buf.getvalue())
+        z.writestr("archive/data/0", np.ascontiguousarray(array, "<f8").tobytes())
+        z.writestr("archive/version", "3\n")
+
+
+def test_the_converter_maps_dair_pll_s_state_order_onto_the_columns(tmp_path, monkeypatch):
+    """dair_pll's order [q (4), p (3), theta, w (3, body), v (3), dtheta] lands in the named
+    columns: each source column holds its own index, so every value says where it came from."""
+    conv = _converter()
+    source = np.tile(np.arange(15, dtype=float), (3, 1)) + np.arange(3)[:, None] * 100
+    (tmp_path / "src").mkdir()
+    _torch_save(tmp_path / "src" / "7.pt", source, monkeypatch)
+    np.testing.assert_array_equal(conv.read_pt(tmp_path / "src" / "7.pt"), source)
+    frame = pd.read_csv(io.StringIO(conv.convert(tmp_path / "src")))
+    assert list(frame.columns) == list(et.COLUMNS)
+    first = frame.iloc[0]
+    expected = {"qw": 0, "qx": 1, "qy": 2, "qz": 3, "x": 4, "y": 5, "z": 6, "theta": 7, "wx": 8, "wy": 9, "wz": 10,
+                "vx": 11, "vy": 12, "vz": 13, "dtheta": 14}
+    assert {c: first[c] for c in expected} == expected
+    assert list(frame.toss) == [7, 7, 7] and frame.t.iloc[2] == pytest.approx(2 * et.SAMPLE_PERIOD, abs=1e-6)
+
+
+def test_the_converter_refuses_a_pickle_that_is_not_a_tensor(tmp_path):
+    import pickle
+    import zipfile
+    conv = _converter()
+    with zipfile.ZipFile(tmp_path / "1.pt", "w") as z:
+        z.writestr("archive/data.pkl", pickle.dumps(print, protocol=2))
+    with pytest.raises(pickle.UnpicklingError, match="print: not part of a saved float64 tensor"):
+        conv.read_pt(tmp_path / "1.pt")
