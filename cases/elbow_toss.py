@@ -234,10 +234,11 @@ class StartFit:
         return out if clearance > 0.0 else replace(out, p0=out.p0 + [0.0, 0.0, 1e-6 - clearance])
 
 
-def fit_flight(tr: ElbowToss, surface: float = SURFACE_Z) -> StartFit:
+def fit_flight(tr: ElbowToss, surface: float = SURFACE_Z, before: int | None = None) -> StartFit:
     """The start state (StartFit) at the last sample before first contact whose fitted pose
-    clears the surface."""
-    kc = first_contact(tr, surface)
+    clears the surface; `before`: a sample to start before instead of the first contact
+    (one earlier in the flight: tests compare a simulated free flight with the measured one)."""
+    kc = first_contact(tr, surface) if before is None else before
     if kc < FIT_SAMPLES:
         raise TossError(f"toss {tr.id}: {kc} samples before first contact, needs >= {FIT_SAMPLES}")
     for k0 in range(kc - 1, FIT_SAMPLES - 2, -1):
