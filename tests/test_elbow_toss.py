@@ -250,3 +250,12 @@ def test_the_converter_refuses_a_pickle_that_is_not_a_tensor(tmp_path):
         z.writestr("archive/data.pkl", pickle.dumps(print, protocol=2))
     with pytest.raises(pickle.UnpicklingError, match="print: not part of a saved float64 tensor"):
         conv.read_pt(tmp_path / "1.pt")
+
+
+def test_a_toss_file_without_the_hinge_columns_stops_before_any_work(tmp_path, capsys):
+    """The cube's file given as elbow tosses: one line naming the missing columns, exit 2."""
+    out = tmp_path / "out"
+    assert main(["real", "--data", "elbow_toss", "--tosses", str(ct.DATA), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "missing columns theta, dtheta" in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
