@@ -201,29 +201,45 @@ def _cut(tr: Toss) -> Toss:
     return Toss(tr.id, tr.t[:k], tr.pos[:k], tr.quat[:k], tr.vel[:k], tr.omega[:k])
 
 
-def _read(path: Path) -> dict[int, Toss]:
+def read_frame(path: Path, columns=COLUMNS) -> list[tuple[int, dict[str, np.ndarray]]]:
+    """(toss id, {column: values in step order}) for each toss of a toss CSV with `columns`,
+    checked: every column there and finite, >= 8 samples a toss, increasing in time."""
     import pandas as pd  # here, not at the top: every process that loads the families imports this module
     try:
         frame = pd.read_csv(path)
     except (OSError, ValueError) as exc:
         raise TossError(f"{path}: cannot read it as a toss CSV ({exc})") from None
-    missing = [c for c in COLUMNS if c not in frame.columns]
+    missing = [c for c in columns if c not in frame.columns]
     if missing:
-        raise TossError(f"{path}: missing columns {', '.join(missing)} (needs {', '.join(COLUMNS)})")
-    if not np.all(np.isfinite(frame[list(COLUMNS)].to_numpy(float))):
+        raise TossError(f"{path}: missing columns {', '.join(missing)} (needs {', '.join(columns)})")
+    values = frame.sort_values(["toss", "step"])[list(columns)].to_numpy(float)
+    if not np.all(np.isfinite(values)):
         raise TossError(f"{path}: non-finite values (every column must be a finite number)")
-    out = {}
-    for toss_id, rows in frame.sort_values(["toss", "step"]).groupby("toss", sort=True):
-        t = rows["t"].to_numpy(float)
+    if not len(values):
+        raise TossError(f"{path}: no tosses")
+    out = []
+    bounds = np.concatenate([[0], np.flatnonzero(np.diff(values[:, 0])) + 1, [len(values)]])
+    for a, b in zip(bounds[:-1], bounds[1:]):  # numpy slices: pandas' groupby costs 10 times more here
+        toss_id, t = int(values[a, 0]), values[a:b, columns.index("t")]
         if len(t) < 8 or np.any(np.diff(t) <= 0):
             raise TossError(f"{path}: toss {toss_id} has {len(t)} samples or non-increasing t "
                             "(needs >= 8 samples, increasing in time)")
-        out[int(toss_id)] = _cut(Toss(int(toss_id), t - t[0], rows[["x", "y", "z"]].to_numpy(float),
-                                      _continuous(rows[["qw", "qx", "qy", "qz"]].to_numpy(float)),
-                                      rows[["vx", "vy", "vz"]].to_numpy(float),
-                                      rows[["wx", "wy", "wz"]].to_numpy(float)))
-    if not out:
-        raise TossError(f"{path}: no tosses")
+        out.append((toss_id, {c: values[a:b, j] for j, c in enumerate(columns)}))
+    return out
+
+
+def columns_of(rows: dict[str, np.ndarray], *names: str) -> np.ndarray:
+    """The named columns of a toss's rows (read_frame) side by side."""
+    return np.column_stack([rows[n] for n in names])
+
+
+def _read(path: Path) -> dict[int, Toss]:
+    out = {}
+    for toss_id, rows in read_frame(path):
+        t = rows["t"]
+        out[toss_id] = _cut(Toss(toss_id, t - t[0], columns_of(rows, "x", "y", "z"),
+                                 _continuous(columns_of(rows, "qw", "qx", "qy", "qz")),
+                                 columns_of(rows, "vx", "vy", "vz"), columns_of(rows, "wx", "wy", "wz")))
     return out
 
 
@@ -295,16 +311,21 @@ def first_contact(tr: Toss, surface: float = SURFACE_Z) -> int:
     velocity (KICK), whichever comes first. The kick catches an impact that falls between
     two samples and rebounds clear of the band before the next one."""
     near = np.flatnonzero(lowest_corner(tr.pos, tr.quat) <= surface + CONTACT_BAND)
-    # change of the finite-difference vertical velocity at each interior sample, with
-    # gravity's -g h taken out: zero in free flight
-    h = np.diff(tr.t)
-    vz = np.diff(tr.pos[:, 2]) / h
-    kick = np.flatnonzero(np.diff(vz) + G * 0.5 * (h[1:] + h[:-1]) > KICK) + 1
+    kick = kicks(tr.t, tr.pos[:, 2])
     found = [int(near[0])] if len(near) else []
     found += [int(kick[0]) + 1] if len(kick) else []
     if not found:
         raise TossError(f"toss {tr.id}: the cube never reaches the surface")
     return min(found)
+
+
+def kicks(t: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Indices of the samples where the vertical velocity of a freely falling centre of mass
+    z(t) changes upward by more than KICK: the change of the finite-difference velocity at
+    each interior sample, gravity's -g h taken out, which is zero in free flight."""
+    h = np.diff(t)
+    vz = np.diff(z) / h
+    return np.flatnonzero(np.diff(vz) + G * 0.5 * (h[1:] + h[:-1]) > KICK) + 1
 
 
 def rest_height(tosses, ids=None) -> float:
@@ -442,18 +463,23 @@ def _quadratic_smoother(width: int = 5) -> np.ndarray:
 SMOOTHER = _quadratic_smoother(5)
 
 
+def smoothing_windows(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each of n samples: its window's first sample, the window's (n, 5) sample indices
+    and the SMOOTHER weights that evaluate the quadratic there (centred where possible, the
+    first or last 5 samples at the ends)."""
+    width = len(SMOOTHER)
+    k = np.arange(n)
+    first = np.clip(k - width // 2, 0, n - width)
+    return first, first[:, None] + np.arange(width), SMOOTHER[k - first]
+
+
 def smoothed(tr: Toss) -> tuple[np.ndarray, np.ndarray]:
     """Positions and orientations smoothed by a quadratic least-squares fit over 5 samples
     (27 ms): centred where possible, the first or last 5 samples at the ends of the toss.
     Orientations: the window's samples as rotation vectors relative to its middle sample,
     smoothed, applied back."""
-    n = len(tr)
+    first, window, weights = smoothing_windows(len(tr))
     width = len(SMOOTHER)
-    k = np.arange(n)
-    first = np.clip(k - width // 2, 0, n - width)           # window start per sample
-    j = k - first                                           # position within the window
-    window = first[:, None] + np.arange(width)              # (n, width) sample indices
-    weights = SMOOTHER[j]                                   # (n, width)
     p = np.einsum("nw,nwi->ni", weights, tr.pos[window])
     base = _to_scipy(tr.quat[first + width // 2])
     rel = np.stack([(base.inv() * _to_scipy(tr.quat[window[:, w]])).as_rotvec() for w in range(width)], axis=1)
@@ -490,3 +516,45 @@ def corner_error(p_a: np.ndarray, q_a: np.ndarray, p_b: np.ndarray, q_b: np.ndar
     ca = p_a[:, None, :] + np.einsum("nij,cj->nci", _to_scipy(q_a).as_matrix(), CORNERS)
     cb = p_b[:, None, :] + np.einsum("nij,cj->nci", _to_scipy(q_b).as_matrix(), CORNERS)
     return np.sqrt(np.mean(np.sum((ca - cb) ** 2, axis=2), axis=1)) / WIDTH
+
+
+# --- the tier's interface: poses as rows, as cases/elbow_toss.py gives them too ----------------
+# physval real reads every toss module through these names (physval/readings/real.py, TOSSES):
+# a pose row is the centre and the orientation (w, x, y, z), 7 numbers.
+
+UNIT, UNIT_NAME = WIDTH, "cube widths"   # position errors are in this unit
+BODY = "cube"                            # the body whose state the scene records
+POSE_SIZE = 7
+NEEDS_JOINTS = False                     # a scene of one free body
+
+
+def poses(tr: Toss) -> np.ndarray:
+    return np.column_stack([tr.pos, tr.quat])
+
+
+def read_poses(states: dict, steps_at: np.ndarray) -> np.ndarray:
+    """Pose rows from a simulation's recorded states at the given step counts."""
+    rows = states[BODY][steps_at]
+    return np.column_stack([rows[:, :3], rows[:, 3:7] / np.linalg.norm(rows[:, 3:7], axis=1, keepdims=True)])
+
+
+def pose_error(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """corner_error of pose rows a against b."""
+    return corner_error(a[:, :3], a[:, 3:7], b[:, :3], b[:, 3:7])
+
+
+def same_rest(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two final poses lie on the same face."""
+    return bool(face_down(a[None, 3:7])[0] == face_down(b[None, 3:7])[0])
+
+
+def smoothed_poses(tr: Toss) -> np.ndarray:
+    return np.column_stack(smoothed(tr))
+
+
+def with_poses(tr: Toss, k0: int, rows: np.ndarray) -> Toss:
+    """The toss with its samples from k0 on replaced by the pose rows (a simulation taken as
+    the measurement: physval real's start-noise floor); velocities kept as measured."""
+    n = k0 + len(rows)
+    return Toss(tr.id, tr.t[:n], np.vstack([tr.pos[:k0], rows[:, :3]]), np.vstack([tr.quat[:k0], rows[:, 3:7]]),
+                tr.vel[:n], tr.omega[:n])

@@ -107,7 +107,7 @@ def test_the_ground_lies_at_the_measured_surface(tosses):
 def _score(tr, pos, quat):
     fit = ct.fit_flight(tr)
     k = np.arange(fit.k0, len(tr))
-    return real.score(tr, fit, tr.t[k] - fit.t0, pos[k], quat[k])
+    return real.score(tr, fit, tr.t[k] - fit.t0, np.column_stack([pos, quat])[k])
 
 
 def test_an_identical_trajectory_scores_zero(tosses):
@@ -195,7 +195,7 @@ def test_a_tosss_job_is_kept_in_the_row_store_and_read_back_the_same(tmp_path):
         other = real.simulate_many("mujoco", {**params, "mu": 0.3}, [3], runner=runner, keep=True, horizon=0.1)
     assert [r["cached"] for r in again] == [True, False] and other[0]["cached"] is False
     a, b = first[0], again[0]
-    for k in ("pos", "quat", "corner_err"):
+    for k in ("poses", "corner_err"):
         np.testing.assert_array_equal(a["trajectory"][k], b["trajectory"][k])
     np.testing.assert_array_equal([a[k] for k in real.metric_names()], [b[k] for k in real.metric_names()])
     assert math.isfinite(a["corner_mean"])
@@ -206,7 +206,7 @@ def test_the_mujoco_tunable_reaches_the_engine():
     p = real.nominal("mujoco")
     soft = real.simulate_toss("mujoco", 3, {**p, "contact_steps": 40.0}, horizon=0.1)
     stiff = real.simulate_toss("mujoco", 3, {**p, "contact_steps": 4.0}, horizon=0.1)
-    assert np.abs(soft["pos"] - stiff["pos"]).max() > 1e-3  # millimetres apart after an impact
+    assert np.abs(soft["poses"][:, :3] - stiff["poses"][:, :3]).max() > 1e-3  # millimetres apart after an impact
 
 
 @pytest.mark.parametrize("params, message", [
@@ -244,7 +244,7 @@ def synthetic_file(tmp_path_factory):
         r = real.simulate_toss("mujoco", i, params, SYNTH_HORIZON)
         k = np.arange(fit.k0 + 1)
         pf, qf = fit.state(tr.t[k] - fit.t0)
-        pos, quat = np.vstack([pf, r["pos"][1:]]), np.vstack([qf, r["quat"][1:]])
+        pos, quat = np.vstack([pf, r["poses"][1:, :3]]), np.vstack([qf, r["poses"][1:, 3:7]])
         t = np.concatenate([tr.t[k], fit.t0 + r["t"][1:]])
         out.append(ct.Toss(i, t, pos, quat, np.gradient(pos, t, axis=0), np.zeros((len(t), 3))))
     path = tmp_path_factory.mktemp("synthetic") / "tosses.csv.gz"

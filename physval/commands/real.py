@@ -1,6 +1,7 @@
-"""`physval real`: engines against 400 measured cube tosses (the real-world tier). The
-measurement and the report are physval.readings.real; this module holds the options, plans
-each engine's fit within its CPU budget, and says what it does as it goes."""
+"""`physval real`: engines against measured tosses (the real-world tier): 400 cube tosses, or
+with --data elbow_toss 541 tosses of a two-link elbow. The measurement and the report are
+physval.readings.real; this module holds the options, plans each engine's fit within its
+CPU budget, and says what it does as it goes."""
 from __future__ import annotations
 
 import argparse
@@ -20,7 +21,7 @@ from cases import cube_toss as ct
 from physval.commands import options
 from physval.core.session import Execution
 from physval.readings.real import (BATCH, BOOTSTRAP, DEFAULT_OUT, DT, FIT_LIMIT, GENERATIONS, NEUTRAL, NEUTRAL_GRID,
-                                   MIN_FIT_TOSSES, POPSIZE, SCORE_LIMIT, SUBSTEPS, Runner, _cost, _flight,
+                                   MIN_FIT_TOSSES, POPSIZE, SCORE_LIMIT, SUBSTEPS, TOSSES, Runner, _cost, _flight,
                                    engine_version, engines_3d, fit, fitted_names, noise_rows, nominal, parameter_space,
                                    rounded, sensitivity, simulate_many, write_report)
 
@@ -31,6 +32,7 @@ EPILOG = """examples:
   physval real --tosses my_tosses.csv.gz --params reports/real/params.json
   physval real --tosses my_tosses.csv.gz --fit --out /tmp/mine
   physval real --limit 4 --horizon 0.3 --generations 1 --out /tmp/quick
+  physval real --data elbow_toss                 the articulated elbow on every engine with revolute joints
   physval real --adapter my_engine.py:MyAdapter --engines my-engine --nominal --limit 20
 every toss scored is a job in a worker process (the fit's run {batch} to a job): a job whose
 worker crashes or runs over --job-timeout becomes error rows for its tosses; the run goes on.
@@ -43,14 +45,19 @@ exit codes: 0 the run completed (poor agreement is a result); 2 bad input (said 
 
 def add_parser(sub) -> None:
     p = sub.add_parser(
-        "real", help="engines against 400 measured cube tosses: fit, test, rank; writes reports/real/",
+        "real", help="engines against measured tosses (a cube; --data elbow_toss: a hinged elbow): fit, test, rank; "
+                     "writes reports/real/",
         formatter_class=argparse.RawDescriptionHelpFormatter, epilog=EPILOG,
-        description="Replay motion-captured cube tosses on every 3D engine from their measured start states; fit "
-                    "each engine's contact parameters on the training split (even toss ids) and score the test "
+        description="Replay motion-captured tosses (a cube, or with --data elbow_toss two bars joined by a hinge) "
+                    "on every 3D engine from their measured start states; fit each engine's contact parameters on the training split (even toss ids) and score the test "
                     "split (odd ids) at the fitted and the nominal parameters, against the data's own noise "
                     "floor. Writes real_report.md, real_scores.csv, real_summary.csv, real_fits.csv, params.json "
                     "and plots/ into --out.")
     options.add_engines(p, "engines: names or globs (default: every installed 3D engine)")
+    p.add_argument("--data", choices=sorted(TOSSES), default="cube_toss",
+                   help="the measured tosses: cube_toss (default; 400 tosses of a cube) or elbow_toss (541 tosses of "
+                        "two bars joined by a hinge, on the engines that build revolute joints; its report goes to "
+                        f"{ELBOW_OUT} unless --out says otherwise)")
     p.add_argument("--tosses", metavar="FILE",
                    help="a toss CSV (gzipped or not) with the packaged data's columns (default: the packaged data)")
     how = p.add_mutually_exclusive_group()
@@ -82,6 +89,9 @@ def add_parser(sub) -> None:
     p.add_argument("--score-limit", type=options.positive_float, default=SCORE_LIMIT, metavar="S",
                    help=f"score an evenly spread subset of the test tosses on engines that would take longer than "
                         f"S CPU seconds per parameter set over all of them (default {SCORE_LIMIT:g})")
+
+
+ELBOW_OUT = DEFAULT_OUT.parent / "real_elbow"
 
 
 def _fit_limit(text: str) -> tuple[str | None, float]:
@@ -136,7 +146,8 @@ def default_cache() -> Path:
     return cache_dir() / "real"
 
 
-def read_params(path: str, engines: list[str], known_engines: list[str], ctx) -> dict[str, dict]:
+def read_params(path: str, engines: list[str], known_engines: list[str], ctx,
+                family: str = "cube_toss") -> dict[str, dict]:
     """{engine: parameters} from a --params file for the run's `engines`, every value checked
     against the engine's parameter space before any work; what a fit wrote is taken back as
     it is (inf for a parameter whose range is unbounded, held at that default). The file's
@@ -158,7 +169,7 @@ def read_params(path: str, engines: list[str], known_engines: list[str], ctx) ->
               f"out: {', '.join(outside)}", file=sys.stderr)
     given = {e: p for e, p in given.items() if e in engines}
     for engine, params in given.items():
-        space = parameter_space(engine, ctx)
+        space = parameter_space(engine, ctx, family)
         for name, value in params.items():
             at = f"--params {path}: {engine} {name}"
             if name not in space:
@@ -167,7 +178,7 @@ def read_params(path: str, engines: list[str], known_engines: list[str], ctx) ->
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not t.low <= value <= t.high:
                 raise options.UsageError(f"{at} = {value!r}: must be a number in [{t.low:g}, {t.high:g}] "
                                          f"({t.meaning})")
-    return {e: rounded(e, p, ctx) for e, p in given.items()}
+    return {e: rounded(e, p, ctx, family) for e, p in given.items()}
 
 
 def _cpu_seconds() -> float:
@@ -185,15 +196,18 @@ def run(args) -> int:
     say = options.teller(args, "physval real")
 
     ctx = options.context_of(args)
+    family, ds = args.data, TOSSES[args.data]
+    if family == "elbow_toss" and args.out == str(DEFAULT_OUT):
+        args.out = str(ELBOW_OUT)
     source = str(Path(args.tosses).resolve()) if args.tosses else None
     try:
-        tosses = ct.load(source)
+        tosses = ds.load(source)
     except ct.TossError as exc:
         raise options.UsageError(f"--tosses {args.tosses}: {exc}") from None
     except OSError as exc:
         raise options.UsageError(f"--tosses {args.tosses}: cannot be read ({exc.strerror or exc})") from None
     from adapters import registry
-    engines, skipped = engines_3d(options.engines_of(args, ctx) if args.engines else None, ctx)
+    engines, skipped = engines_3d(options.engines_of(args, ctx) if args.engines else None, ctx, family)
     if not engines:
         raise options.UsageError("no engine to score: " + "; ".join(f"{e}: {w}" for e, w in skipped.items()))
     from fnmatch import fnmatchcase
@@ -201,7 +215,7 @@ def run(args) -> int:
         if glob is not None and not any(fnmatchcase(e, glob) for e in engines):
             raise options.UsageError(f"--fit-limit {glob}={seconds:g}: {glob!r} matches none of this run's engines "
                                      f"({', '.join(engines)})")
-    given = read_params(args.params, engines, registry.engine_names(ctx.adapters), ctx) if args.params else {}
+    given = read_params(args.params, engines, registry.engine_names(ctx.adapters), ctx, family) if args.params else {}
     do_fit = not args.params and not args.nominal
     out = options.held(args, options.output_folder(args.out))  # input checked: the folders, then the work
     cache = None if args.no_cache else str(options.output_folder(args.cache or str(default_cache()), "--cache"))
@@ -210,18 +224,18 @@ def run(args) -> int:
     usable, unusable = [], {}
     for i in tosses:
         try:
-            _flight(source, i)
+            _flight(source, i, family)
             usable.append(i)
         except ct.TossError as exc:
             unusable[i] = str(exc)
-    train, test = ct.split(usable)
+    train, test = ds.split(usable)
     if source and args.params:
         train, test = [], sorted(usable)  # a user's own tosses, scored with saved parameters
     if not test:
-        raise options.UsageError(f"no test tosses (odd ids) in {source or ct.DATA}")
+        raise options.UsageError(f"no test tosses (odd ids) in {source or ds.DATA}")
     if args.limit:
         train, test = train[:args.limit], test[:args.limit]
-    common = {"horizon": args.horizon, "dt": DT, "source": source, "ctx": ctx}
+    common = {"horizon": args.horizon, "dt": DT, "source": source, "ctx": ctx, "family": family}
     say(f"{len(train)} training and {len(test)} test tosses from {source or 'the packaged data'}; "
         f"engines {', '.join(engines)}" + (f" (skipped: {', '.join(skipped)})" if skipped else ""))
 
@@ -232,7 +246,7 @@ def run(args) -> int:
         runner.store(engine)  # each engine's store read (or refused) before any work
     for engine in engines:
         t0 = time.perf_counter()
-        nom = simulate_many(engine, nominal(engine, ctx), test[:1], runner=runner, keep=True, **common)
+        nom = simulate_many(engine, nominal(engine, ctx, family), test[:1], runner=runner, keep=True, **common)
         if nom[0]["status"] == "unsupported":
             skipped[engine] = nom[0]["message"]
             say(f"  {engine}: unsupported ({nom[0]['message']})")
@@ -245,7 +259,7 @@ def run(args) -> int:
             subsets[engine] = (f"one toss costs {per_toss:.2g} CPU s: scored on one test toss in {every} "
                                f"({len(scored)} of {len(test)}; --score-limit {args.score_limit:g} s)")
             say(f"  {engine}: {subsets[engine]}")
-        nom += simulate_many(engine, nominal(engine, ctx), scored[1:], runner=runner, keep=True, **common)
+        nom += simulate_many(engine, nominal(engine, ctx, family), scored[1:], runner=runner, keep=True, **common)
         params = None
         if engine in given:
             params = given[engine]
@@ -280,7 +294,7 @@ def run(args) -> int:
                 fits[engine] = {"params": params, "names": list(params), "spread": []}
         for pset, rs in sets:
             for r in rs:
-                tr, fl = _flight(source, r["toss"])
+                tr, fl = _flight(source, r["toss"], family)
                 r["t_contact"] = float(tr.t[fl.contact] - fl.t0)
                 r["split"] = "test"
             bad = [r for r in rs if r["status"] != "ok"]
@@ -295,9 +309,9 @@ def run(args) -> int:
         # tosses its simulation from the fitted start completed (the others have no reference)
         best = sets[-1]
         completed = [r["toss"] for r in best[1] if r["status"] == "ok"]
-        shaken = simulate_many(engine, params or nominal(engine, ctx), completed, runner=runner, keep=True,
+        shaken = simulate_many(engine, params or nominal(engine, ctx, family), completed, runner=runner, keep=True,
                                perturb=True, **common)
-        floor = sensitivity(best[1], shaken, source)
+        floor = sensitivity(best[1], shaken, source, family)
         trajectories[(engine, "start noise")] = floor
         rows += floor
         cost.append(_cost(nom + sum((rs for p, rs in sets[1:]), []) + shaken))
@@ -306,14 +320,15 @@ def run(args) -> int:
 
     scores = pd.DataFrame([{k: v for k, v in r.items() if k != "trajectory"} for r in rows])
     sims = {k: sum(c[k] for c in cost) for k in ("computed", "cached", "cpu")}
-    noise = noise_rows(test, source, args.horizon)
-    noise_table = _noise_text(pd.DataFrame(noise), len(test), ct.rest_tilt(tosses, test))
+    noise = noise_rows(test, source, args.horizon, family)
+    noise_table = _noise_text(pd.DataFrame(noise), len(test), ct.rest_tilt(tosses, test) if ds is ct else None, ds)
     notes = {
-        "intro": _intro(source, train, test, unusable),
-        "fit": _fit_text(args, do_fit),
+        "family": family,
+        "intro": _intro(source, train, test, unusable, ds),
+        "fit": _fit_text(args, do_fit, ds),
         "not_fitted": not_fitted,
         "subsets": subsets,
-        "nominal": {e: nominal(e, ctx) for e in engines},
+        "nominal": {e: nominal(e, ctx, family) for e in engines},
         "noise": noise_table,
         "failures": failures,
         "run": (f"Simulations: {sims['computed'] + sims['cached']} ({sims['computed']} computed in this run, "
@@ -340,14 +355,25 @@ def run(args) -> int:
     return 0
 
 
-def _intro(source, train, test, unusable) -> str:
-    data = (f"`{source}`" if source else
-            "the packaged ContactNets cube tosses (`cases/data/cube_toss/`: 400 motion-captured tosses of one "
-            "acrylic cube, 10.48 cm, 0.37 kg, onto one surface, sampled at 148 Hz; BSD 3-Clause)")
-    text = (f"Data: {data}. Each toss starts from its free flight fitted up to the sample just before first "
-            f"contact (a parabola for the centre, a constant world-frame spin for the orientation: exact for "
-            f"a free cube), with the ground {abs(ct.SURFACE_Z) * 1e3:.2f} mm below the data's z = 0 (the resting "
-            f"cubes' centres say so), and runs to the toss's last sample at dt = {DT * 1e3:.3f} ms. "
+def _intro(source, train, test, unusable, ds=ct) -> str:
+    if ds is ct:
+        data = (f"`{source}`" if source else
+                "the packaged ContactNets cube tosses (`cases/data/cube_toss/`: 400 motion-captured tosses of one "
+                "acrylic cube, 10.48 cm, 0.37 kg, onto one surface, sampled at 148 Hz; BSD 3-Clause)")
+        start = ("its free flight fitted up to the sample just before first contact (a parabola for the centre, a "
+                 "constant world-frame spin for the orientation: exact for a free cube), with the ground "
+                 f"{abs(ct.SURFACE_Z) * 1e3:.2f} mm below the data's z = 0 (the resting cubes' centres say so)")
+    else:
+        data = (f"`{source}`" if source else
+                "the packaged DAIR elbow tosses (`cases/data/elbow_toss/`: 541 motion-captured tosses of two "
+                "10 x 5 x 5 cm bars of 0.37 kg joined by a hinge, onto one surface, sampled at 148 Hz; BSD 3-Clause). "
+                "Errors are of the base link's centre and orientation, and of all 16 corners of both links (in bar "
+                "lengths, 10 cm); 'right face' means both links end on the measured face")
+        start = (f"a quadratic fitted over the {ds.FIT_SAMPLES} samples up to the one just before first contact "
+                 "(base position and orientation, hinge angle), with the ground at the data's z = 0 (where every "
+                 "toss's final lowest corner lies)")
+    text = (f"Data: {data}. Each toss starts from {start}, and runs to the toss's last sample at "
+            f"dt = {DT * 1e3:.3f} ms. "
             f"Split: even toss ids train ({len(train)} tosses), odd ids test ({len(test)}). Horizons count "
             f"from the first measured sample in contact.")
     if unusable:
@@ -355,14 +381,14 @@ def _intro(source, train, test, unusable) -> str:
     return text
 
 
-def _fit_text(args, do_fit) -> str:
+def _fit_text(args, do_fit, ds=ct) -> str:
     if not do_fit:
         return "Parameters were given (--params) or not fitted (--nominal)."
     spread = (f" Uncertainty: {args.bootstrap} bootstrap resamples of the training tosses, each taking the best of "
               "the parameter sets the fit evaluated (their per-toss losses are kept; no further simulation).")
     return (f"Differential evolution (scipy), popsize {args.popsize} per parameter, {args.generations} generations "
             f"after the first, seed 0, the nominal point in the first generation; loss: the mean over training "
-            f"tosses of each toss's mean corner error (cube widths); mu and e on a {NEUTRAL_GRID} grid, bounds "
+            f"tosses of each toss's mean corner error ({ds.UNIT_NAME}); mu and e on a {NEUTRAL_GRID} grid, bounds "
             + ", ".join(f"{n} [{t.low:g}, {t.high:g}]" for n, t in NEUTRAL.items())
             + "; engine-specific ones in their adapter's range (MuJoCo's contact_steps: the contact lasts about "
             "that many steps; its solref follows from it and e). An engine whose fit over the whole training split "
@@ -377,17 +403,24 @@ def _limits_text(limits: list[tuple[str | None, float]]) -> str:
         f" ({glob}: {seconds:g} CPU s)" for glob, seconds in own.items())
 
 
-def _noise_text(noise: pd.DataFrame, n: int, tilt: float) -> str:
+def _noise_text(noise: pd.DataFrame, n: int, tilt: float | None, ds=ct) -> str:
     if noise.empty:
         return ""
     def q(column):  # median and 95th percentile over the tosses that have the reading
         v = noise[column].dropna()
         return np.percentile(v, [50, 95]) if len(v) else (math.nan, math.nan)
 
-    return (f"The measured trajectory against itself smoothed (a quadratic least-squares fit over 5 samples, "
+    unit = ds.UNIT_NAME
+    text = (f"The measured trajectory against itself smoothed (a quadratic least-squares fit over 5 samples, "
             f"{4 * ct.SAMPLE_PERIOD * 1e3:.0f} ms: Savitzky-Golay), scored by the same code as the engines over the {n} test tosses: "
-            f"mean corner error median {q('corner_mean')[0]:.3g} widths (95th percentile {q('corner_mean')[1]:.3g}); "
-            f"centre {q('pos_final')[0]:.2g} widths and orientation {q('rot_final')[0]:.2g} deg at rest. "
+            f"mean corner error median {q('corner_mean')[0]:.3g} {unit} (95th percentile {q('corner_mean')[1]:.3g}); "
+            f"centre {q('pos_final')[0]:.2g} {unit} and orientation {q('rot_final')[0]:.2g} deg at rest. ")
+    if ds is not ct:
+        return text + (f"The {ds.FIT_SAMPLES} samples of the start fit depart from it by {q('flight_pos_mm')[0]:.2g} mm "
+                       f"and {q('flight_rot_deg')[0]:.2g} deg RMS (median over tosses; 95th percentile "
+                       f"{q('flight_pos_mm')[1]:.2g} mm, {q('flight_rot_deg')[1]:.2g} deg): the start state is known "
+                       "to about that.")
+    return text + (
             f"The free flight before the first contact departs from its exact free-flight fit by "
             f"{q('flight_pos_mm')[0]:.2g} mm and {q('flight_rot_deg')[0]:.2g} deg RMS (median over tosses; 95th "
             f"percentile {q('flight_pos_mm')[1]:.2g} mm, {q('flight_rot_deg')[1]:.2g} deg): the start state is known "

@@ -14,6 +14,7 @@ user family file runs that family's jobs again, not every job.
 from __future__ import annotations
 
 import ast
+import contextlib
 import csv
 import functools
 import hashlib
@@ -69,6 +70,39 @@ def expand_knobs(rows: list[dict], knobs: dict[str, dict[str, str]]) -> list[dic
 def unresolved(row: dict) -> bool:
     text = row.get(KNOBS_COLUMN) or ""
     return bool(text) and not text.startswith("{")
+
+
+@contextlib.contextmanager
+def held(path: Path):
+    """Hold the store file `path` (created empty if missing) against every other process and
+    thread that holds it: an exclusive advisory lock (flock) on the file itself, so no lock
+    file lies beside a report. A rewrite replaces the file (write_atomic), so a holder that
+    waited on the file it replaced takes the lock again on the file now at `path`. Two
+    commands sharing a store (`physval real` runs with one --cache) then neither rewrite
+    away a job the other appended between their read and their write, nor write two
+    headers. Where fcntl is missing, no lock."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    path.parent.mkdir(parents=True, exist_ok=True)
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+            if os.fstat(fd).st_ino == os.stat(path).st_ino:
+                break
+        except FileNotFoundError:  # replaced and not yet there: take it again
+            pass
+        except BaseException:
+            os.close(fd)
+            raise
+        os.close(fd)
+    try:
+        yield
+    finally:
+        os.close(fd)  # closing the last descriptor of the lock releases it
 
 
 def whole_rows(text: str) -> str:
@@ -155,6 +189,10 @@ class RowStore:
         `rewrite` is False: a look that changes nothing, as `physval run --plan`'s)."""
         if not self.path.exists() or not self.path.stat().st_size:
             return 0
+        with held(self.path):  # another command's appends wait until the file is read and rewritten
+            return self._load(cache_key_of, rewrite)
+
+    def _load(self, cache_key_of, rewrite: bool) -> int:
         text = whole_rows(self.path.read_text())  # a write cut short by a kill: its tail dropped
         by_job = defaultdict(list)
         records = read_knobs(self.knobs_file) if self.knobs_file is not None else {}
@@ -183,12 +221,12 @@ class RowStore:
         self.rows[key] = stamped
         buf = io.StringIO()
         writer = csv.DictWriter(buf, self.columns, extrasaction="ignore")
-        new = not self.path.exists() or not self.path.stat().st_size
-        if new:
-            writer.writeheader()
         writer.writerows(stamped)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        with open(self.path, "a", newline="") as fh:
+        with held(self.path), open(self.path, "a", newline="") as fh:  # (held: see load)
+            if not fh.tell():
+                header = io.StringIO()
+                csv.DictWriter(header, self.columns).writeheader()
+                fh.write(header.getvalue())
             fh.write(buf.getvalue())
             fh.flush()
             if time.monotonic() - self._synced >= SYNC_EVERY:
@@ -198,7 +236,8 @@ class RowStore:
     def finalize(self, keys: list[str]) -> list[dict]:
         """Rewrite the file with the rows of `keys` only, in that order; return them."""
         rows = [r for k in keys for r in self.rows.get(k, [])]
-        self._write(rows)
+        with held(self.path):
+            self._write(rows)
         return rows
 
     def _write(self, rows: list[dict]) -> None:

@@ -17,6 +17,11 @@ change the face the cube ends on), the start state carries the capture's noise, 
 fitted parameters absorb whatever the cube and the surface do that no engine models.
 `physval real --tosses FILE --params reports/real/params.json` scores your own tosses
 (same columns) with the saved parameters; `--fit` fits them on your file instead.
+`physval real --data elbow_toss` does all of this for a second data set, 541 tosses of an
+articulated elbow (two boxes and a revolute joint, `cases.elbow_toss`), on the engines that
+build revolute joints: the reading works on pose rows that each toss module defines
+(TOSSES: the cube's centre and quaternion; the elbow's base link and hinge angle), and
+reads every data-set-specific fact (scene, start state, corners, rest face) from it.
 
 What it does, per engine (every registered 3D engine that is installed):
 1. Each toss of the test split (odd toss ids, `cases.cube_toss`) is built as an
@@ -83,7 +88,7 @@ import json
 import math
 import re
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -92,6 +97,7 @@ import pandas as pd
 from adapters import registry
 from adapters.base import Settings, Tunable
 from cases import cube_toss as ct
+from cases import elbow_toss as et
 from physval.core.context import Context
 from physval.core.executor import make_executor
 from physval.core.jobs import Failed, Task, run_scene
@@ -102,8 +108,9 @@ from physval.interrupts import Terminated
 SUBSTEPS = 7                          # engine steps per measured sample
 DT = ct.SAMPLE_PERIOD / SUBSTEPS      # 0.966 ms: the step the engines' own docs use for contact (~1 ms)
 HORIZONS = (0.1, 0.5)                 # s after the first measured contact; plus the final sample
-# Loss of a toss whose simulation blew up or raised: ten cube widths, beyond any real miss
-# (the cubes travel at most ~5 widths), so a fit never prefers a failing parameter.
+# Loss of a toss whose simulation blew up or raised: ten cube widths (elbow: bar lengths),
+# beyond any real miss (the cubes travel at most ~5 widths, the elbows' misses are ~1 bar
+# length), so a fit never prefers a failing parameter.
 FAIL_LOSS = 10.0
 # A simulated cube this far from the origin has left the scene (the tosses stay within 1 m).
 LOST = 100.0                          # m
@@ -111,6 +118,10 @@ NEUTRAL = {
     "mu": Tunable(0.02, 1.0, ct.MU_NOMINAL, "Coulomb friction coefficient (scene Material.mu_s)"),
     "e": Tunable(0.0, 0.9, ct.E_NOMINAL, "coefficient of restitution (scene Material.e)"),
 }
+# The toss data sets the tier scores (--data), by family name: each module gives the same
+# names (load, toss, split, fit_flight, scene, poses, read_poses, pose_error, same_rest,
+# smoothed_poses, with_poses, UNIT, POSE_SIZE, NEEDS_JOINTS, the nominal mu and e).
+TOSSES = {"cube_toss": ct, "elbow_toss": et}
 NEUTRAL_GRID = 0.005                  # mu and e are rounded to this grid (far below their spread)
 # The fit's budget: differential evolution with popsize * (number of parameters) members
 # over GENERATIONS + 1 generations (the initial one included).
@@ -149,9 +160,12 @@ def engine_version(engine: str, ctx: Context = Context()) -> str:
     return _adapter(engine, ctx).version()
 
 
-def parameter_space(engine: str, ctx: Context = Context()) -> dict[str, Tunable]:
-    """The fitted parameters: mu, e and the adapter's tunables, by name."""
-    return {**NEUTRAL, **dict(getattr(_adapter(engine, ctx), "tunables", {}) or {})}
+def parameter_space(engine: str, ctx: Context = Context(), family: str = "cube_toss") -> dict[str, Tunable]:
+    """The fitted parameters: mu, e (at the data set's nominal values) and the adapter's
+    tunables, by name."""
+    ds = TOSSES[family]
+    neutral = {"mu": replace(NEUTRAL["mu"], default=ds.MU_NOMINAL), "e": replace(NEUTRAL["e"], default=ds.E_NOMINAL)}
+    return {**neutral, **dict(getattr(_adapter(engine, ctx), "tunables", {}) or {})}
 
 
 def fitted_names(engine: str, ctx: Context = Context()) -> tuple[str, ...]:
@@ -161,28 +175,29 @@ def fitted_names(engine: str, ctx: Context = Context()) -> tuple[str, ...]:
     return tuple(n for n, t in parameter_space(engine, ctx).items() if math.isfinite(t.low) and math.isfinite(t.high))
 
 
-def nominal(engine: str, ctx: Context = Context()) -> dict[str, float]:
+def nominal(engine: str, ctx: Context = Context(), family: str = "cube_toss") -> dict[str, float]:
     """The data set's mu and e, the adapter's defaults for the rest."""
-    return {name: t.default for name, t in parameter_space(engine, ctx).items()}
+    return {name: t.default for name, t in parameter_space(engine, ctx, family).items()}
 
 
-def rounded(engine: str, params: dict, ctx: Context = Context()) -> dict[str, float]:
+def rounded(engine: str, params: dict, ctx: Context = Context(), family: str = "cube_toss") -> dict[str, float]:
     """Parameters on the fit's grid (mu, e: NEUTRAL_GRID; tunables: 3 significant digits);
     a parameter not given takes its default. The command checks given values first
     (physval/commands/real.py)."""
     out = {}
-    for name, t in parameter_space(engine, ctx).items():
+    for name, t in parameter_space(engine, ctx, family).items():
         v = float(params.get(name, t.default))
         v = round(v / NEUTRAL_GRID) * NEUTRAL_GRID if name in NEUTRAL else float(f"{v:.3g}")
         out[name] = round(v, 10)
     return out
 
 
-def engines_3d(names: list[str] | None = None, ctx: Context = Context()) -> tuple[list[str], dict[str, str]]:
+def engines_3d(names: list[str] | None = None, ctx: Context = Context(),
+               family: str = "cube_toss") -> tuple[list[str], dict[str, str]]:
     """(engines to score, {engine: why skipped}). Default: every registered engine (with
-    the context's ad-hoc adapters) that is installed and takes 3D boxes on a plane; an
-    engine registered twice under two names (the same adapter class with the same
-    settings) is scored once."""
+    the context's ad-hoc adapters) that is installed and takes 3D boxes on a plane (and
+    revolute joints, for a data set of jointed bodies); an engine registered twice under
+    two names (the same adapter class with the same settings) is scored once."""
     chosen = names or registry.engine_names(ctx.adapters)
     out, skipped, seen = [], {}, {}
     for name in chosen:
@@ -194,6 +209,9 @@ def engines_3d(names: list[str] | None = None, ctx: Context = Context()) -> tupl
         caps = adapter.capabilities
         if 3 not in caps.dimensions or not {"box", "plane"} <= caps.shapes:
             skipped[name] = "not a 3D engine with boxes and planes"
+            continue
+        if TOSSES[family].NEEDS_JOINTS and "revolute" not in caps.joints:
+            skipped[name] = f"unsupported: builds no revolute joint (the {family.split('_')[0]}'s hinge)"
             continue
         same = (type(adapter), json.dumps({k: v for k, v in vars(adapter).items() if k != "name"},
                                           sort_keys=True, default=str))
@@ -208,18 +226,21 @@ def engines_3d(names: list[str] | None = None, ctx: Context = Context()) -> tupl
 # --- one toss ------------------------------------------------------------------------------
 
 @functools.lru_cache(maxsize=2048)
-def _flight(source: str | None, toss_id: int) -> tuple[ct.Toss, ct.FlightFit]:
-    tr = ct.toss(toss_id, source)
-    return tr, ct.fit_flight(tr)
+def _flight(source: str | None, toss_id: int, family: str = "cube_toss"):
+    """(the toss, its start state) of a data set (TOSSES)."""
+    ds = TOSSES[family]
+    tr = ds.toss(toss_id, source)
+    return tr, ds.fit_flight(tr)
 
 
 @functools.lru_cache(maxsize=4096)
-def _toss_digest(source: str | None, toss_id: int) -> str:
+def _toss_digest(source: str | None, toss_id: int, family: str = "cube_toss") -> str:
     """SHA-1 of a toss's measured samples: a batch's key carries it, so edited data is
     simulated again."""
-    tr = ct.toss(toss_id, source)
+    ds = TOSSES[family]
+    tr = ds.toss(toss_id, source)
     h = hashlib.sha1()
-    for a in (tr.t, tr.pos, tr.quat):
+    for a in (tr.t, ds.poses(tr)):
         h.update(np.ascontiguousarray(a, float).tobytes())
     return h.hexdigest()
 
@@ -234,14 +255,15 @@ def _samples(tr: ct.Toss, fit: ct.FlightFit, horizon: float | None, dt: float) -
     return k, np.rint(s / dt).astype(int)
 
 
-def _run(adapter, scene, dt: float, options: dict, steps_at: np.ndarray) -> dict:
+def _run(adapter, scene, dt: float, options: dict, steps_at: np.ndarray, family: str = "cube_toss") -> dict:
     """Build and step one scene through the core (physval.core.jobs.run_scene: the build,
     record.simulate and the statuses every job gets: unsupported, unstable, error), and
-    read the cube's pose at the given step counts. A failed simulation has no poses (NaN).
+    read the pose rows (the data set's read_poses) at the given step counts. A failed
+    simulation has no poses (NaN).
     `wall`: the core's stepping time (Run.wall_s); `cpu`: this thread's CPU time over the
     recorded run (Run.cpu_s); `elapsed`, `elapsed_cpu`: the same with the build."""
-    n = len(steps_at)
-    pos, quat = np.full((n, 3), np.nan), np.full((n, 4), np.nan)
+    ds = TOSSES[family]
+    poses = np.full((len(steps_at), ds.POSE_SIZE), np.nan)
     out = {"status": "ok", "message": "", "wall": 0.0, "cpu": 0.0, "steps": 0}
     start, start_cpu = time.perf_counter(), time.thread_time()
     try:
@@ -249,61 +271,58 @@ def _run(adapter, scene, dt: float, options: dict, steps_at: np.ndarray) -> dict
     except Failed as f:
         out.update(status=f.status, message=f.reason)
     else:
-        rows = run.trajectory.states["cube"][steps_at]
-        far = np.linalg.norm(rows[:, :3], axis=1) >= LOST
+        rows = ds.read_poses(run.trajectory.states, steps_at)
+        far = ~(np.linalg.norm(rows[:, :3], axis=1) < LOST)  # NaN too
         if far.any():
             j = int(np.argmax(far))
-            out.update(status="unstable", message=f"the cube left the scene: state {rows[j, :7].tolist()} at step "
+            out.update(status="unstable", message=f"the body left the scene: pose {rows[j].tolist()} at step "
                                                    f"{int(steps_at[j])}")
         else:
-            pos = rows[:, :3]
-            quat = np.array([q / np.linalg.norm(q) for q in rows[:, 3:7]]).reshape(n, 4)
+            poses = rows
         out.update(wall=run.wall_s, cpu=run.cpu_s, steps=run.steps)
-    out.update(pos=pos, quat=quat, elapsed=time.perf_counter() - start, elapsed_cpu=time.thread_time() - start_cpu)
+    out.update(poses=poses, elapsed=time.perf_counter() - start, elapsed_cpu=time.thread_time() - start_cpu)
     return out
 
 
 def simulate_toss(engine: str, toss_id: int, params: dict, horizon: float | None = None, dt: float = DT,
-                  source: str | None = None, perturb: int | None = None, ctx: Context = Context()) -> dict:
+                  source: str | None = None, perturb: int | None = None, ctx: Context = Context(),
+                  family: str = "cube_toss") -> dict:
     """Simulate one toss from its start state, in this process; a pure function of
     picklable arguments (a batch's jobs call it in their workers).
 
-    Returns the simulated poses at the measured sample times from the start sample on
-    (`pos`, `quat`, NaN after a failure), `status` (ok, unstable, error, unsupported) and
+    Returns the simulated pose rows at the measured sample times from the start sample on
+    (`poses`: the data set's, the cube's centre and quaternion; NaN after a failure),
+    `status` (ok, unstable, error, unsupported) and
     `message`, the stepping time (`wall`, and `cpu`: this thread's CPU time, which a
     shared machine's load does not inflate), the same with the build (`elapsed`,
     `elapsed_cpu`), and the per-sample errors against the measurement (`errors`).
     `perturb`: a seed; the start state is then drawn from its own uncertainty
     (`cases.cube_toss.FlightFit.perturbed`). `ctx`: the run's context (its ad-hoc adapters)."""
-    tr, fit = _flight(source, int(toss_id))
+    tr, fit = _flight(source, int(toss_id), family)
     if perturb is not None:
         fit = fit.perturbed(perturb)
-    params = rounded(engine, params, ctx)
+    params = rounded(engine, params, ctx, family)
     k, steps_at = _samples(tr, fit, horizon, dt)
     adapter = _adapter(engine, ctx)
     tunables = getattr(adapter, "tunables", {}) or {}
     options = {n: v for n, v in params.items() if n in tunables}
-    sim = _run(adapter, ct.scene(tr, params["mu"], params["e"], fit), dt, options, steps_at)
+    sim = _run(adapter, TOSSES[family].scene(tr, params["mu"], params["e"], fit), dt, options, steps_at, family)
     return {"engine": engine, "toss": tr.id, "params": params, "t": tr.t[k] - fit.t0, **sim,
-            **errors(tr, k, sim["pos"], sim["quat"])}
+            **errors(tr, k, sim["poses"], family)}
 
 
-def errors(tr: ct.Toss, k: np.ndarray, pos: np.ndarray, quat: np.ndarray) -> dict[str, np.ndarray]:
-    """Per-sample errors of poses against the measured samples k: centre distance
-    (`pos_err`, cube widths), geodesic angle (`rot_err`, degrees), corner RMS distance
-    (`corner_err`, cube widths)."""
-    return {"pos_err": np.linalg.norm(pos - tr.pos[k], axis=1) / ct.WIDTH,
-            "rot_err": np.degrees(ct.angle_between(quat, tr.quat[k])),
-            "corner_err": ct.corner_error(pos, quat, tr.pos[k], tr.quat[k]) if np.all(np.isfinite(quat))
-            else _corner_err_partial(pos, quat, tr.pos[k], tr.quat[k])}
-
-
-def _corner_err_partial(pos, quat, p_meas, q_meas) -> np.ndarray:
-    out = np.full(len(pos), np.nan)
-    ok = np.all(np.isfinite(quat), axis=1) & np.all(np.isfinite(pos), axis=1)
+def errors(tr, k: np.ndarray, poses: np.ndarray, family: str = "cube_toss") -> dict[str, np.ndarray]:
+    """Per-sample errors of pose rows against the measured samples k: distance of the
+    (base) body's centre (`pos_err`, in the data set's UNIT), geodesic angle of its
+    orientation (`rot_err`, degrees), RMS distance of all corners (`corner_err`, UNIT)."""
+    ds = TOSSES[family]
+    meas = ds.poses(tr)[k]
+    corner = np.full(len(poses), np.nan)
+    ok = np.all(np.isfinite(poses), axis=1)
     if ok.any():
-        out[ok] = ct.corner_error(pos[ok], quat[ok], p_meas[ok], q_meas[ok])
-    return out
+        corner[ok] = ds.pose_error(poses[ok], meas[ok])
+    return {"pos_err": np.linalg.norm(poses[:, :3] - meas[:, :3], axis=1) / ds.UNIT,
+            "rot_err": np.degrees(ct.angle_between(poses[:, 3:7], meas[:, 3:7])), "corner_err": corner}
 
 
 # --- scores -------------------------------------------------------------------------------
@@ -315,15 +334,14 @@ def metric_names() -> list[str]:
     return names + ["pos_final", "rot_final", "corner_mean"]
 
 
-def score(tr: ct.Toss, fit: ct.FlightFit, t: np.ndarray, pos: np.ndarray, quat: np.ndarray,
-          status: str = "ok") -> dict:
+def score(tr, fit, t: np.ndarray, poses: np.ndarray, status: str = "ok", family: str = "cube_toss") -> dict:
     """One toss's scores from poses at the measured samples from fit.k0 on (len(t) of
     them): errors at HORIZONS after the first measured contact (NaN where the toss ends
-    earlier), at the final sample (the rest pose), whether the cube ends on the same face,
+    earlier), at the final sample (the rest pose), whether it ends on the same face (same_rest),
     and the fit's loss (the mean corner error). A failed simulation (status not ok) has no
     readings (NaN), does not end on the same face, and its loss is FAIL_LOSS."""
     k = np.arange(fit.k0, fit.k0 + len(t))
-    e = errors(tr, k, pos, quat)
+    e = errors(tr, k, poses, family)
     t_contact = tr.t[fit.contact] - fit.t0
     row = {}
     for h in HORIZONS:
@@ -334,7 +352,7 @@ def score(tr: ct.Toss, fit: ct.FlightFit, t: np.ndarray, pos: np.ndarray, quat: 
     full = k[-1] == len(tr) - 1 and status == "ok"
     row["pos_final"] = float(e["pos_err"][-1]) if full else math.nan
     row["rot_final"] = float(e["rot_err"][-1]) if full else math.nan
-    row["same_face"] = (bool(ct.face_down(quat[-1:])[0] == ct.face_down(tr.quat[-1:])[0]) if full
+    row["same_face"] = (TOSSES[family].same_rest(poses[-1], TOSSES[family].poses(tr)[-1]) if full
                         else (False if status != "ok" else None))
     row["corner_mean"] = float(np.mean(e["corner_err"])) if status == "ok" else math.nan
     row["loss"] = row["corner_mean"] if status == "ok" else FAIL_LOSS
@@ -343,9 +361,10 @@ def score(tr: ct.Toss, fit: ct.FlightFit, t: np.ndarray, pos: np.ndarray, quat: 
 
 # --- batches of tosses: jobs of the core ----------------------------------------------------
 
-FAMILY = "cube_toss"  # the `case` of the tier's rows (a row store's cache key reads it)
-# The columns of a toss's row as the row store keeps it: `poses` holds the simulated poses
-# of a batch that keeps them (x, y, z, qw, qx, qy, qz per measured sample, float64, base64).
+# The columns of a toss's row as the row store keeps it (`case`: the data set's family, which
+# a row store's cache key reads): `poses` holds the simulated pose rows of a batch that keeps
+# them (the data set's POSE_SIZE numbers per measured sample, float64, base64: the cube's
+# x, y, z, qw, qx, qy, qz; the elbow's with its hinge angle after them).
 STORED = ["engine", "case", "toss", "status", "message", "sim_time", "wall", "cpu", "elapsed", "elapsed_cpu",
           "steps", "params", *metric_names(), "same_face", "loss", "poses"]
 
@@ -363,14 +382,16 @@ class Batch:
     keep: bool = False  # keep the simulated poses (reports), not only the scores
     perturb: bool = False  # start each toss from a start state drawn from its uncertainty (seed: the toss id)
     ctx: Context = Context()
+    family: str = "cube_toss"  # the data set (TOSSES)
 
     @property
     def key(self) -> str:
         """The job's key: everything that changes what it computes beyond what the row
         store's cache key covers (the code, the engine's version, an outside adapter's
         source): parameters, tosses and their measured content, horizon, dt, start draw."""
-        data = hashlib.sha1("".join(_toss_digest(self.source, i) for i in self.tosses).encode()).hexdigest()[:16]
-        return (f"{FAMILY}[{','.join(map(str, self.tosses))}]-{self.engine}@"
+        data = hashlib.sha1("".join(_toss_digest(self.source, i, self.family)
+                                    for i in self.tosses).encode()).hexdigest()[:16]
+        return (f"{self.family}[{','.join(map(str, self.tosses))}]-{self.engine}@"
                 + ";".join(f"{n}={v!r}" for n, v in self.params)
                 + f";horizon={self.horizon!r};dt={self.dt!r};data={data}"
                 + (";perturbed" if self.perturb else "") + (";poses" if self.keep else ""))
@@ -378,13 +399,14 @@ class Batch:
 
 def task(batch: Batch) -> Task:
     """The batch as a job of the core: run in a worker, its rows (one per toss) stored."""
-    return Task(run_batch, batch, lost_batch, batch.engine, batch.key, FAMILY)
+    return Task(run_batch, batch, lost_batch, batch.engine, batch.key, batch.family)
 
 
 def run_batch(batch: Batch) -> list[dict]:
     """The stored row of every toss of a batch (module-level and pure: a job's function)."""
     return [_row(batch, toss_id, simulate_toss(batch.engine, toss_id, dict(batch.params), batch.horizon, batch.dt,
-                                               batch.source, toss_id if batch.perturb else None, batch.ctx))
+                                               batch.source, toss_id if batch.perturb else None, batch.ctx,
+                                               batch.family))
             for toss_id in batch.tosses]
 
 
@@ -393,11 +415,11 @@ def lost_batch(batch: Batch, why: str) -> list[dict]:
     ran over the time limit): each of its tosses failed with status error, `why` its message."""
     rows = []
     for toss_id in batch.tosses:
-        tr, fit = _flight(batch.source, toss_id)
+        tr, fit = _flight(batch.source, toss_id, batch.family)
         k, _ = _samples(tr, fit, batch.horizon, batch.dt)
-        pos, quat = np.full((len(k), 3), np.nan), np.full((len(k), 4), np.nan)
+        poses = np.full((len(k), TOSSES[batch.family].POSE_SIZE), np.nan)
         rows.append(_row(batch, toss_id, {
-            "params": dict(batch.params), "t": tr.t[k] - fit.t0, "pos": pos, "quat": quat, "status": "error",
+            "params": dict(batch.params), "t": tr.t[k] - fit.t0, "poses": poses, "status": "error",
             "message": why, "wall": 0.0, "cpu": 0.0, "elapsed": 0.0, "elapsed_cpu": 0.0, "steps": 0}))
     return rows
 
@@ -405,15 +427,15 @@ def lost_batch(batch: Batch, why: str) -> list[dict]:
 def _row(batch: Batch, toss_id: int, r: dict) -> dict:
     """A toss's stored row from its simulation (simulate_toss): its scores, and its poses
     if the batch keeps them."""
-    tr, fit = _flight(batch.source, toss_id)
-    row = {"engine": batch.engine, "case": FAMILY, "toss": toss_id, "status": r["status"], "message": r["message"],
+    tr, fit = _flight(batch.source, toss_id, batch.family)
+    row = {"engine": batch.engine, "case": batch.family, "toss": toss_id, "status": r["status"], "message": r["message"],
            "sim_time": float(r["t"][-1]) if len(r["t"]) else 0.0, "wall": r["wall"], "cpu": r["cpu"],
            "elapsed": r["elapsed"], "elapsed_cpu": r["elapsed_cpu"], "steps": r["steps"],
            "params": json.dumps(r["params"], sort_keys=True)}
     if r["status"] != "unsupported":
-        row.update(score(tr, fit, r["t"], r["pos"], r["quat"], r["status"]))
+        row.update(score(tr, fit, r["t"], r["poses"], r["status"], batch.family))
     if batch.keep and r["status"] == "ok":
-        row["poses"] = base64.b64encode(np.hstack([r["pos"], r["quat"]]).astype("<f8").tobytes()).decode()
+        row["poses"] = base64.b64encode(r["poses"].astype("<f8").tobytes()).decode()
     return row
 
 
@@ -435,16 +457,14 @@ def _read(batch: Batch, row: dict, cached: bool) -> dict:
         face = row.get("same_face")
         out["same_face"] = None if face in (None, "") else face in (True, "True")
     if batch.keep:
-        tr, fit = _flight(batch.source, out["toss"])
+        tr, fit = _flight(batch.source, out["toss"], batch.family)
         if batch.perturb:
             fit = fit.perturbed(out["toss"])
         k, _ = _samples(tr, fit, batch.horizon, batch.dt)
-        if row.get("poses"):
-            poses = np.frombuffer(base64.b64decode(row["poses"]), "<f8").reshape(len(k), 7)
-            pos, quat = poses[:, :3].copy(), poses[:, 3:].copy()
-        else:
-            pos, quat = np.full((len(k), 3), np.nan), np.full((len(k), 4), np.nan)
-        out["trajectory"] = {"t": tr.t[k] - fit.t0, "pos": pos, "quat": quat, **errors(tr, k, pos, quat)}
+        size = TOSSES[batch.family].POSE_SIZE
+        poses = (np.frombuffer(base64.b64decode(row["poses"]), "<f8").reshape(len(k), size).copy() if row.get("poses")
+                 else np.full((len(k), size), np.nan))
+        out["trajectory"] = {"t": tr.t[k] - fit.t0, "poses": poses, **errors(tr, k, poses, batch.family)}
     return out
 
 
@@ -523,7 +543,7 @@ def simulate_many(engine: str, params: dict, ids, *, runner: Runner | None = Non
                   keep: bool = False, perturb: bool = False, ctx: Context = Context(), **common) -> list[dict]:
     """Score tosses `ids` of one engine at one parameter set, batches of `batch` tosses as
     jobs of `runner` (default: one of its own, one worker, no store)."""
-    key = tuple(sorted(rounded(engine, params, ctx).items()))
+    key = tuple(sorted(rounded(engine, params, ctx, common.get("family", "cube_toss")).items()))
     jobs = [Batch(engine, key, chunk, keep=keep, perturb=perturb, ctx=ctx, **common) for chunk in _chunks(ids, batch)]
     with contextlib.nullcontext(runner) if runner is not None else Runner(ctx) as run:
         return [row for rows in run(jobs) for row in rows]
@@ -571,15 +591,16 @@ def fit(engine: str, ids, *, runner: Runner | None = None, popsize: int = POPSIZ
     from scipy.optimize import differential_evolution
 
     start = time.perf_counter()
-    space = parameter_space(engine, ctx)
+    family = common.get("family", "cube_toss")
+    space = parameter_space(engine, ctx, family)
     names = tuple(names or fitted_names(engine, ctx))
-    base = {**nominal(engine, ctx), **(fixed or {})}
+    base = {**nominal(engine, ctx, family), **(fixed or {})}
     ids = tuple(sorted(int(i) for i in ids))
     memo: dict[tuple, np.ndarray] = {}
     cost = {"computed": 0, "cached": 0, "cpu": 0.0}
 
     def params_of(x) -> dict:
-        return rounded(engine, {**base, **dict(zip(names, np.asarray(x, float).tolist()))}, ctx)
+        return rounded(engine, {**base, **dict(zip(names, np.asarray(x, float).tolist()))}, ctx, family)
 
     def losses(candidates: list[dict]) -> list[float]:
         keys = [tuple(sorted(c.items())) for c in candidates]
@@ -606,34 +627,35 @@ def fit(engine: str, ids, *, runner: Runner | None = None, popsize: int = POPSIZ
     result = differential_evolution(objective, bounds, x0=x0, popsize=popsize, maxiter=generations, seed=seed,
                                     polish=False, vectorized=True, updating="deferred", init="latinhypercube")
     best = params_of(result.x)
-    nominal_loss = losses([rounded(engine, base, ctx)])[0]
+    nominal_loss = losses([rounded(engine, base, ctx, family)])[0]
     return FitResult(engine, names, best, losses([best])[0], nominal_loss, len(memo), ids,
                      time.perf_counter() - start, memo, cost)
 
 
 # --- noise floor --------------------------------------------------------------------------
 
-def noise_rows(ids, source: str | None = None, horizon: float | None = None) -> list[dict]:
+def noise_rows(ids, source: str | None = None, horizon: float | None = None, family: str = "cube_toss") -> list[dict]:
     """The measured trajectory against itself smoothed (cases.cube_toss.smoothed), scored
     exactly as a simulation (`score`), from the start sample on; plus the free-flight
     fit's residuals."""
     rows = []
     for toss_id in ids:
-        tr, fit = _flight(source, toss_id)
-        p, q = ct.smoothed(tr)
+        tr, fit = _flight(source, toss_id, family)
+        smooth = TOSSES[family].smoothed_poses(tr)
         k, _ = _samples(tr, fit, horizon, DT)
         t = tr.t[k] - fit.t0
         row = {"engine": "noise floor", "toss": toss_id, "status": "ok", "param_set": "data",
-               **score(tr, fit, t, p[k], q[k]),
+               **score(tr, fit, t, smooth[k], family=family),
                "flight_pos_mm": float(np.sqrt(np.mean(fit.residual_pos ** 2)) * 1e3),
                "flight_rot_deg": float(np.degrees(np.sqrt(np.mean(fit.residual_rot ** 2)))),
                "t_contact": float(tr.t[fit.contact] - fit.t0),
-               "trajectory": {"t": t, **errors(tr, k, p[k], q[k])}}
+               "trajectory": {"t": t, **errors(tr, k, smooth[k], family)}}
         rows.append(row)
     return rows
 
 
-def sensitivity(reference_rows: list[dict], shaken_rows: list[dict], source: str | None) -> list[dict]:
+def sensitivity(reference_rows: list[dict], shaken_rows: list[dict], source: str | None,
+                family: str = "cube_toss") -> list[dict]:
     """Rows scoring simulations from perturbed start states (`shaken_rows`) against the
     same engine's simulations from the fitted start state (`reference_rows`, with their
     trajectories) by the same metrics as against the measurement: the engine's own
@@ -645,19 +667,16 @@ def sensitivity(reference_rows: list[dict], shaken_rows: list[dict], source: str
         ref = base.get(r["toss"])
         if ref is None:
             continue
-        tr, fit = _flight(source, r["toss"])
-        n = len(ref["trajectory"]["t"])
+        tr, fit = _flight(source, r["toss"], family)
         # the reference simulation in place of the measurement from the start sample on
-        pseudo = ct.Toss(tr.id, tr.t[:fit.k0 + n], np.vstack([tr.pos[:fit.k0], ref["trajectory"]["pos"]]),
-                         np.vstack([tr.quat[:fit.k0], ref["trajectory"]["quat"]]), tr.vel[:fit.k0 + n],
-                         tr.omega[:fit.k0 + n])
+        pseudo = TOSSES[family].with_poses(tr, fit.k0, ref["trajectory"]["poses"])
         keep = {k: r[k] for k in ("engine", "toss", "status", "message", "sim_time", "wall", "cpu", "elapsed",
                                   "elapsed_cpu", "steps", "cached", "params")}
         row = {**keep, "param_set": "start noise", "t_contact": ref["t_contact"], "split": "test"}
         if r["status"] == "ok":
-            t, pos, quat = r["trajectory"]["t"], r["trajectory"]["pos"], r["trajectory"]["quat"]
-            row.update(score(pseudo, fit, t, pos, quat))
-            row["trajectory"] = {"t": t, **errors(pseudo, np.arange(fit.k0, fit.k0 + len(t)), pos, quat)}
+            t, poses = r["trajectory"]["t"], r["trajectory"]["poses"]
+            row.update(score(pseudo, fit, t, poses, family=family))
+            row["trajectory"] = {"t": t, **errors(pseudo, np.arange(fit.k0, fit.k0 + len(t)), poses, family)}
         out.append(row)
     return out
 
@@ -723,7 +742,8 @@ def _params_text(params: dict) -> str:
 
 
 def plot_horizons(trajectories: dict[tuple[str, str], list[dict]], noise: list[dict], path: Path,
-                  psets=("fitted", "nominal"), title: str = "Test split: error against horizon") -> None:
+                  psets=("fitted", "nominal"), title: str = "Test split: error against horizon",
+                  unit: str = ct.UNIT_NAME) -> None:
     """Median position and orientation error against time after the first measured
     contact, one line per engine and parameter set in `psets` (the first solid, the
     second dashed), the data's noise floor in grey."""
@@ -747,7 +767,7 @@ def plot_horizons(trajectories: dict[tuple[str, str], list[dict]], noise: list[d
     if curve is not None:
         axes[0].plot(curve[0], curve[1], color="0.5", lw=2, label="noise floor")
         axes[1].plot(curve[0], curve[2], color="0.5", lw=2)
-    axes[0].set(xlabel="time after first contact (s)", ylabel="median centre error (cube widths)", yscale="log")
+    axes[0].set(xlabel="time after first contact (s)", ylabel=f"median centre error ({unit})", yscale="log")
     axes[1].set(xlabel="time after first contact (s)", ylabel="median orientation error (deg)", yscale="log")
     axes[0].legend(fontsize=7)
     fig.suptitle(title)
@@ -779,7 +799,8 @@ def _median_curve(rows: list[dict]):
     return t, pos, rot
 
 
-def plot_overlays(engine: str, picks: dict[str, tuple[dict, dict | None]], source, path: Path) -> None:
+def plot_overlays(engine: str, picks: dict[str, tuple[dict, dict | None]], source, path: Path,
+                  family: str = "cube_toss") -> None:
     """Measured and simulated height of the centre above the surface and rotation since
     the start, against time, for the engine's typical and worst test tosses (fitted
     parameters solid, nominal dashed)."""
@@ -787,24 +808,25 @@ def plot_overlays(engine: str, picks: dict[str, tuple[dict, dict | None]], sourc
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    ds = TOSSES[family]
     fig, axes = plt.subplots(2, len(picks), figsize=(5.5 * len(picks), 6), squeeze=False)
     for col, (label, (row, nominal_row)) in enumerate(picks.items()):
-        tr, fit = _flight(source, row["toss"])
+        tr, fit = _flight(source, row["toss"], family)
         t_meas = tr.t[fit.k0:] - fit.t0
         q0 = tr.quat[fit.k0]
-        axes[0, col].plot(t_meas, (tr.pos[fit.k0:, 2] - ct.SURFACE_Z) / ct.WIDTH, "k.-", ms=3, label="measured")
+        axes[0, col].plot(t_meas, (tr.pos[fit.k0:, 2] - ds.SURFACE_Z) / ds.UNIT, "k.-", ms=3, label="measured")
         axes[1, col].plot(t_meas, np.degrees(ct.angle_between(tr.quat[fit.k0:], np.broadcast_to(q0, (len(t_meas), 4)))),
                           "k.-", ms=3)
         for r, style, name in ((row, "-", "fitted"), (nominal_row, "--", "nominal")):
             if r is None or not r.get("trajectory"):
                 continue
-            traj = r["trajectory"]
-            axes[0, col].plot(traj["t"], (traj["pos"][:, 2] - ct.SURFACE_Z) / ct.WIDTH, style, color="C0" if
+            traj, quat = r["trajectory"], r["trajectory"]["poses"][:, 3:7]
+            axes[0, col].plot(traj["t"], (traj["poses"][:, 2] - ds.SURFACE_Z) / ds.UNIT, style, color="C0" if
                               name == "fitted" else "C1", label=f"{engine} ({name})")
-            axes[1, col].plot(traj["t"], np.degrees(ct.angle_between(traj["quat"], np.broadcast_to(q0, traj["quat"].shape))),
+            axes[1, col].plot(traj["t"], np.degrees(ct.angle_between(quat, np.broadcast_to(q0, quat.shape))),
                               style, color="C0" if name == "fitted" else "C1")
-        axes[0, col].set(title=f"{label}: toss {row['toss']} (mean corner error {_fmt(row['corner_mean'], 2)} widths)",
-                         ylabel="centre height (cube widths)")
+        axes[0, col].set(title=f"{label}: toss {row['toss']} (mean corner error {_fmt(row['corner_mean'], 2)} {ds.UNIT_NAME})",
+                         ylabel=f"centre height ({ds.UNIT_NAME})")
         axes[1, col].set(xlabel="time after start (s)", ylabel="rotation since start (deg)")
         axes[0, col].legend(fontsize=7)
     fig.suptitle(f"{engine}: measured and simulated tosses (test split)")
@@ -834,7 +856,9 @@ def section(summ: pd.DataFrame, fits: dict[str, dict], skipped: dict[str, str], 
             scores: pd.DataFrame) -> str:
     """The report section in markdown: ranking, fitted against nominal parameters, fitted
     parameters, distributions, the noise floors, cost, skipped engines."""
-    lines = ["# Real-world tier: engines against measured cube tosses", ""]
+    ds = TOSSES[notes.get("family", "cube_toss")]
+    body = "cube" if ds is ct else "elbow"
+    lines = [f"# Real-world tier: engines against measured {body} tosses", ""]
     lines += [notes.get("intro", ""), ""]
     fitted = summ[summ.param_set == "fitted"].set_index("engine")
     nom = summ[summ.param_set == "nominal"].set_index("engine")
@@ -853,13 +877,13 @@ def section(summ: pd.DataFrame, fits: dict[str, dict], skipped: dict[str, str], 
     h1, h2 = (f"{h:g}s" for h in HORIZONS)
     lines += ["## Ranking (test split)", "",
               "Ranked by the median over test tosses of each toss's mean corner error (the RMS distance between "
-              "simulated and measured corners, averaged over the toss; cube widths) at the engine's fitted "
+              f"simulated and measured corners, averaged over the toss; {ds.UNIT_NAME}) at the engine's fitted "
               "parameters (nominal where it was not fitted). 'vs rank 1': the median over common tosses of the "
               "paired difference to the first engine, with its 95 % bootstrap interval (an interval containing 0: "
               "no measurable difference). 'start noise': the same error between the engine's own simulations "
               "from the fitted start state and from one drawn from that state's uncertainty (the flight fit's "
               "residuals): what the capture's noise alone costs this engine, a floor no parameter removes. Centre "
-              f"errors in cube widths ({ct.WIDTH * 100:.2f} cm), angles in degrees, medians over the test tosses; "
+              f"errors in {ds.UNIT_NAME} ({ds.UNIT * 100:.2f} cm), angles in degrees, medians over the test tosses; "
               "'right face': the fraction of tosses that end on the measured face (failed simulations count as "
               "wrong). 'speed': simulated seconds per wall second of stepping, and per CPU second of the "
               "recorded run (stepping and recording every step, as every physval job records).", "",
@@ -893,12 +917,13 @@ def section(summ: pd.DataFrame, fits: dict[str, dict], skipped: dict[str, str], 
     lines += ["", f"Within the 95 % interval of rank 1 ({order[0]}): {', '.join(tied) or 'no other engine'}. "
               "'start noise' against 'mean corner err.' says how much of an engine's error the capture's noise "
               "in the start state could explain; its '% same face' how often that noise alone changes the face "
-              "the cube ends on."] if order else []
+              f"the {body} ends on."] if order else []
     lines += ["", "![error against horizon](plots/horizons.png)", "",
               "![start noise against horizon](plots/start_noise.png)", ""]
 
     lines += ["## Fitted against nominal parameters (test split)", "",
-              "The data set's nominal parameters are mu 0.18, e 0.125 (and each adapter's defaults for the rest). "
+              f"The data set's nominal parameters are mu {ds.MU_NOMINAL:g}, e {ds.E_NOMINAL:g} (and each adapter's "
+              "defaults for the rest). "
               "'fitted - nominal': the median paired difference of the mean corner error over the test tosses, "
               "with its 95 % bootstrap interval (negative: the fit helps).", "",
               "| engine | nominal: corner err. | fitted: corner err. | fitted - nominal | nominal: right face | "
@@ -977,9 +1002,11 @@ def write_report(out: Path, scores: pd.DataFrame, noise: list[dict], trajectorie
             fit_rows.append({"engine": engine, "sample": f"bootstrap {j}", **fp})
     pd.DataFrame(fit_rows).to_csv(out / "real_fits.csv", index=False, float_format="%.6g")
     (out / "params.json").write_text(json.dumps({e: f["params"] for e, f in fits.items()}, indent=2) + "\n")
-    plot_horizons(trajectories, noise, out / "plots" / "horizons.png")
+    family = notes.get("family", "cube_toss")
+    unit = TOSSES[family].UNIT_NAME
+    plot_horizons(trajectories, noise, out / "plots" / "horizons.png", unit=unit)
     plot_horizons(trajectories, noise, out / "plots" / "start_noise.png", psets=("start noise",),
-                  title="Test split: each engine against itself from a start state drawn from its uncertainty")
+                  title="Test split: each engine against itself from a start state drawn from its uncertainty", unit=unit)
     for engine in dict.fromkeys(e for e, _ in trajectories):
         pset = "fitted" if (engine, "fitted") in trajectories else "nominal"
         rows = [r for r in trajectories[(engine, pset)] if r["status"] == "ok"]
@@ -990,7 +1017,7 @@ def write_report(out: Path, scores: pd.DataFrame, noise: list[dict], trajectorie
         typical, worst = rows[len(rows) // 2], rows[-1]
         picks = {"typical": (typical, nominal_by_toss.get(typical["toss"])),
                  "worst": (worst, nominal_by_toss.get(worst["toss"]))}
-        plot_overlays(engine, picks, source, out / "plots" / f"overlay_{engine}.png")
+        plot_overlays(engine, picks, source, out / "plots" / f"overlay_{engine}.png", family)
     path = out / "real_report.md"
     path.write_text(section(summ, fits, skipped, notes, both))
     return path
