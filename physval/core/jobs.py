@@ -379,6 +379,42 @@ def execute(job: Job, resolver: Resolver) -> Outcome:
     return Outcome(job, rows, extra, run_s=run.whole_s)
 
 
+def rejudge(job: Job, rows: list[dict], resolver: Resolver) -> list[dict] | None:
+    """A finished job's stored rows with their verdicts judged again against the engine's
+    known deviations of now (an edited band moves verdicts, not measurements), or None
+    where the rows cannot say what a run would (the job runs again): an invariance
+    relation's row (its reason carries the comparison), an error (a run the engine aborted
+    is judged by the bands of its exception: `_raised`), a known deviation without a
+    measured value. Each check is judged as `execute` judges it, from the values the row
+    holds: the check (expected, tolerance at the engine's width, kind) and the measured
+    value, written to the store exactly (repr)."""
+    if job.relation:
+        return None
+    family = resolver.family(job.family)
+    try:
+        known = resolver.known(job.engine)
+    except deviations.DeviationFileError:
+        return None
+    bands_apply = at_recorded_settings(job, family)
+    out = []
+    for r in rows:
+        if r["status"] in ("unsupported", "unstable"):  # no measurement, no band: as stored
+            out.append(r)
+            continue
+        try:
+            measured = float(r["measured"])
+            c = Check(metric=r["metric"], unit=r["unit"], expected=float(r["expected"]),
+                      tolerance=float(r["tolerance"]), kind=r["tolerance_kind"], why=r["tolerance_reason"] or "-",
+                      measures=r["measures"] or "physics")
+        except (KeyError, TypeError, ValueError):
+            return None
+        if r["status"] not in ("pass", "fail", "deviation") or not math.isfinite(measured):
+            return None
+        entry = deviations.find(known, family.name, job.variant.id, c.metric)
+        out.append({**r, "reason": "", **judge(c, measured, job.engine, job.variant.id, entry, bands_apply)})
+    return out
+
+
 def related(job: Job, family: CaseFamily, adapter, known, scene, settings: Settings, base: dict) -> list[dict]:
     """The row of a job's invariance relation: the scene run as given and through the
     relation, the second run mapped back and compared (physval.core.invariance)."""
