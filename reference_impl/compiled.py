@@ -119,13 +119,16 @@ def njit(function=None, *, inline: bool = False):
     return dispatcher
 
 
-def overload(stub):
+def overload(stub, *, inline: bool = False):
     """Decorator: the typing function that picks, from the numba types of the arguments,
     the implementation compiled code runs for a call of the plain Python function `stub`
-    (numba.extending.overload). Without compilation `stub` itself runs."""
+    (numba.extending.overload). Without compilation `stub` itself runs. inline=True: the
+    implementation's body goes into its caller (numba's inline="always"), as njit's does,
+    instead of being compiled as a function of its own (a one-line choice: it costs a
+    compile of its own per formulation otherwise)."""
     if not JIT:
         return lambda typing: typing
-    return _numba_overload(stub)
+    return _numba_overload(stub, inline="always") if inline else _numba_overload(stub)
 
 
 def int_dict(length: int):

@@ -237,7 +237,9 @@ def prepare(contacts, bodies, dt, beta, slop, stick_speed, fixed_tangents=False,
     fixed_tangents and threshold > 0 are the faults world.Phases describes."""
     bias = beta / dt
     for j in range(len(contacts.a)):
-        a, b, n, p = contacts.a[j], contacts.b[j], contacts.n[j], contacts.point[j]
+        a, b, p = contacts.a[j], contacts.b[j], contacts.point[j]
+        # the normal as a tuple, as the arms and tangents are: _row_terms compiles once, not per type
+        n = (contacts.n[j, 0], contacts.n[j, 1], contacts.n[j, 2])
         xa, xb = bodies.x[a], bodies.x[b]
         ra = (p[0] - xa[0], p[1] - xa[1], p[2] - xa[2])  # the arms from the centres to the point
         rb = (p[0] - xb[0], p[1] - xb[1], p[2] - xb[2])
@@ -281,7 +283,8 @@ def _torque_rows(contacts, j, Ia, Ib, turns_a, turns_b) -> None:
     axis y normal to the plane), kept in the disc |Pr| <= rolling Pn; torsion about n,
     in [-torsion Pn, torsion Pn]. An axis no body can turn about (K = 0: a 2D body about
     n, bodies that cannot rotate) gets no row."""
-    n, rows, count = contacts.n[j], contacts.torques[j], 0
+    rows, count = contacts.torques[j], 0
+    n = (contacts.n[j, 0], contacts.n[j, 1], contacts.n[j, 2])  # a tuple, as the tangent axes are: one compile
     if contacts.rolling[j] > 0.0:
         t1 = tangent_basis(n)
         count = 1 if contacts.planar[j] else 2

@@ -385,7 +385,7 @@ def solve(contacts, bodies, dt, settings):
     return sys.modules[type(settings).__module__].solve(contacts, bodies, dt, settings)
 
 
-@overload(solve)
+@overload(solve, inline=True)
 def _solve_of(contacts, bodies, dt, settings):
     """Compiled, the same choice made once, when the caller compiles for a formulation."""
     chosen = sys.modules[settings.instance_class.__module__].solve
@@ -397,7 +397,7 @@ def solve_joints(contacts, joints, bodies, dt, settings):
     return sys.modules[type(settings).__module__].solve_joints(contacts, joints, bodies, dt, settings)
 
 
-@overload(solve_joints)
+@overload(solve_joints, inline=True)
 def _solve_joints_of(contacts, joints, bodies, dt, settings):
     """Compiled: the formulation's solve_joints, or for one without joint rows nothing
     (World.unsupported refuses a world with joints for it, so this never runs)."""

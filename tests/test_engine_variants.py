@@ -74,3 +74,27 @@ def test_pybullet_solver_variants_change_the_solver_only(name, solver):
 def test_pybullet_pgs_turns_2d_scenes_away_with_the_reason():
     with pytest.raises(Unsupported, match="NaN"):
         adapter_or_skip("pybullet-pgs").build(_scene(2), Settings(dt=1e-3))
+
+
+def _states(name: str, scene: Scene, steps: int = 300):
+    """(the client the scene was built in, its state after each step as bytes)."""
+    from physval.core.record import simulate
+    sim = adapter_or_skip(name).build(scene, Settings(dt=1e-3))
+    with sim:
+        client = sim._client
+        run = simulate(sim, scene, 1e-3, steps)
+    return client, b"".join(run.trajectory.states[n].tobytes() for n in sorted(run.trajectory.states))
+
+
+@pytest.mark.engine("pybullet")
+def test_a_pybullet_client_kept_for_the_next_scene_steps_it_bit_for_bit_as_a_new_one():
+    """PyBullet's clients are reset and kept for the next scene built alike (pybullet_engine._IDLE):
+    the same scene stepped in a new client, then in that client kept after another
+    configuration's scene (Dantzig's MLCP, a 2D scene) ran in its own, gives the same bits."""
+    from adapters import pybullet_engine
+    pybullet_engine._IDLE.clear()
+    first, before = _states("pybullet", _scene())
+    _states("pybullet-dantzig", _scene())
+    _states("pybullet", _scene(2))
+    again, after = _states("pybullet", _scene())
+    assert again == first and after == before

@@ -115,3 +115,51 @@ def test_a_known_deviation_that_vanished_has_its_own_listing_in_the_report(tmp_p
     assert rest.index("## Known deviations that vanished") < rest.index("\n## Summary")  # right after the scorecard
     (line,) = [x for x in section.splitlines() if x.startswith("| reference ")]
     assert "central_impact[drop,e=0.5]:rebound_ratio" in line and "0.3 +- 0.001" in line and "(known.txt:1)" in line
+
+
+def _runs_now(out: str) -> tuple[int, int]:
+    """(runs now, reused) from physval run's closing line."""
+    line = next(x for x in out.splitlines() if " runs now, " in x)
+    now, reused = line.split(" runs now, ")[0].rsplit("(", 1)[1], line.split(" runs now, ")[1].split(" reused")[0]
+    return int(now), int(reused)
+
+
+def test_an_edited_band_judges_the_stored_rows_again_and_steps_nothing(tmp_path, capsys, monkeypatch):
+    """A known-deviation band changes verdicts, not trajectories: an edit of the file moves
+    the verdict of the stored row without a job run again; a change of the code still runs
+    them again (nothing stale is reported)."""
+    known = tmp_path / "known.txt"
+    known.write_text("")
+    out = tmp_path / "out"
+    run = ["run", *ADAPTERS, "--engines", "fake", "--cases", CASE, "--known", str(known), "--readings", "none",
+           "--workers", "1", "--out", str(out)]
+    assert main(run) == 0
+    first = _rows(out)[("fake", "v1_after")]
+    assert first["status"] == "fail" and _runs_now(capsys.readouterr().out)[0] > 0
+    measured = float(first["measured"])
+    band = f"    fake [{CASE[15:-1]}]:v1_after = {measured:.6g} +- 1e-06\n"
+    known.write_text("central_impact[e=0.5,m=1:3]:v1_after  # a band planted for this test\n" + band)
+    assert main(run) == 0
+    now, reused = _runs_now(capsys.readouterr().out)
+    moved = _rows(out)[("fake", "v1_after")]
+    assert (now, moved["status"]) == (0, "deviation") and reused > 0, (now, moved["status"], moved["reason"])
+    assert moved["known_deviation"].endswith("a band planted for this test") and moved["measured"] == first["measured"]
+    assert moved["job_s"] == first["job_s"]  # the stored run's, not a new one's
+    fresh = tmp_path / "fresh"  # the same verdicts as a run from nothing
+    assert main(run[:-1] + [str(fresh)]) == 0
+    capsys.readouterr()
+    verdict = ("status", "reason", "known_deviation", "band", "measured", "abs_error", "rel_error", "tolerance")
+    again, anew = _rows(out), _rows(fresh)
+    assert {k: [r[c] for c in verdict] for k, r in again.items()} == {k: [r[c] for c in verdict] for k, r in anew.items()}
+
+    known.write_text(known.read_text().replace(f"= {measured:.6g} +-", f"= {measured + 1:.6g} +-"))
+    assert main(run) == 0
+    assert _runs_now(capsys.readouterr().out)[0] == 0
+    changed = _rows(out)[("fake", "v1_after")]
+    assert changed["status"] == "fail" and changed["reason"].startswith("known deviation changed"), changed["reason"]
+
+    from physval.core import store
+    monkeypatch.setattr(store, "fingerprint", lambda extra=(): "0123456789abcdef")  # the code changed
+    assert main(run) == 0
+    now, reused = _runs_now(capsys.readouterr().out)
+    assert now > 0 and reused == 0

@@ -172,6 +172,9 @@ def _run(args, after: dict) -> int:
     model = cost.model_for(out)  # before the store drops the rows of changed code: their times still count
     store = RowStore(out / "results.csv", COLUMNS, knobs_file=out / KNOBS_FILE)
     reused = store.load(keys.of_row, rewrite=not args.plan)
+    from physval.core.session import judge_again
+    rejudged = store.rejudge(jobs, judge_again(ctx), keys.of_job, write=not args.plan)  # known deviations edited
+    reused += rejudged
     # the engines users run, with the reference at its default formulation; its other
     # formulations (Adapter.slow) are read when named
     wide = engines if args.engines is not None else [e for e in engines if e in options.fast_engines(ctx)]
@@ -182,6 +185,7 @@ def _run(args, after: dict) -> int:
     say(f"{len(jobs)} runs ({len(chosen)} families x {len(engines)} engines"
         + (f", {len(battery)} of them the invariance battery's" if battery else "") + f"), {todo} to run"
         + (f", {len(jobs) - todo} finished before" if reused and todo < len(jobs) else "")
+        + (f" ({rejudged} of them judged again: known deviations edited)" if rejudged else "")
         + (f"; {len(later)} on-demand runs left out (--on-demand)" if later else "") + f" -> {out}/"
         + (f"; beside them the engine-wide readings: {', '.join(readings)} (cached per engine version)"
            if readings else ""))

@@ -224,7 +224,7 @@ def checks_of(job: Job, family: CaseFamily) -> list[Check]:
     """The job's checks: the family's closed forms, or its relation's verdict (at float64:
     the tolerance at the engine's own width is set once its run is known)."""
     if job.relation:
-        return [invariance.check(relations.by_name(job.relation), family.scene(job.variant.params),
+        return [invariance.check(relations.by_name(job.relation), scene_of(family, job.variant),
                                  steps_of(job, family))]
     return expected(family, job.variant, time_step(job, family))
 
@@ -242,6 +242,35 @@ def expected(family: CaseFamily, variant: Variant, dt: float) -> list[Check]:
     if key not in _EXPECTED:
         _EXPECTED[key] = tuple(family.expect(variant.params, dt))
     return list(_EXPECTED[key])
+
+
+_SCENES: dict[tuple, object] = {}  # (the family's scene function, a variant's params) -> its Scene
+
+
+def scene_of(family: CaseFamily, variant: Variant):
+    """The variant's scene, built once per process as `expected`'s checks are: a scene is
+    frozen data of its params alone, and every engine's job of the variant builds the same
+    (a narrow_phase scene costs 46 ms of CPU to build, asked by 28 engines). What the
+    family's code raises is raised each time, never kept."""
+    key = (family.scene, variant.params_json)
+    if key not in _SCENES:
+        _SCENES[key] = family.scene(variant.params)
+    return _SCENES[key]
+
+
+_NEEDS: dict[tuple, frozenset] = {}  # (the family's needs, a variant's params) -> what the variant needs
+
+
+def needs_of(family: CaseFamily, variant: Variant) -> frozenset:
+    """The variant's needs (CaseFamily.needs_of), found once per process as its scene is:
+    some families work them out from the closed forms (oblique_landing's law_matters:
+    8.5 ms of CPU a call, asked by ~23 engines)."""
+    if not callable(family.needs):  # a declared set: nothing to work out
+        return family.needs_of(variant.params)
+    key = (family.needs, variant.params_json)
+    if key not in _NEEDS:
+        _NEEDS[key] = family.needs_of(variant.params)
+    return _NEEDS[key]
 
 
 def job_rows(job: Job, family: CaseFamily, status: str, reason: str, checks=None, **fields) -> list[dict]:
@@ -317,8 +346,8 @@ def execute(job: Job, resolver: Resolver) -> Outcome:
     try:
         settings = settings_of(job, family)
         checks = checks_of(job, family)
-        scene = family.scene(params)
-        needs = family.needs_of(params)
+        scene = scene_of(family, job.variant)
+        needs = needs_of(family, job.variant)
     except SettingsError as exc:
         return Outcome(job, job_rows(job, family, "error", str(exc)))
     except Exception as exc:  # the case's own code
@@ -377,6 +406,42 @@ def execute(job: Job, resolver: Resolver) -> Outcome:
         rows.append(blank_row(family.name, job.variant, job.engine, c, dt=settings.dt,
                               **fields, **judge(c, number, job.engine, job.variant.id, entry, bands_apply)))
     return Outcome(job, rows, extra, run_s=run.whole_s)
+
+
+def rejudge(job: Job, rows: list[dict], resolver: Resolver) -> list[dict] | None:
+    """A finished job's stored rows with their verdicts judged again against the engine's
+    known deviations of now (an edited band moves verdicts, not measurements), or None
+    where the rows cannot say what a run would (the job runs again): an invariance
+    relation's row (its reason carries the comparison), an error (a run the engine aborted
+    is judged by the bands of its exception: `_raised`), a known deviation without a
+    measured value. Each check is judged as `execute` judges it, from the values the row
+    holds: the check (expected, tolerance at the engine's width, kind) and the measured
+    value, written to the store exactly (repr)."""
+    if job.relation:
+        return None
+    family = resolver.family(job.family)
+    try:
+        known = resolver.known(job.engine)
+    except deviations.DeviationFileError:
+        return None
+    bands_apply = at_recorded_settings(job, family)
+    out = []
+    for r in rows:
+        if r["status"] in ("unsupported", "unstable"):  # no measurement, no band: as stored
+            out.append(r)
+            continue
+        try:
+            measured = float(r["measured"])
+            c = Check(metric=r["metric"], unit=r["unit"], expected=float(r["expected"]),
+                      tolerance=float(r["tolerance"]), kind=r["tolerance_kind"], why=r["tolerance_reason"] or "-",
+                      measures=r["measures"] or "physics")
+        except (KeyError, TypeError, ValueError):
+            return None
+        if r["status"] not in ("pass", "fail", "deviation") or not math.isfinite(measured):
+            return None
+        entry = deviations.find(known, family.name, job.variant.id, c.metric)
+        out.append({**r, "reason": "", **judge(c, measured, job.engine, job.variant.id, entry, bands_apply)})
+    return out
 
 
 def related(job: Job, family: CaseFamily, adapter, known, scene, settings: Settings, base: dict) -> list[dict]:

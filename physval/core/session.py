@@ -13,7 +13,7 @@ from typing import Callable
 
 from physval.core.context import Context
 from physval.core.executor import DEFAULT_JOB_TIMEOUT, make_executor
-from physval.core.jobs import Call, CallResult, Job
+from physval.core.jobs import Call, CallResult, Job, rejudge
 from physval.core.store import RowStore, cache_keys
 from physval.interrupts import Terminated, sigterm_as_ctrl_c
 
@@ -179,6 +179,8 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
                 if j.key in seen:
                     continue
                 seen.add(j.key)
+                if s.store is not None and j.key in s.store.verdicts_stale:  # a known deviation edited since
+                    s.store.rejudge([j], judge_again(ctx), s.cache_key)
                 if s.store is not None and j.key in s.store.rows:  # finished by an earlier run
                     st["rows"][j.key] = s.results.rows[j.key] = s.store.rows[j.key]
                     s.results.reused += 1
@@ -248,6 +250,13 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
         use.wall_s = time.monotonic() - t0
         bar.close()
     return use
+
+
+def judge_again(ctx: Context):
+    """(job, stored rows) -> the rows judged against the known deviations of now, or None
+    (RowStore.rejudge's judge_again)."""
+    resolver = ctx.resolver()
+    return lambda job, rows: rejudge(job, rows, resolver)
 
 
 def run_jobs(jobs: list[Job], ctx: Context = Context(), workers: int = 1, scheduler: str | None = None,

@@ -4,12 +4,16 @@ again recomputes none of them.
 
 Each row carries its job's key, the number of rows the job wrote (so a job cut short by a
 kill is recognised and run again) and a cache key: the fingerprint of the code that
-produced it (every source file of physval, cases, adapters, reference_impl, the known
-deviations and --known files; a plug-in's or --adapter's own source, the user modules it
-imports and its deviation file) with the engine's version, and for a family from a user's
---cases-dir the fingerprint of its own file and of the user modules that file imports. A
-row whose cache key differs from the current one is stale and run again: an edit of one
-user family file runs that family's jobs again, not every job.
+produced it (every source file of physval, cases, adapters, reference_impl; a plug-in's or
+--adapter's own source and the user modules it imports) with the engine's version, and for
+a family from a user's --cases-dir the fingerprint of its own file and of the user modules
+that file imports; then, after KNOWN_PART, the fingerprint of the engine's known-deviation
+files (its own and the --known files). A row whose code part differs from the current one
+is stale and run again: an edit of one user family file runs that family's jobs again, not
+every job. A row whose known-deviation part alone differs holds a measurement that is still
+current under verdicts that may not be: its job is judged again from the stored values
+(`RowStore.rejudge`, physval.core.jobs.rejudge), in seconds, not stepped again, since a
+known-deviation band changes verdicts, not trajectories.
 """
 from __future__ import annotations
 
@@ -133,11 +137,21 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def fingerprint(extra_files=()) -> str:
-    """SHA-256 (16 hex digits) of the project's source and deviation files and `extra_files`."""
+    """SHA-256 (16 hex digits) of the project's source files and `extra_files` (the
+    known-deviation files are not source: they change verdicts, not measurements, and
+    have their own part of the cache key, KNOWN_PART)."""
     files = []
     for pkg in PACKAGES:
-        files += sorted((ROOT / pkg).rglob("*.py")) + sorted((ROOT / pkg).rglob("xfails/*.txt"))
+        files += sorted((ROOT / pkg).rglob("*.py"))
     return digest(files + [Path(f) for f in extra_files])
+
+
+KNOWN_PART = "|known="  # a cache key: the code's part, then this, then the known deviations' part
+
+
+def code_part(cache_key: str) -> str:
+    """The part of a cache key that says what was measured (KNOWN_PART's left)."""
+    return cache_key.split(KNOWN_PART, 1)[0]
 
 
 def digest(files) -> str:
@@ -169,6 +183,9 @@ class RowStore:
         self.columns = list(columns) + [c for c in STORE_COLUMNS if c not in columns]
         self.knobs_file = Path(knobs_file) if knobs_file is not None else None
         self.rows: dict[str, list[dict]] = {}   # job key -> rows, complete jobs only
+        # job key -> rows whose measurement is current and whose verdicts may not be (only
+        # the known-deviation part of their cache key differs): `rejudge` makes them rows
+        self.verdicts_stale: dict[str, list[dict]] = {}
         self._synced = -math.inf                  # when append last made the file durable
         self._check()
 
@@ -185,8 +202,10 @@ class RowStore:
 
     def load(self, cache_key_of, rewrite: bool = True) -> int:
         """Read finished jobs whose cache key is `cache_key_of(job rows' first row)`;
-        return how many. The file is rewritten without cut-short or stale jobs (unless
-        `rewrite` is False: a look that changes nothing, as `physval run --plan`'s)."""
+        return how many. Jobs whose key differs in its known-deviation part alone
+        (KNOWN_PART) wait in `verdicts_stale` for `rejudge`. The file is rewritten without
+        cut-short or stale jobs, nor those waiting (rejudge appends them judged anew),
+        unless `rewrite` is False: a look that changes nothing, as `physval run --plan`'s."""
         if not self.path.exists() or not self.path.stat().st_size:
             return 0
         with held(self.path):  # another command's appends wait until the file is read and rewritten
@@ -203,8 +222,13 @@ class RowStore:
                 whole = len(rows) == int(rows[0]["job_rows"]) and not any(unresolved(r) for r in rows)
             except ValueError:
                 whole = False
-            if whole and rows[0]["cache_key"] == cache_key_of(rows[0]):
+            if not whole:
+                continue
+            stored, current = rows[0]["cache_key"], cache_key_of(rows[0])
+            if stored == current:
                 self.rows[key] = rows
+            elif code_part(stored) == code_part(current):
+                self.verdicts_stale[key] = rows
         if rewrite:
             self._write([r for rows in self.rows.values() for r in rows])
         return len(self.rows)
@@ -232,6 +256,27 @@ class RowStore:
             if time.monotonic() - self._synced >= SYNC_EVERY:
                 os.fsync(fh.fileno())
                 self._synced = time.monotonic()
+
+    def rejudge(self, jobs, judge_again, cache_key_of, write: bool = True) -> int:
+        """The jobs of `jobs` waiting in `verdicts_stale`, judged again: `judge_again(job,
+        rows)` gives the rows with their verdicts of now, or None where the rows cannot
+        say (the job then runs again). Judged rows join `rows` stamped with
+        `cache_key_of(job)`, and are appended to the file (unless `write` is False: a look
+        that changes nothing). Returns how many jobs were judged again."""
+        done = 0
+        for job in jobs:
+            stale = self.verdicts_stale.pop(job.key, None)
+            if stale is None:
+                continue
+            rows = judge_again(job, stale)
+            if rows is None:
+                continue
+            if write:
+                self.append(job.key, rows, cache_key_of(job))
+            else:
+                self.rows[job.key] = rows
+            done += 1
+        return done
 
     def finalize(self, keys: list[str]) -> list[dict]:
         """Rewrite the file with the rows of `keys` only, in that order; return them."""
@@ -285,7 +330,10 @@ class CacheKeys:
                 return ""
             self.engines[engine] = self.find(engine)
         own = self.families.get(family)
-        return self.engines[engine] + (f"+{own}" if own else "")
+        if not own:
+            return self.engines[engine]
+        code, known = self.engines[engine].split(KNOWN_PART, 1)
+        return f"{code}+{own}{KNOWN_PART}{known}"
 
     def of_row(self, row: dict) -> str:
         return self.of(row["engine"], row["case"])
@@ -308,18 +356,19 @@ def cache_keys(ctx, engines: list[str] | None = None) -> CacheKeys:
 
 
 def engine_key_of(ctx) -> Callable[[str], str]:
-    """engine -> its part of the cache key (as cache_keys), the project's fingerprint read once."""
+    """engine -> its part of the cache key (as cache_keys), the project's fingerprint read
+    once: the code's part, then KNOWN_PART and the fingerprint of its deviation files."""
     resolver = ctx.resolver()
-    fp = fingerprint(list(ctx.known_files))
+    fp = fingerprint()
 
     def find(e: str) -> str:
+        known = KNOWN_PART + digest(resolver.deviation_files(e))
         try:
             adapter = resolver.adapter(e)
         except Exception:
-            return f"{fp}:not installed"
-        own = [f for f in user_sources(adapter_sources(adapter)) + resolver.deviation_files(e)
-               if f.is_file() and not _in_project(f) and str(f) not in ctx.known_files]
-        return f"{fp}{'+' + digest(own) if own else ''}:{resolver.version(e)}"
+            return f"{fp}:not installed{known}"
+        own = [f for f in user_sources(adapter_sources(adapter)) if f.is_file() and not _in_project(f)]
+        return f"{fp}{'+' + digest(own) if own else ''}:{resolver.version(e)}{known}"
     return find
 
 
