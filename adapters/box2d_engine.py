@@ -191,9 +191,7 @@ class Box2DAdapter(Adapter):
         """bullet: Box2D's continuous collision on, each fast dynamic body a bullet (isBullet;
         "box2d-bullet", module notes)."""
         self.name = name
-        self.bullet = bool(bullet)
-        if bullet:  # only where it matters in a default run (module notes); named, every family
-            self.default_tags = frozenset({"swept"})
+        self.bullet = self.continuous_collision(bullet)
 
     def version(self) -> str:
         return f"pyb2d3 {metadata.version('pyb2d3')}"  # 0.11.1 bundles Box2D v3.1.1

@@ -206,9 +206,7 @@ class Box3DAdapter(Adapter):
         """bullet: Box3D's continuous collision on, each fast dynamic body a bullet (isBullet;
         "box3d-bullet", as adapters/box2d_engine.py)."""
         self.name = name
-        self.bullet = bool(bullet)
-        if bullet:  # only where it matters in a default run; named, every family
-            self.default_tags = frozenset({"swept"})
+        self.bullet = self.continuous_collision(bullet)
 
     def version(self) -> str:
         return metadata.version("robox3d")

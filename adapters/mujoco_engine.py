@@ -1197,9 +1197,7 @@ class MuJoCoAdapter(Adapter):
         if unknown:
             raise ValueError(f"defaults = {unknown}: must be among {', '.join(DEFAULTABLE)} (or 'all')")
         self.defaults = frozenset(defaults)
-        self.speculative = bool(speculative)
-        if speculative:  # only where it matters in a default run (module notes); named, every family
-            self.default_tags = frozenset({"swept"})
+        self.speculative = self.continuous_collision(speculative)
 
     def version(self) -> str:
         return metadata.version("mujoco")

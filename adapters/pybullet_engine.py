@@ -258,9 +258,7 @@ class PyBulletAdapter(Adapter):
             raise ValueError(f"solver = {solver!r}: must be one of {', '.join(SOLVERS)}")
         self.name = name
         self.config = {"bodies": bodies, "friction_anchor": bool(friction_anchor), "ground": ground,
-                       "solver": solver, "ccd": bool(ccd)}
-        if ccd:  # only where it matters in a default run (module notes); named, every family
-            self.default_tags = frozenset({"swept"})
+                       "solver": solver, "ccd": self.continuous_collision(ccd)}
         if bodies == "rigid":  # 2D bodies stay in their plane on joints, which need reduced coordinates
             self.capabilities = replace(
                 self.capabilities, dimensions=frozenset({3}), joints=frozenset(), joint_limits=False, coordinates=None,

@@ -184,9 +184,7 @@ class RapierAdapter(Adapter):
         """ccd: Rapier's continuous collision detection on each fast dynamic body (ccd_enabled;
         "rapier-ccd", module notes)."""
         self.name = name
-        self.ccd = bool(ccd)
-        if ccd:  # only where it matters in a default run (module notes); named, every family
-            self.default_tags = frozenset({"swept"})
+        self.ccd = self.continuous_collision(ccd)
 
     def version(self) -> str:
         return metadata.version("rapier3d")
