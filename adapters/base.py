@@ -396,6 +396,15 @@ class Adapter(ABC):
     # engine-wide readings, which repeat each scene many times: it runs there when named.
     slow: bool = False
 
+    def continuous_collision(self, on: bool) -> bool:
+        """`on`, as a bool: a configuration with the engine's continuous collision on (swept
+        tests, bullets, speculative contacts) runs, in a default run, only the families
+        tagged "swept" (cases/robustness/tunnelling.py), where it changes what happens;
+        named, every family."""
+        if on:
+            self.default_tags = frozenset({"swept"})
+        return bool(on)
+
     def on_demand(self, scene: Scene) -> str | None:
         """Why a scene takes this engine too long for a default run (minutes), or None:
         such runs happen only when asked (--on-demand), unless `deferred` keeps them."""

@@ -55,10 +55,15 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     # and block PGS: adapters/pybullet_engine.py SOLVERS)
     "pybullet-dantzig": ("adapters.pybullet_engine", "PyBulletAdapter", {"name": "pybullet-dantzig", "solver": "dantzig"}),
     "pybullet-pgs": ("adapters.pybullet_engine", "PyBulletAdapter", {"name": "pybullet-pgs", "solver": "pgs"}),
+    # continuous collision: Bullet's swept sphere on every dynamic body (adapters/pybullet_engine.py)
+    "pybullet-ccd": ("adapters.pybullet_engine", "PyBulletAdapter", {"name": "pybullet-ccd", "ccd": True}),
     "mujoco": ("adapters.mujoco_engine", "MuJoCoAdapter", {}),
     # what a user gets who tunes nothing: pyramidal cone, impratio 1, default solimp, solref
     # where e = 0 and solreffriction (adapters/mujoco_engine.py, "mujoco-defaults")
     "mujoco-defaults": ("adapters.mujoco_engine", "MuJoCoAdapter", {"name": "mujoco-defaults", "defaults": "all"}),
+    # MuJoCo 4's speculative contacts (flag speculative): contacts a step ahead of fast geoms
+    "mujoco-speculative": ("adapters.mujoco_engine", "MuJoCoAdapter",
+                           {"name": "mujoco-speculative", "speculative": True}),
     # MuJoCo's model stepped by its Warp port in float32 (adapters/mujoco_warp_engine.py)
     "mujoco-warp": ("adapters.mujoco_warp_engine", "MuJoCoWarpAdapter", {}),
     "pymunk": ("adapters.pymunk_engine", "PymunkAdapter", {}),
@@ -68,6 +73,11 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "box2d": ("adapters.box2d_engine", "Box2DAdapter", {}),
     "box3d": ("adapters.box3d_engine", "Box3DAdapter", {}),  # Box3D through robox3d's C API
     "rapier": ("adapters.rapier_engine", "RapierAdapter", {}),
+    # continuous collision: Box2D's and Box3D's bullets (continuous on, isBullet on every dynamic
+    # body), Rapier's CCD (ccd_enabled); in a default run only the families tagged "swept"
+    "box2d-bullet": ("adapters.box2d_engine", "Box2DAdapter", {"name": "box2d-bullet", "bullet": True}),
+    "box3d-bullet": ("adapters.box3d_engine", "Box3DAdapter", {"name": "box3d-bullet", "bullet": True}),
+    "rapier-ccd": ("adapters.rapier_engine", "RapierAdapter", {"name": "rapier-ccd", "ccd": True}),
     # PhysX 5 through ovphysx (pre-release, USD-authored scenes; adapters/physx_engine.py)
     "physx": ("adapters.physx_engine", "PhysXAdapter", {}),
     # PhysX's projected Gauss-Seidel solver: static friction holds to about 0.42 for mu_s = 0.5, mu_k = 0.3

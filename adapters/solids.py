@@ -120,3 +120,34 @@ def triangle_prisms(vertices, triangles, depth: float = PRISM_DEPTH) -> tuple[li
         prisms.append(np.vstack([front, front - t_i * n]))
         depths.append(t_i)
     return prisms, depths
+
+
+def inscribed_radius(shape) -> float:
+    """The radius of the largest ball about the body's origin inside `shape` (a scene shape):
+    a sphere's, disc's or capsule's radius, a box's or rect's smallest half-extent, a
+    cylinder's radius or half-length, whichever is smaller, a hull's or polygon's distance
+    to its nearest face or edge (hulls and polygons are centred); 0 for a plane or mesh."""
+    kind = shape.kind
+    if kind in ("sphere", "circle", "capsule"):
+        return float(shape.radius)
+    if kind in ("box", "rect"):
+        return float(min(shape.half_extents))
+    if kind == "cylinder":
+        return float(min(shape.radius, shape.half_length))
+    if kind == "hull":
+        v = np.asarray(shape.vertices, dtype=float)
+        a, b, c = (v[shape.faces[:, k]] for k in range(3))
+        n = np.cross(b - a, c - a)
+        return float(np.min(np.abs(np.einsum("ij,ij->i", n, a)) / np.linalg.norm(n, axis=1)))
+    if kind == "polygon":
+        v = np.asarray(shape.corners, dtype=float)
+        a, d = v, np.roll(v, -1, axis=0) - v
+        return float(np.min(np.abs(a[:, 0] * d[:, 1] - a[:, 1] * d[:, 0]) / np.linalg.norm(d, axis=1)))
+    return 0.0
+
+
+def starts_fast(body, dt: float) -> bool:
+    """Whether a dynamic body starts out moving further in a step of `dt` than its inscribed
+    radius: a body that can pass through a thing as thick as itself between two steps, the
+    one a user marks for continuous collision (Box2D's bullets, Rapier's CCD)."""
+    return body.dynamic and float(np.linalg.norm(body.velocity)) * dt > inscribed_radius(body.shape)

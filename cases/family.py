@@ -46,6 +46,8 @@ TAGS = {
     "conformance": "the adapter conformance battery (what every adapter must do)",
     "robustness": "hard scenes judged by invariants: `physval stress`",
     "cross_engine": "no full closed form: well-posed quantities, also compared across engines",
+    "swept": "bodies moving further in a step than the gap they would hit: the default families of the engines' "
+             "continuous-collision configurations (Adapter.default_tags)",
 }
 
 MAX_DT = 0.1  # s: a family's time step above this leaves no contact worth judging (adapters.base.Settings)

@@ -98,3 +98,64 @@ def test_a_pybullet_client_kept_for_the_next_scene_steps_it_bit_for_bit_as_a_new
     _states("pybullet", _scene(2))
     again, after = _states("pybullet", _scene())
     assert again == first and after == before
+
+# --- continuous collision: configurations of their own, run by default on the "swept" families ---
+
+CCD = {"pybullet-ccd": "pybullet", "mujoco-speculative": "mujoco", "rapier-ccd": "rapier", "box2d-bullet": "box2d",
+       "box3d-bullet": "box3d"}
+
+
+def _bullet_scene(dim: int = 3) -> Scene:
+    """A 1 cm ball at 100 m/s and a resting 1 cm plate, no gravity (cases/robustness/tunnelling.py)."""
+    from cases.robustness import tunnelling
+    return tunnelling.scene({"v": 100.0, "dim": dim, "gap": tunnelling.FAR})
+
+
+@pytest.mark.parametrize("name", sorted(CCD))
+def test_a_continuous_collision_configuration_runs_the_swept_families_by_default(name):
+    from cases.registry import builtin_families
+    adapter = adapter_or_skip(name)
+    assert adapter.default_tags == frozenset({"swept"})
+    assert adapter_or_skip(CCD[name]).default_tags is None  # the plain engine runs everything
+    assert any("swept" in f.tags for f in builtin_families().values())
+
+
+@pytest.mark.engine("pybullet-ccd")
+def test_pybullet_ccd_sweeps_every_dynamic_body_and_the_plain_engine_none():
+    from adapters.pybullet_engine import SWEPT_SPHERE_FRACTION
+    ccd, plain = _knobs("pybullet-ccd", _bullet_scene()), _knobs("pybullet", _bullet_scene())
+    swept = {b: [c["ccdSweptSphereRadius"] for c in r["changeDynamics"] if "ccdSweptSphereRadius" in c][0]
+             for b, r in ccd["bodies"].items()}
+    assert swept == {"bullet": SWEPT_SPHERE_FRACTION * 0.01, "plate": SWEPT_SPHERE_FRACTION * 0.005}
+    assert not any("ccdSweptSphereRadius" in c for r in plain["bodies"].values() for c in r["changeDynamics"])
+
+
+@pytest.mark.parametrize("name, flag", [("box2d-bullet", "is_bullet"), ("box3d-bullet", "isBullet"),
+                                        ("rapier-ccd", "ccd_enabled")])
+def test_bullets_are_the_fast_bodies_only(name, flag):
+    """Box2D and Box3D sweep no pair of two bullets, Rapier none of two CCD bodies (the bullet
+    passed the plate, measured): the ball moving 10 cm a step gets it, the resting plate not."""
+    scene = _bullet_scene(2 if name == "box2d-bullet" else 3)
+    bodies = _knobs(name, scene)["bodies"]
+    assert bodies["bullet"][flag] is True and bodies["plate"][flag] is False
+    assert _knobs(CCD[name], scene)["bodies"]["bullet"][flag] is False
+
+
+@pytest.mark.engine("mujoco-speculative")
+def test_mujoco_speculative_sets_the_flag_and_nothing_else():
+    on, off = _knobs("mujoco-speculative", _bullet_scene()), _knobs("mujoco", _bullet_scene())
+    assert on["flag"]["speculative"] == "enable" and off["flag"]["speculative"] == "disable"
+    assert {k: v for k, v in on["flag"].items() if k != "speculative"} == \
+        {k: v for k, v in off["flag"].items() if k != "speculative"}
+
+
+def test_the_inscribed_radius_of_each_shape():
+    from adapters.solids import inscribed_radius, starts_fast
+    from cases.narrow_phase import CUBE
+    from cases.scene import Box, Capsule, Cylinder, Hull, Polygon
+    assert inscribed_radius(ball(0.1)) == 0.1 and inscribed_radius(Capsule(0.1, 0.5)) == 0.1
+    assert inscribed_radius(Box((0.3, 0.2, 0.4))) == 0.2 and inscribed_radius(Cylinder(0.2, 0.1)) == 0.1
+    assert inscribed_radius(Hull(CUBE)) == pytest.approx(0.5)
+    assert inscribed_radius(Polygon(((1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)))) == pytest.approx(0.5 ** 0.5)
+    ball_at = lambda v: Body("b", ball(0.01), mass=1.0, velocity=(v, 0.0, 0.0))  # noqa: E731
+    assert starts_fast(ball_at(11.0), 1e-3) and not starts_fast(ball_at(9.0), 1e-3)
