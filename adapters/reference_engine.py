@@ -222,6 +222,12 @@ class ReferenceSimulation(Simulation):
         self._knobs.update(world.solver.knobs(config))
         self.effects = self._built_effects(scene)
 
+
+    @property
+    def world(self):
+        """The reference's World behind the engine contract (reference_impl/world.py), for
+        readings that look inside a step (the Pinocchio oracle reads its contact problems)."""
+        return self._world
     def _built_effects(self, scene: Scene) -> frozenset[str]:
         """What the built world simulates: the world runs a stage only when needed."""
         world = self._world

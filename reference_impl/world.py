@@ -312,6 +312,24 @@ class World:
             names = self._stage_names[ran] = self._names(ran)
         self.stages = names
 
+    # A step seen in its two halves (`step` runs both): between them the contacts found are the
+    # problem the formulation is about to solve, e.g. for an independent solver to solve too.
+    def begin_step(self, dt: float) -> None:
+        """A step's first half (note 001, "simulation loop"): collision detection and the free motion."""
+        if self._state is None:
+            self._state = self._build()
+        begin(self._state, float(dt))
+        self._contacts = None
+
+    def end_step(self, dt: float) -> None:
+        """A step's second half: the formulation's solve and the integration of positions."""
+        self._end(self._stepper, float(dt))
+        self._contacts = None
+
+    def contact_problem(self):
+        """(contacts, bodies) the solve reads: the compiled contact arrays and bodies of this step."""
+        return _contacts(self._state), _bodies(self._state)
+
     def _names(self, ran: int) -> tuple[str, ...]:
         """The stages a step's bit mask says ran, in order (world's, then the formulation's)."""
         name = self.config.formulation
@@ -356,6 +374,11 @@ def new_stepper(state, settings):
 @njit
 def _contacts(state):
     return state.contacts
+
+
+@njit
+def _bodies(state):
+    return state.bodies
 
 
 @njit

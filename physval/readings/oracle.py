@@ -50,7 +50,6 @@ import numpy as np
 import pandas as pd
 
 from reference_impl import lcp, lemke, pgs, spook
-from reference_impl.compiled import njit
 
 # The scenes the problems come from: (label, family, variant params, step). A step number is
 # the step whose problem is read (1-based); "impact" the first step whose solve gives a
@@ -137,35 +136,25 @@ def capture(scenes=SCENES) -> list[Problem]:
 def _capture(label: str, family, params: dict, step) -> Problem:
     from adapters.base import Settings
     from adapters.reference_engine import ReferenceAdapter
-    from reference_impl import world as reference_world
     from reference_impl.contact import contact_arrays
     dt = family.dt_for(params)
-    # the reference's World behind the engine contract, and its step's two compiled halves
-    # (World.step is begin, then end: reference_impl/world.py), called here one by one so
-    # that the problem is read between them: no public hook of reference_impl gives it
-    world = ReferenceAdapter("lemke").build(family.scene(params), Settings(dt=dt))._world
-    world.save()  # builds the world's compiled state, as its first step would
+    # the reference's World behind the engine contract, each step in its two halves
+    # (World.begin_step, end_step), so that the problem is read between them
+    world = ReferenceAdapter("lemke").build(family.scene(params), Settings(dt=dt)).world
     limit = step if step != "impact" else int(round(family.duration(params) / dt))
     for k in range(1, limit + 1):
-        state = world._state
-        reference_world.begin(state, dt)
-        contacts = reference_world._contacts(state)
-        rows, bodies, u = lcp.world_rows(contacts, _bodies(state))
+        world.begin_step(dt)
+        contacts, state_bodies = world.contact_problem()
+        rows, bodies, u = lcp.world_rows(contacts, state_bodies)
         target = np.zeros(len(rows.a))  # lcp.world_rhs's: the contact's own on its normal row
         target[rows.is_normal] = contact_arrays(contacts).target
-        world._end(world._stepper, dt)
+        world.end_step(dt)
         gamma = lcp.world_impulses(contacts)
         if len(rows.a) and (k == step or (step == "impact" and np.any(gamma[rows.is_normal] > 0.0))):
             if np.any(np.bincount(rows.normal[rows.normal >= 0], minlength=len(rows.a))[rows.is_normal] != 3):
                 raise ValueError(f"{label}: every contact needs two friction rows (a 3D scene with mu > 0)")
             return Problem(label, rows, bodies, u, target, gamma, dt)
     raise ValueError(f"{label}: no contact problem by step {limit}")
-
-
-@njit
-def _bodies(state):
-    """A world State's bodies (Python reads a State's fields through compiled getters)."""
-    return state.bodies
 
 
 def save(problems: list[Problem], path: Path) -> None:
