@@ -12,12 +12,14 @@ from __future__ import annotations
 
 from physval.testing import check
 
-from tests.helpers import shared_rows
+from tests.helpers import shared_rows, skip_if_not_installed
 
 
 def test_case(job):
+    skip_if_not_installed(job.engine)
     check(job, rows=shared_rows(job))
 
 
 def test_conformance(conformance_job):
+    skip_if_not_installed(conformance_job.engine)
     check(conformance_job, rows=shared_rows(conformance_job))

@@ -227,15 +227,17 @@ def _edited_rerun(args, edited: Path, path) -> list[tuple[int, int]]:
 
 def test_an_adapter_module_that_changed_runs_its_jobs_again(tmp_path):
     """`--adapter module:Class` on the path: its source is part of the resume key, as a
-    case file's is (before: the jobs were reused)."""
+    case file's is (before: the jobs were reused). The adapter wraps MuJoCo, whose jobs take
+    milliseconds: on the reference, the first run compiled its sequential impulses into an
+    empty numba cache (a fresh clone's), or waited for the process compiling them, which
+    under a load of 12-15 on 2 cores outlasted the command's 300 s limit (measured: timed out)."""
     (tmp_path / "mine_engine.py").write_text(textwrap.dedent("""
-        from adapters.reference_engine import ReferenceAdapter
+        from adapters.mujoco_engine import MuJoCoAdapter
 
-        class Mine(ReferenceAdapter):
-            def __init__(self):
-                super().__init__(name="reference-mine")
+        class Mine(MuJoCoAdapter):
+            name = "mujoco-mine"
     """))
-    args = ["run", "--adapter", "mine_engine:Mine", "--engines", "reference-mine", "--cases", CASE,
+    args = ["run", "--adapter", "mine_engine:Mine", "--engines", "mujoco-mine", "--cases", CASE,
             "--workers", "1", "--out", str(tmp_path / "out")]
     (n, first), (_, again), (_, edited) = _edited_rerun(args, tmp_path / "mine_engine.py", [tmp_path])
     assert n >= 1 and (first, again, edited) == (n, 0, n)
