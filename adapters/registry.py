@@ -61,6 +61,8 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "mujoco-defaults": ("adapters.mujoco_engine", "MuJoCoAdapter", {"name": "mujoco-defaults", "defaults": "all"}),
     # MuJoCo's model stepped by its Warp port in float32 (adapters/mujoco_warp_engine.py)
     "mujoco-warp": ("adapters.mujoco_warp_engine", "MuJoCoWarpAdapter", {}),
+    # MuJoCo's model stepped by MJX, its JAX port, in float32 on the CPU (adapters/mjx_engine.py)
+    "mujoco-mjx": ("adapters.mjx_engine", "MjxAdapter", {}),
     "pymunk": ("adapters.pymunk_engine", "PymunkAdapter", {}),
     # a 1 mm collision slop: stacks stand at 60 Hz, bodies rest 1 mm deep (pymunk_engine.py)
     "pymunk-slop1mm": ("adapters.pymunk_engine", "PymunkAdapter", {"name": "pymunk-slop1mm", "collision_slop": 1e-3}),
@@ -98,7 +100,8 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "genesis-defaults": ("adapters.genesis_engine", "GenesisAdapter", {"configuration": "defaults"}),
 }
 # The pip extra that installs each built-in engine's package (README, pyproject.toml).
-EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "mujoco-warp": "mujoco-warp", "pymunk": "pymunk", "dart": "dart",
+EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "mujoco-warp": "mujoco-warp", "mujoco-mjx": "mjx",
+          "pymunk": "pymunk", "dart": "dart",
           "box2d": "box2d", "box3d": "box3d", "rapier": "rapier", "drake": "drake", "newton": "newton",
           "physx": "physx", "genesis": "genesis"}
 
