@@ -87,6 +87,9 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "drake-tamsi": ("adapters.drake_engine", "DrakeAdapter", {"approximation": "tamsi"}),
     "drake-hydro": ("adapters.drake_engine", "DrakeAdapter",
                     {"approximation": "sap", "contact_model": "hydroelastic"}),
+    # the continuous plant integrated by CENIC, Drake's error-controlled convex integrator (ICF
+    # contact, Hunt & Crossley): its accuracy target, not dt, sets the error
+    "drake-cenic": ("adapters.drake_engine", "DrakeAdapter", {"approximation": "cenic"}),
     # Newton's rigid-body solvers, each its own engine (adapters/newton_engine.py)
     "newton-xpbd": ("adapters.newton_engine", "NewtonAdapter", {"solver": "xpbd"}),
     "newton-semi-implicit": ("adapters.newton_engine", "NewtonAdapter", {"solver": "semi-implicit"}),
