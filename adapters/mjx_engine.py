@@ -54,6 +54,25 @@ IMPL = "jax"  # MJX's own implementation (its "warp" one is MuJoCo Warp, adapter
 FRICTIONLESS_CONE = "pyramidal"
 
 
+# Steps a compiled rollout (jax.lax.scan over mjx.step) takes per call in Simulation.run; the
+# rest of a call's steps go one at a time. One length, so one compile per model shape.
+ROLLOUT = 256
+
+
+@functools.cache
+def _rollout(length: int):
+    """jax.jit of `length` mjx.steps in one scan, returning the last data and every step's
+    qpos and qvel."""
+    jax, mjx, _, _ = _mjx()
+
+    def roll(m, d):
+        def body(d, _):
+            d = mjx.step(m, d)
+            return d, (d.qpos, d.qvel)
+        return jax.lax.scan(body, d, None, length=length)
+    return jax.jit(roll)
+
+
 @functools.cache
 def _mjx():
     """(jax, mjx, the jitted step, the CPU device), once a process."""
@@ -65,8 +84,6 @@ def _mjx():
 class MjxSimulation(MuJoCoSimulation):
     """MuJoCoSimulation with its data in JAX: the start state and the read-out are MuJoCo
     C's (the base class), the stepping MJX's."""
-
-    run = None  # no rollout: step() and write_state() in turn
 
     def __init__(self, scene: Scene, model, knobs: dict, iterations: int):
         import mujoco
@@ -85,7 +102,8 @@ class MjxSimulation(MuJoCoSimulation):
         self._pulled = True  # self._data holds the current step's contacts
         self._bind_state()
         knobs["mjx"] = {"impl": IMPL, "device": str(device), "float_bits": 32 if not jax.config.jax_enable_x64 else 64,
-                        "stepping": "jax.jit(mjx.step), one call a step", "changed": changed}
+                        "stepping": f"jax.jit(mjx.step) a step; runs without read-outs in jitted scans of {ROLLOUT} steps",
+                        "changed": changed}
 
     def _bind_state(self) -> None:
         """The state arrays write_state and states() read: host copies of this step's."""
@@ -96,6 +114,21 @@ class MjxSimulation(MuJoCoSimulation):
         self._dx = self._step(self._mx, self._dx)
         self._bind_state()
         self._pulled = False
+
+    def run(self, steps: int, out: np.ndarray) -> None:
+        """`steps` steps recorded into out (qpos then qvel a row), ROLLOUT at a time in one
+        compiled scan (one Python call instead of one a step), the rest with step()."""
+        i, nq = 0, self._nq
+        while steps - i >= ROLLOUT:
+            self._dx, (qpos, qvel) = _rollout(ROLLOUT)(self._mx, self._dx)
+            out[i:i + ROLLOUT, :nq], out[i:i + ROLLOUT, nq:] = np.asarray(qpos), np.asarray(qvel)
+            i += ROLLOUT
+        self._bind_state()
+        self._pulled = False
+        while i < steps:
+            self.step()
+            self.write_state(out[i])
+            i += 1
 
     def _contacts(self):
         """The last step's contacts, copied into the MjData in MuJoCo C's layout (ncon,
