@@ -76,12 +76,13 @@ def setting_of(options) -> str:
 
 
 def points(chosen: dict, engines: list[str], resolver, full: bool = False, dts=DTS, iterations=ITERATIONS,
-           repeats: int = REPEATS) -> list[Job]:
+           repeats: int = REPEATS, named: bool = False) -> list[Job]:
     """Every point of the sweep as a job. By default two axes through each engine's
     defaults: dt over `dts` at the default iterations, and iterations over `iterations` at
     the family's dt, and each swept engine setting (`Tunable.sweep`: an accuracy target) over
     its values at the family's dt; `full` takes the whole dt x iterations grid. Points an
-    engine cannot represent, or declares too slow for a default run, are left out."""
+    engine cannot represent, or (unless the engines were `named`) declares too slow for a
+    default run, are left out."""
     out = []
     for name, variants in chosen.items():
         fam = resolver.family(name)
@@ -93,7 +94,8 @@ def points(chosen: dict, engines: list[str], resolver, full: bool = False, dts=D
             its = list(iterations) if adapter.capabilities.iterations else []
             for v in variants:
                 scene = fam.scene(v.params)
-                if adapter.capabilities.cannot_run(scene, fam.needs_of(v.params)) or adapter.deferred(scene, fam.tags):
+                if adapter.capabilities.cannot_run(scene, fam.needs_of(v.params)) or \
+                        (not named and adapter.deferred(scene, fam.tags)):
                     continue
                 grid = {(dt, None) for dt in dts}
                 grid |= {(dt, it) for dt in dts for it in its} if full else {(fam.dt_for(v.params), it) for it in its}
