@@ -17,9 +17,10 @@ family it can represent runs). That pairing is what `pip install ".[mjx]"` gives
 the known deviations were measured on.
 
 Implementation: `impl="jax"` (MJX's own; its "warp" implementation is MuJoCo Warp, which
-is `mujoco-warp` here) on JAX's CPU device. One step is `jax.jit(mjx.step)`; the compiled
-step depends on the model's sizes only, so scenes of the same shape share it within a
-process. JAX compiles on first use (several seconds of CPU a new model shape) into its
+is `mujoco-warp` here) on JAX's CPU device. One step is `jax.jit(mjx.step)` (milliseconds of
+Python dispatch); a run that reads no forces or points steps in jitted scans of ROLLOUT steps
+(`run`, tens of microseconds a step, the same states bit for bit). What is compiled depends
+on the model's sizes only, so scenes of the same shape share it within a process. JAX compiles on first use (several seconds of CPU a new model shape) into its
 persistent cache, `JAX_COMPILATION_CACHE_DIR`, which physval points into its cache folder
 (physval.core.store.engine_caches) unless it is set already.
 
