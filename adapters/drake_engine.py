@@ -357,8 +357,8 @@ class DrakeSimulation(Simulation):
         self.knobs = {
             "MultibodyPlant": {
                 "time_step": 0.0 if continuous else settings.dt,
-                "discrete_contact_approximation": "unused: a continuous plant" if continuous
-                else f"k{approximation.capitalize()}",
+                # a continuous plant keeps Drake's default (kLagged), which CENIC's ICF also is
+                "discrete_contact_approximation": "kLagged" if continuous else f"k{approximation.capitalize()}",
                 "contact_model": f"k{'Hydroelastic' if self._hydro else 'Point'}",
                 "stiction_tolerance": options.get("stiction_tolerance", "unused by SAP (it regularises with sigma)"),
                 "sap_near_rigid_threshold": "unused: a continuous plant" if continuous else NEAR_RIGID_THRESHOLD,
