@@ -342,11 +342,14 @@ class Simulation(ABC):
 @dataclass(frozen=True)
 class Tunable:
     """An engine-specific contact parameter an adapter accepts in `Settings.options`
-    (for fitting engines to measured data): its range, default and meaning."""
+    (for fitting engines to measured data): its range, default and meaning; `sweep`: the
+    values `physval sweep` takes it over, an axis of its own beside dt (an error-controlled
+    integrator's accuracy target), empty for a parameter that is not an accuracy knob."""
     low: float
     high: float
     default: float
     meaning: str
+    sweep: tuple[float, ...] = ()
 
 
 class Adapter(ABC):

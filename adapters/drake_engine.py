@@ -106,7 +106,17 @@ IMPACT_SPEED = 1.0          # m/s: where a Hunt & Crossley d gives the asked e
 # Newton iteration needs Drake's default 1e-4 m/s: at 1e-6 and 1e-5 a 4-box point-contact
 # stack stops it at 1.9-2.1 s ("failed to converge"); at 1e-4 the 4-box stack runs (the
 # 5-box one still fails, at 1.1 s). SAP has no such parameter (it regularises with sigma).
-STICTION_TOLERANCE = {"similar": 1e-6, "lagged": 1e-6, "tamsi": 1e-4}   # m/s
+# CENIC: the continuous plant's regularisation (MultibodyPlant's default, 1e-4 m/s), measured
+# beside 1e-6 (which costs it more steps and gives the same checks).
+STICTION_TOLERANCE = {"similar": 1e-6, "lagged": 1e-6, "tamsi": 1e-4, "cenic": 1e-4}   # m/s
+# CENIC's error target (SimulatorConfig.accuracy). With steps of at most dt = 1e-3 and a
+# contact n = 16 steps long, error control first shortens a step at 1e-5: at 1e-4 and above
+# CENIC takes the fixed steps of discrete ICF (an e = 1 impact rebounds 0.794 of its speed,
+# as at 1e-1), at 1e-5 0.913, 1e-6 0.969 (406 steps for 300), 1e-7 0.992, 1e-8 0.9997 (1460
+# steps); measured on central_impact[e=1.0,m=1:1]. The default, 1e-6, is where the rebound
+# comes within 3 % at a third more steps; the accuracy-cost sweep takes ACCURACIES.
+ACCURACY = 1e-6
+ACCURACIES = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)
 # Drake's default near-rigid threshold beta (MultibodyPlantConfig): SAP clamps a contact
 # stiffer than its time step resolves (period beta dt), i.e. where h k (h + tau) > 4 pi^2 m
 # / beta^2. With k = m w^2, w h = pi / n, that is (pi / n)^2 (1 + tau / h) > 4 pi^2: 21 < 39
@@ -121,6 +131,10 @@ E_FLOOR = 1e-3
 # Onset phases averaged over by `rebound_ratio`: where in a step the contact begins
 # moves the discrete rebound by up to +-0.026 at n = 16 (SAP, e = 0.2; less for more steps).
 PHASES = 32
+# A continuous plant's bodies between prismatic joints (a body held from rotating) weigh this
+# fraction of the body: Drake's articulated-body dynamics rejects massless ones ("Composite for
+# body ... has zero mass"); the body then moves along x 2e-9 heavier (relative), along y 1e-9.
+SLIDE_MASS = 1e-9
 # 2D and hydroelastic geometry
 HYDRO_RESOLUTION = 0.2      # resolution hint as a fraction of a sphere's radius
 
@@ -138,6 +152,15 @@ ENGINE_CONSTANTS = {
 }
 
 _APPROXIMATIONS = ("lagged", "sap", "similar", "tamsi")  # DiscreteContactApproximation.k<Name>
+# Why drake-cenic runs only when asked (--on-demand), measured over its default families (251
+# jobs, one worker, on a loaded machine): 1771 job-s, where drake-sap's whole default run takes
+# 37 (a quiet run); resting stacks cost most (resting_blocks 460 job-s for SAP's 14, stack_forces
+# 154 for 1.1), while impacts cost as SAP's side by side (central_impact 21.6 for 16.2,
+# bounce_series 25.9 for 41.0). Its known deviations are not yet recorded.
+CENIC_ON_DEMAND = ("CENIC at its default accuracy costs 10-150x drake-sap's job-seconds on resting stacks "
+                   "(resting_blocks 460 s for 14); run with --on-demand")
+# a continuous plant (time_step 0) integrated by CENIC (SimulatorConfig integration_scheme)
+CONTINUOUS = ("cenic",)
 _CONTACT_MODELS = ("hydroelastic", "point")              # ContactModel.k<Name>
 
 
@@ -220,6 +243,30 @@ def restitution_dissipation(law: str, e: float, a: float) -> tuple[float, float]
     return p, rebound_ratio(law, a, p)
 
 
+def _g(y: float) -> float:
+    return y - math.log1p(y)
+
+
+@functools.lru_cache(maxsize=None)
+def continuous_hunt_crossley(e: float) -> tuple[float, float]:
+    """(delta, e reached) of Hunt & Crossley's continuous law, which CENIC integrates to its
+    accuracy: the rebound of a contact hit at v_in with dissipation d depends on delta = d
+    v_in alone, through G(delta) = G(-delta e), G(y) = y - ln(1 + y) (module notes). Solved by
+    bisection over delta in (0, 1/e), where G(delta) - G(-delta e) falls from positive to
+    -infinity. e >= 1: no dissipation; below E_FLOOR: the delta that rebounds E_FLOOR."""
+    if e >= 1.0:
+        return 0.0, 1.0
+    target = max(e, E_FLOOR)
+    lo, hi = 0.0, 1.0 / target
+    while hi - lo > 1e-13 * hi:
+        mid = 0.5 * (lo + hi)
+        if _g(mid) - _g(-mid * target) > 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi), target
+
+
 # --- per-body values for Drake's combination rules ------------------------------------------
 
 def _per_body(names: list[str], rows: list[tuple[str, str, float, float, float]], what: str) -> dict[str, float]:
@@ -289,27 +336,32 @@ class DrakeSimulation(Simulation):
         self._planar = scene.dimension == 2
         self._hydro = contact_model == "hydroelastic"
         self._simulator = None
+        continuous = self._continuous = approximation in CONTINUOUS
         from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, ContactModel, DiscreteContactApproximation
         from pydrake.systems.analysis import Simulator
         from pydrake.systems.framework import DiagramBuilder
         builder = DiagramBuilder()
-        plant, _ = AddMultibodyPlantSceneGraph(builder, time_step=settings.dt)
-        plant.set_discrete_contact_approximation(getattr(DiscreteContactApproximation, f"k{approximation.capitalize()}"))
+        # CENIC takes a continuous plant named "plant" (AddMultibodyPlantSceneGraph's name)
+        plant, _ = AddMultibodyPlantSceneGraph(builder, time_step=0.0 if continuous else settings.dt)
+        if not continuous:
+            plant.set_discrete_contact_approximation(
+                getattr(DiscreteContactApproximation, f"k{approximation.capitalize()}"))
+            plant.set_sap_near_rigid_threshold(NEAR_RIGID_THRESHOLD)
         plant.set_contact_model(getattr(ContactModel, f"k{contact_model.capitalize()}"))
         if approximation != "sap":
             plant.set_stiction_tolerance(options["stiction_tolerance"])
-        plant.set_sap_near_rigid_threshold(NEAR_RIGID_THRESHOLD)
         # collisions between bodies joined by a joint (a planar body and the world, where
         # the ground lives) are filtered by default
         plant.set_adjacent_bodies_collision_filters(False)
         plant.mutable_gravity_field().set_gravity_vector(np.asarray(scene.gravity, float))
         self.knobs = {
             "MultibodyPlant": {
-                "time_step": settings.dt,
-                "discrete_contact_approximation": f"k{approximation.capitalize()}",
+                "time_step": 0.0 if continuous else settings.dt,
+                # a continuous plant keeps Drake's default (kLagged), which CENIC's ICF also is
+                "discrete_contact_approximation": "kLagged" if continuous else f"k{approximation.capitalize()}",
                 "contact_model": f"k{'Hydroelastic' if self._hydro else 'Point'}",
                 "stiction_tolerance": options.get("stiction_tolerance", "unused by SAP (it regularises with sigma)"),
-                "sap_near_rigid_threshold": NEAR_RIGID_THRESHOLD,
+                "sap_near_rigid_threshold": "unused: a continuous plant" if continuous else NEAR_RIGID_THRESHOLD,
                 "adjacent_bodies_collision_filters": False,
                 "gravity": [float(g) for g in scene.gravity],
                 "penetration_allowance": "unused: every geometry has its own stiffness",
@@ -326,6 +378,8 @@ class DrakeSimulation(Simulation):
         diagram = builder.Build()
         with _quiet_drake_warnings():  # allocating the context warns that a half-space has no
             self._simulator = Simulator(diagram)  # deformable contact (there are no deformables)
+        if continuous:
+            self.knobs["Simulator"] = self._integrate_with_cenic(settings.dt, options["accuracy"])
         root = self._simulator.get_mutable_context()
         self._context = plant.GetMyMutableContextFromRoot(root)
         self._readers = self._set_start(scene, plan)
@@ -334,6 +388,18 @@ class DrakeSimulation(Simulation):
         self._steps = 0
         self._dt = settings.dt
         self.effects = _effects(scene, material, plan, self._hydro)
+
+    def _integrate_with_cenic(self, dt: float, accuracy: float) -> dict:
+        """CENIC on the simulator (Drake's SimulatorConfig): error control on at `accuracy`,
+        steps of at most dt (the output interval: each step() advances dt, within which
+        CENIC chooses its own steps); its convex solver's parameters are Drake's defaults."""
+        from pydrake.systems.analysis import ApplySimulatorConfig, SimulatorConfig
+        config = SimulatorConfig(integration_scheme="cenic", accuracy=accuracy, max_step_size=dt,
+                                 use_error_control=True, publish_every_time_step=False)
+        ApplySimulatorConfig(config, self._simulator)
+        from pydrake.multibody.contact_solvers import IcfSolverParameters
+        return {"integration_scheme": config.integration_scheme, "accuracy": accuracy, "max_step_size": dt,
+                "use_error_control": True, "IcfSolverParameters (Drake's defaults)": repr(IcfSolverParameters())}
 
     # --- building -----------------------------------------------------------------------
 
@@ -389,13 +455,22 @@ class DrakeSimulation(Simulation):
                 child = plant.AddFrame(FixedOffsetFrame(f"{body.name}:M", rigid.body_frame(),
                                                         RigidTransform(R_B0.transpose())))
             else:
-                child = plant.AddRigidBody(f"{body.name}:slide{axis}", SpatialInertia.Zero()).body_frame()
+                child = plant.AddRigidBody(f"{body.name}:slide{axis}", self._slide_inertia(body)).body_frame()
             joint = plant.AddJoint(PrismaticJoint(f"{body.name}:{axis}", parent, child, _AXES[axis], damping=0.0))
             slides.append((joint, _AXES[axis]))
             parent = child
-        self.knobs["joints"][body.name] = {"PrismaticJoint": list(axes), "damping": 0.0,
-                                           "limits": "none", "intermediate bodies": "massless"}
+        self.knobs["joints"][body.name] = {"PrismaticJoint": list(axes), "damping": 0.0, "limits": "none",
+                                           "intermediate bodies": "massless" if not self._continuous else
+                                           f"point masses of {SLIDE_MASS:g} of the body's (continuous plant)"}
         return ("slides", slides)
+
+    def _slide_inertia(self, body: Body):
+        """The inertia of a body between two prismatic joints: none on a discrete plant; a
+        point mass of SLIDE_MASS of the body's on a continuous one, whose forward dynamics
+        (articulated bodies) cannot invert a massless body's composite inertia."""
+        from pydrake.multibody.tree import RotationalInertia, SpatialInertia
+        return SpatialInertia.MakeFromCentralInertia(SLIDE_MASS * body.mass, np.zeros(3), RotationalInertia(0, 0, 0)) \
+            if self._continuous else SpatialInertia.Zero()
 
     def _joint(self, plant, body: Body, rigid, joint):
         """Hang the body on the scene joint: frame F on the world at the anchor, world-aligned,
@@ -678,7 +753,7 @@ def _materials(scene: Scene, dt: float, approximation: str, contact_model: str, 
     names = [b.name for b in scene.bodies]
     n = options["contact_steps"]
     w = math.pi / (n * dt)
-    law = "sap" if approximation == "sap" else "hunt_crossley"
+    law = {"sap": "sap", "cenic": "continuous_hunt_crossley"}.get(approximation, "hunt_crossley")
     v_ref = options.get("impact_speed", IMPACT_SPEED)
     hydro = contact_model == "hydroelastic"
     k = _point_stiffness(scene, w)
@@ -689,7 +764,7 @@ def _materials(scene: Scene, dt: float, approximation: str, contact_model: str, 
                                           "contact n dt long at impact_speed (spheres, capsules' caps)")
     else:
         record["point_contact_stiffness"] = "m w^2 per body (static: RIGID_STIFFNESS)"
-    if law == "hunt_crossley" or hydro:
+    if law != "sap" or hydro:
         record["impact_speed"] = v_ref
     # Hunt & Crossley d combines weighted by the partner's stiffness (point) or modulus
     # (hydroelastic): d = (k_b d_a + k_a d_b) / (k_a + k_b) = (c_a d_a + c_b d_b) / (c_a + c_b)
@@ -702,13 +777,17 @@ def _materials(scene: Scene, dt: float, approximation: str, contact_model: str, 
         if mat.compliance is not None:  # Hooke, elastic (_unrepresentable keeps the rest out)
             value = 0.0
             entry.update(law="hooke", k=mat.compliance.k)
+        elif law == "continuous_hunt_crossley":
+            p, reached = continuous_hunt_crossley(float(mat.e))
+            value = p / v_ref
+            entry.update(delta=p, d=value, e_reached=reached)
         else:
             p, reached = restitution_dissipation(law, float(mat.e), w * dt)
             value = p / v_ref if law == "hunt_crossley" else p / w
             entry.update({"delta": p, "d": value} if law == "hunt_crossley" else {"s": p, "tau": value})
             entry["e_reached"] = reached
         record["pairs"]["|".join(pair_key(pa.name, pb.name))] = entry
-        if law == "hunt_crossley":
+        if law != "sap":
             ca, cb = compliance[pa.name], compliance[pb.name]
             rows.append((pa.name, pb.name, ca / (ca + cb), cb / (ca + cb), value))
         else:
@@ -719,7 +798,7 @@ def _materials(scene: Scene, dt: float, approximation: str, contact_model: str, 
     props, geometry = {}, {}
     for body in scene.bodies:
         # both dissipations are set: the approximation reads its own, the other is 0
-        d = dissipation[body.name] if law == "hunt_crossley" else 0.0
+        d = dissipation[body.name] if law != "sap" else 0.0
         tau = dissipation[body.name] if law == "sap" else 0.0
         g = {"coulomb_friction": [mu[body.name], mu[body.name]], "point_contact_stiffness": k[body.name],
              "hunt_crossley_dissipation": d, "relaxation_time": tau}
@@ -862,15 +941,17 @@ class DrakeAdapter(Adapter):
     supported = ">=1.51.1,<2"
 
     def __init__(self, approximation: str = "sap", contact_model: str = "point", name: str | None = None):
-        if approximation not in _APPROXIMATIONS or contact_model not in _CONTACT_MODELS:
+        if approximation not in _APPROXIMATIONS + CONTINUOUS or contact_model not in _CONTACT_MODELS:
             raise ValueError(f"approximation {approximation!r}, contact model {contact_model!r}: choose from "
-                             f"{sorted(_APPROXIMATIONS)} and {sorted(_CONTACT_MODELS)}")
+                             f"{sorted(_APPROXIMATIONS + CONTINUOUS)} and {sorted(_CONTACT_MODELS)}")
         self.approximation, self.contact_model = approximation, contact_model
         self.name = name or ("drake-hydro" if contact_model == "hydroelastic" else f"drake-{approximation}")
         # Drake steps 0.1-0.8 ms a body: in a default run the other contact models and
         # approximations take the core families and the conformance battery (like the
         # reference's formulations); named, they run everything
         self.default_tags = None if self.name == "drake" else frozenset({"core", "conformance"})
+        if approximation in CONTINUOUS:
+            self.default_tags = frozenset()  # on demand only (on_demand)
         point = contact_model == "point"
         self.capabilities = Capabilities(
             dimensions=frozenset({2, 3}),
@@ -906,7 +987,15 @@ class DrakeAdapter(Adapter):
         if approximation != "sap":
             tunables["stiction_tolerance"] = Tunable(1e-8, 1e-2, STICTION_TOLERANCE[approximation],
                                                      "friction regularisation: slip speed (m/s) at full stiction")
+        if approximation in CONTINUOUS:
+            tunables["accuracy"] = Tunable(1e-8, 0.5, ACCURACY, "CENIC's error target (SimulatorConfig.accuracy)",
+                                           sweep=ACCURACIES)
         self.tunables = tunables
+
+    def on_demand(self, scene: Scene) -> str | None:
+        if self.approximation in CONTINUOUS:
+            return CENIC_ON_DEMAND
+        return None
 
     def version(self) -> str:
         return metadata.version("drake")

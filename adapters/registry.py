@@ -66,6 +66,8 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
                            {"name": "mujoco-speculative", "speculative": True}),
     # MuJoCo's model stepped by its Warp port in float32 (adapters/mujoco_warp_engine.py)
     "mujoco-warp": ("adapters.mujoco_warp_engine", "MuJoCoWarpAdapter", {}),
+    # MuJoCo's model stepped by MJX, its JAX port, in float32 on the CPU (adapters/mjx_engine.py)
+    "mujoco-mjx": ("adapters.mjx_engine", "MjxAdapter", {}),
     "pymunk": ("adapters.pymunk_engine", "PymunkAdapter", {}),
     # a 1 mm collision slop: stacks stand at 60 Hz, bodies rest 1 mm deep (pymunk_engine.py)
     "pymunk-slop1mm": ("adapters.pymunk_engine", "PymunkAdapter", {"name": "pymunk-slop1mm", "collision_slop": 1e-3}),
@@ -95,6 +97,9 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "drake-tamsi": ("adapters.drake_engine", "DrakeAdapter", {"approximation": "tamsi"}),
     "drake-hydro": ("adapters.drake_engine", "DrakeAdapter",
                     {"approximation": "sap", "contact_model": "hydroelastic"}),
+    # the continuous plant integrated by CENIC, Drake's error-controlled convex integrator (ICF
+    # contact, Hunt & Crossley): its accuracy target, not dt, sets the error
+    "drake-cenic": ("adapters.drake_engine", "DrakeAdapter", {"approximation": "cenic"}),
     # Newton's rigid-body solvers, each its own engine (adapters/newton_engine.py)
     "newton-xpbd": ("adapters.newton_engine", "NewtonAdapter", {"solver": "xpbd"}),
     "newton-semi-implicit": ("adapters.newton_engine", "NewtonAdapter", {"solver": "semi-implicit"}),
@@ -108,7 +113,8 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     "genesis-defaults": ("adapters.genesis_engine", "GenesisAdapter", {"configuration": "defaults"}),
 }
 # The pip extra that installs each built-in engine's package (README, pyproject.toml).
-EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "mujoco-warp": "mujoco-warp", "pymunk": "pymunk", "dart": "dart",
+EXTRAS = {"pybullet": "pybullet", "mujoco": "mujoco", "mujoco-warp": "mujoco-warp", "mujoco-mjx": "mjx",
+          "pymunk": "pymunk", "dart": "dart",
           "box2d": "box2d", "box3d": "box3d", "rapier": "rapier", "drake": "drake", "newton": "newton",
           "physx": "physx", "genesis": "genesis"}
 

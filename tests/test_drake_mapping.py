@@ -100,7 +100,7 @@ def test_mapping_inverts_the_rebound(law, e):
         assert de.rebound_ratio(law, a, p) == reached
 
 
-def _throw(engine: str, e: float, phase: float, v: float = 1.0, dt: float = 1e-3, n: int = 16):
+def _throw(engine: str, e: float, phase: float, v: float = 1.0, dt: float = 1e-3, n: int = 16, **options):
     """A 0.5 kg ball thrown down at v, no gravity, starting so that its first contact step
     begins with the penetration phase * v dt; returns the rebound ratio and the knobs."""
     R, steps_before = 0.05, 10
@@ -108,7 +108,7 @@ def _throw(engine: str, e: float, phase: float, v: float = 1.0, dt: float = 1e-3
     scene = Scene(bodies=(ground(), Body("ball", Sphere(R), mass=0.5, position=(0, 0, R + gap),
                                          velocity=(0, 0, -v), rotates=False)),
                   gravity=(0.0, 0.0, 0.0), material=Material(e=e))
-    sim = de.DrakeAdapter(*engine.split(":")).build(scene, Settings(dt=dt, options={"contact_steps": float(n)}))
+    sim = de.DrakeAdapter(*engine.split(":")).build(scene, Settings(dt=dt, options={"contact_steps": float(n), **options}))
     with sim:
         for _ in range(steps_before + 4 * n):
             sim.step()
@@ -203,3 +203,40 @@ def test_contact_points_follow_the_contract(approximation):
                 total += on_ball
     # the landing oscillation (lightly damped, e = 0.5) makes Lagged's bound lag: 0.7 % measured
     assert total[0] == pytest.approx(-0.3 * total[2], rel=0.02)
+
+
+# --- CENIC: the continuous law, integrated to an accuracy target ------------------------------
+
+@pytest.mark.parametrize("e", [0.05, 0.2, 0.5, 0.9, 0.99])
+def test_continuous_mapping_inverts_the_closed_form(e):
+    # the adapter bisects G(delta) = G(-delta e); the closed form above is Lambert's W
+    delta, reached = de.continuous_hunt_crossley(e)
+    assert reached == e
+    assert hunt_crossley_closed_form(delta) == pytest.approx(e, abs=1e-9)
+
+
+def test_continuous_mapping_ends():
+    assert de.continuous_hunt_crossley(1.0) == (0.0, 1.0)  # elastic: no dissipation
+    delta, reached = de.continuous_hunt_crossley(0.0)      # e = 0 needs infinite d: the floor's
+    assert reached == de.E_FLOOR and hunt_crossley_closed_form(delta) == pytest.approx(de.E_FLOOR, abs=1e-9)
+
+
+def test_cenic_converges_to_the_continuous_law_as_its_accuracy_tightens():
+    """A throw at impact_speed (where d gives e): with the 1 ms steps discrete ICF takes
+    (accuracy 1e-3: error control never shortens one) the contact loses what backward Euler
+    loses; at 1e-8 CENIC integrates the continuous law, whose rebound is e (to 2e-3, the
+    first-order error left at that target, measured 4e-4)."""
+    e = 0.5
+    loose, _ = _throw("cenic", e, 0.37, accuracy=1e-3)
+    tight, knobs = _throw("cenic", e, 0.37, accuracy=1e-8)
+    assert knobs["Simulator"]["integration_scheme"] == "cenic" and knobs["MultibodyPlant"]["time_step"] == 0.0
+    assert knobs["contact_map"]["law"] == "continuous_hunt_crossley"
+    assert tight == pytest.approx(e, abs=2e-3)
+    assert loose < tight - 0.03  # the fixed steps dissipate (measured 0.457): what the accuracy axis shows
+
+
+def test_cenic_accuracy_is_a_sweep_axis_within_its_range():
+    t = de.DrakeAdapter("cenic").tunables["accuracy"]
+    assert t.default == de.ACCURACY and t.sweep == de.ACCURACIES
+    assert all(t.low <= x <= t.high for x in t.sweep)
+    assert "accuracy" not in de.DrakeAdapter("sap").tunables

@@ -108,7 +108,19 @@ def _drake(sim, record) -> dict:
     return {("MultibodyPlant", "time_step"): plant.time_step(),
             ("MultibodyPlant", "discrete_contact_approximation"):
                 str(plant.get_discrete_contact_approximation()).split(".")[-1],
-            ("MultibodyPlant", "contact_model"): str(plant.get_contact_model()).split(".")[-1]}
+            ("MultibodyPlant", "contact_model"): str(plant.get_contact_model()).split(".")[-1],
+            **_drake_integrator(sim, record)}
+
+
+def _drake_integrator(sim, record) -> dict:
+    """A continuous plant's integrator (drake-cenic), read back from the simulator."""
+    if "Simulator" not in record:
+        return {}
+    from pydrake.systems.analysis import ExtractSimulatorConfig
+    config = ExtractSimulatorConfig(sim._simulator)
+    return {("Simulator", "integration_scheme"): config.integration_scheme,
+            ("Simulator", "accuracy"): config.accuracy, ("Simulator", "max_step_size"): config.max_step_size,
+            ("Simulator", "use_error_control"): config.use_error_control}
 
 
 def _pymunk(sim, record) -> dict:

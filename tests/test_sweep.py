@@ -37,6 +37,25 @@ def test_default_points_cover_six_time_steps_and_five_iteration_counts():
     assert len({p.key for p in pts}) == len(pts)
 
 
+def test_an_accuracy_target_is_an_axis_of_its_own_at_the_family_dt(monkeypatch):
+    """An engine whose Tunable names sweep values (Drake's CENIC: its accuracy target) gets a
+    point per value at the family's dt and default iterations; the others get none."""
+    import copy
+    from adapters.base import Tunable
+    fake = copy.copy(RESOLVER.adapter("reference"))
+    fake.tunables = {**fake.tunables, "accuracy": Tunable(1e-9, 1.0, 1e-3, "error target", sweep=(1e-2, 1e-4))}
+    plain = sweep.points(sweep.sweep_variants(FAMS, ["central_impact"]), ["reference"], RESOLVER)
+    monkeypatch.setattr(RESOLVER, "adapter", lambda name: fake)
+    pts = sweep.points(sweep.sweep_variants(FAMS, ["central_impact"]), ["reference"], RESOLVER)
+    swept = [p for p in pts if p.options]
+    assert not any(p.options for p in plain) and len(pts) == len(plain) + len(swept)
+    assert {p.options for p in swept} == {(("accuracy", 1e-2),), (("accuracy", 1e-4),)}
+    assert all(p.dt == FAMS[p.family].dt_for(p.variant.params) and p.iterations is None for p in swept)
+    assert len({p.key for p in pts}) == len(pts)
+    assert {sweep.setting_of(p.options) for p in swept} == {"accuracy=0.01", "accuracy=0.0001"}
+    assert sweep.setting_of(()) == sweep.DEFAULT_SETTING
+
+
 def test_cluster_batches_hold_enough_steps_to_outweigh_scheduling():
     pts = sweep.points(sweep.sweep_variants(FAMS, ["central_impact"]), ["reference"], RESOLVER)
     ex = DaskExecutor.__new__(DaskExecutor)  # batching needs no connection

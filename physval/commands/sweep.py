@@ -46,7 +46,8 @@ def run(args) -> int:
     engines = options.engines_of(args, ctx, options.fast_engines(ctx))
     out = options.held(args, options.output_folder(args.out))
     options.check_scheduler(args.scheduler)
-    jobs = points(chosen, engines, resolver, full=args.full, repeats=args.repeats)
+    # engines named with --engines sweep every chosen variant, those run only on demand included
+    jobs = points(chosen, engines, resolver, full=args.full, repeats=args.repeats, named=args.engines is not None)
     if not jobs:
         raise options.UsageError(f"the selection has no sweep point: no selected engine ({', '.join(engines)}) can run "
                              f"the selected variants ({', '.join(chosen)})")

@@ -502,7 +502,8 @@ def user_sources(files) -> list[Path]:
 # Engines' own caches kept in physval's cache folder: environment variable -> subfolder. The
 # engine reads its variable itself (adapters never import the harness); a value the user set
 # is left as it is.
-ENGINE_CACHES = {"WARP_CACHE_PATH": "warp"}  # Warp's compiled kernels (MuJoCo Warp): ~1 min to build
+# Warp's compiled kernels (MuJoCo Warp): ~1 min to build; JAX's compiled programs (MJX): seconds a model shape
+ENGINE_CACHES = {"WARP_CACHE_PATH": "warp", "JAX_COMPILATION_CACHE_DIR": "jax"}
 
 
 def engine_caches() -> None:

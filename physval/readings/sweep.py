@@ -1,7 +1,9 @@
 """`physval sweep`: what accuracy costs in time.
 
 For each case family (its `sweep_variants`) and engine, vary the time step and, where the
-engine has one, the solver iteration count; at each point record every check's error
+engine has one, the solver iteration count and its accuracy target (an error-controlled
+integrator's, as Drake's CENIC: the values its `Tunable.sweep` names, at the family's dt);
+at each point record every check's error
 exactly as in the case's verdicts and the honest cost: wall time of stepping only per
 simulated second, scene construction and a warm-up excluded, the minimum over repeats.
 
@@ -34,7 +36,8 @@ DTS = (1 / 60, 1 / 120, 1 / 240, 1e-3, 3e-4, 1e-4)
 ITERATIONS = (1, 2, 5, 10, 50)
 REPEATS = 3
 FLOOR = 1e-12  # errors below this (in tolerances) are round-off: left out of slope fits
-SWEEP_COLUMNS = COLUMNS + ["iterations_asked", "warmup_steps", "repeat_wall_s", "wall_per_sim_s"]
+SWEEP_COLUMNS = COLUMNS + ["iterations_asked", "setting_asked", "warmup_steps", "repeat_wall_s", "wall_per_sim_s"]
+DEFAULT_SETTING = "default"  # a point at the engine's own options (no swept Tunable)
 
 
 def warmup_steps(n: int) -> int:
@@ -50,6 +53,7 @@ class Timing(Probe):
         self.repeats = int(dict(job.probe_args).get("repeats", REPEATS))
         self.warmup = job.warmup
         self.asked = "default" if job.iterations is None else job.iterations
+        self.setting = setting_of(job.options)
 
     def after(self, run, sim, rebuild) -> dict:
         walls = [run.wall_s]
@@ -62,16 +66,23 @@ class Timing(Probe):
                     again.step()
                 walls.append(time.perf_counter() - t0)
         timed = (run.steps - self.warmup) * run.trajectory.dt
-        return {"iterations_asked": self.asked, "warmup_steps": self.warmup, "repeat_wall_s": json.dumps([round(w, 9) for w in walls]),
+        return {"iterations_asked": self.asked, "setting_asked": self.setting, "warmup_steps": self.warmup, "repeat_wall_s": json.dumps([round(w, 9) for w in walls]),
                 "wall_per_sim_s": min(walls) / timed}
 
 
+def setting_of(options) -> str:
+    """A point's swept engine setting as text ("accuracy=1e-06"), DEFAULT_SETTING for none."""
+    return ";".join(f"{k}={v:g}" for k, v in options) or DEFAULT_SETTING
+
+
 def points(chosen: dict, engines: list[str], resolver, full: bool = False, dts=DTS, iterations=ITERATIONS,
-           repeats: int = REPEATS) -> list[Job]:
+           repeats: int = REPEATS, named: bool = False) -> list[Job]:
     """Every point of the sweep as a job. By default two axes through each engine's
     defaults: dt over `dts` at the default iterations, and iterations over `iterations` at
-    the family's dt; `full` takes the whole dt x iterations grid. Points an engine cannot
-    represent, or declares too slow for a default run, are left out."""
+    the family's dt, and each swept engine setting (`Tunable.sweep`: an accuracy target) over
+    its values at the family's dt; `full` takes the whole dt x iterations grid. Points an
+    engine cannot represent, or (unless the engines were `named`) declares too slow for a
+    default run, are left out."""
     out = []
     for name, variants in chosen.items():
         fam = resolver.family(name)
@@ -83,13 +94,17 @@ def points(chosen: dict, engines: list[str], resolver, full: bool = False, dts=D
             its = list(iterations) if adapter.capabilities.iterations else []
             for v in variants:
                 scene = fam.scene(v.params)
-                if adapter.capabilities.cannot_run(scene, fam.needs_of(v.params)) or adapter.deferred(scene, fam.tags):
+                if adapter.capabilities.cannot_run(scene, fam.needs_of(v.params)) or \
+                        (not named and adapter.deferred(scene, fam.tags)):
                     continue
                 grid = {(dt, None) for dt in dts}
                 grid |= {(dt, it) for dt in dts for it in its} if full else {(fam.dt_for(v.params), it) for it in its}
-                for dt, it in sorted(grid, key=lambda g: (-g[0], g[1] or 0)):
-                    job = Job(name, v, eng, dt, it, probe=f"{__name__}:Timing", probe_args=(("repeats", repeats),))
-                    out.append(Job(name, v, eng, dt, it, probe=job.probe, probe_args=job.probe_args,
+                grid = {(dt, it, ()) for dt, it in grid}
+                grid |= {(fam.dt_for(v.params), None, ((knob, float(x)),))
+                         for knob, t in adapter.tunables.items() for x in t.sweep}
+                for dt, it, opts in sorted(grid, key=lambda g: (-g[0], g[1] or 0, g[2])):
+                    job = Job(name, v, eng, dt, it, opts, probe=f"{__name__}:Timing", probe_args=(("repeats", repeats),))
+                    out.append(Job(name, v, eng, dt, it, opts, probe=job.probe, probe_args=job.probe_args,
                                    warmup=warmup_steps(steps_of(job, fam))))
     return out
 
@@ -120,7 +135,7 @@ def point_table(df: pd.DataFrame, fams: dict) -> pd.DataFrame:
             worst = max(errs)
         cost = pd.to_numeric(first.get("wall_per_sim_s", math.nan), errors="coerce")
         out.append({"point": key, "case": first.case, "variant": first.variant, "engine": first.engine,
-                    "dt": float(first["dt"]), "iterations": _asked(first),
+                    "dt": float(first["dt"]), "iterations": _asked(first), "setting": _setting(first),
                     "iterations_in_force": str(first.iterations),
                     "cost_us_per_sim_s": float(cost) * 1e6, "worst_over_tol": worst,
                     "status": "ok" if ok.all() else grp.status.iloc[0],
@@ -137,6 +152,11 @@ def _asked(row) -> str:
     return str(asked)
 
 
+def _setting(row) -> str:
+    asked = row.get("setting_asked", "")
+    return DEFAULT_SETTING if pd.isna(asked) or asked == "" else str(asked)
+
+
 def pareto_front(points: pd.DataFrame) -> pd.DataFrame:
     """The points no cheaper point beats in accuracy: the cheapest way to each accuracy."""
     good = points[np.isfinite(points.worst_over_tol) & np.isfinite(points.cost_us_per_sim_s)]
@@ -149,7 +169,9 @@ def pareto_front(points: pd.DataFrame) -> pd.DataFrame:
 
 
 def _default_iterations(pts: pd.DataFrame) -> pd.DataFrame:
-    return pts[pts.iterations == "default"]
+    """The dt axis: the points at the engine's default iterations and settings."""
+    setting = pts.setting if "setting" in pts else DEFAULT_SETTING
+    return pts[(pts.iterations == "default") & (setting == DEFAULT_SETTING)]
 
 
 def completed(pts: pd.DataFrame) -> pd.DataFrame:
@@ -179,7 +201,8 @@ def summary(points: pd.DataFrame) -> pd.DataFrame:
                "points": len(pts), "failed_points": int((pts.status != "ok").sum())}
         if len(reach):
             r = reach.iloc[0]
-            row.update(reach_dt=r["dt"], reach_iterations=r.iterations, reach_cost_us_per_sim_s=r.cost_us_per_sim_s)
+            row.update(reach_dt=r["dt"], reach_iterations=r.iterations, reach_cost_us_per_sim_s=r.cost_us_per_sim_s,
+                       reach_setting=r.get("setting", DEFAULT_SETTING))
         out.append(row)
     return pd.DataFrame(out)
 
@@ -189,6 +212,7 @@ def _reached(s) -> str:
     close the best point came."""
     if isinstance(s.get("reach_dt"), float) and math.isfinite(s.reach_dt):
         its = "" if s.reach_iterations == "default" else f", {s.reach_iterations} it."
+        its += "" if s.get("reach_setting", DEFAULT_SETTING) in (DEFAULT_SETTING, None) else f", {s.reach_setting}"
         return f"dt <= {s.reach_dt:.3g} s{its}: {s.reach_cost_us_per_sim_s:,.0f} us"
     if math.isfinite(s.best_over_tol):
         return f"never; best {s.best_over_tol:.3g} tol"
@@ -207,6 +231,7 @@ def sentence(s) -> str:
     what = f"`{s.case}[{s.variant}]` on **{s.engine}**"
     if isinstance(s.get("reach_dt"), float) and math.isfinite(s.reach_dt):
         its = "" if s.reach_iterations == "default" else f" with {s.reach_iterations} iterations"
+        its += "" if s.get("reach_setting", DEFAULT_SETTING) in (DEFAULT_SETTING, None) else f" at {s.reach_setting}"
         return (f"- {what}: to reach the case's tolerances it needs dt <= {s.reach_dt:.3g} s{its}, "
                 f"at {s.reach_cost_us_per_sim_s:,.0f} us per simulated second.")
     if math.isfinite(s.best_over_tol):
@@ -229,8 +254,12 @@ def plot_cost(points: pd.DataFrame, case: str, variant: str, path: Path) -> None
         axis = _default_iterations(pts).sort_values("dt", ascending=False)
         ax.plot(axis.cost_us_per_sim_s, np.clip(axis.worst_over_tol, FLOOR, None), "-", label=eng, ms=4,
                 **styles[eng])
-        its = pts[~pts.index.isin(axis.index)]
+        swept = pts.setting != DEFAULT_SETTING if "setting" in pts else pd.Series(False, index=pts.index)
+        its = pts[~pts.index.isin(axis.index) & ~swept]
         ax.plot(its.cost_us_per_sim_s, np.clip(its.worst_over_tol, FLOOR, None), "s", mfc="none", color=colour, ms=5)
+        setting = pts[swept].sort_values("cost_us_per_sim_s")
+        ax.plot(setting.cost_us_per_sim_s, np.clip(setting.worst_over_tol, FLOOR, None), "^:", mfc="none",
+                color=colour, ms=5, lw=0.8)
         front = pareto_front(pts)
         ax.plot(front.cost_us_per_sim_s, np.clip(front.worst_over_tol, FLOOR, None), "--", color=colour, lw=0.8)
     ax.axhline(1.0, color="black", lw=0.8, ls=":")
@@ -238,7 +267,8 @@ def plot_cost(points: pd.DataFrame, case: str, variant: str, path: Path) -> None
     ax.set_yscale("log")
     ax.set_xlabel("cost: wall us per simulated second (stepping only, min of repeats)")
     ax.set_ylabel("worst error / tolerance")
-    ax.set_title(f"{case}[{variant}]: error against cost\n(filled: dt axis; open squares: iterations; dashed: Pareto front)",
+    ax.set_title(f"{case}[{variant}]: error against cost\n(filled: dt axis; open squares: iterations; "
+                 "open triangles: accuracy target; dashed: Pareto front)",
                  fontsize=9)
     ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))  # beside: up to ~20 engines
     save_figure(fig, path)
@@ -277,7 +307,7 @@ def write_report(rows: list[dict], fams: dict, out: Path, command: str = "", com
     out = Path(out)
     df = pd.DataFrame(rows)
     pts = point_table(df, fams) if len(df) else pd.DataFrame(
-        columns=["point", "case", "variant", "engine", "dt", "iterations", "cost_us_per_sim_s", "worst_over_tol",
+        columns=["point", "case", "variant", "engine", "dt", "iterations", "setting", "cost_us_per_sim_s", "worst_over_tol",
                  "status", "reason"])
     write_atomic(out / "sweep_points.csv", pts.to_csv(index=False))
     summ = summary(pts) if len(pts) else pd.DataFrame()
@@ -291,7 +321,7 @@ def write_report(rows: list[dict], fams: dict, out: Path, command: str = "", com
               "minimum over repeats). Error is each point's worst check in units of its tolerance at the "
               "family's default dt; every check's own error is in `sweep.csv`.", ""]
     if len(summ):
-        lines += ["## Summary", "", "Each cell: the cheapest time step (and iterations, where not the default) "
+        lines += ["## Summary", "", "Each cell: the cheapest time step (and iterations or accuracy target, where not the default) "
                   "whose every check is within its tolerance, and its cost in microseconds of wall time per "
                   "simulated second; `never`: no setting reached the tolerances, and how close the best came.", "",
                   md_table(summary_table(summ)), ""]
@@ -317,6 +347,6 @@ def write_report(rows: list[dict], fams: dict, out: Path, command: str = "", com
     bad = pts[pts.status != "ok"] if len(pts) else pts
     if len(bad):
         lines += ["## Points that did not complete", "",
-                  md_table(bad[["engine", "case", "variant", "dt", "iterations", "status", "reason"]]), ""]
+                  md_table(bad[["engine", "case", "variant", "dt", "iterations", "setting", "status", "reason"]]), ""]
     write_atomic(out / "sweep_report.md", "\n".join(lines))
     return summ
