@@ -58,7 +58,7 @@ def test_a_slider_between_two_bodies_slides_along_the_parent_turning_with_it(for
     of the arm under it, which moves with the arm: the exact derivative of the travel)."""
     world = world_of(formulation, gravity=(0.0, 0.0, 0.0))
     arm = world.add(RigidBody("arm", Box((0.5, 0.02, 0.02)), 1.0, (1e-3, 0.1, 0.1), x=(0.5, 0.0, 0.0),
-                              w=(0.0, 2.0, 0.0)))
+                              v=(0.0, 0.0, -1.0), w=(0.0, 2.0, 0.0)))
     ball = world.add(RigidBody("ball", Sphere(0.03), 0.2, (1e-4,) * 3, x=(0.3, 0.0, 0.0), v=(0.0, 0.0, -0.6)))
     world.join("revolute", arm, None, anchor=(0.0, 0.0, 0.0), axis=(0.0, 1.0, 0.0))
     world.join("prismatic", ball, arm, anchor=(0.3, 0.0, 0.0), axis=(1.0, 0.0, 0.0))
