@@ -255,6 +255,14 @@ class ReferenceSimulation(Simulation):
             fx.add("rotation")
         if world.joints:
             fx.add("joint")
+            if any(np.isfinite(j.limits).any() for j in world.joints):
+                fx.add("limit")
+                if any(j.limit_e > 0.0 for j in world.joints):
+                    fx.add("limit_restitution")
+            if any(j.friction > 0.0 for j in world.joints):
+                fx.add("joint_friction")
+        if any(any(c != 0.0 for c in (*f, *t)) for f, t in world.loads.values()):
+            fx.add("load")
         return frozenset(fx)
 
     @property

@@ -73,6 +73,7 @@ import numpy as np
 from reference_impl import joints as joint_rows
 from reference_impl.compiled import njit
 from reference_impl.contact import K as K_, MASS, apply, velocity
+from reference_impl.lcp import BOXED
 from reference_impl.vectors import copy
 
 CONTACT_TORQUES = True  # models rolling resistance and torsional friction (torque rows)
@@ -135,7 +136,7 @@ def _solve(contacts, bodies, settings, links) -> int:
         any_warm = any_warm or c.warm[j]
     if settings.warm_start and not any_warm and 0 < n_rows <= settings.cold_start_rows:
         stages |= COLD_START
-        _least_squares_start(contacts, bodies)
+        _least_squares_start(contacts, bodies, links)
     warm = False
     for j in range(C):
         warm = warm or (settings.warm_start and c.Pn[j] != 0.0)
@@ -277,9 +278,13 @@ def _friction(k, first, count, a, b, J, K, mass, P, mu, v, w, pyramid) -> float:
     return max(abs(d1) * K[t1], abs(d2) * K[t2])
 
 @njit
-def _least_squares_start(contacts, bodies) -> None:
+def _least_squares_start(contacts, bodies, links=None) -> None:
     """Pn, Pt = the minimum-norm P of J M^-1 J^T P = v_target - J v (rows: each contact's
-    normal, then its tangents; tangent targets 0), then Pn >= 0 and |Pt| <= mu Pn."""
+    normal, then its tangents; tangent targets 0), then Pn >= 0 and |Pt| <= mu Pn. With
+    the joints' `links`, their rows join the system (targets joints.target, a limit row
+    that cannot act this step left out) and their impulses start from it too, clamped to
+    their bounds: a contact's share of a load a joint carries (a grasp's pads on their
+    sliders) is then that of the joined system, not of free bodies."""
     c, C, N = contacts, len(contacts.a), len(bodies.x)
     column = np.full(N, -1, np.int64)  # body -> its 6 columns (v, w) in J; static bodies have none
     n_rows, used = 0, 0
@@ -289,6 +294,14 @@ def _least_squares_start(contacts, bodies) -> None:
             if not bodies.static[body] and column[body] < 0:
                 column[body] = 6 * used
                 used += 1
+    contact_rows = n_rows
+    if links is not None:
+        n_rows += len(links.P)
+        for k in range(len(links.P)):
+            for body in (links.rows.a[k], links.rows.b[k]):
+                if body != -1 and not bodies.static[body] and column[body] < 0:
+                    column[body] = 6 * used
+                    used += 1
     J = np.zeros((n_rows, 6 * used))
     W = np.zeros_like(J)  # rows of M^-1 J^T
     rhs = np.empty(n_rows)
@@ -306,9 +319,33 @@ def _least_squares_start(contacts, bodies) -> None:
             rhs[k] = (c.target[j] if r == 0 else 0.0) - velocity(row, bodies.v[a], bodies.w[a], bodies.v[b],
                                                                   bodies.w[b])
             k += 1
+    if links is not None:
+        rows = links.rows
+        for m in range(len(links.P)):
+            rhs[k + m] = 0.0
+            if links.target[m] == -np.inf:  # cannot act this step: a zero row
+                continue
+            speed = 0.0
+            for side in range(2):  # body a, then b
+                body = rows.a[m] if side == 0 else rows.b[m]
+                G, M_G = (rows.J_a[m], links.W_a[m]) if side == 0 else (rows.J_b[m], links.W_b[m])
+                if body != -1 and column[body] >= 0:
+                    for e in range(3):
+                        J[k + m, column[body] + e], W[k + m, column[body] + e] = G[e], M_G[e]
+                        J[k + m, column[body] + 3 + e], W[k + m, column[body] + 3 + e] = G[3 + e], M_G[3 + e]
+                        speed += G[e] * bodies.v[body, e] + G[3 + e] * bodies.w[body, e]
+            rhs[k + m] = links.target[m] - speed
     # rcond: drop the exact null space (the indeterminate split among a face's corners),
     # keep every physical mode (the stiffest-to-softest ratio of a ten-box stack is ~1e-4)
     P = np.linalg.lstsq(J @ W.T, rhs, rcond=1e-10)[0]
+    if links is not None:
+        for m in range(len(links.P)):
+            lam, nk = P[contact_rows + m], links.rows.normal[m]
+            if nk == BOXED:
+                lam = max(-links.rows.mu[m], min(links.rows.mu[m], lam))
+            elif nk >= 0:
+                lam = max(lam, 0.0)
+            links.P[m] = lam
     k = 0
     for j in range(C):
         nt = c.n_tangents[j]
