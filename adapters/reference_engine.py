@@ -76,10 +76,13 @@ class ReferenceAdapter(Adapter):
         why_not=(("threads", "the reference steps on one thread: it has no pool"),
                  ("polygon", "the reference's 2D narrow phase is closed-form for circles and rects only; its GJK "
                              "(reference_impl/gjk.py) takes 3D shapes"),
-                 ("joint", "this formulation solves contact rows only: ball and revolute joints are equality rows "
-                           "of 'pgs', 'spook' and 'lemke' (reference_impl/joints.py); the sequential impulses' "
-                           "joint rows and prismatic and fixed joints are not written yet (issue 39, item 2)"),
-                 ("load", "the reference's step applies gravity as its only external force")),
+                 ("joint", "this formulation solves contact rows only: joints are rows of the sequential impulses "
+                           "('si'), 'pgs', 'lemke' and 'spook' (reference_impl/joints.py)"),
+                 ("limit_restitution", "SPOOK (note 004) is inelastic: a limit row, as a contact, is a critically "
+                                       "damped spring-constraint, which cannot bounce")),
+        # constant forces and torques, integrated with gravity before every formulation's solve
+        # (reference_impl/world.py, World.load)
+        loads=True,
     )
 
     def __init__(self, formulation: str = "si", name: str | None = None, params: dict | None = None):
@@ -97,9 +100,13 @@ class ReferenceAdapter(Adapter):
         self.capabilities = replace(self.capabilities, impact_model=IMPACT_MODEL.get(formulation, "simultaneous"))
         if formulation != "si":  # only the sequential impulses have torque rows
             self.capabilities = replace(self.capabilities, contact_torques=frozenset())
-        joints = getattr(find_formulation(formulation), "JOINT_KINDS", frozenset())
-        if joints:  # equality rows beside the contacts' (reference_impl/joints.py)
-            self.capabilities = replace(self.capabilities, joints=joints, coordinates="maximal")
+        module = find_formulation(formulation)
+        joints = getattr(module, "JOINT_KINDS", frozenset())
+        if joints:  # rows beside the contacts' (reference_impl/joints.py)
+            self.capabilities = replace(self.capabilities, joints=joints, coordinates="maximal",
+                                        joint_limits=getattr(module, "JOINT_LIMITS", False),
+                                        joint_friction=getattr(module, "JOINT_FRICTION", False),
+                                        limit_restitution=getattr(module, "LIMIT_RESTITUTION", False))
         if formulation == "compliant":  # the one force law it is configured with
             law = self.params.get("compliant_law", "hertz")
             self.capabilities = replace(self.capabilities, contact_laws=frozenset({law}))
@@ -183,7 +190,9 @@ class ReferenceSimulation(Simulation):
             world.set_material(by_name[a], by_name[b], _material(m))
         for j in scene.joints:
             world.join(j.kind, by_name[j.body], None if j.parent is None else by_name[j.parent], j.anchor,
-                       j.unit_axis)
+                       j.unit_axis, j.limits, j.limit_e, j.friction)
+        for load in scene.loads:
+            world.load(by_name[load.body], load.force, load.torque)
         reason = world.unsupported()
         if reason:
             raise Unsupported(f"formulation {config.formulation!r}: {reason}")
@@ -252,6 +261,14 @@ class ReferenceSimulation(Simulation):
             fx.add("rotation")
         if world.joints:
             fx.add("joint")
+            if any(np.isfinite(j.limits).any() for j in world.joints):
+                fx.add("limit")
+                if any(j.limit_e > 0.0 for j in world.joints):
+                    fx.add("limit_restitution")
+            if any(j.friction > 0.0 for j in world.joints):
+                fx.add("joint_friction")
+        if any(any(c != 0.0 for c in (*f, *t)) for f, t in world.loads.values()):
+            fx.add("load")
         return frozenset(fx)
 
     @property

@@ -23,7 +23,8 @@ Modules:
 - `broadphase`  sort-and-sweep along one axis (note 001, "broad phase sweep")
 - `contact`     contacts and their constraint rows (normal, tangents), `r x n` terms, effective mass
 - `sequential_impulses`  the default formulation "si" (note 001, "sequential impulses")
-- `joints`      ball and revolute joints as equality rows beside the contact rows
+- `joints`      ball, revolute, prismatic and fixed joints as rows beside the contact rows
+                (limits unilateral, joint friction boxed)
 - `world`       `World`: bodies, pair materials, gravity, joints (`join`); `step(dt)`
 
 One step (`World.step`: `world.begin`, then `world.end`; note 001, "simulation loop"):
@@ -35,7 +36,8 @@ One step (`World.step`: `world.begin`, then `world.end`; note 001, "simulation l
    only late in the step are left to the next one), whether it `sticks`, and, with
    `config.warm_start`, last step's impulses of the same contact (same bodies, same
    feature id) in `Pn` / `Pt` / `Pq` (then `warm` is True);
-2. gravity: v += g dt (skipped when gravity is zero);
+2. gravity: v += g dt (skipped when gravity is zero), then the constant loads
+   (`World.load`: v += F/m dt, w += I^-1 tau dt);
 3. solve: the formulation named by `config.formulation` changes body velocities;
 4. integrate positions and orientations from v + vp, w + wp (pseudo-velocities, zero
    unless the formulation set them), then clear vp, wp.
@@ -75,8 +77,10 @@ Formulation interface -- one module per formulation:
 - Optional, joints: `JOINT_KINDS` (the joints.KINDS it solves) and, compiled,
   `solve_joints(contacts, joints, bodies, dt, settings) -> int`, which `world.end` calls
   in place of `solve` for a world with joints (joints.Joints: their rows and position
-  errors made at the step's start, their impulses kept in `P` for the warm start). A
-  formulation without them refuses a world with joints (World.unsupported).
+  errors made at the step's start, their impulses kept in `P` for the warm start);
+  `JOINT_LIMITS`, `LIMIT_RESTITUTION`, `JOINT_FRICTION` (it solves limit rows, with a
+  restitution, and friction rows: joints.py). A formulation without them refuses a world
+  that asks for them (World.unsupported).
 
 Contacts (`contact.Contacts`, a struct of arrays, row j the contact j) give every
 formulation the same pieces: for each contact its bodies `a`, `b` (indices into the

@@ -189,6 +189,8 @@ def unsupported(world) -> str | None:
     law = _param(world.config, "compliant_law")
     if law not in ("hertz", "hooke"):
         return f"compliant_law = {law!r}: 'hertz' or 'hooke'"
+    if sum(not b.static for b in world.bodies) + min(1, sum(b.static for b in world.bodies)) < 2:
+        return None  # nothing can touch (one body, as a loaded free body): no contact law asked
     inelastic = sorted({m.e for m in materials if m.e != 1.0})
     if inelastic:
         return (f"restitution e = {', '.join(f'{e:g}' for e in inelastic)} asked: Hertz and Hooke "

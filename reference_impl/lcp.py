@@ -36,6 +36,9 @@ from reference_impl.contact import RA_D, RB_D, velocity
 from reference_impl.vectors import cross
 
 STATIC = -1  # body index of the static world
+# Rows.normal of a joint's rows that are no contact's (joints.py): an equality row, its
+# impulse unbounded, and a boxed row, its impulse within -+ Rows.mu (a constant bound)
+BILATERAL, BOXED = -1, -2
 
 
 class Bodies(NamedTuple):
@@ -265,11 +268,14 @@ def impact_rhs(rows: Rows, u_minus: np.ndarray) -> np.ndarray:
 def bounds(rows: Rows, gamma: np.ndarray):
     """Lower and upper bound of every row given gamma: [0, inf) on normal rows,
     [-mu gamma_n, mu gamma_n] on tangent rows (note 000, "PGS for friction"), (-inf, inf)
-    on a joint's equality rows (normal < 0, joints.py)."""
+    on a joint's equality rows (BILATERAL) and [-mu, mu] on its friction rows (BOXED)."""
     lo, hi = np.empty(len(gamma)), np.empty(len(gamma))
     for k in range(len(gamma)):
-        if rows.normal[k] < 0:  # a joint's equality row (joints.BILATERAL)
+        if rows.normal[k] == BILATERAL:
             lo[k], hi[k] = -np.inf, np.inf
+            continue
+        if rows.normal[k] == BOXED:
+            lo[k], hi[k] = -rows.mu[k], rows.mu[k]
             continue
         limit = rows.mu[k] * gamma[rows.normal[k]]
         lo[k], hi[k] = (0.0, np.inf) if rows.normal[k] == k else (-limit, limit)
@@ -401,7 +407,7 @@ def world_bias(contacts, bodies) -> np.ndarray:
 @njit
 def stack_rows(first: Rows, second: Rows) -> Rows:
     """The rows of `first`, then those of `second` (their `normal` indices moved along;
-    a joint's equality rows keep theirs, joints.BILATERAL)."""
+    a joint's equality and friction rows keep theirs, BILATERAL and BOXED)."""
     K, L = len(first.a), len(second.a)
     out = Rows(np.empty(K + L, np.int64), np.empty(K + L, np.int64), np.empty((K + L, 6)), np.empty((K + L, 6)),
                np.empty(K + L, np.int64), np.empty(K + L), np.empty(K + L))

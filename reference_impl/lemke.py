@@ -36,9 +36,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from reference_impl import lcp
+from reference_impl import joints as joint_rows, lcp
 from reference_impl.compiled import njit
-from reference_impl.lcp import Rows
+from reference_impl.lcp import BILATERAL, BOXED, Rows
 
 
 class LemkeFailure(RuntimeError):
@@ -210,19 +210,24 @@ def contact_lcp(A: np.ndarray, b: np.ndarray, rows: Rows) -> np.ndarray:
 
 @njit
 def pyramid_lcp(A, b, rows, tally) -> np.ndarray:
-    """contact_lcp, counting into `tally` (lemke_or_retry)."""
+    """contact_lcp, counting into `tally` (lemke_or_retry). A joint's friction row (BOXED,
+    joints.py) is a one-row pyramid whose bound is its own constant Rows.mu: two beta
+    (+-its direction) and a slack speed lambda with w_l = mu - E^T beta (the constant in q
+    where a contact has mu gamma_n); such rows come after every contact's tangent rows."""
     K = len(rows.a)
     n_tangents = np.zeros(K, np.int64)  # per normal row; rows come as a normal row, then its tangents
     for k in range(K):
-        if rows.normal[k] != k:
+        if rows.normal[k] >= 0 and rows.normal[k] != k:
             n_tangents[rows.normal[k]] += 1
     normal_rows = np.array([k for k in range(K) if rows.normal[k] == k], dtype=np.int64)
     tangent_rows = np.array([k for k in range(K) if rows.normal[k] != k], dtype=np.int64)
+    boxed = np.array([k for k in range(K) if rows.normal[k] == BOXED], dtype=np.int64)
     if len(tangent_rows) == 0:
         return lemke_or_retry(A, -b, tally)
     frictional = np.array([j for j in range(len(normal_rows)) if n_tangents[normal_rows[j]] > 0], dtype=np.int64)
-    nn, nf = len(normal_rows), len(frictional)
-    n_beta = 0
+    nn, nc = len(normal_rows), len(frictional)
+    nf = nc + len(boxed)
+    n_beta = 2 * len(boxed)
     for j in frictional:
         n_beta += 2 if n_tangents[normal_rows[j]] == 1 else 4
     D = np.zeros((len(tangent_rows), n_beta))  # gamma_t = D beta
@@ -230,12 +235,13 @@ def pyramid_lcp(A, b, rows, tally) -> np.ndarray:
     U = np.zeros((nf, nn))                     # mu gamma_n of each frictional contact
     row = col = 0
     for c in range(nf):
-        j = frictional[c]
-        corners = CORNERS_2D if n_tangents[normal_rows[j]] == 1 else CORNERS_3D
+        corners = CORNERS_2D if c >= nc or n_tangents[normal_rows[frictional[c]]] == 1 else CORNERS_3D
         _put_block(D, row, col, corners)
         for beta in range(corners.shape[1]):
             E[col + beta, c] = 1.0
-        U[c, j] = rows.mu[normal_rows[j] + 1]
+        if c < nc:
+            j = frictional[c]
+            U[c, j] = rows.mu[normal_rows[j] + 1]
         row, col = row + corners.shape[0], col + corners.shape[1]
     A_nn, A_nt = _take(A, normal_rows, normal_rows), _take(A, normal_rows, tangent_rows)
     A_tn, A_tt = _take(A, tangent_rows, normal_rows), _take(A, tangent_rows, tangent_rows)
@@ -256,6 +262,8 @@ def pyramid_lcp(A, b, rows, tally) -> np.ndarray:
     D_b = D.T @ b_t  # -D^T b_t, negated after (exactly the same numbers)
     for i in range(n_beta):
         q[nn + i] = -D_b[i]
+    for c in range(len(boxed)):  # a joint friction row's constant bound
+        q[nn + n_beta + nc + c] = rows.mu[boxed[c]]
     z = lemke_or_retry(M, q, tally)
     gamma, t = np.zeros(K), D @ np.ascontiguousarray(z[nn:nn + n_beta])
     for i in range(nn):
@@ -284,46 +292,65 @@ def _take(A, rows, columns):
 
 
 @njit
-def mixed_lcp(A, b, rows, C, tally) -> np.ndarray:
-    """gamma of rows 0 .. C-1 (contact rows, pyramid_lcp's problem) and lambda of rows C ..
-    (a joint's equality rows, joints.py: free variables, A gamma - b = 0 there) together.
-    The free variables are eliminated (the standard reduction of a mixed LCP; note 004's
-    "mixed LCP"): lambda = A_JJ^+ (b_J - A_JC gamma), which leaves the LCP of
-    pyramid_lcp on the Schur complement A_CC - A_CJ A_JJ^+ A_JC with
-    b_C - A_CJ A_JJ^+ b_J, solved exactly. A_JJ^+ is the pseudo-inverse: a planar body's
-    rows out of its plane, and a hinge's angular rows on a ball that cannot turn, are zero."""
+def mixed_lcp(A, b, rows, tally) -> np.ndarray:
+    """gamma of the contact rows and a joint's limit and friction rows (pyramid_lcp's
+    problem) and lambda of a joint's equality rows (BILATERAL, joints.py: free variables,
+    A gamma - b = 0 there) together. The free variables are eliminated (the standard
+    reduction of a mixed LCP; note 004's "mixed LCP"): lambda = A_JJ^+ (b_J - A_JC gamma),
+    which leaves the LCP of pyramid_lcp on the Schur complement A_CC - A_CJ A_JJ^+ A_JC
+    with b_C - A_CJ A_JJ^+ b_J, solved exactly. A_JJ^+ is the pseudo-inverse: a planar
+    body's rows out of its plane, and a hinge's angular rows on a ball that cannot turn,
+    are zero. A limit row whose target is -inf (its bounce belongs to the next step,
+    joints.py) cannot act: it is left out, gamma = 0."""
     K = len(b)
-    contact, joint = np.arange(C), np.arange(C, K)
+    contact = np.array([k for k in range(K) if rows.normal[k] != BILATERAL and np.isfinite(b[k])], dtype=np.int64)
+    joint = np.array([k for k in range(K) if rows.normal[k] == BILATERAL], dtype=np.int64)
     A_CC, A_CJ, A_JC, A_JJ = _take(A, contact, contact), _take(A, contact, joint), _take(A, joint, contact), \
         _take(A, joint, joint)
     inverse = np.linalg.pinv(A_JJ)
-    b_C, b_J = b[:C].copy(), b[C:].copy()
+    b_C, b_J = b[contact], b[joint]
     gamma = np.zeros(K)
-    if C:
-        rows_C = lcp.Rows(rows.a[:C].copy(), rows.b[:C].copy(), rows.J_a[:C].copy(), rows.J_b[:C].copy(),
-                          rows.normal[:C].copy(), rows.mu[:C].copy(), rows.c_r[:C].copy())
-        gamma_C = pyramid_lcp(A_CC - A_CJ @ inverse @ A_JC, b_C - A_CJ @ (inverse @ b_J), rows_C, tally)
-        for k in range(C):
-            gamma[k] = gamma_C[k]
+    if len(contact):
+        gamma_C = pyramid_lcp(A_CC - A_CJ @ inverse @ A_JC, b_C - A_CJ @ (inverse @ b_J), _select(rows, contact),
+                              tally)
+        for k in range(len(contact)):
+            gamma[contact[k]] = gamma_C[k]
         b_J = b_J - A_JC @ gamma_C
     lam = inverse @ b_J
-    for k in range(K - C):
-        gamma[C + k] = lam[k]
+    for k in range(len(joint)):
+        gamma[joint[k]] = lam[k]
     return gamma
+
+
+@njit
+def _select(rows, index) -> Rows:
+    """The rows `index` (increasing), each tangent row's `normal` moved to its normal row's
+    new place (a row whose normal row is left out cannot be: index keeps whole contacts)."""
+    where = np.full(len(rows.a), -1, np.int64)
+    for k in range(len(index)):
+        where[index[k]] = k
+    normal = np.empty(len(index), np.int64)
+    for k in range(len(index)):
+        nk = rows.normal[index[k]]
+        normal[k] = where[nk] if nk >= 0 else nk
+    return Rows(rows.a[index], rows.b[index], rows.J_a[index], rows.J_b[index], normal, rows.mu[index],
+                rows.c_r[index])
 
 
 class Settings(NamedTuple):
     tally: np.ndarray  # lemke_or_retry's counts over the world's steps (TALLY entries)
     beta: float        # a joint's position error corrected per step (config.beta)
+    slop: float        # a joint limit's overrun left alone (config.slop), m or rad
 
 
 def settings(config) -> Settings:
-    return Settings(np.zeros(TALLY, np.int64), float(config.beta))
+    return Settings(np.zeros(TALLY, np.int64), float(config.beta), float(config.slop))
 
 
 STAGES = ("velocity", "friction", "position", "joints")
 VELOCITY, FRICTION, POSITION, JOINTS = 1, 2, 4, 8
-JOINT_KINDS = frozenset({"ball", "revolute"})  # the joints solve_joints takes (joints.py)
+JOINT_KINDS = frozenset({"ball", "revolute", "prismatic", "fixed"})  # the joints solve_joints takes (joints.py)
+JOINT_LIMITS = JOINT_FRICTION = LIMIT_RESTITUTION = True  # limit rows (with limit_e), friction rows
 
 
 @njit
@@ -347,35 +374,37 @@ def solve(contacts, bodies, dt, settings) -> int:
 
 @njit
 def solve_joints(contacts, joints, bodies, dt, settings) -> int:
-    """`solve` with the joints' equality rows (joints.py) after the contact rows, as free
-    variables of one mixed LCP (mixed_lcp), solved exactly; then the overlap repair with
-    each joint row's pseudo-velocity target -beta/dt g beside the contacts' (as pgs.py's
+    """`solve` with the joints' rows (joints.py) after the contact rows, the equality rows
+    free variables of one mixed LCP (mixed_lcp), the limit rows unilateral and the
+    friction rows boxed, solved exactly; then the overlap repair with the joint rows'
+    pseudo-velocity targets (joints.position_bias) beside the contacts' (as pgs.py's
     solve_joints)."""
     rows, data, u = lcp.world_rows(contacts, bodies)
     C, K = len(rows.a), len(joints.g)
     every = lcp.stack_rows(rows, joints.rows)
-    rhs, contact_rhs, joint_v = np.empty(C + K), lcp.world_rhs(contacts, rows, u), lcp.row_velocity(joints.rows, u)
+    rhs, contact_rhs, joint_rhs = np.empty(C + K), lcp.world_rhs(contacts, rows, u), joint_rows.rhs(joints, u)
     for k in range(C):
         rhs[k] = contact_rhs[k]
     for k in range(K):
-        rhs[C + k] = -joint_v[k]
-    gamma = mixed_lcp(lcp.delassus(every, data), rhs, every, C, settings.tally)
+        rhs[C + k] = joint_rhs[k]
+    gamma = mixed_lcp(lcp.delassus(every, data), rhs, every, settings.tally)
     lcp.apply_velocity_change(bodies, lcp.velocity_change(every, data, gamma), False)
     lcp.store_impulses(contacts, gamma[:C])
     for k in range(K):
         joints.P[k] = gamma[C + k]
     stages = VELOCITY | (FRICTION if C > len(contacts.a) else 0) | JOINTS
     overlap = lcp.world_bias(contacts, bodies)
+    joint_bias = joint_rows.position_bias(joints, settings.beta, dt, settings.slop)
     n = len(overlap)
     bias = np.empty(n + K)
     for k in range(n):
         bias[k] = overlap[k]
     for k in range(K):
-        bias[n + k] = -settings.beta / dt * joints.g[k]
+        bias[n + k] = joint_bias[k]
     if np.any(bias != 0.0):
         stages |= POSITION
-        normal = lcp.stack_rows(lcp.normal_rows(rows), joints.rows)
-        P = mixed_lcp(lcp.delassus(normal, data), bias, normal, n, settings.tally)
+        normal = lcp.stack_rows(lcp.normal_rows(rows), joint_rows.position_rows(joints))
+        P = mixed_lcp(lcp.delassus(normal, data), bias, normal, settings.tally)
         lcp.apply_velocity_change(bodies, lcp.velocity_change(normal, data, P), True)
     return stages
 
@@ -388,6 +417,7 @@ def knobs(config) -> dict:
             "friction_set": "pyramid as a friction-polyhedron LCP (corners +-t1 +-t2)",
             "restitution": "v_n+ >= contact.normal_target (-e vn0, vn0 before external forces)",
             "depenetration": "split impulse: Lemke on pseudo-velocities", "warm_start": False,
-            "joints": "ball and revolute joints as free variables of a mixed LCP, eliminated through the "
-                      "pseudo-inverse of their block (Schur complement), their position error taken back on "
-                      "pseudo-velocities (-beta/dt g)"}
+            "joints": "ball, revolute, prismatic and fixed joints as free variables of a mixed LCP, eliminated "
+                      "through the pseudo-inverse of their block (Schur complement); limits unilateral rows with a "
+                      "contact's target (limit_e its restitution), friction a one-row pyramid bounded by friction dt; "
+                      "position error taken back on pseudo-velocities (-beta/dt g)"}

@@ -19,8 +19,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from reference_impl import joints as joint_rows
 from reference_impl.compiled import njit
-from reference_impl.lcp import (Bodies, Rows, _add_at, apply_velocity_change, inverse_mass_times_rows, lanes,
+from reference_impl.lcp import (BOXED, Bodies, Rows, _add_at, apply_velocity_change, inverse_mass_times_rows, lanes,
                                 normal_rows, row_velocity, stack_rows, store_impulses, world_bias, world_impulses,
                                 world_rhs, world_rows)
 
@@ -98,7 +99,9 @@ def _sweeps(Ja, Jb, Wa, Wb, ia, ib, normal, mu, rhs, sg, dg, inv_diag, g, v, ite
             elif nk >= 0:
                 limit = mu[k] * g[nk]
                 new = -limit if new < -limit else (limit if new > limit else new)
-            # else a joint's equality row (joints.BILATERAL): unbounded, no projection
+            elif nk == BOXED:  # a joint's friction row: a constant bound
+                new = -mu[k] if new < -mu[k] else (mu[k] if new > mu[k] else new)
+            # else a joint's equality row (BILATERAL): unbounded, no projection
             d = new - g[k]
             if d != 0.0:
                 g[k] = new
@@ -118,16 +121,18 @@ class Settings(NamedTuple):
     tolerance: float          # m/s
     warm_start: bool
     beta: float               # a joint's position error corrected per step (config.beta)
+    slop: float               # a joint limit's overrun left alone (config.slop), m or rad
 
 
 def settings(config) -> Settings:
     return Settings(config.iterations, config.position_iterations, float(config.tolerance), config.warm_start,
-                    float(config.beta))
+                    float(config.beta), float(config.slop))
 
 
 STAGES = ("warm_start", "velocity", "friction", "position", "joints")
 WARM_START, VELOCITY, FRICTION, POSITION, JOINTS = (1 << k for k in range(len(STAGES)))
-JOINT_KINDS = frozenset({"ball", "revolute"})  # the joints solve_joints takes (joints.py)
+JOINT_KINDS = frozenset({"ball", "revolute", "prismatic", "fixed"})  # the joints solve_joints takes (joints.py)
+JOINT_LIMITS = JOINT_FRICTION = LIMIT_RESTITUTION = True  # limit rows (with limit_e), friction rows
 
 
 @njit
@@ -153,23 +158,24 @@ def solve(contacts, bodies, dt, settings) -> int:
 
 @njit
 def solve_joints(contacts, joints, bodies, dt, settings) -> int:
-    """`solve` with the joints' equality rows (joints.py) after the contact rows: one PGS
-    over both, a joint's row unbounded (note 000, "PGS for friction" with bounds -+inf),
-    warm started from last step's impulses of both; target G v = 0 on a joint's rows.
-    Then the overlap repair with each joint row beside the contacts' normal rows, its
-    pseudo-velocity target -beta/dt g (note 001, "de-penetration bias velocity"
-    beta/dt (delta - slop)+, for an equality both ways and without slop), so that the
-    drift of the velocity-level rows is taken back by moving positions, adding no energy."""
+    """`solve` with the joints' rows (joints.py) after the contact rows: one PGS over both
+    (note 000, "PGS for friction": an equality row unbounded, a friction row within its
+    constant bound, a limit row >= 0 as a contact's normal row), warm started from last
+    step's impulses of both; targets joints.rhs (G v = 0, a limit's contact target).
+    Then the overlap repair with the joint rows beside the contacts' normal rows, their
+    pseudo-velocity targets joints.position_bias (note 001, "joint impulses": -beta/dt g
+    for an equality, the de-penetration bias for a limit), so that the drift of the
+    velocity-level rows is taken back by moving positions, adding no energy."""
     rows, data, u = world_rows(contacts, bodies)
     C, K = len(rows.a), len(joints.g)
     every = stack_rows(rows, joints.rows)
     rhs, start = np.empty(C + K), np.empty(C + K)
-    contact_rhs, contact_start, joint_v = world_rhs(contacts, rows, u), world_impulses(contacts), \
-        row_velocity(joints.rows, u)
+    contact_rhs, contact_start, joint_rhs = world_rhs(contacts, rows, u), world_impulses(contacts), \
+        joint_rows.rhs(joints, u)
     for k in range(C):
         rhs[k], start[k] = contact_rhs[k], contact_start[k]
     for k in range(K):
-        rhs[C + k], start[C + k] = -joint_v[k], joints.P[k]
+        rhs[C + k], start[C + k] = joint_rhs[k], joints.P[k]
     warm = settings.warm_start and (np.any(contacts.Pn != 0.0) or np.any(joints.P != 0.0))
     result = gauss_seidel(every, data, rhs, settings.iterations, settings.tolerance, np.zeros(C + K), start, warm)
     apply_velocity_change(bodies, result.du, False)
@@ -177,13 +183,14 @@ def solve_joints(contacts, joints, bodies, dt, settings) -> int:
     for k in range(K):
         joints.P[k] = result.gamma[C + k]
     stages = (WARM_START if warm else 0) | VELOCITY | (FRICTION if C > len(contacts.a) else 0) | JOINTS
-    normal = stack_rows(normal_rows(rows), joints.rows)
+    normal = stack_rows(normal_rows(rows), joint_rows.position_rows(joints))
     overlap = world_bias(contacts, bodies)
+    joint_bias = joint_rows.position_bias(joints, settings.beta, dt, settings.slop)
     bias = np.empty(len(overlap) + K)
     for k in range(len(overlap)):
         bias[k] = overlap[k]
     for k in range(K):
-        bias[len(overlap) + k] = -settings.beta / dt * joints.g[k]
+        bias[len(overlap) + k] = joint_bias[k]
     if np.any(bias != 0.0):
         pseudo = gauss_seidel(normal, data, bias, settings.position_iterations, settings.tolerance,
                               np.zeros(len(bias)), bias, False)
@@ -211,6 +218,8 @@ def knobs(config) -> dict:
             "friction_set": "pyramid: |Pt_k| <= mu Pn on each tangent row (t1 along the slip when sliding)",
             "restitution": "v_n+ >= contact.normal_target (-e vn0, vn0 before external forces)",
             "depenetration": "split impulse: PGS on pseudo-velocities",
-            "joints": "ball and revolute joints as equality rows in the same PGS (unbounded impulse), their "
-                      "position error taken back on pseudo-velocities (-beta/dt g)",
+            "joints": "ball, revolute, prismatic and fixed joints as equality rows in the same PGS (unbounded "
+                      "impulse), limits as unilateral rows with a contact's target (limit_e its restitution), "
+                      "friction as a row within -+ friction dt; position error taken back on pseudo-velocities "
+                      "(-beta/dt g)",
             "iterations": config.iterations, "tolerance": config.tolerance, "warm_start": config.warm_start}

@@ -70,8 +70,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from reference_impl import joints as joint_rows
 from reference_impl.compiled import njit
 from reference_impl.contact import K as K_, MASS, apply, velocity
+from reference_impl.lcp import BOXED
 from reference_impl.vectors import copy
 
 CONTACT_TORQUES = True  # models rolling resistance and torsional friction (torque rows)
@@ -84,30 +86,57 @@ class Settings(NamedTuple):
     warm_start: bool
     cold_start_rows: int      # the least-squares cold start up to this many rows
     pyramid: bool             # config.params["friction_set"] == "pyramid"
+    beta: float               # a joint's position error corrected per step (config.beta)
+    slop: float               # a joint limit's overrun left alone (config.slop), m or rad
 
 
 def settings(config) -> Settings:
     return Settings(config.iterations, config.position_iterations, float(config.tolerance), config.warm_start,
-                    config.cold_start_rows, config.params.get("friction_set", "disc") == "pyramid")
+                    config.cold_start_rows, config.params.get("friction_set", "disc") == "pyramid",
+                    float(config.beta), float(config.slop))
 
 
 # the stages solve can run, in order (bit k of its result: STAGES[k] ran)
-STAGES = ("cold_start", "warm_start", "velocity", "friction", "torques", "position")
-COLD_START, WARM_START, VELOCITY, FRICTION, TORQUES, POSITION = (1 << k for k in range(len(STAGES)))
+STAGES = ("cold_start", "warm_start", "velocity", "friction", "torques", "position", "joints")
+COLD_START, WARM_START, VELOCITY, FRICTION, TORQUES, POSITION, JOINTS = (1 << k for k in range(len(STAGES)))
+JOINT_KINDS = frozenset({"ball", "revolute", "prismatic", "fixed"})  # the joints solve_joints takes (joints.py)
+JOINT_LIMITS = JOINT_FRICTION = LIMIT_RESTITUTION = True  # limit rows (with limit_e), friction rows
 
 
 @njit
 def solve(contacts, bodies, dt, settings) -> int:
     """The module docstring's steps on the world's contacts and bodies; returns the
     STAGES that ran."""
+    return _solve(contacts, bodies, settings, None)
+
+
+@njit
+def solve_joints(contacts, joints, bodies, dt, settings) -> int:
+    """`solve` with the joints' rows (joints.py) swept after the contacts' in every sweep
+    (note 001, "Joints": v_rel+ = 0, one row at a time; a limit row clamped >= 0 with a
+    contact's target, a friction row within -+ friction dt), warm started from their last
+    impulses, and in the position repair beside the contacts' normal rows with their
+    pseudo-velocity targets (note 001, "joint impulses": bias beta/dt (x_1 - x_2), here
+    -beta/dt g; joints.position_bias)."""
+    found = joint_rows.links(joints, bodies, settings.beta, dt, settings.slop)
+    if not settings.warm_start:
+        found.P[:] = 0.0
+    warm = np.any(found.P != 0.0)
+    return _solve(contacts, bodies, settings, found) | JOINTS | (WARM_START if warm else 0)
+
+
+@njit
+def _solve(contacts, bodies, settings, links) -> int:
+    """solve, with the joints' Links (or None: a world without joints, whose compiled
+    code then has no joint rows at all)."""
     c, C = contacts, len(contacts.a)
     stages, n_rows, any_warm = VELOCITY, 0, False
     for j in range(C):
         n_rows += 1 + c.n_tangents[j]
         any_warm = any_warm or c.warm[j]
-    if settings.warm_start and not any_warm and n_rows <= settings.cold_start_rows:
+    if settings.warm_start and not any_warm and 0 < n_rows <= settings.cold_start_rows:
         stages |= COLD_START
-        _least_squares_start(contacts, bodies)
+        _least_squares_start(contacts, bodies, links)
     warm = False
     for j in range(C):
         warm = warm or (settings.warm_start and c.Pn[j] != 0.0)
@@ -132,7 +161,7 @@ def solve(contacts, bodies, dt, settings) -> int:
             k += 1
     iterate(a, b, J, K, mass, P, c.n_tangents, c.n_rolling, c.n_torsion, c.target, c.mu, c.rolling, c.torsion,
             c.bias, bodies.v, bodies.w, bodies.vp, bodies.wp, warm, settings.pyramid, settings.iterations,
-            settings.position_iterations, settings.tolerance)
+            settings.position_iterations, settings.tolerance, links)
     k = 0
     for j in range(C):
         nt, nq = c.n_tangents[j], c.n_rolling[j] + c.n_torsion[j]
@@ -147,11 +176,14 @@ def solve(contacts, bodies, dt, settings) -> int:
 
 @njit
 def iterate(a, b, J, K, mass, P, n_tangents, n_rolling, n_torsion, target, mu, rolling, torsion, bias,
-            v, w, vp, wp, warm, pyramid, iterations, position_iterations, tolerance):
+            v, w, vp, wp, warm, pyramid, iterations, position_iterations, tolerance, links=None):
     """Steps 1 (the warm start's impulses), 2 and 3 of the module docstring, in place on
     the row impulses P, the velocities v, w and the pseudo-velocities vp, wp (per body,
     by world index). Row k joins bodies a[k] and b[k]; J[k] holds its d, r_a x d, r_b x d,
-    d / m_a, d / m_b, I_a^-1 (r_a x d), I_b^-1 (r_b x d) (contact.py's row numbers)."""
+    d / m_a, d / m_b, I_a^-1 (r_a x d), I_b^-1 (r_b x d) (contact.py's row numbers).
+    `links` (joints.Links, or None): the joints' rows, swept after the contacts' in each
+    sweep of steps 2 and 3, their impulses in links.P and links.Pp (None is pruned when
+    compiled: a world without joints runs the code it ran before joints existed)."""
     C = len(n_tangents)
     first = np.zeros(C, dtype=np.int64)  # each contact's normal row
     for j in range(1, C):
@@ -159,6 +191,8 @@ def iterate(a, b, J, K, mass, P, n_tangents, n_rolling, n_torsion, target, mu, r
     if warm:
         for k in range(len(P)):
             apply(J[k], P[k], v[a[k]], w[a[k]], v[b[k]], w[b[k]])
+    if links is not None:  # the joints' warm start (zero without one: solve_joints)
+        joint_rows.apply_impulses(links, links.P, v, w)
 
     for _ in range(iterations):
         largest = 0.0
@@ -180,10 +214,15 @@ def iterate(a, b, J, K, mass, P, n_tangents, n_rolling, n_torsion, target, mu, r
                 P[k] = Pn
                 apply(J[k], dP, v[a[k]], w[a[k]], v[b[k]], w[b[k]])
                 largest = max(largest, abs(dP) * K[k])
+        if links is not None:
+            largest = max(largest, joint_rows.sweep(links, links.P, links.target, v, w, True))
         if largest <= tolerance:
             break
 
-    if np.any(bias > 0.0):
+    repair = np.any(bias > 0.0)
+    if links is not None:
+        repair = repair or np.any(links.bias != 0.0)
+    if repair:
         targets = np.empty(C)
         for j in range(C):
             k = first[j]
@@ -200,6 +239,8 @@ def iterate(a, b, J, K, mass, P, n_tangents, n_rolling, n_torsion, target, mu, r
                     Pp[j] = P_j
                     apply(J[k], dP, vp[a[k]], wp[a[k]], vp[b[k]], wp[b[k]])
                     largest = max(largest, abs(dP) * K[k])
+            if links is not None:
+                largest = max(largest, joint_rows.sweep(links, links.Pp, links.bias, vp, wp, False))
             if largest <= tolerance:
                 break
 
@@ -237,9 +278,13 @@ def _friction(k, first, count, a, b, J, K, mass, P, mu, v, w, pyramid) -> float:
     return max(abs(d1) * K[t1], abs(d2) * K[t2])
 
 @njit
-def _least_squares_start(contacts, bodies) -> None:
+def _least_squares_start(contacts, bodies, links=None) -> None:
     """Pn, Pt = the minimum-norm P of J M^-1 J^T P = v_target - J v (rows: each contact's
-    normal, then its tangents; tangent targets 0), then Pn >= 0 and |Pt| <= mu Pn."""
+    normal, then its tangents; tangent targets 0), then Pn >= 0 and |Pt| <= mu Pn. With
+    the joints' `links`, their rows join the system (targets joints.target, a limit row
+    that cannot act this step left out) and their impulses start from it too, clamped to
+    their bounds: a contact's share of a load a joint carries (a grasp's pads on their
+    sliders) is then that of the joined system, not of free bodies."""
     c, C, N = contacts, len(contacts.a), len(bodies.x)
     column = np.full(N, -1, np.int64)  # body -> its 6 columns (v, w) in J; static bodies have none
     n_rows, used = 0, 0
@@ -249,6 +294,14 @@ def _least_squares_start(contacts, bodies) -> None:
             if not bodies.static[body] and column[body] < 0:
                 column[body] = 6 * used
                 used += 1
+    contact_rows = n_rows
+    if links is not None:
+        n_rows += len(links.P)
+        for k in range(len(links.P)):
+            for body in (links.rows.a[k], links.rows.b[k]):
+                if body != -1 and not bodies.static[body] and column[body] < 0:
+                    column[body] = 6 * used
+                    used += 1
     J = np.zeros((n_rows, 6 * used))
     W = np.zeros_like(J)  # rows of M^-1 J^T
     rhs = np.empty(n_rows)
@@ -266,9 +319,33 @@ def _least_squares_start(contacts, bodies) -> None:
             rhs[k] = (c.target[j] if r == 0 else 0.0) - velocity(row, bodies.v[a], bodies.w[a], bodies.v[b],
                                                                   bodies.w[b])
             k += 1
+    if links is not None:
+        rows = links.rows
+        for m in range(len(links.P)):
+            rhs[k + m] = 0.0
+            if links.target[m] == -np.inf:  # cannot act this step: a zero row
+                continue
+            speed = 0.0
+            for side in range(2):  # body a, then b
+                body = rows.a[m] if side == 0 else rows.b[m]
+                G, M_G = (rows.J_a[m], links.W_a[m]) if side == 0 else (rows.J_b[m], links.W_b[m])
+                if body != -1 and column[body] >= 0:
+                    for e in range(3):
+                        J[k + m, column[body] + e], W[k + m, column[body] + e] = G[e], M_G[e]
+                        J[k + m, column[body] + 3 + e], W[k + m, column[body] + 3 + e] = G[3 + e], M_G[3 + e]
+                        speed += G[e] * bodies.v[body, e] + G[3 + e] * bodies.w[body, e]
+            rhs[k + m] = links.target[m] - speed
     # rcond: drop the exact null space (the indeterminate split among a face's corners),
     # keep every physical mode (the stiffest-to-softest ratio of a ten-box stack is ~1e-4)
     P = np.linalg.lstsq(J @ W.T, rhs, rcond=1e-10)[0]
+    if links is not None:
+        for m in range(len(links.P)):
+            lam, nk = P[contact_rows + m], links.rows.normal[m]
+            if nk == BOXED:
+                lam = max(-links.rows.mu[m], min(links.rows.mu[m], lam))
+            elif nk >= 0:
+                lam = max(lam, 0.0)
+            links.P[m] = lam
     k = 0
     for j in range(C):
         nt = c.n_tangents[j]

@@ -33,7 +33,7 @@ import numpy as np
 
 from reference_impl import pgs
 from reference_impl.compiled import njit
-from reference_impl.lcp import (Bodies, Rows, apply_velocity_change, row_velocity, stack_rows, store_impulses,
+from reference_impl.lcp import (BILATERAL, BOXED, Bodies, Rows, apply_velocity_change, row_velocity, stack_rows, store_impulses,
                                 world_impulses, world_rows)
 
 
@@ -90,7 +90,7 @@ def spook_velocities(rows, bodies, W, a_ext, q, h, k, d, iterations, tolerance, 
     GW, GA = row_velocity(rows, W), row_velocity(rows, a_ext)
     rhs, sigma, c = np.empty(len(GW)), np.zeros(len(GW)), 0
     for r in range(len(GW)):
-        if rows.normal[r] == r or rows.normal[r] < 0:  # a normal row's gap, a joint row's g: regularised
+        if rows.normal[r] == r or rows.normal[r] == BILATERAL:  # a normal (or limit) row's gap, a joint's g
             rhs[r] = -a * q[c] - b * GW[r] - h * GA[r]
             sigma[r] = eps
             c += 1
@@ -116,7 +116,9 @@ def settings(config) -> Settings:
 
 STAGES = ("warm_start", "velocity", "friction", "joints")
 WARM_START, VELOCITY, FRICTION, JOINTS = 1, 2, 4, 8
-JOINT_KINDS = frozenset({"ball", "revolute"})  # the joints solve_joints takes (joints.py)
+JOINT_KINDS = frozenset({"ball", "revolute", "prismatic", "fixed"})  # the joints solve_joints takes (joints.py)
+JOINT_LIMITS = JOINT_FRICTION = True  # limit rows (inelastic: no restitution at a limit), friction rows
+LIMIT_RESTITUTION = False
 
 
 def unsupported(world) -> str | None:
@@ -151,11 +153,13 @@ def solve(contacts, bodies, dt, settings) -> int:
 
 @njit
 def solve_joints(contacts, joints, bodies, dt, settings) -> int:
-    """`solve` with the joints' equality rows (joints.py) after the contact rows, each
-    regularised and stabilised as a contact's normal row (note 004: eps on the diagonal,
-    rhs -a g - b G W - h G M^-1 f, q = g the joint's position error), with the contacts'
-    k and d: a joint is a stiff spring of k N/m (N m/rad on a hinge's angular rows)
-    critically damped over d steps. The impulse of an equality row is unbounded."""
+    """`solve` with the joints' rows (joints.py) after the contact rows. An equality row
+    and a limit row are regularised and stabilised as a contact's normal row (note 004:
+    eps on the diagonal, rhs -a q - b G W - h G M^-1 f, q = g the joint's position error,
+    or the limit's gap, unilateral as a contact), with the contacts' k and d: a joint is a
+    stiff spring of k N/m (N m/rad on an angular row) critically damped over d steps. A
+    friction row is as a contact's tangent row (no regularisation, target G W' = 0) with
+    its constant bound (joints.BOXED). No restitution at a limit (inelastic, as contacts)."""
     rows, data, u = world_rows(contacts, bodies)
     C, K, N = len(rows.a), len(joints.g), len(u)
     W = np.empty_like(u)
@@ -169,10 +173,14 @@ def solve_joints(contacts, joints, bodies, dt, settings) -> int:
         q[j] = -contacts.depth[j]
     for k in range(C):
         start[k] = contact_start[k]
-    for k in range(K):
-        q[n + k], start[C + k] = joints.g[k], joints.P[k]
+    m = n
+    for k in range(K):  # q of the regularised rows, in row order
+        if joints.rows.normal[k] != BOXED:
+            q[m] = joints.g[k]
+            m += 1
+        start[C + k] = joints.P[k]
     warm = settings.warm_start and (np.any(contacts.Pn != 0.0) or np.any(joints.P != 0.0))
-    step = spook_velocities(stack_rows(rows, joints.rows), data, W, (u - W) / dt, q, dt, settings.k, settings.d,
+    step = spook_velocities(stack_rows(rows, joints.rows), data, W, (u - W) / dt, q[:m], dt, settings.k, settings.d,
                             settings.iterations, settings.tolerance, start, warm)
     apply_velocity_change(bodies, step.u - u, False)
     store_impulses(contacts, step.lam[:C])
@@ -189,6 +197,7 @@ def knobs(config) -> dict:
             "friction_set": "pyramid: |Pt_k| <= mu Pn on each tangent row, no regularisation",
             "restitution": "none: inelastic (scenes with e > 0 are refused)",
             "depenetration": "SPOOK's own -a q term (no pseudo-velocities)",
-            "joints": "ball and revolute joints as equality rows, regularised and stabilised as the contacts "
-                      "(eps, -a g) with spook_k and spook_d",
+            "joints": "ball, revolute, prismatic and fixed joints as equality rows, limits as unilateral rows, "
+                      "regularised and stabilised as the contacts (eps, -a g) with spook_k and spook_d; friction as "
+                      "a row within -+ friction dt; no restitution at a limit",
             "iterations": config.iterations, "tolerance": config.tolerance, "warm_start": config.warm_start}

@@ -26,7 +26,8 @@ from reference_impl.config import Config
 from reference_impl.contact import (MASS, RB_D, Contact, ContactArrays, Contacts, apply, compact, contact_arrays,
                                     new_contacts, prepare, velocity)
 from reference_impl.geometry import MAX_PAIR_POINTS, narrow_phase, new_points
-from reference_impl.joints import KINDS as JOINT_KINDS, STATIC, Joints, new_joints, prepare as prepare_joints
+from reference_impl.joints import (KINDS as JOINT_KINDS, STATIC, Joints, new_joints, perpendicular,
+                                   prepare as prepare_joints)
 from reference_impl.rigid_body import (Bodies, BodyArrays, RigidBody, integrate_position, new_bodies, speed_bound,
                                        stack)
 from reference_impl.vectors import copy
@@ -111,6 +112,7 @@ class State:
     impulses: np.ndarray     # (P,) their normal impulse, N s
     joints: Joints           # joints.py: the joints' rows (their impulses warm-start the next step)
     joined: np.ndarray       # (N, N) bool: a joint connects the pair, which then never collides
+    loads: np.ndarray        # (N, 6) constant external force (N) and torque (N m) on each body, world frame
 
 
 @structure
@@ -144,6 +146,11 @@ class Joint:
     p_b: tuple
     n_a: tuple
     n_b: tuple
+    u_a: tuple = (1.0, 0.0, 0.0)  # a reference axis perpendicular to n (a hinge's angle 0)
+    u_b: tuple = (1.0, 0.0, 0.0)
+    limits: tuple = (-np.inf, np.inf)  # the coordinate's (lower, upper), rad or m
+    limit_e: float = 0.0   # restitution at a limit
+    friction: float = 0.0  # dry friction force (N, slider) or torque (N m, hinge)
 
 
 class World:
@@ -160,6 +167,7 @@ class World:
         self.bodies: list[RigidBody] = []
         self.pair_materials: dict[tuple[int, int], Material] = {}
         self.joints: list[Joint] = []
+        self.loads: dict[int, tuple] = {}  # body index -> (force, torque), world frame (`load`)
         self.stages: tuple[str, ...] = ()
         self.settings = None   # the formulation's Settings, made with the State
         self._state = None     # built at the first step, again after the world changes
@@ -194,26 +202,40 @@ class World:
         self._state = None
 
     def join(self, kind: str, body: RigidBody, parent: RigidBody | None = None, anchor=(0.0, 0.0, 0.0),
-             axis=(0.0, 1.0, 0.0)) -> Joint:
+             axis=(0.0, 1.0, 0.0), limits=None, limit_e: float = 0.0, friction: float = 0.0) -> Joint:
         """A joint of `kind` (joints.KINDS) holding `body` to `parent` (None: the world) at
-        the world point `anchor`, a hinge about the world direction `axis`, both taken as
-        the bodies stand now. Joined bodies do not collide with each other."""
+        the world point `anchor`, a hinge about (a slider along) the world direction `axis`,
+        both taken as the bodies stand now, where its coordinate is 0; `limits` (lower,
+        upper) of that coordinate (rad or m, None: none) with the restitution `limit_e`,
+        and its dry `friction` (N or N m). Joined bodies do not collide with each other."""
         if kind not in JOINT_KINDS:
             raise ValueError(f"joint kind {kind!r}: must be one of {', '.join(JOINT_KINDS)}")
         anchor = np.asarray(anchor, dtype=float)
         n = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+        u = perpendicular(n)  # the angle's zero
 
         def local(b, vector, point):  # world vector (and point) into b's body frame
             R = b.R
             return tuple(R.T @ (vector - b.x if point else vector))
         if parent is None:
-            p_b, n_b, index = tuple(anchor), tuple(n), STATIC
+            p_b, n_b, u_b, index = tuple(anchor), tuple(n), tuple(u), STATIC
         else:
-            p_b, n_b, index = local(parent, anchor, True), local(parent, n, False), parent.index
-        joint = Joint(kind, body.index, index, local(body, anchor, True), p_b, local(body, n, False), n_b)
+            p_b, n_b, u_b, index = local(parent, anchor, True), local(parent, n, False), local(parent, u, False), \
+                parent.index
+        joint = Joint(kind, body.index, index, local(body, anchor, True), p_b, local(body, n, False), n_b,
+                      local(body, u, False), u_b, (-np.inf, np.inf) if limits is None else tuple(map(float, limits)),
+                      float(limit_e), float(friction))
         self.joints.append(joint)
         self._state = None
         return joint
+
+    def load(self, body: RigidBody, force=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0)) -> None:
+        """A constant external `force` (N, at the centre of mass) and `torque` (N m) on
+        `body`, world frame, for every step (added to what it had)."""
+        f, t = self.loads.get(body.index, ((0.0,) * 3, (0.0,) * 3))
+        self.loads[body.index] = (tuple(float(a) + float(b) for a, b in zip(f, force)),
+                                  tuple(float(a) + float(b) for a, b in zip(t, torque)))
+        self._state = None
 
     def material_of(self, a: RigidBody, b: RigidBody) -> Material:
         return self.pair_materials.get((min(a.index, b.index), max(a.index, b.index)), self.material)
@@ -224,6 +246,13 @@ class World:
         if kinds:
             return (f"{', '.join(kinds)} joint asked: this formulation solves "
                     f"{', '.join(sorted(getattr(self.solver, 'JOINT_KINDS', ()))) or 'no'} joint rows")
+        solver, limited = self.solver, [j for j in self.joints if np.isfinite(j.limits).any()]
+        for asked, flag, what in ((limited, "JOINT_LIMITS", "joint limits"),
+                                  ([j for j in limited if j.limit_e > 0.0], "LIMIT_RESTITUTION",
+                                   "a restitution at a joint limit"),
+                                  ([j for j in self.joints if j.friction > 0.0], "JOINT_FRICTION", "joint friction")):
+            if asked and not getattr(solver, flag, False):
+                return f"{what} asked: this formulation has no such rows"
         if not getattr(self.solver, "CONTACT_TORQUES", False) and any(
                 m.torques for m in (self.material, *self.pair_materials.values())):
             return ("rolling resistance or torsional friction asked: this formulation has no torque "
@@ -284,16 +313,21 @@ class World:
                 _impulses(self._state)
         js = self.joints
         joints = new_joints([j.body for j in js], [j.parent for j in js], [JOINT_KINDS[j.kind] for j in js],
-                            [j.p_a for j in js], [j.p_b for j in js], [j.n_a for j in js], [j.n_b for j in js])
+                            [j.p_a for j in js], [j.p_b for j in js], [j.n_a for j in js], [j.n_b for j in js],
+                            [j.u_a for j in js], [j.u_b for j in js], [j.limits[0] for j in js],
+                            [j.limits[1] for j in js], [j.limit_e for j in js], [j.friction for j in js])
         if self._state is not None and warm is None:  # the joints' last impulses, for the warm start
             joints.P[:] = _joints(self._state).P
         joined = np.zeros((N, N), np.bool_)
         for j in js:
             if j.parent != STATIC:
                 joined[j.body, j.parent] = joined[j.parent, j.body] = True
+        loads = np.zeros((N, 6))
+        for i, (force, torque) in self.loads.items():
+            loads[i, :3], loads[i, 3:] = force, torque
         self.settings = self.solver.settings(c)  # the formulation's (compiled code shares its arrays)
         state = new_state(bodies, np.array(self.gravity, dtype=float), materials, material_of, phases,
-                          features, contacts, pairs, impulses, joints, joined)
+                          features, contacts, pairs, impulses, joints, joined, loads)
         self._stepper = new_stepper(state, self.settings)
         self._end = _end_two_phase if phases.two_phase else (end_joints if self.joints else end)
         return state
@@ -333,8 +367,8 @@ class World:
     def _names(self, ran: int) -> tuple[str, ...]:
         """The stages a step's bit mask says ran, in order (world's, then the formulation's)."""
         name = self.config.formulation
-        every = [*WORLD_STAGES[:2], *(f"{name}:{s}" for s in self.solver.STAGES), *WORLD_STAGES[2:]]
-        bits = [COLLIDE, GRAVITY, *(1 << (SOLVER_SHIFT + k) for k in range(len(self.solver.STAGES))),
+        every = [*WORLD_STAGES[:3], *(f"{name}:{s}" for s in self.solver.STAGES), *WORLD_STAGES[3:]]
+        bits = [COLLIDE, GRAVITY, LOADS, *(1 << (SOLVER_SHIFT + k) for k in range(len(self.solver.STAGES))),
                 POSITIONS, ROTATIONS]
         return tuple(s for s, bit in zip(every, bits) if ran & bit)
 
@@ -360,9 +394,10 @@ class World:
 
 
 @njit
-def new_state(bodies, gravity, materials, material_of, phases, features, contacts, pairs, impulses, joints, joined):
+def new_state(bodies, gravity, materials, material_of, phases, features, contacts, pairs, impulses, joints, joined,
+              loads):
     return State(bodies, gravity, materials, material_of, phases, features, contacts, pairs, impulses, joints,
-                 joined)
+                 joined, loads)
 
 
 @njit
@@ -398,9 +433,9 @@ def _joints(state):
 
 # the stages of a step, bits of World.step's mask: the world's, and from SOLVER_SHIFT on the
 # formulation's (bit SOLVER_SHIFT + k: its STAGES[k])
-WORLD_STAGES = ("collide", "gravity", "positions", "rotations")
-COLLIDE, GRAVITY, POSITIONS, ROTATIONS = 1, 2, 4, 8
-SOLVER_SHIFT = 4
+WORLD_STAGES = ("collide", "gravity", "loads", "positions", "rotations")
+COLLIDE, GRAVITY, POSITIONS, ROTATIONS, LOADS = 1, 2, 4, 8, 16
+SOLVER_SHIFT = 5
 
 
 def solve(contacts, bodies, dt, settings):
@@ -439,7 +474,8 @@ def begin(state, dt) -> int:
        each body can travel), each contact's rows, approach velocity, target and bias
        (contact.prepare), and last step's impulses of the same contacts (warm start);
        they are state.contacts from now on;
-    2. gravity: v += g dt (skipped when gravity is zero).
+    2. gravity: v += g dt (skipped when gravity is zero), then the constant loads
+       (v += F/m dt, w += I^-1 tau dt).
 
     Returns the stages that ran (bits, above)."""
     bodies = state.bodies
@@ -459,6 +495,24 @@ def begin(state, dt) -> int:
             if not bodies.static[i]:
                 for k in range(3):
                     bodies.v[i, k] += g[k] * dt
+    return ran | _apply_loads(bodies, state.loads, dt)
+
+
+@njit
+def _apply_loads(bodies, loads, dt) -> int:
+    """Integrate the constant loads: v += F/m dt, w += I^-1 tau dt (the world inverse
+    inertia at the step's start, as gravity's step: symplectic Euler). LOADS if any acts."""
+    ran = 0
+    for i in range(len(loads)):
+        acts = False
+        for k in range(6):
+            acts = acts or loads[i, k] != 0.0
+        if acts and not bodies.static[i]:
+            ran = LOADS
+            for k in range(3):
+                bodies.v[i, k] += bodies.inv_mass[i] * loads[i, k] * dt
+                bodies.w[i, k] += (bodies.inv_I[i, k, 0] * loads[i, 3] + bodies.inv_I[i, k, 1] * loads[i, 4]
+                                   + bodies.inv_I[i, k, 2] * loads[i, 5]) * dt
     return ran
 
 
@@ -482,7 +536,7 @@ def end_joints(stepper, dt) -> int:
     calls only for a world with joints, so that a world without them compiles and runs
     `end` alone, as before joints existed."""
     state = stepper.state
-    prepare_joints(state.joints, state.bodies)
+    prepare_joints(state.joints, state.bodies, dt, state.phases.slop)
     ran = solve_joints(state.contacts, state.joints, state.bodies, dt, stepper.settings) << SOLVER_SHIFT
     return ran | finish(state, dt)
 

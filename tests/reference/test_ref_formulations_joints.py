@@ -1,6 +1,8 @@
-"""reference_impl/joints.py: joints as equality rows beside the contact rows, in the PGS
-and SPOOK formulations - the rows hold the anchor and the hinge axis, pull as well as push
-(no projection), leave the free directions free, and joined bodies do not collide."""
+"""reference_impl/joints.py: joints as equality rows beside the contact rows, in the
+sequential impulses, PGS, Lemke and SPOOK formulations - the rows hold the anchor and the
+hinge axis, pull as well as push (no projection), leave the free directions free, and
+joined bodies do not collide. Prismatic and fixed joints, limits, joint friction and
+loads: tests/reference/test_ref_formulations_joint_rows.py."""
 from __future__ import annotations
 
 import math
@@ -13,12 +15,12 @@ from reference_impl.geometry import Box, Sphere
 from reference_impl.rigid_body import RigidBody
 from reference_impl.world import World
 
-FORMULATIONS = ("pgs", "spook", "lemke")
+FORMULATIONS = ("si", "pgs", "spook", "lemke")
 # steps for a joint to take out a velocity that breaks it: PGS solves G v = 0 in one step
 # (to its tolerance); SPOOK is a critically damped stiff spring relaxing over d = 4 steps
 # (each step leaves 1 / (1 + 4d) of the row velocity and restores the error it made):
 # under 1 % left after 20 steps (measured: 0.3 %)
-SETTLE = {"pgs": 1, "spook": 20, "lemke": 1}
+SETTLE = {"si": 1, "pgs": 1, "spook": 20, "lemke": 1}
 DT = 1e-3
 G = 9.81
 
@@ -96,7 +98,7 @@ def test_a_joint_between_two_bodies_holds_the_anchor_and_they_do_not_collide(for
 
 
 def test_a_formulation_without_joint_rows_refuses_a_joint():
-    world, _ = pendulum("si", "ball")
+    world, _ = pendulum("acceleration_lcp", "ball")
     assert "ball joint asked" in world.unsupported()
     assert pendulum("pgs", "ball")[0].unsupported() is None
 
