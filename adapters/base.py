@@ -394,6 +394,9 @@ class Adapter(ABC):
     # {"core", "conformance"}; they also run the variants whose compliant contact law they
     # model).
     default_tags: frozenset[str] | None = None
+    # ... and with default_tags, also every variant whose compliant law it models (a
+    # configuration that changes only the continuous collision does not: `continuous_collision`)
+    default_laws: bool = True
     # An engine whose step costs many times a compiled engine's (the reference's other
     # formulations) is left out of the default sweep, stress battery, benchmarks and
     # engine-wide readings, which repeat each scene many times: it runs there when named.
@@ -405,7 +408,7 @@ class Adapter(ABC):
         tagged "swept" (cases/robustness/tunnelling.py), where it changes what happens;
         named, every family."""
         if on:
-            self.default_tags = frozenset({"swept"})
+            self.default_tags, self.default_laws = frozenset({"swept"}), False
         return bool(on)
 
     def on_demand(self, scene: Scene) -> str | None:

@@ -126,7 +126,7 @@ class Planted(Adapter):
         self.name = name or inner.name
         # named anew (a user's --adapter file): judged by the bands recorded for the engine
         self.bands_of = None if self.name == inner.name else (inner.bands_of or inner.name)
-        for attribute in ("capabilities", "package", "supported", "packages", "tunables", "default_tags", "slow"):
+        for attribute in ("capabilities", "package", "supported", "packages", "tunables", "default_tags", "default_laws", "slow"):
             setattr(self, attribute, getattr(inner, attribute))
 
     def version(self) -> str:

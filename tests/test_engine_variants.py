@@ -120,6 +120,27 @@ def test_a_continuous_collision_configuration_runs_the_swept_families_by_default
     assert any("swept" in f.tags for f in builtin_families().values())
 
 
+@pytest.mark.parametrize("name", ["pybullet-ccd", "mujoco-speculative"])
+def test_a_continuous_collision_configuration_takes_no_other_family_in_a_default_run(name):
+    """Its compliant-law variants (hertz_impact's hooke ones: the engine models Hooke) and the
+    invariance relations' scenes outside the swept families stay out of a default run: the
+    configuration changes only the continuous collision, so they would repeat the plain
+    engine's runs (a default run at 5e2c8c7 held them, 29 rows of them)."""
+    from physval.core import Context
+    from physval.core.plan import plan, relation_jobs
+    from cases import relations
+    adapter_or_skip(name)
+    resolver = Context().resolver()
+    families = resolver.families
+    chosen = {f: list(families[f].variants) for f in ("hertz_impact", "newtons_cradle", "robustness_tunnelling")}
+    jobs, _ = plan(chosen, [name, CCD[name]], resolver, False)
+    ran = {(j.engine, j.family) for j in jobs}
+    assert {f for e, f in ran if e == name} == {"robustness_tunnelling"}
+    assert {"hertz_impact", "newtons_cradle"} <= {f for e, f in ran if e == CCD[name]}
+    battery = relation_jobs([r.name for r in relations.RELATIONS], [name], resolver, False)
+    assert all("swept" in families[j.family].tags for j in battery)
+
+
 @pytest.mark.engine("pybullet-ccd")
 def test_pybullet_ccd_sweeps_every_dynamic_body_and_the_plain_engine_none():
     from adapters.pybullet_engine import SWEPT_SPHERE_FRACTION

@@ -12,8 +12,8 @@ from physval.core.selection import select_variants
 def plan(chosen: dict, engines: list[str], resolver, engines_named: bool, dt=None, iterations=None,
          on_demand: bool = False) -> tuple[list[Job], list[Job]]:
     """(jobs to run, jobs left out as on demand). An engine with `default_tags` runs only
-    families with one of those tags (and the variants whose compliant contact law it
-    models), unless it was named; a job the adapter declares on demand runs only when asked,
+    families with one of those tags (and, with `default_laws`, the variants whose compliant
+    contact law it models), unless it was named; a job the adapter declares on demand runs only when asked,
     unless its family is one of the default ones (Adapter.deferred)."""
     jobs, later = [], []
     for name, variants in chosen.items():
@@ -31,7 +31,7 @@ def plan(chosen: dict, engines: list[str], resolver, engines_named: bool, dt=Non
                     scene = fam.scene(v.params)
                 if not engines_named and adapter.default_tags is not None and not (fam.tags & adapter.default_tags):
                     laws = scene.contact_laws
-                    if not (laws and laws <= adapter.capabilities.contact_laws):
+                    if not (adapter.default_laws and laws and laws <= adapter.capabilities.contact_laws):
                         continue
                 if not on_demand and adapter.deferred(scene, fam.tags):
                     later.append(job)
@@ -76,6 +76,10 @@ def relation_jobs(names: list[str], engines: list[str], resolver, engines_named:
                                 adapter is None or adapter.capabilities.cannot_run(scene_of(fam, v)) is None):
                             pool.setdefault(fam, []).append(v)
                             break
+            if adapter is not None and adapter.default_tags is not None and not engines_named:
+                # as for the families (plan): an engine that names its default tags runs the
+                # relations only on scenes of those families (none: on demand only)
+                pool = {fam: vs for fam, vs in pool.items() if resolver.family(fam).tags & adapter.default_tags}
             jobs += [Job(fam, v, eng, dt, iterations, relation=relation.name)
                      for fam, variants in pool.items() for v in variants if relation.applies(scene_of(fam, v)) is None]
     return jobs
