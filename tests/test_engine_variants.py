@@ -180,3 +180,19 @@ def test_the_inscribed_radius_of_each_shape():
     assert inscribed_radius(Polygon(((1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)))) == pytest.approx(0.5 ** 0.5)
     ball_at = lambda v: Body("b", ball(0.01), mass=1.0, velocity=(v, 0.0, 0.0))  # noqa: E731
     assert starts_fast(ball_at(11.0), 1e-3) and not starts_fast(ball_at(9.0), 1e-3)
+
+
+def test_lemke_leaves_the_3d_grasp_to_on_demand_and_runs_the_other_jointed_families():
+    """reference-lemke's 3D pinch grasp (up to 125 s a job) waits for --on-demand; its 2D
+    grasp, the rail slide and the other formulations' grasps stay in a default run."""
+    from physval.core import Context
+    from physval.core.plan import plan
+    resolver = Context().resolver()
+    chosen = {f: list(resolver.families[f].variants) for f in ("pinch_grasp", "rail_slide")}
+    jobs, later = plan(chosen, ["reference-lemke", "reference-pgs"], resolver, False)
+    waiting = {(j.engine, j.family, j.variant.params.get("dim")) for j in later}
+    assert waiting == {("reference-lemke", "pinch_grasp", 3)}
+    assert {("reference-lemke", "pinch_grasp", 2), ("reference-lemke", "rail_slide", 3),
+            ("reference-pgs", "pinch_grasp", 3)} <= {(j.engine, j.family, j.variant.params.get("dim")) for j in jobs}
+    jobs, later = plan(chosen, ["reference-lemke"], resolver, False, on_demand=True)
+    assert not later and any(j.family == "pinch_grasp" and j.variant.params.get("dim") == 3 for j in jobs)
