@@ -39,14 +39,22 @@ class Pairing(NamedTuple):
 
 
 def _on_demand(engine: str, fam, variant) -> bool:
-    """A run its engine declares too slow for a default run (Adapter.deferred: Newton's
-    solvers outside the core families): the pairing runs with `pytest -m slow`, as the run's
-    checks do."""
+    """A run a default run leaves out (Adapter.deferred: Newton's solvers outside the core
+    families; families outside an engine's default_tags): the pairing runs with `pytest -m
+    slow`, as the run's checks do."""
     from adapters.registry import EngineError, get
     try:
-        return get(engine).deferred(fam.scene(variant.params), fam.tags) is not None
+        adapter = get(engine)
     except EngineError:
         return False
+    scene = fam.scene(variant.params)
+    if adapter.default_tags is not None and not (fam.tags & adapter.default_tags):
+        # outside the engine's default families (physval.core.plan: a continuous-collision
+        # configuration takes only the swept ones), as a default run leaves it out
+        laws = scene.contact_laws
+        if not (adapter.default_laws and laws and laws <= adapter.capabilities.contact_laws):
+            return True
+    return adapter.deferred(scene, fam.tags) is not None
 
 
 def pytest_generate_tests(metafunc):

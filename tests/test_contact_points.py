@@ -37,7 +37,9 @@ def _engines():
         if name.startswith("reference-") or not registry.available(name):
             continue
         if registry.get(name).capabilities.contact_points:
-            out.append(name)
+            # an engine run on demand only (drake-cenic) is tested with `pytest -m slow`, as its runs are
+            on_demand = registry.get(name).default_tags == frozenset()
+            out.append(pytest.param(name, marks=[pytest.mark.slow]) if on_demand else name)
     return out
 
 

@@ -157,11 +157,11 @@ def test_mujocos_free_flight_of_the_elbow_follows_the_measured_one(tosses):
 @needs_mujoco
 def test_the_elbow_is_scored_by_physval_real_and_jointless_engines_are_named(tmp_path, capsys):
     out = tmp_path / "out"
-    assert main(["real", "--data", "elbow_toss", "--engines", "mujoco,reference", "--nominal", "--limit", "1",
+    assert main(["real", "--data", "elbow_toss", "--engines", "mujoco,reference-force", "--nominal", "--limit", "1",
                  "--horizon", "0.1", "--workers", "1", "--no-cache", "--quiet", "--out", str(out)]) == 0
     report = (out / "real_report.md").read_text()
     assert "measured elbow tosses" in report and "bar lengths" in report
-    assert "reference: unsupported: builds no revolute joint" in report
+    assert "reference-force: unsupported: builds no revolute joint" in report
     scores = pd.read_csv(out / "real_scores.csv")
     mine = scores[(scores.engine == "mujoco") & (scores.param_set == "nominal")]
     assert len(mine) == 1 and (mine.status == "ok").all() and mine.corner_mean.notna().all()

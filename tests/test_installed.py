@@ -84,6 +84,7 @@ NARROWED = {
     "physval bench sweep-workers": Narrowed("--engines mujoco", needs=("mujoco",)),
     "physval bench pgs": Narrowed(),
     "physval bench compile": Narrowed("--engines reference-hooke"),
+    "physval bench narrow": Narrowed("--engines mujoco", needs=("mujoco",)),
     "physval bench faults": Narrowed('--engines mujoco --cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
     "physval bench run": Narrowed('--engines mujoco --cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
     "physval bench run --engines mujoco,pybullet --cases central_impact": Narrowed(needs=("mujoco", "pybullet")),
@@ -114,6 +115,9 @@ NARROWED = {
         '--cases "central_impact[e=1.0,m=1:1]"', needs=("mujoco", "mujoco-warp")),
     # the real-world tier
     "physval real": Narrowed(REAL_QUICK, needs=("mujoco",)),
+    # docs/measure/real_elbow.md: the articulated data set
+    "physval real --data elbow_toss": Narrowed(REAL_QUICK, needs=("mujoco",)),
+    "physval real --data elbow_toss --engines mujoco --nominal --limit 20": Narrowed("--limit 2", needs=("mujoco",)),
     "physval real --tosses my_tosses.csv --params reports/real/params.json": Narrowed("--engines mujoco",
                                                                                      after="physval real",
                                                                                      needs=("mujoco",)),
