@@ -6,7 +6,9 @@ install are skipped when pip cannot reach the registry."""
 from __future__ import annotations
 
 import csv
+import os
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -42,6 +44,9 @@ def cache(tmp_path_factory):
     (["fake-release", "1.1.1", "2.0.0", "--engines", "mujoco"], "unknown engine 'mujoco': choose from fake-release"),
     (["fake-release", "1.1.1", "2.0.0", "--cases", "no_such_family"], "unknown case 'no_such_family'"),
     (["no-such-engine", "1.1.1", "2.0.0"], "unknown engine 'no-such-engine'"),
+    (["fake-release", "1.1.1", "2.0.0@"], "release 2.0.0@: name a Python after @ (e.g. 2.0.0@3.12)"),
+    (["fake-release", "1.1.1", "2.0.0@/no/such/python"], "--python /no/such/python: no interpreter at /no/such/python"),
+    (["fake-release", "1.1.1", "2.0.0", "--python", "3.99"], "--python 3.99: no python3.99 on PATH"),
 ])
 def test_bad_input_stops_before_any_environment(argv, message, capsys, tmp_path, monkeypatch):
     monkeypatch.setenv("PHYSVAL_CACHE_DIR", str(tmp_path / "cache"))
@@ -72,6 +77,46 @@ def test_an_environment_is_made_once_and_runs_this_physval_with_its_release(cach
     assert done.returncode == 0, done.stderr
     release, where = done.stdout.split()
     assert release == "1.1.1" and Path(where) == ROOT / "physval" / "__init__.py"
+
+
+def test_another_python_is_found_and_its_environment_sees_only_physvals_folder(monkeypatch):
+    here = envs.interpreter(sys.executable)
+    assert not here.foreign and here == envs.this_interpreter()
+    other = envs.Interpreter(Path("/usr/bin/python3.99"), "3.99.0 (main)", True)
+    assert envs.folder(["iniconfig==1.1.1"], other).name.startswith("iniconfig-1.1.1-py399-")
+    assert envs.folder(["iniconfig==1.1.1"], other) != envs.folder(["iniconfig==1.1.1"])
+    foreign = envs.Env(Path("/nowhere"), ("iniconfig==1.1.1",), False, 0.0, {}, other)
+    assert foreign.environ()[envs.PATH_VARIABLE] == str(ROOT)  # no site folder of this Python's
+    assert envs.Env(Path("/nowhere"), (), False, 0.0).environ()[envs.PATH_VARIABLE].count(os.pathsep) >= 1
+    assert {r.split(">")[0] for r in envs.own_requirements()} >= {"numpy", "numba", "pandas"}
+
+
+def _other_python():
+    """A Python 3.11-3.13 other than this one, on PATH, or None."""
+    for minor in (12, 13, 11):
+        try:
+            found = envs.interpreter(f"3.{minor}")
+        except envs.EnvError:
+            continue
+        if found.foreign:
+            return found
+    return None
+
+
+@pytest.mark.slow  # installs physval's requirements (numpy, scipy, pandas, numba...) for another Python
+def test_a_release_on_another_python_runs_this_physval(cache):
+    other = _other_python()
+    if other is None:
+        pytest.skip("no other Python 3.11-3.13 on PATH")
+    try:
+        made = envs.ensure(["iniconfig==1.1.1"], python=other)
+    except envs.EnvError as exc:
+        pytest.skip(str(exc))
+    probe = "import sys, iniconfig, physval, numpy; print(sys.version.split()[0], physval.__file__)"
+    done = subprocess.run(made.command("-c", probe), env=made.environ(), capture_output=True, text=True, cwd=cache)
+    assert done.returncode == 0, done.stderr
+    version, where = done.stdout.split()
+    assert version.startswith(other.short) and Path(where) == ROOT / "physval" / "__init__.py"
 
 
 def test_a_make_cut_short_is_made_again(cache):

@@ -17,6 +17,9 @@ EPILOG = """examples:
   physval versions mujoco 3.3.7 3.12.0 4.0.0 --cases resting_blocks
   physval versions pymunk 7.0.0 7.3.1 --engines pymunk --save-trajectories
   physval versions newton 1.7.0 1.8.0 --engines newton-xpbd --cases conformance
+  physval versions drake 1.51.1 1.58.0@3.12 --engines drake --cases central_impact
+    (a release on another Python: Drake publishes 1.52 and later for Python 3.12 and newer;
+    `--python 3.12` puts every release on it; a version finds python3.12 on PATH, or give a path)
 exit codes: 0 nothing changed between the releases; 1 something changed; 2 bad input (an
 unknown engine or release, a release outside the adapter's supported range, a release pip
 cannot install); 130 interrupted (the same command resumes: environments and finished jobs
@@ -34,7 +37,13 @@ def add_parser(sub) -> None:
                     "OUT/ENGINE/versions.md.")
     vs.add_argument("engine", metavar="ENGINE", help="the engine whose releases to run (e.g. mujoco), or the package "
                                                      "its configurations share (e.g. newton)")
-    vs.add_argument("releases", nargs="+", metavar="RELEASE", help="two or more releases of its package (e.g. 3.3.7)")
+    vs.add_argument("releases", nargs="+", metavar="RELEASE",
+                    help="two or more releases of its package (e.g. 3.3.7); RELEASE@PYTHON runs that release on "
+                         "another Python (e.g. 1.58.0@3.12)")
+    vs.add_argument("--python", metavar="PYTHON",
+                    help="make the releases' environments with this Python (a version such as 3.12, found on PATH as "
+                         "python3.12, or an interpreter's path) instead of physval's own; physval's requirements are "
+                         "installed there too")
     options.add_selection(vs, "case families or variants, the grammar of `physval run --cases` (default: every "
                               "family the engine runs)",
                           "the engine's configurations to run (engines sharing its package, e.g. pybullet-rigid; "
@@ -46,6 +55,18 @@ def add_parser(sub) -> None:
                          "part")
     add_options(vs)
     options.add_execution(vs, "reports/versions", scheduler=False)
+
+
+def pythons_of(texts: list[str], default: str | None) -> tuple[list[str], dict[str, str | None]]:
+    """RELEASE@PYTHON words split: the releases, and the Python each names (else `default`)."""
+    releases, pythons = [], {}
+    for text in texts:
+        release, _, python = text.partition("@")
+        if _ and not python:
+            raise options.UsageError(f"release {text}: name a Python after @ (e.g. {release}@3.12)")
+        releases.append(release)
+        pythons[release] = python or default
+    return releases, pythons
 
 
 def releases_of(adapter, texts: list[str]) -> list[str]:
@@ -145,7 +166,12 @@ def run(args) -> int:
     resolver = ctx.resolver()
     engine = engine_of(args.engine, ctx)
     adapter = resolver.adapter(engine)  # EngineError: unknown, or not installed here
-    releases = releases_of(adapter, args.releases)
+    texts, pythons = pythons_of(args.releases, args.python)
+    releases = releases_of(adapter, texts)
+    try:  # each Python named exists and starts, before any environment is made
+        interpreters = {p: envs.interpreter(p) for p in set(pythons.values())}
+    except envs.EnvError as exc:
+        raise options.UsageError(str(exc)) from None
     known = configurations(engine, ctx)
     engines = select_engines(args.engines, known, known)
     if args.cases:
@@ -159,10 +185,11 @@ def run(args) -> int:
     for release in releases:
         started = time.monotonic()
         try:
-            env = envs.ensure(adapter.release_requirements(release), say)
+            env = envs.ensure(adapter.release_requirements(release), say, interpreters[pythons[release]])
         except envs.EnvError as exc:
             raise options.UsageError(str(exc)) from None
-        say(f"{adapter.package} {release}: environment {'made' if env.created else 'from the cache'} in "
+        say(f"{adapter.package} {release} (Python {env.python.short}): environment "
+            f"{'made' if env.created else 'from the cache'} in "
             f"{time.monotonic() - started:.1f} s; running {', '.join(engines)}")
         folder = out / release
         started = time.monotonic()

@@ -54,26 +54,64 @@ class EnvError(RuntimeError):
 
 
 @dataclass(frozen=True)
+class Interpreter:
+    """A Python that makes an environment: this one (`foreign` False), or another."""
+    path: Path
+    version: str                  # its sys.version
+    foreign: bool
+
+    @property
+    def short(self) -> str:
+        return ".".join(self.version.split()[0].split(".")[:2])
+
+
+def this_interpreter() -> Interpreter:
+    return Interpreter(Path(os.path.realpath(sys.executable)), sys.version, False)
+
+
+def interpreter(spec: str | None) -> Interpreter:
+    """The Python that `spec` names: None, this one; "3.12", the `python3.12` on PATH; else a
+    path to an interpreter (EnvError, one line, if there is none or it does not start)."""
+    if spec is None:
+        return this_interpreter()
+    version = re.fullmatch(r"\d+\.\d+", spec)
+    found = shutil.which(f"python{spec}") if version else shutil.which(spec) or spec
+    if not found or not Path(found).exists():
+        where = f"no python{spec} on PATH" if version else f"no interpreter at {spec}"
+        raise EnvError(f"--python {spec}: {where}; name a Python 3.11-3.13 as a version (3.12) or an interpreter's "
+                       "path")
+    done = _run([found, "-c", "import os, sys; print(os.path.realpath(sys.executable)); print(sys.version)"])
+    if done.returncode:
+        raise EnvError(f"--python {spec}: {found} does not start: {_last_line(done)}")
+    path, version = done.stdout.split("\n", 1)
+    real = Path(path.strip())
+    same = real == Path(os.path.realpath(sys.executable)) or version.strip() == sys.version
+    return Interpreter(real, version.strip(), not same)
+
+
+@dataclass(frozen=True)
 class Env:
     path: Path
     requirements: tuple[str, ...]
     created: bool                 # made by this call; False: taken from the cache
     seconds: float                # how long making it took (when it was made)
     installed: dict = field(default_factory=dict)  # distribution -> version, in its own site-packages
+    python: Interpreter = field(default_factory=this_interpreter)
 
     @property
-    def python(self) -> Path:
+    def executable(self) -> Path:
         return self.path / ("Scripts/python.exe" if os.name == "nt" else "bin/python")
 
     def command(self, *args: str) -> list[str]:
         """A command line run by the environment's interpreter."""
-        return [str(self.python), "-P", *args]
+        return [str(self.executable), "-P", *args]
 
     def environ(self) -> dict[str, str]:
         """The process environment of a run: this one's, without PYTHONPATH and PYTHONHOME,
-        with this process's import path in PHYSVAL_ENV_PATH."""
+        with this process's import path in PHYSVAL_ENV_PATH (only physval's own folder on
+        another Python)."""
         env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
-        env[PATH_VARIABLE] = os.pathsep.join(import_path())
+        env[PATH_VARIABLE] = os.pathsep.join(import_path()[:1] if self.python.foreign else import_path())
         return env
 
 
@@ -84,17 +122,34 @@ def import_path() -> list[str]:
     return list(dict.fromkeys(path))
 
 
-def folder(requirements) -> Path:
+def folder(requirements, python: Interpreter | None = None) -> Path:
     """Where the environment of `requirements` lives: readable, and unique to them and to
-    this interpreter (an environment is bound to the interpreter that made it)."""
+    the interpreter that makes it (an environment is bound to it)."""
+    python = python or this_interpreter()
     slug = "-".join(r.replace("==", "-") for r in requirements)
-    key = json.dumps([list(requirements), sys.version, os.path.realpath(sys.executable)])
-    return cache_dir() / "envs" / f"{slug}-py{sys.version_info[0]}{sys.version_info[1]}-" \
+    key = json.dumps([list(requirements), python.version, str(python.path)])
+    return cache_dir() / "envs" / f"{slug}-py{python.short.replace('.', '')}-" \
                                   f"{hashlib.sha256(key.encode()).hexdigest()[:8]}"
 
 
-def _site_packages(path: Path) -> Path:
-    return Path(sysconfig.get_path("purelib", "venv", vars={"base": str(path), "platbase": str(path)}))
+def own_requirements() -> list[str]:
+    """physval's own requirements (its distribution's, without extras), which an environment
+    on another Python installs beside the release."""
+    from importlib import metadata
+    try:
+        wanted = metadata.requires("physval") or []
+    except metadata.PackageNotFoundError:
+        raise EnvError("physval is not installed (pip install -e .): its requirements, which an environment on "
+                       "another Python needs, are read from its installed metadata") from None
+    return [r.split(";")[0].strip() for r in wanted if "extra ==" not in r]
+
+
+def _site_packages(path: Path, python: Interpreter | None = None) -> Path:
+    """The environment's own site-packages (lib/pythonX.Y/site-packages of its Python)."""
+    site = Path(sysconfig.get_path("purelib", "venv", vars={"base": str(path), "platbase": str(path)}))
+    if python is not None and python.foreign and os.name != "nt":
+        site = path / "lib" / f"python{python.short}" / "site-packages"
+    return site
 
 
 def _run(args, **kw) -> subprocess.CompletedProcess:
@@ -136,25 +191,27 @@ def _locked(path: Path):
             fcntl.flock(fh, fcntl.LOCK_UN)
 
 
-def _cached(path: Path, requirements: tuple[str, ...]) -> Env | None:
+def _cached(path: Path, requirements: tuple[str, ...], python: Interpreter) -> Env | None:
     try:
         mark = json.loads((path / MARK).read_text())
     except (OSError, ValueError):
         return None
-    env = Env(path, requirements, False, float(mark.get("seconds", 0.0)), mark.get("installed", {}))
-    return env if tuple(mark.get("requirements", ())) == requirements and env.python.exists() else None
+    env = Env(path, requirements, False, float(mark.get("seconds", 0.0)), mark.get("installed", {}), python)
+    return env if tuple(mark.get("requirements", ())) == requirements and env.executable.exists() else None
 
 
-def ensure(requirements, say=lambda text: None) -> Env:
-    """The environment holding `requirements` (pip requirement strings, each `name==release`):
-    from the cache, or made now (EnvError if pip cannot install them)."""
+def ensure(requirements, say=lambda text: None, python: Interpreter | None = None) -> Env:
+    """The environment holding `requirements` (pip requirement strings, each `name==release`)
+    for `python` (default: this interpreter): from the cache, or made now (EnvError if pip
+    cannot install them)."""
     requirements = tuple(requirements)
-    path = folder(requirements)
+    python = python or this_interpreter()
+    path = folder(requirements, python)
     with _locked(path.with_name(path.name + ".lock")):
-        env = _cached(path, requirements)
+        env = _cached(path, requirements, python)
         if env is not None:
             try:  # an environment that took the release from the machine's site packages loses it
-                _check(env, _site_packages(path))  # when the machine's release changes
+                _check(env, _site_packages(path, python))  # when the machine's release changes
                 return env
             except EnvError as exc:
                 say(f"{exc}: made again")
@@ -162,25 +219,27 @@ def ensure(requirements, say=lambda text: None) -> Env:
         started = time.monotonic()
         shutil.rmtree(path, ignore_errors=True)  # a make cut short
         try:
-            installed = _make(path, requirements)
+            installed = _make(path, requirements, python)
         except BaseException:
             shutil.rmtree(path, ignore_errors=True)
             raise
         seconds = time.monotonic() - started
         mark = {"requirements": list(requirements), "installed": installed, "seconds": round(seconds, 2),
-                "python": sys.version.split()[0], "interpreter": os.path.realpath(sys.executable),
+                "python": python.version.split()[0], "interpreter": str(python.path),
                 "made": time.strftime("%Y-%m-%d %H:%M:%S")}
         (path / MARK).write_text(json.dumps(mark, indent=1))
-        return Env(path, requirements, True, seconds, installed)
+        return Env(path, requirements, True, seconds, installed, python)
 
 
-def _make(path: Path, requirements: tuple[str, ...]) -> dict[str, str]:
-    made = _run([sys.executable, "-m", "venv", "--system-site-packages", path])
+def _make(path: Path, requirements: tuple[str, ...], python: Interpreter) -> dict[str, str]:
+    # this Python shares its site packages; another one installs physval's requirements too
+    made = _run([python.path, "-m", "venv", *([] if python.foreign else ["--system-site-packages"]), path])
     if made.returncode:
         raise EnvError(f"cannot make a virtual environment in {path}: {_last_line(made)}")
-    python = Env(path, requirements, True, 0.0).python
-    pip = _run([python, "-m", "pip", "install", "--disable-pip-version-check", "--no-input", "--quiet",
-                *requirements])
+    env = Env(path, requirements, True, 0.0, {}, python)
+    extra = own_requirements() if python.foreign else []
+    pip = _run([env.executable, "-m", "pip", "install", "--disable-pip-version-check", "--no-input", "--quiet",
+                *requirements, *extra])
     if pip.returncode:
         offline = unreachable(pip.stderr + pip.stdout)
         if offline:  # pip's last line would blame the release ("No matching distribution found")
@@ -188,9 +247,9 @@ def _make(path: Path, requirements: tuple[str, ...]) -> dict[str, str]:
                            "check the network connection or pip's index settings (`pip config list`), then run "
                            "the same command again")
         raise EnvError(f"pip cannot install {' '.join(requirements)}: {_last_line(pip)}")
-    site = _site_packages(path)
+    site = _site_packages(path, python)
     (site / PTH).write_text(PTH_LINE)
-    return _check(Env(path, requirements, True, 0.0), site)
+    return _check(env, site)
 
 
 CHECK = """import json, sys

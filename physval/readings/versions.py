@@ -53,7 +53,8 @@ def write(out: Path, package: str, engines: list[str], releases: list[Release], 
     runs = []
     for r in releases:
         df = compare.load(r.folder)
-        runs.append({"release": r.release, "environment": _environment(r.env), "run s": f"{r.run_s:.0f}",
+        runs.append({"release": r.release, "Python": r.env.python.version.split()[0],
+                     "environment": _environment(r.env), "run s": f"{r.run_s:.0f}",
                      "checks": len(df), "statuses": status_counts(df)})
     lines = heading(f"{package} across releases", command) + [
         f"Engines: {', '.join(engines)}. Each release ran in a virtual environment of its own holding that release "
