@@ -85,3 +85,20 @@ def test_box2d_refuses_to_read_a_contact_that_persists():
         sim.step()
         with pytest.raises(ContactGeometryUnavailable, match="persist"):
             sim.contact_points()
+
+
+def test_a_family_reading_forces_at_points_is_unsupported_where_only_the_geometry_is_reported():
+    """contact_points implies contact_geometry; contact_geometry alone runs the geometry
+    families (narrow_phase, broad_phase) and not those that read the points' forces."""
+    from adapters.base import Capabilities
+    scene, _, _ = _pair(3)
+    base = dict(dimensions=frozenset({3}), shapes=frozenset({"sphere"}), native_restitution=True,
+                static_kinetic=False, contact_forces=True, iterations=True)
+    full, geometry, none = (Capabilities(**base, contact_points=True), Capabilities(**base, contact_geometry=True),
+                            Capabilities(**base))
+    reads_geometry, reads_forces = frozenset({"contact_geometry"}), frozenset({"contact_points"})
+    assert full.cannot_run(scene, reads_geometry) is None and full.cannot_run(scene, reads_forces) is None
+    assert geometry.cannot_run(scene, reads_geometry) is None
+    assert "geometry but not their forces" in geometry.cannot_run(scene, reads_forces)
+    assert "does not report" in none.cannot_run(scene, reads_geometry)
+    assert "contact_geometry" in geometry.describe() and "contact_geometry" not in full.describe()
