@@ -87,6 +87,11 @@ class Capabilities:
     contact_forces: bool              # normal forces can be read out
     iterations: bool                  # the solver has an iteration count to set
     contact_points: bool = False      # Simulation.contact_points reports each point's forces
+    # Simulation.contact_points reports each point's geometry (bodies, point, normal, gap) as the
+    # engine's detection found it, but not its forces (f_n and f_t NaN): an engine whose
+    # bindings give the manifolds and not a per-point friction impulse. `contact_points`
+    # implies it (`reports_geometry`).
+    contact_geometry: bool = False
     # contact forces can be read also in a scene with joints (False where they are worked out from the bodies'
     # momenta, which a joint's impulses change too)
     contact_forces_beside_joints: bool = True
@@ -209,7 +214,12 @@ class Capabilities:
         if "contact_forces" in needs and not self.contact_forces:
             return "the case reads contact forces, which this engine does not report"
         if "contact_points" in needs and not self.contact_points:
-            return "the case reads the engine's contact points, which this adapter does not report"
+            why = (": it reports their geometry but not their forces" if self.contact_geometry
+                   else ", which this adapter does not report")
+            return "the case reads the forces at the engine's contact points" + why
+        if "contact_geometry" in needs and not self.reports_geometry:
+            return ("the case reads the engine's contact points (where, the normal, the gap), which this adapter "
+                    "does not report")
         if "contact_forces" in needs and scene.joints and not self.contact_forces_beside_joints:
             return ("the case reads contact forces in a scene with joints: the engine's contact forces are worked "
                     "out from the bodies' momenta, which the joints' impulses change too")
@@ -231,6 +241,11 @@ class Capabilities:
                             f"{self.restitution_law} restitution")
         return None
 
+    @property
+    def reports_geometry(self) -> bool:
+        """Simulation.contact_points gives at least each point's geometry."""
+        return self.contact_points or self.contact_geometry
+
     def cannot_run_as(self, mode: str) -> str | None:
         """Why the engine cannot run a scene in `mode` (cases.relations.NEEDS), or None."""
         if not mode or mode in self.modes:
@@ -242,6 +257,8 @@ class Capabilities:
         flags = [f for f in ("native_restitution", "static_kinetic", "contact_forces", "iterations",
                              "contact_points")
                  if getattr(self, f)]
+        if self.contact_geometry and not self.contact_points:
+            flags.append("contact_geometry")
         laws = f"; compliant contact: {','.join(sorted(self.contact_laws))}" if self.contact_laws else ""
         impacts = f"; impacts: {self.impact_model or 'none declared'}"
         torques = f"; contact torques: {','.join(sorted(self.contact_torques))}" if self.contact_torques else ""
@@ -308,7 +325,8 @@ class Simulation(ABC):
     def contact_points(self) -> list[ContactPoint]:
         """Every contact point the solver acted on in the last step, with its normal and
         friction force (cases.trajectory.ContactPoint). Engines with
-        `Capabilities.contact_points` implement it."""
+        `Capabilities.contact_points` implement it; engines with `Capabilities.contact_geometry`
+        only give the forces as NaN (not read)."""
         raise NotImplementedError(f"{type(self).__name__} does not report contact points")
 
     def plant(self, change: str, size: float | None = None) -> "Simulation":

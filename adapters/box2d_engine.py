@@ -81,9 +81,21 @@ snapshot the step keeps, so the timed step holds only the engine's work and the 
 The normal force of a pair is lambda / dt with n the pair's contact normal before the step
 (the geometry Box2D found its contacts from): the plane's normal, the line of centres, or
 the separating axis of least penetration over both polygons' edges (as b2CollidePolygons
-chooses it). No contact
-points (`Capabilities.contact_points` is False): their positions and per-point impulses are not
-exposed.
+chooses it).
+
+Contact points. pyb2d3 0.11.1 gives a contact's manifold only with its begin-touch event:
+recorded when Box2D found the contact at the start of the step in which it began, before
+the solver acted (the impulses are zero). So `contact_points` gives the geometry of the
+contacts that began touching in the last step, and no forces (`Capabilities.contact_geometry`;
+`contact_points` False, so the per-point force readings leave Box2D out): f_n and f_t are
+NaN. In a one-step scene (the narrow-phase and broad-phase families) that is every contact
+of the step. A contact that persists from an earlier step has no manifold to read, and
+`contact_points` raises ContactGeometryUnavailable rather than report a stale one or leave
+the contact out. Each point is the manifold point's world `point` (midway between the
+surfaces, measured: two overlapping discs), its `separation` the gap (positive: a
+speculative point, up to 4 linear slops apart), and the manifold `normal` points from
+shape A to shape B, so the point's a is B's body and b A's (n from b into a); Box2D's
+(x, y) is the scene's (x, z).
 """
 from __future__ import annotations
 
@@ -99,6 +111,7 @@ from adapters.frames import planar_states, require_turn_about_y, state_row
 from adapters.impulse_split import OPEN_SPLIT, acting_pairs, split_impulses
 from adapters.solids import starts_fast
 from cases.scene import Body, Circle, Plane, Rect, Scene, pair_key, quat_about_y
+from cases.trajectory import ContactPoint
 
 DEFAULT_SUBSTEPS = 4  # Box2D's recommended sub-step count (b2World_Step documentation)
 # The fraction of the sub-step rate Box2D clamps contact_hertz to (src/world.c, b2World_Step:
@@ -131,6 +144,10 @@ MAX_POLYGON_VERTICES = 8
 LINEAR_SLOP = 0.005  # m
 
 
+class ContactGeometryUnavailable(RuntimeError):
+    """A contact whose manifold pyb2d3 does not give: it began touching before the last step."""
+
+
 # How Box2D resolves an impact through bodies already touching (Capabilities.impact_model),
 # measured (dt = 1e-3, no gravity, a 0.1 kg ball resting on a 1 kg one, both landing at 2 m/s,
 # touching without overlap; tests/test_declared_models.py): neither model's closed form.
@@ -156,6 +173,7 @@ class Box2DAdapter(Adapter):
         contact_forces_beside_joints=False,  # the momenta hold the joints' impulses too
         iterations=True,       # the sub-step count
         contact_points=False,
+        contact_geometry=True,  # the begin-touch manifolds of the last step (module notes)
         impact_model=IMPACT_MODEL_MEASURED,  # neither model: see the note above the class
         # rollingResistance per shape (`_rolling`); no torsional friction (a 2D engine has
         # no spin about a contact normal in its plane)
@@ -437,6 +455,7 @@ class Box2DSimulation(Simulation):
                 angle = 0.0 if isinstance(body.shape, Plane) else _angle(body)
                 self._static_pose[body.name] = (body.position[0], body.position[2], math.cos(angle), math.sin(angle))
         self._touching: set[tuple[str, str]] = set()
+        self._began: list = []  # the last step's begin-touch events (contact_points)
         self._pending = None
         self._gaps_after: dict = {}  # pair -> (poses, contact_gap) after the last step read
         self._forces: dict[tuple[str, str], float] | None = {}
@@ -601,9 +620,11 @@ class Box2DSimulation(Simulation):
         self._world.step(self._dt, self.iterations)
         events = self._world.get_contact_events()
         touching_before = frozenset(self._touching)
-        if events.begin_count:
+        # the begin-touch events of this step, whose manifolds contact_points reads (valid until the next step)
+        self._began = list(events.begin_events()) if events.begin_count else []
+        if self._began:
             self._touching.update(pair_key(self._shape_of[e.shape_a.id], self._shape_of[e.shape_b.id])
-                                  for e in events.begin_events())
+                                  for e in self._began)
         if events.end_count:
             self._touching.difference_update(pair_key(self._shape_of[e.shape_a.id], self._shape_of[e.shape_b.id])
                                              for e in events.end_events())
@@ -685,6 +706,27 @@ class Box2DSimulation(Simulation):
         if self._forces is None:
             self._forces = self._read_forces() if self._pending else {}
         return dict(self._forces)
+
+    def contact_points(self) -> list[ContactPoint]:
+        """The geometry of each contact that began touching in the last step, forces NaN
+        (module notes); ContactGeometryUnavailable where a contact persists from before."""
+        out, began = [], set()
+        for e in self._began:
+            a, b = self._shape_of[e.shape_b.id], self._shape_of[e.shape_a.id]  # the normal points from A to B
+            if pair_key(a, b) not in self._touching:  # began and ended within the step
+                continue
+            began.add(pair_key(a, b))
+            m = e.manifold
+            n = (m.normal.x, 0.0, m.normal.y)
+            for p in m.points():
+                out.append(ContactPoint(a, b, np.array((p.point.x, 0.0, p.point.y)), np.array(n), math.nan,
+                                        np.full(3, math.nan), float(p.separation)))
+        stale = sorted(self._touching - began)
+        if stale:
+            raise ContactGeometryUnavailable(
+                f"{len(stale)} contacts ({'/'.join(stale[0])} first) persist from an earlier step: pyb2d3 gives a "
+                "contact's manifold only in the step it begins touching (b2Body_GetContactData is not bound)")
+        return out
 
     def close(self) -> None:
         world, self._world = getattr(self, "_world", None), None

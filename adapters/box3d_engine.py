@@ -56,8 +56,17 @@ share (with mu 0.5 that groove's points end with 6.31 N a face, last sub-step im
 4, and friction the rest; measured). The manifold points' own `normalImpulse` is the
 last sub-step's impulse only: on a resting 5-box stack its mean over 1 s is 49.77 N at the
 ground for the weight 49.05 N (std 2.2 N), where the momentum read gives 49.0501 N
-(measured). No per-point read-out (`contact_points` is False): a manifold carries one
+(measured). No per-point forces (`contact_points` is False): a manifold carries one
 friction impulse for all its points.
+
+`contact_points` gives the geometry of every manifold point of the last step and not its
+forces (`Capabilities.contact_geometry`: f_n and f_t NaN). Box3D finds its manifolds at the
+start of the step from the poses then (contact recycling is off, so every step's are found
+anew): each point's `anchorA` is the point relative to body A's centre of mass (its origin:
+the adapter sets the mass data about it) in world axes at those poses, so the point is
+body A's position before the step plus anchorA; `separation` is its signed distance
+(positive: a speculative point, up to 4 linear slops apart); the manifold `normal` points
+from shape A to shape B, so the point's a is B's body and b is A's (n from b into a).
 """
 from __future__ import annotations
 
@@ -73,6 +82,7 @@ from adapters.impulse_split import OPEN_SPLIT, acting_pairs, split_impulses
 from adapters.lazy import require
 from adapters.solids import cylinder_prism, embedded_half_depth, polygon_prism, starts_fast
 from cases.scene import Body, Plane, Scene, pair_key
+from cases.trajectory import ContactPoint
 
 require("robox3d")  # not installed: ImportError now, so the registry reports it
 ffi = lib = shim = None  # robox3d._ffi's, bound when a scene is first built (importing takes ~0.5 s)
@@ -181,6 +191,7 @@ class Box3DAdapter(Adapter):
         contact_forces_beside_joints=False,  # the momenta hold the joints' impulses too
         iterations=True,       # the sub-step count
         contact_points=False,
+        contact_geometry=True,  # each manifold point's place, normal and separation (module notes)
         impact_model=IMPACT_MODEL_MEASURED,  # touching bodies take an impact one pair a step
         restitution_law="two_phase",  # Box2D v3's relax pass: restitution after the sub-steps, without friction
         float_bits=32,         # positions, velocities and masses in single precision
@@ -283,6 +294,7 @@ class Box3DSimulation(Simulation):
         self._mass = np.array([lib.b3Body_GetMass(bid) for bid in self._ids])  # as Box3D holds them
         self._g_dt = np.asarray(gravity, float) * self._dt
         self._pending = None  # the velocities before and after the last step
+        self._poses_before = None  # the poses before the last step (contact_points)
         self._forces: dict | None = {}
         self.knobs["pair_split"] = "unique"
         self.effects = self._built_effects(scene, gravity)
@@ -510,7 +522,9 @@ class Box3DSimulation(Simulation):
     # --- stepping and reading -------------------------------------------------------------
 
     def step(self) -> None:
-        before = self._read()[1].astype(float)
+        poses, vels = self._read()
+        before = vels.astype(float)
+        self._poses_before = poses.copy()  # where Box3D found this step's manifolds (contact_points)
         lib.b3World_Step(self._world, self._dt, self.iterations)
         self._pending = (before, self._read()[1].astype(float))
         self._forces = None  # worked out when asked for (contact_forces), not inside the step
@@ -550,16 +564,43 @@ class Box3DSimulation(Simulation):
         out[..., 7:13] = vels
         return out
 
+    def _contacts_of(self, bid):
+        """The b3ContactData of a body's contacts (a buffer reused between calls)."""
+        capacity = lib.b3Body_GetContactCapacity(bid)
+        if capacity > len(self._contacts):
+            self._contacts = ffi.new("b3ContactData[]", capacity)
+        count = lib.b3Body_GetContactData(bid, self._contacts, len(self._contacts))
+        return self._contacts[0:count]
+
+    def contact_points(self) -> list[ContactPoint]:
+        """The geometry of each manifold point of the last step, forces NaN (module notes)."""
+        if self._poses_before is None:
+            return []
+        where = {name: self._poses_before[i, :3].astype(float) for i, name in enumerate(self._order)}
+        out, seen = [], set()
+        for bid in self._ids:
+            for c in self._contacts_of(bid):
+                name_a, name_b = self._names[c.shapeIdA.index1], self._names[c.shapeIdB.index1]
+                if (name_a, name_b) in seen:  # a contact between two dynamic bodies is listed for both
+                    continue
+                seen.add((name_a, name_b))
+                origin = where[name_a] if name_a in where else self._every[name_a][1]
+                for m in range(c.manifoldCount):
+                    manifold = c.manifolds[m]
+                    n = np.array([manifold.normal.x, manifold.normal.y, manifold.normal.z])  # A to B: b = A, a = B
+                    for j in range(manifold.pointCount):
+                        mp = manifold.points[j]
+                        x = origin + (mp.anchorA.x, mp.anchorA.y, mp.anchorA.z)
+                        out.append(ContactPoint(name_b, name_a, x, n.copy(), math.nan, np.full(3, math.nan),
+                                                float(mp.separation)))
+        return out
+
     def _touching(self) -> tuple[dict, dict]:
         """Gap (least separation) and unit normal from b into a of every pair (a, b) whose
         manifolds have points after the step."""
         gaps, normals = {}, {}
         for bid in self._ids:
-            capacity = lib.b3Body_GetContactCapacity(bid)
-            if capacity > len(self._contacts):
-                self._contacts = ffi.new("b3ContactData[]", capacity)
-            count = lib.b3Body_GetContactData(bid, self._contacts, len(self._contacts))
-            for c in self._contacts[0:count]:
+            for c in self._contacts_of(bid):
                 name_a, name_b = self._names[c.shapeIdA.index1], self._names[c.shapeIdB.index1]
                 key = pair_key(name_a, name_b)
                 if key in gaps:  # a contact between two dynamic bodies is listed for both

@@ -78,11 +78,23 @@ multiply under which per-collider values reproduce every pair of the scene
 Contact forces and points. Rapier reports per contact point its normal impulse over the
 step (the sum over the sub-steps and the restitution pass) and two tangent impulses in a
 basis the Python bindings do not expose: `contact_forces` sums the normal impulses of each
-pair / dt; contact points are not reported (`Capabilities.contact_points` is False). The
-bindings (0.36.1) read every point of a trimesh pair's manifolds as 0 while the pair's
-total_impulse (the sum of each manifold's normal times its impulses) is the solver's: a pair
-with a mesh reports the magnitude of that sum / dt, the summed impulses wherever its
-contacts share a normal (a body on a flat patch: its weight; measured).
+pair / dt. The bindings (0.36.1) read every point of a trimesh pair's manifolds as 0 while
+the pair's total_impulse (the sum of each manifold's normal times its impulses) is the
+solver's: a pair with a mesh reports the magnitude of that sum / dt, the summed impulses
+wherever its contacts share a normal (a body on a flat patch: its weight; measured).
+
+`contact_points` gives the geometry of every point the solver had in the last step and not
+its forces (`Capabilities.contact_geometry`; `contact_points` False, so the per-point force
+readings leave Rapier out): f_n and f_t are NaN, since the tangent impulses' basis is not
+exposed and, under the SIMPLIFIED friction model, friction is one constraint per manifold,
+not per point. The points are each manifold's solver contacts (`ContactManifoldData
+.solver_contacts`: those within `prediction_distance`, speculative ones included), made by
+the narrow phase at the start of the step from the poses then: `point` the world point on
+collider 1's surface (measured: two overlapping balls, collider 1 a fixed one off the
+origin), `dist` the signed distance, and the manifold's world normal `normal` points from collider 1 into collider 2,
+so the point's a is collider 2's body and b collider 1's (n from b into a). Float32: a point
+is placed to 6e-8 of its distance from the origin. (`solver_contact_world_points` would move
+the points with the bodies' poses after the step: not used.)
 """
 from __future__ import annotations
 
@@ -100,6 +112,7 @@ from adapters.frames import require_turn_about_y, state_row
 from adapters.solids import embedded_half_depth, polygon_prism, starts_fast
 from cases.overlap import rotation_matrix
 from cases.scene import Body, Box, Circle, Hull, Plane, Rect, Scene, Sphere, pair_key
+from cases.trajectory import ContactPoint
 
 DEFAULT_SUBSTEPS = 4  # Rapier's own default num_solver_iterations, stated
 # Principal moments within this fraction of each other are equal (no gyroscopic term, module
@@ -158,6 +171,7 @@ class RapierAdapter(Adapter):
         contact_forces=True,
         iterations=True,       # the sub-step count
         contact_points=False,  # tangent impulses come in a basis the bindings do not expose
+        contact_geometry=True,  # each solver contact's point, normal and distance (module notes)
         impact_model=IMPACT_MODEL_MEASURED,  # neither model: see the note above the class
         restitution_law="two_phase",  # restitution in a pass of its own after the sub-steps, without friction
         float_bits=32,         # positions, velocities and masses in single precision (checked: 0.1 m/s reads back as float32(0.1))
@@ -499,6 +513,21 @@ class RapierSimulation(Simulation):
             key = pair_key(a, b)
             forces[key] = forces.get(key, 0.0) + j / self._dt
         return forces
+
+    def contact_points(self) -> list[ContactPoint]:
+        """The geometry of each solver contact of the last step, forces NaN (module notes)."""
+        out = []
+        for pair in self._world.narrow_phase.contact_pairs():
+            one, two = self._collider_of[pair.collider1.index], self._collider_of[pair.collider2.index]
+            for m in pair.manifolds:
+                contacts = m.data.solver_contacts
+                if not contacts:
+                    continue
+                n = np.array(m.data.normal.to_tuple(), float)  # from collider 1 into collider 2: b = one, a = two
+                for c in contacts:
+                    out.append(ContactPoint(two, one, np.array(c.point.to_tuple(), float), n, math.nan,
+                                            np.full(3, math.nan), float(c.dist)))
+        return out
 
     def close(self) -> None:
         world, self._world = getattr(self, "_world", None), None

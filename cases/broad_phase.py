@@ -146,6 +146,6 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=DT,
     variant_id=lambda p: f"bodies={int(np.prod(counts(p)))},{p['dim']}D",
-    needs=frozenset({"contact_points"}),
+    needs=frozenset({"contact_geometry"}),  # the points' pair, place, normal and gap; no forces
     catches=(Catch("contact offset", "bodies=64,3D"),),
 )

@@ -30,14 +30,16 @@ class CaseError(ValueError):
 
 # What a family may ask of an engine beyond representing its scene (CaseFamily.needs):
 # "contact_forces"  the observer reads Trajectory.force / impulse (normal force per pair);
-# "contact_points"  the observer reads Trajectory.points: the contact points the engine
-#                   reported after its last step (cases.trajectory.ContactPoint: where, the
-#                   normal, the gap), as its collision detection found them;
+# "contact_geometry"  the observer reads Trajectory.points for their geometry only: the
+#                   contact points the engine reported after its last step
+#                   (cases.trajectory.ContactPoint: the pair, where, the normal, the gap), as
+#                   its collision detection found them;
+# "contact_points"  ... and their forces too (f_n, f_t);
 # "impact_model:M"  the closed forms assume the engine resolves simultaneous impacts by
 #                   model M (cases.scene.IMPACT_MODELS); other engines report unsupported.
 # "restitution_law:L"  the closed forms assume restitution law L at a frictional contact
 #                   (cases.scene.RESTITUTION_LAWS); other engines report unsupported.
-NEEDS = ("contact_forces", "contact_points")
+NEEDS = ("contact_forces", "contact_geometry", "contact_points")
 NEEDS_PREFIXES = ("impact_model:", "restitution_law:")  # followed by one of IMPACT_MODELS, RESTITUTION_LAWS
 
 # Labels a family carries (CaseFamily.tags); physval selects by them, it keeps no name lists:

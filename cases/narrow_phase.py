@@ -256,7 +256,7 @@ FAMILY = CaseFamily(
     expect=expect,
     dt=DT,
     variant_id=lambda p: p["pair"],
-    needs=frozenset({"contact_points"}),
+    needs=frozenset({"contact_geometry"}),  # the points' pair, place, normal and gap; no forces
     catches=(
         Catch("contact offset", "sphere-capsule"),
         Catch("contact offset", "box-cylinder-side"),

@@ -29,6 +29,8 @@ class ContactPoint:
     one resultant per touching pair give one point per pair (at the mean of its points,
     the smallest gap); the adapter says so in its docstring. Velocities are not part of
     the record: the harness takes them from the bodies' states, the same way for every engine.
+    An adapter that reports the geometry and not the forces (`Capabilities.contact_geometry`
+    without `contact_points`) gives f_n and every f_t component as NaN: not read.
     """
     a: str
     b: str
@@ -58,7 +60,7 @@ class Trajectory:
     step k's force, zero at sample 0), recorded only when the family declares
     needs={"contact_forces"}. `bodies` names every body of the scene, static ones too.
     `points` the contact points the engine reported after its last step, recorded only
-    when the family declares needs={"contact_points"} (None: not recorded).
+    when the family declares needs={"contact_points"} or {"contact_geometry"} (None: not recorded).
     """
     dt: float
     t: np.ndarray                      # (n+1,) simulated time of each sample
@@ -105,7 +107,8 @@ class Trajectory:
         """The contact points the engine reported after the last step (ContactPoint)."""
         if self.points is None:
             raise TrajectoryError("contact points were not recorded: the family must declare "
-                                  "needs={'contact_points'} to read them")
+                                  "needs={'contact_geometry'} (or 'contact_points', for their forces too) "
+                                  "to read them")
         return list(self.points)
 
     def after(self, t0: float) -> np.ndarray:

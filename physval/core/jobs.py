@@ -328,7 +328,7 @@ def run_scene(adapter, scene, settings: Settings, steps: int, needs: frozenset =
         with sim:
             run = simulate(sim, scene, settings.dt, steps, forces="contact_forces" in needs or probe.forces,
                            warmup=warmup, on_step=probe.on_step if type(probe).on_step is not Probe.on_step else None,
-                           points="contact_points" in needs)
+                           points=bool({"contact_points", "contact_geometry"} & needs))
             return run, probe.after(run, sim, lambda: adapter.build(scene, settings))
     except Unstable as exc:
         raise Failed("unstable", str(exc), "run", knobs=getattr(sim, "knobs", {})) from None

@@ -5,7 +5,7 @@ Recording is kept to a copy per step: each step's raw engine state goes into one
 preallocated array (`Simulation.write_state`) and is decoded into state rows in blocks
 (`Simulation.decode_states`), which is also when a blow-up is looked for. Contact forces
 are read only when asked for (a family that declares needs={"contact_forces"}), and so are
-the contact points after the last step (needs={"contact_points"}).
+the contact points after the last step (needs={"contact_points"} or {"contact_geometry"}).
 """
 from __future__ import annotations
 
