@@ -85,6 +85,9 @@ ENGINES: dict[str, tuple[str, str, dict]] = {
     # PhysX's projected Gauss-Seidel solver: static friction holds to about 0.42 for mu_s = 0.5, mu_k = 0.3
     # (TGS: only to mu_k; adapters/physx_engine.py)
     "physx-pgs": ("adapters.physx_engine", "PhysXAdapter", {"name": "physx-pgs", "solver": "PGS"}),
+    # continuous collision: PhysX's swept CCD (enableCCD on the scene and every dynamic body); in a
+    # default run only the families tagged "swept"
+    "physx-ccd": ("adapters.physx_engine", "PhysXAdapter", {"name": "physx-ccd", "ccd": True}),
     # Drake's contact models and discrete approximations as variants (adapters/drake_engine.py).
     # The plain name is Drake's own default configuration (MultibodyPlantConfig):
     # hydroelastic contact, Lagged approximation; point contact gives one point per pair,

@@ -102,7 +102,7 @@ def test_a_pybullet_client_kept_for_the_next_scene_steps_it_bit_for_bit_as_a_new
 # --- continuous collision: configurations of their own, run by default on the "swept" families ---
 
 CCD = {"pybullet-ccd": "pybullet", "mujoco-speculative": "mujoco", "rapier-ccd": "rapier", "box2d-bullet": "box2d",
-       "box3d-bullet": "box3d"}
+       "box3d-bullet": "box3d", "physx-ccd": "physx"}
 
 
 def _bullet_scene(dim: int = 3) -> Scene:
@@ -120,7 +120,7 @@ def test_a_continuous_collision_configuration_runs_the_swept_families_by_default
     assert any("swept" in f.tags for f in builtin_families().values())
 
 
-@pytest.mark.parametrize("name", ["pybullet-ccd", "mujoco-speculative"])
+@pytest.mark.parametrize("name", ["pybullet-ccd", "mujoco-speculative", "physx-ccd"])
 def test_a_continuous_collision_configuration_takes_no_other_family_in_a_default_run(name):
     """Its compliant-law variants (hertz_impact's hooke ones: the engine models Hooke) and the
     invariance relations' scenes outside the swept families stay out of a default run: the
@@ -160,6 +160,31 @@ def test_bullets_are_the_fast_bodies_only(name, flag):
     bodies = _knobs(name, scene)["bodies"]
     assert bodies["bullet"][flag] is True and bodies["plate"][flag] is False
     assert _knobs(CCD[name], scene)["bodies"]["bullet"][flag] is False
+
+
+@pytest.mark.engine("physx-ccd")
+def test_physx_ccd_sets_swept_ccd_on_the_scene_and_every_dynamic_body_and_nothing_else():
+    """PhysX sweeps only with both flags (either alone, the ball passed the plate: measured):
+    the scene's enableCCD and every dynamic body's, written into the USD layer and recorded;
+    speculative CCD off in both; the plain engine has neither, and the two differ in nothing
+    else."""
+    for dim in (3, 2):
+        on, off = _knobs("physx-ccd", _bullet_scene(dim)), _knobs("physx", _bullet_scene(dim))
+        assert on["PhysicsScene"]["enableCCD"] is True and off["PhysicsScene"]["enableCCD"] is False
+        for body in ("bullet", "plate"):
+            assert on["bodies"][body]["enableCCD"] is True and off["bodies"][body]["enableCCD"] is False
+            assert on["bodies"][body]["enableSpeculativeCCD"] is False is off["bodies"][body]["enableSpeculativeCCD"]
+        strip = lambda k: {**k, "PhysicsScene": {**k["PhysicsScene"], "enableCCD": None},  # noqa: E731
+                           "bodies": {b: {**r, "enableCCD": None} for b, r in k["bodies"].items()}}
+        assert strip(on) == strip(off)
+    sim = adapter_or_skip("physx-ccd").build(_bullet_scene(), Settings(dt=1e-3))
+    try:
+        with open(sim._file) as f:
+            layer = f.read()
+    finally:
+        sim.close()
+    assert "bool physxScene:enableCCD = 1" in layer
+    assert layer.count("bool physxRigidBody:enableCCD = 1") == 2 and "enableSpeculativeCCD = 1" not in layer
 
 
 @pytest.mark.engine("mujoco-speculative")
