@@ -490,15 +490,17 @@ def stale_entries(df, resolver) -> list[str]:
     they are all its family has, is listed as matching nothing."""
     notes = []
     ran_families = set(df.case)
-    for engine in dict.fromkeys(df.engine):
-        mine = df[df.engine == engine]
+    for engine, mine in df.groupby("engine", sort=False):  # one pass, not a scan of df per engine
         judged = {(r.case, r.variant, r.metric): "pass" if str(r.reason).startswith(VANISHED) else r.status
                   for r in mine.itertuples()}  # a vanished deviation: within its tolerance, the entry can go
         ran_variants = {(c, v) for c, v, _ in judged}
+        of_family: dict[str, list[tuple]] = {}  # an entry matches its own family's checks only (Deviation.matches)
+        for k in judged:
+            of_family.setdefault(k[0], []).append(k)
         for e in resolver.known(engine):
             if e.family not in ran_families:
                 continue
-            hits = [k for k in judged if e.matches(*k)]
+            hits = [k for k in of_family.get(e.family, ()) if e.matches(*k)]
             if not hits:
                 variants = [v.id for v in resolver.family(e.family).all_variants if fnmatchcase(v.id, e.variant)]
                 if not variants or all((e.family, v) in ran_variants for v in variants):
