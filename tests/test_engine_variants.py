@@ -183,18 +183,22 @@ def test_the_inscribed_radius_of_each_shape():
 
 
 def test_lemke_leaves_the_3d_grasp_to_on_demand_and_runs_the_other_jointed_families():
-    """reference-lemke's 3D pinch grasp (up to 125 s a job) waits for --on-demand; its 2D
+    """reference-lemke's 3D pinch grasps, measured over the per-job limit in the shipped cost
+    table (physval/readings/costs.csv, priced per variant), wait for --on-demand; its 2D
     grasp, the rail slide and the other formulations' grasps stay in a default run."""
     from physval.core import Context
     from physval.core.plan import plan
+    from physval.readings import cost
     resolver = Context().resolver()
+    price = cost.pricer(resolver, cost.model_for(None))
     chosen = {f: list(resolver.families[f].variants) for f in ("pinch_grasp", "rail_slide")}
-    jobs, later = plan(chosen, ["reference-lemke", "reference-pgs"], resolver, False)
-    waiting = {(j.engine, j.family, j.variant.params.get("dim")) for j in later}
+    jobs, later = plan(chosen, ["reference-lemke", "reference-pgs"], resolver, False, price=price)
+    waiting = {(j.engine, j.family, j.variant.params.get("dim")) for j, _ in later}
     assert waiting == {("reference-lemke", "pinch_grasp", 3)}
+    assert all("over the per-job limit" in why for _, why in later)
     assert {("reference-lemke", "pinch_grasp", 2), ("reference-lemke", "rail_slide", 3),
             ("reference-pgs", "pinch_grasp", 3)} <= {(j.engine, j.family, j.variant.params.get("dim")) for j in jobs}
-    jobs, later = plan(chosen, ["reference-lemke"], resolver, False, on_demand=True)
+    jobs, later = plan(chosen, ["reference-lemke"], resolver, False, on_demand=True, price=price)
     assert not later and any(j.family == "pinch_grasp" and j.variant.params.get("dim") == 3 for j in jobs)
 
 
