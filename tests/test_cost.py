@@ -163,3 +163,30 @@ def test_the_runs_left_for_on_demand_are_said_per_engine_with_why_in_the_plan_an
                     "per-job limit 15 s")
     section = cost.section(cost.measure([], cost.Phases(later=tuple(later))))
     assert "Runs left for --on-demand (1;" in section and "measured 60 s a job" in section
+
+
+def test_one_rule_says_what_a_run_leaves_out_and_why():
+    """physval.core.plan.leaves_out, which plan, relation_jobs and the tests that follow a
+    default run call: a family outside the engine's default tags is out unless the engine is
+    named (its compliant-law variants in, with default_laws), even on demand; a run the
+    engine declares on demand, or one measured over the limit, waits for --on-demand."""
+    from dataclasses import replace
+    from physval.core.plan import PER_JOB_LIMIT_S, leaves_out
+    from tests.fakes import CoreOnDemandFake, FakeAdapter
+    from tests.helpers import variant_scene
+    plain, core = FakeAdapter(), CoreOnDemandFake()
+    slide, _ = variant_scene("slide_to_stop", "mu=0.5,v0=2")
+    hooke, _ = variant_scene("hertz_impact", "r=0.1:0.05,hooke")
+    other, mine = frozenset({"friction"}), frozenset({"core"})
+    assert leaves_out(plain, other, slide) is None
+    assert "runs the families tagged core unless named" in leaves_out(core, other, slide, on_demand=True)
+    assert leaves_out(core, other, slide, named=True) == "waits for --on-demand: " + core.on_demand(slide)
+    assert leaves_out(core, other, slide, named=True, on_demand=True) is None
+    assert leaves_out(core, mine, slide) is None, "its default families run in every run"
+    core.capabilities = replace(core.capabilities, contact_laws=frozenset({"hooke"}))
+    assert leaves_out(core, other, hooke, on_demand=True) is None, "a variant of a law it models (default_laws)"
+    core.default_laws = False
+    assert leaves_out(core, other, hooke, on_demand=True) is not None
+    assert leaves_out(plain, other, slide, cost=PER_JOB_LIMIT_S) is None
+    assert "over the per-job limit" in leaves_out(plain, other, slide, cost=PER_JOB_LIMIT_S + 1)
+    assert leaves_out(plain, other, slide, cost=PER_JOB_LIMIT_S + 1, on_demand=True) is None
