@@ -733,7 +733,8 @@ def default_run(workers: int, out: Path, args: tuple[str, ...] = ()) -> pd.DataF
             wall[state] = time.perf_counter() - t0
             if done.returncode not in (0, 1) or not (folder / "cost.csv").is_file():
                 raise RuntimeError(f"physval run ({state}) exited {done.returncode}: {done.stderr.strip()[-400:]}")
-            parts[state] = pd.read_csv(folder / "cost.csv")
+            part = pd.read_csv(folder / "cost.csv")
+            parts[state] = part[part.kind != "later"]  # its times, not the runs it left for --on-demand
             if state == "warm":
                 from physval.core.store import read_results
                 measured = cost.per_job(read_results(folder / "results.csv")).dropna(subset=["job_s"])
