@@ -23,8 +23,10 @@ ROOT = Path(__file__).resolve().parent.parent
 # The run of the tests that check a mechanism of physval (workers, signals, the fork server)
 # in a subprocess under a time limit: one MuJoCo job, whose engine is compiled ahead. The
 # reference compiles its step with numba on a worker's first job when its cache is cold (a
-# fresh clone): minutes of CPU, stretched many times at a load of 16-20 on 2 cores (here a
-# cold test_oracle took 630 s at load 19-20), which a 300 s limit cannot promise to hold.
+# fresh clone): minutes of CPU, stretched many times at a load of 16-20 on 2 cores, which a
+# 300 s limit cannot promise to hold (measured: with an empty NUMBA_CACHE_DIR at a load of
+# 19-27, this very reference drop was stopped by the 900 s job limit, its worker 55 s of CPU
+# into the compile after 9 minutes; warm, the job takes about a second).
 R_COMPILED = ["--cases", "central_impact[drop,e=0.5]", "--engines", "mujoco", "--readings", "none", "--workers",
               "1", "--quiet"]
 
