@@ -34,8 +34,8 @@ from importlib import metadata
 
 import numpy as np
 
-from adapters.base import Capabilities, Settings, Simulation, Unsupported
-from adapters.mujoco_engine import CONTACT_STEPS, MuJoCoAdapter, MuJoCoSimulation
+from adapters.base import Settings, Simulation, Unsupported
+from adapters.mujoco_engine import CONTACT_STEPS, MuJoCoAdapter, MuJoCoSimulation, float32_capabilities
 from cases.scene import Scene
 
 # mujoco-mjx installs into MuJoCo's package (mujoco/mjx) and jax (~1 s to import) comes with
@@ -150,23 +150,12 @@ class MjxAdapter(MuJoCoAdapter):
     # mujoco-mjx 3.17.0 (its last release) beside MuJoCo 4.0.0: the pair the battery ran on
     supported = ">=3.17.0,<4"
     packages = ("mujoco-mjx", "mujoco")
-    capabilities = Capabilities(
-        dimensions=MuJoCoAdapter.capabilities.dimensions,
-        shapes=MuJoCoAdapter.capabilities.shapes,
-        native_restitution=False,  # e mapped onto the contact spring-damper, as MuJoCo C
-        static_kinetic=False,
-        contact_forces=True,
-        iterations=True,
-        contact_points=True,
-        contact_laws=MuJoCoAdapter.capabilities.contact_laws,
-        impact_model="compliant",
-        contact_torques=MuJoCoAdapter.capabilities.contact_torques,
-        float_bits=32,  # JAX's default: qpos, qvel and every operation in single precision
-        substeps=False,  # Settings.iterations caps the Newton solver's iterations
+    # MuJoCo C's (float32_capabilities): JAX's default floats, single precision for qpos, qvel and
+    # every operation; the MJX read-out carries no joints or loads
+    capabilities = float32_capabilities(
         why_not=(("joint", "the MuJoCo adapter's joint tree reads states through MuJoCo C's mj_kinematics "
                            "(MuJoCoTreeSimulation); the MJX read-out decodes free and planar bodies from qpos only"),
-                 ("load", "loads are MuJoCo C's xfrc_applied, not copied into the MJX data")),
-    )
+                 ("load", "loads are MuJoCo C's xfrc_applied, not copied into the MJX data")))
     # Runs only when asked (--on-demand): a step that reads forces or contact points costs
     # 1-4 ms of Python dispatch and copying (25 us in the scans of a run that reads neither), a
     # new model shape 8-12 s of compiling; central_impact alone took 1276 s of wall time on

@@ -46,6 +46,7 @@ from __future__ import annotations
 import functools
 import math
 import re
+from dataclasses import replace
 from importlib import metadata
 from xml.sax.saxutils import quoteattr
 
@@ -1242,3 +1243,14 @@ class MuJoCoAdapter(Adapter):
             return mujoco.MjModel.from_xml_string(xml)
         except ValueError as exc:
             raise Unsupported(f"MuJoCo rejects the scene: {exc}") from None
+
+
+def float32_capabilities(why_not: tuple[tuple[str, str], ...]) -> Capabilities:
+    """The capabilities of a single-precision port of MuJoCo's pipeline (MuJoCo Warp, MJX),
+    which builds MuJoCo C's model (MuJoCoAdapter.model) and reads forces and contact points
+    as MuJoCo C does: MuJoCo C's, with 32-bit floats, Settings.iterations capping the
+    Newton solver's iterations (no sub-steps), and none of what the ports' read-out does
+    not carry: joints, loads, threads and saved states; `why_not` says why for each."""
+    return replace(MuJoCoAdapter.capabilities, float_bits=32, substeps=False, modes=frozenset(),
+                   joints=frozenset(), joint_limits=False, joint_friction=False, limit_restitution=False,
+                   coordinates=None, loads=False, why_not=why_not)

@@ -35,9 +35,9 @@ from importlib import metadata
 
 import numpy as np
 
-from adapters.base import Capabilities, Settings, Simulation, Unsupported
+from adapters.base import Settings, Simulation, Unsupported
 from adapters.lazy import require
-from adapters.mujoco_engine import CONTACT_STEPS, MuJoCoAdapter, MuJoCoSimulation
+from adapters.mujoco_engine import CONTACT_STEPS, MuJoCoAdapter, MuJoCoSimulation, float32_capabilities
 from cases.scene import Scene
 
 # warp (~4 s to import, it loads its runtime) and mujoco_warp are imported when a scene is
@@ -175,23 +175,12 @@ class MuJoCoWarpAdapter(MuJoCoAdapter):
     # with, 3.10 does not compile on this Warp, 3.5 has put_data without njmax_nnz.
     supported = ">=3.13.0,<5"
     packages = ("mujoco-warp", "mujoco")
-    capabilities = Capabilities(
-        dimensions=MuJoCoAdapter.capabilities.dimensions,
-        shapes=MuJoCoAdapter.capabilities.shapes,
-        native_restitution=False,  # e mapped onto the contact spring-damper, as MuJoCo C
-        static_kinetic=False,
-        contact_forces=True,
-        iterations=True,
-        contact_points=True,
-        contact_laws=MuJoCoAdapter.capabilities.contact_laws,
-        impact_model="compliant",
-        contact_torques=MuJoCoAdapter.capabilities.contact_torques,
-        float_bits=32,  # qpos, qvel, masses and every kernel's arithmetic in single precision
-        substeps=False,  # Settings.iterations caps the Newton solver's iterations
+    # MuJoCo C's (float32_capabilities): qpos, qvel, masses and every kernel's arithmetic in
+    # single precision; the Warp read-out carries no joints or loads
+    capabilities = float32_capabilities(
         why_not=(("joint", "the MuJoCo adapter's joint tree reads states through MuJoCo C's mj_kinematics "
                            "(MuJoCoTreeSimulation); the Warp read-out decodes free and planar bodies from qpos only"),
-                 ("load", "loads are MuJoCo C's xfrc_applied, not copied into the Warp data")),
-    )
+                 ("load", "loads are MuJoCo C's xfrc_applied, not copied into the Warp data")))
 
     # A default run (and the default test suite) runs the core families and the conformance
     # battery on it; named (`--engines mujoco-warp`, `pytest --engine mujoco-warp`) every family.

@@ -48,10 +48,13 @@ DEFAULT = Config()  # the engine's stated defaults (iterations: DEFAULT.iteratio
 IMPACT_MODEL = {"compliant": "compliant", "single_contact": "sequential"}  # every other formulation: "simultaneous"
 
 
-# No run of a formulation is on demand (Adapter.on_demand): with their loops compiled
+# No formulation declares a run on demand (Adapter.on_demand): with their loops compiled
 # (reference_impl/compiled.py) the slowest default variant, pairwise Newton-Coulomb on a
-# 10-box stack, takes seconds, not minutes. Scenes large by design (the robustness families'
-# many-body variants) are in the families' full grids (physval run --full), for every engine.
+# 10-box stack, takes seconds, not minutes. A run measured over the per-job limit (Lemke's
+# pivoting on the 3D pinch grasps, a degenerate LCP of the pads' coplanar face corners: up to
+# 300 ms a step) waits for --on-demand as any engine's does (physval.core.plan, from the
+# shipped cost table). Scenes large by design (the robustness families' many-body variants)
+# are in the families' full grids (physval run --full), for every engine.
 
 
 class ReferenceAdapter(Adapter):
@@ -111,27 +114,28 @@ class ReferenceAdapter(Adapter):
             law = self.params.get("compliant_law", "hertz")
             self.capabilities = replace(self.capabilities, contact_laws=frozenset({law}))
 
-    def on_demand(self, scene: Scene) -> str | None:
-        """Lemke's exact pivoting on a 3D grasp (pads pressed by loads on a block's faces, held
-        by joints): each face meets the block at four coplanar corners, a degenerate LCP, and a
-        step took up to 300 ms (pinch_grasp's 3D variants: 6-125 s a job, 259 s of the default
-        run's 555 s of stepping, measured at 6d4d26d); its result there is a recorded deviation
-        (xfails/reference-lemke.txt), so the runs wait for --on-demand."""
-        if self.formulation == "lemke" and scene.dimension == 3 and scene.joints and scene.loads:
-            return ("Lemke's pivoting on a 3D grasp (a degenerate LCP of coplanar face corners under loads) "
-                    "takes up to 300 ms a step")
-        return None
-
     def version(self) -> str:
         from reference_impl import __version__
         return f"reference_impl {__version__} ({self.formulation})"
+
+    def world_of(self, scene: Scene, settings: Settings) -> World:
+        """The reference's World of `scene` as `build` makes it, without the engine contract
+        around it: for readings that look inside a step (World.begin_step, contact_problem,
+        end_step; the Pinocchio oracle reads its contact problems)."""
+        reason = self.capabilities.cannot_run(scene)
+        if reason:
+            raise Unsupported(reason)
+        return reference_world(scene, self._config(scene, settings))
+
+    def _config(self, scene: Scene, settings: Settings) -> Config:
+        return Config(formulation=self.formulation, params={**self.params, **_compliance_params(scene)},
+                      iterations=settings.iterations or DEFAULT.iterations)
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
         reason = self.capabilities.cannot_run(scene)
         if reason:
             raise Unsupported(reason)
-        config = Config(formulation=self.formulation, params={**self.params, **_compliance_params(scene)},
-                        iterations=settings.iterations or DEFAULT.iterations)
+        config = self._config(scene, settings)
         if settings.world is not None:
             return ReferenceBatch([ReferenceSimulation(scene, settings.dt, config) for _ in range(settings.world[1])],
                                   settings.world[0])
@@ -182,31 +186,40 @@ def _material(m) -> Material:
                     rolling=float(m.rolling_resistance), torsion=float(m.torsional_friction))
 
 
+def reference_world(scene: Scene, config: Config) -> World:
+    """The reference's World of `scene` under `config` (reference_impl/world.py): its
+    bodies, pair materials, joints and loads; Unsupported where the formulation cannot
+    represent the scene."""
+    planar = scene.dimension == 2
+    world = World(gravity=scene.gravity, material=_material(scene.material), config=config)
+    for b in scene.bodies:
+        if b.static:
+            world.add(RigidBody(b.name, _shape(b), x=b.position, q=b.orientation, static=True,
+                                planar=planar))
+        else:
+            world.add(RigidBody(b.name, _shape(b), b.mass, b.principal_inertia, x=b.position,
+                                q=b.orientation, v=b.velocity, w=b.angular_velocity if b.rotates else (0, 0, 0),
+                                can_rotate=b.rotates, planar=planar))
+    by_name = {body.name: body for body in world.bodies}
+    for a, b, m in scene.pairs:
+        world.set_material(by_name[a], by_name[b], _material(m))
+    for j in scene.joints:
+        world.join(j.kind, by_name[j.body], None if j.parent is None else by_name[j.parent], j.anchor,
+                   j.unit_axis, j.limits, j.limit_e, j.friction)
+    for load in scene.loads:
+        world.load(by_name[load.body], load.force, load.torque)
+    reason = world.unsupported()
+    if reason:
+        raise Unsupported(f"formulation {config.formulation!r}: {reason}")
+    return world
+
+
 class ReferenceSimulation(Simulation):
     def __init__(self, scene: Scene, dt: float, config: Config):
         self._dt = dt
         self.iterations = config.iterations
         planar = scene.dimension == 2
-        world = World(gravity=scene.gravity, material=_material(scene.material), config=config)
-        for b in scene.bodies:
-            if b.static:
-                world.add(RigidBody(b.name, _shape(b), x=b.position, q=b.orientation, static=True,
-                                    planar=planar))
-            else:
-                world.add(RigidBody(b.name, _shape(b), b.mass, b.principal_inertia, x=b.position,
-                                    q=b.orientation, v=b.velocity, w=b.angular_velocity if b.rotates else (0, 0, 0),
-                                    can_rotate=b.rotates, planar=planar))
-        by_name = {body.name: body for body in world.bodies}
-        for a, b, m in scene.pairs:
-            world.set_material(by_name[a], by_name[b], _material(m))
-        for j in scene.joints:
-            world.join(j.kind, by_name[j.body], None if j.parent is None else by_name[j.parent], j.anchor,
-                       j.unit_axis, j.limits, j.limit_e, j.friction)
-        for load in scene.loads:
-            world.load(by_name[load.body], load.force, load.torque)
-        reason = world.unsupported()
-        if reason:
-            raise Unsupported(f"formulation {config.formulation!r}: {reason}")
+        world = reference_world(scene, config)
         self._world = world
         self._dynamic = [body for body in world.bodies if not body.static]
         self._cold_restore = False  # a planted fault (plant: "cold restore")
@@ -243,11 +256,6 @@ class ReferenceSimulation(Simulation):
         self.effects = self._built_effects(scene)
 
 
-    @property
-    def world(self):
-        """The reference's World behind the engine contract (reference_impl/world.py), for
-        readings that look inside a step (the Pinocchio oracle reads its contact problems)."""
-        return self._world
     def _built_effects(self, scene: Scene) -> frozenset[str]:
         """What the built world simulates: the world runs a stage only when needed."""
         world = self._world

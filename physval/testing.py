@@ -45,11 +45,13 @@ def engine_checks(engines: list[str] | None = None, conformance: bool | None = N
     resolver = ctx.resolver()
     families = {n: list(f.variants) for n, f in resolver.families.items()
                 if conformance is None or ("conformance" in f.tags) == conformance}
-    jobs, later = plan(families, chosen, resolver, named, on_demand=False)
+    from physval.readings import cost
+    price = cost.pricer(resolver, cost.model_for(None))  # the shipped table: a job over the limit is slow
+    jobs, later = plan(families, chosen, resolver, named, on_demand=False, price=price)
     if not conformance:
-        jobs += relation_jobs([r.name for r in RELATIONS], chosen, resolver, named)
+        jobs += relation_jobs([r.name for r in RELATIONS], chosen, resolver, named, price=price)
     return ([pytest.param(j, id=j.test_id) for j in jobs]
-            + [pytest.param(j, id=j.test_id, marks=[pytest.mark.slow]) for j in later])
+            + [pytest.param(j, id=j.test_id, marks=[pytest.mark.slow]) for j, _ in later])
 
 
 def _line(r) -> str:

@@ -13,6 +13,7 @@ import pytest
 
 from cases.registry import builtin_families
 from physval.core import Context, Job
+from physval.core.plan import leaves_out
 from physval.readings.agreement import REFERENCE, distance
 
 from tests.conftest import selected_engines
@@ -38,30 +39,30 @@ class Pairing(NamedTuple):
     engine: str
 
 
-def _on_demand(engine: str, fam, variant) -> bool:
-    """A run a default run leaves out (Adapter.deferred: Newton's solvers outside the core
-    families; families outside an engine's default_tags): the pairing runs with `pytest -m
-    slow`, as the run's checks do."""
+def _on_demand(engine: str, name: str, fam, variant) -> bool:
+    """A run a default run leaves out (physval.core.plan.leaves_out: families outside an
+    engine's default_tags, runs it declares on demand, runs measured over the per-job
+    limit): the pairing runs with `pytest -m slow`, as the run's checks do."""
     from adapters.registry import EngineError, get
     try:
         adapter = get(engine)
     except EngineError:
         return False
-    scene = fam.scene(variant.params)
-    if adapter.default_tags is not None and not (fam.tags & adapter.default_tags):
-        # outside the engine's default families (physval.core.plan: a continuous-collision
-        # configuration takes only the swept ones), as a default run leaves it out
-        laws = scene.contact_laws
-        if not (adapter.default_laws and laws and laws <= adapter.capabilities.contact_laws):
-            return True
-    return adapter.deferred(scene, fam.tags) is not None
+    cost = _price()(Job(name, variant, engine))
+    return leaves_out(adapter, fam.tags, fam.scene(variant.params), cost=cost) is not None
+
+
+@functools.cache
+def _price():
+    from physval.readings import cost
+    return cost.pricer(Context().resolver(), cost.model_for(None))
 
 
 def pytest_generate_tests(metafunc):
     if "pairing" in metafunc.fixturenames:
         engines = [e for e in selected_engines(metafunc.config)[0] if not e.startswith(REFERENCE)]
         params = [pytest.param(Pairing(name, v.id, e), id=f"{name}[{v.id}]-{e}",
-                               marks=[pytest.mark.slow] if _on_demand(e, fam, v) else [])
+                               marks=[pytest.mark.slow] if _on_demand(e, name, fam, v) else [])
                   for name, fam in _families().items() for v in fam.variants for e in engines]
         metafunc.parametrize("pairing", params)
 

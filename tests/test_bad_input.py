@@ -498,7 +498,9 @@ def test_an_unreadable_family_file_is_left_out_and_the_good_families_run(tmp_pat
     (cases / "good.py").write_text(_user_case(name="good"))
     (cases / "secret.py").write_text(_user_case(name="secret"))
     (cases / "secret.py").chmod(0)
-    run = ["run", "--cases-dir", str(cases), "--engines", "reference", "--readings", "none", "--workers", "1",
+    # MuJoCo, compiled ahead: the reference would compile its step with numba on a cold cache,
+    # minutes at a high load, against this subprocess's 300 s (tests/test_execution.py R_COMPILED)
+    run = ["run", "--cases-dir", str(cases), "--engines", "mujoco", "--readings", "none", "--workers", "1",
            "--quiet", "--out", str(tmp_path / "out")]
     got = _as_a_user(*run, "--cases", "good")
     (line,) = got.stderr.strip().splitlines()

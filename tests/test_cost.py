@@ -8,6 +8,7 @@ import math
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 from physval.cli import main
 from physval.readings import cost
@@ -92,3 +93,100 @@ def test_bench_run_times_a_run_cold_then_warm_and_writes_the_cost_table(tmp_path
     table = pd.read_csv(out / "costs.csv")
     assert list(table.columns) == cost.TABLE_COLUMNS and set(table.engine) == {"fake-2"} and table.jobs.sum() > 0
     assert "## run" in (out / "bench.md").read_text()
+
+
+# --- the per-job limit: a job measured over it waits for --on-demand (physval.core.plan) --------
+
+def _grasp_table(slow_variant: str, seconds: float) -> pd.DataFrame:
+    """A synthetic cost table: reference-lemke's pinch_grasp measured per family at 0.1 s a
+    job, and one variant measured apart at `seconds` (400 steps a job)."""
+    return pd.DataFrame([
+        {"engine": "reference-lemke", "case": "pinch_grasp", "variant": "", "jobs": 2, "steps": 800,
+         "stepping_s": 0.18, "job_s": 0.2},
+        {"engine": "reference-lemke", "case": "pinch_grasp", "variant": slow_variant, "jobs": 1, "steps": 400,
+         "stepping_s": seconds - 0.01, "job_s": seconds}])
+
+
+def test_a_job_measured_over_the_per_job_limit_waits_for_on_demand_and_its_family_stays():
+    """One variant of a family measured at 60 s a job (over the 15 s limit) waits for
+    --on-demand with the reason stated; the family's other variants, priced by the family's
+    row, run; --on-demand runs it; an engine named runs it only with --on-demand too."""
+    from physval.core import Context
+    from physval.core.plan import PER_JOB_LIMIT_S, plan
+    resolver = Context().resolver()
+    variants = list(resolver.family("pinch_grasp").variants)
+    slow = variants[-1]
+    price = cost.pricer(resolver, cost.Model.of(_grasp_table(slow.id, 60.0), "a test"))
+    for named in (False, True):
+        jobs, later = plan({"pinch_grasp": variants}, ["reference-lemke"], resolver, named, price=price)
+        assert [(j.variant.id, why) for j, why in later] == [
+            (slow.id, f"waits for --on-demand: measured 60 s a job, over the per-job limit {PER_JOB_LIMIT_S:.0f} s")]
+        assert {j.variant.id for j in jobs} == {v.id for v in variants} - {slow.id}
+    jobs, later = plan({"pinch_grasp": variants}, ["reference-lemke"], resolver, False, on_demand=True, price=price)
+    assert not later and {j.variant.id for j in jobs} == {v.id for v in variants}
+    # just under the limit: it runs
+    price = cost.pricer(resolver, cost.Model.of(_grasp_table(slow.id, 0.9 * PER_JOB_LIMIT_S), "a test"))
+    assert not plan({"pinch_grasp": variants}, ["reference-lemke"], resolver, False, price=price)[1]
+
+
+def test_the_table_prices_a_job_over_the_limit_apart_and_keeps_it_until_measured_again():
+    """per_family puts a job over the limit in its own row (its variant), so the family's row
+    prices the others; merged keeps an earlier table's variant row while a run does not
+    measure that variant again (a default run leaves it for --on-demand), and drops it when
+    one does."""
+    jobs = pd.DataFrame([{"job": "a", "engine": "e", "case": "c", "variant": "fast", "steps": 100, "wall_s": 0.5,
+                          "job_s": 0.6},
+                         {"job": "b", "engine": "e", "case": "c", "variant": "slow", "steps": 100, "wall_s": 30.0,
+                          "job_s": 31.0}])
+    table = cost.per_family(jobs)
+    assert sorted(zip(table.variant, table.jobs, table.job_s)) == [("", 1, 0.6), ("slow", 1, 31.0)]
+    model = cost.Model.of(table, "a test")
+    assert model.predict("e", "c", 100, "slow") == (pytest.approx(31.0), "variant")
+    assert model.predict("e", "c", 100, "fast") == (pytest.approx(0.6), "family")
+    assert model.predict("e", "other", 100) == (pytest.approx(0.6), "engine"), "a variant apart is no family's cost"
+    default_run = jobs[jobs.variant == "fast"].assign(job_s=0.7)
+    kept = cost.merged(default_run, table)
+    assert sorted(zip(kept.variant, kept.job_s)) == [("", 0.7), ("slow", 31.0)]
+    again = cost.merged(jobs.assign(job_s=[0.7, 2.0]), table)
+    assert sorted(zip(again.variant, again.jobs, again.job_s)) == [("", 2, 2.7)]
+
+
+def test_the_runs_left_for_on_demand_are_said_per_engine_with_why_in_the_plan_and_the_cost_section():
+    from physval.core import Context
+    from physval.core.plan import plan
+    resolver = Context().resolver()
+    variants = list(resolver.family("pinch_grasp").variants)
+    price = cost.pricer(resolver, cost.Model.of(_grasp_table(variants[-1].id, 60.0), "a test"))
+    _, later = plan({"pinch_grasp": variants}, ["reference-lemke"], resolver, False, price=price)
+    text = cost.left_out_text(later)
+    assert text == ("  reference-lemke: 1 run of pinch_grasp: waits for --on-demand: measured 60 s a job, over the "
+                    "per-job limit 15 s")
+    section = cost.section(cost.measure([], cost.Phases(later=tuple(later))))
+    assert "Runs left for --on-demand (1;" in section and "measured 60 s a job" in section
+
+
+def test_one_rule_says_what_a_run_leaves_out_and_why():
+    """physval.core.plan.leaves_out, which plan, relation_jobs and the tests that follow a
+    default run call: a family outside the engine's default tags is out unless the engine is
+    named (its compliant-law variants in, with default_laws), even on demand; a run the
+    engine declares on demand, or one measured over the limit, waits for --on-demand."""
+    from dataclasses import replace
+    from physval.core.plan import PER_JOB_LIMIT_S, leaves_out
+    from tests.fakes import CoreOnDemandFake, FakeAdapter
+    from tests.helpers import variant_scene
+    plain, core = FakeAdapter(), CoreOnDemandFake()
+    slide, _ = variant_scene("slide_to_stop", "mu=0.5,v0=2")
+    hooke, _ = variant_scene("hertz_impact", "r=0.1:0.05,hooke")
+    other, mine = frozenset({"friction"}), frozenset({"core"})
+    assert leaves_out(plain, other, slide) is None
+    assert "runs the families tagged core unless named" in leaves_out(core, other, slide, on_demand=True)
+    assert leaves_out(core, other, slide, named=True) == "waits for --on-demand: " + core.on_demand(slide)
+    assert leaves_out(core, other, slide, named=True, on_demand=True) is None
+    assert leaves_out(core, mine, slide) is None, "its default families run in every run"
+    core.capabilities = replace(core.capabilities, contact_laws=frozenset({"hooke"}))
+    assert leaves_out(core, other, hooke, on_demand=True) is None, "a variant of a law it models (default_laws)"
+    core.default_laws = False
+    assert leaves_out(core, other, hooke, on_demand=True) is not None
+    assert leaves_out(plain, other, slide, cost=PER_JOB_LIMIT_S) is None
+    assert "over the per-job limit" in leaves_out(plain, other, slide, cost=PER_JOB_LIMIT_S + 1)
+    assert leaves_out(plain, other, slide, cost=PER_JOB_LIMIT_S + 1, on_demand=True) is None

@@ -208,16 +208,43 @@ def test_the_inscribed_radius_of_each_shape():
 
 
 def test_lemke_leaves_the_3d_grasp_to_on_demand_and_runs_the_other_jointed_families():
-    """reference-lemke's 3D pinch grasp (up to 125 s a job) waits for --on-demand; its 2D
+    """reference-lemke's 3D pinch grasps, measured over the per-job limit in the shipped cost
+    table (physval/readings/costs.csv, priced per variant), wait for --on-demand; its 2D
     grasp, the rail slide and the other formulations' grasps stay in a default run."""
     from physval.core import Context
     from physval.core.plan import plan
+    from physval.readings import cost
     resolver = Context().resolver()
+    price = cost.pricer(resolver, cost.model_for(None))
     chosen = {f: list(resolver.families[f].variants) for f in ("pinch_grasp", "rail_slide")}
-    jobs, later = plan(chosen, ["reference-lemke", "reference-pgs"], resolver, False)
-    waiting = {(j.engine, j.family, j.variant.params.get("dim")) for j in later}
+    jobs, later = plan(chosen, ["reference-lemke", "reference-pgs"], resolver, False, price=price)
+    waiting = {(j.engine, j.family, j.variant.params.get("dim")) for j, _ in later}
     assert waiting == {("reference-lemke", "pinch_grasp", 3)}
+    assert all("over the per-job limit" in why for _, why in later)
     assert {("reference-lemke", "pinch_grasp", 2), ("reference-lemke", "rail_slide", 3),
             ("reference-pgs", "pinch_grasp", 3)} <= {(j.engine, j.family, j.variant.params.get("dim")) for j in jobs}
-    jobs, later = plan(chosen, ["reference-lemke"], resolver, False, on_demand=True)
+    jobs, later = plan(chosen, ["reference-lemke"], resolver, False, on_demand=True, price=price)
     assert not later and any(j.family == "pinch_grasp" and j.variant.params.get("dim") == 3 for j in jobs)
+
+
+def test_the_float32_ports_of_mujoco_declare_mujoco_cs_capabilities_in_single_precision():
+    """MJX and MuJoCo Warp build MuJoCo C's model: their capabilities (float32_capabilities,
+    which needs neither port installed) are MuJoCo C's but for 32-bit floats, and no joints,
+    loads, threads or saved states, each with the port's reason; a port installed declares
+    exactly those."""
+    from dataclasses import fields
+    from adapters.mujoco_engine import MuJoCoAdapter, float32_capabilities
+    why = (("joint", "no joints here"), ("load", "no loads here"))
+    port, c = float32_capabilities(why), MuJoCoAdapter.capabilities
+    changed = {f.name for f in fields(port) if getattr(port, f.name) != getattr(c, f.name)}
+    assert changed == {"float_bits", "modes", "joints", "joint_limits", "joint_friction", "limit_restitution",
+                       "coordinates", "loads", "why_not"}
+    assert port.float_bits == 32 and not port.joints and not port.loads and not port.modes and port.why_not == why
+    assert port.contact_laws == c.contact_laws and port.contact_torques == c.contact_torques
+    for name in ("mujoco-mjx", "mujoco-warp"):
+        try:
+            adapter = registry.get(name)
+        except registry.EngineError:
+            continue  # not installed: the registry lists it so (physval list --engines)
+        assert adapter.capabilities == float32_capabilities(adapter.capabilities.why_not)
+        assert dict(adapter.capabilities.why_not).keys() == {"joint", "load"}

@@ -20,6 +20,16 @@ from physval.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 
+# The run of the tests that check a mechanism of physval (workers, signals, the fork server)
+# in a subprocess under a time limit: one MuJoCo job, whose engine is compiled ahead. The
+# reference compiles its step with numba on a worker's first job when its cache is cold (a
+# fresh clone): minutes of CPU, stretched many times at a load of 16-20 on 2 cores, which a
+# 300 s limit cannot promise to hold (measured: with an empty NUMBA_CACHE_DIR at a load of
+# 19-27, this very reference drop was stopped by the 900 s job limit, its worker 55 s of CPU
+# into the compile after 9 minutes; warm, the job takes about a second).
+R_COMPILED = ["--cases", "central_impact[drop,e=0.5]", "--engines", "mujoco", "--readings", "none", "--workers",
+              "1", "--quiet"]
+
 # A user family of six variants, k = 0..5: a ball falls for 0.2 s; its observer sleeps
 # `nap` seconds after a real run (not the one-step dry run), variant `crash` makes the
 # worker die the way a crashing engine would (a segfault, or an abort), variant `hang` and
@@ -276,13 +286,14 @@ def test_a_cases_folder_in_the_current_directory_does_not_shadow_physval_in_the_
     out = tmp_path / "out"
     code = "import sys; sys.path.remove(''); from physval.cli import main; sys.exit(main(sys.argv[1:]))"
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
-    proc = subprocess.run([sys.executable, "-c", code, "run", "--cases", "central_impact[drop,e=0.5]", "--engines",
-                           "reference", "--readings", "none", "--workers", "1", "--start-method", "forkserver",
+    proc = subprocess.run([sys.executable, "-c", code, "run", *R_COMPILED[:-1], "--start-method", "forkserver",
                            "--quiet", "--out", str(out)], cwd=tmp_path, env=env, capture_output=True, text=True,
                           timeout=300)
     assert proc.returncode == 0, proc.stderr
     rows = list(csv.DictReader(open(out / "results.csv")))
-    assert rows and all(r["status"] == "pass" for r in rows), [(r["status"], r["reason"][-200:]) for r in rows]
+    # MuJoCo's drop is a recorded deviation (its compliant contact): judged, not an error
+    assert rows and all(r["status"] in ("pass", "deviation") for r in rows), \
+        [(r["status"], r["reason"][-200:]) for r in rows]
 
 
 def test_plain_calls_run_on_the_executor_and_a_crash_costs_only_its_call():
@@ -575,8 +586,8 @@ def test_an_interrupt_while_the_report_is_written_is_one_line_and_a_report_marke
     file, the rows kept and the report marked incomplete (before: SIGTERM killed physval,
     exit 143 with a .tmp file left and no report; Ctrl-C left no report)."""
     out = tmp_path / "out"
-    proc = subprocess.run([sys.executable, "-c", SIGNAL_IN_THE_REPORT, sig, "run", *R, "--out", str(out)], cwd=ROOT,
-                          capture_output=True, text=True, timeout=300, preexec_fn=_as_from_a_terminal)
+    proc = subprocess.run([sys.executable, "-c", SIGNAL_IN_THE_REPORT, sig, "run", *R_COMPILED, "--out", str(out)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=300, preexec_fn=_as_from_a_terminal)
     (line,) = proc.stderr.strip().splitlines()
     assert proc.returncode == 130 and line.startswith(f"physval: interrupted ({sig}): 1 of 1 runs kept"), proc.stderr
     assert "the report marked incomplete" in line

@@ -171,7 +171,8 @@ def test_every_engine_meets_every_relation_it_can_represent_and_says_why_not_the
     resolver = Context().resolver()
     engines = [e for e in registry.engine_names() if registry.available(e)]
     runs = 0
-    planned = relation_jobs([r.name for r in R.RELATIONS], engines, resolver, True)
+    # named and --on-demand: every job an engine can take (physval.core.plan.leaves_out)
+    planned = relation_jobs([r.name for r in R.RELATIONS], engines, resolver, True, on_demand=True)
     transformed = {}
     for engine in engines:
         caps = resolver.adapter(engine).capabilities

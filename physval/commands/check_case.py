@@ -20,6 +20,7 @@ from adapters import registry
 from cases.family import CaseError
 from physval.commands import options
 from physval.core import dry_run
+from physval.core.plan import leaves_out
 
 
 def add_parser(sub) -> None:
@@ -77,7 +78,8 @@ def run(args) -> int:
             for name, a in engines.items():
                 if isinstance(a, Exception):
                     continue
-                why = a.capabilities.cannot_run(scene, fam.needs_of(v.params)) or a.deferred(scene, fam.tags)
+                why = (a.capabilities.cannot_run(scene, fam.needs_of(v.params))
+                       or leaves_out(a, fam.tags, scene, named=True))
                 (skips.append(f"{name}: {why}") if why else runs.append(name))
             print(f"    runs on: {', '.join(runs) or 'none'}")
             for s in skips:

@@ -32,7 +32,7 @@ from physval.core.deviations import deviating, measured_bands
 from physval.commands import options
 from physval.core import deviations
 from physval.core import COLUMNS, Job
-from physval.core.plan import relation_jobs
+from physval.core.plan import leaves_out, relation_jobs
 from physval.core.session import Execution, run_stored
 from physval.core.store import cache_dir
 from physval.report import write_atomic
@@ -117,6 +117,8 @@ def run(args) -> int:
     # covers show up too; with a user's file, only the families it names
     selected = options.cases_of(args, resolver, full=args.full)
     changed = 0
+    from physval.readings import cost
+    price = cost.pricer(resolver, cost.model_for(None))  # a run measured over the per-job limit: --on-demand
     for engine in engines:
         adapter = resolver.adapter(engine)
         path = Path(args.file) if args.file else adapter.deviations_file()
@@ -134,11 +136,13 @@ def run(args) -> int:
         for fam_name, variants in chosen.items():
             fam = families[fam_name]
             for v in variants:
-                if adapter.capabilities.cannot_run(fam.scene(v.params), fam.needs_of(v.params)) is None \
-                        and (args.on_demand or not adapter.deferred(fam.scene(v.params), fam.tags)):
-                    jobs.append(Job(fam_name, v, engine))
+                job, scene = Job(fam_name, v, engine), fam.scene(v.params)
+                if adapter.capabilities.cannot_run(scene, fam.needs_of(v.params)) is None and not leaves_out(
+                        adapter, fam.tags, scene, named=True, on_demand=args.on_demand, cost=price(job)):
+                    jobs.append(job)
         # the invariance battery's verdicts (cases.relations) on its default scenes, those the selection holds
-        jobs += [j for j in relation_jobs([r.name for r in RELATIONS], [engine], resolver, True)
+        jobs += [j for j in relation_jobs([r.name for r in RELATIONS], [engine], resolver, True,
+                                          on_demand=args.on_demand, price=price)
                  if any(v.id == j.variant.id for v in chosen.get(j.family, ()))]
         repeats = []
         for k in range(args.repeat):

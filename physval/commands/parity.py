@@ -81,7 +81,9 @@ def run(args) -> int:
                                                    if args.out == OUT else args.out))
     options.check_scheduler(args.scheduler)
     traj = out / "trajectories"
-    jobs, _ = plan(chosen, engines, resolver, True, on_demand=args.on_demand)
+    from physval.readings import cost
+    jobs, _ = plan(chosen, engines, resolver, True, on_demand=args.on_demand,
+                   price=cost.pricer(resolver, cost.model_for(None)))
     jobs = [with_saving(j, traj) for j in jobs]
     keys = cache_keys(ctx, engines)
     store = RowStore(out / "results.csv", COLUMNS, knobs_file=out / KNOBS_FILE)

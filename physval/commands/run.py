@@ -160,16 +160,18 @@ def _run(args, after: dict) -> int:
     traj_dir = None if args.save_trajectories is None else options.output_folder(args.save_trajectories,
                                                                                   "--save-trajectories")
     options.check_scheduler(args.scheduler)
-    jobs, later = plan(chosen, engines, resolver, args.engines is not None, args.dt, args.iterations, args.on_demand)
+    from physval.readings import cost
+    model = cost.model_for(out)  # before the store drops the rows of changed code: their times still count
+    price = cost.pricer(resolver, model)  # a job measured over the per-job limit waits for --on-demand
+    jobs, later = plan(chosen, engines, resolver, args.engines is not None, args.dt, args.iterations, args.on_demand,
+                       price)
     battery = relation_jobs(relations, engines, resolver, args.engines is not None,
-                            chosen if args.cases is not None else None, args.dt, args.iterations)
+                            chosen if args.cases is not None else None, args.dt, args.iterations, args.on_demand, price)
     jobs += battery
     if traj_dir is not None:
         from physval.core.trajectories import with_saving
         jobs = [with_saving(j, traj_dir) for j in jobs]
     keys = cache_keys(ctx, engines)
-    from physval.readings import cost
-    model = cost.model_for(out)  # before the store drops the rows of changed code: their times still count
     store = RowStore(out / "results.csv", COLUMNS, knobs_file=out / KNOBS_FILE)
     reused = store.load(keys.of_row, rewrite=not args.plan)
     from physval.core.session import judge_again
@@ -179,7 +181,7 @@ def _run(args, after: dict) -> int:
     # formulations (Adapter.slow) are read when named
     wide = engines if args.engines is not None else [e for e in engines if e in options.fast_engines(ctx)]
     if args.plan:
-        return print_plan(jobs, store, resolver, out, args.workers, readings, wide, model)
+        return print_plan(jobs, store, resolver, out, args.workers, readings, wide, model, later)
     say = options.teller(args)
     todo = sum(j.key not in store.rows for j in jobs)
     say(f"{len(jobs)} runs ({len(chosen)} families x {len(engines)} engines"
@@ -205,7 +207,8 @@ def _run(args, after: dict) -> int:
                          stepping_s=main.spent.stepping_s,
                          reading_jobs=sum(r.spent.jobs for r in wide_readings.values()),
                          reading_s=sum(r.spent.job_s for r in wide_readings.values()), worker_cpu_s=use.worker_cpu_s,
-                         job_cpu_s=main.spent.cpu_s + sum(r.spent.cpu_s for r in wide_readings.values()))
+                         job_cpu_s=main.spent.cpu_s + sum(r.spent.cpu_s for r in wide_readings.values()),
+                         later=tuple(later))
     finished = [j for j in jobs if j.key in res.rows]
     after.update(store=store, keys=[j.key for j in finished], out=out, families=families, planned=len(jobs))
     interrupted = res.interrupted or next((r.results.interrupted for r in wide_readings.values()
@@ -262,8 +265,10 @@ def _overhead_cpu_ms(p) -> float:
     return 1e3 * (p.worker_cpu_s - p.job_cpu_s) / n if n else 0.0
 
 
-def print_plan(jobs, store, resolver, out, workers: int, readings: list[str], wide: list[str], model) -> int:
-    """physval run --plan: the run's predicted cost, nothing run."""
+def print_plan(jobs, store, resolver, out, workers: int, readings: list[str], wide: list[str], model,
+               later=()) -> int:
+    """physval run --plan: the run's predicted cost, nothing run, and the runs left for
+    --on-demand with why."""
     from physval.readings import cost
     todo = [j for j in jobs if j.key not in store.rows]
     planned = cost.plan(todo, resolver, model)
@@ -274,6 +279,9 @@ def print_plan(jobs, store, resolver, out, workers: int, readings: list[str], wi
         note += ("; " if note else "") + (f"engine-wide readings ({', '.join(readings)}) on {len(wide)} engines: "
                                           "cached per engine version, run beside the jobs where not cached")
     print(cost.plan_text(planned, workers, model, note))
+    if later:
+        print(f"\n{len(later)} runs wait for --on-demand:")
+        print(cost.left_out_text(later))
     return 0
 
 

@@ -712,7 +712,8 @@ def default_run(workers: int, out: Path, args: tuple[str, ...] = ()) -> pd.DataF
     NUMBA_CACHE_DIR in a new temporary folder) and warm (the caches the cold run filled, a
     new --out). One row per part of the run's time (its cost.csv: phases, CPU, engines),
     the two states side by side, and the whole command's wall time and budget. The warm
-    run's per-family costs are written to `out`/costs.csv (physval's shipped cost table,
+    run's per-family costs are written to `out`/costs.csv with the shipped table's variants
+    priced apart that it left for --on-demand (physval's shipped cost table,
     physval/readings/costs.csv, is a copy of it)."""
     import os
     import subprocess
@@ -732,11 +733,16 @@ def default_run(workers: int, out: Path, args: tuple[str, ...] = ()) -> pd.DataF
             wall[state] = time.perf_counter() - t0
             if done.returncode not in (0, 1) or not (folder / "cost.csv").is_file():
                 raise RuntimeError(f"physval run ({state}) exited {done.returncode}: {done.stderr.strip()[-400:]}")
-            parts[state] = pd.read_csv(folder / "cost.csv")
+            part = pd.read_csv(folder / "cost.csv")
+            parts[state] = part[part.kind != "later"]  # its times, not the runs it left for --on-demand
             if state == "warm":
                 from physval.core.store import read_results
-                cost.write_table(cost.per_family(cost.per_job(read_results(folder / "results.csv"))),
-                                 Path(out) / "costs.csv")
+                measured = cost.per_job(read_results(folder / "results.csv")).dropna(subset=["job_s"])
+                # with the shipped table's variants priced apart on the engines measured, which
+                # a run does not measure again (over the per-job limit: left for --on-demand)
+                shipped = cost.load_table()
+                apart = shipped[(shipped.variant != "") & shipped.engine.isin(set(measured.engine))]
+                cost.write_table(cost.merged(measured, apart), Path(out) / "costs.csv")
     return run_table(parts, wall, workers)
 
 

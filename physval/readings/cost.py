@@ -33,43 +33,71 @@ import pandas as pd
 from physval.report import fmt, md_table, write_atomic
 
 TABLE = Path(__file__).with_name("costs.csv")  # per engine and family, a default run's (physval bench run)
-TABLE_COLUMNS = ["engine", "case", "jobs", "steps", "stepping_s", "job_s"]
+# a row per engine and family, and one per variant for the jobs measured over the per-job
+# limit (physval.core.plan.PER_JOB_LIMIT_S): priced apart, such a job waits for --on-demand
+# without taking its family's other variants with it (variant empty: the family's row)
+TABLE_COLUMNS = ["engine", "case", "variant", "jobs", "steps", "stepping_s", "job_s"]
 BUDGET_S = 180.0       # the default run's budget: 3 minutes ...
 BUDGET_WORKERS = 2     # ... on 2 cores (decision 10)
 
 
 # --- measured per-job costs ------------------------------------------------------------------
 
-PER_JOB_COLUMNS = ("job", "engine", "case", "steps", "wall_s", "job_s")
+PER_JOB_COLUMNS = ("job", "engine", "case", "variant", "steps", "wall_s", "job_s")
 
 
 def per_job(rows) -> pd.DataFrame:
     """One row per job of a run's rows (results.csv or a store's): its key, engine, family,
-    steps, stepping time (wall_s) and whole time (job_s; NaN in rows written before physval
-    recorded it)."""
+    variant, steps, stepping time (wall_s) and whole time (job_s; NaN in rows written before
+    physval recorded it)."""
     df = pd.DataFrame(list(rows)) if not isinstance(rows, pd.DataFrame) else rows
     if not len(df) or "job" not in df:
-        return pd.DataFrame(columns=["job", "engine", "case", "steps", "wall_s", "job_s"])
+        return pd.DataFrame(columns=list(PER_JOB_COLUMNS))
     df = df.drop_duplicates("job")
-    out = pd.DataFrame({"job": df["job"], "engine": df["engine"], "case": df["case"]})
+    out = pd.DataFrame({"job": df["job"], "engine": df["engine"], "case": df["case"],
+                        "variant": df["variant"].fillna("").astype(str) if "variant" in df else ""})
     for col in ("steps", "wall_s", "job_s"):
         out[col] = pd.to_numeric(df[col], errors="coerce") if col in df else math.nan
     return out.reset_index(drop=True)
 
 
 def per_family(jobs: pd.DataFrame) -> pd.DataFrame:
-    """Measured jobs (per_job, with job_s) summed per engine and family: the model's table."""
+    """Measured jobs (per_job, with job_s) summed per engine and family, those over the
+    per-job limit per engine, family and variant: the model's table."""
+    from physval.core.plan import PER_JOB_LIMIT_S
     m = jobs.dropna(subset=["job_s"])
-    g = m.groupby(["engine", "case"], sort=False)
+    m = m.assign(variant=m.variant.where(m.job_s > PER_JOB_LIMIT_S, "") if "variant" in m else "")
+    g = m.groupby(["engine", "case", "variant"], sort=False)
     return pd.DataFrame({"jobs": g.size(), "steps": g.steps.sum(), "stepping_s": g.wall_s.sum(),
                          "job_s": g.job_s.sum()}).reset_index()[TABLE_COLUMNS]
+
+
+def merged(jobs: pd.DataFrame, table: pd.DataFrame) -> pd.DataFrame:
+    """The table of the measured `jobs` (per_job), with the rows of `table` (an earlier one)
+    for what they did not measure: the families they did not run, and the variants priced
+    apart that they did not run (a job over the limit waits for --on-demand, so a default
+    run does not measure it again)."""
+    last = per_family(jobs)
+    ran = set(zip(jobs.engine, jobs.case, jobs.variant.astype(str)))
+    families = set(zip(last.engine, last.case))
+    table = _with_variant(table)
+    keep = [(e, c) not in families if not v else (e, c, v) not in ran
+            for e, c, v in zip(table.engine, table.case, table.variant)]
+    rest = table[keep]
+    return pd.concat([last, rest[TABLE_COLUMNS]], ignore_index=True) if len(rest) else last
+
+
+def _with_variant(table: pd.DataFrame) -> pd.DataFrame:
+    """A table with its variant column (empty: a family's row; tables before it had none)."""
+    variant = table["variant"].fillna("").astype(str) if "variant" in table else ""
+    return table.assign(variant=variant)
 
 
 def load_table(path: Path = TABLE) -> pd.DataFrame:
     """The shipped table (empty if absent)."""
     if not Path(path).is_file():
         return pd.DataFrame(columns=TABLE_COLUMNS)
-    return pd.read_csv(path)
+    return _with_variant(pd.read_csv(path))
 
 
 def write_table(table: pd.DataFrame, path: Path) -> None:
@@ -78,29 +106,34 @@ def write_table(table: pd.DataFrame, path: Path) -> None:
 
 @dataclass
 class Model:
-    """Per engine and family: seconds per step and seconds per job outside stepping (see
-    the module's notes)."""
-    per_step: dict        # (engine, case) -> seconds per step
-    outside: dict         # (engine, case) -> seconds per job outside stepping
+    """Per engine and family (and variant, where priced apart): seconds per step and
+    seconds per job outside stepping (see the module's notes)."""
+    per_step: dict        # (engine, case) or (engine, case, variant) -> seconds per step
+    outside: dict         # (engine, case) or (engine, case, variant) -> seconds per job outside stepping
     engine_step: dict     # engine -> median seconds per step over its families
     engine_outside: dict  # engine -> median seconds per job outside stepping
     source: str
 
     @classmethod
     def of(cls, table: pd.DataFrame, source: str) -> "Model":
-        t = table[(table.jobs > 0) & table.job_s.notna()]
-        per_step = {(e, c): (w / n if n > 0 else 0.0) for e, c, w, n in zip(t.engine, t.case, t.stepping_s, t.steps)}
-        outside = {(e, c): max(0.0, (j - w) / k) for e, c, j, w, k in zip(t.engine, t.case, t.job_s, t.stepping_s,
-                                                                            t.jobs)}
+        t = _with_variant(table)
+        t = t[(t.jobs > 0) & t.job_s.notna()]
+        keys = [(e, c, v) if v else (e, c) for e, c, v in zip(t.engine, t.case, t.variant)]
+        per_step = {k: (w / n if n > 0 else 0.0) for k, w, n in zip(keys, t.stepping_s, t.steps)}
+        outside = {k: max(0.0, (j - w) / n) for k, j, w, n in zip(keys, t.job_s, t.stepping_s, t.jobs)}
         by_engine: dict[str, tuple[list, list]] = {}
-        for (e, c), v in per_step.items():
-            by_engine.setdefault(e, ([], []))[0].append(v)
-            by_engine[e][1].append(outside[(e, c)])
+        for k, v in per_step.items():
+            if len(k) == 2:  # the engine's families (a variant priced apart is no family's typical cost)
+                by_engine.setdefault(k[0], ([], []))[0].append(v)
+                by_engine[k[0]][1].append(outside[k])
         return cls(per_step, outside, {e: float(np.median(a)) for e, (a, _) in by_engine.items()},
                    {e: float(np.median(b)) for e, (_, b) in by_engine.items()}, source)
 
-    def predict(self, engine: str, case: str, steps: int) -> tuple[float, str]:
-        """(seconds, how: 'family' measured on this engine, 'engine' (its other families) or 'none')."""
+    def predict(self, engine: str, case: str, steps: int, variant: str = "") -> tuple[float, str]:
+        """(seconds, how: 'variant' measured apart, 'family' measured on this engine, 'engine'
+        (its other families) or 'none')."""
+        if (engine, case, variant) in self.per_step:
+            return self.outside[(engine, case, variant)] + self.per_step[(engine, case, variant)] * steps, "variant"
         if (engine, case) in self.per_step:
             return self.outside[(engine, case)] + self.per_step[(engine, case)] * steps, "family"
         if engine in self.engine_step:
@@ -116,15 +149,32 @@ def model_for(out: Path | None) -> Model:
     path = Path(out) / "results.csv" if out is not None else None
     if path is not None and path.is_file():
         try:
-            last = per_family(per_job(pd.read_csv(path, usecols=lambda c: c in PER_JOB_COLUMNS)))
+            last = per_job(pd.read_csv(path, usecols=lambda c: c in PER_JOB_COLUMNS))
         except (OSError, ValueError, KeyError):
-            last = pd.DataFrame(columns=TABLE_COLUMNS)
+            last = per_job([])
+        last = last.dropna(subset=["job_s"])
         if len(last):
-            known = set(zip(last.engine, last.case))
-            rest = table[[k not in known for k in zip(table.engine, table.case)]]
-            table = pd.concat([last, rest], ignore_index=True) if len(rest) else last
-            source = f"the last run in {out}" + (" and the shipped table" if len(rest) else "")
+            both = merged(last, table)
+            source = f"the last run in {out}" + (" and the shipped table" if len(both) > len(per_family(last)) else "")
+            table = both
     return Model.of(table, source)
+
+
+def pricer(resolver, model: Model):
+    """A job's predicted cost in worker-seconds (NaN: not measured), as physval.core.plan
+    takes it (`price`) to hold back the jobs over its per-job limit."""
+    from physval.core.jobs import steps_of
+    steps: dict = {}
+
+    def price(job) -> float:
+        at = (job.family, job.variant.id, job.dt)
+        if at not in steps:
+            try:
+                steps[at] = steps_of(job, resolver.family(job.family))
+            except Exception:
+                steps[at] = 0
+        return model.predict(job.engine, job.family, steps[at], job.variant.id)[0]
+    return price
 
 
 # --- before the run: the plan ----------------------------------------------------------------
@@ -140,7 +190,7 @@ def plan(jobs: list, resolver, model: Model) -> pd.DataFrame:
                 steps[at] = steps_of(j, resolver.family(j.family))
             except Exception:
                 steps[at] = 0
-        s, how = model.predict(j.engine, j.family, steps[at])
+        s, how = model.predict(j.engine, j.family, steps[at], j.variant.id)
         rows.append({"engine": j.engine, "case": j.family, "steps": steps[at], "predicted_s": s, "from": how})
     return pd.DataFrame(rows, columns=["engine", "case", "steps", "predicted_s", "from"])
 
@@ -191,6 +241,24 @@ def plan_text(planned: pd.DataFrame, workers: int, model: Model, readings: str =
     return "\n".join(lines)
 
 
+def left_out(later) -> pd.DataFrame:
+    """The runs a run left for --on-demand ((job, why) pairs, physval.core.plan), one row per
+    engine and reason: how many, of which families."""
+    rows: dict = {}
+    for job, why in later:
+        n, families = rows.setdefault((job.engine, why), [0, {}])
+        rows[(job.engine, why)][0] = n + 1
+        families[job.family] = None
+    return pd.DataFrame([{"engine": e, "runs": n, "families": ", ".join(f), "why": why}
+                         for (e, why), (n, f) in rows.items()], columns=["engine", "runs", "families", "why"])
+
+
+def left_out_text(later) -> str:
+    """`left_out` as lines: 'engine: n runs of families: why'."""
+    return "\n".join(f"  {r.engine}: {r.runs} run{'s' if r.runs != 1 else ''} of {r.families}: {r.why}"
+                     for r in left_out(later).itertuples())
+
+
 def _minutes(s: float) -> str:
     return f"{s:.0f} s" if s < 120 else f"{s / 60:.1f} min"
 
@@ -219,6 +287,7 @@ class Phases:
     reading_s: float = 0.0      # the readings' jobs' time in workers
     worker_cpu_s: float = math.nan  # the workers' CPU, user + system (local workers)
     job_cpu_s: float = math.nan     # of it, in the jobs (the run's and the readings'): the rest is per-job overhead
+    later: tuple = ()               # (job, why) of the runs left for --on-demand (physval.core.plan)
 
 
 COST_COLUMNS = ["kind", "name", "seconds", "of", "jobs", "steps", "us_per_step", "note"]
@@ -266,6 +335,12 @@ def measure(rows, phases: Phases | None = None) -> pd.DataFrame:
     df = pd.DataFrame([{"kind": "phase", "name": name, "seconds": sec, "of": of, "jobs": jobs, "steps": math.nan,
                         "us_per_step": math.nan, "note": note} for name, sec, of, jobs, note in out],
                       columns=COST_COLUMNS)
+    if phases is not None and phases.later:  # kind 'later': the runs left for --on-demand, per engine and reason
+        left = left_out(phases.later)
+        df = pd.concat([df, pd.DataFrame({"kind": "later", "name": left.engine, "seconds": math.nan, "of": "",
+                                          "jobs": left.runs, "steps": math.nan, "us_per_step": math.nan,
+                                          "note": left.families + ": " + left.why})[COST_COLUMNS]],
+                       ignore_index=True)
     jobs = per_job(rows)
     stepped = jobs[jobs.steps > 0]
     if len(jobs):
@@ -293,7 +368,7 @@ def measured(rows, phases: Phases | None, out: Path) -> pd.DataFrame:
         return df
     if list(before.columns) != COST_COLUMNS:
         return df
-    return pd.concat([before[before.kind == "phase"], df], ignore_index=True)
+    return pd.concat([before[before.kind.isin(["phase", "later"])], df], ignore_index=True)
 
 
 def _ms(seconds: float, jobs: int) -> str:
@@ -304,7 +379,7 @@ def section(df: pd.DataFrame, out: Path | None = None) -> str:
     """The report's Cost section: the phases, then each engine's share."""
     if out is not None:
         write_atomic(Path(out) / "cost.csv", df.to_csv(index=False))
-    phases, engines = df[df.kind == "phase"], df[df.kind == "engine"]
+    phases, engines, later = df[df.kind == "phase"], df[df.kind == "engine"], df[df.kind == "later"]
     if not len(engines) and not len(phases):
         return ""
     lines = ["## Cost", "",
@@ -327,4 +402,8 @@ def section(df: pd.DataFrame, out: Path | None = None) -> str:
                       "share": (engines.seconds / total).map(lambda v: f"{v:.1%}" if v == v else "") if total else "",
                       "jobs": engines.jobs.astype(int), "steps": engines.steps.astype("Int64"),
                       "us per step (median over jobs)": engines.us_per_step.map(fmt), "stepping": engines.note})), ""]
+    if len(later):
+        lines += [f"Runs left for --on-demand ({int(later.jobs.sum())}; `physval run --on-demand` runs them):", "",
+                  md_table(pd.DataFrame({"engine": later.name, "runs": later.jobs.astype(int),
+                                         "families: why": later.note})), ""]
     return "\n".join(lines)

@@ -138,9 +138,9 @@ def _capture(label: str, family, params: dict, step) -> Problem:
     from adapters.reference_engine import ReferenceAdapter
     from reference_impl.contact import contact_arrays
     dt = family.dt_for(params)
-    # the reference's World behind the engine contract, each step in its two halves
-    # (World.begin_step, end_step), so that the problem is read between them
-    world = ReferenceAdapter("lemke").build(family.scene(params), Settings(dt=dt)).world
+    # the reference's World, each step in its two halves (World.begin_step, end_step), so
+    # that the problem is read between them
+    world = ReferenceAdapter("lemke").world_of(family.scene(params), Settings(dt=dt))
     limit = step if step != "impact" else int(round(family.duration(params) / dt))
     for k in range(1, limit + 1):
         world.begin_step(dt)

@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from physval.core import COLUMNS, Job, Probe, steps_of
+from physval.core.plan import leaves_out
 from physval.report import engine_styles, heading, md_table, pyplot, save_figure, write_atomic
 
 # Time steps from 1/60 s (games) down to 1e-4 s (six values, about log-spaced).
@@ -95,7 +96,7 @@ def points(chosen: dict, engines: list[str], resolver, full: bool = False, dts=D
             for v in variants:
                 scene = fam.scene(v.params)
                 if adapter.capabilities.cannot_run(scene, fam.needs_of(v.params)) or \
-                        (not named and adapter.deferred(scene, fam.tags)):
+                        (not named and leaves_out(adapter, fam.tags, scene, named=True)):
                     continue
                 grid = {(dt, None) for dt in dts}
                 grid |= {(dt, it) for dt in dts for it in its} if full else {(fam.dt_for(v.params), it) for it in its}
