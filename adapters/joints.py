@@ -62,17 +62,6 @@ def joint_tree(scene: Scene) -> tuple[dict[str, TreeJoint], list[tuple[int, Join
     return ordered, closing
 
 
-def tree_without_loops(scene: Scene, engine: str) -> dict[str, TreeJoint]:
-    """joint_tree for an adapter that closes no loop: Unsupported naming the first closing joint."""
-    tree, closing = joint_tree(scene)
-    if closing:
-        j, joint = closing[0]
-        raise Unsupported(f"joints[{j}] ({joint.kind}, {joint.body!r} on {joint.parent or 'the world'!r}) closes a "
-                          f"loop: {engine} holds joints as a tree of reduced coordinates and the adapter maps no "
-                          "loop-closing constraint")
-    return tree
-
-
 def _velocity_at(body: Body | None, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(linear velocity of the body's material point now at `point`, angular velocity); the
     world (None) or a static body: at rest."""
@@ -118,26 +107,6 @@ def start_rate(scene: Scene, tj: TreeJoint) -> np.ndarray:
                           f"{tj.parent or 'the world'!r} that the joint does not allow (off by {miss:.3g} m/s): "
                           "a jointed body's start velocity must be its parent's plus the joint's own rate")
     return rate
-
-
-def world_joints(scene: Scene, whole: str) -> dict:
-    """The scene joints by body name, each joining a moving body to the world or a static
-    body. Unsupported for a joint between two moving bodies (`whole` names what would hold
-    both, e.g. "one skeleton of both"), for a body on two joints, and for a jointed body's
-    start velocity (not mapped onto joint velocities)."""
-    out = {}
-    for j, joint in enumerate(scene.joints):
-        if joint.parent is not None and scene.body(joint.parent).dynamic:
-            raise Unsupported(f"joints[{j}] joins two moving bodies ({joint.parent!r}, {joint.body!r}): {whole} "
-                              "is not mapped; only joints to the world or a static body are")
-        body = scene.body(joint.body)
-        if body.static or joint.body in out:
-            raise Unsupported(f"joints[{j}]: {joint.body!r} as the joint's `body` must be a moving body on one joint")
-        if any(body.velocity) or any(body.angular_velocity):
-            raise Unsupported(f"joints[{j}]: {joint.body!r} starts moving: a jointed body's start velocity is not "
-                              "mapped onto joint velocities")
-        out[joint.body] = joint
-    return out
 
 
 def closing_ball_points(scene: Scene, closing: list[tuple[int, Joint]], constraint: str) \

@@ -90,7 +90,12 @@ def test_a_two_body_chain_maps_the_axis_and_the_start_rate(engine, dim):
     if dim not in adapter.capabilities.dimensions:
         pytest.skip(f"{engine}: no {dim}D scenes")
     scene = _chain(dim)
-    sim = adapter.build(scene, Settings(dt=1e-3))
+    try:
+        sim = adapter.build(scene, Settings(dt=1e-3))
+    except Unsupported as exc:  # a configuration's own limit (pybullet-pgs: no 2D scene), never the chain's
+        if str(exc).startswith("joints["):
+            raise
+        pytest.skip(f"{engine}: {exc}")
     start = sim.states()
     for body in scene.bodies:
         row = np.concatenate([body.position, body.orientation, body.velocity, body.angular_velocity])
