@@ -201,10 +201,9 @@ class Box3DAdapter(Adapter):
         joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
         joint_limits=True,
         coordinates="maximal",
-        why_not=(("load", "the adapter applies no external forces (b3Body_ApplyForceToCenter, cleared by each "
-                          "step, is not mapped)"),
-                 ("limit_restitution", "a joint's limit takes a range only (lowerAngle and upperAngle, lowerTranslation "
-                                       "and upperTranslation): Box3D's limit rows have no restitution")),
+        loads=True,  # b3Body_ApplyForceToCenter and b3Body_ApplyTorque before each step (Box3D clears them)
+        why_not=(("limit_restitution", "a joint's limit takes a range only (lowerAngle and upperAngle, lowerTranslation "
+                                       "and upperTranslation): Box3D's limit rows have no restitution"),),
     )
     tunables = {
         "contact_hertz": Tunable(1.0, math.inf, math.inf,
@@ -292,7 +291,24 @@ class Box3DSimulation(Simulation):
         self._vels = np.empty((n, 6), np.float32)
         self._contacts = ffi.new("b3ContactData[]", 64)
         self._mass = np.array([lib.b3Body_GetMass(bid) for bid in self._ids])  # as Box3D holds them
-        self._g_dt = np.asarray(gravity, float) * self._dt
+        # the scene's constant loads: Box3D clears a body's applied force and torque at the
+        # end of each b3World_Step, so step() applies them again before each (the force at
+        # the centre of mass); the velocity a step's force gives is taken out of the
+        # momenta with gravity's (_read_forces)
+        self._loads = []
+        accel = np.tile(np.asarray(gravity, float), (n, 1))
+        for load in scene.loads:
+            if load.acts:
+                i = self._order.index(load.body)
+                force, torque = ffi.new("b3Vec3*"), ffi.new("b3Vec3*")  # kept: the step passes them by value
+                force.x, force.y, force.z = (float(c) for c in load.force)
+                torque.x, torque.y, torque.z = (float(c) for c in load.torque)
+                self._loads.append((self._ids[i], force, torque))
+                accel[i] += np.asarray(load.force, float) / self._mass[i]
+                self.knobs.setdefault("loads", {})[load.body] = {
+                    "b3Body_ApplyForceToCenter": list(load.force), "b3Body_ApplyTorque": list(load.torque),
+                    "when": "before each b3World_Step (Box3D clears them after it)"}
+        self._g_dt = accel * self._dt  # each body's velocity change from gravity and its load
         self._pending = None  # the velocities before and after the last step
         self._poses_before = None  # the poses before the last step (contact_points)
         self._forces: dict | None = {}
@@ -475,12 +491,15 @@ class Box3DSimulation(Simulation):
             fx.add("joint")
         if any("limits" in r for r in self.knobs.get("joints", {}).values()):
             fx.add("limit")
+        if self._loads:
+            fx.add("load")
         return frozenset(fx)
 
     def _joint(self, joint, j: int) -> str:
         """A scene joint as a Box3D joint between the parent (body A; the world: a static body
         at the origin, made once) and the body (B). Each body's local frame sits at the anchor
-        with its z axis along the scene's axis (Box3D's hinge and slide axis); a limit bounds
+        with its z axis (a revolute joint's) or x axis (a prismatic joint's) along the scene's
+        axis (Box3D's hinge and slide axes); a limit bounds
         B's turn (slide) relative to A about (along) it. No springs or motors,
         collideConnected off (cases.scene.Joint); the constraints' softness Box3D's default."""
         from scipy.spatial.transform import Rotation
@@ -494,7 +513,11 @@ class Box3DSimulation(Simulation):
                 "fixed": (lib.b3DefaultWeldJointDef, lib.b3CreateWeldJoint)}[joint.kind]
         jd = make[0]()
         anchor = np.asarray(joint.anchor, float)
-        z_on_axis = Rotation.align_vectors([joint.unit_axis], [[0.0, 0.0, 1.0]])[0]
+        # Box3D 0.1.0 turns a revolute joint about its frames' z axis but slides a prismatic
+        # one along their x axis (measured: a slider on frames with z on a horizontal axis
+        # fell freely under gravity along the frames' x, and one with z on the vertical held)
+        along = [1.0, 0.0, 0.0] if joint.kind == "prismatic" else [0.0, 0.0, 1.0]
+        z_on_axis = Rotation.align_vectors([joint.unit_axis], [along])[0]
         record = {"kind": joint.kind, "collideConnected": False}
         for (bid, x0, q0), frame, side in ((self._every["world" if joint.parent is None else joint.parent],
                                             jd.base.localFrameA, "A"),
@@ -525,6 +548,9 @@ class Box3DSimulation(Simulation):
         poses, vels = self._read()
         before = vels.astype(float)
         self._poses_before = poses.copy()  # where Box3D found this step's manifolds (contact_points)
+        for body, force, torque in self._loads:
+            lib.b3Body_ApplyForceToCenter(body, force[0], False)
+            lib.b3Body_ApplyTorque(body, torque[0], False)
         lib.b3World_Step(self._world, self._dt, self.iterations)
         self._pending = (before, self._read()[1].astype(float))
         self._forces = None  # worked out when asked for (contact_forces), not inside the step

@@ -1,6 +1,10 @@
 """DART (dartpy) adapter.
 
-One skeleton per scene body. A dynamic body hangs on a FreeJoint when it rotates and on a
+One skeleton per scene body, or per connected group of jointed bodies (a tree: its root on
+the scene joint to the world or free, each other body on its joint to its parent's BodyNode,
+the start velocities as joint rates; self-collision on, jointed pairs black-listed; a joint
+that closes a planar loop a BallJointConstraint: `_tree_joint`, `_joined_pairs`). A free
+dynamic body hangs on a FreeJoint when it rotates and on a
 TranslationalJoint when it does not; a 2D scene (x-z plane) uses a PlanarJoint (x, z and
 the angle about y) or a TranslationalJoint2D. Static bodies are welded to the world; a
 `Plane` becomes a large welded box whose top face is the plane (a `PlaneShape` under a box
@@ -53,7 +57,7 @@ import numpy as np
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
 from adapters.frames import state_row
-from adapters.joints import world_joints
+from adapters.joints import TreeJoint, closing_ball_points, joint_tree, start_rate
 from adapters.lazy import require
 from adapters.solids import polygon_prism
 from cases.scene import Body, Box, Capsule, Circle, Cylinder, Hull, Mesh, Plane, Polygon, Rect, Scene, Sphere, pair_key
@@ -529,8 +533,9 @@ class DartAdapter(Adapter):
         # velocity (cases/column_impact.py: two pressed balls leave the ground together,
         # a struck row of two leaves as one body)
         impact_model="simultaneous",
-        # a body on a scene joint to the world (or a static body) hangs on DART's joint of
-        # that kind as its skeleton's root (_world_joint): reduced coordinates
+        # one skeleton per connected jointed group (adapters.joints.joint_tree): a root on a
+        # scene joint to the world or free, each other body on DART's joint of its kind on its
+        # parent's BodyNode (_tree_joint); a loop closed by a BallJointConstraint: reduced coordinates
         joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
         joint_limits=True,
         coordinates="reduced",
@@ -554,7 +559,7 @@ class DartAdapter(Adapter):
                 if 0.0 < value <= ENGINE_CONSTANTS[limit]:
                     raise Unsupported(f"{what} {value} for {a.name}/{b.name}: DART treats a pair "
                                       f"coefficient <= {ENGINE_CONSTANTS[limit]} as zero ({limit})")
-        world_joints(scene, "one skeleton of both")  # Unsupported for what the adapter does not map
+        closing_ball_points(scene, joint_tree(scene)[1], "DART's BallJointConstraint")  # Unsupported: loops not mapped
         mu = per_body_values(scene, lambda m: m.mu_s, "min", "friction")
         e = per_body_values(scene, lambda m: m.e, "product", "restitution")
         sweeps = DEFAULT_SWEEPS if settings.iterations is None else settings.iterations
@@ -597,20 +602,28 @@ def _effects(scene: Scene, knobs: dict, mu: dict, e: dict) -> frozenset[str]:
     return frozenset(fx)
 
 
-def _world_joint(skeleton, body: Body, joint, position, R, knobs: dict) -> str:
-    """Hang a dynamic body on the scene joint as its skeleton's root joint: the joint frame
-    at the anchor, world-aligned (its axis the scene's axis), and the body's frame at its
-    start pose relative to it, so the joint's coordinate is 0 at the start and is the turn
-    (slide) of the body about (along) the axis."""
+def _tree_joint(skeleton, scene: Scene, body: Body, tj: TreeJoint, position, R, parent, knobs: dict) -> str:
+    """Hang a dynamic body on its tree joint: its skeleton's root joint (`parent` None: on the
+    world) or a joint on the parent's BodyNode (`parent`: (node, its start position, its
+    start rotation)). The joint frame sits at the anchor, world-aligned at the start (its
+    axis the scene's axis), and the body's frame at its start pose relative to it, so the
+    joint's coordinate is 0 at the start and is the turn (slide) of the body about (along)
+    the axis relative to the parent; its rate is the bodies' start velocities' (start_rate)."""
+    joint = tj.joint
     make = {"revolute": skeleton.createRevoluteJointAndBodyNodePair,
             "prismatic": skeleton.createPrismaticJointAndBodyNodePair,
             "ball": skeleton.createBallJointAndBodyNodePair,
             "fixed": skeleton.createWeldJointAndBodyNodePair}[joint.kind]
-    made, _ = make()
     anchor = np.asarray(joint.anchor, float)
-    made.setTransformFromParentBodyNode(_isometry(anchor))
+    if parent is None:
+        made, _ = make()
+        made.setTransformFromParentBodyNode(_isometry(anchor))
+    else:  # the joint frame in the parent's body frame at its start pose
+        node, p_P, R_P = parent
+        made, _ = make(node)
+        made.setTransformFromParentBodyNode(_isometry(R_P.T @ (anchor - p_P), R_P.T))
     made.setTransformFromChildBodyNode(_isometry(R.T @ (anchor - np.asarray(position, float)), R.T))
-    record = {"kind": type(made).__name__, "anchor": anchor.tolist()}
+    record = {"kind": type(made).__name__, "on": tj.parent or "world", "anchor": anchor.tolist()}
     if joint.kind in ("revolute", "prismatic"):
         made.setAxis(np.asarray(joint.unit_axis, float))
         record["axis"] = list(joint.unit_axis)
@@ -625,8 +638,42 @@ def _world_joint(skeleton, body: Body, joint, position, R, knobs: dict) -> str:
             made.setDampingCoefficient(i, 0.0)
             made.setSpringStiffness(i, 0.0)
             made.setCoulombFriction(i, 0.0)
+        # a ball joint's rates are the turn's angular velocity in the joint's child frame,
+        # world-aligned at the start: start_rate's world-frame w_rel
+        rate = start_rate(scene, tj)
+        made.setVelocities(rate)
+        record["start rate"] = [float(r) for r in rate]
     knobs.setdefault("scene joints", {})[body.name] = record
     return type(made).__name__
+
+
+def _joined_pairs(world, scene: Scene, every: dict, skeletons: dict, closing: list, knobs: dict) -> None:
+    """Bodies a joint connects do not collide (Scene.contact_pairs): each such pair is on the
+    world's BodyNodeCollisionFilter's black list. Within a skeleton of several bodies DART
+    checks no collision by default: self-collision is switched on (adjacent bodies, a parent
+    and its child, stay unchecked; they are on the list anyway), so two links that no joint
+    connects collide as two skeletons would. A joint that closes a loop is a
+    BallJointConstraint at its anchor (closing_ball_points: planar loops' hinges and ball
+    joints), solved with the contacts."""
+    import dartpy as dart
+    jointed = [(j.body, j.parent) for j in scene.joints if j.parent is not None]
+    if jointed:
+        black = world.getConstraintSolver().getCollisionOption().collisionFilter
+        for a, b in jointed:
+            black.addBodyNodePairToBlackList(every[a], every[b])
+        knobs["collision filter: jointed pairs black-listed"] = [list(p) for p in jointed]
+    for skeleton in {id(s): s for s in skeletons.values()}.values():
+        if skeleton.getNumBodyNodes() > 1:
+            skeleton.enableSelfCollisionCheck()
+            skeleton.disableAdjacentBodyCheck()
+            knobs.setdefault("Skeleton.enableSelfCollisionCheck", []).append(skeleton.getName())
+    for j, body, _, parent, _ in closing_ball_points(scene, closing, "DART's BallJointConstraint"):
+        anchor = np.asarray(scene.joints[j].anchor, float)
+        c = dart.constraint.BallJointConstraint(every[body], anchor) if parent is None else \
+            dart.constraint.BallJointConstraint(every[body], every[parent], anchor)
+        world.getConstraintSolver().addConstraint(c)
+        knobs.setdefault("loop", {})[f"joints[{j}]"] = {"BallJointConstraint": [body, parent or "world"],
+                                                      "anchor": anchor.tolist()}
 
 
 def _build_world(scene: Scene, settings: Settings, mu: dict, e: dict, sweeps: int):
@@ -677,25 +724,40 @@ def _build_world(scene: Scene, settings: Settings, mu: dict, e: dict, sweeps: in
         "engine_constants (not settable)": dict(ENGINE_CONSTANTS),
     }
     nodes, frames = {}, {}
-    hung = world_joints(scene, "one skeleton of both")
-    for body in scene.bodies:
-        skeleton = D.Skeleton(body.name)
+    # One skeleton per connected jointed group (joint_tree): a root (on a scene joint to the
+    # world, or free) and the bodies hanging on it, parents before children.
+    tree, closing = joint_tree(scene)
+    every, skeletons, starts, made = {}, {}, {}, []
+    order = [b for b in scene.bodies if b.name not in tree or tree[b.name].parent is None] + \
+        [scene.body(n) for n, tj in tree.items() if tj.parent is not None]
+    for body in order:
         position, R = _frame(body, scene)
+        starts[body.name] = (position, R)
+        tj = tree.get(body.name)
+        if tj is not None and tj.parent is not None:
+            skeleton = skeletons[tj.parent]
+        else:
+            skeleton = D.Skeleton(body.name)
+            made.append(skeleton)
+        skeletons[body.name] = skeleton
         if body.static:
             joint, node = skeleton.createWeldJointAndBodyNodePair()
             joint.setTransformFromParentBodyNode(_isometry(position, R))
             knobs["joints"][body.name] = "WeldJoint"
         else:
-            if body.name in hung:
-                knobs["joints"][body.name] = _world_joint(skeleton, body, hung[body.name], position, R, knobs)
+            if tj is not None:
+                parent = None if tj.parent is None else (every[tj.parent], *starts[tj.parent])
+                knobs["joints"][body.name] = _tree_joint(skeleton, scene, body, tj, position, R, parent, knobs)
+                node = skeleton.getBodyNode(skeleton.getNumBodyNodes() - 1)
             else:
                 knobs["joints"][body.name] = _mobile_joint(skeleton, body, scene.dimension, position, R)
-            node = skeleton.getBodyNode(0)
+                node = skeleton.getBodyNode(0)
             # the scene's inertia; DART's default is mass 1 and identity whatever the shape
             node.setInertia(D.Inertia(body.mass, np.zeros(3), np.diag(body.principal_inertia)))
             knobs["Inertia"][body.name] = {"mass": float(body.mass),
                                            "moment": [float(i) for i in body.principal_inertia]}
             nodes[body.name] = node
+        every[body.name] = node
         node.setName(body.name)
         shape, pose = _shape(body)
         if body.shape.kind in NEW_KINDS:
@@ -711,7 +773,9 @@ def _build_world(scene: Scene, settings: Settings, mu: dict, e: dict, sweeps: in
         if isinstance(body.shape, Plane):
             knobs.setdefault("ground BoxShape half-extents", {})[body.name] = [
                 GROUND_HALF_WIDTH, GROUND_HALF_WIDTH, GROUND_HALF_THICKNESS]
+    for skeleton in made:  # each whole: the world registers its shapes for collision as it is added
         world.addSkeleton(skeleton)
+    _joined_pairs(world, scene, every, skeletons, closing, knobs)
     if scene.dimension == 2:
         knobs["2D half-depth along y"] = HALF_DEPTH_2D
     return world, nodes, frames, knobs

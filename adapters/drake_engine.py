@@ -68,6 +68,16 @@ non-rotating one on prismatic joints along x and z; non-rotating 3D bodies on pr
 joints along x, y and z (through massless bodies); circles are spheres (every contact of a
 planar scene lies in y = 0, where the sphere's section is the disc), rects boxes as deep
 along y as they are wide; the inertia is always the scene's.
+
+Scene joints (adapters.joints.joint_tree): jointed bodies form a tree, each body on Drake's
+joint of its kind (RevoluteJoint, PrismaticJoint, WeldJoint) whose frame F sits on its parent
+body (or the world) at the anchor, world-aligned at the start; a tree's root is free
+(floating) or planar as any body, so a chain floats. A body's start velocity relative to its
+parent becomes the joint's rate (adapters.joints.start_rate, refused where the joint does not
+allow it). A joint that would close a loop is a ball constraint (AddBallConstraint, which
+SAP's solver holds, also under Similar and Lagged) where the loop is planar. Bodies a joint
+connects do not collide (a collision filter). Loads are ExternallyAppliedSpatialForces from a
+constant source on the plant's applied spatial force port.
 """
 from __future__ import annotations
 
@@ -82,7 +92,7 @@ import numpy as np
 
 from adapters.base import Adapter, Capabilities, Settings, SettingsError, Simulation, Tunable, Unsupported
 from adapters.combination import per_body_values
-from adapters.joints import world_joints
+from adapters.joints import TreeJoint, closing_ball_points, joint_tree, start_rate
 from adapters.frames import about_y_many, multiply_many, state_row
 from adapters.lazy import require
 from adapters.solids import polygon_prism, triangle_normals, triangle_prisms
@@ -161,6 +171,10 @@ CENIC_ON_DEMAND = ("CENIC at its default accuracy costs 10-150x drake-sap's job-
                    "(resting_blocks 460 s for 14); run with --on-demand")
 # a continuous plant (time_step 0) integrated by CENIC (SimulatorConfig integration_scheme)
 CONTINUOUS = ("cenic",)
+# The approximations whose solver takes a plant's constraints (AddBallConstraint): SAP's
+# convex solver, which Similar and Lagged also use; TAMSI and CENIC's continuous plant refuse
+# them (measured with pydrake 1.51.1).
+CONSTRAINED = ("sap", "similar", "lagged")
 _CONTACT_MODELS = ("hydroelastic", "point")              # ContactModel.k<Name>
 
 
@@ -342,7 +356,7 @@ class DrakeSimulation(Simulation):
         from pydrake.systems.framework import DiagramBuilder
         builder = DiagramBuilder()
         # CENIC takes a continuous plant named "plant" (AddMultibodyPlantSceneGraph's name)
-        plant, _ = AddMultibodyPlantSceneGraph(builder, time_step=0.0 if continuous else settings.dt)
+        plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=0.0 if continuous else settings.dt)
         if not continuous:
             plant.set_discrete_contact_approximation(
                 getattr(DiscreteContactApproximation, f"k{approximation.capitalize()}"))
@@ -371,10 +385,17 @@ class DrakeSimulation(Simulation):
         }
         material = _materials(scene, settings.dt, approximation, contact_model, options, self.knobs["contact_map"])
         self._geometry_name: dict[int, str] = {}
-        self._hung = world_joints(scene, "one tree of both")
-        plan = {b.name: self._add_body(plant, b, scene.dimension, material) for b in scene.bodies}
+        self._geometry_ids: list = []  # (GeometryId, body name)
+        self._tree, closing = joint_tree(scene)
+        self._rigid: dict[str, object] = {}
+        # a tree joint's parent before its body (the joint's frame F lives on the parent)
+        order = [b for b in scene.bodies if b.name not in self._tree] + [scene.body(n) for n in self._tree]
+        plan = {b.name: self._add_body(plant, b, scene, material) for b in order}
+        self._close_loops(plant, scene, closing)
         plant.Finalize()
+        self._filter_joined(scene_graph, scene)
         self._plant = plant
+        self._apply_loads(builder, plant, scene)
         diagram = builder.Build()
         with _quiet_drake_warnings():  # allocating the context warns that a half-space has no
             self._simulator = Simulator(diagram)  # deformable contact (there are no deformables)
@@ -387,7 +408,7 @@ class DrakeSimulation(Simulation):
         self._results_port = plant.get_contact_results_output_port()
         self._steps = 0
         self._dt = settings.dt
-        self.effects = _effects(scene, material, plan, self._hydro)
+        self.effects = _effects(scene, material, plan, self._hydro) | ({"load"} if self._loaded else set())
 
     def _integrate_with_cenic(self, dt: float, accuracy: float) -> dict:
         """CENIC on the simulator (Drake's SimulatorConfig): error control on at `accuracy`,
@@ -403,7 +424,7 @@ class DrakeSimulation(Simulation):
 
     # --- building -----------------------------------------------------------------------
 
-    def _add_body(self, plant, body: Body, dimension: int, material: dict):
+    def _add_body(self, plant, body: Body, scene: Scene, material: dict):
         """Register the body's geometry (on the world body if static) and its joints;
         returns how its state is read ("static", ("free", body), ("planar", joint), or
         ("slides", [(joint, axis)]))."""
@@ -421,18 +442,21 @@ class DrakeSimulation(Simulation):
                 X = X_BG if isinstance(body.shape, Plane) else X_WB.multiply(X_BG)
                 gid = plant.RegisterCollisionGeometry(plant.world_body(), X, shape, name, props)
                 self._geometry_name[gid.get_value()] = body.name
+                self._geometry_ids.append((gid, body.name))
             self.knobs["joints"][body.name] = "world"
             return "static"
         [(_, shape, X_BG)] = geometries
         inertia = SpatialInertia.MakeFromCentralInertia(
             body.mass, np.zeros(3), RotationalInertia(*body.principal_inertia))
-        rigid = plant.AddRigidBody(body.name, inertia)
+        rigid = self._rigid[body.name] = plant.AddRigidBody(body.name, inertia)
         self.knobs["inertia"][body.name] = {"mass": float(body.mass),
                                             "principal_moments": list(body.principal_inertia)}
         gid = plant.RegisterCollisionGeometry(rigid, X_BG, shape, body.name, props)
         self._geometry_name[gid.get_value()] = body.name
-        if body.name in self._hung:
-            return self._joint(plant, body, rigid, self._hung[body.name])
+        self._geometry_ids.append((gid, body.name))
+        dimension = scene.dimension
+        if body.name in self._tree:
+            return self._joint(plant, scene, body, rigid, self._tree[body.name])
         if dimension == 3 and body.rotates:
             self.knobs["joints"][body.name] = "QuaternionFloatingJoint (free body)"
             return ("free", rigid)
@@ -472,14 +496,23 @@ class DrakeSimulation(Simulation):
         return SpatialInertia.MakeFromCentralInertia(SLIDE_MASS * body.mass, np.zeros(3), RotationalInertia(0, 0, 0)) \
             if self._continuous else SpatialInertia.Zero()
 
-    def _joint(self, plant, body: Body, rigid, joint):
-        """Hang the body on the scene joint: frame F on the world at the anchor, world-aligned,
-        frame M on the body at the same point at the start, so the joint's coordinate is 0
-        at the start and the axis is the scene's (in F); no damping, no limits."""
+    def _joint(self, plant, scene: Scene, body: Body, rigid, tj: TreeJoint):
+        """Hang the body on its tree joint: frame F on the parent (the world, or the parent
+        body's frame) at the anchor, world-aligned at the start, frame M on the body at the
+        same point, so the joint's coordinate is 0 at the start and the axis is the scene's
+        (in F); no damping, no limits."""
         from pydrake.math import RigidTransform
         from pydrake.multibody.tree import FixedOffsetFrame, PrismaticJoint, RevoluteJoint, WeldJoint
+        joint = tj.joint
         anchor, R_B0 = np.asarray(joint.anchor, float), _rotation(body.orientation)
-        F = plant.AddFrame(FixedOffsetFrame(f"{body.name}:F", plant.world_frame(), RigidTransform(anchor)))
+        if tj.parent is None:
+            X_PF, on = RigidTransform(anchor), plant.world_frame()
+        else:  # X_PF = X_WP0^-1 X_WF, X_WF = (I, anchor)
+            up = scene.body(tj.parent)
+            R_P0 = _rotation(up.orientation)
+            X_PF = RigidTransform(R_P0.transpose(), R_P0.transpose().multiply(anchor - np.asarray(up.position, float)))
+            on = self._rigid[tj.parent].body_frame()
+        F = plant.AddFrame(FixedOffsetFrame(f"{body.name}:F", on, X_PF))
         M = plant.AddFrame(FixedOffsetFrame(f"{body.name}:M", rigid.body_frame(), RigidTransform(
             R_B0.transpose(), R_B0.transpose().multiply(anchor - np.asarray(body.position, float)))))
         axis = np.asarray(joint.unit_axis, float)
@@ -487,10 +520,66 @@ class DrakeSimulation(Simulation):
         made = {"revolute": lambda: RevoluteJoint(name, F, M, axis, damping=0.0),
                 "prismatic": lambda: PrismaticJoint(name, F, M, axis, damping=0.0),
                 "fixed": lambda: WeldJoint(name, F, M, RigidTransform())}[joint.kind]()
-        plant.AddJoint(made)
-        self.knobs["joints"][body.name] = {type(made).__name__: {"anchor": anchor.tolist(), "axis": axis.tolist(),
-                                                                 "damping": 0.0, "limits": "none"}}
-        return ("jointed", rigid)
+        made = plant.AddJoint(made)  # the plant's own joint (the built one was moved into it)
+        self.knobs["joints"][body.name] = {type(made).__name__: {"on": tj.parent or "world", "anchor": anchor.tolist(),
+                                                                 "axis": axis.tolist(), "damping": 0.0,
+                                                                 "limits": "none"}}
+        return ("jointed", rigid, made, tj)
+
+    def _filter_joined(self, scene_graph, scene: Scene) -> None:
+        """Two bodies a scene joint connects do not collide (Scene.contact_pairs leaves them
+        out): their geometries are excluded from each other (a CollisionFilterDeclaration).
+        Drake's own filter of adjacent bodies is off (a planar body's parent is the world,
+        where the ground lives) and would miss a body jointed to a static body."""
+        from pydrake.geometry import CollisionFilterDeclaration, GeometrySet
+        ids: dict[str, list] = {}
+        for gid, name in self._geometry_ids:
+            ids.setdefault(name, []).append(gid)
+        joined = []
+        for joint in scene.joints:
+            if joint.parent is not None:
+                declaration = CollisionFilterDeclaration().ExcludeBetween(GeometrySet(ids[joint.body]),
+                                                                          GeometrySet(ids[joint.parent]))
+                scene_graph.collision_filter_manager().Apply(declaration)
+                joined.append([joint.body, joint.parent])
+        if joined:
+            self.knobs["collision filter: jointed pairs excluded"] = joined
+
+    def _close_loops(self, plant, scene: Scene, closing: list) -> None:
+        """Each joint that closes a loop (joint_tree) as Drake's ball constraint
+        (MultibodyPlant.AddBallConstraint, solved by SAP), at the joint's point on both bodies
+        (closing_ball_points: planar loops' revolute joints, or ball joints)."""
+        for j, body_name, p_AP, parent, p_BQ in closing_ball_points(scene, closing, "Drake's AddBallConstraint"):
+            B = plant.world_body() if parent is None else self._rigid[parent]
+            plant.AddBallConstraint(self._rigid[body_name], p_AP, B, p_BQ)
+            self.knobs.setdefault("loop", {})[f"joints[{j}]"] = {
+                "AddBallConstraint": {"body_A": body_name, "p_AP": p_AP.tolist(), "body_B": parent or "world",
+                                      "p_BQ": p_BQ.tolist()}}
+
+    def _apply_loads(self, builder, plant, scene: Scene) -> None:
+        """The scene's constant loads as one ExternallyAppliedSpatialForce a body (world frame,
+        at its centre of mass, the body frame's origin here) from a constant source on the
+        plant's applied spatial force input port."""
+        loads = [load for load in scene.loads if load.acts]
+        self._loaded = bool(loads)
+        if not loads:
+            return
+        from pydrake.common.value import AbstractValue
+        from pydrake.multibody.math import SpatialForce
+        from pydrake.multibody.plant import ExternallyAppliedSpatialForce
+        from pydrake.systems.primitives import ConstantValueSource
+        forces = []
+        for load in loads:
+            f = ExternallyAppliedSpatialForce()
+            f.body_index = self._rigid[load.body].index()
+            f.p_BoBq_B = np.zeros(3)
+            f.F_Bq_W = SpatialForce(np.asarray(load.torque, float), np.asarray(load.force, float))
+            forces.append(f)
+        source = builder.AddSystem(ConstantValueSource(AbstractValue.Make(forces)))
+        builder.Connect(source.get_output_port(0), plant.get_applied_spatial_force_input_port())
+        self.knobs["loads"] = {load.body: {"force": list(load.force), "torque": list(load.torque)} for load in loads}
+        self.knobs["loads (how)"] = ("ExternallyAppliedSpatialForce at the centre of mass, world frame, from a "
+                                     "ConstantValueSource on the applied spatial force input port")
 
     def _set_start(self, scene: Scene, plan: dict):
         """Start pose and velocity of every dynamic body; returns the state readers."""
@@ -501,7 +590,10 @@ class DrakeSimulation(Simulation):
             kind = plan[body.name]
             p0, q0 = np.asarray(body.position, float), np.asarray(body.orientation, float)
             v0, w0 = np.asarray(body.velocity, float), np.asarray(body.angular_velocity, float)
-            if kind[0] == "jointed":  # at rest at its start pose: every joint coordinate 0
+            if kind[0] == "jointed":  # at its start pose (every joint coordinate 0), at its start rate
+                rate = start_rate(scene, kind[3])
+                vs = kind[2].velocity_start()
+                v[vs:vs + len(rate)] = rate
                 readers.append((body.name, "jointed", kind[1], None, None))
             elif kind[0] == "free":
                 qs, vs = kind[1].floating_positions_start(), kind[1].floating_velocities_start_in_v()
@@ -558,18 +650,18 @@ class DrakeSimulation(Simulation):
         return [r[0] for r in self._readers]
 
     def state_size(self) -> int:
-        if self._hung:  # a jointed body's state is read through the plant's kinematics (states)
+        if self._tree:  # a jointed body's state is read through the plant's kinematics (states)
             return 13 * len(self._readers)
         return self._plant.num_positions() + self._plant.num_velocities()
 
     def write_state(self, out: np.ndarray) -> None:
-        if self._hung:
+        if self._tree:
             Simulation.write_state(self, out)
             return
         out[:] = self._plant.GetPositionsAndVelocities(self._context)
 
     def decode_states(self, raw: np.ndarray) -> np.ndarray:
-        if self._hung:
+        if self._tree:
             return Simulation.decode_states(self, raw)
         nq = self._plant.num_positions()
         q, v = raw[:, :nq], raw[:, nq:]
@@ -965,16 +1057,16 @@ class DrakeAdapter(Adapter):
             contact_points=point,       # hydroelastic: one resultant per surface only
             contact_laws=frozenset({"hooke"}) if point else frozenset(),
             impact_model="compliant",
-            # a body on a scene joint to the world (or a static body) hangs on Drake's joint of
-            # that kind (DrakeSimulation._add_body): reduced coordinates
+            # jointed bodies are a tree (adapters.joints.joint_tree): each hangs on Drake's joint
+            # of its kind on its parent body or the world (DrakeSimulation._joint), a tree's root
+            # free or planar; a loop is closed by a ball constraint under SAP: reduced coordinates
             joints=frozenset({"revolute", "prismatic", "fixed"}),
             coordinates="reduced",
+            loads=True,  # ExternallyAppliedSpatialForce from a constant source (DrakeSimulation._apply_loads)
             why_not=(("joint", "Drake's ball joint is a BallRpyJoint, singular at a pitch of pi/2, where a swing "
                                "of 90 deg stops the simulator (measured); a quaternion ball joint is not in Drake "
                                "(https://github.com/RobotLocomotion/drake/issues/12404)"),
-                     ("limit", "joint limits are not mapped (Drake enforces them only under SAP)"),
-                     ("load", "the adapter applies no external forces (MultibodyPlant's applied spatial force "
-                              "port is not connected)")),
+                     ("limit", "joint limits are not mapped (Drake enforces them only under SAP)")),
         )
         tunables = {
             "contact_steps": Tunable(2.0, 1000.0, float(CONTACT_STEPS),
@@ -1015,5 +1107,12 @@ class DrakeAdapter(Adapter):
         reason = self.capabilities.cannot_run(scene) or _unrepresentable(scene, self.contact_model)
         if reason:
             raise Unsupported(reason)
-        world_joints(scene, "one tree of both")  # Unsupported for the joints the adapter does not map
+        _, closing = joint_tree(scene)  # Unsupported for the joints the adapter does not map
+        if closing:
+            if self.approximation not in CONSTRAINED:
+                j, _ = closing[0]
+                raise Unsupported(f"joints[{j}] closes a loop: Drake's tree holds no loop joint, and its ball "
+                                  f"constraint (AddBallConstraint) is solved by SAP only ({', '.join(CONSTRAINED)}), "
+                                  f"not by {self.approximation}")
+            closing_ball_points(scene, closing, "Drake's AddBallConstraint")
         return DrakeSimulation(scene, settings, self.approximation, self.contact_model, self._options(settings))

@@ -54,6 +54,7 @@ import numpy as np
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.lazy import require
+from adapters.joints import closing_ball_points, joint_tree
 from adapters.frames import about_y_many, multiply_many, rotate_many
 from adapters.solids import polygon_prism, triangle_prisms
 from cases.scene import (Body, Box, Capsule, Circle, Cylinder, Hull, Joint, Mesh, Plane, Polygon, Rect, Scene, Sphere,
@@ -473,23 +474,9 @@ _JOINT_TYPES = {"revolute": "hinge", "prismatic": "slide", "ball": "ball"}  # "f
 def _tree(scene: Scene) -> tuple[dict[str, tuple[str | None, Joint]], list[tuple[int, Joint]]]:
     """Each jointed dynamic body's parent in the tree (None: the world, or a static body)
     and its scene joint, and the joints (index, joint) that close a loop: those the tree
-    cannot hold, in scene order (the first joint of a body hangs it)."""
-    static = {b.name for b in scene.bodies if b.static}
-    parent: dict[str, tuple[str | None, Joint]] = {}
-    closing: list[tuple[int, Joint]] = []
-    for j, joint in enumerate(scene.joints):
-        if joint.body in static:
-            raise Unsupported(f"joint of {joint.body!r}: a static body as the joint's `body`: MuJoCo's tree hangs "
-                              "the moving body on the other (name the dynamic body as `body`)")
-        up = None if joint.parent is None or joint.parent in static else joint.parent
-        seen = up
-        while seen is not None and seen != joint.body:
-            seen = parent[seen][0] if seen in parent else None
-        if joint.body in parent or seen == joint.body:
-            closing.append((j, joint))
-        else:
-            parent[joint.body] = (up, joint)
-    return parent, closing
+    cannot hold (adapters.joints.joint_tree, which the other reduced-coordinate adapters share)."""
+    tree, closing = joint_tree(scene)
+    return {name: (tj.parent, tj.joint) for name, tj in tree.items()}, closing
 
 
 # A loop's closing joint is MuJoCo's <connect>: it holds the joint's point on both bodies
@@ -517,17 +504,8 @@ def _loop_xml(scene: Scene, closing: list[tuple[int, Joint]], knobs: dict, dt: f
     row = {"solref": list(DEFAULT_SOLREF) if "solref" in defaults else [LOOP_TIME_STEPS * dt, 1.0],
            "solimp": list(DEFAULT_SOLIMP if "solimp" in defaults else SOLIMP)}
     out = []
+    closing_ball_points(scene, closing, "MuJoCo's connect")  # Unsupported for a loop connect does not close
     for j, joint in closing:
-        if joint.kind == "revolute":
-            others = [o for o in scene.joints if o is not joint and o.kind != "fixed"]
-            if any(o.kind != "revolute" or abs(abs(float(np.dot(o.unit_axis, joint.unit_axis))) - 1.0) > 1e-9
-                   for o in others):
-                raise Unsupported(f"joints[{j}] closes a loop that is not planar: MuJoCo's connect holds its point "
-                                  "but not its axis (a weld-free hinge equality does not exist); only planar loops "
-                                  "(parallel hinges) are mapped")
-        elif joint.kind != "ball":
-            raise Unsupported(f"joints[{j}] ({joint.kind}) closes a loop: only revolute and ball joints close a loop "
-                              "in MuJoCo's mapping (<connect>)")
         body = scene.body(joint.body)
         anchor, _ = _relative(body, joint.anchor)
         spec = {"name": f"loop{j}", "body1": joint.body, "anchor": anchor, **row}

@@ -91,7 +91,7 @@ import numpy as np
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
 from adapters.frames import require_turn_about_y, state_row, wxyz_to_xyzw, xyzw_to_wxyz, z_to
-from adapters.joints import world_joints
+from adapters.joints import closing_ball_points, joint_tree, start_rate
 from adapters.solids import inscribed_radius, polygon_prism
 from cases.scene import Body, Scene, pair_key
 from cases.trajectory import ContactPoint
@@ -142,6 +142,9 @@ LOCK_CREATION_MASS = 1e30  # see _add_body: a non-rotating maximal body is creat
 # Rotation about +x by -90 deg (x, y, z, w): takes the cylinder's z axis onto y.
 Z_TO_Y = [-math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5)]
 AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+# A loop's closing JOINT_POINT2POINT constraint may apply any force that holds it:
+# createConstraint's default maxForce (500 N) would cap it, so it is set beyond reach.
+LOOP_MAX_FORCE = 1e12   # N
 GEOM_NAMES = {p.GEOM_SPHERE: "GEOM_SPHERE", p.GEOM_BOX: "GEOM_BOX", p.GEOM_PLANE: "GEOM_PLANE",
               p.GEOM_CYLINDER: "GEOM_CYLINDER", p.GEOM_CAPSULE: "GEOM_CAPSULE", p.GEOM_MESH: "GEOM_MESH"}
 # Bullet's collision margin. pybullet gives every shape it makes m_defaultCollisionMargin,
@@ -230,9 +233,10 @@ class PyBulletAdapter(Adapter):
         # together at e v, a struck row of two leaves as one body, both paths)
         impact_model="simultaneous",
         contact_torques=frozenset({"rolling_resistance", "torsional_friction"}),  # TORQUE_KNOBS
-        # a body on a scene joint to the world (or a static body) is the one link of a
-        # multibody on a fixed base at the anchor (PyBulletSimulation._jointed_body):
-        # Featherstone's reduced coordinates
+        # one multibody per connected jointed group (adapters.joints.joint_tree): a fixed base
+        # at the root's anchor or the free root as its base, each body a link on its scene
+        # joint (PyBulletSimulation._add_tree); a loop closed by a JOINT_POINT2POINT
+        # constraint: Featherstone's reduced coordinates
         joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
         joint_limits=True,
         coordinates="reduced",
@@ -280,7 +284,7 @@ class PyBulletAdapter(Adapter):
         reason = self.capabilities.cannot_run(scene) or self._spin_without_roll(scene) or self._mlcp_torques(scene)
         if reason:
             raise Unsupported(reason)
-        world_joints(scene, "one multibody of both")  # Unsupported for the joints the adapter does not map
+        closing_ball_points(scene, joint_tree(scene)[1], "pybullet's JOINT_POINT2POINT constraint")  # loops not mapped
         if self.config["solver"] == "pgs" and scene.dimension == 2:
             raise Unsupported("2D scene: pybullet's MLCP projected Gauss-Seidel leaves NaN in the state in the "
                               "first step a contact acts on the planar joint chain of a 2D body (SOLVERS)")
@@ -441,7 +445,7 @@ def _collision_shape(body: Body, client: int, ground: str = "plane",
     btConvexHullShape of the corners, with indices a btBvhTriangleMeshShape (double-sided:
     a triangle is met from either side), each inside a btCompoundShape (`_mesh_shape`).
     `frame` (position, xyzw orientation): the body's frame in the frame of the link that
-    holds the shape (a jointed body's link frame is the joint's, `_jointed_body`); None:
+    holds the shape (a jointed body's link frame is the joint's, `_add_tree`); None:
     the two coincide."""
     at = {} if frame is None else {"collisionFramePosition": list(frame[0]),
                                    "collisionFrameOrientation": list(frame[1])}
@@ -605,12 +609,23 @@ class PyBulletSimulation(Simulation):
                     "(ccdMotionThreshold the same, pybullet's pairing)") if self._ccd else "off (ccdSweptSphereRadius 0)",
             "bodies": {},
         }
-        self._hung = world_joints(scene, "one multibody of both")  # joints to the world or a static body
+        self._tree, closing = joint_tree(scene)
         self._ids: dict[tuple[int, int], str] = {}  # (body unique id, link index) -> name
         self._dynamic: list[tuple[str, int, int]] = []  # (name, body id, link index or -1)
+        # one multibody per connected jointed group: its root and the bodies hanging on it
+        groups: dict[str, list[str]] = {}
+        for name, tj in self._tree.items():  # parents first
+            groups.setdefault(self._root_of(name), []).append(name)
         for body in scene.bodies:
-            record = self._add_body(body, scene, friction[body.name], restitution[body.name])
-            self.knobs["bodies"][body.name] = record
+            if body.name in self._tree and self._tree[body.name].parent is not None:
+                continue  # built with its group's root
+            if body.name in groups or body.name in self._tree:
+                members = [n for n in groups.get(body.name, []) if n != body.name]
+                self._add_tree(body, members, scene, friction, restitution)
+            else:
+                self.knobs["bodies"][body.name] = self._add_body(body, scene, friction[body.name],
+                                                                 restitution[body.name])
+        self._separate_joined(scene, closing)
         # the scene's constant loads: pybullet clears external forces after each step, so
         # step() applies them again before each, the force at the body's centre of mass
         where = {name: (uid, link) for name, uid, link in self._dynamic}
@@ -622,14 +637,15 @@ class PyBulletSimulation(Simulation):
                                    for load in scene.loads if load.acts}
         self.effects = self._built_effects(scene, friction, restitution)
 
+    def _root_of(self, name: str) -> str:
+        while name in self._tree and self._tree[name].parent is not None:
+            name = self._tree[name].parent
+        return name
+
     def _add_body(self, body: Body, scene: Scene, mu: float, e: float) -> dict:
         dimension = scene.dimension
         c = self._client
-        joint = self._hung.get(body.name)
-        # a jointed body's shape sits in its link's frame, the joint's (_jointed_body)
-        frame = None if joint is None else (list(np.asarray(body.position, float) - np.asarray(joint.anchor, float)),
-                                            wxyz_to_xyzw(body.orientation))
-        shape, shape_record = _collision_shape(body, c, self._ground, frame)
+        shape, shape_record = _collision_shape(body, c, self._ground)
         position, orientation = list(body.position), wxyz_to_xyzw(body.orientation)
         if body.shape.kind == "plane" and self._ground == "box":
             _, position, orientation = _ground_box(body.shape, scene)
@@ -637,9 +653,7 @@ class PyBulletSimulation(Simulation):
             position = [body.shape.offset * n for n in body.shape.normal]
             orientation = [0.0, 0.0, 0.0, 1.0]
         record = {"createCollisionShape": shape_record}
-        if joint is not None:
-            uid, link, record["createMultiBody"] = self._jointed_body(body, shape, joint)
-        elif dimension == 2 and body.dynamic:
+        if dimension == 2 and body.dynamic:
             uid, link, record["createMultiBody"] = self._planar_body(body, shape)
         else:
             mass = 0.0 if body.static else body.mass
@@ -698,46 +712,157 @@ class PyBulletSimulation(Simulation):
                   "setJointMotorControl2": {"controlMode": "VELOCITY_CONTROL", "force": 0.0}}
         return uid, n - 1, record
 
-    def _jointed_body(self, body: Body, shape: int, joint) -> tuple[int, int, dict]:
-        """A fixed, shapeless base at the joint's anchor and one link on the scene joint:
-        its frame is the joint's (world-aligned at the anchor; a multibody joint turns
-        about its link's frame origin, its axis the scene's), its inertial frame the body's
-        centre and axes, its shape `shape`, made in that frame (`_collision_shape`), so the
-        joint's coordinate is 0 at the start. Reduced coordinates (Featherstone), whatever
-        the scene's friction; the joint's motor released (force 0).
-        Not the body welded (JOINT_FIXED) to a massless link on the joint, which holds the
+    def _add_tree(self, root: Body, members: list[str], scene: Scene, friction: dict, restitution: dict) -> None:
+        """One multibody of a connected jointed group (Featherstone's reduced coordinates,
+        whatever the scene's friction): its base is the root's anchor (a fixed, shapeless
+        base, the root the first link on its scene joint), or the root itself, free (3D: a
+        base of the root's mass; 2D: the last link of `_planar_body`'s chain). Each other
+        body is a link on its scene joint to its parent's link: a link's frame is its joint's
+        (world-aligned at the anchor at the start; a multibody joint turns about its link
+        frame's origin, its axis the scene's), its inertial frame the body's centre and
+        axes, its shape made in that frame (`_collision_shape`), so every joint coordinate
+        is 0 at the start; the joint's rate is the bodies' start velocities' (start_rate),
+        its motor released (force 0).
+        Not a body welded (JOINT_FIXED) to a massless link on the joint, which holds the
         same motion: pybullet 3.2.7 solves no contact between such a welded link and a static
         body (a hinged rod fell through a fixed ball, getContactPoints reporting the overlap
         with normal force 0; the same link on a prismatic joint, or on the hinge itself, is
         stopped; tests/test_joints.py)."""
         c = self._client
-        kind = {"revolute": p.JOINT_REVOLUTE, "prismatic": p.JOINT_PRISMATIC, "ball": p.JOINT_SPHERICAL,
-                "fixed": p.JOINT_FIXED}[joint.kind]
-        axis = list(joint.unit_axis)
-        offset = list(np.asarray(body.position, float) - np.asarray(joint.anchor, float))
-        turn = wxyz_to_xyzw(body.orientation)
+        tree = self._tree
+        chain = ([root.name] if root.name in tree else []) + members  # the bodies on scene joints, parents first
+        link_of: dict[str, int] = {}
+        frame_of: dict = {}  # a link's frame at the start: origin, rotation, its quaternion x-y-z-w
+        links: list[dict] = []
+        record: dict = {}
+        if root.name in tree:  # a fixed base at the root's anchor
+            base = {"baseMass": 0.0, "baseCollisionShapeIndex": -1, "basePosition": list(tree[root.name].joint.anchor)}
+            frame_of[None] = (np.asarray(tree[root.name].joint.anchor, float), np.eye(3), [0.0, 0.0, 0.0, 1.0])
+            first = 0
+        elif scene.dimension == 2:  # the planar chain's links, the root the last
+            joints = _planar_joints(root)
+            R = np.reshape(p.getMatrixFromQuaternion(wxyz_to_xyzw(root.orientation)), (3, 3))
+            shape, record["createCollisionShape"] = _collision_shape(root, c, self._ground)
+            base = {"baseMass": 0.0, "baseCollisionShapeIndex": -1, "basePosition": list(root.position)}
+            axes = [list(AXES[j[-1]]) for j in joints]
+            axes[-1] = list(R.T @ np.array(AXES[joints[-1][-1]]))
+            for k, j in enumerate(joints):
+                last = k == len(joints) - 1
+                links.append({"mass": root.mass if last else 0.0, "shape": shape if last else -1,
+                              "position": [0.0, 0.0, 0.0],
+                              "orientation": wxyz_to_xyzw(root.orientation) if last else [0.0, 0.0, 0.0, 1.0],
+                              "inertial": [0.0, 0.0, 0.0], "inertial_turn": [0.0, 0.0, 0.0, 1.0], "parent": k,
+                              "type": p.JOINT_PRISMATIC if j.startswith("prismatic") else p.JOINT_REVOLUTE,
+                              "axis": axes[k], "planar": j})
+            link_of[root.name] = len(joints) - 1
+            frame_of[root.name] = (np.asarray(root.position, float), R, wxyz_to_xyzw(root.orientation))
+            first = len(joints)
+        elif root.rotates:  # the root is the free base
+            R = np.reshape(p.getMatrixFromQuaternion(wxyz_to_xyzw(root.orientation)), (3, 3))
+            shape, record["createCollisionShape"] = _collision_shape(root, c, self._ground)
+            base = {"baseMass": root.mass, "baseCollisionShapeIndex": shape, "basePosition": list(root.position),
+                    "baseOrientation": wxyz_to_xyzw(root.orientation)}
+            link_of[root.name] = -1
+            frame_of[root.name] = (np.asarray(root.position, float), R, wxyz_to_xyzw(root.orientation))
+            first = 0
+        else:
+            raise Unsupported(f"{root.name!r} held from rotating (rotates=False) carries jointed bodies: not mapped "
+                              "(its slides would need the multibody's frames)")
+        shapes = {}
+        for k, name in enumerate(chain):
+            body, tj = scene.body(name), tree[name]
+            anchor = np.asarray(tj.joint.anchor, float)
+            offset = np.asarray(body.position, float) - anchor
+            shapes[name] = _collision_shape(body, c, self._ground, (list(offset), wxyz_to_xyzw(body.orientation)))
+            up = tj.parent if tj.parent is not None else None
+            origin, R_L, q_L = frame_of[up]
+            turn = [-q_L[0], -q_L[1], -q_L[2], q_L[3]]  # R_L^T: a world-aligned link frame at the start
+            links.append({"mass": body.mass, "shape": shapes[name][0], "position": list(R_L.T @ (anchor - origin)),
+                          "orientation": turn, "inertial": list(offset), "inertial_turn": wxyz_to_xyzw(body.orientation),
+                          "parent": (link_of[up] + 1) if up is not None else 0,
+                          "type": {"revolute": p.JOINT_REVOLUTE, "prismatic": p.JOINT_PRISMATIC,
+                                   "ball": p.JOINT_SPHERICAL, "fixed": p.JOINT_FIXED}[tj.joint.kind],
+                          "axis": list(tj.joint.unit_axis), "scene": tj})
+            link_of[name] = first + k
+            frame_of[name] = (anchor, np.eye(3), [0.0, 0.0, 0.0, 1.0])
         uid = p.createMultiBody(
-            0.0, -1, basePosition=list(joint.anchor), linkMasses=[body.mass],
-            linkCollisionShapeIndices=[shape], linkVisualShapeIndices=[-1],
-            linkPositions=[[0.0, 0.0, 0.0]], linkOrientations=[[0.0, 0.0, 0.0, 1.0]],
-            linkInertialFramePositions=[offset], linkInertialFrameOrientations=[turn],
-            linkParentIndices=[0], linkJointTypes=[kind], linkJointAxis=[axis],
-            useMaximalCoordinates=False, physicsClientId=c)
-        if joint.kind == "ball":
-            p.setJointMotorControlMultiDof(uid, 0, p.POSITION_CONTROL, targetPosition=[0, 0, 0, 1],
-                                           positionGain=0, velocityGain=0, force=[0, 0, 0], physicsClientId=c)
-        elif joint.kind != "fixed":
-            p.setJointMotorControl2(uid, 0, p.VELOCITY_CONTROL, force=0.0, physicsClientId=c)
-        record = {"baseMass": 0.0, "basePosition": list(joint.anchor), "linkMasses": [body.mass],
-                  "linkJointTypes": [f"JOINT_{joint.kind.upper() if joint.kind != 'ball' else 'SPHERICAL'}"],
-                  "linkJointAxis": [axis], "linkPositions": [[0.0, 0.0, 0.0]],
-                  "linkInertialFramePositions": [offset], "linkInertialFrameOrientations": [turn],
-                  "useMaximalCoordinates": False, "motor": "released (force 0)"}
-        if joint.limits is not None:
-            p.changeDynamics(uid, 0, jointLowerLimit=float(joint.limits[0]), jointUpperLimit=float(joint.limits[1]),
-                             physicsClientId=c)
-            record["changeDynamics"] = {"jointLowerLimit": joint.limits[0], "jointUpperLimit": joint.limits[1]}
-        return uid, 0, record
+            base["baseMass"], base["baseCollisionShapeIndex"], basePosition=base["basePosition"],
+            baseOrientation=base.get("baseOrientation", [0.0, 0.0, 0.0, 1.0]),
+            linkMasses=[k["mass"] for k in links], linkCollisionShapeIndices=[k["shape"] for k in links],
+            linkVisualShapeIndices=[-1] * len(links), linkPositions=[k["position"] for k in links],
+            linkOrientations=[k["orientation"] for k in links],
+            linkInertialFramePositions=[k["inertial"] for k in links],
+            linkInertialFrameOrientations=[k["inertial_turn"] for k in links],
+            linkParentIndices=[k["parent"] for k in links], linkJointTypes=[k["type"] for k in links],
+            linkJointAxis=[k["axis"] for k in links], useMaximalCoordinates=False, physicsClientId=c)
+        names = {0: "JOINT_REVOLUTE", 1: "JOINT_PRISMATIC", 2: "JOINT_SPHERICAL", 4: "JOINT_FIXED"}
+        record["createMultiBody"] = {**{k: v for k, v in base.items() if k != "baseCollisionShapeIndex"},
+                                     "linkMasses": [k["mass"] for k in links],
+                                     "linkJointTypes": [names.get(k["type"], k["type"]) for k in links],
+                                     "linkJointAxis": [k["axis"] for k in links],
+                                     "linkParentIndices": [k["parent"] for k in links],
+                                     "linkPositions": [k["position"] for k in links],
+                                     "linkInertialFramePositions": [k["inertial"] for k in links],
+                                     "useMaximalCoordinates": False, "motor": "released (force 0)"}
+        if link_of.get(root.name) == -1:  # the free base: the root's own velocity
+            p.resetBaseVelocity(uid, list(root.velocity), list(root.angular_velocity), physicsClientId=c)
+        for k, spec in enumerate(links):
+            if spec["type"] == p.JOINT_SPHERICAL:
+                p.setJointMotorControlMultiDof(uid, k, p.POSITION_CONTROL, targetPosition=[0, 0, 0, 1],
+                                               positionGain=0, velocityGain=0, force=[0, 0, 0], physicsClientId=c)
+            elif spec["type"] != p.JOINT_FIXED:
+                p.setJointMotorControl2(uid, k, p.VELOCITY_CONTROL, force=0.0, physicsClientId=c)
+            if "planar" in spec:
+                v, w = root.velocity, root.angular_velocity
+                rate = {"prismatic x": v[0], "prismatic z": v[2], "revolute y": w[1]}[spec["planar"]]
+                p.resetJointState(uid, k, 0.0, rate, physicsClientId=c)
+            elif "scene" in spec:
+                tj = spec["scene"]
+                rate = start_rate(scene, tj)
+                if tj.joint.kind == "ball" and any(rate):
+                    raise Unsupported(f"joints[{tj.index}]: {tj.joint.body!r} starts turning on a ball joint: a "
+                                      "spherical joint's start rate is not mapped")
+                if tj.joint.kind in ("revolute", "prismatic"):
+                    p.resetJointState(uid, k, 0.0, float(rate[0]), physicsClientId=c)
+                if tj.joint.limits is not None:
+                    p.changeDynamics(uid, k, jointLowerLimit=float(tj.joint.limits[0]),
+                                     jointUpperLimit=float(tj.joint.limits[1]), physicsClientId=c)
+                    record.setdefault("changeDynamics (limits)", {})[tj.joint.body] = {
+                        "jointLowerLimit": tj.joint.limits[0], "jointUpperLimit": tj.joint.limits[1]}
+        for name in [root.name] + members:
+            body, link = scene.body(name), link_of[name]
+            entry = {"multibody": root.name, "link": link} if name != root.name else dict(record)
+            if name in shapes:
+                entry["createCollisionShape"] = shapes[name][1]
+            entry["changeDynamics"] = self._set_dynamics(body, uid, link, friction[name], restitution[name])
+            self.knobs["bodies"][name] = entry
+            self._ids[(uid, link)] = name
+            self._dynamic.append((name, uid, link))
+
+    def _separate_joined(self, scene: Scene, closing: list) -> None:
+        """Bodies a joint connects do not collide (Scene.contact_pairs): a parent and its
+        child link are not checked within a multibody; a pair in two multibodies (a joint to
+        a static body, a loop's closing joint) gets setCollisionFilterPair 0. A joint that
+        closes a loop is a JOINT_POINT2POINT constraint between the two links at its anchor
+        (closing_ball_points: planar loops' hinges and ball joints)."""
+        c = self._client
+        where = {name: (uid, link) for (uid, link), name in self._ids.items()}
+        for joint in scene.joints:
+            if joint.parent is None:
+                continue
+            (ua, la), (ub, lb) = where[joint.body], where[joint.parent]
+            if ua != ub:
+                p.setCollisionFilterPair(ua, ub, la, lb, 0, physicsClientId=c)
+                self.knobs.setdefault("setCollisionFilterPair 0", []).append([joint.body, joint.parent])
+        for j, body, p_AP, parent, p_BQ in closing_ball_points(scene, closing, "pybullet's JOINT_POINT2POINT constraint"):
+            ua, la = where[body]
+            ub, lb = where[parent] if parent is not None else (-1, -1)
+            cid = p.createConstraint(ua, la, ub, lb, p.JOINT_POINT2POINT, [0.0, 0.0, 0.0], list(p_AP), list(p_BQ),
+                                     physicsClientId=c)
+            p.changeConstraint(cid, maxForce=LOOP_MAX_FORCE, physicsClientId=c)
+            self.knobs.setdefault("loop", {})[f"joints[{j}]"] = {
+                "createConstraint": {"JOINT_POINT2POINT": [body, parent or "world"], "parentFramePosition": list(p_AP),
+                                     "childFramePosition": list(p_BQ)}, "changeConstraint": {"maxForce": LOOP_MAX_FORCE}}
 
     def _set_dynamics(self, body: Body, uid: int, link: int, mu: float, e: float) -> list[dict]:
         """Two changeDynamics calls, recorded as made: the collider's own values, then the
@@ -797,9 +922,9 @@ class PyBulletSimulation(Simulation):
                 fx.add(effect)
         if any(b.rotates for b in scene.dynamic_bodies):
             fx.add("rotation")
-        if self._hung:
+        if self._tree:
             fx.add("joint")
-        if any(j.limits is not None for j in self._hung.values()):
+        if any(tj.joint.limits is not None for tj in self._tree.values()):
             fx.add("limit")
         if self._loads:
             fx.add("load")

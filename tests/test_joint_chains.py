@@ -1,0 +1,113 @@
+"""Joint chains on the reduced-coordinate engines (issue 39 item 3): the shared tree and
+start-rate helpers (adapters/joints.py), and a two-body chain (a free root and a child on a
+revolute joint, both moving at the start) built on each engine whose tree hangs a body on
+another: its start state is the scene's, and after one step the child still turns about the
+joint's axis relative to the root, with the anchor one point of both. Tiny scenes: well under
+a second an engine."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from adapters import registry
+from adapters.base import Settings, Unsupported
+from adapters.frames import rotate_many
+from adapters.joints import joint_tree, start_rate
+from cases import four_bar
+from cases.scene import Body, Joint, Scene, ball, cube
+from tests.helpers import adapter_or_skip
+
+AXIS = np.array([0.0, 0.6, 0.8])  # the hinge, not along a world axis (3D)
+RATE = 1.5                        # rad/s, the hinge's start rate
+ANCHOR = np.array([0.2, 0.0, 1.0])
+
+
+def _chain(dim: int, rate: float = RATE, slip: float = 0.0) -> Scene:
+    """A free root box moving and turning, and a ball on a revolute joint to it turning at
+    `rate` relative to it; `slip` adds a velocity along the axis the joint does not allow."""
+    axis = AXIS if dim == 3 else np.array([0.0, 1.0, 0.0])
+    x_b, x_c = np.array([0.0, 0.0, 1.0]), np.array([0.5, 0.0, 1.1])
+    v_b = np.array([0.1, 0.0, 0.2])
+    w_b = np.array([0.0, 0.3, 0.1]) if dim == 3 else np.array([0.0, 0.3, 0.0])
+    v_c = v_b + np.cross(w_b, x_c - x_b) + np.cross(rate * axis, x_c - ANCHOR) + slip * axis
+    w_c = w_b + rate * axis
+    root = Body("root", cube(0.05, dim), mass=2.0, position=tuple(x_b), velocity=tuple(v_b), angular_velocity=tuple(w_b))
+    arm = Body("arm", ball(0.05, dim), mass=0.5, position=tuple(x_c), velocity=tuple(v_c), angular_velocity=tuple(w_c))
+    return Scene(bodies=(arm, root), gravity=(0.0, 0.0, 0.0), dimension=dim,  # the child listed first
+                 joints=(Joint("revolute", "arm", "root", anchor=tuple(ANCHOR), axis=tuple(axis)),))
+
+
+def test_the_tree_puts_parents_first_and_finds_the_loops_closing_joint():
+    scene = four_bar.scene(four_bar.GRID[0])
+    tree, closing = joint_tree(scene)
+    assert list(tree) == ["crank", "rocker", "coupler"]
+    assert tree["coupler"].parent == "crank" and tree["crank"].parent is None
+    assert [j for j, _ in closing] == [3]
+    tree, closing = joint_tree(_chain(3))
+    assert list(tree) == ["arm"] and tree["arm"].parent == "root" and not closing
+
+
+def test_the_start_rate_is_the_relative_turn_about_the_axis_or_refused():
+    scene = _chain(3)
+    tree, _ = joint_tree(scene)
+    assert start_rate(scene, tree["arm"]) == pytest.approx([RATE], abs=1e-12)
+    slipping = _chain(3, slip=0.01)
+    with pytest.raises(Unsupported, match=r"joints\[0\] \(revolute\): 'arm' starts with a velocity relative to 'root' "
+                                          r"that the joint does not allow \(off by 0.008"):
+        start_rate(slipping, joint_tree(slipping)[0]["arm"])
+
+
+def _chain_engines() -> list[str]:
+    """Every registered engine that holds revolute joints in reduced coordinates."""
+    out = []
+    for name in registry.engine_names():
+        try:
+            caps = registry.get(name).capabilities
+        except Exception:
+            continue
+        if caps.coordinates == "reduced" and "revolute" in caps.joints:
+            out.append(name)
+    return out
+
+
+def _anchor_of(state: np.ndarray, body: Body) -> np.ndarray:
+    """Where the body's material point that started at ANCHOR is now (state row: position,
+    orientation w-x-y-z, ...)."""
+    q0 = np.asarray(body.orientation, float) * [1.0, -1.0, -1.0, -1.0]
+    local = rotate_many(q0[None], (ANCHOR - np.asarray(body.position))[None])
+    return state[:3] + rotate_many(state[None, 3:7], local)[0]
+
+
+@pytest.mark.parametrize("dim", [3, 2])
+@pytest.mark.parametrize("engine", _chain_engines())
+def test_a_two_body_chain_maps_the_axis_and_the_start_rate(engine, dim):
+    """The start state is the scene's (every position, orientation and velocity, 1e-9: the
+    engines' own kinematics in float64); after one step of 1 ms the arm's angular velocity
+    relative to the root lies along the axis (1e-9 rad/s off it) and is the start rate to
+    the step's change (the joint's reaction turns the pair by O(dt): 1e-2), and the anchor is
+    one point of both bodies (1e-9 m: the tree holds it exactly)."""
+    adapter = adapter_or_skip(engine)
+    if dim not in adapter.capabilities.dimensions:
+        pytest.skip(f"{engine}: no {dim}D scenes")
+    scene = _chain(dim)
+    try:
+        sim = adapter.build(scene, Settings(dt=1e-3))
+    except Unsupported as exc:  # a configuration's own limit (pybullet-pgs: no 2D scene), never the chain's
+        if str(exc).startswith("joints["):
+            raise
+        pytest.skip(f"{engine}: {exc}")
+    start = sim.states()
+    for body in scene.bodies:
+        row = np.concatenate([body.position, body.orientation, body.velocity, body.angular_velocity])
+        np.testing.assert_allclose(start[body.name], row, rtol=0, atol=1e-9, err_msg=f"{engine}: {body.name}")
+    sim.step()
+    after = sim.states()
+    sim.close()
+    axis = AXIS / np.linalg.norm(AXIS) if dim == 3 else np.array([0.0, 1.0, 0.0])
+    w_rel = after["arm"][10:13] - after["root"][10:13]
+    q_root = after["root"][3:7] * [1.0, -1.0, -1.0, -1.0]   # the axis turns with the root
+    w_local = rotate_many(q_root[None], w_rel[None])[0]
+    assert np.linalg.norm(np.cross(w_local, axis)) < 1e-9
+    assert w_local @ axis == pytest.approx(RATE, rel=1e-2)
+    arm, root = scene.body("arm"), scene.body("root")
+    np.testing.assert_allclose(_anchor_of(after["arm"], arm), _anchor_of(after["root"], root), rtol=0, atol=1e-9)
