@@ -75,9 +75,11 @@ less its motion in the step, v dt, since c_a is read after it): positive for eve
 geometry families take (depths of centimetres at most against extents of 5 cm and more). A
 pair of two dynamic bodies is read from its first sensor only. PhysX reports a pair within
 the sum of its shapes' contact offsets (`physxCollision:contactOffset`, left at ovphysx's
-automatic value and read back into `knobs`: 0.004 m for a 0.1 m ball, 0.002 m for a 0.05 m
-one; measured, two 0.1 m balls are reported at 5 mm apart and not at 1 cm), so points up to
-that far apart come with a positive gap.
+automatic value, 2 % of the shape's smallest width, read back into `knobs` for the dynamic
+bodies: 0.002 m for a 0.05 m ball, 0.008 m for a 0.2 m one, 0.02 m for a 1 m cube; measured,
+two 0.1 m balls are reported at 5 mm apart and not at 1 cm), so points up to that far apart
+come with a positive gap. Setting it would move every family's contacts: it is recorded, not
+changed.
 
 2D scenes are embedded in the x-z plane on PhysX's own locks: every dynamic body has its y
 translation locked (`lockedPosAxis` = 2) and its rotations about x and z (`lockedRotAxis`
