@@ -482,16 +482,15 @@ class PhysXSimulation(Simulation):
         centres = self._state()[0]
         rank = {name: i for i, name in enumerate(self._order)}
         out = []
-        for i, name in enumerate(self._order):
-            for j, other in enumerate(self._filter_names[i]):
-                if rank.get(other, len(rank)) < i:  # a dynamic pair: read from its first sensor
-                    continue
-                for k in range(starts[i, j], starts[i, j] + counts[i, j]):
-                    xk, nk = x[k].astype(float), n[k].astype(float)
-                    if nk @ (centres[i] - xk) < 0.0:  # PhysX's normal from the second shape: into the sensor
-                        nk = -nk
-                    out.append(ContactPoint(name, other, xk, nk, math.nan, np.full(3, math.nan),
-                                            float(separations[k, 0])))
+        for i, j in zip(*np.nonzero(counts)):  # the touching (sensor, filter) entries only
+            name, other = self._order[i], self._filter_names[i][j]
+            if rank.get(other, len(rank)) < i:  # a dynamic pair: read from its first sensor
+                continue
+            for k in range(starts[i, j], starts[i, j] + counts[i, j]):
+                xk, nk = x[k].astype(float), n[k].astype(float)
+                if nk @ (centres[i] - xk) < 0.0:  # PhysX's normal from the second shape: into the sensor
+                    nk = -nk
+                out.append(ContactPoint(name, other, xk, nk, math.nan, np.full(3, math.nan), float(separations[k, 0])))
         return out
 
     def close(self) -> None:
