@@ -59,6 +59,28 @@ here). In a default run the configuration takes the families tagged "swept" only
 Contact normal forces from ovphysx's contact binding (PhysX's contact report): per dynamic
 body (sensor) and partner (filter), the normal force of the last step.
 
+`contact_points` gives the geometry of every point of PhysX's contact report for the last
+step and not its forces (`Capabilities.contact_geometry`; `contact_points` False, so the
+per-point force readings leave PhysX out): the same binding's `read_normal_contact_data`
+(deprecated since ovphysx 0.6.0, present in 0.7.0) gives each point's world position,
+normal and separation (negative: overlap, physval's gap). Its normal is PhysX's, from the
+pair's second shape into its first, whatever the sensor (measured: both sensors of a pair of
+balls read the same normal; a static body is second, and of two dynamic bodies PhysX's own
+pair order decides: in broad_phase's 64-ball lattice 21 of the 32 dimers have the raw normal
+into the ball read second), and the point lies on the second shape's surface. So the adapter orients
+each normal itself: a is the sensor, a dynamic and hence convex body, and n points into it,
+n . (c_a - x) > 0 for its centre c_a. For a convex body whose contact point lies in the
+overlap, n . (c_a - x) is at least its extent from the centre along -n less the depth (and
+less its motion in the step, v dt, since c_a is read after it): positive for every pose the
+geometry families take (depths of centimetres at most against extents of 5 cm and more). A
+pair of two dynamic bodies is read from its first sensor only. PhysX reports a pair within
+the sum of its shapes' contact offsets (`physxCollision:contactOffset`, left at ovphysx's
+automatic value, 2 % of the shape's smallest width, read back into `knobs` for the dynamic
+bodies: 0.002 m for a 0.05 m ball, 0.008 m for a 0.2 m one, 0.02 m for a 1 m cube; measured,
+two 0.1 m balls are reported at 5 mm apart and not at 1 cm), so points up to that far apart
+come with a positive gap. Setting it would move every family's contacts: it is recorded, not
+changed.
+
 2D scenes are embedded in the x-z plane on PhysX's own locks: every dynamic body has its y
 translation locked (`lockedPosAxis` = 2) and its rotations about x and z (`lockedRotAxis`
 = 5; 7 where it may not turn at all), so it slides in the plane and turns about y; a disc is
@@ -69,6 +91,7 @@ points, symmetrically about y = 0). Its mass and inertia are the scene's.
 from __future__ import annotations
 
 import itertools
+import math
 import os
 import tempfile
 from importlib import metadata
@@ -81,6 +104,7 @@ from adapters.frames import require_turn_about_y, state_row, xyzw_to_wxyz, z_to
 from adapters.lazy import require
 from adapters.solids import embedded_half_depth, polygon_prism
 from cases.scene import Body, Hull, Plane, Scene, pair_key
+from cases.trajectory import ContactPoint
 
 require("ovphysx")  # not installed: ImportError now, so the registry reports it
 
@@ -105,6 +129,10 @@ HULL_MIN_THICKNESS = 0.0
 # A static Mesh is a cooked triangle mesh (physics:approximation "none"), single-sided, wound as
 # the scene gives it (counterclockwise from outside, USD's rightHanded), its vertices unwelded.
 MESH_WELD_TOLERANCE = 0.0
+# The contact report's capacity a body (adapters' `_capacity`): PhysX's patch of a face contact
+# has 4 points and a body of the geometry families touches a few others; a step that reports
+# more raises rather than drop points.
+POINTS_PER_PAIR = 16
 _STAGES = itertools.count(1)
 _loaded = None
 
@@ -153,6 +181,8 @@ class PhysXAdapter(Adapter):
         native_restitution=True,
         static_kinetic=True,    # PhysicsMaterialAPI staticFriction and dynamicFriction
         contact_forces=True,
+        contact_points=False,   # the contact report's per-point forces are normal only, no friction per point
+        contact_geometry=True,  # each reported point's place, normal and separation (module notes)
         iterations=True,        # position iterations a step
         float_bits=32,          # PhysX stores poses and velocities in single precision
         why_not=(("joint", "the adapter's USD layer holds rigid bodies only; PhysX's joints (UsdPhysics "
@@ -256,12 +286,22 @@ class PhysXSimulation(Simulation):
                 self._filter_names.append(others)
             self._binding = self._physx.create_contact_binding(
                 sensor_patterns=[self._paths[n] for n in self._order], filter_patterns=filters,
-                filters_per_sensor=len(scene.bodies) - 1, max_contact_data_count=256)
+                filters_per_sensor=len(scene.bodies) - 1, max_contact_data_count=self._capacity(scene))
             self._matrix = np.zeros((len(self._order), len(scene.bodies) - 1, 3), np.float32)
         self._start = {b.name: b.position for b in scene.dynamic_bodies}
         self._rows = self._row_order()
+        if self._order:  # PhysX's own contact offsets (module notes), per dynamic body's shape
+            offsets = self._read_raw(["contactOffset", "restOffset"])
+            for name, row in zip(self._order, self._rows):
+                self.knobs["bodies"][name].update(contactOffset=float(offsets[0][row]), restOffset=float(offsets[1][row]))
         self._stepped = False
         self.effects = self._built_effects(scene, gravity, mats)
+
+    @staticmethod
+    def _capacity(scene: Scene) -> int:
+        """Room for the contact report's points: POINTS_PER_PAIR for every pair a body may
+        touch, twice over (a pair of dynamic bodies is reported by both sensors)."""
+        return max(256, 2 * POINTS_PER_PAIR * len(scene.bodies))
 
     def _body(self, body: Body, mat: dict) -> list[str]:
         path = self._paths[body.name]
@@ -423,6 +463,34 @@ class PhysXSimulation(Simulation):
                 key = pair_key(name, other)
                 if f > 0.0 and key not in out:
                     out[key] = f
+        return out
+
+    def contact_points(self) -> list[ContactPoint]:
+        """The geometry of each point of the last step's contact report, forces NaN, each
+        normal turned into its sensor (module notes)."""
+        if self._binding is None or not self._stepped:
+            return []
+        b = self._binding
+        cap, filters = b.max_contact_data_count, b.filter_count
+        x, n = np.zeros((cap, 3), np.float32), np.zeros((cap, 3), np.float32)
+        forces, separations = np.zeros((cap, 1), np.float32), np.zeros((cap, 1), np.float32)
+        counts, starts = np.zeros((len(self._order), filters), np.int32), np.zeros((len(self._order), filters), np.int32)
+        total = b.read_normal_contact_data(forces, x, n, separations, counts, starts)
+        if total > cap:
+            raise RuntimeError(f"PhysX reported {total} contact points, more than the binding's {cap}: raise "
+                               "POINTS_PER_PAIR in adapters/physx_engine.py")
+        centres = self._state()[0]
+        rank = {name: i for i, name in enumerate(self._order)}
+        out = []
+        for i, j in zip(*np.nonzero(counts)):  # the touching (sensor, filter) entries only
+            name, other = self._order[i], self._filter_names[i][j]
+            if rank.get(other, len(rank)) < i:  # a dynamic pair: read from its first sensor
+                continue
+            for k in range(starts[i, j], starts[i, j] + counts[i, j]):
+                xk, nk = x[k].astype(float), n[k].astype(float)
+                if nk @ (centres[i] - xk) < 0.0:  # PhysX's normal from the second shape: into the sensor
+                    nk = -nk
+                out.append(ContactPoint(name, other, xk, nk, math.nan, np.full(3, math.nan), float(separations[k, 0])))
         return out
 
     def close(self) -> None:

@@ -30,7 +30,9 @@ GAP is larger than every engine's declared contact margin or speculative distanc
 engine that reports a separated pair reports a phantom contact, not a look-ahead: PyBullet
 keeps points up to its contact breaking threshold (about 3.5 mm, adapters/pybullet_engine.py),
 Box2D and Box3D find speculative contacts up to 2 cm apart (four linear slops), Rapier up to
-its prediction distance (2 mm), MuJoCo, DART, Drake and the reference at 0 (margins 0).
+its prediction distance (2 mm), PhysX up to the sum of the two shapes' contact offsets (its
+automatic value, 2 % of a shape's width: 0.002 m for these 5 cm balls, 4 mm a pair), MuJoCo,
+DART, Drake and the reference at 0 (margins 0).
 
 After the step the engine's contact points (Simulation.contact_points, as its detection
 found them at the start of the step) name the pairs it found. Metrics:

@@ -24,7 +24,8 @@ this catalogue itself, against the exact geometry and against python-fcl
 The overlap of a pair is the slab between the base's surface and the top's, `depth` thick
 along n, over the region's footprint in the contact plane (a point, segment, rectangle or
 disc). An engine may put its points on either surface or between them (MuJoCo: midway;
-PyBullet: on each body), so a point anywhere in that slab over the footprint is exact.
+PyBullet: on each body; PhysX: on the pair's second shape), so a point anywhere in that slab
+over the footprint is exact.
 
 Metrics (each point's normal oriented from the base into the top):
 - `normal_error`: the largest angle between a reported normal and the exact n, rad;

@@ -1,4 +1,4 @@
-"""The geometry-only contact read-out (Capabilities.contact_geometry: Rapier, Box2D, Box3D and
+"""The geometry-only contact read-out (Capabilities.contact_geometry: Rapier, Box2D, Box3D, PhysX and
 their continuous-collision configurations), on one pair whose answer is known: two balls of
 radius R (discs in 2D), one static away from the origin, the other overlapping it by DEPTH
 along an oblique unit direction d, gravity off, one step. Whatever frame and sign conventions

@@ -142,3 +142,26 @@ def test_physx_hulls_it_cannot_hold_are_unsupported(physx):
     scene = Scene(bodies=(ground(), Body("h", Hull(points), mass=1.0, position=(0, 0, 2.0))))
     with pytest.raises(Unsupported, match="at most 255"):
         physx.PhysXAdapter().build(scene, Settings(dt=1e-3))
+
+
+
+def test_physx_contact_normals_point_into_the_sensor_whatever_pair_order_physx_keeps(physx):
+    """PhysX's reported normal runs from the pair's second shape into its first, and which of
+    two dynamic balls is second is PhysX's own order (measured on this 64-ball lattice of
+    cases/broad_phase.py: 21 of its 32 dimers come with the raw normal into the ball read as
+    b). The read-out gives each dimer once, its normal from b into a (the unit vector between
+    their centres, along x) and its gap the dimers' overlap. Float32 coordinates of ~0.5 m:
+    2e-6 is a few roundings (tests/test_contact_geometry.py)."""
+    from cases import broad_phase
+    variant = {"side": 4, "dim": 3}
+    scene = broad_phase.scene(variant)
+    centre = {b.name: np.asarray(b.position) for b in scene.bodies}
+    with physx.PhysXAdapter().build(scene, Settings(dt=1e-3)) as sim:
+        sim.step()
+        points = sim.contact_points()
+    assert {frozenset((p.a, p.b)) for p in points} == broad_phase.planned(variant)
+    assert len(points) == len(broad_phase.planned(variant)), "a pair of two sensors is read once"
+    for p in points:
+        into_a = (centre[p.a] - centre[p.b]) / np.linalg.norm(centre[p.a] - centre[p.b])
+        assert np.allclose(p.n, into_a, atol=2e-6), f"normal {p.n}, but should be {into_a} (from {p.b} into {p.a})"
+        assert p.gap == pytest.approx(-broad_phase.DEPTH, abs=2e-6)

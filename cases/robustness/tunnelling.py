@@ -12,11 +12,11 @@ Two gaps tell the two apart. At 1.75 cm (every speed) a speculative contact foun
 2 cm apart (Box2D's and Box3D's four linear slops) sees the plate in the step before; at
 5 cm (100 m/s only: the bullet must still land wholly behind the 1 cm plate after its 10 cm
 step) no engine's speculative distance reaches it, and only a swept test (PyBullet's swept
-sphere, Rapier's CCD, Box2D's and Box3D's bullets, MuJoCo 4's speculative contacts, which
-find the time of impact within the step) stops the bullet. The engines' continuous-collision
-options are configurations of their own (adapters/registry.py: pybullet-ccd,
-mujoco-speculative, rapier-ccd, box2d-bullet, box3d-bullet), whose default family this is
-(tag "swept"); without them the pass-through is each engine's recorded deviation.
+sphere, Rapier's CCD, Box2D's and Box3D's bullets, PhysX's CCD, MuJoCo 4's speculative
+contacts, which find the time of impact within the step) stops the bullet. The engines'
+continuous-collision options are configurations of their own (adapters/registry.py:
+pybullet-ccd, mujoco-speculative, rapier-ccd, box2d-bullet, box3d-bullet, physx-ccd), whose
+default family this is (tag "swept"); without them the pass-through is each engine's recorded deviation.
 
 Invariants: the bullet does not end behind the plate; no external force acts (no
 gravity), so momentum is conserved; the impact is elastic (e = 1), so energy is never
