@@ -35,7 +35,7 @@ from importlib import metadata
 import numpy as np
 
 from adapters.base import Capabilities, Settings, Simulation, Unsupported
-from adapters.mujoco_engine import CONTACT_STEPS, MuJoCoAdapter, MuJoCoSimulation
+from adapters.mujoco_engine import CONTACT_STEPS, MuJoCoAdapter, MuJoCoSimulation, geom_bodies
 from cases.scene import Scene
 
 # mujoco-mjx installs into MuJoCo's package (mujoco/mjx) and jax (~1 s to import) comes with
@@ -72,6 +72,31 @@ def _rollout(length: int):
             return d, (d.qpos, d.qvel)
         return jax.lax.scan(body, d, None, length=length)
     return jax.jit(roll)
+
+
+def missing_collision(model, scene: Scene) -> str | None:
+    """Why MJX cannot collide a geom pair that `model` (scene_mjcf's compiled model of
+    `scene`) collides, or None. MJX has a collision function for some pairs of geom types
+    only (mjx/_src/collision_driver.py, _COLLISION_FUNC, asked through has_collision_fn):
+    in 3.17.0 none for box-cylinder and cylinder-mesh (so none for a cylinder against a box,
+    a rect, a hull or a polygon's prism), which MuJoCo C collides by general convex
+    collision. put_model refuses such a model with the geom types only; this names the
+    scene's bodies and shapes, and is asked before any JAX array is made."""
+    import mujoco
+    from mujoco.mjx._src import collision_driver
+    body_of = geom_bodies(scene)
+    shape_of = {b.name: b.shape.kind for b in scene.bodies}
+    for g1, g2, _ in collision_driver.geom_pairs(model):
+        t1, t2 = model.geom_type[g1], model.geom_type[g2]
+        if collision_driver.has_collision_fn(t1, t2):
+            continue
+        names = [body_of.get(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g), "?") for g in (g1, g2)]
+        kinds = " against ".join(f"{shape_of.get(n, '?')} {n!r}" for n in names)
+        types = "-".join(mujoco.mjtGeom(t).name[len("mjGEOM_"):].lower() for t in (t1, t2))
+        return (f"{kinds}: MJX {metadata.version('mujoco-mjx')} has no collision function for MuJoCo's "
+                f"{types} geom pair (mjx/_src/collision_driver.py), which MuJoCo C collides by general convex "
+                "collision")
+    return None
 
 
 @functools.cache
@@ -187,4 +212,8 @@ class MjxAdapter(MuJoCoAdapter):
         return f"{metadata.version('mujoco-mjx')} (mujoco {metadata.version('mujoco')}, jax {metadata.version('jax')}, cpu)"
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
-        return MjxSimulation(scene, *self.model(scene, settings))
+        model, knobs, iterations = self.model(scene, settings)
+        reason = missing_collision(model, scene)
+        if reason:
+            raise Unsupported(reason)
+        return MjxSimulation(scene, model, knobs, iterations)
