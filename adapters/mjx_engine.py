@@ -161,6 +161,13 @@ class MjxSimulation(MuJoCoSimulation):
         contact.*, efc_force) when first asked for after a step."""
         if not self._pulled:
             self._mjx.get_data_into(self._data, self._model, self._dx)
+            # get_data_into copies the contacts MJX solved (dist <= 0, each with its rows) but
+            # not mjContact's exclude and adhesion, which MJX's Contact lacks: what
+            # _realloc_con_efc left there dropped solved contacts from the read-out and took
+            # an adhesion off others (measured: a lying cylinder at rest read 4.905 N of its
+            # 9.81, a resting box 3.45). None is excluded, and no scene has adhesion.
+            self._data.contact.exclude[:] = 0
+            self._data.contact.adhesion[:] = 0.0
             self._pulled = True
         return self._data
 
