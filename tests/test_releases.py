@@ -158,7 +158,7 @@ def test_a_run_that_reports_another_release_stops_the_command(cache, tmp_path, c
     """The guard behind every run: an environment that ran a release other than the one it
     was made for (here: 1.1.1's, handed out for 2.0.0) stops the command, exit 2."""
     old = _ensure(["iniconfig==1.1.1"])
-    monkeypatch.setattr(envs, "ensure", lambda requirements, say=None: old)
+    monkeypatch.setattr(envs, "ensure", lambda requirements, say=None, python=None: old)
     argv = ["versions", "fake-release", "1.1.1", "2.0.0", *FAKE, *FREE_FALL, "--out", str(tmp_path), "--quiet",
             "--workers", "1"]
     assert main(argv) == 2
