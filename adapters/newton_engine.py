@@ -632,6 +632,8 @@ class NewtonSimulation(Simulation):
         return graphs
 
     def step(self) -> None:
+        if self._observables is not None:  # the poses the step's contacts are found at (contact_points):
+            self._q_start = self._s0.body_q.numpy().copy()  # XPBD and VBD overwrite the input state
         if self._graphs is not None:
             self._wp.capture_launch(self._graphs[0])
             self._graphs.reverse()
@@ -698,7 +700,8 @@ class NewtonSimulation(Simulation):
         A contact's points are body-frame points on each shape's core (a sphere's centre, a
         capsule's segment) with the shape's thickness (margin0, margin1: radius plus margin)
         along the normal, placed by the bodies' poses at the start of the step, where the
-        pipeline found them. Contacts the solver left without force at a positive gap
+        pipeline found them (kept before each step: XPBD and VBD write their solve into the
+        step's input state, measured: a 5 cm overlap read back 2e-14 m deep). Contacts the solver left without force at a positive gap
         (found within rigid_gap ahead of touching) are not points it acted on: left out."""
         if self._observables is None:
             raise NotImplementedError(f"newton-{self._solver_name} reports no contact forces")
@@ -709,7 +712,7 @@ class NewtonSimulation(Simulation):
         shape0, shape1 = c.rigid_contact_shape0.numpy()[:n], c.rigid_contact_shape1.numpy()[:n]
         normal = c.rigid_contact_normal.numpy()[:n].astype(float)
         f = -self._observables.contact_f.numpy()[:n, :3].astype(float)  # on shape 1
-        body_q = self._s1.body_q.numpy().astype(float)  # the start of the step (states swap after each)
+        body_q = self._q_start.astype(float)
         shape_body = self._model.shape_body.numpy()
 
         def world(shapes, points):
