@@ -100,9 +100,11 @@ import numpy as np
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.combination import RULES as COMBINE, per_body_values
+from adapters.frames import rotate_many
 from adapters.lazy import require
 from adapters.warp_support import init_warp
 from cases.scene import Body, Box, Plane, Scene, Sphere, pair_key
+from cases.trajectory import ContactPoint
 
 require("newton")
 require("warp")
@@ -131,7 +133,7 @@ CONTACT_STEPS = 16
 BOX_CONTACT_POINTS = 4
 
 
-def contact_points(a: Body, b: Body) -> int:
+def penalty_points(a: Body, b: Body) -> int:
     """The contact points the penalty gains are shared by: 1 where a sphere touches, 2 where a
     capsule does (its segment meets a face at one or two points), else 4."""
     kinds = (a.shape.kind, b.shape.kind)
@@ -231,6 +233,7 @@ class NewtonAdapter(Adapter):
             native_restitution=solver in RESTITUTION,
             static_kinetic=False,  # one mu per shape
             contact_forces=not penalty,
+            contact_points=not penalty,  # points with the solver's CONTACT_F (NewtonSimulation.contact_points)
             iterations=solver in ("xpbd", "vbd", "kamino"),
             # penalty contacts and VBD's finite-stiffness ALM contacts act over several steps;
             # XPBD projects every contact of a step in one iterative solve (Gauss-Seidel within
@@ -368,10 +371,10 @@ class NewtonSimulation(Simulation):
                 def kd_of(a: Body, b: Body) -> float:
                     m = reduced_mass(a, b)
                     zeta = damping_of_restitution(scene.material_of(a.name, b.name).e)
-                    return min(2.0 * zeta * math.sqrt(ke * m), m / (contact_points(a, b) * settings.dt))
+                    return min(2.0 * zeta * math.sqrt(ke * m), m / (penalty_points(a, b) * settings.dt))
 
                 def kf_of(a: Body, b: Body) -> float:
-                    return reduced_mass(a, b) / (contact_points(a, b) * settings.dt)
+                    return reduced_mass(a, b) / (penalty_points(a, b) * settings.dt)
                 kd = per_shape(scene, None, "mean", "damping", pair_value=kd_of)
                 kf = per_shape(scene, None, "mean", "friction gain", pair_value=kf_of)
                 for b in scene.bodies:
@@ -629,6 +632,8 @@ class NewtonSimulation(Simulation):
         return graphs
 
     def step(self) -> None:
+        if self._observables is not None:  # the poses the step's contacts are found at (contact_points):
+            self._q_start = self._s0.body_q.numpy().copy()  # XPBD and VBD overwrite the input state
         if self._graphs is not None:
             self._wp.capture_launch(self._graphs[0])
             self._graphs.reverse()
@@ -684,6 +689,48 @@ class NewtonSimulation(Simulation):
             key = pair_key(self._shape_body[s0[k]], self._shape_body[s1[k]])
             forces[key] = forces.get(key, 0.0) + fn
         return {k: abs(v) for k, v in forces.items()}
+
+    def contact_points(self) -> list[ContactPoint]:
+        """The last step's contacts as Newton's collision pipeline found them, with the force
+        the solver reports for each (CONTACT_F, the force on shape 0, measured: a box resting on
+        the ground reads -m g / 4 along the normal at each corner; the point's force on shape 1
+        is its opposite):
+        a = shape 1's body, b = shape 0's (Newton's normal points from shape 0 to shape 1),
+        x = midway between the two surface points, gap = their distance along the normal.
+        A contact's points are body-frame points on each shape's core (a sphere's centre, a
+        capsule's segment) with the shape's thickness (margin0, margin1: radius plus margin)
+        along the normal, placed by the bodies' poses at the start of the step, where the
+        pipeline found them (kept before each step: XPBD and VBD write their solve into the
+        step's input state, measured: a 5 cm overlap read back 2e-14 m deep). Contacts the solver left without force at a positive gap
+        (found within rigid_gap ahead of touching) are not points it acted on: left out."""
+        if self._observables is None:
+            raise NotImplementedError(f"newton-{self._solver_name} reports no contact forces")
+        c = self._contacts
+        n = int(c.rigid_contact_count.numpy()[0])
+        if n == 0:
+            return []
+        shape0, shape1 = c.rigid_contact_shape0.numpy()[:n], c.rigid_contact_shape1.numpy()[:n]
+        normal = c.rigid_contact_normal.numpy()[:n].astype(float)
+        f = -self._observables.contact_f.numpy()[:n, :3].astype(float)  # on shape 1
+        body_q = self._q_start.astype(float)
+        shape_body = self._model.shape_body.numpy()
+
+        def world(shapes, points):
+            out = points.astype(float).copy()
+            body = shape_body[shapes]
+            moving = body >= 0  # a static shape's points are in the world frame already
+            q = body_q[body[moving]]
+            out[moving] = q[:, :3] + rotate_many(q[:, [6, 3, 4, 5]], out[moving])  # Warp's x-y-z-w to w-x-y-z
+            return out
+
+        p0 = world(shape0, c.rigid_contact_point0.numpy()[:n]) + c.rigid_contact_margin0.numpy()[:n, None] * normal
+        p1 = world(shape1, c.rigid_contact_point1.numpy()[:n]) - c.rigid_contact_margin1.numpy()[:n, None] * normal
+        gap = np.einsum("ij,ij->i", p1 - p0, normal)
+        f_n = np.einsum("ij,ij->i", f, normal)
+        keep = np.flatnonzero((gap <= 0.0) | np.any(f != 0.0, axis=1))
+        names = self._shape_body
+        return [ContactPoint(names[shape1[k]], names[shape0[k]], 0.5 * (p0[k] + p1[k]), normal[k], float(f_n[k]),
+                             f[k] - f_n[k] * normal[k], float(gap[k])) for k in keep]
 
     def close(self) -> None:
         self._solver = self._model = self._pipeline = self._contacts = self._observables = self._graphs = None

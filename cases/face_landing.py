@@ -38,6 +38,12 @@ plastic with friction) pose the multi-point impact through each engine's convex-
 collision instead of its box routine; the tolerances are the cube's, with the same lever
 HALF (the prism's corners lie HALF from its axis).
 
+A hull on a mesh: the same prism landing (restitutive and frictionless, plastic with
+friction) on the ground plane given as a static triangle mesh (two triangles 2 MESH_HALF
+wide): a convex shape against a triangle mesh, the pair where restitution was reported
+wrong (mesh-on-mesh restitution in Newton, issue 36). The solid is the plane, so the closed
+form and its tolerances are the plane's.
+
 Readings: the rebound height (apex of the centre's free arc after the first impact,
 fitted to the samples as cases.central_impact does, 0 if the cube never leaves the
 ground), the largest spin over the run, and, at the end, how well the face it fell on
@@ -54,7 +60,7 @@ import numpy as np
 
 from cases.family import CaseFamily, Catch, Check, plane_label
 from cases.observables import arc_apex, first_impact, free_arc_start, rotations
-from cases.scene import Body, Hull, Material, Scene, cube, ground
+from cases.scene import Body, Hull, Material, Scene, cube, ground, mesh_ground
 
 HALF = 0.1      # half-extent of the cube, m
 M = 1.0         # kg
@@ -67,7 +73,9 @@ PENETRATION = 1e-3  # m: the depth a solver may rest at (stack_forces: 0.5 % of 
 # friction (reduced coordinates, cone friction, anchors), and a plastic landing with
 # friction; 3D (four corners at once) and 2D (two), so Pymunk takes part.
 GRID = tuple({"e": e, "mu": mu, "dim": dim} for dim in (3, 2) for e, mu in ((0.5, 0.0), (0.5, 0.5), (0.0, 0.5))) + \
-    tuple({"e": e, "mu": mu, "dim": 3, "shape": "hull"} for e, mu in ((0.5, 0.0), (0.0, 0.5)))
+    tuple({"e": e, "mu": mu, "dim": 3, "shape": "hull"} for e, mu in ((0.5, 0.0), (0.0, 0.5))) + \
+    tuple({"e": e, "mu": mu, "dim": 3, "shape": "hull", "ground": "mesh"} for e, mu in ((0.5, 0.0), (0.0, 0.5)))
+MESH_HALF = 1.0  # m: half-width of the mesh ground, ten prism radii (the prism lands and rests at the centre)
 # the hull: a regular hexagonal prism about z, its corners HALF from the axis, its faces HALF
 # above and below the centre (centred and principal, as a Hull must be: the hexagon's second
 # moments are isotropic)
@@ -92,7 +100,8 @@ def rebound_height(e: float, h: float = H) -> float:
 def scene(p) -> Scene:
     shape = HEX_PRISM if p.get("shape") == "hull" else cube(HALF, p["dim"])
     box = Body("box", shape, mass=M, position=(0.0, 0.0, HALF + H))
-    return Scene(bodies=(ground(), box), gravity=(0.0, 0.0, -G), material=Material(e=p["e"], mu_s=p["mu"]),
+    floor = mesh_ground(MESH_HALF) if p.get("ground") == "mesh" else ground()
+    return Scene(bodies=(floor, box), gravity=(0.0, 0.0, -G), material=Material(e=p["e"], mu_s=p["mu"]),
                  dimension=p["dim"])
 
 
@@ -153,13 +162,14 @@ def expect(p, dt) -> list[Check]:
 
 
 def variant_id(p) -> str:
-    return f"e={p['e']},mu={p['mu']}{plane_label(p)}" + (",hexagonal prism hull" if p.get("shape") == "hull" else "")
+    return (f"e={p['e']},mu={p['mu']}{plane_label(p)}" + (",hexagonal prism hull" if p.get("shape") == "hull" else "")
+            + (",mesh ground" if p.get("ground") == "mesh" else ""))
 
 
 FAMILY = CaseFamily(
     name="face_landing",
-    summary="a cube (and a hexagonal prism hull) dropped flat lands on all its corners at once: rebound height "
-            "e^2 h, no spin, at rest on the face it fell on",
+    summary="a cube (and a hexagonal prism hull, on a plane and on a mesh ground) dropped flat lands on all its "
+            "corners at once: rebound height e^2 h, no spin, at rest on the face it fell on",
     source="note 000 (simultaneous impulses as an LCP); note 001 (CG3 II.5), Newton's restitution law, impulse "
            "with lever arms",
     grid=GRID,

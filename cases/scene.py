@@ -1122,6 +1122,13 @@ def ground(name: str = "ground") -> Body:
     return Body(name, Plane(), static=True)
 
 
+def mesh_ground(half: float, name: str = "ground") -> Body:
+    """The plane z = 0 as a static triangle mesh: a square 2 half wide about the origin, two
+    triangles wound counterclockwise seen from above (their normals +z)."""
+    corners = ((-half, -half, 0.0), (half, -half, 0.0), (half, half, 0.0), (-half, half, 0.0))
+    return Body(name, Mesh(corners, ((0, 1, 2), (0, 2, 3))), static=True)
+
+
 def tilted_gravity(theta: float, g: float = 9.81) -> tuple[float, float, float]:
     """Gravity of an incline at angle theta (rad), with the incline as the plane z = 0:
     the downhill direction is +x."""

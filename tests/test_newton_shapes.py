@@ -3,7 +3,8 @@ collision pipeline (newton-xpbd here, the solver with Newton's rigid contact): a
 a straight-sided cylinder along body z, a hull as a convex mesh of exactly its corners, a
 static mesh as a triangle mesh; and that Newton uses them so: a capsule upright, a cylinder
 on its end and on its side (a line contact) and a hull of a box's corners rest on a mesh ground at the heights their
-sizes give. Slow: Newton and Warp start in ~10 s a process and a build costs ~15 s of CPU
+sizes give, and the contact points it reports there (a body's points on the ground, pushing it up
+with its weight). Slow: Newton and Warp start in ~10 s a process and a build costs ~15 s of CPU
 with a full kernel cache (measured), so this is one build, stepped once for every check."""
 from __future__ import annotations
 
@@ -53,12 +54,12 @@ def built():
         built = (model.shape_type.numpy(), model.shape_scale.numpy(), list(model.shape_source))
         for _ in range(STEPS):
             sim.step()
-        return built, sim.states(), sim.knobs
+        return built, sim.states(), sim.knobs, sim.contact_points()
 
 
 def test_newton_builds_each_shape_as_its_own_kind(built):
     import newton
-    (types, scale, sources), _, knobs = built
+    (types, scale, sources), _, knobs, _ = built
     kinds = [newton.GeoType(int(t)).name for t in types]
     assert kinds == ["MESH", "CAPSULE", "CYLINDER", "CYLINDER", "CONVEX_MESH"], \
         f"{kinds}, but should be the scene's kinds in its order"
@@ -74,9 +75,29 @@ def test_newton_builds_each_shape_as_its_own_kind(built):
 
 @pytest.mark.parametrize("name", list(REST))
 def test_newton_rests_each_shape_at_its_height_on_a_mesh_ground(built, name):
-    _, states, _ = built
+    _, states, _, _ = built
     shape, q, z = REST[name]
     row = states[name]
     assert row[2] == pytest.approx(z, abs=HEIGHT), f"{name} at z = {row[2]}, but should rest at {z}"
     assert np.abs(row[3:7] - q).max() < 1e-5, f"{name} turned to {row[3:7]}, but should stay at {q}"
     assert np.abs(row[7:13]).max() < STILL, f"{name} moves at {row[7:13]}, but should be at rest"
+
+
+# The points of a body at rest: on the ground's surface to XPBD's resting depth, pushed up along
+# +z, carrying its weight. XPBD's reported force is its position correction over dt^2 (the
+# solver's notes call it approximate): a box at rest on the plane reads 9.8065 for 9.81 N
+# (3.6e-4 of m g, measured); a sign or frame error gives -m g, a point at the body's centre
+# or a normal across the ground.
+WEIGHT = 1e-3  # of m g
+
+
+@pytest.mark.parametrize("name", list(REST))
+def test_newton_reports_the_points_a_resting_shape_stands_on(built, name):
+    _, states, _, points = built
+    mine = [c for c in points if c.a == name]
+    assert mine and all(c.b == "ground" for c in mine), f"{name}: points {mine}, but should stand on the ground"
+    for c in mine:
+        np.testing.assert_allclose(c.n, (0.0, 0.0, 1.0), atol=1e-6, err_msg=f"{name}: normal, but should be +z")
+        assert abs(c.x[2]) < HEIGHT and abs(c.gap) < HEIGHT, f"{name}: point {c.x} gap {c.gap}, but should be on z = 0"
+    weight = sum(c.f_n for c in mine)
+    assert weight == pytest.approx(2.0 * G, rel=WEIGHT), f"{name} carried by {weight} N, but should be {2.0 * G} N"
