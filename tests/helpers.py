@@ -93,3 +93,18 @@ def adapter_or_skip(name: str):
         return registry.get(name)
     except registry.EngineError as exc:
         pytest.skip(str(exc))
+
+
+def engines_declaring(need) -> list[str]:
+    """Every registered engine whose capabilities satisfy `need(capabilities)` (one not
+    installed here is left out)."""
+    from adapters import registry
+    out = []
+    for name in registry.engine_names():
+        try:
+            caps = registry.get(name).capabilities
+        except Exception:
+            continue
+        if need(caps):
+            out.append(name)
+    return out

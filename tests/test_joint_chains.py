@@ -9,12 +9,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from adapters import registry
 from adapters.base import Settings, Unsupported
 from adapters.frames import rotate_many
 from adapters.joints import joint_tree, start_rate
 from cases import four_bar
 from cases.scene import Body, Joint, Scene, ball, cube
+from tests.helpers import engines_declaring
 from tests.helpers import adapter_or_skip
 
 AXIS = np.array([0.0, 0.6, 0.8])  # the hinge, not along a world axis (3D)
@@ -59,15 +59,7 @@ def test_the_start_rate_is_the_relative_turn_about_the_axis_or_refused():
 
 def _chain_engines() -> list[str]:
     """Every registered engine that holds revolute joints in reduced coordinates."""
-    out = []
-    for name in registry.engine_names():
-        try:
-            caps = registry.get(name).capabilities
-        except Exception:
-            continue
-        if caps.coordinates == "reduced" and "revolute" in caps.joints:
-            out.append(name)
-    return out
+    return engines_declaring(lambda caps: caps.coordinates == "reduced" and "revolute" in caps.joints)
 
 
 def _anchor_of(state: np.ndarray, body: Body) -> np.ndarray:

@@ -18,7 +18,7 @@ from adapters.base import Capabilities, Settings
 from cases import pendulum
 from cases.scene import Body, Joint, Load, Scene, SceneError, ball, ground
 from cases.trajectory import Trajectory
-from tests.helpers import adapter_or_skip
+from tests.helpers import adapter_or_skip, engines_declaring
 
 G = 9.81
 
@@ -189,19 +189,7 @@ def test_pendulum_period_is_the_elliptic_integral():
 
 # --- the engines that declare joints and loads ---------------------------------------------
 
-def _jointed_engines(need) -> list[str]:
-    out = []
-    for name in registry.engine_names():
-        try:
-            caps = registry.get(name).capabilities
-        except Exception:
-            continue
-        if need(caps):
-            out.append(name)
-    return out
-
-
-@pytest.mark.parametrize("engine", _jointed_engines(lambda c: c.joint_limits and "revolute" in c.joints))
+@pytest.mark.parametrize("engine", engines_declaring(lambda c: c.joint_limits and "revolute" in c.joints))
 def test_a_revolute_limit_stops_the_swing_where_the_scene_says(engine):
     """Let go at 60 deg, the bob swings back towards the vertical, a turn about +y (positive:
     cases.scene.Joint); the limit's upper bound 0.3 rad stops it at 60 deg - 0.3 rad. The
@@ -231,7 +219,7 @@ def test_a_revolute_limit_stops_the_swing_where_the_scene_says(engine):
     assert least[None] < 0.0
 
 
-@pytest.mark.parametrize("engine", _jointed_engines(lambda c: c.loads))
+@pytest.mark.parametrize("engine", engines_declaring(lambda c: c.loads))
 def test_a_load_accelerates_at_force_over_mass(engine):
     """A free ball, no gravity, pushed by F = 2 N along x and turned by 0.01 N m about y:
     after 100 steps of 1 ms, v = F t / m = 0.2 m/s and w = tau t / I = 0.1 rad/s (I = 0.01 kg
@@ -289,7 +277,7 @@ def test_pinch_grasp_holds_exactly_at_2_mu_F_equal_to_m_g():
     assert (1 - lowest) * G * pg.T**2 / 2 < pg.PAD_HALF[2] - pg.HALF
 
 
-@pytest.mark.parametrize("engine", _jointed_engines(lambda c: "revolute" in c.joints))
+@pytest.mark.parametrize("engine", engines_declaring(lambda c: "revolute" in c.joints))
 def test_a_jointed_scenes_bulk_read_is_its_states(engine):
     """The harness records through write_state and decode_states: on a swinging hinge they
     give every engine's states() (a MuJoCo tree and a DART or PyBullet jointed body read
@@ -386,7 +374,7 @@ def test_rail_slide_closed_form_and_its_discrete_stop():
     assert abs(x - check.expected) <= check.tolerance and abs(x - check.expected) > check.tolerance / 4
 
 
-@pytest.mark.parametrize("engine", _jointed_engines(lambda c: c.joint_friction))
+@pytest.mark.parametrize("engine", engines_declaring(lambda c: c.joint_friction))
 def test_an_engine_that_declares_joint_friction_stops_the_slider(engine):
     """With the friction the launched slider stops where rail_slide says (and reports the
     effect); with none it keeps its speed: the engine simulates the friction it declares."""
@@ -414,7 +402,7 @@ def test_an_engine_that_declares_joint_friction_stops_the_slider(engine):
 
 # --- an impact with a pivot: the hinged rod on its stop ------------------------------------
 
-@pytest.mark.parametrize("engine", _jointed_engines(lambda c: "revolute" in c.joints))
+@pytest.mark.parametrize("engine", engines_declaring(lambda c: "revolute" in c.joints))
 def test_a_hinged_body_is_stopped_by_a_static_body(engine):
     """The hinged rod of cases/hinged_rod_stop.py, plastic (e = 0), at dt = 1e-3: its face
     meets the fixed ball at theta_c = 30 deg, and it may not turn past that by more than
@@ -508,7 +496,7 @@ def test_the_rod_stops_rebound_bound_holds_a_stepped_impact_and_catches_a_wrong_
 
 # --- a joint-limit impact with restitution -------------------------------------------------
 
-@pytest.mark.parametrize("engine", _jointed_engines(lambda c: c.joint_limits and "revolute" in c.joints))
+@pytest.mark.parametrize("engine", engines_declaring(lambda c: c.joint_limits and "revolute" in c.joints))
 def test_a_limits_restitution_is_built_or_said_unsupported(engine):
     """limit_impact[e=0.5]: an engine that declares a restitution at a limit builds it (and
     says so in its simulated effects), one that does not reports the variant unsupported
