@@ -38,7 +38,9 @@ def test_check_case_prints_each_closed_form_and_who_runs_or_skips_each_variant(t
         assert "reference" in running
         scene = fam.scene(v.params)
         for name, adapter in installed.items():
-            why = adapter.capabilities.cannot_run(scene, fam.needs_of(v.params)) or adapter.deferred(scene, fam.tags)
+            deferred = adapter.deferred(scene, fam.tags)  # a named run's one other reason (plan.leaves_out)
+            why = adapter.capabilities.cannot_run(scene, fam.needs_of(v.params)) or (
+                f"waits for --on-demand: {deferred}" if deferred else None)
             if why:
                 assert f"    skips {name}: {why}" in text and name not in running
             else:
