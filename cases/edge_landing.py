@@ -102,6 +102,10 @@ GRID = tuple({"tilt": "y", "mu": mu, "dim": dim} for dim in (3, 2) for mu in (0.
 # that an edge of its bottom hexagon lies along y at +x; tilted about y it lands on that edge
 HEX_PRISM = Hull(tuple((HALF * math.cos(math.radians(30 + 60 * k)), HALF * math.sin(math.radians(30 + 60 * k)), z)
                        for z in (-HALF, HALF) for k in range(6)))
+# its principal moments in closed form (circumradius a = HALF, height 2 HALF): the regular
+# hexagon's polar moment 5/12 m a^2 about z, half of it plus the slab's m (2 HALF)^2 / 12 about
+# x and y (the engines get the hull's polyhedral moments, cases/scene.py Hull.inertia)
+HEX_INERTIA = (M * HALF**2 * 13 / 24, M * HALF**2 * 13 / 24, M * HALF**2 * 5 / 12)
 
 
 # --- geometry -------------------------------------------------------------------------------
@@ -136,7 +140,7 @@ def inertia(p) -> np.ndarray:
     if not is_hull(p):
         return I * np.eye(3)
     R = rotation(orientation(p))
-    return R @ np.diag(HEX_PRISM.inertia(M)) @ R.T
+    return R @ np.diag(HEX_INERTIA) @ R.T
 
 
 def lever(p) -> np.ndarray:
