@@ -32,7 +32,7 @@ from physval.core.deviations import deviating, measured_bands
 from physval.commands import options
 from physval.core import deviations
 from physval.core import COLUMNS, Job
-from physval.core.plan import leaves_out, relation_jobs
+from physval.core.plan import leaves_out, priced, relation_jobs
 from physval.core.session import Execution, run_stored
 from physval.core.store import cache_dir
 from physval.report import write_atomic
@@ -138,7 +138,7 @@ def run(args) -> int:
             for v in variants:
                 job, scene = Job(fam_name, v, engine), fam.scene(v.params)
                 if adapter.capabilities.cannot_run(scene, fam.needs_of(v.params)) is None and not leaves_out(
-                        adapter, fam.tags, scene, named=True, on_demand=args.on_demand, cost=price(job)):
+                        adapter, fam.tags, scene, named=True, on_demand=args.on_demand, **priced(price, job)):
                     jobs.append(job)
         # the invariance battery's verdicts (cases.relations) on its default scenes, those the selection holds
         jobs += [j for j in relation_jobs([r.name for r in RELATIONS], [engine], resolver, True,
