@@ -26,6 +26,13 @@ def require_turn_about_y(body, why: str) -> None:
         raise Unsupported(f"2D body {body.name!r}: orientation {body.orientation} is not a rotation about y, {why}")
 
 
+def conjugate(q) -> np.ndarray:
+    """The conjugate (w, -x, -y, -z) of a quaternion (w, x, y, z), or of each row of an
+    (n, 4) array: for a unit quaternion its inverse, the turn from the world into the frame
+    that q turns into the world."""
+    return np.asarray(q, float) * [1.0, -1.0, -1.0, -1.0]
+
+
 def z_to(n) -> list[float]:
     """Unit quaternion (w, x, y, z) turning +z onto the unit vector n (a plane's frame: its
     normal along the frame's z); -z is a half turn about x."""

@@ -55,7 +55,7 @@ import numpy as np
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.lazy import require
 from adapters.joints import closing_ball_points, joint_tree
-from adapters.frames import about_y_many, multiply_many, rotate_many
+from adapters.frames import about_y_many, conjugate, multiply_many, rotate_many
 from adapters.solids import polygon_prism, triangle_prisms
 from cases.scene import (Body, Box, Capsule, Circle, Cylinder, Hull, Joint, Mesh, Plane, Polygon, Rect, Scene, Sphere,
                          pair_key)
@@ -517,15 +517,11 @@ def _loop_xml(scene: Scene, closing: list[tuple[int, Joint]], knobs: dict, dt: f
     return _element("equality", {}, "".join(out))
 
 
-def _conj(q) -> np.ndarray:
-    return np.asarray(q, float) * [1.0, -1.0, -1.0, -1.0]
-
-
 def _relative(frame: Body | None, point, quat=None) -> tuple[list, list | None]:
     """A world point (and orientation) in the frame of `frame`'s start pose (None: world)."""
     if frame is None:
         return list(point), (None if quat is None else list(quat))
-    inverse = _conj(frame.orientation)
+    inverse = conjugate(frame.orientation)
     local = _rotate(inverse.tolist(), (np.asarray(point, float) - frame.position).tolist())
     if quat is None:
         return list(local), None
@@ -551,7 +547,7 @@ def _tree_body_xml(scene: Scene, body: Body, tree: dict, children: dict, knobs: 
     above = None if up is None else scene.body(up)
     pos, quat = _relative(above, body.position, body.orientation)
     frame = {"name": body.name, "pos": pos, "quat": quat}
-    inverse = _conj(body.orientation).tolist()
+    inverse = conjugate(body.orientation).tolist()
     off = {"damping": 0, "stiffness": 0, "armature": 0, "frictionloss": 0}
     if joint is None and scene.dimension == 3:
         joints = [_element("freejoint", _known("(world)body/freejoint", {"align": "false"}, knobs["left_out"]))]
@@ -794,7 +790,7 @@ class MuJoCoSimulation(Simulation):
             v, w = np.asarray(body.velocity, float), np.asarray(body.angular_velocity, float)
             if joints == "free":
                 d.qvel[va:va + 3] = v                                    # world frame
-                d.qvel[va + 3:va + 6] = _rotate((q0 * [1, -1, -1, -1]).tolist(), w.tolist())  # body frame
+                d.qvel[va + 3:va + 6] = _rotate(conjugate(q0).tolist(), w.tolist())  # body frame
                 bodies.append((body.name, qa, va, None))
                 continue
             for i, (kind, axis) in enumerate(joints):

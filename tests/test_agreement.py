@@ -13,7 +13,7 @@ import pytest
 
 from cases.registry import builtin_families
 from physval.core import Context, Job
-from physval.core.plan import leaves_out
+from physval.core.plan import leaves_out, priced
 from physval.readings.agreement import REFERENCE, distance
 
 from tests.conftest import selected_engines
@@ -48,8 +48,8 @@ def _on_demand(engine: str, name: str, fam, variant) -> bool:
         adapter = get(engine)
     except EngineError:
         return False
-    cost = _price()(Job(name, variant, engine))
-    return leaves_out(adapter, fam.tags, fam.scene(variant.params), cost=cost) is not None
+    return leaves_out(adapter, fam.tags, fam.scene(variant.params), **priced(_price(), Job(name, variant, engine))) \
+        is not None
 
 
 @functools.cache

@@ -6,11 +6,13 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 from pathlib import Path
 
 import pytest
 
 from cases.family import Check
+from cases.relations import METRIC_PREFIX as INVARIANCE
 from physval.cli import main
 from physval.core import deviations
 from physval.core.verdicts import judge
@@ -274,3 +276,84 @@ def test_known_writes_the_release_of_the_engines_package_and_none_for_the_refere
     assert _release(adapter) is None
     adapter.package, adapter.supported = "physval", None  # the reference: part of physval
     assert _release(adapter) is None
+
+
+# --- a configuration that inherits its engine's entries (`inherit: ENGINE`) ------------------
+
+def test_a_configuration_inherits_its_engines_entries_and_bands_off_its_default_families(tmp_path):
+    """`inherit: eng` in eng-ccd.txt: eng's entries that apply to eng, with eng's bands as
+    eng-ccd's, on the families `outside` accepts, after eng-ccd's own; their cause says
+    whose they are and their re-measuring command names eng. The line parses as no entry,
+    stays where it is when bands are rewritten, and names one file beside it that does not
+    inherit in turn."""
+    (tmp_path / "eng.txt").write_text(
+        "fam[*]:v  # the engine is slow\n    eng [a]:v = 1.5 +- 0.01\n    other [a]:v = 1.4 +- 0.01\n"
+        "swept[*]:v  # it tunnels\n    eng [a]:v = 1.0 +- 0.01\n"
+        "other fam[*]:w  # another engine's\n    other [a]:w = 2.0 +- 0.01\n")
+    mine = tmp_path / "eng-ccd.txt"
+    mine.write_text("# header\ninherit: eng  # the same values off the swept families\n"
+                    "swept[*]:v  # its own\n    eng-ccd [a]:v = 0.5 +- 0.01\n")
+    assert deviations.inherits(mine) == "eng" and deviations.inherits(tmp_path / "eng.txt") is None
+    assert [d.pattern for d in deviations.parse(mine)] == ["swept[*]:v"]
+    (entry,) = deviations.inherited(mine, "eng-ccd", lambda family: family != "swept")
+    assert entry.pattern == "eng-ccd fam[*]:v" and entry.where == "eng.txt:1"
+    assert [(b.engine, b.variant, b.value) for b in entry.bands] == [("eng-ccd", "a", 1.5)]
+    assert entry.cause == "as eng (inherit): the engine is slow"
+    assert entry.remeasure("eng-ccd") == "physval known eng --write"
+    assert judge(CHECK, 1.5, "eng-ccd", "a", entry)["status"] == "deviation"
+    assert deviations.rewrite(mine, {3: []}).splitlines()[:3] == [
+        "# header", "inherit: eng  # the same values off the swept families", "swept[*]:v  # its own"]
+    for text, says in (("inherit: eng\ninherit: eng\n", "one 'inherit: ENGINE' line"),
+                       ("inherit:\n", "one 'inherit: ENGINE' line"),
+                       ("inherit: nothing\n", "names no file beside it (nothing.txt)")):
+        mine.write_text(text)
+        with pytest.raises(deviations.DeviationFileError, match=re.escape(says)):
+            deviations.parse(mine)
+            deviations.inherited(mine, "eng-ccd", lambda family: True)
+    (tmp_path / "eng.txt").write_text("inherit: eng-ccd\n")
+    mine.write_text("inherit: eng\n")
+    with pytest.raises(deviations.DeviationFileError, match="eng.txt inherits in turn"):
+        deviations.inherited(mine, "eng-ccd", lambda family: True)
+
+
+def _inheriting() -> list[str]:
+    """The registry's configurations whose deviation file has an `inherit:` line."""
+    from adapters import registry
+    out = []
+    for name in registry.engine_names():
+        try:
+            path = registry.get(name).deviations_file()
+        except registry.EngineError:
+            continue
+        if deviations.inherits(path):
+            out.append(name)
+    return out
+
+
+@pytest.mark.parametrize("engine", _inheriting())
+def test_an_inheriting_configuration_gives_its_engines_values_on_a_sample_of_the_inherited_checks(engine):
+    """`inherit:` is valid only where the configuration computes what its engine does: on a
+    sample of the checks it inherits (the first band of each of the first entries off its
+    default families, where its option never engages), both configurations' rows measure
+    the same values, bit for bit; and its default families inherit nothing."""
+    from physval.core import Context, Job
+    from tests.helpers import shared_rows
+    resolver = Context().resolver()
+    adapter = resolver.adapter(engine)
+    source = deviations.inherits(adapter.deviations_file())
+    inherited = [d for d in resolver.known(engine) if d.inherited_from == source]
+    assert inherited and source in resolver.deviation_files(engine)[1].stem
+    assert not any(resolver.family(d.family).tags & adapter.default_tags for d in inherited)
+    sample = []
+    for d in inherited:
+        band = next((b for b in d.bands if not b.metric.startswith(INVARIANCE)), None)
+        if band is not None and (d.family, band.variant) not in sample:
+            sample.append((d.family, band.variant))
+        if len(sample) == 3:
+            break
+    assert sample, f"{engine}: no inherited band of a family check"
+    for family, variant in sample:
+        v = next(v for v in resolver.family(family).variants if v.id == variant)
+        mine, theirs = (shared_rows(Job(family, v, e)) for e in (engine, source))
+        values = lambda rows: {r["metric"]: str(r["measured"]) for r in rows}  # noqa: E731 (nan as nan)
+        assert values(mine) == values(theirs), f"{family}[{variant}]: {engine} and {source} measure differently"

@@ -110,7 +110,8 @@ def _grasp_table(slow_variant: str, seconds: float) -> pd.DataFrame:
 def test_a_job_measured_over_the_per_job_limit_waits_for_on_demand_and_its_family_stays():
     """One variant of a family measured at 60 s a job (over the 15 s limit) waits for
     --on-demand with the reason stated; the family's other variants, priced by the family's
-    row, run; --on-demand runs it; an engine named runs it only with --on-demand too."""
+    row, run; --on-demand runs it; an engine named runs it only with --on-demand too. Priced
+    apart, it keeps waiting under the limit down to half of it (the hysteresis), and says so."""
     from physval.core import Context
     from physval.core.plan import PER_JOB_LIMIT_S, plan
     resolver = Context().resolver()
@@ -120,13 +121,54 @@ def test_a_job_measured_over_the_per_job_limit_waits_for_on_demand_and_its_famil
     for named in (False, True):
         jobs, later = plan({"pinch_grasp": variants}, ["reference-lemke"], resolver, named, price=price)
         assert [(j.variant.id, why) for j, why in later] == [
-            (slow.id, f"waits for --on-demand: measured 60 s a job, over the per-job limit {PER_JOB_LIMIT_S:.0f} s")]
+            (slow.id, f"waits for --on-demand: measured 60 s a job, over the per-job limit {PER_JOB_LIMIT_S:.0f} s "
+                      "(priced apart: it runs again when measured under half of it, 7.5 s)")]
         assert {j.variant.id for j in jobs} == {v.id for v in variants} - {slow.id}
     jobs, later = plan({"pinch_grasp": variants}, ["reference-lemke"], resolver, False, on_demand=True, price=price)
     assert not later and {j.variant.id for j in jobs} == {v.id for v in variants}
-    # just under the limit: it runs
+    # priced apart and measured just under the limit: it still waits, until under half of it
     price = cost.pricer(resolver, cost.Model.of(_grasp_table(slow.id, 0.9 * PER_JOB_LIMIT_S), "a test"))
+    later = plan({"pinch_grasp": variants}, ["reference-lemke"], resolver, False, price=price)[1]
+    assert [(j.variant.id, why) for j, why in later] == [
+        (slow.id, "waits for --on-demand: measured 13.5 s a job, under the per-job limit 15 s but priced apart "
+                  "(once over it): it runs again when measured under half of it, 7.5 s")]
+    price = cost.pricer(resolver, cost.Model.of(_grasp_table(slow.id, 0.45 * PER_JOB_LIMIT_S), "a test"))
     assert not plan({"pinch_grasp": variants}, ["reference-lemke"], resolver, False, price=price)[1]
+
+
+def test_the_per_job_limit_has_hysteresis_so_a_job_measured_near_it_stays_in_or_out():
+    """A job measured between L/2 and L (Lemke's grasp at mu 1.02: 7.6 s a job in a quiet run,
+    17.1 s in a loaded one) moves in or out of the default run only across that band: a new
+    job waits only over L; one priced apart (the table's row of its variant) waits while
+    over L/2. The table written from each regeneration (cost.merged, as `physval bench run`
+    writes it) keeps a job apart by the same rule, so quiet and loaded measurements that
+    alternate leave it where it was."""
+    from physval.core.plan import PER_JOB_LIMIT_S as L, leaves_out
+    from tests.fakes import FakeAdapter
+    from tests.helpers import variant_scene
+    slide, _ = variant_scene("slide_to_stop", "mu=0.5,v0=2")
+
+    def waits(seconds: float, apart: bool) -> bool:
+        return leaves_out(FakeAdapter(), frozenset({"friction"}), slide, cost=seconds, apart=apart) is not None
+
+    quiet, loaded, fast = 7.6 / 15 * L, 17.1 / 15 * L, 0.45 * L
+    assert not waits(quiet, False) and waits(loaded, False) and not waits(L, False), "new: over L"
+    assert waits(quiet, True) and waits(loaded, True) and not waits(fast, True), "priced apart: over L/2"
+
+    def run(seconds: float) -> pd.DataFrame:  # one regeneration's measured jobs: a fast variant and the one near L
+        return pd.DataFrame([{"job": "a", "engine": "e", "case": "c", "variant": "fast", "steps": 100,
+                              "wall_s": 0.5, "job_s": 0.6},
+                             {"job": "b", "engine": "e", "case": "c", "variant": "near", "steps": 100,
+                              "wall_s": seconds - 0.1, "job_s": seconds}])
+
+    table = cost.per_family(run(quiet))
+    history = []
+    for seconds in (quiet, loaded, quiet, loaded, quiet, fast, quiet):
+        table = cost.merged(run(seconds), table)
+        history.append(bool(cost.priced_apart(table)))
+    # in (under L, new) -> out (over L) -> stays out while over L/2 -> in (under L/2) -> stays in under L
+    assert history == [False, True, True, True, True, False, False]
+    assert cost.priced_apart(cost.merged(run(loaded), table)) == {("e", "c", "near")}
 
 
 def test_the_table_prices_a_job_over_the_limit_apart_and_keeps_it_until_measured_again():
@@ -160,7 +202,7 @@ def test_the_runs_left_for_on_demand_are_said_per_engine_with_why_in_the_plan_an
     _, later = plan({"pinch_grasp": variants}, ["reference-lemke"], resolver, False, price=price)
     text = cost.left_out_text(later)
     assert text == ("  reference-lemke: 1 run of pinch_grasp: waits for --on-demand: measured 60 s a job, over the "
-                    "per-job limit 15 s")
+                    "per-job limit 15 s (priced apart: it runs again when measured under half of it, 7.5 s)")
     section = cost.section(cost.measure([], cost.Phases(later=tuple(later))))
     assert "Runs left for --on-demand (1;" in section and "measured 60 s a job" in section
 

@@ -427,6 +427,35 @@ def test_a_partial_bench_run_keeps_the_other_sections_and_says_so(tmp_path):
     assert "From an earlier `physval bench pgs`" in md and "From an earlier `physval bench overhead`" not in md
 
 
+def test_bench_md_prints_a_missing_figure_as_an_empty_cell_and_a_long_note_by_its_first_clauses(tmp_path):
+    """bench.md (bench.write): an engine with no time on a scene has empty cells there, not
+    "nan", in the section written now and in one kept from an earlier run's CSV; a long
+    reason (first_clause) is cut after whole clauses, never inside a word."""
+    import math
+    import re
+
+    import pandas as pd
+    from physval.readings import bench
+    from physval.report import first_clause
+    reason = ("formulation 'acceleration_lcp': friction asked: the acceleration-level LCP of note 001 gives normal "
+              "forces only (the slides compute friction separately)")
+    assert first_clause(reason) == "formulation 'acceleration_lcp': friction asked …"
+    assert first_clause("the case reads contact forces, which this engine does not report") == \
+        "the case reads contact forces, which this engine does not report", "short: whole"
+    assert first_clause("x" * 120) == "x" * 120, "no clause to cut at: whole"
+    step = pd.DataFrame({"engine": ["mujoco", "reference-force"], "5-box stack us/step": [14.35391, math.nan],
+                         "5-box stack / mujoco": [1.0, math.nan],
+                         "no time because": [math.nan, f"5-box stack: unsupported: {first_clause(reason)}"]})
+    bench.write(tmp_path, {"step": step})
+    for written in ("now", "kept from the CSV"):
+        md = (tmp_path / "bench.md").read_text()
+        row = next(line for line in md.splitlines() if line.startswith("| reference-force"))
+        assert not re.search(r"\bnan\b", md), written
+        assert [c.strip() for c in row.strip("|").split("|")][1:3] == ["", ""], written
+        assert "14.3539" in md and "friction asked …" in row, written
+        bench.write(tmp_path, {"pgs": pd.DataFrame({"contacts": [1], "ms per sweep": [0.1]})})
+
+
 def test_bench_narrow_times_every_catalogue_pair_on_every_routine(tmp_path):
     """`physval bench narrow`: a row per pair of the narrow-phase catalogue, a rate for the
     reference and each routine it names, and each routine's depth the pair's exact one (it

@@ -16,6 +16,8 @@ line and its `# band:` reason stay as the person who measured it wrote them. Wit
 (write an entry with its cause) and entries that no longer cover anything (remove or
 narrow them). With --write over an engine's own file and no --cases, the file's
 `# measured-on: PACKAGE RELEASE` line names the release installed (the one its bands now hold for).
+A file that inherits another engine's entries (`inherit: ENGINE`) gets its own entries'
+bands only; the inherited ones are that engine's, measured with `physval known ENGINE`.
 """
 from __future__ import annotations
 
@@ -32,7 +34,7 @@ from physval.core.deviations import deviating, measured_bands
 from physval.commands import options
 from physval.core import deviations
 from physval.core import COLUMNS, Job
-from physval.core.plan import leaves_out, relation_jobs
+from physval.core.plan import leaves_out, priced, relation_jobs
 from physval.core.session import Execution, run_stored
 from physval.core.store import cache_dir
 from physval.report import write_atomic
@@ -138,7 +140,7 @@ def run(args) -> int:
             for v in variants:
                 job, scene = Job(fam_name, v, engine), fam.scene(v.params)
                 if adapter.capabilities.cannot_run(scene, fam.needs_of(v.params)) is None and not leaves_out(
-                        adapter, fam.tags, scene, named=True, on_demand=args.on_demand, cost=price(job)):
+                        adapter, fam.tags, scene, named=True, on_demand=args.on_demand, **priced(price, job)):
                     jobs.append(job)
         # the invariance battery's verdicts (cases.relations) on its default scenes, those the selection holds
         jobs += [j for j in relation_jobs([r.name for r in RELATIONS], [engine], resolver, True,
@@ -198,8 +200,10 @@ def run(args) -> int:
         if widths:
             print(f"  {len(widths)} bands over {args.repeat} repeats: median {widths[len(widths) // 2]:.3g}, "
                   f"widest {widths[-1]:.3g} tolerances")
+        # the entries the file inherits (`inherit: ENGINE`) cover their checks too: that engine's file records them
+        inherited = [] if args.file else [d for d in resolver.known(engine) if d.inherited_from]
         loose = [r for rows in rows_by_job.values() for r in rows
-                 if deviating(r) and deviations.find(entries, r["case"], r["variant"], r["metric"]) is None]
+                 if deviating(r) and deviations.find(entries + inherited, r["case"], r["variant"], r["metric"]) is None]
         for r in loose:
             print(f"  unrecorded: {r['case']}[{r['variant']}]:{r['metric']} measured {float(r['measured']):.6g}, "
                   f"expected {float(r['expected']):.6g}: write an entry with its cause")

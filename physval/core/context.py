@@ -115,16 +115,32 @@ class Resolver:
             # an adapter judged by another engine's bands (a planted engine named anew): that
             # engine's entries, their bands as this engine's
             mine = [d.recorded_as(recorded, engine) for d in deviations.load([own]) if d.applies_to(recorded)]
+            if own is not None and Path(own).exists():  # then those it inherits (deviations.inherited)
+                mine += deviations.inherited(own, engine, self._off_default_families(engine))
             users = [replace(d, user=True) for d in deviations.load(self.ctx.known_files) if d.applies_to(engine)]
             self._known[engine] = [replace(d, options=self.ctx.options) for d in mine + users]
         return self._known[engine]
 
+    def _off_default_families(self, engine: str):
+        """Whether a family lies outside the engine's default families (Adapter.default_tags;
+        every family where it names none): where an inheriting configuration's option does
+        not engage."""
+        tags = self.adapter(engine).default_tags
+
+        def outside(family: str) -> bool:
+            return not (tags and family in self.families and self.family(family).tags & tags)
+        return outside
+
     def deviation_files(self, engine: str) -> list[Path]:
+        """The files whose entries judge the engine: its own, the one its own inherits, the
+        user's --known files."""
         try:
             own = self.adapter(engine).deviations_file()
         except registry.EngineError:
             own = None
-        return [Path(p) for p in [own, *self.ctx.known_files] if p is not None]
+        source = deviations.inherits(own)
+        other = Path(own).with_name(f"{source}.txt") if source else None
+        return [Path(p) for p in [own, other, *self.ctx.known_files] if p is not None]
 
 
 @functools.cache

@@ -34,6 +34,22 @@ process after other jobs: a history dependence shows) and records the middle of 
 of its check beyond that floor (the tolerance in the check's units: `tolerance`, or
 `tolerance * |expected|` for a relative one): a change of the engine or of its mapping by
 more than that is `fail`.
+
+A configuration of an engine that computes what the engine computes wherever its option
+does not engage (a continuous-collision configuration off its swept families) may say so in
+one line of its file, instead of copying the engine's entries:
+
+    inherit: pybullet
+
+Its checks are then judged, after its own file's entries, by the entries of that engine's
+file beside it (`pybullet.txt`), whose bands for that engine count as its own: on every
+family but its default ones (`Adapter.default_tags`: the families where its option engages
+and its own entries say what it does). The line is valid only where the two configurations
+give the same values, which tests/test_bands.py checks on a sample of the inherited checks;
+where they differ, an inherited band judges a value it did not measure, and the check
+fails ("known deviation changed"). `physval known` writes this file's own entries only.
+An inherited entry cites the engine's file and says whose it is ("as pybullet (inherit):").
+
 A file records the engine release its bands were measured on, machine-readably, in one
 header line (`physval known --write` writes it):
 
@@ -81,6 +97,7 @@ _VALUE = re.compile(r"^(?P<value>\S+)\s*\+-\s*(?P<width>\S+)$")
 _RAISES = re.compile(r"^raises\s+(?P<exc>[\w.]+)$")
 _BAND_REASON = re.compile(r"^\s*#\s*band:\s*(?P<why>.*?)\s*$")
 _MEASURED_ON = re.compile(r"^#\s*measured-on:\s*(?P<package>\S+)\s+(?P<release>\S+)\s*$")
+_INHERIT = re.compile(r"^inherit:\s*(?P<engine>[^\s#]+)\s*(?:#.*)?$")
 
 # The band `physval known` records: the measured values' middle +- half their spread plus a
 # floor. The floor is what float64 rounding can move a value by on another machine (another
@@ -187,6 +204,7 @@ class Deviation:
     engines: str = "*"  # the engines it applies to (a name or glob)
     options: tuple[str, ...] = ()  # the --cases-dir and --adapter options of the run that read it
     band_reason: str = ""  # why its bands may be wider than one tolerance (its `# band:` line)
+    inherited_from: str = ""  # the engine whose entry and bands this is, read through an `inherit:` line
 
     @property
     def cause(self) -> str:
@@ -201,7 +219,7 @@ class Deviation:
         into the file the entry came from (an engine's own file is where `physval known`
         writes without --file)."""
         where = ["--file", self.source] if self.user else []
-        return shlex.join(["physval", "known", engine, *where, *self.options, "--write"])
+        return shlex.join(["physval", "known", self.inherited_from or engine, *where, *self.options, "--write"])
 
     def recorded_as(self, recorded: str, engine: str) -> "Deviation":
         """This entry with the bands recorded for engine `recorded` as `engine`'s (itself
@@ -261,6 +279,11 @@ def parse(path: Path | str) -> list[Deviation]:
             continue
         if not line.strip() or line.lstrip().startswith("#"):
             continue
+        if line.startswith("inherit:"):
+            if _INHERIT.match(line) is None or any(_INHERIT.match(r) for r in _text(path).splitlines()[:i - 1]):
+                raise DeviationFileError(f"{path}:{i}: one 'inherit: ENGINE' line names the engine whose entries "
+                                         f"this configuration shares, got {raw!r}")
+            continue
         if raw[:1].isspace():
             m = _BAND.match(line)
             if not m or not out:
@@ -316,6 +339,34 @@ def measured_on(path: Path | str | None) -> tuple[str, str] | None:
         if (m := _MEASURED_ON.match(raw.strip())) is not None:
             return m["package"], m["release"]
     return None
+
+
+def inherits(path: Path | str | None) -> str | None:
+    """The engine named by the file's `inherit: ENGINE` line (whose entries the
+    configuration shares off its default families), or None (no line, or no file)."""
+    if path is None or not Path(path).exists():
+        return None
+    for raw in _text(Path(path)).splitlines():
+        if (m := _INHERIT.match(raw.rstrip())) is not None:
+            return m["engine"]
+    return None
+
+
+def inherited(path: Path | str, engine: str, outside) -> list[Deviation]:
+    """The entries `engine` inherits through the `inherit:` line of its file `path`: those of
+    the named engine's file beside it that apply to that engine, with its bands as `engine`'s,
+    on the families `outside(family)` accepts (not the configuration's default families)."""
+    source = inherits(path)
+    if source is None:
+        return []
+    other = Path(path).with_name(f"{source}.txt")
+    if not other.exists():
+        raise DeviationFileError(f"{path}: 'inherit: {source}' names no file beside it ({other.name})")
+    if inherits(other) is not None:
+        raise DeviationFileError(f"{path}: 'inherit: {source}': {other.name} inherits in turn; name the engine "
+                                 "whose own entries these are")
+    return [replace(d.recorded_as(source, engine), reason=f"as {source} (inherit): {d.reason}", inherited_from=source)
+            for d in parse(other) if d.applies_to(source) and outside(d.family)]
 
 
 def other_release(recorded: tuple[str, str] | None, version: str) -> str | None:

@@ -1,7 +1,7 @@
 """Which jobs a run holds: each selected variant on each selected engine, less what the one
 rule of this module (`leaves_out`) leaves out: families outside an engine's default tags,
 runs the engine declares on demand outside them, and runs whose measured cost passes the
-per-job limit.
+per-job limit (with hysteresis: `over_the_limit`).
 """
 from __future__ import annotations
 
@@ -19,13 +19,30 @@ from physval.core.selection import select_variants
 # resting_blocks n=5 and n=4) and 7.1 s (DART's 10-box stack), all under the limit; over it
 # only reference-lemke's 3D pinch grasps at 2 mu F / m g = 0.98 and 1.25 (125 and 119 s, its
 # pivoting on a degenerate LCP), priced apart in the table (its per-variant rows).
+# The limit has hysteresis (`over_the_limit`): a job measured near it (the grasp at 1.02,
+# 7.6 s a job in a quiet run and 17.1 s in a loaded one) would otherwise leave the default
+# run and come back from one regeneration of the table to the next, and the committed
+# reports and the next default run would disagree on whether it runs.
 PER_JOB_LIMIT_S = 15.0
 
-Price = Callable[[Job], float]  # a job's measured cost in worker-seconds (NaN: not measured)
+# a job's measured cost in worker-seconds (NaN: not measured), and whether the cost table
+# prices it apart (a row of its own variant: physval.readings.cost.pricer)
+Price = Callable[[Job], tuple[float, bool]]
+
+
+def over_the_limit(cost: float, apart: bool) -> bool:
+    """Whether a job measured at `cost` seconds waits for --on-demand, the per-job limit L
+    (PER_JOB_LIMIT_S) with hysteresis: a job the cost table does not price apart (`apart`
+    False: priced by its family, or new) waits only above L; one it prices apart (a row of
+    its own, written when the job was measured over L) keeps waiting while its cost is above
+    L/2 and comes back only below L/2. The table keeps a job apart by the same rule
+    (physval.readings.cost.per_family), so one measurement between L/2 and L, quiet or
+    loaded, moves no job in or out of the run."""
+    return cost > (PER_JOB_LIMIT_S / 2 if apart else PER_JOB_LIMIT_S)
 
 
 def leaves_out(adapter, tags: frozenset[str], scene, *, named: bool = False, on_demand: bool = False,
-               cost: float = math.nan) -> str | None:
+               cost: float = math.nan, apart: bool = False) -> str | None:
     """Why a run leaves out the run of `scene` (of a family tagged `tags`) on `adapter`, or
     None: it takes it. The one rule of what a run takes, which `plan`, `relation_jobs` and
     the tests that follow a default run apply.
@@ -33,7 +50,9 @@ def leaves_out(adapter, tags: frozenset[str], scene, *, named: bool = False, on_
       the families with one of those tags, and (with `default_laws`) the variants whose
       compliant contact law it models; the rest not even with --on-demand.
     - Without `on_demand`, a run the adapter declares on demand (Adapter.deferred), or one
-      whose measured `cost` (seconds a job) passes PER_JOB_LIMIT_S, waits for --on-demand."""
+      whose measured `cost` (seconds a job) is over the per-job limit, waits for --on-demand:
+      over PER_JOB_LIMIT_S, or over half of it where the cost table prices the job apart
+      (`apart`; the hysteresis of `over_the_limit`)."""
     if not named and adapter.default_tags is not None and not (tags & adapter.default_tags):
         laws = scene.contact_laws
         if not (adapter.default_laws and laws and laws <= adapter.capabilities.contact_laws):
@@ -44,15 +63,30 @@ def leaves_out(adapter, tags: frozenset[str], scene, *, named: bool = False, on_
     why = adapter.deferred(scene, tags)
     if why:
         return f"waits for --on-demand: {why}"
-    if cost > PER_JOB_LIMIT_S:
-        return f"waits for --on-demand: measured {cost:.0f} s a job, over the per-job limit {PER_JOB_LIMIT_S:.0f} s"
+    if over_the_limit(cost, apart):
+        limit = f"the per-job limit {PER_JOB_LIMIT_S:.0f} s"
+        back = f"it runs again when measured under half of it, {PER_JOB_LIMIT_S / 2:g} s"
+        if cost > PER_JOB_LIMIT_S:
+            return f"waits for --on-demand: measured {cost:.3g} s a job, over {limit}" + (
+                f" (priced apart: {back})" if apart else "")
+        return (f"waits for --on-demand: measured {cost:.3g} s a job, under {limit} but priced apart (once over "
+                f"it): {back}")
     return None
+
+
+def priced(price: Price | None, job: Job) -> dict:
+    """leaves_out's `cost` and `apart` of `job` by `price` (none: not measured)."""
+    if price is None:
+        return {}
+    cost, apart = price(job)
+    return {"cost": cost, "apart": apart}
 
 
 def plan(chosen: dict, engines: list[str], resolver, engines_named: bool, dt=None, iterations=None,
          on_demand: bool = False, price: Price | None = None) -> tuple[list[Job], list[tuple[Job, str]]]:
     """(jobs to run, (job, why) of those left out until --on-demand), by `leaves_out`;
-    `price`: a job's measured cost (physval.readings.cost.pricer), for the per-job limit."""
+    `price`: a job's measured cost and whether it is priced apart
+    (physval.readings.cost.pricer), for the per-job limit."""
     jobs, later = [], []
     for name, variants in chosen.items():
         fam = resolver.family(name)
@@ -70,7 +104,7 @@ def plan(chosen: dict, engines: list[str], resolver, engines_named: bool, dt=Non
                 if leaves_out(adapter, fam.tags, scene, named=engines_named, on_demand=True):
                     continue  # not in this run, even on demand
                 why = None if on_demand else leaves_out(adapter, fam.tags, scene, named=engines_named,
-                                                        cost=price(job) if price else math.nan)
+                                                        **priced(price, job))
                 if why:
                     later.append((job, why))
                     continue
@@ -121,6 +155,6 @@ def relation_jobs(names: list[str], engines: list[str], resolver, engines_named:
                     job = Job(fam, v, eng, dt, iterations, relation=relation.name)
                     if relation.applies(scene_of(fam, v)) is None and (adapter is None or not leaves_out(
                             adapter, resolver.family(fam).tags, scene_of(fam, v), named=engines_named,
-                            on_demand=on_demand, cost=price(job) if price else math.nan)):
+                            on_demand=on_demand, **priced(price, job))):
                         jobs.append(job)
     return jobs

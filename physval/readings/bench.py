@@ -48,7 +48,7 @@ from cases.family import Variant
 from physval.core import Context, Job, Probe, run_jobs, simulate
 from physval.core.session import Execution
 from physval.readings import oracle
-from physval.report import md_table, write_atomic
+from physval.report import first_clause, md_table, write_atomic
 
 WHAT = ("overhead", "step", "compile", "sweep-workers", "pgs", "narrow", "faults", "oracle", "run")
 # not in `physval bench` without names: `run` takes minutes of a whole default run, twice;
@@ -143,7 +143,8 @@ def overhead(engines: list[str], ctx: Context, execution: Execution) -> pd.DataF
                     "step + API read us": read, "recorded step us": core,
                     "recorded / bare": core / bare if bare else math.nan,
                     "recorded / (step + API read)": core / read if read else math.nan,
-                    "note": "" if "bare_us" in first else f"{first.get('status', '')}: {first.get('reason', '')[:120]}"})
+                    "note": "" if "bare_us" in first
+                    else f"{first.get('status', '')}: {first_clause(first.get('reason', ''))}"})
     return pd.DataFrame(out)
 
 
@@ -195,7 +196,7 @@ def steps_side_by_side(engines: list[str], ctx: Context, execution: Execution, s
         timed = first.get("wall_per_sim_s") not in (None, "")
         us[key] = float(first["wall_per_sim_s"]) * 1e-3 * 1e6 if timed else math.nan
         if not timed:  # the run's own verdict says why it has no time
-            why[key] = f"{first.get('status', 'error')}: {first.get('reason', 'no row')}"[:160]
+            why[key] = f"{first.get('status', 'error')}: {first_clause(first.get('reason', 'no row'))}"
     out = []
     for e in engines:  # one row an engine: its step on each scene and that step in baseline steps
         if not any((label, e) in jobs for label, _ in STEP_SCENES):
@@ -390,7 +391,7 @@ def write(out: Path, sections: dict[str, pd.DataFrame]) -> None:
             note = f"(From an earlier `physval bench {name}`, kept in {path.name}.) " + _note(name)
         else:
             continue
-        lines += [f"## {name}", "", note, "", md_table(df.round(4)), ""]
+        lines += [f"## {name}", "", note, "", md_table(df.round(4), missing=""), ""]  # no figure: an empty cell
     write_atomic(out / "bench.md", "\n".join(lines))
 
 

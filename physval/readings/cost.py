@@ -33,9 +33,10 @@ import pandas as pd
 from physval.report import fmt, md_table, write_atomic
 
 TABLE = Path(__file__).with_name("costs.csv")  # per engine and family, a default run's (physval bench run)
-# a row per engine and family, and one per variant for the jobs measured over the per-job
-# limit (physval.core.plan.PER_JOB_LIMIT_S): priced apart, such a job waits for --on-demand
-# without taking its family's other variants with it (variant empty: the family's row)
+# a row per engine and family, and one per variant for the jobs over the per-job limit
+# (physval.core.plan.over_the_limit: measured over PER_JOB_LIMIT_S, or over half of it for a
+# job already priced apart): priced apart, such a job waits for --on-demand without taking
+# its family's other variants with it (variant empty: the family's row)
 TABLE_COLUMNS = ["engine", "case", "variant", "jobs", "steps", "stepping_s", "job_s"]
 BUDGET_S = 180.0       # the default run's budget: 3 minutes ...
 BUDGET_WORKERS = 2     # ... on 2 cores (decision 10)
@@ -61,12 +62,18 @@ def per_job(rows) -> pd.DataFrame:
     return out.reset_index(drop=True)
 
 
-def per_family(jobs: pd.DataFrame) -> pd.DataFrame:
+def per_family(jobs: pd.DataFrame, apart: frozenset = frozenset()) -> pd.DataFrame:
     """Measured jobs (per_job, with job_s) summed per engine and family, those over the
-    per-job limit per engine, family and variant: the model's table."""
-    from physval.core.plan import PER_JOB_LIMIT_S
+    per-job limit per engine, family and variant: the model's table. `apart`: the (engine,
+    family, variant) an earlier table priced apart, which stay apart while over half the
+    limit (physval.core.plan.over_the_limit)."""
+    from physval.core.plan import over_the_limit
     m = jobs.dropna(subset=["job_s"])
-    m = m.assign(variant=m.variant.where(m.job_s > PER_JOB_LIMIT_S, "") if "variant" in m else "")
+    if "variant" in m:
+        keep = [over_the_limit(s, k in apart) for s, k in zip(m.job_s, zip(m.engine, m.case, m.variant.astype(str)))]
+        m = m.assign(variant=m.variant.where(pd.Series(keep, index=m.index, dtype=bool), ""))
+    else:
+        m = m.assign(variant="")
     g = m.groupby(["engine", "case", "variant"], sort=False)
     return pd.DataFrame({"jobs": g.size(), "steps": g.steps.sum(), "stepping_s": g.wall_s.sum(),
                          "job_s": g.job_s.sum()}).reset_index()[TABLE_COLUMNS]
@@ -76,15 +83,22 @@ def merged(jobs: pd.DataFrame, table: pd.DataFrame) -> pd.DataFrame:
     """The table of the measured `jobs` (per_job), with the rows of `table` (an earlier one)
     for what they did not measure: the families they did not run, and the variants priced
     apart that they did not run (a job over the limit waits for --on-demand, so a default
-    run does not measure it again)."""
-    last = per_family(jobs)
+    run does not measure it again). A variant `table` prices apart and the jobs measured
+    again stays apart while over half the limit (per_family)."""
+    table = _with_variant(table)
+    last = per_family(jobs, priced_apart(table))
     ran = set(zip(jobs.engine, jobs.case, jobs.variant.astype(str)))
     families = set(zip(last.engine, last.case))
-    table = _with_variant(table)
     keep = [(e, c) not in families if not v else (e, c, v) not in ran
             for e, c, v in zip(table.engine, table.case, table.variant)]
     rest = table[keep]
     return pd.concat([last, rest[TABLE_COLUMNS]], ignore_index=True) if len(rest) else last
+
+
+def priced_apart(table: pd.DataFrame) -> frozenset:
+    """The (engine, family, variant) of the rows of `table` priced per variant."""
+    t = _with_variant(table)
+    return frozenset((e, c, v) for e, c, v in zip(t.engine, t.case, t.variant) if v)
 
 
 def _with_variant(table: pd.DataFrame) -> pd.DataFrame:
@@ -155,25 +169,28 @@ def model_for(out: Path | None) -> Model:
         last = last.dropna(subset=["job_s"])
         if len(last):
             both = merged(last, table)
-            source = f"the last run in {out}" + (" and the shipped table" if len(both) > len(per_family(last)) else "")
+            source = f"the last run in {out}" + (" and the shipped table"
+                                                 if len(both) > len(per_family(last, priced_apart(table))) else "")
             table = both
     return Model.of(table, source)
 
 
 def pricer(resolver, model: Model):
-    """A job's predicted cost in worker-seconds (NaN: not measured), as physval.core.plan
-    takes it (`price`) to hold back the jobs over its per-job limit."""
+    """A job's predicted cost in worker-seconds (NaN: not measured) and whether the table
+    prices it apart (its variant's row), as physval.core.plan takes them (`price`) to hold
+    back the jobs over its per-job limit."""
     from physval.core.jobs import steps_of
     steps: dict = {}
 
-    def price(job) -> float:
+    def price(job) -> tuple[float, bool]:
         at = (job.family, job.variant.id, job.dt)
         if at not in steps:
             try:
                 steps[at] = steps_of(job, resolver.family(job.family))
             except Exception:
                 steps[at] = 0
-        return model.predict(job.engine, job.family, steps[at], job.variant.id)[0]
+        seconds, how = model.predict(job.engine, job.family, steps[at], job.variant.id)
+        return seconds, how == "variant"
     return price
 
 

@@ -8,8 +8,9 @@ from physval.report.environment import environment
 from physval.report.figures import MARKERS, engine_styles, pyplot, save_figure
 from physval.report.html import Html, cell, rows_table, table
 from physval.report.sections import Reading, Rendered, Report, Section, as_section, render
-from physval.report.text import anchor, companion_table, contents, fmt, heading, md_table, titles, write_csv
+from physval.report.text import (anchor, companion_table, contents, first_clause, fmt, heading, md_table, titles,
+                                 write_csv)
 
 __all__ = ["write_atomic", "environment", "MARKERS", "engine_styles", "pyplot", "save_figure", "Html", "cell",
            "rows_table", "table", "Reading", "Rendered", "Report", "Section", "as_section", "render", "anchor",
-           "companion_table", "contents", "fmt", "heading", "md_table", "titles", "write_csv"]
+           "companion_table", "contents", "first_clause", "fmt", "heading", "md_table", "titles", "write_csv"]

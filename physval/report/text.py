@@ -3,6 +3,7 @@ frame written as CSV, and another command's CSV read back."""
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -22,8 +23,33 @@ def heading(title: str, command: str = "", interrupted: str = "") -> list[str]:
     return lines
 
 
-def md_table(df: pd.DataFrame) -> str:
-    return df.to_markdown(index=False) if len(df) else "_(none)_"
+def md_table(df: pd.DataFrame, missing: str | None = None) -> str:
+    """`df` as a markdown table; with `missing`, a missing cell (NaN, None) prints as it (a
+    figure not measured: "" where the row says why), else as pandas prints it ("nan")."""
+    if not len(df):
+        return "_(none)_"
+    if missing is None:
+        return df.to_markdown(index=False)
+    return df.astype(object).where(df.notna(), None).to_markdown(index=False, missingval=missing)
+
+
+# what ends a clause in a note: a colon, semicolon, comma or full stop before a space, or
+# the space before a parenthesis
+_CLAUSE_END = re.compile(r"[:;,.](?= )| (?=\()")
+
+
+def first_clause(note: str, width: int = 100) -> str:
+    """A note for a table cell: whole up to `width` characters; a longer one cut after its
+    leading clauses that fit in `width` (after its first clause where not even that fits),
+    never inside a word, its end marked " …". The whole note stays in the rows it came from."""
+    text = " ".join(str(note).split())
+    if len(text) <= width:
+        return text
+    ends = [m.start() + (m.group() != " ") for m in _CLAUSE_END.finditer(text) if m.start() > 0]
+    fit = [e for e in ends if e <= width]
+    if not ends:
+        return text
+    return text[:(fit or ends)[-1 if fit else 0]].rstrip(" :;,.") + " …"
 
 
 def fmt(x) -> str:
