@@ -538,6 +538,7 @@ class DartAdapter(Adapter):
         # parent's BodyNode (_tree_joint); a loop closed by a BallJointConstraint: reduced coordinates
         joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
         joint_limits=True,
+        joint_friction=True,  # Joint::setCoulombFriction (_tree_joint)
         coordinates="reduced",
         why_not=(("load", "the adapter applies no external forces (BodyNode.addExtForce, cleared by each step, "
                           "is not mapped)"),
@@ -599,6 +600,8 @@ def _effects(scene: Scene, knobs: dict, mu: dict, e: dict) -> frozenset[str]:
         fx.add("joint")
     if knobs.get("joint limits"):
         fx.add("limit")
+    if knobs.get("joint friction"):
+        fx.add("joint_friction")
     return frozenset(fx)
 
 
@@ -634,10 +637,16 @@ def _tree_joint(skeleton, scene: Scene, body: Body, tj: TreeJoint, position, R, 
             record["limits"] = list(joint.limits)
             knobs["joint limits"] = True
     if joint.kind != "fixed":
-        for i in range(made.getNumDofs()):  # no joint damping, stiffness or friction (DART's defaults, stated)
+        for i in range(made.getNumDofs()):  # no joint damping or stiffness (DART's defaults, stated)
             made.setDampingCoefficient(i, 0.0)
             made.setSpringStiffness(i, 0.0)
-            made.setCoulombFriction(i, 0.0)
+            # the joint's dry friction (0: none): DART's JointCoulombFrictionConstraint, a row in the
+            # step's boxed LCP whose impulse lies within -+ friction dt, Coulomb's law with the scene's
+            # constant bound (cases.scene.Joint)
+            made.setCoulombFriction(i, float(joint.friction))
+        if joint.friction > 0:
+            record["setCoulombFriction"] = float(joint.friction)
+            knobs["joint friction"] = True
         # a ball joint's rates are the turn's angular velocity in the joint's child frame,
         # world-aligned at the start: start_rate's world-frame w_rel
         rate = start_rate(scene, tj)
