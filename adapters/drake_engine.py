@@ -185,7 +185,16 @@ BALL_JOINT = ("a ball joint is held as a ball constraint (AddBallConstraint) on 
               "BallRpyJoint is singular at a pitch of pi/2 (a swing of 90 deg stopped the simulator, measured) and "
               "a quaternion ball joint is not in Drake (https://github.com/RobotLocomotion/drake/issues/12404)")
 WORLD_ANCHOR = "physval:world anchor"  # the body welded to the world that holds a ball constraint's world side
-LOOSE = frozenset({"ball"})  # the joint kinds held as constraints between free bodies (joint_tree's loose)
+LOOSE = frozenset({"ball"})
+# A joint's dry friction: a joint actuator under SAP's implicit PD control (Drake's
+# SapPdControllerConstraint) with gains p = 0 and d = FRICTION_KD, desired rate 0 and its
+# effort limit the friction: the force -d qdot clamped to -+ friction, solved implicitly in the
+# step, is Coulomb's law with the scene's constant bound once d |qdot| exceeds it (below
+# friction / d, 5e-8 m/s for the rail's 4.9 N, it is a stiff damper that stops the joint in a
+# step). Drake's own joint damping is viscous, not Coulomb. SAP alone solves it (CONSTRAINED):
+# TAMSI ignores the PD gains (measured: the slider kept its 2 m/s), CENIC's continuous plant
+# is not set up with them.
+FRICTION_KD = 1e8  # N s/m (N m s/rad)  # the joint kinds held as constraints between free bodies (joint_tree's loose)
 _CONTACT_MODELS = ("hydroelastic", "point")              # ContactModel.k<Name>
 
 
@@ -398,12 +407,14 @@ class DrakeSimulation(Simulation):
         self._geometry_name: dict[int, str] = {}
         self._geometry_ids: list = []  # (GeometryId, body name)
         self._tree, closing = joint_tree(scene, LOOSE)
+        self._drives = 0  # the joints' friction drives (_joint)
         self._rigid: dict[str, object] = {}
         # a tree joint's parent before its body (the joint's frame F lives on the parent)
         order = [b for b in scene.bodies if b.name not in self._tree] + [scene.body(n) for n in self._tree]
         plan = {b.name: self._add_body(plant, b, scene, material) for b in order}
         self._close_loops(plant, scene, closing)
         plant.Finalize()
+        self._hold_drives(builder, plant)
         self._filter_joined(scene_graph, scene)
         self._plant = plant
         self._apply_loads(builder, plant, scene)
@@ -419,7 +430,8 @@ class DrakeSimulation(Simulation):
         self._results_port = plant.get_contact_results_output_port()
         self._steps = 0
         self._dt = settings.dt
-        self.effects = _effects(scene, material, plan, self._hydro) | ({"load"} if self._loaded else set())
+        self.effects = _effects(scene, material, plan, self._hydro) | ({"load"} if self._loaded else set()) \
+            | ({"joint_friction"} if self._drives else set())
 
     def _integrate_with_cenic(self, dt: float, accuracy: float) -> dict:
         """CENIC on the simulator (Drake's SimulatorConfig): error control on at `accuracy`,
@@ -532,10 +544,28 @@ class DrakeSimulation(Simulation):
                 "prismatic": lambda: PrismaticJoint(name, F, M, axis, damping=0.0),
                 "fixed": lambda: WeldJoint(name, F, M, RigidTransform())}[joint.kind]()
         made = plant.AddJoint(made)  # the plant's own joint (the built one was moved into it)
-        self.knobs["joints"][body.name] = {type(made).__name__: {"on": tj.parent or "world", "anchor": anchor.tolist(),
-                                                                 "axis": axis.tolist(), "damping": 0.0,
-                                                                 "limits": "none"}}
+        record = {"on": tj.parent or "world", "anchor": anchor.tolist(), "axis": axis.tolist(), "damping": 0.0,
+                  "limits": "none"}
+        if joint.friction > 0:  # dry friction: SAP's implicit PD drive at rate 0, its effort bounded (FRICTION_KD)
+            from pydrake.multibody.tree import PdControllerGains
+            drive = plant.AddJointActuator(f"{name}:friction", made, effort_limit=float(joint.friction))
+            drive.set_controller_gains(PdControllerGains(p=0.0, d=FRICTION_KD))
+            self._drives += 1
+            record["friction"] = {"AddJointActuator": {"effort_limit": joint.friction},
+                                  "PdControllerGains": {"p": 0.0, "d": FRICTION_KD}, "desired state": "0 (rate 0)"}
+        self.knobs["joints"][body.name] = {type(made).__name__: record}
         return ("jointed", rigid, made, tj)
+
+    def _hold_drives(self, builder, plant) -> None:
+        """The desired state of the friction drives (_joint): rate 0 (and position 0, which
+        gain p = 0 ignores), from a constant source on the plant's desired state port."""
+        if not self._drives:
+            return
+        from pydrake.multibody.tree import default_model_instance
+        from pydrake.systems.primitives import ConstantVectorSource
+        port = plant.get_desired_state_input_port(default_model_instance())
+        source = builder.AddSystem(ConstantVectorSource(np.zeros(port.size())))
+        builder.Connect(source.get_output_port(), port)
 
     def _filter_joined(self, scene_graph, scene: Scene) -> None:
         """Two bodies a scene joint connects do not collide (Scene.contact_pairs leaves them
@@ -1089,9 +1119,15 @@ class DrakeAdapter(Adapter):
             # free or planar; a loop, and a ball joint (BALL_JOINT), is a ball constraint on free
             # bodies under SAP: reduced coordinates
             joints=frozenset({"revolute", "prismatic", "fixed"} | ({"ball"} if approximation in CONSTRAINED else set())),
+            joint_friction=approximation in CONSTRAINED,  # SAP's PD drive at rate 0, effort-limited (FRICTION_KD)
             coordinates="reduced",
             loads=True,  # ExternallyAppliedSpatialForce from a constant source (DrakeSimulation._apply_loads)
             why_not=(("joint", BALL_JOINT + f"; the {approximation} approximation takes no constraints"),
+                     ("joint_friction", "a joint's dry friction is an effort-limited PD drive at rate 0, which SAP "
+                                        f"solves implicitly; {approximation} "
+                                        + ("ignores the drive's gains (measured: the rail's slider kept its 2 m/s)"
+                                           if approximation == "tamsi" else "integrates a continuous plant without it")
+                                        + "; Drake's joint damping is viscous, not Coulomb"),
                      ("limit", "joint limits are not mapped (Drake enforces them only under SAP)")),
         )
         tunables = {
