@@ -192,8 +192,8 @@ LOOSE = frozenset({"ball"})
 # step, is Coulomb's law with the scene's constant bound once d |qdot| exceeds it (below
 # friction / d, 5e-8 m/s for the rail's 4.9 N, it is a stiff damper that stops the joint in a
 # step). Drake's own joint damping is viscous, not Coulomb. SAP alone solves it (CONSTRAINED):
-# TAMSI ignores the PD gains (measured: the slider kept its 2 m/s), CENIC's continuous plant
-# is not set up with them.
+# TAMSI ignores the PD gains (measured: the slider kept its 2 m/s); CENIC's continuous plant is
+# not mapped with them (measured under SAP only).
 FRICTION_KD = 1e8  # N s/m (N m s/rad)  # the joint kinds held as constraints between free bodies (joint_tree's loose)
 _CONTACT_MODELS = ("hydroelastic", "point")              # ContactModel.k<Name>
 
@@ -1126,7 +1126,7 @@ class DrakeAdapter(Adapter):
                      ("joint_friction", "a joint's dry friction is an effort-limited PD drive at rate 0, which SAP "
                                         f"solves implicitly; {approximation} "
                                         + ("ignores the drive's gains (measured: the rail's slider kept its 2 m/s)"
-                                           if approximation == "tamsi" else "integrates a continuous plant without it")
+                                           if approximation == "tamsi" else "is not mapped with it (the drive was measured under SAP only)")
                                         + "; Drake's joint damping is viscous, not Coulomb"),
                      ("limit", "joint limits are not mapped (Drake enforces them only under SAP)")),
         )
