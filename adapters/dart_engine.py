@@ -95,6 +95,7 @@ GROUND_HALF_THICKNESS = 1.0   # m
 # 2D shapes are extruded along y by this half-depth; the dynamics do not depend on it
 # (the inertia is the scene's and the joints keep bodies in the x-z plane).
 HALF_DEPTH_2D = 0.1           # m
+ORIGIN = np.zeros(3)          # a load's point: the body frame's origin, its centre of mass
 # Hard-coded in dart/constraint/ContactConstraint.cpp, not settable from dartpy.
 ENGINE_CONSTANTS = {
     "DART_ERP": 0.01,
@@ -323,6 +324,20 @@ class DartSimulation(Simulation):
         self._output = output
         self._dimension = dimension
         self._rough = rough          # bodies whose friction coefficient DART does not treat as zero
+        self._loads = []             # (BodyNode, force, torque), world frame: the scene's loads
+
+    def load(self, scene: Scene) -> None:
+        """The scene's constant loads, applied before each step (World::step clears every
+        external force after it): BodyNode.addExtForce at the body frame's origin, its centre
+        of mass (the Inertia's com is 0), and addExtTorque, both in the world frame."""
+        for load in scene.loads:
+            if load.acts:
+                self._loads.append((self._nodes[load.body], np.array(load.force, float),
+                                    np.array(load.torque, float)))
+        if self._loads:
+            self.effects = self.effects | {"load"}
+            self._knobs["loads"] = {"BodyNode.addExtForce": "world frame, at the centre of mass, before each step",
+                                    "BodyNode.addExtTorque": "world frame, before each step"}
 
     @property
     def knobs(self) -> dict:
@@ -334,6 +349,9 @@ class DartSimulation(Simulation):
         # cost 1-2 us per step, measured against a bare 2-4 us one-body world.step().
         self._output.begin((2,))
         try:
+            for node, force, torque in self._loads:
+                node.addExtForce(force, ORIGIN, False, True)
+                node.addExtTorque(torque, False)
             self._world.step()
         finally:
             self._output.end((2,))
@@ -540,10 +558,9 @@ class DartAdapter(Adapter):
         joint_limits=True,
         joint_friction=True,  # Joint::setCoulombFriction (_tree_joint)
         coordinates="reduced",
-        why_not=(("load", "the adapter applies no external forces (BodyNode.addExtForce, cleared by each step, "
-                          "is not mapped)"),
-                 ("limit_restitution", "a joint's limit takes a range only (setPositionLowerLimit, "
-                                       "setPositionUpperLimit): DART's limit constraint has no restitution")),
+        loads=True,  # BodyNode.addExtForce and addExtTorque before each step (DartSimulation.load)
+        why_not=(("limit_restitution", "a joint's limit takes a range only (setPositionLowerLimit, "
+                                       "setPositionUpperLimit): DART's limit constraint has no restitution"),),
     )
 
     def version(self) -> str:
@@ -577,7 +594,9 @@ class DartAdapter(Adapter):
         rough = frozenset(name for name, m in mu.items()
                           if m > ENGINE_CONSTANTS["DART_FRICTION_COEFF_THRESHOLD"])
         kind = DartJointSimulation if scene.joints else DartSimulation
-        return kind(world, nodes, frames, knobs, _effects(scene, knobs, mu, e), sweeps, output, scene.dimension, rough)
+        sim = kind(world, nodes, frames, knobs, _effects(scene, knobs, mu, e), sweeps, output, scene.dimension, rough)
+        sim.load(scene)
+        return sim
 
 
 def _effects(scene: Scene, knobs: dict, mu: dict, e: dict) -> frozenset[str]:

@@ -16,7 +16,7 @@ import pytest
 from adapters import registry
 from adapters.base import Capabilities, Settings
 from cases import pendulum
-from cases.scene import Body, Joint, Load, Scene, SceneError, ball, ground
+from cases.scene import Body, Box, Joint, Load, Scene, SceneError, ball, ground
 from cases.trajectory import Trajectory
 from tests.helpers import adapter_or_skip, engines_declaring
 
@@ -517,3 +517,24 @@ def test_a_limits_restitution_is_built_or_said_unsupported(engine):
     plastic = adapter.build(limit_impact.scene({"e": 0.0, "dim": dim}), Settings(dt=1e-3))
     assert "limit_restitution" not in plastic.effects
     plastic.close()
+
+
+def test_dart_applies_a_load_before_every_step_and_repeats_it():
+    """DART clears a body's external force after each World::step: the adapter adds the
+    scene's load again before every step, so a pad pressed with F = 10 N (no gravity, no
+    contact) keeps accelerating at F / m over 200 steps (not for one step only), and two
+    builds in one process give the same state to the bit (the load is not what varies)."""
+    pytest.importorskip("dartpy")
+    pad = Body("pad", Box((0.02, 0.05, 0.3)), mass=0.5, position=(0.0, 0.0, 1.0))
+    scene = Scene(bodies=(pad,), gravity=(0, 0, 0), joints=(Joint("prismatic", "pad", None, anchor=(0.0, 0.0, 1.0),
+                                                                 axis=(1.0, 0.0, 0.0)),),
+                  loads=(Load("pad", force=(10.0, 0.0, 0.0)),))
+    ends = []
+    for _ in range(2):
+        sim = registry.get("dart").build(scene, Settings(dt=1e-3))
+        for _ in range(200):
+            sim.step()
+        ends.append(sim.states()["pad"].copy())
+        sim.close()
+    assert ends[0][7] == pytest.approx(10.0 / 0.5 * 0.2, rel=1e-9)
+    assert np.array_equal(ends[0], ends[1])
