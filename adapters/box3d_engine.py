@@ -200,6 +200,7 @@ class Box3DAdapter(Adapter):
         # solved in the sub-steps with the contacts, as Box2D's
         joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
         joint_limits=True,
+        joint_friction=True,  # a motor at speed 0 bounded by the friction (_joint), as Box2D's
         coordinates="maximal",
         loads=True,  # b3Body_ApplyForceToCenter and b3Body_ApplyTorque before each step (Box3D clears them)
         why_not=(("limit_restitution", "a joint's limit takes a range only (lowerAngle and upperAngle, lowerTranslation "
@@ -491,6 +492,8 @@ class Box3DSimulation(Simulation):
             fx.add("joint")
         if any("limits" in r for r in self.knobs.get("joints", {}).values()):
             fx.add("limit")
+        if any("friction" in r for r in self.knobs.get("joints", {}).values()):
+            fx.add("joint_friction")
         if self._loads:
             fx.add("load")
         return frozenset(fx)
@@ -500,8 +503,8 @@ class Box3DSimulation(Simulation):
         at the origin, made once) and the body (B). Each body's local frame sits at the anchor
         with its z axis (a revolute joint's) or x axis (a prismatic joint's) along the scene's
         axis (Box3D's hinge and slide axes); a limit bounds
-        B's turn (slide) relative to A about (along) it. No springs or motors,
-        collideConnected off (cases.scene.Joint); the constraints' softness Box3D's default."""
+        B's turn (slide) relative to A about (along) it; a dry friction is the joint's motor held
+        at speed 0 with its force bounded by it. No springs, collideConnected off (cases.scene.Joint); the constraints' softness Box3D's default."""
         from scipy.spatial.transform import Rotation
         if joint.parent is None and "world" not in self._every:
             bd = lib.b3DefaultBodyDef()
@@ -538,6 +541,14 @@ class Box3DSimulation(Simulation):
             else:
                 jd.lowerTranslation, jd.upperTranslation = joint.limits
             record["limits"] = list(joint.limits)
+        if joint.friction > 0:  # dry friction: a motor held at speed 0 whose force (torque) is bounded by it
+            jd.enableMotor, jd.motorSpeed = True, 0.0
+            if joint.kind == "revolute":
+                jd.maxMotorTorque = joint.friction
+                record.update(friction="motor at speed 0", maxMotorTorque=joint.friction)
+            else:
+                jd.maxMotorForce = joint.friction
+                record.update(friction="motor at speed 0", maxMotorForce=joint.friction)
         make[1](self._world, ffi.addressof(jd))
         self.knobs.setdefault("joints", {})[f"joints[{j}]"] = record
         return joint.kind

@@ -95,6 +95,7 @@ GROUND_HALF_THICKNESS = 1.0   # m
 # 2D shapes are extruded along y by this half-depth; the dynamics do not depend on it
 # (the inertia is the scene's and the joints keep bodies in the x-z plane).
 HALF_DEPTH_2D = 0.1           # m
+ORIGIN = np.zeros(3)          # a load's point: the body frame's origin, its centre of mass
 # Hard-coded in dart/constraint/ContactConstraint.cpp, not settable from dartpy.
 ENGINE_CONSTANTS = {
     "DART_ERP": 0.01,
@@ -323,6 +324,20 @@ class DartSimulation(Simulation):
         self._output = output
         self._dimension = dimension
         self._rough = rough          # bodies whose friction coefficient DART does not treat as zero
+        self._loads = []             # (BodyNode, force, torque), world frame: the scene's loads
+
+    def load(self, scene: Scene) -> None:
+        """The scene's constant loads, applied before each step (World::step clears every
+        external force after it): BodyNode.addExtForce at the body frame's origin, its centre
+        of mass (the Inertia's com is 0), and addExtTorque, both in the world frame."""
+        for load in scene.loads:
+            if load.acts:
+                self._loads.append((self._nodes[load.body], np.array(load.force, float),
+                                    np.array(load.torque, float)))
+        if self._loads:
+            self.effects = self.effects | {"load"}
+            self._knobs["loads"] = {"BodyNode.addExtForce": "world frame, at the centre of mass, before each step",
+                                    "BodyNode.addExtTorque": "world frame, before each step"}
 
     @property
     def knobs(self) -> dict:
@@ -334,6 +349,9 @@ class DartSimulation(Simulation):
         # cost 1-2 us per step, measured against a bare 2-4 us one-body world.step().
         self._output.begin((2,))
         try:
+            for node, force, torque in self._loads:
+                node.addExtForce(force, ORIGIN, False, True)
+                node.addExtTorque(torque, False)
             self._world.step()
         finally:
             self._output.end((2,))
@@ -538,11 +556,11 @@ class DartAdapter(Adapter):
         # parent's BodyNode (_tree_joint); a loop closed by a BallJointConstraint: reduced coordinates
         joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
         joint_limits=True,
+        joint_friction=True,  # Joint::setCoulombFriction (_tree_joint)
         coordinates="reduced",
-        why_not=(("load", "the adapter applies no external forces (BodyNode.addExtForce, cleared by each step, "
-                          "is not mapped)"),
-                 ("limit_restitution", "a joint's limit takes a range only (setPositionLowerLimit, "
-                                       "setPositionUpperLimit): DART's limit constraint has no restitution")),
+        loads=True,  # BodyNode.addExtForce and addExtTorque before each step (DartSimulation.load)
+        why_not=(("limit_restitution", "a joint's limit takes a range only (setPositionLowerLimit, "
+                                       "setPositionUpperLimit): DART's limit constraint has no restitution"),),
     )
 
     def version(self) -> str:
@@ -576,7 +594,9 @@ class DartAdapter(Adapter):
         rough = frozenset(name for name, m in mu.items()
                           if m > ENGINE_CONSTANTS["DART_FRICTION_COEFF_THRESHOLD"])
         kind = DartJointSimulation if scene.joints else DartSimulation
-        return kind(world, nodes, frames, knobs, _effects(scene, knobs, mu, e), sweeps, output, scene.dimension, rough)
+        sim = kind(world, nodes, frames, knobs, _effects(scene, knobs, mu, e), sweeps, output, scene.dimension, rough)
+        sim.load(scene)
+        return sim
 
 
 def _effects(scene: Scene, knobs: dict, mu: dict, e: dict) -> frozenset[str]:
@@ -599,6 +619,8 @@ def _effects(scene: Scene, knobs: dict, mu: dict, e: dict) -> frozenset[str]:
         fx.add("joint")
     if knobs.get("joint limits"):
         fx.add("limit")
+    if knobs.get("joint friction"):
+        fx.add("joint_friction")
     return frozenset(fx)
 
 
@@ -634,10 +656,16 @@ def _tree_joint(skeleton, scene: Scene, body: Body, tj: TreeJoint, position, R, 
             record["limits"] = list(joint.limits)
             knobs["joint limits"] = True
     if joint.kind != "fixed":
-        for i in range(made.getNumDofs()):  # no joint damping, stiffness or friction (DART's defaults, stated)
+        for i in range(made.getNumDofs()):  # no joint damping or stiffness (DART's defaults, stated)
             made.setDampingCoefficient(i, 0.0)
             made.setSpringStiffness(i, 0.0)
-            made.setCoulombFriction(i, 0.0)
+            # the joint's dry friction (0: none): DART's JointCoulombFrictionConstraint, a row in the
+            # step's boxed LCP whose impulse lies within -+ friction dt, Coulomb's law with the scene's
+            # constant bound (cases.scene.Joint)
+            made.setCoulombFriction(i, float(joint.friction))
+        if joint.friction > 0:
+            record["setCoulombFriction"] = float(joint.friction)
+            knobs["joint friction"] = True
         # a ball joint's rates are the turn's angular velocity in the joint's child frame,
         # world-aligned at the start: start_rate's world-frame w_rel
         rate = start_rate(scene, tj)

@@ -75,7 +75,8 @@ body (or the world) at the anchor, world-aligned at the start; a tree's root is 
 (floating) or planar as any body, so a chain floats. A body's start velocity relative to its
 parent becomes the joint's rate (adapters.joints.start_rate, refused where the joint does not
 allow it). A joint that would close a loop is a ball constraint (AddBallConstraint, which
-SAP's solver holds, also under Similar and Lagged) where the loop is planar. Bodies a joint
+SAP's solver holds, also under Similar and Lagged) where the loop is planar; so is a ball
+joint, its body left free (BALL_JOINT: Drake's BallRpyJoint is singular at pitch pi/2). Bodies a joint
 connects do not collide (a collision filter). Loads are ExternallyAppliedSpatialForces from a
 constant source on the plant's applied spatial force port.
 """
@@ -175,6 +176,25 @@ CONTINUOUS = ("cenic",)
 # convex solver, which Similar and Lagged also use; TAMSI and CENIC's continuous plant refuse
 # them (measured with pydrake 1.51.1).
 CONSTRAINED = ("sap", "similar", "lagged")
+# A scene's ball joint: Drake's tree joint for it is a BallRpyJoint, singular at a pitch of
+# pi/2, where a swing of 90 deg stopped the simulator (measured); Drake has no quaternion ball
+# joint (https://github.com/RobotLocomotion/drake/issues/12404). So the body stays free (its
+# QuaternionFloatingJoint, no singularity) and AddBallConstraint holds the joint's point on
+# both bodies, as a loop's closing joint: a constraint SAP's solver holds (CONSTRAINED).
+BALL_JOINT = ("a ball joint is held as a ball constraint (AddBallConstraint) on the free body, as Drake's "
+              "BallRpyJoint is singular at a pitch of pi/2 (a swing of 90 deg stopped the simulator, measured) and "
+              "a quaternion ball joint is not in Drake (https://github.com/RobotLocomotion/drake/issues/12404)")
+WORLD_ANCHOR = "physval:world anchor"  # the body welded to the world that holds a ball constraint's world side
+LOOSE = frozenset({"ball"})
+# A joint's dry friction: a joint actuator under SAP's implicit PD control (Drake's
+# SapPdControllerConstraint) with gains p = 0 and d = FRICTION_KD, desired rate 0 and its
+# effort limit the friction: the force -d qdot clamped to -+ friction, solved implicitly in the
+# step, is Coulomb's law with the scene's constant bound once d |qdot| exceeds it (below
+# friction / d, 5e-8 m/s for the rail's 4.9 N, it is a stiff damper that stops the joint in a
+# step). Drake's own joint damping is viscous, not Coulomb. SAP alone solves it (CONSTRAINED):
+# TAMSI ignores the PD gains (measured: the slider kept its 2 m/s); CENIC's continuous plant is
+# not mapped with them (measured under SAP only).
+FRICTION_KD = 1e8  # N s/m (N m s/rad)  # the joint kinds held as constraints between free bodies (joint_tree's loose)
 _CONTACT_MODELS = ("hydroelastic", "point")              # ContactModel.k<Name>
 
 
@@ -386,13 +406,15 @@ class DrakeSimulation(Simulation):
         material = _materials(scene, settings.dt, approximation, contact_model, options, self.knobs["contact_map"])
         self._geometry_name: dict[int, str] = {}
         self._geometry_ids: list = []  # (GeometryId, body name)
-        self._tree, closing = joint_tree(scene)
+        self._tree, closing = joint_tree(scene, LOOSE)
+        self._drives = 0  # the joints' friction drives (_joint)
         self._rigid: dict[str, object] = {}
         # a tree joint's parent before its body (the joint's frame F lives on the parent)
         order = [b for b in scene.bodies if b.name not in self._tree] + [scene.body(n) for n in self._tree]
         plan = {b.name: self._add_body(plant, b, scene, material) for b in order}
         self._close_loops(plant, scene, closing)
         plant.Finalize()
+        self._hold_drives(builder, plant)
         self._filter_joined(scene_graph, scene)
         self._plant = plant
         self._apply_loads(builder, plant, scene)
@@ -408,7 +430,8 @@ class DrakeSimulation(Simulation):
         self._results_port = plant.get_contact_results_output_port()
         self._steps = 0
         self._dt = settings.dt
-        self.effects = _effects(scene, material, plan, self._hydro) | ({"load"} if self._loaded else set())
+        self.effects = _effects(scene, material, plan, self._hydro) | ({"load"} if self._loaded else set()) \
+            | ({"joint_friction"} if self._drives else set())
 
     def _integrate_with_cenic(self, dt: float, accuracy: float) -> dict:
         """CENIC on the simulator (Drake's SimulatorConfig): error control on at `accuracy`,
@@ -521,10 +544,28 @@ class DrakeSimulation(Simulation):
                 "prismatic": lambda: PrismaticJoint(name, F, M, axis, damping=0.0),
                 "fixed": lambda: WeldJoint(name, F, M, RigidTransform())}[joint.kind]()
         made = plant.AddJoint(made)  # the plant's own joint (the built one was moved into it)
-        self.knobs["joints"][body.name] = {type(made).__name__: {"on": tj.parent or "world", "anchor": anchor.tolist(),
-                                                                 "axis": axis.tolist(), "damping": 0.0,
-                                                                 "limits": "none"}}
+        record = {"on": tj.parent or "world", "anchor": anchor.tolist(), "axis": axis.tolist(), "damping": 0.0,
+                  "limits": "none"}
+        if joint.friction > 0:  # dry friction: SAP's implicit PD drive at rate 0, its effort bounded (FRICTION_KD)
+            from pydrake.multibody.tree import PdControllerGains
+            drive = plant.AddJointActuator(f"{name}:friction", made, effort_limit=float(joint.friction))
+            drive.set_controller_gains(PdControllerGains(p=0.0, d=FRICTION_KD))
+            self._drives += 1
+            record["friction"] = {"AddJointActuator": {"effort_limit": joint.friction},
+                                  "PdControllerGains": {"p": 0.0, "d": FRICTION_KD}, "desired state": "0 (rate 0)"}
+        self.knobs["joints"][body.name] = {type(made).__name__: record}
         return ("jointed", rigid, made, tj)
+
+    def _hold_drives(self, builder, plant) -> None:
+        """The desired state of the friction drives (_joint): rate 0 (and position 0, which
+        gain p = 0 ignores), from a constant source on the plant's desired state port."""
+        if not self._drives:
+            return
+        from pydrake.multibody.tree import default_model_instance
+        from pydrake.systems.primitives import ConstantVectorSource
+        port = plant.get_desired_state_input_port(default_model_instance())
+        source = builder.AddSystem(ConstantVectorSource(np.zeros(port.size())))
+        builder.Connect(source.get_output_port(), port)
 
     def _filter_joined(self, scene_graph, scene: Scene) -> None:
         """Two bodies a scene joint connects do not collide (Scene.contact_pairs leaves them
@@ -546,15 +587,31 @@ class DrakeSimulation(Simulation):
             self.knobs["collision filter: jointed pairs excluded"] = joined
 
     def _close_loops(self, plant, scene: Scene, closing: list) -> None:
-        """Each joint that closes a loop (joint_tree) as Drake's ball constraint
-        (MultibodyPlant.AddBallConstraint, solved by SAP), at the joint's point on both bodies
-        (closing_ball_points: planar loops' revolute joints, or ball joints)."""
+        """Each joint that closes a loop (joint_tree), and each ball joint (BALL_JOINT), as
+        Drake's ball constraint (MultibodyPlant.AddBallConstraint, solved by SAP), at the
+        joint's point on both bodies (closing_ball_points: planar loops' revolute joints, or
+        ball joints)."""
+        anchor = None
         for j, body_name, p_AP, parent, p_BQ in closing_ball_points(scene, closing, "Drake's AddBallConstraint"):
-            B = plant.world_body() if parent is None else self._rigid[parent]
+            if parent is None and anchor is None:
+                anchor = self._world_anchor(plant)
+            B = anchor if parent is None else self._rigid[parent]
             plant.AddBallConstraint(self._rigid[body_name], p_AP, B, p_BQ)
             self.knobs.setdefault("loop", {})[f"joints[{j}]"] = {
-                "AddBallConstraint": {"body_A": body_name, "p_AP": p_AP.tolist(), "body_B": parent or "world",
+                "AddBallConstraint": {"body_A": body_name, "p_AP": p_AP.tolist(),
+                                      "body_B": parent or f"{WORLD_ANCHOR} (welded to the world at its origin)",
                                       "p_BQ": p_BQ.tolist()}}
+
+    def _world_anchor(self, plant):
+        """A massless body welded to the world at its origin, the world's side of a ball
+        constraint: AddBallConstraint(body, p, world_body(), q) stops the simulator with a
+        segmentation fault at the first step (pydrake 1.51.1, measured on a free body on one
+        such constraint; between two bodies, or against a welded body, it runs)."""
+        from pydrake.math import RigidTransform
+        from pydrake.multibody.tree import SpatialInertia, WeldJoint
+        anchor = plant.AddRigidBody(WORLD_ANCHOR, SpatialInertia.Zero())
+        plant.AddJoint(WeldJoint(f"{WORLD_ANCHOR}:weld", plant.world_frame(), anchor.body_frame(), RigidTransform()))
+        return anchor
 
     def _apply_loads(self, builder, plant, scene: Scene) -> None:
         """The scene's constant loads as one ExternallyAppliedSpatialForce a body (world frame,
@@ -1059,13 +1116,18 @@ class DrakeAdapter(Adapter):
             impact_model="compliant",
             # jointed bodies are a tree (adapters.joints.joint_tree): each hangs on Drake's joint
             # of its kind on its parent body or the world (DrakeSimulation._joint), a tree's root
-            # free or planar; a loop is closed by a ball constraint under SAP: reduced coordinates
-            joints=frozenset({"revolute", "prismatic", "fixed"}),
+            # free or planar; a loop, and a ball joint (BALL_JOINT), is a ball constraint on free
+            # bodies under SAP: reduced coordinates
+            joints=frozenset({"revolute", "prismatic", "fixed"} | ({"ball"} if approximation in CONSTRAINED else set())),
+            joint_friction=approximation in CONSTRAINED,  # SAP's PD drive at rate 0, effort-limited (FRICTION_KD)
             coordinates="reduced",
             loads=True,  # ExternallyAppliedSpatialForce from a constant source (DrakeSimulation._apply_loads)
-            why_not=(("joint", "Drake's ball joint is a BallRpyJoint, singular at a pitch of pi/2, where a swing "
-                               "of 90 deg stops the simulator (measured); a quaternion ball joint is not in Drake "
-                               "(https://github.com/RobotLocomotion/drake/issues/12404)"),
+            why_not=(("joint", BALL_JOINT + f"; the {approximation} approximation takes no constraints"),
+                     ("joint_friction", "a joint's dry friction is an effort-limited PD drive at rate 0, which SAP "
+                                        f"solves implicitly; {approximation} "
+                                        + ("ignores the drive's gains (measured: the rail's slider kept its 2 m/s)"
+                                           if approximation == "tamsi" else "is not mapped with it (the drive was measured under SAP only)")
+                                        + "; Drake's joint damping is viscous, not Coulomb"),
                      ("limit", "joint limits are not mapped (Drake enforces them only under SAP)")),
         )
         tunables = {
@@ -1107,12 +1169,12 @@ class DrakeAdapter(Adapter):
         reason = self.capabilities.cannot_run(scene) or _unrepresentable(scene, self.contact_model)
         if reason:
             raise Unsupported(reason)
-        _, closing = joint_tree(scene)  # Unsupported for the joints the adapter does not map
+        _, closing = joint_tree(scene, LOOSE)  # Unsupported for the joints the adapter does not map
         if closing:
             if self.approximation not in CONSTRAINED:
-                j, _ = closing[0]
-                raise Unsupported(f"joints[{j}] closes a loop: Drake's tree holds no loop joint, and its ball "
-                                  f"constraint (AddBallConstraint) is solved by SAP only ({', '.join(CONSTRAINED)}), "
-                                  f"not by {self.approximation}")
+                j, joint = closing[0]
+                what = "is a ball joint" if joint.kind in LOOSE else "closes a loop: Drake's tree holds no loop joint"
+                raise Unsupported(f"joints[{j}] {what}, and its ball constraint (AddBallConstraint) is solved by SAP "
+                                  f"only ({', '.join(CONSTRAINED)}), not by {self.approximation}")
             closing_ball_points(scene, closing, "Drake's AddBallConstraint")
         return DrakeSimulation(scene, settings, self.approximation, self.contact_model, self._options(settings))

@@ -28,11 +28,14 @@ class TreeJoint:
     parent: str | None
 
 
-def joint_tree(scene: Scene) -> tuple[dict[str, TreeJoint], list[tuple[int, Joint]]]:
+def joint_tree(scene: Scene, loose: frozenset[str] = frozenset()) \
+        -> tuple[dict[str, TreeJoint], list[tuple[int, Joint]]]:
     """The kinematic tree of the scene's joints: each jointed dynamic body's TreeJoint, in an
     order where a parent comes before its children (a body's first joint hangs it); and the
     joints (index, joint) that close a loop (a body's second joint, or one whose parent hangs
-    on its body), which no tree holds. Unsupported for a static body as a joint's `body`."""
+    on its body), which no tree holds, with the joints of the kinds in `loose` (an engine
+    without a tree joint of that kind holds them as constraints between free bodies, as a
+    loop's). Unsupported for a static body as a joint's `body`."""
     static = {b.name for b in scene.bodies if b.static}
     tree: dict[str, TreeJoint] = {}
     closing: list[tuple[int, Joint]] = []
@@ -44,7 +47,7 @@ def joint_tree(scene: Scene) -> tuple[dict[str, TreeJoint], list[tuple[int, Join
         seen = up
         while seen is not None and seen != joint.body:
             seen = tree[seen].parent if seen in tree else None
-        if joint.body in tree or seen == joint.body:
+        if joint.body in tree or seen == joint.body or joint.kind in loose:
             closing.append((j, joint))
         else:
             tree[joint.body] = TreeJoint(j, joint, up)

@@ -239,6 +239,7 @@ class PyBulletAdapter(Adapter):
         # constraint: Featherstone's reduced coordinates
         joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
         joint_limits=True,
+        joint_friction=True,  # a velocity motor at 0 bounded by the friction (PyBulletSimulation._add_tree)
         coordinates="reduced",
         loads=True,  # applyExternalForce and applyExternalTorque before each step (pybullet clears them)
         why_not=(("limit_restitution", "a multibody joint's limit takes a range only (changeDynamics jointLowerLimit, "
@@ -266,8 +267,8 @@ class PyBulletAdapter(Adapter):
                        "solver": solver, "ccd": self.continuous_collision(ccd)}
         if bodies == "rigid":  # 2D bodies stay in their plane on joints, which need reduced coordinates
             self.capabilities = replace(
-                self.capabilities, dimensions=frozenset({3}), joints=frozenset(), joint_limits=False, coordinates=None,
-                loads=False,
+                self.capabilities, dimensions=frozenset({3}), joints=frozenset(), joint_limits=False,
+                joint_friction=False, coordinates=None, loads=False,
                 why_not=self.capabilities.why_not + (
                     ("joint", "the rigid variant keeps every body a maximal-coordinate btRigidBody: a scene joint "
                               "would be a Bullet constraint (createConstraint), not mapped"),
@@ -610,6 +611,7 @@ class PyBulletSimulation(Simulation):
             "bodies": {},
         }
         self._tree, closing = joint_tree(scene)
+        self._dry: list[str] = []  # the bodies whose scene joint has a dry friction (its motor holds speed 0)
         self._ids: dict[tuple[int, int], str] = {}  # (body unique id, link index) -> name
         self._dynamic: list[tuple[str, int, int]] = []  # (name, body id, link index or -1)
         # one multibody per connected jointed group: its root and the bodies hanging on it
@@ -811,7 +813,16 @@ class PyBulletSimulation(Simulation):
                 p.setJointMotorControlMultiDof(uid, k, p.POSITION_CONTROL, targetPosition=[0, 0, 0, 1],
                                                positionGain=0, velocityGain=0, force=[0, 0, 0], physicsClientId=c)
             elif spec["type"] != p.JOINT_FIXED:
-                p.setJointMotorControl2(uid, k, p.VELOCITY_CONTROL, force=0.0, physicsClientId=c)
+                # the default motor released (force 0), or, for a joint's dry friction, held at
+                # speed 0 with its force bounded by the friction: a row whose impulse lies within
+                # -+ friction dt, Coulomb's law with the scene's constant bound (cases.scene.Joint)
+                dry = spec["scene"].joint.friction if "scene" in spec else 0.0
+                p.setJointMotorControl2(uid, k, p.VELOCITY_CONTROL, targetVelocity=0.0, force=dry, physicsClientId=c)
+                if dry > 0:
+                    self._dry.append(spec["scene"].joint.body)
+                    record.setdefault("joint friction", {})[spec["scene"].joint.body] = {
+                        "setJointMotorControl2": {"controlMode": "VELOCITY_CONTROL", "targetVelocity": 0.0,
+                                                  "force": dry}}
             if "planar" in spec:
                 v, w = root.velocity, root.angular_velocity
                 rate = {"prismatic x": v[0], "prismatic z": v[2], "revolute y": w[1]}[spec["planar"]]
@@ -926,6 +937,8 @@ class PyBulletSimulation(Simulation):
             fx.add("joint")
         if any(tj.joint.limits is not None for tj in self._tree.values()):
             fx.add("limit")
+        if self._dry:
+            fx.add("joint_friction")
         if self._loads:
             fx.add("load")
         return frozenset(fx)

@@ -159,7 +159,12 @@ def solve_joints(contacts, joints, bodies, dt, settings) -> int:
     or the limit's gap, unilateral as a contact), with the contacts' k and d: a joint is a
     stiff spring of k N/m (N m/rad on an angular row) critically damped over d steps. A
     friction row is as a contact's tangent row (no regularisation, target G W' = 0) with
-    its constant bound (joints.BOXED). No restitution at a limit (inelastic, as contacts)."""
+    its constant bound (joints.BOXED). No restitution at a limit (inelastic, as contacts).
+    A limit row takes part once this step's motion (external forces, no impulse) would
+    close its gap, or the gap is closed: note 004 writes q as an overlap, and a row with a
+    gap q > 0 asks -a q - b G W > 0 once q < d h |G W|, braking the joint d steps before
+    its stop (measured: limit_impact's rod met its limit at 5.3987 for 5.4206 rad/s; with
+    the rule, 5.4140, as the other formulations' 5.4135)."""
     rows, data, u = world_rows(contacts, bodies)
     C, K, N = len(rows.a), len(joints.g), len(u)
     W = np.empty_like(u)
@@ -174,9 +179,15 @@ def solve_joints(contacts, joints, bodies, dt, settings) -> int:
     for k in range(C):
         start[k] = contact_start[k]
     m = n
+    free = row_velocity(joints.rows, u)  # each joint row's rate after this step's external forces, no impulse
     for k in range(K):  # q of the regularised rows, in row order
         if joints.rows.normal[k] != BOXED:
             q[m] = joints.g[k]
+            if joints.rows.normal[k] == k and joints.g[k] > 0.0 and joints.g[k] + dt * free[k] > 0.0:
+                # a limit this step's motion does not reach: no row (q = inf, rhs = -inf, lambda = 0).
+                # Note 004's q is an overlap ("q the overlap (negative)"); a row with a gap q > 0
+                # would ask -a q - b G W, and act once q < d h |G W|: d steps before the stop
+                q[m] = np.inf
             m += 1
         start[C + k] = joints.P[k]
     warm = settings.warm_start and (np.any(contacts.Pn != 0.0) or np.any(joints.P != 0.0))
@@ -198,6 +209,7 @@ def knobs(config) -> dict:
             "restitution": "none: inelastic (scenes with e > 0 are refused)",
             "depenetration": "SPOOK's own -a q term (no pseudo-velocities)",
             "joints": "ball, revolute, prismatic and fixed joints as equality rows, limits as unilateral rows, "
-                      "regularised and stabilised as the contacts (eps, -a g) with spook_k and spook_d; friction as "
-                      "a row within -+ friction dt; no restitution at a limit",
+                      "regularised and stabilised as the contacts (eps, -a g) with spook_k and spook_d, a limit's row only "
+                      "once the step's motion reaches it; friction as a row within -+ friction dt; no restitution "
+                      "at a limit",
             "iterations": config.iterations, "tolerance": config.tolerance, "warm_start": config.warm_start}
