@@ -709,3 +709,24 @@ def test_a_read_only_remount_mid_run_is_one_line_keeps_the_rows_and_resumes(tmp_
     monkeypatch.undo()
     assert main(argv) == 0
     assert "(2 runs now, 2 reused" in capsys.readouterr().out
+
+
+def test_the_dry_run_of_a_family_file_starts_one_worker_for_its_three_steps(cases_dir, monkeypatch):
+    """Loading the file, warming the reference and running each variant one step share the
+    workers: with --workers 1, one worker process, which loads the reference's compiled code
+    once (before: a pool a step, three workers, the reference loaded twice)."""
+    from physval.core import dry_run
+    from physval.core.session import Execution
+    made = []
+
+    def recorded(ctx, execution):
+        ex = executor_of(ctx, execution)
+        made.append(ex)
+        return ex
+
+    executor_of = dry_run.executor_of
+    monkeypatch.setattr(dry_run, "executor_of", recorded)
+    (tried,) = dry_run.try_files([(cases_dir / "faulty_fall.py", "faulty_fall.py")],
+                                 Execution(workers=1, job_timeout=60, progress=False))
+    assert not tried.problem and len(tried.observed) == 6
+    assert len(made) == 1 and made[0].started == 1

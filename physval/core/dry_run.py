@@ -19,7 +19,7 @@ from __future__ import annotations
 import functools
 import math
 import os
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from adapters import registry
@@ -29,7 +29,8 @@ from cases.scene import Body, Scene, Sphere, ground
 from physval.core.context import Context
 from physval.core.executor import DEFAULT_JOB_TIMEOUT
 from physval.core.jobs import Failed, number_of, run_scene
-from physval.core.session import Execution, map_calls
+from physval.core.session import Execution, executor_of, map_calls
+from physval.interrupts import sigterm_as_ctrl_c
 
 DRY_RUN_ENGINE = "reference"
 # s per call: a file's import, or one variant built and run one step. A command's shorter
@@ -66,17 +67,23 @@ def try_files(files: list[tuple[Path, str]], execution: Execution) -> list[Tried
     """Dry-run family files, each (path, name in messages), in workers: one Tried each."""
     tried = [Tried(shown) for _, shown in files]
     variants = []  # (Tried, path, variant id)
-    results = map_calls(_outline, [(str(path), shown) for path, shown in files], Context(), execution)
-    for t, (path, _), r in zip(tried, files, results):
-        found = f"{t.file}: cannot be loaded: {r.error} ({LOAD_DEATH_RULE})" if r.error else r.value
-        if isinstance(found, str):
-            t.problem = found
-            continue
-        t.family, ids = found
-        variants += [(t, path, vid) for vid in ids]
-    if variants:  # the reference's first-run cost is physval's, not the user's code's: paid before the limit counts
-        map_calls(_warm, [DRY_RUN_ENGINE], Context(), replace(execution, workers=1, job_timeout=DEFAULT_JOB_TIMEOUT))
-    results = map_calls(_variant, [(str(path), t.file, vid) for t, path, vid in variants], Context(), execution)
+    # one set of workers for the three steps: the worker that loaded the reference for the
+    # warm-up runs variants with it loaded (before: a pool a step, each loading it again, ~1 s)
+    with sigterm_as_ctrl_c(), executor_of(Context(), execution) as ex:
+        results = map_calls(_outline, [(str(path), shown) for path, shown in files], Context(), execution,
+                            executor=ex)
+        for t, (path, _), r in zip(tried, files, results):
+            found = f"{t.file}: cannot be loaded: {r.error} ({LOAD_DEATH_RULE})" if r.error else r.value
+            if isinstance(found, str):
+                t.problem = found
+                continue
+            t.family, ids = found
+            variants += [(t, path, vid) for vid in ids]
+        if variants:  # the reference's first-run cost is physval's, not the user's code's: paid before the limit counts
+            with ex.time_limit(DEFAULT_JOB_TIMEOUT):
+                map_calls(_warm, [DRY_RUN_ENGINE], Context(), execution, executor=ex)
+        results = map_calls(_variant, [(str(path), t.file, vid) for t, path, vid in variants], Context(), execution,
+                            executor=ex)
     for (t, _, vid), r in zip(variants, results):
         found = f"{t.file}: {t.family}[{vid}]: {r.error} ({DEATH_RULE})" if r.error else r.value
         if isinstance(found, str):

@@ -18,6 +18,7 @@ its Dask worker (recycle workers with `dask worker --lifetime`).
 from __future__ import annotations
 
 import collections
+import contextlib
 import multiprocessing as mp
 import multiprocessing.connection
 from multiprocessing.reduction import ForkingPickler
@@ -224,6 +225,15 @@ class LocalExecutor:
 
     def __exit__(self, *exc):
         self.close()
+
+    @contextlib.contextmanager
+    def time_limit(self, seconds: float | None):
+        """Within it, the per-task time limit is `seconds` (None: none); the workers stay."""
+        before, self.job_timeout = self.job_timeout, seconds or None
+        try:
+            yield self
+        finally:
+            self.job_timeout = before
 
     def close(self) -> None:
         """Stop every worker at once (what has finished is already with the caller): all

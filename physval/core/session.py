@@ -315,17 +315,25 @@ def run_plan(plan, ctx: Context, path, columns: list[str], execution: Execution 
     return stream.value
 
 
+def executor_of(ctx: Context, execution: Execution):
+    """The executor `execution` asks for (a context manager that stops its workers at its
+    end), for several map_calls in a row on the same workers (executor=)."""
+    return make_executor(ctx, execution.workers, execution.scheduler, execution.job_timeout, execution.start_method)
+
+
 def map_calls(fn, args, ctx: Context = Context(), execution: Execution = Execution(),
-              label: str = "calls") -> list[CallResult]:
+              label: str = "calls", executor=None) -> list[CallResult]:
     """fn(arg) for every arg, each a task of the executor (local workers, crash- and
     time-out-isolated, or Dask), in the order of `args`. A call that raised or whose worker
-    died has no value and says why in `error`. Raises KeyboardInterrupt if interrupted."""
+    died has no value and says why in `error`. Raises KeyboardInterrupt if interrupted.
+    `executor`: one of executor_of whose workers (and what they loaded) serve these calls,
+    instead of workers started for them and stopped after."""
     calls = [Call(fn, a, i) for i, a in enumerate(args)]
     results: list[CallResult | None] = [None] * len(calls)
     bar = Progress(len(calls), label, execution.progress)
     try:
-        with sigterm_as_ctrl_c(), make_executor(ctx, execution.workers, execution.scheduler,
-                                                   execution.job_timeout, execution.start_method) as ex:
+        with sigterm_as_ctrl_c(), (contextlib.nullcontext(executor) if executor is not None
+                                   else executor_of(ctx, execution)) as ex:
             for result in ex.run(calls):
                 results[result.call.tag] = result
                 bar.update()
