@@ -307,6 +307,40 @@ def _physval_process(*args, timeout=120):
                           timeout=timeout)
 
 
+# Several command lines, one after the other, in one process of its own (the lines a test
+# reads together): one interpreter start, one import of physval and the families, one fork
+# server, instead of one each. Each line's outcome is printed as it ends, so a crash that got
+# through ends this process, not the test's, and the lines it did not reach say so.
+_EACH_IN_TURN = """
+import contextlib, io, json, sys
+from physval.cli import main
+for argv in json.loads(sys.argv[1]):
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = main(argv)
+        except SystemExit as exc:
+            code = exc.code
+    print(json.dumps([code, out.getvalue(), err.getvalue()]), flush=True)
+"""
+
+
+def _physval_in_turn(*argvs, timeout=300) -> list:
+    """`physval ARGV` for each of `argvs`, in one process of its own (_EACH_IN_TURN):
+    each as _physval_process gives it (exit code, stdout, stderr). A line the process did
+    not reach (an earlier one ended it) has no exit code and says so in its stderr."""
+    import json
+    import subprocess
+    import sys
+    from types import SimpleNamespace
+    proc = subprocess.run([sys.executable, "-c", _EACH_IN_TURN, json.dumps([list(a) for a in argvs])], cwd=ROOT,
+                          capture_output=True, text=True, timeout=timeout)
+    done = [SimpleNamespace(returncode=c, stdout=o, stderr=e)
+            for c, o, e in (json.loads(line) for line in proc.stdout.splitlines())]
+    ended = f"not reached: the process ended with exit {proc.returncode} before it\n{proc.stderr[-3000:]}"
+    return done + [SimpleNamespace(returncode=None, stdout="", stderr=ended)] * (len(argvs) - len(done))
+
+
 SEGFAULT, EXIT, OS_EXIT = "__import__('ctypes').string_at(0)", "__import__('sys').exit(0)", "__import__('os')._exit(0)"
 HANG = "[0 for _ in iter(int, 1)]"  # an endless loop, as an expression
 ENDS = "never end the process, and finish within the time limit"  # the rule those lines state
@@ -416,8 +450,13 @@ def test_a_broken_file_leaves_the_other_families_of_its_folder_runnable(tmp_path
     (cases / "clash.py").write_text(_user_case(name="conformance"))
     broken = {"exits.py": "cannot be loaded", "nan.py": "observe() gave x = nan",
               "clash.py": "family 'conformance' is already a built-in family"}
-    run = ("run", "--cases-dir", str(cases), "--engines", "reference", "--workers", "1", "--quiet", "--out", str(out))
-    got = _physval_process(*run, "--cases", "good")
+    run = ("run", "--cases-dir", str(cases), "--engines", "reference", "--workers", "1", "--quiet")
+    stops = ("nan_family", "nan.py"), ("conformance", "clash.py"), ("exits_family", "exits.py"), (None, "")
+    # the run of the good family, then each run that must stop (each into a folder of its own),
+    # one after the other in one process
+    got, *stopped = _physval_in_turn((*run, "--out", str(out), "--cases", "good"),
+                                     *((*run, "--out", str(tmp_path / f"stop{i}"), *(["--cases", spec] if spec else []))
+                                       for i, (spec, _) in enumerate(stops)))
     assert got.returncode == 0, got.stderr
     lines = got.stderr.strip().splitlines()
     assert len(lines) == len(broken), lines
@@ -427,10 +466,10 @@ def test_a_broken_file_leaves_the_other_families_of_its_folder_runnable(tmp_path
     import csv
     rows = list(csv.DictReader(open(out / "results.csv")))
     assert {r["case"] for r in rows} == {"good"} and {r["status"] for r in rows} == {"pass"}, rows
-    for spec, f in (("nan_family", "nan.py"), ("conformance", "clash.py"), ("exits_family", "exits.py"), (None, "")):
-        got = _physval_process(*run, *(["--cases", spec] if spec else []))
+    for i, ((spec, f), got) in enumerate(zip(stops, stopped)):
         lines = got.stderr.strip().splitlines()
         assert got.returncode == 2 and len(lines) == 1 and str(cases / f) in lines[0], (spec, got.stderr)
+        assert not (tmp_path / f"stop{i}" / "results.csv").exists()
 
 
 # --- paths the file system refuses (issue 33) ------------------------------------------------
