@@ -348,32 +348,54 @@ ENDS_FULLY = "a family's code must return or raise, " + ENDS
 LOAD_ENDS = "a case file must import without ending the process, within the time limit"
 
 
-@pytest.mark.parametrize("source,names,message", [
-    (_user_case(observe=f"lambda t, p: {SEGFAULT}"), "my_bounce[e=0.5]",
-     "killed by signal SIGSEGV (11) (" + ENDS_FULLY),
-    (_user_case(observe=f"lambda t, p: {OS_EXIT}"), "my_bounce[e=0.5]", "it exited with code 0 (" + ENDS_FULLY),
-    (_user_case(observe=f"lambda t, p: {EXIT}"), "my_bounce[e=0.5]",
-     "observe() raised SystemExit(0) (an observer must give every check a finite number"),
-    (_user_case(observe=f"lambda t, p: {HANG}"), "my_bounce[e=0.5]", "longer than the per-job time limit of 2 s"),
-    (_user_case(scene=f"lambda p: {SEGFAULT}"), "my_bounce[e=0.5]", "killed by signal SIGSEGV"),
-    (_user_case(expect=f"lambda p, dt: {OS_EXIT}"), "my_bounce[e=0.5]", "it exited with code 0"),
-    (_user_case(expect=f"lambda p, dt: {EXIT}"), "my_bounce[e=0.5]", "its code raised SystemExit(0) (scene, duration"),
-    ("import os\nos._exit(3)\n" + _user_case(), "cannot be loaded", "it exited with code 3 (" + LOAD_ENDS),
-    ("import sys\nsys.exit(3)\n" + _user_case(), "cannot be loaded", "SystemExit(3) (a case file must import"),
-], ids=["observe-segfault", "observe-os_exit", "observe-sys_exit", "observe-hang", "scene-segfault",
-        "expect-os_exit", "expect-sys_exit", "import-os_exit", "import-sys_exit"])
-def test_check_case_survives_a_family_that_crashes_exits_or_hangs(source, names, message, tmp_path):
+# id -> (a family file's source, the family[variant] or "cannot be loaded", what the line says)
+CRASHES = {
+    "observe-segfault": (_user_case(observe=f"lambda t, p: {SEGFAULT}"), "my_bounce[e=0.5]",
+                         "killed by signal SIGSEGV (11) (" + ENDS_FULLY),
+    "observe-os_exit": (_user_case(observe=f"lambda t, p: {OS_EXIT}"), "my_bounce[e=0.5]",
+                        "it exited with code 0 (" + ENDS_FULLY),
+    "observe-sys_exit": (_user_case(observe=f"lambda t, p: {EXIT}"), "my_bounce[e=0.5]",
+                         "observe() raised SystemExit(0) (an observer must give every check a finite number"),
+    "observe-hang": (_user_case(observe=f"lambda t, p: {HANG}"), "my_bounce[e=0.5]",
+                     "longer than the per-job time limit of 2 s"),
+    "scene-segfault": (_user_case(scene=f"lambda p: {SEGFAULT}"), "my_bounce[e=0.5]", "killed by signal SIGSEGV"),
+    "expect-os_exit": (_user_case(expect=f"lambda p, dt: {OS_EXIT}"), "my_bounce[e=0.5]", "it exited with code 0"),
+    "expect-sys_exit": (_user_case(expect=f"lambda p, dt: {EXIT}"), "my_bounce[e=0.5]",
+                        "its code raised SystemExit(0) (scene, duration"),
+    "import-os_exit": ("import os\nos._exit(3)\n" + _user_case(), "cannot be loaded",
+                       "it exited with code 3 (" + LOAD_ENDS),
+    "import-sys_exit": ("import sys\nsys.exit(3)\n" + _user_case(), "cannot be loaded",
+                        "SystemExit(3) (a case file must import"),
+}
+
+
+@pytest.fixture(scope="module")
+def checked_crashes(tmp_path_factory) -> dict:
+    """id -> (the file, what `physval check-case` said of it) for every family of CRASHES,
+    each file in a folder of its own, checked one after the other in one process of its own."""
+    base = tmp_path_factory.mktemp("crashes")
+    files, argvs = {}, []
+    for name, (source, _, message) in CRASHES.items():
+        (base / name).mkdir()
+        files[name] = base / name / "mine.py"
+        files[name].write_text(source)
+        # 2 s for the endless loop; the others end at once, after the reference's first step,
+        # which on an empty numba cache compiles for tens of seconds: a limit no load reaches
+        limit = "2" if "time limit of 2 s" in message else "900"
+        argvs.append(("check-case", "--job-timeout", limit, str(files[name])))
+    return dict(zip(CRASHES, zip(files.values(), _physval_in_turn(*argvs, timeout=900))))
+
+
+@pytest.mark.parametrize("crash", list(CRASHES))
+def test_check_case_survives_a_family_that_crashes_exits_or_hangs(checked_crashes, crash):
     """Every way a family's code can end a process, in each place physval calls it, is one
     line and exit 2: the file, the family[variant] (or that it cannot be loaded) and what is
     allowed (before: exit 139 and nothing said for a segfault, exit 0, 'usable', for an exit)."""
-    (tmp_path / "mine.py").write_text(source)
-    # 2 s for the endless loop; the others end at once, after the reference's first step,
-    # which on an empty numba cache compiles for tens of seconds: a limit no load reaches
-    limit = "2" if "time limit of 2 s" in message else "900"
-    got = _physval_process("check-case", "--job-timeout", limit, str(tmp_path / "mine.py"))
+    _, names, message = CRASHES[crash]
+    path, got = checked_crashes[crash]
     lines = got.stderr.strip().splitlines()
     assert got.returncode == 2, (got.returncode, got.stderr)
-    assert len(lines) == 1 and lines[0].startswith(f"physval: error: {tmp_path / 'mine.py'}: {names}"), got.stderr
+    assert len(lines) == 1 and lines[0].startswith(f"physval: error: {path}: {names}"), got.stderr
     assert message in lines[0], lines[0]
     assert "runs on" not in got.stdout
 
