@@ -415,32 +415,57 @@ def test_a_run_survives_a_family_that_crashes(source, tmp_path):
     assert not (tmp_path / "out" / "results.csv").exists()
 
 
-@pytest.mark.parametrize("adapter,message", [
-    ("import sys\nsys.exit(0)\n", "cannot be imported: SystemExit(0) (an adapter's module must import"),
-    ("import os\nos._exit(0)\n", "it exited with code 0 (an adapter's module must import, and its class be made, "
-                                  "without ending the process)"),
-    ("import os\nfrom adapters.reference_engine import ReferenceAdapter\n"
-     "class Engine(ReferenceAdapter):\n    def __init__(self):\n        os.kill(os.getpid(), 11)\n",
-     "killed by signal SIGSEGV"),
-    ("from adapters.reference_engine import ReferenceAdapter\n"
-     "class Engine(ReferenceAdapter):\n    def __init__(self):\n        super().__init__(name='reference-mine')\n"
-     "    def version(self):\n        raise RuntimeError('no release here')\n",
-     "version() raised RuntimeError: no release here (an adapter's version() must return its engine's release as a "
-     "string)"),
-], ids=["import-sys_exit", "import-os_exit", "constructor-segfault", "version-raises"])
-@pytest.mark.parametrize("command", [["list", "--engines"], ["run", "--engines", "reference", "--quiet"]],
-                         ids=["list", "run"])
-def test_an_adapter_file_that_exits_or_crashes_is_one_line(adapter, message, command, tmp_path):
+# id -> (an --adapter file's source, what the line says)
+BAD_ADAPTERS = {
+    "import-sys_exit": ("import sys\nsys.exit(0)\n",
+                        "cannot be imported: SystemExit(0) (an adapter's module must import"),
+    "import-os_exit": ("import os\nos._exit(0)\n",
+                       "it exited with code 0 (an adapter's module must import, and its class be made, "
+                       "without ending the process)"),
+    "constructor-segfault": ("import os\nfrom adapters.reference_engine import ReferenceAdapter\n"
+                             "class Engine(ReferenceAdapter):\n    def __init__(self):\n"
+                             "        os.kill(os.getpid(), 11)\n",
+                             "killed by signal SIGSEGV"),
+    "version-raises": ("from adapters.reference_engine import ReferenceAdapter\n"
+                       "class Engine(ReferenceAdapter):\n    def __init__(self):\n"
+                       "        super().__init__(name='reference-mine')\n"
+                       "    def version(self):\n        raise RuntimeError('no release here')\n",
+                       "version() raised RuntimeError: no release here (an adapter's version() must return its "
+                       "engine's release as a string)"),
+}
+ADAPTER_COMMANDS = {"list": ["list", "--engines"], "run": ["run", "--engines", "reference", "--quiet"]}
+
+
+@pytest.fixture(scope="module")
+def bad_adapters(tmp_path_factory) -> dict:
+    """(adapter id, command id) -> (the --adapter target, its folder, what the command said)
+    for every file of BAD_ADAPTERS under every command of ADAPTER_COMMANDS, each in a
+    folder of its own, one after the other in one process of its own."""
+    base = tmp_path_factory.mktemp("adapters")
+    runs = {}
+    for name, (source, _) in BAD_ADAPTERS.items():
+        for command, argv in ADAPTER_COMMANDS.items():
+            folder = base / f"{name}-{command}"
+            folder.mkdir()
+            (folder / "engine.py").write_text(source)
+            target = f"{folder / 'engine.py'}:Engine"
+            out = ["--out", str(folder / "out")] if argv[0] == "run" else []
+            runs[name, command] = (target, folder, (*argv, "--adapter", target, *out))
+    said = _physval_in_turn(*(argv for _, _, argv in runs.values()), timeout=600)
+    return {key: (target, folder, got) for (key, (target, folder, _)), got in zip(runs.items(), said)}
+
+
+@pytest.mark.parametrize("adapter", list(BAD_ADAPTERS))
+@pytest.mark.parametrize("command", list(ADAPTER_COMMANDS))
+def test_an_adapter_file_that_exits_or_crashes_is_one_line(bad_adapters, adapter, command):
     """An --adapter file is imported and made, and gives its version, in a worker first
     (before: exit 0 and no word; a version() that raised: a traceback after the dry run)."""
-    (tmp_path / "engine.py").write_text(adapter)
-    target = f"{tmp_path / 'engine.py'}:Engine"
-    out = ["--out", str(tmp_path / "out")] if command[0] == "run" else []
-    got = _physval_process(*command, "--adapter", target, *out)
+    target, folder, got = bad_adapters[adapter, command]
     lines = got.stderr.strip().splitlines()
     assert got.returncode == 2 and len(lines) == 1, (got.returncode, got.stderr)
-    assert lines[0].startswith(f"physval: error: adapter {target!r}: ") and message in lines[0], lines[0]
-    assert not (tmp_path / "out" / "results.csv").exists()
+    assert lines[0].startswith(f"physval: error: adapter {target!r}: ") and BAD_ADAPTERS[adapter][1] in lines[0], \
+        lines[0]
+    assert not (folder / "out" / "results.csv").exists()
 
 
 def test_an_observer_that_exits_in_a_real_run_is_an_error_row(tmp_path):
