@@ -325,16 +325,17 @@ for argv in json.loads(sys.argv[1]):
 """
 
 
-def _physval_in_turn(*argvs, timeout=300) -> list:
-    """`physval ARGV` for each of `argvs`, in one process of its own (_EACH_IN_TURN):
-    each as _physval_process gives it (exit code, stdout, stderr). A line the process did
-    not reach (an earlier one ended it) has no exit code and says so in its stderr."""
+def _physval_in_turn(*argvs, timeout=300, prefix=()) -> list:
+    """`physval ARGV` for each of `argvs`, in one process of its own (_EACH_IN_TURN; started
+    through `prefix`, e.g. _as_a_user's): each as _physval_process gives it (exit code,
+    stdout, stderr). A line the process did not reach (an earlier one ended it) has no exit
+    code and says so in its stderr."""
     import json
     import subprocess
     import sys
     from types import SimpleNamespace
-    proc = subprocess.run([sys.executable, "-c", _EACH_IN_TURN, json.dumps([list(a) for a in argvs])], cwd=ROOT,
-                          capture_output=True, text=True, timeout=timeout)
+    proc = subprocess.run([*prefix, sys.executable, "-c", _EACH_IN_TURN, json.dumps([list(a) for a in argvs])],
+                          cwd=ROOT, capture_output=True, text=True, timeout=timeout)
     done = [SimpleNamespace(returncode=c, stdout=o, stderr=e)
             for c, o, e in (json.loads(line) for line in proc.stdout.splitlines())]
     ended = f"not reached: the process ended with exit {proc.returncode} before it\n{proc.stderr[-3000:]}"
@@ -526,47 +527,64 @@ R = ["--cases", "central_impact[drop,e=0.5]", "--engines", "reference", "--readi
 
 
 def _as_a_user(*args, timeout=300):
-    """`python3 -m physval ARGS` as a user whom file permissions bind: root reads whatever
-    the permissions say, so as root the process runs without the capabilities that let it
-    (setpriv drops CAP_DAC_OVERRIDE and CAP_DAC_READ_SEARCH from its bounding set)."""
-    import os
-    import shutil
+    """`python3 -m physval ARGS` as a user whom file permissions bind (A_USER)."""
     import subprocess
     import sys
-    prefix = []
-    if os.geteuid() == 0:
-        if shutil.which("setpriv") is None:
-            pytest.skip("as root, a file cannot be made unreadable without setpriv (util-linux)")
-        prefix = ["setpriv", "--bounding-set", "-dac_override,-dac_read_search"]
-    return subprocess.run([*prefix, sys.executable, "-m", "physval", *args], cwd=ROOT, capture_output=True,
+    return subprocess.run([*A_USER(), sys.executable, "-m", "physval", *args], cwd=ROOT, capture_output=True,
                           text=True, timeout=timeout)
 
 
-@pytest.fixture
-def unreadable(tmp_path):
-    """A folder nobody may list or enter, with a results.csv and a family file in it."""
-    folder = tmp_path / "unreadable"
+def A_USER() -> list[str]:
+    """The prefix that runs a process as a user whom file permissions bind: root reads
+    whatever the permissions say, so as root the process runs without the capabilities that
+    let it (setpriv drops CAP_DAC_OVERRIDE and CAP_DAC_READ_SEARCH from its bounding set)."""
+    import os
+    import shutil
+    if os.geteuid() != 0:
+        return []
+    if shutil.which("setpriv") is None:
+        pytest.skip("as root, a file cannot be made unreadable without setpriv (util-linux)")
+    return ["setpriv", "--bounding-set", "-dac_override,-dac_read_search"]
+
+
+# id -> (the command line, given the unreadable folder and a folder of the test's own; its one line)
+REFUSED = {
+    "out-inside": (lambda u, t: ["run", *R, "--out", str(u / "out")],
+                   "--out {u}/out: cannot write there (Permission denied)"),
+    "compare": (lambda u, t: ["compare", str(u), str(u), "--out", str(t / "cmp")],
+                "{u}: cannot be read (Permission denied)"),
+    "cases-dir-inside": (lambda u, t: ["run", *R, "--cases-dir", str(u), "--out", str(t / "out")],
+                         "--cases-dir '{u}': cannot be read (Permission denied)"),
+    "known-inside": (lambda u, t: ["run", *R, "--known", str(u / "known.txt"), "--out", str(t / "out")],
+                     "--known '{u}/known.txt': cannot be read (Permission denied)"),
+}
+
+
+@pytest.fixture(scope="module")
+def refused(tmp_path_factory):
+    """(a folder nobody may list or enter, with a results.csv and a family file in it;
+    id -> what each command line of REFUSED gave), the lines run one after the other in one
+    process of their own, as a user whom file permissions bind."""
+    base = tmp_path_factory.mktemp("refused")
+    folder = base / "unreadable"
     folder.mkdir()
     (folder / "results.csv").write_text("case\n")
     (folder / "mine.py").write_text(_user_case())
     folder.chmod(0)
-    yield folder
-    folder.chmod(0o755)
+    try:
+        said = _physval_in_turn(*(args(folder, base / name) for name, (args, _) in REFUSED.items()), prefix=A_USER())
+    finally:
+        folder.chmod(0o755)
+    return folder, dict(zip(REFUSED, said))
 
 
-@pytest.mark.parametrize("args, option", [
-    (lambda u, t: ["run", *R, "--out", str(u / "out")], "--out {u}/out: cannot write there (Permission denied)"),
-    (lambda u, t: ["compare", str(u), str(u), "--out", str(t / "cmp")], "{u}: cannot be read (Permission denied)"),
-    (lambda u, t: ["run", *R, "--cases-dir", str(u), "--out", str(t / "out")],
-     "--cases-dir '{u}': cannot be read (Permission denied)"),
-    (lambda u, t: ["run", *R, "--known", str(u / "known.txt"), "--out", str(t / "out")],
-     "--known '{u}/known.txt': cannot be read (Permission denied)"),
-], ids=["out-inside", "compare", "cases-dir-inside", "known-inside"])
-def test_a_path_the_system_refuses_is_one_line_and_exit_2(unreadable, tmp_path, args, option):
+@pytest.mark.parametrize("refusal", list(REFUSED))
+def test_a_path_the_system_refuses_is_one_line_and_exit_2(refused, refusal):
     """Before: a traceback (PermissionError from a check that only asked whether it exists)."""
-    got = _as_a_user(*args(unreadable, tmp_path))
+    unreadable, said = refused
+    got = said[refusal]
     (line,) = got.stderr.strip().splitlines()
-    assert got.returncode == 2 and line == f"physval: error: {option.format(u=unreadable)}", got.stderr
+    assert got.returncode == 2 and line == f"physval: error: {REFUSED[refusal][1].format(u=unreadable)}", got.stderr
 
 
 def test_an_out_folder_name_too_long_is_one_line_and_exit_2(tmp_path):
@@ -586,17 +604,18 @@ def test_an_unreadable_family_file_is_left_out_and_the_good_families_run(tmp_pat
     (cases / "secret.py").chmod(0)
     # MuJoCo, compiled ahead: the reference would compile its step with numba on a cold cache,
     # minutes at a high load, against this subprocess's 300 s (tests/test_execution.py R_COMPILED)
-    run = ["run", "--cases-dir", str(cases), "--engines", "mujoco", "--readings", "none", "--workers", "1",
-           "--quiet", "--out", str(tmp_path / "out")]
-    got = _as_a_user(*run, "--cases", "good")
+    run = ["run", "--cases-dir", str(cases), "--engines", "mujoco", "--readings", "none", "--workers", "1", "--quiet"]
+    # the good family, then every family (into a folder of its own), one after the other in one process
+    got, every = _physval_in_turn((*run, "--out", str(tmp_path / "out"), "--cases", "good"),
+                                  (*run, "--out", str(tmp_path / "every")), prefix=A_USER())
     (line,) = got.stderr.strip().splitlines()
     assert got.returncode == 0 and line.startswith(f"physval: left out {cases / 'secret.py'}: cannot be loaded: "
                                                    "PermissionError"), got.stderr
     import csv
     assert {r["case"] for r in csv.DictReader(open(tmp_path / "out" / "results.csv"))} == {"good"}
-    got = _as_a_user(*run)  # every family: the one that cannot be read stops it
-    (line,) = got.stderr.strip().splitlines()
-    assert got.returncode == 2 and str(cases / "secret.py") in line and "Permission denied" in line, got.stderr
+    (line,) = every.stderr.strip().splitlines()  # every family: the one that cannot be read stops it
+    assert every.returncode == 2 and str(cases / "secret.py") in line and "Permission denied" in line, every.stderr
+    assert not (tmp_path / "every" / "results.csv").exists()
 
 
 @pytest.mark.parametrize("folder, message", [("missing", "no such folder"),
