@@ -138,11 +138,12 @@ def pytest_collection_modifyitems(config, items):
 # process) run on one pytest-xdist worker (pytest_xdist_make_scheduler): with `-n 2`'s
 # `--dist load` each worker that ran one of their tests made the set-up again. Heaviest
 # first where measured (CPU s of the file in an earlier `pytest -n 2` under load: installed
-# 187, faults 185, plugins 58, real 38, catches 35), so that the longest chain starts at once
-# and the other worker fills in beside it.
+# 187, faults 185, plugins 58, real 38, catches 35; bad_input 83 with its physval processes,
+# `-n 2` quiet), so that the longest chain starts at once and the other worker fills in beside it.
 ONE_WORKER = {
     "test_installed.py": "the wheel built and installed in a fresh environment, whose first reference run compiles",
     "test_faults.py": "each fault's rows on each engine, cached in the process (and the unmodified wrapper's)",
+    "test_bad_input.py": "the crashing families, bad adapters and refused paths, each set tried in one process",
     "test_plugins.py": "the example plug-in installed by pip",
     "test_real.py": "the packaged tosses and the synthetic tosses MuJoCo makes",
     "test_testing.py": "physval and the example plug-in installed by pip",

@@ -307,6 +307,41 @@ def _physval_process(*args, timeout=120):
                           timeout=timeout)
 
 
+# Several command lines, one after the other, in one process of its own (the lines a test
+# reads together): one interpreter start, one import of physval and the families, one fork
+# server, instead of one each. Each line's outcome is printed as it ends, so a crash that got
+# through ends this process, not the test's, and the lines it did not reach say so.
+_EACH_IN_TURN = """
+import contextlib, io, json, sys
+from physval.cli import main
+for argv in json.loads(sys.argv[1]):
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = main(argv)
+        except SystemExit as exc:
+            code = exc.code
+    print(json.dumps([code, out.getvalue(), err.getvalue()]), flush=True)
+"""
+
+
+def _physval_in_turn(*argvs, timeout=300, prefix=()) -> list:
+    """`physval ARGV` for each of `argvs`, in one process of its own (_EACH_IN_TURN; started
+    through `prefix`, e.g. _as_a_user's): each as _physval_process gives it (exit code,
+    stdout, stderr). A line the process did not reach (an earlier one ended it) has no exit
+    code and says so in its stderr."""
+    import json
+    import subprocess
+    import sys
+    from types import SimpleNamespace
+    proc = subprocess.run([*prefix, sys.executable, "-c", _EACH_IN_TURN, json.dumps([list(a) for a in argvs])],
+                          cwd=ROOT, capture_output=True, text=True, timeout=timeout)
+    done = [SimpleNamespace(returncode=c, stdout=o, stderr=e)
+            for c, o, e in (json.loads(line) for line in proc.stdout.splitlines())]
+    ended = f"not reached: the process ended with exit {proc.returncode} before it\n{proc.stderr[-3000:]}"
+    return done + [SimpleNamespace(returncode=None, stdout="", stderr=ended)] * (len(argvs) - len(done))
+
+
 SEGFAULT, EXIT, OS_EXIT = "__import__('ctypes').string_at(0)", "__import__('sys').exit(0)", "__import__('os')._exit(0)"
 HANG = "[0 for _ in iter(int, 1)]"  # an endless loop, as an expression
 ENDS = "never end the process, and finish within the time limit"  # the rule those lines state
@@ -314,32 +349,54 @@ ENDS_FULLY = "a family's code must return or raise, " + ENDS
 LOAD_ENDS = "a case file must import without ending the process, within the time limit"
 
 
-@pytest.mark.parametrize("source,names,message", [
-    (_user_case(observe=f"lambda t, p: {SEGFAULT}"), "my_bounce[e=0.5]",
-     "killed by signal SIGSEGV (11) (" + ENDS_FULLY),
-    (_user_case(observe=f"lambda t, p: {OS_EXIT}"), "my_bounce[e=0.5]", "it exited with code 0 (" + ENDS_FULLY),
-    (_user_case(observe=f"lambda t, p: {EXIT}"), "my_bounce[e=0.5]",
-     "observe() raised SystemExit(0) (an observer must give every check a finite number"),
-    (_user_case(observe=f"lambda t, p: {HANG}"), "my_bounce[e=0.5]", "longer than the per-job time limit of 2 s"),
-    (_user_case(scene=f"lambda p: {SEGFAULT}"), "my_bounce[e=0.5]", "killed by signal SIGSEGV"),
-    (_user_case(expect=f"lambda p, dt: {OS_EXIT}"), "my_bounce[e=0.5]", "it exited with code 0"),
-    (_user_case(expect=f"lambda p, dt: {EXIT}"), "my_bounce[e=0.5]", "its code raised SystemExit(0) (scene, duration"),
-    ("import os\nos._exit(3)\n" + _user_case(), "cannot be loaded", "it exited with code 3 (" + LOAD_ENDS),
-    ("import sys\nsys.exit(3)\n" + _user_case(), "cannot be loaded", "SystemExit(3) (a case file must import"),
-], ids=["observe-segfault", "observe-os_exit", "observe-sys_exit", "observe-hang", "scene-segfault",
-        "expect-os_exit", "expect-sys_exit", "import-os_exit", "import-sys_exit"])
-def test_check_case_survives_a_family_that_crashes_exits_or_hangs(source, names, message, tmp_path):
+# id -> (a family file's source, the family[variant] or "cannot be loaded", what the line says)
+CRASHES = {
+    "observe-segfault": (_user_case(observe=f"lambda t, p: {SEGFAULT}"), "my_bounce[e=0.5]",
+                         "killed by signal SIGSEGV (11) (" + ENDS_FULLY),
+    "observe-os_exit": (_user_case(observe=f"lambda t, p: {OS_EXIT}"), "my_bounce[e=0.5]",
+                        "it exited with code 0 (" + ENDS_FULLY),
+    "observe-sys_exit": (_user_case(observe=f"lambda t, p: {EXIT}"), "my_bounce[e=0.5]",
+                         "observe() raised SystemExit(0) (an observer must give every check a finite number"),
+    "observe-hang": (_user_case(observe=f"lambda t, p: {HANG}"), "my_bounce[e=0.5]",
+                     "longer than the per-job time limit of 2 s"),
+    "scene-segfault": (_user_case(scene=f"lambda p: {SEGFAULT}"), "my_bounce[e=0.5]", "killed by signal SIGSEGV"),
+    "expect-os_exit": (_user_case(expect=f"lambda p, dt: {OS_EXIT}"), "my_bounce[e=0.5]", "it exited with code 0"),
+    "expect-sys_exit": (_user_case(expect=f"lambda p, dt: {EXIT}"), "my_bounce[e=0.5]",
+                        "its code raised SystemExit(0) (scene, duration"),
+    "import-os_exit": ("import os\nos._exit(3)\n" + _user_case(), "cannot be loaded",
+                       "it exited with code 3 (" + LOAD_ENDS),
+    "import-sys_exit": ("import sys\nsys.exit(3)\n" + _user_case(), "cannot be loaded",
+                        "SystemExit(3) (a case file must import"),
+}
+
+
+@pytest.fixture(scope="module")
+def checked_crashes(tmp_path_factory) -> dict:
+    """id -> (the file, what `physval check-case` said of it) for every family of CRASHES,
+    each file in a folder of its own, checked one after the other in one process of its own."""
+    base = tmp_path_factory.mktemp("crashes")
+    files, argvs = {}, []
+    for name, (source, _, message) in CRASHES.items():
+        (base / name).mkdir()
+        files[name] = base / name / "mine.py"
+        files[name].write_text(source)
+        # 2 s for the endless loop; the others end at once, after the reference's first step,
+        # which on an empty numba cache compiles for tens of seconds: a limit no load reaches
+        limit = "2" if "time limit of 2 s" in message else "900"
+        argvs.append(("check-case", "--job-timeout", limit, str(files[name])))
+    return dict(zip(CRASHES, zip(files.values(), _physval_in_turn(*argvs, timeout=900))))
+
+
+@pytest.mark.parametrize("crash", list(CRASHES))
+def test_check_case_survives_a_family_that_crashes_exits_or_hangs(checked_crashes, crash):
     """Every way a family's code can end a process, in each place physval calls it, is one
     line and exit 2: the file, the family[variant] (or that it cannot be loaded) and what is
     allowed (before: exit 139 and nothing said for a segfault, exit 0, 'usable', for an exit)."""
-    (tmp_path / "mine.py").write_text(source)
-    # 2 s for the endless loop; the others end at once, after the reference's first step,
-    # which on an empty numba cache compiles for tens of seconds: a limit no load reaches
-    limit = "2" if "time limit of 2 s" in message else "900"
-    got = _physval_process("check-case", "--job-timeout", limit, str(tmp_path / "mine.py"))
+    _, names, message = CRASHES[crash]
+    path, got = checked_crashes[crash]
     lines = got.stderr.strip().splitlines()
     assert got.returncode == 2, (got.returncode, got.stderr)
-    assert len(lines) == 1 and lines[0].startswith(f"physval: error: {tmp_path / 'mine.py'}: {names}"), got.stderr
+    assert len(lines) == 1 and lines[0].startswith(f"physval: error: {path}: {names}"), got.stderr
     assert message in lines[0], lines[0]
     assert "runs on" not in got.stdout
 
@@ -359,32 +416,57 @@ def test_a_run_survives_a_family_that_crashes(source, tmp_path):
     assert not (tmp_path / "out" / "results.csv").exists()
 
 
-@pytest.mark.parametrize("adapter,message", [
-    ("import sys\nsys.exit(0)\n", "cannot be imported: SystemExit(0) (an adapter's module must import"),
-    ("import os\nos._exit(0)\n", "it exited with code 0 (an adapter's module must import, and its class be made, "
-                                  "without ending the process)"),
-    ("import os\nfrom adapters.reference_engine import ReferenceAdapter\n"
-     "class Engine(ReferenceAdapter):\n    def __init__(self):\n        os.kill(os.getpid(), 11)\n",
-     "killed by signal SIGSEGV"),
-    ("from adapters.reference_engine import ReferenceAdapter\n"
-     "class Engine(ReferenceAdapter):\n    def __init__(self):\n        super().__init__(name='reference-mine')\n"
-     "    def version(self):\n        raise RuntimeError('no release here')\n",
-     "version() raised RuntimeError: no release here (an adapter's version() must return its engine's release as a "
-     "string)"),
-], ids=["import-sys_exit", "import-os_exit", "constructor-segfault", "version-raises"])
-@pytest.mark.parametrize("command", [["list", "--engines"], ["run", "--engines", "reference", "--quiet"]],
-                         ids=["list", "run"])
-def test_an_adapter_file_that_exits_or_crashes_is_one_line(adapter, message, command, tmp_path):
+# id -> (an --adapter file's source, what the line says)
+BAD_ADAPTERS = {
+    "import-sys_exit": ("import sys\nsys.exit(0)\n",
+                        "cannot be imported: SystemExit(0) (an adapter's module must import"),
+    "import-os_exit": ("import os\nos._exit(0)\n",
+                       "it exited with code 0 (an adapter's module must import, and its class be made, "
+                       "without ending the process)"),
+    "constructor-segfault": ("import os\nfrom adapters.reference_engine import ReferenceAdapter\n"
+                             "class Engine(ReferenceAdapter):\n    def __init__(self):\n"
+                             "        os.kill(os.getpid(), 11)\n",
+                             "killed by signal SIGSEGV"),
+    "version-raises": ("from adapters.reference_engine import ReferenceAdapter\n"
+                       "class Engine(ReferenceAdapter):\n    def __init__(self):\n"
+                       "        super().__init__(name='reference-mine')\n"
+                       "    def version(self):\n        raise RuntimeError('no release here')\n",
+                       "version() raised RuntimeError: no release here (an adapter's version() must return its "
+                       "engine's release as a string)"),
+}
+ADAPTER_COMMANDS = {"list": ["list", "--engines"], "run": ["run", "--engines", "reference", "--quiet"]}
+
+
+@pytest.fixture(scope="module")
+def bad_adapters(tmp_path_factory) -> dict:
+    """(adapter id, command id) -> (the --adapter target, its folder, what the command said)
+    for every file of BAD_ADAPTERS under every command of ADAPTER_COMMANDS, each in a
+    folder of its own, one after the other in one process of its own."""
+    base = tmp_path_factory.mktemp("adapters")
+    runs = {}
+    for name, (source, _) in BAD_ADAPTERS.items():
+        for command, argv in ADAPTER_COMMANDS.items():
+            folder = base / f"{name}-{command}"
+            folder.mkdir()
+            (folder / "engine.py").write_text(source)
+            target = f"{folder / 'engine.py'}:Engine"
+            out = ["--out", str(folder / "out")] if argv[0] == "run" else []
+            runs[name, command] = (target, folder, (*argv, "--adapter", target, *out))
+    said = _physval_in_turn(*(argv for _, _, argv in runs.values()), timeout=600)
+    return {key: (target, folder, got) for (key, (target, folder, _)), got in zip(runs.items(), said)}
+
+
+@pytest.mark.parametrize("adapter", list(BAD_ADAPTERS))
+@pytest.mark.parametrize("command", list(ADAPTER_COMMANDS))
+def test_an_adapter_file_that_exits_or_crashes_is_one_line(bad_adapters, adapter, command):
     """An --adapter file is imported and made, and gives its version, in a worker first
     (before: exit 0 and no word; a version() that raised: a traceback after the dry run)."""
-    (tmp_path / "engine.py").write_text(adapter)
-    target = f"{tmp_path / 'engine.py'}:Engine"
-    out = ["--out", str(tmp_path / "out")] if command[0] == "run" else []
-    got = _physval_process(*command, "--adapter", target, *out)
+    target, folder, got = bad_adapters[adapter, command]
     lines = got.stderr.strip().splitlines()
     assert got.returncode == 2 and len(lines) == 1, (got.returncode, got.stderr)
-    assert lines[0].startswith(f"physval: error: adapter {target!r}: ") and message in lines[0], lines[0]
-    assert not (tmp_path / "out" / "results.csv").exists()
+    assert lines[0].startswith(f"physval: error: adapter {target!r}: ") and BAD_ADAPTERS[adapter][1] in lines[0], \
+        lines[0]
+    assert not (folder / "out" / "results.csv").exists()
 
 
 def test_an_observer_that_exits_in_a_real_run_is_an_error_row(tmp_path):
@@ -416,8 +498,13 @@ def test_a_broken_file_leaves_the_other_families_of_its_folder_runnable(tmp_path
     (cases / "clash.py").write_text(_user_case(name="conformance"))
     broken = {"exits.py": "cannot be loaded", "nan.py": "observe() gave x = nan",
               "clash.py": "family 'conformance' is already a built-in family"}
-    run = ("run", "--cases-dir", str(cases), "--engines", "reference", "--workers", "1", "--quiet", "--out", str(out))
-    got = _physval_process(*run, "--cases", "good")
+    run = ("run", "--cases-dir", str(cases), "--engines", "reference", "--workers", "1", "--quiet")
+    stops = ("nan_family", "nan.py"), ("conformance", "clash.py"), ("exits_family", "exits.py"), (None, "")
+    # the run of the good family, then each run that must stop (each into a folder of its own),
+    # one after the other in one process
+    got, *stopped = _physval_in_turn((*run, "--out", str(out), "--cases", "good"),
+                                     *((*run, "--out", str(tmp_path / f"stop{i}"), *(["--cases", spec] if spec else []))
+                                       for i, (spec, _) in enumerate(stops)))
     assert got.returncode == 0, got.stderr
     lines = got.stderr.strip().splitlines()
     assert len(lines) == len(broken), lines
@@ -427,10 +514,10 @@ def test_a_broken_file_leaves_the_other_families_of_its_folder_runnable(tmp_path
     import csv
     rows = list(csv.DictReader(open(out / "results.csv")))
     assert {r["case"] for r in rows} == {"good"} and {r["status"] for r in rows} == {"pass"}, rows
-    for spec, f in (("nan_family", "nan.py"), ("conformance", "clash.py"), ("exits_family", "exits.py"), (None, "")):
-        got = _physval_process(*run, *(["--cases", spec] if spec else []))
+    for i, ((spec, f), got) in enumerate(zip(stops, stopped)):
         lines = got.stderr.strip().splitlines()
         assert got.returncode == 2 and len(lines) == 1 and str(cases / f) in lines[0], (spec, got.stderr)
+        assert not (tmp_path / f"stop{i}" / "results.csv").exists()
 
 
 # --- paths the file system refuses (issue 33) ------------------------------------------------
@@ -440,47 +527,64 @@ R = ["--cases", "central_impact[drop,e=0.5]", "--engines", "reference", "--readi
 
 
 def _as_a_user(*args, timeout=300):
-    """`python3 -m physval ARGS` as a user whom file permissions bind: root reads whatever
-    the permissions say, so as root the process runs without the capabilities that let it
-    (setpriv drops CAP_DAC_OVERRIDE and CAP_DAC_READ_SEARCH from its bounding set)."""
-    import os
-    import shutil
+    """`python3 -m physval ARGS` as a user whom file permissions bind (A_USER)."""
     import subprocess
     import sys
-    prefix = []
-    if os.geteuid() == 0:
-        if shutil.which("setpriv") is None:
-            pytest.skip("as root, a file cannot be made unreadable without setpriv (util-linux)")
-        prefix = ["setpriv", "--bounding-set", "-dac_override,-dac_read_search"]
-    return subprocess.run([*prefix, sys.executable, "-m", "physval", *args], cwd=ROOT, capture_output=True,
+    return subprocess.run([*A_USER(), sys.executable, "-m", "physval", *args], cwd=ROOT, capture_output=True,
                           text=True, timeout=timeout)
 
 
-@pytest.fixture
-def unreadable(tmp_path):
-    """A folder nobody may list or enter, with a results.csv and a family file in it."""
-    folder = tmp_path / "unreadable"
+def A_USER() -> list[str]:
+    """The prefix that runs a process as a user whom file permissions bind: root reads
+    whatever the permissions say, so as root the process runs without the capabilities that
+    let it (setpriv drops CAP_DAC_OVERRIDE and CAP_DAC_READ_SEARCH from its bounding set)."""
+    import os
+    import shutil
+    if os.geteuid() != 0:
+        return []
+    if shutil.which("setpriv") is None:
+        pytest.skip("as root, a file cannot be made unreadable without setpriv (util-linux)")
+    return ["setpriv", "--bounding-set", "-dac_override,-dac_read_search"]
+
+
+# id -> (the command line, given the unreadable folder and a folder of the test's own; its one line)
+REFUSED = {
+    "out-inside": (lambda u, t: ["run", *R, "--out", str(u / "out")],
+                   "--out {u}/out: cannot write there (Permission denied)"),
+    "compare": (lambda u, t: ["compare", str(u), str(u), "--out", str(t / "cmp")],
+                "{u}: cannot be read (Permission denied)"),
+    "cases-dir-inside": (lambda u, t: ["run", *R, "--cases-dir", str(u), "--out", str(t / "out")],
+                         "--cases-dir '{u}': cannot be read (Permission denied)"),
+    "known-inside": (lambda u, t: ["run", *R, "--known", str(u / "known.txt"), "--out", str(t / "out")],
+                     "--known '{u}/known.txt': cannot be read (Permission denied)"),
+}
+
+
+@pytest.fixture(scope="module")
+def refused(tmp_path_factory):
+    """(a folder nobody may list or enter, with a results.csv and a family file in it;
+    id -> what each command line of REFUSED gave), the lines run one after the other in one
+    process of their own, as a user whom file permissions bind."""
+    base = tmp_path_factory.mktemp("refused")
+    folder = base / "unreadable"
     folder.mkdir()
     (folder / "results.csv").write_text("case\n")
     (folder / "mine.py").write_text(_user_case())
     folder.chmod(0)
-    yield folder
-    folder.chmod(0o755)
+    try:
+        said = _physval_in_turn(*(args(folder, base / name) for name, (args, _) in REFUSED.items()), prefix=A_USER())
+    finally:
+        folder.chmod(0o755)
+    return folder, dict(zip(REFUSED, said))
 
 
-@pytest.mark.parametrize("args, option", [
-    (lambda u, t: ["run", *R, "--out", str(u / "out")], "--out {u}/out: cannot write there (Permission denied)"),
-    (lambda u, t: ["compare", str(u), str(u), "--out", str(t / "cmp")], "{u}: cannot be read (Permission denied)"),
-    (lambda u, t: ["run", *R, "--cases-dir", str(u), "--out", str(t / "out")],
-     "--cases-dir '{u}': cannot be read (Permission denied)"),
-    (lambda u, t: ["run", *R, "--known", str(u / "known.txt"), "--out", str(t / "out")],
-     "--known '{u}/known.txt': cannot be read (Permission denied)"),
-], ids=["out-inside", "compare", "cases-dir-inside", "known-inside"])
-def test_a_path_the_system_refuses_is_one_line_and_exit_2(unreadable, tmp_path, args, option):
+@pytest.mark.parametrize("refusal", list(REFUSED))
+def test_a_path_the_system_refuses_is_one_line_and_exit_2(refused, refusal):
     """Before: a traceback (PermissionError from a check that only asked whether it exists)."""
-    got = _as_a_user(*args(unreadable, tmp_path))
+    unreadable, said = refused
+    got = said[refusal]
     (line,) = got.stderr.strip().splitlines()
-    assert got.returncode == 2 and line == f"physval: error: {option.format(u=unreadable)}", got.stderr
+    assert got.returncode == 2 and line == f"physval: error: {REFUSED[refusal][1].format(u=unreadable)}", got.stderr
 
 
 def test_an_out_folder_name_too_long_is_one_line_and_exit_2(tmp_path):
@@ -500,17 +604,18 @@ def test_an_unreadable_family_file_is_left_out_and_the_good_families_run(tmp_pat
     (cases / "secret.py").chmod(0)
     # MuJoCo, compiled ahead: the reference would compile its step with numba on a cold cache,
     # minutes at a high load, against this subprocess's 300 s (tests/test_execution.py R_COMPILED)
-    run = ["run", "--cases-dir", str(cases), "--engines", "mujoco", "--readings", "none", "--workers", "1",
-           "--quiet", "--out", str(tmp_path / "out")]
-    got = _as_a_user(*run, "--cases", "good")
+    run = ["run", "--cases-dir", str(cases), "--engines", "mujoco", "--readings", "none", "--workers", "1", "--quiet"]
+    # the good family, then every family (into a folder of its own), one after the other in one process
+    got, every = _physval_in_turn((*run, "--out", str(tmp_path / "out"), "--cases", "good"),
+                                  (*run, "--out", str(tmp_path / "every")), prefix=A_USER())
     (line,) = got.stderr.strip().splitlines()
     assert got.returncode == 0 and line.startswith(f"physval: left out {cases / 'secret.py'}: cannot be loaded: "
                                                    "PermissionError"), got.stderr
     import csv
     assert {r["case"] for r in csv.DictReader(open(tmp_path / "out" / "results.csv"))} == {"good"}
-    got = _as_a_user(*run)  # every family: the one that cannot be read stops it
-    (line,) = got.stderr.strip().splitlines()
-    assert got.returncode == 2 and str(cases / "secret.py") in line and "Permission denied" in line, got.stderr
+    (line,) = every.stderr.strip().splitlines()  # every family: the one that cannot be read stops it
+    assert every.returncode == 2 and str(cases / "secret.py") in line and "Permission denied" in line, every.stderr
+    assert not (tmp_path / "every" / "results.csv").exists()
 
 
 @pytest.mark.parametrize("folder, message", [("missing", "no such folder"),

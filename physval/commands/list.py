@@ -40,8 +40,8 @@ def run(args) -> int:
         print(f"  closed form: {fam.source}; default dt {fam.dt:g} s" if not callable(fam.dt) else
               f"  closed form: {fam.source}; dt per variant")
         for v in fam.variants:
-            scene = fam.scene(v.params)
-            can = [n for n, a in adapters.items() if a.capabilities.cannot_run(scene, fam.needs_of(v.params)) is None]
+            scene, needs = fam.scene(v.params), fam.needs_of(v.params)  # once a variant, not once an engine
+            can = [n for n, a in adapters.items() if a.capabilities.cannot_run(scene, needs) is None]
             print(f"  [{v.id}]  effects: {','.join(sorted(scene.effects))}  engines: {','.join(can) or 'none'}")
         if fam.full_grid:
             print(f"  (+{len(fam.all_variants) - len(fam.variants)} variants with --full)")
