@@ -119,6 +119,18 @@ def njit(function=None, *, inline: bool = False):
     return dispatcher
 
 
+def cached(function) -> bool:
+    """Whether compiled code of the njit `function` for this text of the package is on disk
+    (its cache index lists a compiled version): a call then loads it and compiles nothing
+    new for those argument types. True without compilation (nothing to compile)."""
+    if not JIT:
+        return True
+    try:
+        return bool(function._cache._cache_file._load_index())
+    except (AttributeError, OSError, EOFError, ValueError):
+        return False
+
+
 def overload(stub, *, inline: bool = False):
     """Decorator: the typing function that picks, from the numba types of the arguments,
     the implementation compiled code runs for a call of the plain Python function `stub`

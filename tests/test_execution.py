@@ -730,3 +730,32 @@ def test_the_dry_run_of_a_family_file_starts_one_worker_for_its_three_steps(case
                                  Execution(workers=1, job_timeout=60, progress=False))
     assert not tried.problem and len(tried.observed) == 6
     assert len(made) == 1 and made[0].started == 1
+
+
+@pytest.mark.parametrize("engines, cases_dir, steps", [
+    (None, None, True), (["mujoco"], None, False), (["mujoco,reference-lemke"], None, True), (["ref*"], None, True),
+    (["drake-*"], None, False), (["mujoco"], ["my_cases"], True)])
+def test_a_run_preloads_the_reference_where_it_may_step_it(engines, cases_dir, steps):
+    """The fork server loads the reference's compiled step for a run whose engines may
+    include a formulation, or whose user families the dry run tries on it; not for others
+    (it would cost them ~1 CPU-s)."""
+    import argparse
+    from physval.commands.options import steps_the_reference
+    assert steps_the_reference(argparse.Namespace(engines=engines, cases_dir=cases_dir, adapter=None)) is steps
+
+
+def test_the_preload_loads_the_reference_step_only_where_it_is_compiled_already():
+    """In a fresh process as the fork server starts it: with $PHYSVAL_PRELOAD_REFERENCE=1 the
+    step of the reference is loaded if the numba cache holds it, and never compiled there
+    (a fresh install's minutes of compiling would hold every worker's start)."""
+    probe = ("import os; os.environ['PHYSVAL_PRELOAD_REFERENCE'] = '1'\n"
+             "from reference_impl.compiled import cached\n"
+             "from reference_impl.world import begin, end\n"
+             "before = cached(begin) and cached(end)\n"
+             "import physval.core.preload\n"
+             "print(before, bool(begin.signatures), 'PHYSVAL_PRELOAD_REFERENCE' in os.environ)")
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert done.returncode == 0, done.stderr
+    before, loaded, left = done.stdout.split()
+    assert loaded == before, "loaded where cached, not compiled where not"
+    assert left == "False", "the workers forked from the server do not carry the request"

@@ -44,7 +44,7 @@ def run(args) -> int:
             raise options.UsageError(f"{text}: not a .py file")
         files.append((file.resolve(), text))
     from physval.core.executor import start_fork_server
-    start_fork_server()  # the dry run's workers start from it: it loads while the engines are imported here
+    start_fork_server(reference=True)  # the dry run's workers start from it: it loads while the engines are imported here
     ctx = options.context_of(args)  # an --adapter is tried in a worker too
     engines = {}
     for name in registry.engine_names(ctx.adapters):

@@ -244,6 +244,18 @@ def check_scheduler(address: str | None) -> None:
         raise UsageError(str(exc)) from None
 
 
+def steps_the_reference(args) -> bool:
+    """Whether a run may step the reference: every engine (no --engines), a name or glob of
+    --engines that matches a reference formulation, or user code the dry run tries on it
+    (--cases-dir, --adapter)."""
+    from fnmatch import fnmatchcase
+    from adapters.registry import ENGINES
+    if args.engines is None or getattr(args, "cases_dir", None) or getattr(args, "adapter", None):
+        return True
+    names = [w.strip() for v in args.engines for w in v.split(",") if w.strip()]
+    return any(fnmatchcase(e, n) for n in names for e in ENGINES if e.startswith("reference"))
+
+
 def engines_of(args, ctx, default: list[str] | None = None) -> list[str]:
     """--engines (names or globs), else `default`, else every installed engine."""
     from adapters import registry

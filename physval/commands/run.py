@@ -143,7 +143,7 @@ def _run(args, after: dict) -> int:
     relations = relations_of(args.relations, args.cases is not None)
     if not args.scheduler and not args.plan:
         from physval.core.executor import start_fork_server
-        start_fork_server(args.start_method)  # loads in parallel with what follows
+        start_fork_server(args.start_method, reference=options.steps_the_reference(args))  # loads beside what follows
     ctx = options.context_of(args)  # user families dry-run in workers
     resolver = ctx.resolver()
     families = resolver.families

@@ -81,7 +81,7 @@ def try_files(files: list[tuple[Path, str]], execution: Execution) -> list[Tried
             variants += [(t, path, vid) for vid in ids]
         if variants:  # the reference's first-run cost is physval's, not the user's code's: paid before the limit counts
             with ex.time_limit(DEFAULT_JOB_TIMEOUT):
-                map_calls(_warm, [DRY_RUN_ENGINE], Context(), execution, executor=ex)
+                map_calls(warm, [DRY_RUN_ENGINE], Context(), execution, executor=ex)
         results = map_calls(_variant, [(str(path), t.file, vid) for t, path, vid in variants], Context(), execution,
                             executor=ex)
     for (t, _, vid), r in zip(variants, results):
@@ -114,7 +114,7 @@ def _outline(item: tuple[str, str]) -> tuple[str, list[str]] | str:
         return str(exc)
 
 
-def _warm(engine: str) -> None:
+def warm(engine: str) -> None:
     """In a worker: one step of a ball on a ground, so that the engine's compiled code (the
     reference's numba cache: minutes of compiling on a fresh install) is on disk before the
     user's variants run under the dry run's time limit, in workers that then only load it."""

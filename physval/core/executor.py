@@ -46,16 +46,21 @@ def default_start_method() -> str:
     return "forkserver" if sys.platform.startswith("linux") else mp.get_start_method()
 
 
-def start_fork_server(start_method: str | None = None) -> None:
+def start_fork_server(start_method: str | None = None, reference: bool = False) -> None:
     """Under forkserver, start the fork server now: it loads the harness and the families
-    (physval.core.preload) while the caller goes on, and every worker forks from it ready.
-    It imports from this process's path (fork_server_env), not from the folder physval
-    was started in."""
+    (physval.core.preload) while the caller goes on, and every worker forks from it ready;
+    with `reference` (a run that steps the reference, or tries a user's code on it), the
+    reference's compiled step too, where it is compiled already (1.4 CPU-s a worker
+    otherwise). It imports from this process's path (fork_server_env), not from the folder
+    physval was started in. A server already running stays as it started."""
     if (start_method or default_start_method()) == "forkserver":
         from multiprocessing import forkserver
+        from physval.core.preload import PRELOAD_REFERENCE
         mp.get_context("forkserver").set_forkserver_preload(["physval.core.preload"])
         saved = dict(os.environ)
         os.environ.update(fork_server_env())
+        if reference:
+            os.environ[PRELOAD_REFERENCE] = "1"
         try:
             forkserver.ensure_running()  # spawns the server with os.environ as it is now
         finally:
