@@ -175,21 +175,31 @@ def model_for(out: Path | None) -> Model:
     return Model.of(table, source)
 
 
-def pricer(resolver, model: Model):
-    """A job's predicted cost in worker-seconds (NaN: not measured) and whether the table
-    prices it apart (its variant's row), as physval.core.plan takes them (`price`) to hold
-    back the jobs over its per-job limit."""
+def predictor(resolver, model: Model):
+    """job -> (its steps, predicted worker-seconds (NaN: not measured), how the table found
+    it): a variant's steps are counted once, not once per engine."""
     from physval.core.jobs import steps_of
     steps: dict = {}
 
-    def price(job) -> tuple[float, bool]:
+    def predict(job) -> tuple[int, float, str]:
         at = (job.family, job.variant.id, job.dt)
         if at not in steps:
             try:
                 steps[at] = steps_of(job, resolver.family(job.family))
             except Exception:
                 steps[at] = 0
-        seconds, how = model.predict(job.engine, job.family, steps[at], job.variant.id)
+        return (steps[at], *model.predict(job.engine, job.family, steps[at], job.variant.id))
+    return predict
+
+
+def pricer(resolver, model: Model):
+    """A job's predicted cost in worker-seconds (NaN: not measured) and whether the table
+    prices it apart (its variant's row), as physval.core.plan takes them (`price`) to hold
+    back the jobs over its per-job limit."""
+    predict = predictor(resolver, model)
+
+    def price(job) -> tuple[float, bool]:
+        _, seconds, how = predict(job)
         return seconds, how == "variant"
     return price
 
@@ -198,17 +208,11 @@ def pricer(resolver, model: Model):
 
 def plan(jobs: list, resolver, model: Model) -> pd.DataFrame:
     """One row per planned job: engine, family, steps, predicted seconds and how found."""
-    from physval.core.jobs import steps_of
-    rows, steps = [], {}
+    predict = predictor(resolver, model)
+    rows = []
     for j in jobs:
-        at = (j.family, j.variant.id, j.dt)  # a variant's steps once, not once per engine
-        if at not in steps:
-            try:
-                steps[at] = steps_of(j, resolver.family(j.family))
-            except Exception:
-                steps[at] = 0
-        s, how = model.predict(j.engine, j.family, steps[at], j.variant.id)
-        rows.append({"engine": j.engine, "case": j.family, "steps": steps[at], "predicted_s": s, "from": how})
+        steps, s, how = predict(j)
+        rows.append({"engine": j.engine, "case": j.family, "steps": steps, "predicted_s": s, "from": how})
     return pd.DataFrame(rows, columns=["engine", "case", "steps", "predicted_s", "from"])
 
 
