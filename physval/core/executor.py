@@ -46,6 +46,10 @@ def default_start_method() -> str:
     return "forkserver" if sys.platform.startswith("linux") else mp.get_start_method()
 
 
+# set for the fork server when it is to load the reference's compiled step (physval.core.preload)
+PRELOAD_REFERENCE = "PHYSVAL_PRELOAD_REFERENCE"
+
+
 def start_fork_server(start_method: str | None = None, reference: bool = False) -> None:
     """Under forkserver, start the fork server now: it loads the harness and the families
     (physval.core.preload) while the caller goes on, and every worker forks from it ready;
@@ -55,7 +59,6 @@ def start_fork_server(start_method: str | None = None, reference: bool = False) 
     physval was started in. A server already running stays as it started."""
     if (start_method or default_start_method()) == "forkserver":
         from multiprocessing import forkserver
-        from physval.core.preload import PRELOAD_REFERENCE
         mp.get_context("forkserver").set_forkserver_preload(["physval.core.preload"])
         saved = dict(os.environ)
         os.environ.update(fork_server_env())

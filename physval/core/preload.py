@@ -9,8 +9,7 @@ import os
 
 from cases.registry import builtin_families
 from physval.core import jobs  # noqa: F401
-
-PRELOAD_REFERENCE = "PHYSVAL_PRELOAD_REFERENCE"
+from physval.core.executor import PRELOAD_REFERENCE
 
 builtin_families()
 
