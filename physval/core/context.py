@@ -138,9 +138,7 @@ class Resolver:
             own = self.adapter(engine).deviations_file()
         except registry.EngineError:
             own = None
-        source = deviations.inherits(own)
-        other = Path(own).with_name(f"{source}.txt") if source else None
-        return [Path(p) for p in [own, other, *self.ctx.known_files] if p is not None]
+        return [Path(p) for p in [own, deviations.inherited_file(own), *self.ctx.known_files] if p is not None]
 
 
 @functools.cache

@@ -352,14 +352,21 @@ def inherits(path: Path | str | None) -> str | None:
     return None
 
 
+def inherited_file(path: Path | str | None) -> Path | None:
+    """The file of the engine the file's `inherit: ENGINE` line names (ENGINE.txt beside
+    it), or None (no such line)."""
+    source = inherits(path)
+    return Path(path).with_name(f"{source}.txt") if source else None
+
+
 def inherited(path: Path | str, engine: str, outside) -> list[Deviation]:
     """The entries `engine` inherits through the `inherit:` line of its file `path`: those of
     the named engine's file beside it that apply to that engine, with its bands as `engine`'s,
     on the families `outside(family)` accepts (not the configuration's default families)."""
-    source = inherits(path)
-    if source is None:
+    other = inherited_file(path)
+    if other is None:
         return []
-    other = Path(path).with_name(f"{source}.txt")
+    source = other.stem
     if not other.exists():
         raise DeviationFileError(f"{path}: 'inherit: {source}' names no file beside it ({other.name})")
     if inherits(other) is not None:
