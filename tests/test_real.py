@@ -380,7 +380,8 @@ def test_an_edited_adhoc_adapter_is_simulated_again_not_read_from_the_store(tmp_
 
 
 # A worker's first job loads the toss data (~1 CPU s): the time limit leaves room for that
-# on a loaded machine (10 s was exceeded by a nominal toss at a load of 16 on 2 cores), and only the hanging jobs (the given parameters', one per toss) wait it out.
+# on a loaded machine (10 s was exceeded by a nominal toss at a load of 16 on 2 cores), and only the hanging jobs
+# (the given parameters', one per toss) wait it out: on two workers, side by side (20 s of the test's wall, not 40).
 @pytest.mark.parametrize("fault, limit, why", [("FaultAboveFriction", "900", "the engine raised NotImplementedError"),
                                                ("SegfaultAboveFriction", "900", "killed by signal SIGSEGV"),
                                                ("HangAboveFriction", "20", "per-job time limit of 20 s")])
@@ -394,7 +395,7 @@ def test_a_toss_whose_worker_dies_or_hangs_costs_only_its_job(fault, limit, why,
     params, out = tmp_path / "params.json", tmp_path / "out"
     params.write_text(json.dumps({engine: {"mu": 0.5}}))
     assert _cli("--adapter", f"{FAKES}:{fault}", "--engines", engine, "--params", str(params), *QUICK,
-                "--limit", "2", "--job-timeout", limit, "--no-cache", "--out", str(out)) == 0
+                "--limit", "2", "--workers", "2", "--job-timeout", limit, "--no-cache", "--out", str(out)) == 0
     scores = pd.read_csv(out / "real_scores.csv")
     nominal, given = (scores[(scores.engine == engine) & (scores.param_set == p)] for p in ("nominal", "fitted"))
     assert sorted(nominal.toss) == sorted(given.toss) == [3, 5]
