@@ -24,6 +24,7 @@ its .py files): any edit anywhere in reference_impl recompiles all of it once.
 from __future__ import annotations
 
 import hashlib
+import time
 from pathlib import Path
 
 from reference_impl.compile_lock import compiling, key_of
@@ -72,10 +73,17 @@ if JIT:
         def compile(self, sig):
             """numba's compile, the only one of this function for these argument types into
             this cache on the machine (compile_lock): a process that finds another compiling
-            it waits, then loads what that one saved."""
+            it waits, then loads what that one saved. Its time goes to compiling_seconds."""
             args, _ = _sigutils.normalize_signature(sig)
-            with _global_compiler_lock, compiling(self._cache.cache_path, key_of(self.py_func, args)):
-                return super().compile(sig)
+            _clock.depth += 1
+            start = time.perf_counter()
+            try:
+                with _global_compiler_lock, compiling(self._cache.cache_path, key_of(self.py_func, args)):
+                    return super().compile(sig)
+            finally:
+                _clock.depth -= 1
+                if _clock.depth == 0:  # a callee's compile is inside its caller's
+                    _clock.seconds += time.perf_counter() - start
 
     def _package_locator(locator):
         """numba's cache locator `locator`, its freshness the package's text, not one file's;
@@ -117,6 +125,23 @@ def njit(function=None, *, inline: bool = False):
     dispatcher = _Dispatcher(py_func=function, locals={}, targetoptions=options)
     dispatcher._cache = _PackageCache(function)  # numba's cache=True, with the package's stamp
     return dispatcher
+
+
+class _Clock:
+    """Wall seconds this process spent in the compile of njit functions (depth: nesting)."""
+    seconds = 0.0
+    depth = 0
+
+
+_clock = _Clock()
+
+
+def compiling_seconds() -> float:
+    """Wall seconds this process has spent getting njit functions ready to run: compiling
+    them, loading a compiled copy from the cache, or waiting for another process compiling
+    them (0 without compilation). A caller that reads it before and after some work knows
+    how much of that work's time was numba's and not the code's own."""
+    return _clock.seconds
 
 
 def cached(function) -> bool:

@@ -232,3 +232,59 @@ def test_one_rule_says_what_a_run_leaves_out_and_why():
     assert leaves_out(plain, other, slide, cost=PER_JOB_LIMIT_S) is None
     assert "over the per-job limit" in leaves_out(plain, other, slide, cost=PER_JOB_LIMIT_S + 1)
     assert leaves_out(plain, other, slide, cost=PER_JOB_LIMIT_S + 1, on_demand=True) is None
+
+
+def test_a_job_that_compiled_the_reference_prices_nothing_and_the_earlier_price_stays(tmp_path):
+    """The last run's jobs price the next run, except those that spent time compiling the
+    reference (compile_s > 0: a first run after installing or editing reference_impl): a
+    family's price is its uncompiled jobs', and a variant priced apart whose job compiled
+    keeps the table's earlier price (its compile would put it over the per-job limit)."""
+    table = pd.DataFrame([{"engine": "e", "case": "c", "variant": "", "jobs": 2, "steps": 200, "stepping_s": 1.0,
+                           "job_s": 1.2},
+                          {"engine": "e", "case": "c", "variant": "slow", "jobs": 1, "steps": 100,
+                           "stepping_s": 9.9, "job_s": 10.0}])
+    with open(tmp_path / "results.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, ["job", "engine", "case", "variant", "steps", "wall_s", "job_s", "compile_s"])
+        w.writeheader()
+        w.writerows([{"job": "a", "engine": "e", "case": "c", "variant": "v1", "steps": 100, "wall_s": 95.0,
+                      "job_s": 96.0, "compile_s": 95.2},   # compiled in its first step
+                     {"job": "b", "engine": "e", "case": "c", "variant": "v2", "steps": 100, "wall_s": 0.5,
+                      "job_s": 0.6, "compile_s": 0.0},
+                     {"job": "c", "engine": "e", "case": "c", "variant": "slow", "steps": 100, "wall_s": 40.0,
+                      "job_s": 41.0, "compile_s": 31.0}])
+    import unittest.mock as mock
+    with mock.patch.object(cost, "load_table", return_value=table):
+        model = cost.model_for(tmp_path)
+    assert model.predict("e", "c", 100, "v1") == (pytest.approx(0.6), "family")
+    assert model.predict("e", "c", 100, "slow") == (pytest.approx(10.0), "variant")
+    jobs = cost.per_job(pd.read_csv(tmp_path / "results.csv"))
+    assert list(cost.uncompiled(jobs).job) == ["b"]
+    assert list(cost.uncompiled(jobs.drop(columns="compile_s")).job) == ["a", "b", "c"], "rows from before compile_s"
+
+
+def test_a_jobs_rows_carry_the_seconds_it_spent_compiling_the_reference(monkeypatch):
+    """perform reads reference_impl.compiled.compiling_seconds before and after a job: what
+    the job spent getting the reference's code ready is its rows' compile_s (here a clock
+    that a compile of 2.5 s moves during the job), and a job that compiled nothing has 0."""
+    import sys
+    import types
+
+    from physval.core import Context
+    from physval.core.jobs import Job, perform
+    clock = types.SimpleNamespace(seconds=10.0)
+    fake = types.ModuleType("reference_impl.compiled")
+    fake.compiling_seconds = lambda: clock.seconds
+    monkeypatch.setitem(sys.modules, "reference_impl.compiled", fake)
+    resolver = Context().resolver()
+    fam = resolver.family("central_impact")
+    variant = fam.variants[0]
+    import physval.core.jobs as jobs_module
+    execute = jobs_module.execute
+
+    def compiling(job, res):
+        clock.seconds += 2.5 if job.engine == "mujoco" else 0.0
+        return execute(job, res)
+    monkeypatch.setattr(jobs_module, "execute", compiling)
+    for engine, seconds in (("mujoco", 2.5), ("reference", 0.0)):
+        rows = perform(Job(fam.name, variant, engine, fam.dt_for(variant.params)), resolver).rows
+        assert rows and {r["compile_s"] for r in rows} == {seconds}, engine

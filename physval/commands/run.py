@@ -203,7 +203,8 @@ def _run(args, after: dict) -> int:
     use = run_streams([main, *wide_readings.values()], ctx, Execution.of(args))
     res = main.results
     phases = cost.Phases(planning_s=t_jobs - started, pool_s=use.wall_s, workers=use.workers,
-                         jobs=main.spent.jobs, job_s=main.spent.job_s, run_s=main.spent.run_s,
+                         jobs=main.spent.jobs, job_s=main.spent.job_s, compile_s=main.spent.compile_s,
+                         run_s=main.spent.run_s,
                          stepping_s=main.spent.stepping_s,
                          reading_jobs=sum(r.spent.jobs for r in wide_readings.values()),
                          reading_s=sum(r.spent.job_s for r in wide_readings.values()), worker_cpu_s=use.worker_cpu_s,

@@ -12,6 +12,7 @@ from __future__ import annotations
 import importlib
 import json
 import math
+import sys
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -118,12 +119,20 @@ class CallResult:
     timing: Timing | None = None  # None: it did not finish in a worker (lost)
 
 
+def compiling_s() -> float:
+    """Seconds this process has spent getting the reference's compiled code ready
+    (reference_impl.compiled.compiling_seconds; 0 where the reference was never imported)."""
+    compiled = sys.modules.get("reference_impl.compiled")
+    return compiled.compiling_seconds() if compiled is not None else 0.0
+
+
 def perform(task, resolver: Resolver, waited_s: float = 0.0):
     """Run a Job or a Task (-> Outcome) or a Call (-> CallResult) in this process, with its Timing;
-    a Job's rows get its time, `job_s`. Never raises but on Ctrl-C: whatever else the
+    a Job's rows get its time, `job_s`, and of it numba's compiling of the reference's code,
+    `compile_s`. Never raises but on Ctrl-C: whatever else the
     code it runs raises, an exit (SystemExit) included, is the task's error (a Job's rows
     say it), so a worker lives on to take the next task."""
-    wall0, cpu0 = time.perf_counter(), time.process_time()
+    wall0, cpu0, compile0 = time.perf_counter(), time.process_time(), compiling_s()
     try:
         if isinstance(task, Job):
             result = execute(task, resolver)
@@ -138,8 +147,9 @@ def perform(task, resolver: Resolver, waited_s: float = 0.0):
     cpu1 = time.process_time()
     result.timing = Timing(time.perf_counter() - wall0, cpu1 - cpu0, waited_s, cpu1)
     if isinstance(result, Outcome):
+        compiled = compiling_s() - compile0
         for r in result.rows:
-            r["job_s"] = result.timing.wall_s
+            r["job_s"], r["compile_s"] = result.timing.wall_s, compiled
     return result
 
 

@@ -104,10 +104,12 @@ class Spent:
     """Where the worker time of a stream's jobs went: `job_s` the jobs' whole time in their
     workers (building, stepping, recording, observing, judging), `run_s` of it their runs
     (stepping and recording each step), `stepping_s` of that the engines' steps alone
-    (rows' wall_s), `cpu_s` the workers' CPU in them, `waited_s` their workers' idle time
+    (rows' wall_s), `compile_s` of the jobs' time numba's getting the reference's code ready
+    (rows' compile_s), `cpu_s` the workers' CPU in them, `waited_s` their workers' idle time
     before each began."""
     jobs: int = 0
     job_s: float = 0.0
+    compile_s: float = 0.0
     run_s: float = 0.0
     stepping_s: float = 0.0
     cpu_s: float = 0.0
@@ -121,11 +123,17 @@ class Spent:
             self.cpu_s += t.cpu_s
             self.waited_s += t.waited_s
         self.run_s += getattr(outcome, "run_s", 0.0)
-        rows = getattr(outcome, "rows", None) or [{}]
-        try:
-            self.stepping_s += float(rows[0].get("wall_s") or 0.0)
-        except (TypeError, ValueError):
-            pass
+        first = (getattr(outcome, "rows", None) or [{}])[0]
+        self.stepping_s += _seconds(first.get("wall_s"))
+        self.compile_s += _seconds(first.get("compile_s"))
+
+
+def _seconds(value) -> float:
+    """A row's time field as a number (0 where it holds none)."""
+    try:
+        return float(value or 0.0)
+    except (TypeError, ValueError):
+        return 0.0
 
 
 @dataclass

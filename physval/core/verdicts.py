@@ -30,9 +30,11 @@ STATUSES = ("pass", "fail", "deviation", "unsupported", "unstable", "error")
 COLUMNS = ["case", "variant", "params", "engine", "engine_version", "dt", "iterations", "effects",
            "effects_simulated", "metric", "unit", "expected", "measured", "abs_error", "rel_error",
            "tolerance", "tolerance_kind", "tolerance_reason", "measures", "status", "reason", "known_deviation",
-           "band", "wall_s", "sim_s", "steps", "job_s", "knobs"]
+           "band", "wall_s", "sim_s", "steps", "job_s", "compile_s", "knobs"]
 # wall_s: stepping alone; job_s: the job's whole time in its worker (building the scene and the
-# engine, stepping, recording, observing, judging): what the run's cost model reads
+# engine, stepping, recording, observing, judging): what the run's cost model reads; compile_s:
+# of job_s, numba getting the reference's code ready (compiling it on a first run after an install
+# or an edit of reference_impl), which the cost model leaves out (physval.readings.cost.uncompiled)
 
 
 def judge(c: Check, value: float, engine: str, variant: str, entry: deviations.Deviation | None,
@@ -116,7 +118,8 @@ def contract_problems(path) -> list[str]:
             except ValueError:
                 found.append(f"{where}: params {row['params']!r} is not a JSON object")
             numbers = {}
-            for col in ("dt", "expected", "measured", "abs_error", "rel_error", "tolerance", "wall_s", "sim_s", "job_s"):
+            for col in ("dt", "expected", "measured", "abs_error", "rel_error", "tolerance", "wall_s", "sim_s", "job_s",
+                        "compile_s"):
                 try:
                     numbers[col] = float(row[col]) if row[col] != "" else math.nan
                 except ValueError:

@@ -738,7 +738,7 @@ def default_run(workers: int, out: Path, args: tuple[str, ...] = ()) -> pd.DataF
             parts[state] = part[part.kind != "later"]  # its times, not the runs it left for --on-demand
             if state == "warm":
                 from physval.core.store import read_results
-                measured = cost.per_job(read_results(folder / "results.csv")).dropna(subset=["job_s"])
+                measured = cost.uncompiled(cost.per_job(read_results(folder / "results.csv")).dropna(subset=["job_s"]))
                 # with the shipped table's variants priced apart on the engines measured, which
                 # a run does not measure again (over the per-job limit: left for --on-demand)
                 shipped = cost.load_table()

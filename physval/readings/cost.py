@@ -44,12 +44,13 @@ BUDGET_WORKERS = 2     # ... on 2 cores (decision 10)
 
 # --- measured per-job costs ------------------------------------------------------------------
 
-PER_JOB_COLUMNS = ("job", "engine", "case", "variant", "steps", "wall_s", "job_s")
+PER_JOB_COLUMNS = ("job", "engine", "case", "variant", "steps", "wall_s", "job_s", "compile_s")
 
 
 def per_job(rows) -> pd.DataFrame:
     """One row per job of a run's rows (results.csv or a store's): its key, engine, family,
-    variant, steps, stepping time (wall_s) and whole time (job_s; NaN in rows written before
+    variant, steps, stepping time (wall_s), whole time (job_s; NaN in rows written before
+    physval recorded it) and of it, numba's compiling (compile_s; NaN in rows written before
     physval recorded it)."""
     df = pd.DataFrame(list(rows)) if not isinstance(rows, pd.DataFrame) else rows
     if not len(df) or "job" not in df:
@@ -57,9 +58,18 @@ def per_job(rows) -> pd.DataFrame:
     df = df.drop_duplicates("job")
     out = pd.DataFrame({"job": df["job"], "engine": df["engine"], "case": df["case"],
                         "variant": df["variant"].fillna("").astype(str) if "variant" in df else ""})
-    for col in ("steps", "wall_s", "job_s"):
+    for col in ("steps", "wall_s", "job_s", "compile_s"):
         out[col] = pd.to_numeric(df[col], errors="coerce") if col in df else math.nan
     return out.reset_index(drop=True)
+
+
+def uncompiled(jobs: pd.DataFrame) -> pd.DataFrame:
+    """The measured jobs (per_job) that spent none of their time getting the reference's
+    compiled code ready: a job that compiled it (the first run after installing physval or
+    editing reference_impl: minutes of numba for a formulation's first jobs) or waited for
+    another process compiling it measured numba, not what it costs the next run, so it
+    prices nothing (the table's earlier price for it stays)."""
+    return jobs[~(jobs.compile_s > 0)] if "compile_s" in jobs else jobs
 
 
 def per_family(jobs: pd.DataFrame, apart: frozenset = frozenset()) -> pd.DataFrame:
@@ -166,7 +176,7 @@ def model_for(out: Path | None) -> Model:
             last = per_job(pd.read_csv(path, usecols=lambda c: c in PER_JOB_COLUMNS))
         except (OSError, ValueError, KeyError):
             last = per_job([])
-        last = last.dropna(subset=["job_s"])
+        last = uncompiled(last.dropna(subset=["job_s"]))
         if len(last):
             both = merged(last, table)
             source = f"the last run in {out}" + (" and the shipped table"
@@ -302,6 +312,7 @@ class Phases:
     workers: int = 1
     jobs: int = 0               # the run's jobs run now
     job_s: float = 0.0          # their whole time in workers
+    compile_s: float = 0.0      # of it, numba getting the reference's compiled code ready
     run_s: float = 0.0          # of it, their runs (stepping and recording each step)
     stepping_s: float = 0.0     # of that, the engines' steps
     reading_jobs: int = 0
@@ -337,6 +348,10 @@ def measure(rows, phases: Phases | None = None) -> pd.DataFrame:
             ("rest of the jobs", phases.job_s - phases.run_s, "worker", phases.jobs,
              f"building scenes and engines, observing, judging: {_ms(phases.job_s - phases.run_s, phases.jobs)} "
              "per job"),
+            ("compiling", phases.compile_s, "worker", phases.jobs,
+             "of the jobs' time (in their steps and builds), numba compiling the reference's code, loading it "
+             "from its cache or waiting for another process compiling it: the first run after an install or an "
+             "edit of reference_impl"),
             ("readings' jobs", phases.reading_s, "worker", phases.reading_jobs,
              "the engine-wide readings' jobs run now (cached per engine version)"),
             ("overhead", outside, "worker", n, f"workers outside any job (starting, idle, results in transit): "

@@ -115,3 +115,18 @@ def test_a_process_waits_only_for_the_function_it_compiles(tmp_path):
         time.sleep(3.0)
         assert waiting.poll() is None, "a compile of twice waits while another holds its lock"
     assert _counts(waiting) == (1, 0)
+
+
+def test_the_compile_clock_counts_a_compile_and_not_a_compiled_call(tmp_path, monkeypatch):
+    """compiling_seconds grows by the wall time of a function's first call (numba compiles
+    it: a module of a new folder) and not at its next call (compiled already)."""
+    from reference_impl.compiled import compiling_seconds
+    (tmp_path / "clocked.py").write_text(TINY)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import importlib
+    clocked = importlib.import_module("clocked")
+    before = compiling_seconds()
+    assert clocked.twice(1.5) == 3.0
+    first = compiling_seconds()
+    assert clocked.twice(2.5) == 5.0
+    assert first > before and compiling_seconds() == first
