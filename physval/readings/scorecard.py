@@ -380,7 +380,7 @@ def section(card: pd.DataFrame, beside: Companions | None = None, picture: str =
     return "\n".join([
         "## Scorecard", "", legend(beside) + " The effects' families: "
         + ", ".join(f"[{f}](families/{f}.md)" for f in families) + " (`physval.readings.scorecard."
-        "EFFECTS` says which family and metric tests which effect).", "",
+        "EFFECTS` says which family, metric and variants test which effect).", "",
         md_table(grid(card).reset_index()), ""] + ([f"![Scorecard]({picture})", ""] if picture else []))
 
 
