@@ -42,10 +42,10 @@ Two bodies, and what each measures:
   that splits unevenly across y gives the friction a moment about the pads' normal, turns
   the block, tilts each corner's slip and lets it slide faster than g - 2 mu F / m (the
   reference's sequential impulses, SPOOK and Lemke, DART's NSGS, PyBullet's solvers; held
-  from turning, the sequential impulses and SPOOK slide at the closed form, and each of these
-  meets the ball's closed forms or misses them otherwise). So the 3D block measures how an engine resolves an indeterminate face
-  grasp, the common case in robot hands, not its friction; its bands record that. In 2D a
-  pad meets the square at two points along z, whose split has no moment about the plane's
+  from turning, the sequential impulses and SPOOK slide at the closed form; on the ball the
+  reference's formulations and DART meet every closed form, PyBullet its acceleration).
+  So the 3D block measures how an engine resolves an indeterminate face grasp, the common
+  case in robot hands, not its friction; its bands record that. In 2D a pad meets the square at two points along z, whose split has no moment about the plane's
   normal (the friction is vertical, at the same x): the 2D block's motion is determinate too.
 
 Tolerances as in cases/incline_threshold.py: symplectic Euler is exact for a constant
