@@ -95,6 +95,20 @@ def test_a_family_tests_the_effects_of_its_metrics():
     assert scorecard.effect_of("no_such_family", "x") == []
 
 
+def test_the_grasp_effect_grades_the_determinate_grasps_only():
+    """The ball (one point a pad) and the 2D block hold with determinate frictions; the 3D
+    block's four coplanar corners a pad split them indeterminately (cases/pinch_grasp.py), so
+    its checks grade no effect."""
+    assert scorecard.effect_of("pinch_grasp", "holding_friction", "2muF/mg=0.8,ball") == ["grasp"]
+    assert scorecard.effect_of("pinch_grasp", "slides", "2muF/mg=1.25,2D") == ["grasp"]
+    assert scorecard.effect_of("pinch_grasp", "holding_friction", "2muF/mg=0.8") == []
+    rows = [{"engine": "x", "case": "pinch_grasp", "variant": v, "metric": "holding_friction", "status": s,
+             "over_tol": t, "wall_s": 0.001, "sim_s": 1.0}
+            for v, s, t in (("2muF/mg=0.8,ball", "pass", 0.1), ("2muF/mg=0.8", "fail", 50.0))]
+    card = scorecard.measure(pd.DataFrame(rows)).set_index(["engine", "effect"])
+    assert card.loc[("x", "grasp"), "grade"] == "A" and card.loc[("x", "grasp"), "judged"] == 1
+
+
 def test_unsupported_checks_are_not_graded():
     df = pd.concat([_checks(("pass", 0.2)), _checks(("unsupported", math.nan)).assign(engine="f")])
     card = scorecard.measure(df).set_index(["engine", "effect"])

@@ -60,8 +60,9 @@ from physval.report import cell as html_cell
 
 INTEGRATION = "integration order"
 INVARIANCE = "invariance"
-# effect -> the (family, metric glob) pairs whose checks test it; a family may test several
-# effects through different metrics (an incline holds a box: static; slides it: kinetic)
+# effect -> the (family, metric glob[, variant glob]) whose checks test it; a family may test
+# several effects through different metrics (an incline holds a box: static; slides it:
+# kinetic), and only some of its variants may test one (the grasp: below)
 EFFECTS = {
     "restitution": (("central_impact", "*"), ("bounce_series", "*"), ("face_landing", "*"), ("slow_impact", "*"),
                     ("pair_restitution", "*")),
@@ -79,7 +80,10 @@ EFFECTS = {
     "compliant contact": (("hertz_impact", "*"),),
     "joints": (("pendulum", "*"), ("double_pendulum", "*"), ("four_bar", "*"), ("rail_slide", "*"),
                ("hinged_rod_stop", "*"), ("limit_impact", "*")),
-    "grasp": (("pinch_grasp", "*"),),
+    # the determinate grasps: the ball (one point a pad) and the 2D block; the 3D block's face
+    # contacts split the load indeterminately (cases/pinch_grasp.py), so its checks grade how a
+    # solver picks a split, not the grasp's friction: the family's page shows them, no cell
+    "grasp": (("pinch_grasp", "*", "*,ball"), ("pinch_grasp", "*", "*,2D")),
     "contact geometry": (("narrow_phase", "*"),),
     # the checks that measure an integrator's order, not physics (Check.measures =
     # "integrator"): graded here, whatever family they are in, and under no physical effect
@@ -101,9 +105,14 @@ ORDER = ["A"] + [f"{letter}{d}" for letter, _ in SHARES[1:] for d in range(1, le
 JUDGED = ("pass", "fail", "deviation", "unstable", "error")
 
 
-def effect_of(case: str, metric: str) -> list[str]:
-    return [name for name, pairs in EFFECTS.items()
-            if any(fnmatchcase(case, f) and fnmatchcase(metric, m) for f, m in pairs)]
+def effect_of(case: str, metric: str, variant: str = "") -> list[str]:
+    """The effects a check of `case`'s `variant` on `metric` tests (EFFECTS)."""
+    return [name for name, entries in EFFECTS.items() if any(_covers(e, case, metric, variant) for e in entries)]
+
+
+def _covers(entry: tuple, case: str, metric: str, variant: str) -> bool:
+    family, metrics, variants = (*entry, "*")[:3]  # no variant glob: every variant
+    return fnmatchcase(case, family) and fnmatchcase(metric, metrics) and fnmatchcase(variant, variants)
 
 
 def typical_miss(checks: pd.DataFrame) -> float:
@@ -235,7 +244,8 @@ def measure(df: pd.DataFrame, beside: Companions | None = None) -> pd.DataFrame:
     real = real_errors(beside.real)
     judged = df[df.status.isin(JUDGED)]
     rows = []
-    effects = {k: effect_of(*k) for k in set(zip(judged.case, judged.metric))}
+    variants = judged.variant.astype(str) if "variant" in judged else pd.Series("", index=judged.index)
+    effects = {k: effect_of(*k) for k in set(zip(judged.case, judged.metric, variants))}
     measures = judged.measures.fillna("physics").to_numpy() if "measures" in judged else np.full(len(judged), "physics")
     for engine in dict.fromkeys(df.engine):
         mine_at = (judged.engine == engine).to_numpy()
@@ -245,8 +255,8 @@ def measure(df: pd.DataFrame, beside: Companions | None = None) -> pd.DataFrame:
             if effect in BY_MEASURE.values():
                 part = mine[column == effect]
             else:
-                part = mine[np.array([effect in effects[(c, m)] for c, m in zip(mine.case, mine.metric)], dtype=bool)
-                            & (column == "")]
+                part = mine[np.array([effect in effects[k] for k in zip(mine.case, mine.metric, variants[mine_at])],
+                                     dtype=bool) & (column == "")]
             families = sorted(part.case.unique())
             within = int((part.status == "pass").sum())
             rows.append({"engine": engine, "effect": effect, "grade": grade(part),
@@ -370,7 +380,7 @@ def section(card: pd.DataFrame, beside: Companions | None = None, picture: str =
     return "\n".join([
         "## Scorecard", "", legend(beside) + " The effects' families: "
         + ", ".join(f"[{f}](families/{f}.md)" for f in families) + " (`physval.readings.scorecard."
-        "EFFECTS` says which family and metric tests which effect).", "",
+        "EFFECTS` says which family, metric and variants test which effect).", "",
         md_table(grid(card).reset_index()), ""] + ([f"![Scorecard]({picture})", ""] if picture else []))
 
 
