@@ -94,9 +94,10 @@ import numpy as np
 from adapters.base import Adapter, Capabilities, Settings, SettingsError, Simulation, Tunable, Unsupported
 from adapters.combination import per_body_values
 from adapters.joints import TreeJoint, closing_ball_points, joint_tree, start_rate
-from adapters.frames import about_y_many, multiply_many, state_row
+from adapters.frames import about_y_many, state_row
 from adapters.lazy import require
 from adapters.solids import polygon_prism, triangle_normals, triangle_prisms
+from cases import rotations
 from cases.scene import Body, Box, Capsule, Circle, Cylinder, Hull, Mesh, Plane, Polygon, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
 
@@ -342,13 +343,6 @@ def _quiet_drake_warnings():
         yield
     finally:
         logger.setLevel(level)
-
-
-def _quat_mul(p, q) -> np.ndarray:
-    w1, x1, y1, z1 = p
-    w2, x2, y2, z2 = q
-    return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
 
 
 def _rotation(q) -> RotationMatrix:
@@ -694,7 +688,7 @@ class DrakeSimulation(Simulation):
             elif kind == "planar":  # (z, x, angle about +y)
                 th = q[a + 2]
                 turn = np.array([math.cos(th / 2), 0.0, math.sin(th / 2), 0.0])
-                out[name] = state_row((q[a + 1], 0.0, q[a]), _quat_mul(turn, q0),
+                out[name] = state_row((q[a + 1], 0.0, q[a]), rotations.multiply(turn, q0),
                                       (v[b + 1], 0.0, v[b]), (0.0, v[b + 2], 0.0))
             else:
                 qi, vi = [r[0] for r in a], [r[1] for r in a]
@@ -730,7 +724,7 @@ class DrakeSimulation(Simulation):
                 row[:, 7:10], row[:, 10:13] = v[:, b + 3:b + 6], v[:, b:b + 3]
             elif kind == "planar":
                 row[:, 0], row[:, 2] = q[:, a + 1], q[:, a]
-                row[:, 3:7] = multiply_many(about_y_many(q[:, a + 2]), q0)
+                row[:, 3:7] = rotations.multiply(about_y_many(q[:, a + 2]), q0)
                 row[:, 7], row[:, 9], row[:, 11] = v[:, b + 1], v[:, b], v[:, b + 2]
             else:
                 qi, vi = [r[0] for r in a], [r[1] for r in a]

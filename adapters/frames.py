@@ -26,13 +26,6 @@ def require_turn_about_y(body, why: str) -> None:
         raise Unsupported(f"2D body {body.name!r}: orientation {body.orientation} is not a rotation about y, {why}")
 
 
-def conjugate(q) -> np.ndarray:
-    """The conjugate (w, -x, -y, -z) of a quaternion (w, x, y, z), or of each row of an
-    (n, 4) array: for a unit quaternion its inverse, the turn from the world into the frame
-    that q turns into the world."""
-    return np.asarray(q, float) * [1.0, -1.0, -1.0, -1.0]
-
-
 def z_to(n) -> list[float]:
     """Unit quaternion (w, x, y, z) turning +z onto the unit vector n (a plane's frame: its
     normal along the frame's z); -z is a half turn about x."""
@@ -52,23 +45,6 @@ def state_row(pos, quat_wxyz, vel, omega_world) -> np.ndarray:
 
 
 # --- many samples at once (Simulation.decode_states) -------------------------------------
-
-def rotate_many(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Vectors v (n, 3) turned by unit quaternions q (n, 4, w-x-y-z):
-    v + w t + u x t with t = 2 u x v."""
-    w, u = q[:, :1], q[:, 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
-
-
-def multiply_many(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Quaternion products a b, each (n, 4) w-x-y-z (b may be one quaternion (4,))."""
-    b = np.broadcast_to(b, a.shape)
-    aw, ax, ay, az = a.T
-    bw, bx, by, bz = b.T
-    return np.stack([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw], axis=1)
-
 
 def planar_states(x, z, turn, vx, vz, spin) -> np.ndarray:
     """State rows (cases.trajectory layout) of bodies moving in the x-z plane, each argument

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from adapters.base import Unsupported
-from adapters.frames import conjugate, rotate_many
+from cases import rotations
 from cases.scene import Body, Joint, Scene
 
 # A child's start velocity must be its parent's carried along plus the joint's own rate to
@@ -141,5 +141,5 @@ def closing_ball_points(scene: Scene, closing: list[tuple[int, Joint]], constrai
 def _in_frame(body: Body, point: np.ndarray) -> np.ndarray:
     """A world point in the body's frame at its start pose: turned by the conjugate of its
     orientation (w, x, y, z)."""
-    q = conjugate(np.asarray(body.orientation, float) / np.linalg.norm(body.orientation))
-    return rotate_many(q[None, :], (point - np.asarray(body.position, float))[None, :])[0]
+    q = rotations.conjugate(np.asarray(body.orientation, float) / np.linalg.norm(body.orientation))
+    return rotations.rotate(q[None, :], (point - np.asarray(body.position, float))[None, :])[0]

@@ -55,8 +55,9 @@ import numpy as np
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.lazy import require
 from adapters.joints import closing_ball_points, joint_tree
-from adapters.frames import about_y_many, conjugate, multiply_many, rotate_many
+from adapters.frames import about_y_many
 from adapters.solids import polygon_prism, triangle_prisms
+from cases import rotations
 from cases.scene import (Body, Box, Capsule, Circle, Cylinder, Hull, Joint, Mesh, Plane, Polygon, Rect, Scene, Sphere,
                          pair_key)
 from cases.trajectory import ContactPoint
@@ -521,7 +522,7 @@ def _relative(frame: Body | None, point, quat=None) -> tuple[list, list | None]:
     """A world point (and orientation) in the frame of `frame`'s start pose (None: world)."""
     if frame is None:
         return list(point), (None if quat is None else list(quat))
-    inverse = conjugate(frame.orientation)
+    inverse = rotations.conjugate(frame.orientation)
     local = _rotate(inverse.tolist(), (np.asarray(point, float) - frame.position).tolist())
     if quat is None:
         return list(local), None
@@ -547,7 +548,7 @@ def _tree_body_xml(scene: Scene, body: Body, tree: dict, children: dict, knobs: 
     above = None if up is None else scene.body(up)
     pos, quat = _relative(above, body.position, body.orientation)
     frame = {"name": body.name, "pos": pos, "quat": quat}
-    inverse = conjugate(body.orientation).tolist()
+    inverse = rotations.conjugate(body.orientation).tolist()
     off = {"damping": 0, "stiffness": 0, "armature": 0, "frictionloss": 0}
     if joint is None and scene.dimension == 3:
         joints = [_element("freejoint", _known("(world)body/freejoint", {"align": "false"}, knobs["left_out"]))]
@@ -790,7 +791,7 @@ class MuJoCoSimulation(Simulation):
             v, w = np.asarray(body.velocity, float), np.asarray(body.angular_velocity, float)
             if joints == "free":
                 d.qvel[va:va + 3] = v                                    # world frame
-                d.qvel[va + 3:va + 6] = _rotate(conjugate(q0).tolist(), w.tolist())  # body frame
+                d.qvel[va + 3:va + 6] = _rotate(rotations.conjugate(q0).tolist(), w.tolist())  # body frame
                 bodies.append((body.name, qa, va, None))
                 continue
             for i, (kind, axis) in enumerate(joints):
@@ -876,14 +877,14 @@ class MuJoCoSimulation(Simulation):
             if held is None:  # free joint: world position, quat, world velocity, BODY-frame omega
                 row[:, 0:7] = qpos[:, qa:qa + 7]
                 row[:, 7:10] = qvel[:, va:va + 3]
-                row[:, 10:13] = rotate_many(row[:, 3:7], qvel[:, va + 3:va + 6])
+                row[:, 10:13] = rotations.rotate(row[:, 3:7], qvel[:, va + 3:va + 6])
                 continue
             p0, q0, slides, hinge = held
             ns = len(slides)
             row[:, 0:3] = p0 + qpos[:, qa:qa + ns] @ slides
             row[:, 7:10] = qvel[:, va:va + ns] @ slides
             if hinge:  # turns the start orientation about world y
-                row[:, 3:7] = multiply_many(about_y_many(qpos[:, qa + ns]), q0)
+                row[:, 3:7] = rotations.multiply(about_y_many(qpos[:, qa + ns]), q0)
                 row[:, 11] = qvel[:, va + ns]
             else:
                 row[:, 3:7] = q0

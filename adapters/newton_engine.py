@@ -100,7 +100,7 @@ import numpy as np
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.combination import RULES as COMBINE, per_body_values
-from adapters.frames import rotate_many
+from cases import rotations
 from adapters.lazy import require
 from adapters.warp_support import init_warp
 from cases.scene import Body, Box, Plane, Scene, Sphere, pair_key
@@ -720,7 +720,7 @@ class NewtonSimulation(Simulation):
             body = shape_body[shapes]
             moving = body >= 0  # a static shape's points are in the world frame already
             q = body_q[body[moving]]
-            out[moving] = q[:, :3] + rotate_many(q[:, [6, 3, 4, 5]], out[moving])  # Warp's x-y-z-w to w-x-y-z
+            out[moving] = q[:, :3] + rotations.rotate(q[:, [6, 3, 4, 5]], out[moving])  # Warp's x-y-z-w to w-x-y-z
             return out
 
         p0 = world(shape0, c.rigid_contact_point0.numpy()[:n]) + c.rigid_contact_margin0.numpy()[:n, None] * normal

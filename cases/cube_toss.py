@@ -51,6 +51,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from cases import rotations
 from cases.scene import Body, Box, Material, Plane, Scene
 
 if TYPE_CHECKING:
@@ -108,16 +109,6 @@ def _from_scipy(r: Rotation) -> np.ndarray:
     return q[:, [3, 0, 1, 2]]
 
 
-def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Hamilton product p * q of (..., 4) arrays (w, x, y, z)."""
-    w1, x1, y1, z1 = np.moveaxis(np.asarray(p, float), -1, 0)
-    w2, x2, y2, z2 = np.moveaxis(np.asarray(q, float), -1, 0)
-    return np.stack([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-                     w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-                     w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2], axis=-1)
-
-
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Body-frame vectors v turned into the world frame by the quaternions q (rows)."""
     return _to_scipy(q).apply(v)
@@ -127,8 +118,7 @@ def angle_between(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Geodesic angle (rad) between orientations, row by row: the angle of the rotation
     r = p^-1 q, 2 atan2(|r_xyz|, |r_w|) (q and -q are the same orientation; unlike
     2 acos |<p, q>| this is exact near 0)."""
-    p = np.asarray(p, float)
-    r = quat_multiply(p * np.array([1.0, -1.0, -1.0, -1.0]), np.asarray(q, float))
+    r = rotations.multiply(rotations.conjugate(p), q)
     return 2.0 * np.arctan2(np.linalg.norm(r[..., 1:], axis=-1), np.abs(r[..., 0]))
 
 
@@ -503,7 +493,7 @@ def omega_convention_residuals(tr: Toss) -> dict[str, float]:
     dq = np.diff(tr.quat, axis=0) / h
     w = np.column_stack([np.zeros(len(tr)), tr.omega])
     out = {}
-    for frame, pred in (("body", 0.5 * quat_multiply(tr.quat, w)), ("world", 0.5 * quat_multiply(w, tr.quat))):
+    for frame, pred in (("body", 0.5 * rotations.multiply(tr.quat, w)), ("world", 0.5 * rotations.multiply(w, tr.quat))):
         mid = 0.5 * (pred[1:] + pred[:-1])
         out[frame] = float(np.median(np.linalg.norm(dq - mid, axis=1)) / np.median(np.linalg.norm(dq, axis=1)))
     return out

@@ -45,6 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from cases import cube_toss as ct
+from cases import rotations
 from cases.scene import Body, Box, Joint, Material, Plane, Scene
 
 DATA = Path(__file__).parent / "data" / "elbow_toss" / "elbow_tosses.csv.gz"
@@ -129,7 +130,7 @@ def links(pose: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
     """World centres and orientations of both links, (p1, q1, p2, q2), from pose rows."""
     pose = np.atleast_2d(pose)
     p1, q1, theta = pose[:, :3], pose[:, 3:7], pose[:, 7]
-    q2 = ct.quat_multiply(q1, _turn_y(theta))
+    q2 = rotations.multiply(q1, _turn_y(theta))
     p2 = p1 + ct.rotate(q1, np.tile(HINGE, (len(p1), 1))) + ct.rotate(q2, np.tile(ARM, (len(p1), 1)))
     return p1, q1, p2, q2
 
@@ -137,7 +138,7 @@ def links(pose: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndar
 def hinge_angle(q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
     """The hinge angle from the two links' orientations: the turn q1^-1 q2 about elbow_1's y
     (the component about y of that relative rotation, exact while the hinge holds)."""
-    r = ct.quat_multiply(np.atleast_2d(q1) * np.array([1.0, -1.0, -1.0, -1.0]), np.atleast_2d(q2))
+    r = rotations.multiply(rotations.conjugate(np.atleast_2d(q1)), np.atleast_2d(q2))
     return 2.0 * np.arctan2(r[:, 2] * np.sign(r[:, 0] + (r[:, 0] == 0)), np.abs(r[:, 0]))
 
 

@@ -69,6 +69,7 @@ import math
 
 import numpy as np
 
+from cases import rotations
 from cases.eccentric_impact import body_collision_matrix
 from cases.family import CaseFamily, Catch, Check, plane_label
 from cases.impact_laws import (DEFAULT_GRID_LAWS, DEFAULT_LAW, IMPULSE_OF_LAW, law_label, law_needs, law_of,
@@ -109,11 +110,8 @@ N = np.array([0.0, 0.0, 1.0])
 # --- geometry -------------------------------------------------------------------------------
 
 def quat_mul(p, q) -> tuple[float, float, float, float]:
-    """The rotation q then p, as (w, x, y, z) quaternions."""
-    a, b, c, d = p
-    e, f, g, h = q
-    return (a * e - b * f - c * g - d * h, a * f + b * e + c * h - d * g,
-            a * g - b * h + c * e + d * f, a * h + b * g - c * f + d * e)
+    """The rotation q then p, as a (w, x, y, z) tuple of floats (a body's orientation)."""
+    return tuple(float(c) for c in rotations.multiply(p, q))
 
 
 def quat_about(axis, angle: float) -> tuple[float, float, float, float]:

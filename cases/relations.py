@@ -38,6 +38,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from cases import rotations
 from cases.overlap import rotation_matrix
 from cases.scene import (Box, Capsule, Circle, Cylinder, Hull, Material, Mesh, Plane, Polygon, Rect,
                          Scene, Sphere)
@@ -69,13 +70,6 @@ class NotApplicable(ValueError):
 
 # --- quaternions (w, x, y, z) ----------------------------------------------------------------
 
-def quat_multiply(a, b) -> np.ndarray:
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
-    return np.array([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw])
-
-
 def quat_about(axis, angle: float) -> tuple[float, float, float, float]:
     """The rotation by `angle` (rad) about the unit vector `axis`."""
     a = np.asarray(axis, float) / np.linalg.norm(axis)
@@ -86,21 +80,6 @@ def quat_about(axis, angle: float) -> tuple[float, float, float, float]:
 def _mirrored_quat(q: np.ndarray) -> np.ndarray:
     """F R F as a quaternion: the axis, a pseudo-vector, goes to -F a (exact: sign flips)."""
     return q * np.array([1.0, 1.0, -1.0, -1.0])
-
-
-def _rows(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Vectors v (n, 3) turned by the unit quaternion q (4,)."""
-    w, u = q[0], q[1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
-
-
-def _products(a: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Quaternion products a q_k for rows q (n, 4) of unit quaternions."""
-    aw, ax, ay, az = a
-    bw, bx, by, bz = q.T
-    return np.stack([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw], axis=1)
 
 
 # --- the relation contract -------------------------------------------------------------------
@@ -190,13 +169,13 @@ class Motion(Relation):
         def point(p):
             x = np.asarray(p, float)
             x = MIRROR @ x if m.mirror else x
-            return _vec(_rows(q, x[None])[0] + d)
+            return _vec(rotations.rotate(q, x[None])[0] + d)
 
         def vector(v, pseudo=False):
             x = np.asarray(v, float)
             if m.mirror:
                 x = (sign * MIRROR @ x) if pseudo else MIRROR @ x
-            return _vec(_rows(q, x[None])[0])
+            return _vec(rotations.rotate(q, x[None])[0])
 
         def body(b):
             if isinstance(b.shape, Plane):
@@ -208,7 +187,7 @@ class Motion(Relation):
                                position=(0.0, 0.0, 0.0), orientation=(1.0, 0.0, 0.0, 0.0))
             o = np.asarray(b.orientation, float)
             o = _mirrored_quat(o) if m.mirror else o
-            o = quat_multiply(q, o)  # unit to rounding: not normalised, which would round the exact ones
+            o = rotations.multiply(q, o)  # unit to rounding: not normalised, which would round the exact ones
             return replace(b, shape=_mirror_shape(b.shape) if m.mirror else b.shape, position=point(b.position),
                            orientation=_vec(o), velocity=vector(b.velocity),
                            angular_velocity=vector(b.angular_velocity, pseudo=True) if b.rotates
@@ -220,15 +199,15 @@ class Motion(Relation):
         """States of the moved run in the original frame: x = F^s Q^T (x' - d), v = F^s Q^T v',
         w = det(M) F^s Q^T w', R = F^s Q^T R' F^s."""
         m = self._in(scene)
-        qi = np.asarray(m.turn, float) * np.array([1.0, -1.0, -1.0, -1.0])  # Q^T
+        qi = rotations.conjugate(m.turn)  # Q^T
         d = np.asarray(m.shift, float)
         states = {}
         for name, s in traj.states.items():
             out = np.empty_like(s)
-            x = _rows(qi, s[:, POS] - d)
-            v = _rows(qi, s[:, VEL])
-            w = _rows(qi, s[:, OMEGA])
-            o = _products(qi, s[:, QUAT])
+            x = rotations.rotate(qi, s[:, POS] - d)
+            v = rotations.rotate(qi, s[:, VEL])
+            w = rotations.rotate(qi, s[:, OMEGA])
+            o = rotations.multiply(qi, s[:, QUAT])
             if m.mirror:
                 x, v, w = x @ MIRROR, v @ MIRROR, -(w @ MIRROR)
                 o = o * np.array([1.0, 1.0, -1.0, -1.0])

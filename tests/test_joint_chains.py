@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from adapters.base import Settings, Unsupported
-from adapters.frames import rotate_many
+from cases.rotations import rotate
 from adapters.joints import joint_tree, start_rate
 from cases import four_bar
 from cases.scene import Body, Joint, Scene, ball, cube
@@ -66,8 +66,8 @@ def _anchor_of(state: np.ndarray, body: Body) -> np.ndarray:
     """Where the body's material point that started at ANCHOR is now (state row: position,
     orientation w-x-y-z, ...)."""
     q0 = np.asarray(body.orientation, float) * [1.0, -1.0, -1.0, -1.0]
-    local = rotate_many(q0[None], (ANCHOR - np.asarray(body.position))[None])
-    return state[:3] + rotate_many(state[None, 3:7], local)[0]
+    local = rotate(q0[None], (ANCHOR - np.asarray(body.position))[None])
+    return state[:3] + rotate(state[None, 3:7], local)[0]
 
 
 @pytest.mark.parametrize("dim", [3, 2])
@@ -98,7 +98,7 @@ def test_a_two_body_chain_maps_the_axis_and_the_start_rate(engine, dim):
     axis = AXIS / np.linalg.norm(AXIS) if dim == 3 else np.array([0.0, 1.0, 0.0])
     w_rel = after["arm"][10:13] - after["root"][10:13]
     q_root = after["root"][3:7] * [1.0, -1.0, -1.0, -1.0]   # the axis turns with the root
-    w_local = rotate_many(q_root[None], w_rel[None])[0]
+    w_local = rotate(q_root[None], w_rel[None])[0]
     assert np.linalg.norm(np.cross(w_local, axis)) < 1e-9
     assert w_local @ axis == pytest.approx(RATE, rel=1e-2)
     arm, root = scene.body("arm"), scene.body("root")
