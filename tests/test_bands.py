@@ -357,3 +357,58 @@ def test_an_inheriting_configuration_gives_its_engines_values_on_a_sample_of_the
         mine, theirs = (shared_rows(Job(family, v, e)) for e in (engine, source))
         values = lambda rows: {r["metric"]: str(r["measured"]) for r in rows}  # noqa: E731 (nan as nan)
         assert values(mine) == values(theirs), f"{family}[{variant}]: {engine} and {source} measure differently"
+
+
+# --- a configuration that runs some families unless named: measured on every family -----------
+
+def _named_only():
+    """Installed configurations whose default run leaves families out (Adapter.default_tags)
+    and whose own file records their deviations (not `inherit:`): a run that names them meets
+    the other families, judged only by their own file."""
+    from adapters import registry
+    out = []
+    for name in registry.engine_names():
+        try:
+            adapter = registry.get(name)
+            path = adapter.deviations_file()
+        except registry.EngineError:
+            continue
+        if adapter.default_tags is not None and path is not None and not deviations.inherits(path):
+            out.append(name)
+    return out
+
+
+@pytest.mark.parametrize("engine", _named_only())
+def test_a_configuration_run_by_name_was_measured_on_every_family_it_can_represent(engine):
+    """A default run gives such a configuration its default families only, so a family added
+    since its bands were measured meets it first in a named run (`physval run --engines
+    drake-sap`), where a check that misses without an entry is an unexplained `fail`. Its
+    file's `# families-measured:` line (written by `physval known ENGINE --write`) names the
+    families it was measured on: every family it can represent in a named run must be there."""
+    from cases.registry import builtin_families
+    from physval.core.plan import leaves_out
+    from adapters import registry
+    adapter = registry.get(engine)
+    path = adapter.deviations_file()
+    listed = deviations.families_measured(path)
+    runs = {name for name, fam in builtin_families().items()
+            if any(adapter.capabilities.cannot_run(scene := fam.scene(v.params), fam.needs_of(v.params)) is None
+                   and leaves_out(adapter, fam.tags, scene, named=True) is None for v in fam.variants)}
+    missing = sorted(runs - (listed or set()))
+    if listed is None and missing:
+        pytest.skip(f"{path.name} has no '# families-measured:' line yet: `physval known {engine} --write` records it")
+    assert not missing, (f"{path.name}: a run naming {engine} takes {', '.join(missing)}, never measured on it: "
+                         f"physval known {engine} --write --cases {' '.join(missing)}")
+
+
+def test_the_families_measured_line_joins_what_known_ran_and_parses_as_a_comment(tmp_path):
+    path = tmp_path / "eng.txt"
+    body = "# measured-on: eng 1.0\nfam[*]:v  # the engine is slow\n    eng [a]:v = 1.5 +- 0.01\n"
+    path.write_text(deviations.with_families_measured(body, {"fam", "alpha"}))
+    assert path.read_text().splitlines()[1] == "# families-measured: alpha fam"
+    assert deviations.families_measured(path) == {"alpha", "fam"}
+    path.write_text(deviations.with_families_measured(path.read_text(), {"alpha", "fam", "beta"}))
+    assert path.read_text().count("families-measured") == 1 and deviations.families_measured(path) == {
+        "alpha", "beta", "fam"}
+    assert [d.pattern for d in deviations.parse(path)] == ["fam[*]:v"] and deviations.measured_on(path) == ("eng", "1.0")
+    assert deviations.families_measured(tmp_path / "none.txt") is None

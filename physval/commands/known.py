@@ -18,6 +18,9 @@ narrow them). With --write over an engine's own file and no --cases, the file's
 `# measured-on: PACKAGE RELEASE` line names the release installed (the one its bands now hold for).
 A file that inherits another engine's entries (`inherit: ENGINE`) gets its own entries'
 bands only; the inherited ones are that engine's, measured with `physval known ENGINE`.
+With --write over an engine's own file, its `# families-measured:` line adds the families
+this run measured (a configuration that runs only some families unless named is checked
+against it: every family it can represent must be measured on it).
 """
 from __future__ import annotations
 
@@ -215,6 +218,10 @@ def run(args) -> int:
             elif release is not None and deviations.measured_on(path) not in (None, (adapter.package, release)):
                 print(f"  {path.name} keeps its '# measured-on:' line: only the --cases were measured on "
                       f"{adapter.package} {release}")
+            if not args.file:  # the families this run measured join those measured before
+                ran_families = {j.family for j in jobs}
+                text = deviations.with_families_measured(text, (deviations.families_measured(path) or set())
+                                                         | ran_families)
             write_atomic(path, text)
     if not args.write and changed:
         print("(nothing written: add --write to record these bands)")

@@ -97,6 +97,7 @@ _VALUE = re.compile(r"^(?P<value>\S+)\s*\+-\s*(?P<width>\S+)$")
 _RAISES = re.compile(r"^raises\s+(?P<exc>[\w.]+)$")
 _BAND_REASON = re.compile(r"^\s*#\s*band:\s*(?P<why>.*?)\s*$")
 _MEASURED_ON = re.compile(r"^#\s*measured-on:\s*(?P<package>\S+)\s+(?P<release>\S+)\s*$")
+_FAMILIES_MEASURED = re.compile(r"^#\s*families-measured:(?P<names>.*)$")
 _INHERIT = re.compile(r"^inherit:\s*(?P<engine>[^\s#]+)\s*(?:#.*)?$")
 
 # The band `physval known` records: the measured values' middle +- half their spread plus a
@@ -339,6 +340,34 @@ def measured_on(path: Path | str | None) -> tuple[str, str] | None:
         if (m := _MEASURED_ON.match(raw.strip())) is not None:
             return m["package"], m["release"]
     return None
+
+
+def families_measured(path: Path | str | None) -> frozenset[str] | None:
+    """The families named by the file's `# families-measured: NAME ...` header line: those
+    `physval known ENGINE --write` ran on the engine (its deviating checks then have entries
+    and bands, the others passed); None if the file has none (or is missing). A configuration
+    whose default run leaves families out (Adapter.default_tags) meets the rest only when
+    named, so its file says which it was measured on (tests/test_bands.py)."""
+    if path is None or not Path(path).exists():
+        return None
+    for raw in _text(Path(path)).splitlines():
+        if (m := _FAMILIES_MEASURED.match(raw.strip())) is not None:
+            return frozenset(m["names"].split())
+    return None
+
+
+def with_families_measured(text: str, families) -> str:
+    """`text` of a deviation file with its `# families-measured:` header line naming
+    `families` (sorted; replaced where it is, or put after the `# measured-on:` line, else first)."""
+    lines = text.splitlines()
+    header = "# families-measured: " + " ".join(sorted(families))
+    at = next((i for i, raw in enumerate(lines) if _FAMILIES_MEASURED.match(raw.strip())), None)
+    if at is not None:
+        lines[at] = header
+    else:
+        on = next((i for i, raw in enumerate(lines) if _MEASURED_ON.match(raw.strip())), -1)
+        lines.insert(on + 1, header)
+    return "\n".join(lines) + "\n"
 
 
 def inherits(path: Path | str | None) -> str | None:
