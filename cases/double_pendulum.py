@@ -233,10 +233,11 @@ FAMILY = CaseFamily(
     variant_id=variant_id,
     catches=(
         # planted on the reference's PGS formulation, whose joint rows pass both modes; the
-        # reference's damping is planted in its default formulation only, which has no joint
-        # rows yet: on MuJoCo
+        # reference's damping is planted in its default formulation (whose joint rows pass
+        # the slow mode too), and on MuJoCo
         Catch("gravity", "slow mode", "reference-pgs"),
         Catch("time step", "fast mode", "reference-pgs"),
+        Catch("damping", "slow mode"),
         Catch("damping", "slow mode", "mujoco"),
     ),
 )

@@ -102,7 +102,10 @@ FAMILY = CaseFamily(
     dt=1e-3,
     variant_id=lambda p: f"mu={p['mu']:g},v0={p['v0']:g}" + (",2D" if p["dim"] == 2 else ""),
     catches=(
-        # planted on MuJoCo: the reference builds no joints yet (issue 39 item 2)
+        # the joint's friction off or doubled, planted on the reference's sequential impulses
+        # (its friction row on the joint's coordinate): the deceleration and the stop see it
+        Catch("friction off", "mu=0.5,v0=2"),
+        Catch("friction doubled", "mu=0.5,v0=2"),
         Catch("time step", "mu=0.5,v0=2", "mujoco"),
     ),
 )

@@ -300,18 +300,25 @@ class ContactTorques(Fault):
 # tests/test_catches.py plants each on the variant its family names and shows a check fail.
 
 class _Materials(Fault):
-    """Every material (the default and each pair's) replaced by material(m): the base of the
-    off and doubled faults below."""
+    """Every material (the default and each pair's) replaced by material(m), and every joint
+    by joint(j): the base of the off and doubled faults below. A joint carries the same
+    effects as a contact's material where it has them (a restitution at its limits, a dry
+    friction along its coordinate), and an effect off or doubled is off or doubled there
+    too: else a family of joints (limit_impact, rail_slide) could not show it sees them."""
 
     def material(self, m):
         return m
 
+    def joint(self, j):
+        return j
+
     def scene(self, scene, capabilities):
-        return _scale_materials(scene, self.material)
+        scene = _scale_materials(scene, self.material)
+        return replace(scene, joints=tuple(self.joint(j) for j in scene.joints))
 
 
 class RestitutionOff(_Materials):
-    """Restitution off: e = 0 in every material.
+    """Restitution off: e = 0 in every material and at every joint limit.
 
     An adapter that sets the engine's restitution from a field it never fills (Bullet's and
     DART's default restitution is 0): every impact is plastic."""
@@ -320,9 +327,12 @@ class RestitutionOff(_Materials):
     def material(self, m):
         return replace(m, e=0.0)
 
+    def joint(self, j):
+        return replace(j, limit_e=0.0)
+
 
 class RestitutionDoubled(_Materials):
-    """Restitution doubled: e x 2 in every material (at most 1).
+    """Restitution doubled: e x 2 in every material and at every joint limit (at most 1).
 
     A pair's e applied to each body of a rule that adds or multiplies them the other way
     (e = 0.3 on both bodies of a sum): e = 0.5 becomes 1."""
@@ -331,9 +341,12 @@ class RestitutionDoubled(_Materials):
     def material(self, m):
         return replace(m, e=min(1.0, 2.0 * m.e))
 
+    def joint(self, j):
+        return replace(j, limit_e=min(1.0, 2.0 * j.limit_e))
+
 
 class FrictionOff(_Materials):
-    """Friction off: mu_s = mu_k = 0 in every material.
+    """Friction off: mu_s = mu_k = 0 in every material, no friction in any joint.
 
     An adapter that maps friction onto a field the engine ignores at this contact type (or
     one switched off by a flag it forgot): every contact is frictionless."""
@@ -342,9 +355,12 @@ class FrictionOff(_Materials):
     def material(self, m):
         return replace(m, mu_s=0.0, mu_k=None)
 
+    def joint(self, j):
+        return replace(j, friction=0.0)
+
 
 class FrictionDoubled(_Materials):
-    """Friction doubled: mu_s and mu_k x 2 in every material.
+    """Friction doubled: mu_s and mu_k x 2 in every material, each joint's friction x 2.
 
     A pair's mu set on both bodies of a rule that adds them (or mu_s given where the
     engine takes the friction angle's tangent of twice it): 0.3 becomes 0.6."""
@@ -352,6 +368,9 @@ class FrictionDoubled(_Materials):
 
     def material(self, m):
         return replace(m, mu_s=2.0 * m.mu_s, mu_k=None if m.mu_k is None else 2.0 * m.mu_k)
+
+    def joint(self, j):
+        return replace(j, friction=2.0 * j.friction)
 
 
 class RollingOff(_Materials):

@@ -51,7 +51,7 @@ BLIND = {
 
 def label(item) -> str:
     name, catch = item
-    return f"{name}[{catch.variant}]-{catch.fault}"
+    return f"{name}[{catch.variant}]-{catch.fault}" + ("" if catch.engine == "reference" else f"-{catch.engine}")
 
 
 @functools.cache

@@ -94,11 +94,27 @@ def test_lying_cylinder_readings_of_a_still_and_a_moving_body():
     assert moved["tilt"] == pytest.approx(0.02, rel=1e-6)
     assert moved["lowest"] == pytest.approx(lc.R - 3e-3)
     assert moved["support_force"] == pytest.approx(0.9 * lc.M * G)
-    assert moved["drift"] == pytest.approx(0.005, rel=1e-3)  # the half of the slide after SETTLED
+    assert moved["drift"] == pytest.approx(0.01, rel=1e-3)  # the whole slide along the ground
     checks = {c.metric: c for c in lc.expect(lc.GRID[0], 1e-3)}
     for metric, value in moved.items():  # each wrong answer fails its check
         assert abs(value - checks[metric].expected) > checks[metric].tolerance * (
             abs(checks[metric].expected) if checks[metric].kind == "rel" else 1.0), metric
+
+
+def test_lying_cylinder_drift_sees_a_walk_that_ends_before_the_settled_window():
+    """A cylinder that walks 1 mm along the ground while its contact starts up and is still
+    from SETTLED on has not stayed where it was put: its drift fails (it read 0 when the
+    drift was taken from SETTLED on only)."""
+    t = np.linspace(0.0, lc.T, 1001)
+    traj = _resting(t)
+    walking = t < lc.SETTLED / 2
+    traj.states["cylinder"][:, 0] = np.where(walking, 1e-3 * t / (lc.SETTLED / 2), 1e-3)
+    drift = {c.metric: c for c in lc.expect(lc.GRID[0], 1e-3)}["drift"]
+    assert lc.observe(traj, lc.GRID[0])["drift"] == pytest.approx(1e-3)
+    assert 1e-3 > drift.tolerance
+    sag = _resting(t)  # a soft contact's start-up sag of 0.25 mm, then rest: no drift
+    sag.states["cylinder"][:, 2] -= np.where(walking, 2.5e-4 * t / (lc.SETTLED / 2), 2.5e-4)
+    assert lc.observe(sag, lc.GRID[0])["drift"] == pytest.approx(0.0, abs=1e-12)
 
 
 def test_cylinder_slide_keeps_slide_to_stop_s_closed_forms_and_stays_upright():

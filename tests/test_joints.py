@@ -591,6 +591,35 @@ def test_a_limits_restitution_is_built_or_said_unsupported(engine):
     plastic.close()
 
 
+def test_a_plastic_limit_that_never_stops_the_rod_fails_limit_impact():
+    """limit_impact[e=0]: a plastic limit's rebound ratio (0) is also what a rod that swings
+    through a missing limit reads, so that check alone cannot see the limit; the impact
+    speed does: run on without the limit the rod is 0.49 rad/s faster at the end (gravity
+    for the 0.02 s after theta_c), 48 tolerances off. The reference, with and without it."""
+    from dataclasses import replace
+    from cases import hinged_rod_stop as rod
+    from cases import limit_impact
+    p = {"e": 0.0, "dim": 3}
+    checks = {c.metric: c for c in limit_impact.FAMILY.expect(p, rod.DT)}
+    n = round(rod.duration(p) / rod.DT)
+    readings = {}
+    for limited in (True, False):
+        scene = limit_impact.scene(p)
+        if not limited:
+            scene = replace(scene, joints=tuple(replace(j, limits=None) for j in scene.joints))
+        with registry.get("reference").build(scene, Settings(dt=rod.DT)) as sim:
+            states = [sim.states()["rod"]]
+            for _ in range(n):
+                sim.step()
+                states.append(sim.states()["rod"])
+        traj = Trajectory(dt=rod.DT, t=np.arange(n + 1) * rod.DT, states={"rod": np.array(states)})
+        readings[limited] = limit_impact.FAMILY.observe(traj, p)
+    def misses(limited, metric):
+        return abs(readings[limited][metric] - checks[metric].expected) > checks[metric].tolerance
+    assert not misses(True, "rebound_ratio") and not misses(True, "impact_speed"), readings[True]
+    assert misses(False, "impact_speed"), readings[False]
+
+
 def test_dart_applies_a_load_before_every_step_and_repeats_it():
     """DART clears a body's external force after each World::step: the adapter adds the
     scene's load again before every step, so a pad pressed with F = 10 N (no gravity, no
