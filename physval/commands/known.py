@@ -27,11 +27,10 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from dataclasses import replace
 from fnmatch import fnmatchcase
 from pathlib import Path
 
-
-from dataclasses import replace
 
 from adapters.planting import Planted
 from adapters.registry import installed_release
@@ -197,22 +196,25 @@ def run(args) -> int:
                     for e in entries}
         print(f"{engine}: {path}" + (f" (release {release}: its own lines where it differs from "
                                      f"{recorded[1][0]}'s)" if further else ""))
+        on = f" on {adapter.package} {release}" if further else ""
         for e in here:
             before = {(b.variant, b.metric): b for b in e.bands if b.engine == engine and (e.family, b.variant) in ran}
-            after = {(b.variant, b.metric): b for b in new[e.line]}
+            # a further release: the bands that will judge it (its own lines where written, else the plain ones)
+            now = replace(e, bands=tuple(bands_of[e.line])).on_release(release).bands if further else new[e.line]
+            after = {(b.variant, b.metric): b for b in now if b.engine == engine and (e.family, b.variant) in ran}
             moved = [k for k in after if k in before and not before[k].holds(after[k].value, after[k].raises)]
             if not any(f == e.family and fnmatchcase(v, e.variant) for f, v in ran):
                 print(f"  line {e.line} {e.pattern}: none of its variants ran here (not selected; in the "
                       "full grid: --full; on demand: --on-demand)")
                 continue
             if not after and before:
-                print(f"  line {e.line} {e.pattern}: no check deviates any more: remove or narrow the entry")
+                print(f"  line {e.line} {e.pattern}: no check deviates any more{on}: remove or narrow the entry")
             elif not after:
-                print(f"  line {e.line} {e.pattern}: matches no deviating check on {engine}")
+                print(f"  line {e.line} {e.pattern}: matches no deviating check on {engine}{on}")
             redrawn = [k for k in after if k in before and before[k].text() != after[k].text()]
             if set(after) != set(before) or redrawn:
                 changed += 1
-                print(f"  line {e.line} {e.pattern}: {len(before)} -> {len(after)} bands"
+                print(f"  line {e.line} {e.pattern}: {len(before)} -> {len(after)} bands{on}"
                       + (f", {len(redrawn)} re-measured" if redrawn else "")
                       + (f", {len(moved)} moved out of their band" if moved else ""))
         for e, b, _ in measured.too_wide(here):
