@@ -255,7 +255,7 @@ def test_a_further_release_has_band_lines_of_its_own_where_it_differs(tmp_path):
     does not parse."""
     path = tmp_path / "eng.txt"
     path.write_text("# measured-on: eng 1.0, 2.0\nfam[*]:v  # the engine is slow\n"
-                    "    eng [a]:v = 1.5 +- 0.01\n    eng [b]:v = 1.6 +- 0.01\n    eng [c]:v = 1.7 +- 0.01\n"
+                    "    eng [a]:v = 1.5 +- 0.01\n    eng [b]:v = 1.6 +- 0.013323\n    eng [c]:v = 1.7 +- 0.01\n"
                     "    eng@2.0 [a]:v = 1.4 +- 0.01\n    eng@2.0 [c]:v = passes\n")
     assert deviations.measured_releases(path) == ("eng", ("1.0", "2.0"))
     assert deviations.measured_on(path) == ("eng", "1.0")
@@ -272,7 +272,8 @@ def test_a_further_release_has_band_lines_of_its_own_where_it_differs(tmp_path):
     assert moved["status"] == "fail" and moved["reason"].startswith(deviations.CHANGED) and note in moved["reason"]
     assert judge(CHECK, 1.5, "eng", "a", on_3)["status"] == "deviation"
     assert judge(CHECK, 1.0, "eng", "c", entry.on_release("2.0"))["status"] == "pass"
-    assert deviations.rewrite(path, {}) == path.read_text()  # release lines written back as they were
+    # written back as they were: release lines, and a width of more digits than `known` writes
+    assert deviations.rewrite(path, {}) == deviations.rewrite(path, {2: list(entry.bands)}) == path.read_text()
     for header, line in (("# measured-on: eng 1.0", "    eng@2.0 [a]:v = 1.4 +- 0.01"),
                          ("# measured-on: eng 1.0, 2.0", "    eng@1.0 [a]:v = 1.4 +- 0.01"),
                          ("# measured-on: eng 1.0, 2.0", "    eng [a]:v = passes")):

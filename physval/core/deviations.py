@@ -511,8 +511,9 @@ def find(deviations: list[Deviation], family: str, variant: str, metric: str) ->
 
 def rewrite(path: Path, bands_of: dict[int, list[Band]]) -> str:
     """The text of `path` with each entry's band lines replaced by `bands_of[entry line]`
-    (entries not in `bands_of` keep theirs); comments, causes and `# band:` reasons are kept
-    as written, a reason right under its entry."""
+    (entries not in `bands_of` keep theirs; a band parsed from the file, `line` > 0, is
+    written as its line reads); comments, causes and `# band:` reasons are kept as written,
+    a reason right under its entry."""
     lines = _text(Path(path)).splitlines()
     entry_at = [bool(raw.strip()) and not raw.lstrip().startswith("#") and not raw[:1].isspace()
                 and _ENTRY.match(raw.rstrip()) is not None for raw in lines]
@@ -532,7 +533,9 @@ def rewrite(path: Path, bands_of: dict[int, list[Band]]) -> str:
             current = i
             if i in bands_of:
                 below = lines[i:next((j for j in range(i, len(lines)) if entry_at[j]), len(lines))]
-                out += [r for r in below if _BAND_REASON.match(r)] + [b.text() for b in bands_of[i]]
+                # a band kept from the file keeps its line as written (a width of more digits stays)
+                out += [r for r in below if _BAND_REASON.match(r)] + [
+                    lines[b.line - 1] if b.line and _BAND.match(lines[b.line - 1]) else b.text() for b in bands_of[i]]
     return "\n".join(out) + "\n"
 
 
