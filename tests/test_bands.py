@@ -263,6 +263,8 @@ def test_a_further_release_has_band_lines_of_its_own_where_it_differs(tmp_path):
     values = lambda e: {b.variant: b.value for b in e.bands}
     assert values(entry.on_release("1.0")) == values(entry.on_release(None)) == {"a": 1.5, "b": 1.6, "c": 1.7}
     assert values(entry.on_release("2.0")) == {"a": 1.4, "b": 1.6}
+    # what 1.0 leaves out is 2.0's (an entry of 2.0's checks alone is not stale on 1.0)
+    assert entry.on_release("1.0").other_releases == ("2.0",) and entry.on_release("2.0").other_releases == ()
     note = deviations.other_release(("eng", ("1.0", "2.0")), "3.0")
     assert note == "bands measured on eng 1.0 and 2.0, this run 3.0"
     assert deviations.other_release(("eng", ("1.0", "2.0")), "2.0") is None

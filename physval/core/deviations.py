@@ -234,6 +234,7 @@ class Deviation:
     band_reason: str = ""  # why its bands may be wider than one tolerance (its `# band:` line)
     inherited_from: str = ""  # the engine whose entry and bands this is, read through an `inherit:` line
     off_release: str = ""  # `other_release`'s note where the run's release is none its file was measured on
+    other_releases: tuple[str, ...] = ()  # the releases whose own band lines `on_release` left out
 
     @property
     def cause(self) -> str:
@@ -282,7 +283,9 @@ class Deviation:
             return self
         own = {b.key: b for b in self.bands if b.release and b.release == release}
         bands = [own.pop(b.key, b) for b in self.bands if not b.release] + list(own.values())
-        return replace(self, bands=tuple(b for b in bands if not b.passes), off_release=off_release)
+        others = tuple(dict.fromkeys(b.release for b in self.bands if b.release and b.release != release))
+        return replace(self, bands=tuple(b for b in bands if not b.passes), off_release=off_release,
+                       other_releases=others)
 
     @property
     def pattern(self) -> str:
@@ -629,7 +632,7 @@ def stale_entries(df, resolver) -> list[str]:
                     notes.append(f"{engine}: `{e.pattern}` ({e.where}) matched no check in this run")
                 continue
             bands = [b for b in e.bands if b.engine == engine]
-            if not bands:
+            if not bands and not e.other_releases:  # an entry of another release's checks only is not stale
                 notes.append(f"{engine}: `{e.pattern}` ({e.where}) records no band: `{e.remeasure(engine)}`")
             passing = [b for b in bands if judged.get((e.family, b.variant, b.metric)) == "pass"]
             if passing:
