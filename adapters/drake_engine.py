@@ -433,7 +433,9 @@ class DrakeSimulation(Simulation):
         CENIC chooses its own steps); its convex solver's parameters are Drake's defaults."""
         from pydrake.systems.analysis import ApplySimulatorConfig, SimulatorConfig
         config = SimulatorConfig(integration_scheme="cenic", accuracy=accuracy, max_step_size=dt,
-                                 use_error_control=True, publish_every_time_step=False)
+                                 use_error_control=True)
+        if hasattr(config, "publish_every_time_step"):  # gone from SimulatorConfig by 1.58.0 (no publishing)
+            config.publish_every_time_step = False
         ApplySimulatorConfig(config, self._simulator)
         from pydrake.multibody.contact_solvers import IcfSolverParameters
         return {"integration_scheme": config.integration_scheme, "accuracy": accuracy, "max_step_size": dt,
@@ -1078,6 +1080,18 @@ def _unrepresentable(scene: Scene, contact_model: str) -> str | None:
     return None
 
 
+def _require_tamsi() -> None:
+    """registry.EngineError (the configuration is not available here) where the installed
+    Drake has no TAMSI approximation: 1.51.1 has DiscreteContactApproximation.kTamsi,
+    1.58.0 (Python 3.12's release) has it no more."""
+    from pydrake.multibody.plant import DiscreteContactApproximation
+    if not hasattr(DiscreteContactApproximation, "kTamsi"):
+        from adapters.registry import EngineError
+        raise EngineError(f"engine 'drake-tamsi' is not available: Drake {metadata.version('drake')} has no TAMSI "
+                          "approximation (DiscreteContactApproximation.kTamsi, in Drake 1.51.1: its release for "
+                          "Python 3.11)")
+
+
 class DrakeAdapter(Adapter):
     package = "drake"
     # the release the conformance battery ran on; the next major (minor for 0.x) may change the API
@@ -1087,6 +1101,8 @@ class DrakeAdapter(Adapter):
         if approximation not in _APPROXIMATIONS + CONTINUOUS or contact_model not in _CONTACT_MODELS:
             raise ValueError(f"approximation {approximation!r}, contact model {contact_model!r}: choose from "
                              f"{sorted(_APPROXIMATIONS + CONTINUOUS)} and {sorted(_CONTACT_MODELS)}")
+        if approximation == "tamsi":
+            _require_tamsi()
         self.approximation, self.contact_model = approximation, contact_model
         self.name = name or ("drake-hydro" if contact_model == "hydroelastic" else f"drake-{approximation}")
         # Drake steps 0.1-0.8 ms a body: in a default run the other contact models and

@@ -271,6 +271,18 @@ def version_problem(name: str, adapters: tuple[str, ...] = ()) -> str | None:
     return release_problem(get(name, adapters))
 
 
+def installed_release(adapter: Adapter) -> str | None:
+    """The installed release of the adapter's engine package (its distribution's metadata);
+    None where the adapter declares no supported releases (the reference: part of physval)
+    or the package is not installed as a distribution."""
+    if adapter.supported is None or not getattr(adapter, "package", None):
+        return None
+    try:
+        return metadata.version(adapter.package)
+    except metadata.PackageNotFoundError:
+        return None
+
+
 def release_problem(adapter: Adapter) -> str | None:
     """version_problem of an adapter already made."""
     if adapter.supported is None:

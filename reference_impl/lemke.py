@@ -65,25 +65,38 @@ def lemke_or_retry(M: np.ndarray, q: np.ndarray, tally: np.ndarray) -> np.ndarra
     solves, [1] the in-place passes that failed, [2 + k] the retries with RETRY_EPS[k]
     that failed (TALLY entries)."""
     tally[0] += 1
-    z, solved = np.zeros(len(q)), False
-    try:
-        z, solved = lemke(M, q, -1, False), True
-    except Exception:  # a LemkeFailure (compiled code catches every exception or none)
-        tally[1] += 1
+    z, solved = _attempt(M, q, False)
     if solved:
         return z
+    tally[1] += 1
     d = max(np.max(np.abs(np.diag(M))), 1e-300)
     for k in range(len(RETRY_EPS)):
-        try:
-            z, solved = lemke(M + RETRY_EPS[k] * d * np.eye(len(q)), q, -1, True), True
-        except Exception:
-            tally[2 + k] += 1
+        z, solved = _attempt(M + RETRY_EPS[k] * d * np.eye(len(q)), q, True)
         if solved:
             return z
+        tally[2 + k] += 1
     raise LemkeFailure("no solution: Lemke failed its check on the problem and on every retry (RETRY_EPS)")
 
 
 TALLY = 2 + len(RETRY_EPS)  # the entries of lemke_or_retry's tally
+
+
+@njit
+def _attempt(M: np.ndarray, q: np.ndarray, refactor: bool) -> tuple[np.ndarray, bool]:
+    """(lemke(M, q), True), or (zeros, False) where it raised (a LemkeFailure: compiled code
+    catches every exception or none). The one try of lemke_or_retry's attempts, in a
+    function of its own: numba 0.68 on Python 3.12 lets an exception escape a try in a loop
+    once the loop has caught one (or a try followed by a second one), so a retry's
+    LemkeFailure left the compiled world step uncaught and crashed the process; on 3.11 the
+    same code caught it."""
+    solved = False
+    z = np.zeros(len(q))
+    try:
+        z = lemke(M, q, -1, refactor)
+        solved = True
+    except Exception:
+        solved = False
+    return z, solved
 
 
 @njit

@@ -213,7 +213,7 @@ def test_every_engine_file_but_the_references_names_the_release_it_was_measured_
 
 
 @pytest.mark.parametrize("name", ["drake", "dart", "mujoco", "pymunk", "box2d"])
-def test_the_recorded_release_is_of_the_adapters_package_and_in_its_supported_range(name):
+def test_the_recorded_releases_are_of_the_adapters_package_and_in_its_supported_range(name):
     from packaging.specifiers import SpecifierSet
 
     from adapters import registry
@@ -221,8 +221,8 @@ def test_the_recorded_release_is_of_the_adapters_package_and_in_its_supported_ra
         adapter = registry.get(name)
     except registry.EngineError as exc:
         pytest.skip(str(exc))
-    package, release = deviations.measured_on(adapter.deviations_file())
-    assert package == adapter.package and release in SpecifierSet(adapter.supported)
+    package, releases = deviations.measured_releases(adapter.deviations_file())
+    assert package == adapter.package and all(r in SpecifierSet(adapter.supported) for r in releases), releases
 
 
 def test_a_run_on_another_release_is_named_and_the_same_release_is_not():
@@ -247,6 +247,98 @@ def test_the_measured_on_line_is_replaced_or_put_first_and_parses_as_a_comment(t
     assert len(entry.bands) == 1 and deviations.rewrite(path, {}) == path.read_text()
 
 
+def test_a_further_release_has_band_lines_of_its_own_where_it_differs(tmp_path):
+    """`# measured-on: eng 1.0, 2.0`: plain band lines hold for 1.0; 2.0 was measured too, and
+    its lines (`eng@2.0`) replace the plain band of their check on 2.0, or remove it where the
+    check `passes` there. A release the header does not list judges by the plain bands, with
+    the note that says so; a line naming an unlisted release, or `passes` on a plain line,
+    does not parse."""
+    path = tmp_path / "eng.txt"
+    path.write_text("# measured-on: eng 1.0, 2.0\nfam[*]:v  # the engine is slow\n"
+                    "    eng [a]:v = 1.5 +- 0.01\n    eng [b]:v = 1.6 +- 0.013323\n    eng [c]:v = 1.7 +- 0.01\n"
+                    "    eng@2.0 [a]:v = 1.4 +- 0.01\n    eng@2.0 [c]:v = passes\n")
+    assert deviations.measured_releases(path) == ("eng", ("1.0", "2.0"))
+    assert deviations.measured_on(path) == ("eng", "1.0")
+    (entry,) = deviations.parse(path)
+    values = lambda e: {b.variant: b.value for b in e.bands}
+    assert values(entry.on_release("1.0")) == values(entry.on_release(None)) == {"a": 1.5, "b": 1.6, "c": 1.7}
+    assert values(entry.on_release("2.0")) == {"a": 1.4, "b": 1.6}
+    # what 1.0 leaves out is 2.0's (an entry of 2.0's checks alone is not stale on 1.0)
+    assert entry.on_release("1.0").other_releases == ("2.0",) and entry.on_release("2.0").other_releases == ()
+    note = deviations.other_release(("eng", ("1.0", "2.0")), "3.0")
+    assert note == "bands measured on eng 1.0 and 2.0, this run 3.0"
+    assert deviations.other_release(("eng", ("1.0", "2.0")), "2.0") is None
+    on_3 = entry.on_release("3.0", note)
+    assert values(on_3) == {"a": 1.5, "b": 1.6, "c": 1.7}
+    moved = judge(CHECK, 1.55, "eng", "a", on_3)
+    assert moved["status"] == "fail" and moved["reason"].startswith(deviations.CHANGED) and note in moved["reason"]
+    assert judge(CHECK, 1.5, "eng", "a", on_3)["status"] == "deviation"
+    assert judge(CHECK, 1.0, "eng", "c", entry.on_release("2.0"))["status"] == "pass"
+    # written back as they were: release lines, and a width of more digits than `known` writes
+    assert deviations.rewrite(path, {}) == deviations.rewrite(path, {2: list(entry.bands)}) == path.read_text()
+    for header, line in (("# measured-on: eng 1.0", "    eng@2.0 [a]:v = 1.4 +- 0.01"),
+                         ("# measured-on: eng 1.0, 2.0", "    eng@1.0 [a]:v = 1.4 +- 0.01"),
+                         ("# measured-on: eng 1.0, 2.0", "    eng [a]:v = passes")):
+        path.write_text(f"{header}\nfam[*]:v  # the engine is slow\n{line}\n")
+        with pytest.raises(deviations.DeviationFileError, match="eng.txt:3"):
+            deviations.parse(path)
+
+
+RELEASED = """
+import numpy
+
+from tests.fakes import FakeAdapter
+
+
+class ReleaseFake(FakeAdapter):
+    package, supported = "numpy", ">=1"  # a package installed everywhere stands for the engine's
+
+    def __init__(self):
+        super().__init__("fake-release")
+
+    def version(self):
+        return numpy.__version__
+"""
+
+
+def test_known_writes_a_further_releases_own_lines_and_a_run_on_it_judges_by_them(tmp_path, capsys):
+    """A plug-in engine whose file lists its installed release after another: `known --write`
+    writes that release's own lines only where its measurement leaves the plain band (here
+    one plain band moved by hand, as another release would have measured it), a run on it
+    gives deviations, no fail; with the release left out of the header the moved check
+    fails, and its reason says which releases the bands were measured on."""
+    from importlib import metadata
+    release = metadata.version("numpy")
+    (tmp_path / "xfails").mkdir()
+    (tmp_path / "release_fake.py").write_text(RELEASED)
+    adapter = ["--adapter", f"{tmp_path / 'release_fake.py'}:ReleaseFake"]
+    known = tmp_path / "xfails" / "fake-release.txt"
+    entry = "central_impact[e=0.5,m=1:*]:*  # the fake engine lets the spheres pass through\n"
+    known.write_text(f"# measured-on: numpy 0.1\n{entry}")
+    measure = ["known", "fake-release", "--cases", *CASES, *adapter, *QUIET, "--write"]
+    assert main([*measure, "--out", str(tmp_path / "m1")]) == 0  # only --cases: the plain lines, the header stays
+    assert "keeps its '# measured-on:' line" in capsys.readouterr().out
+    header, cause, *plain = known.read_text().splitlines()
+    assert header == "# measured-on: numpy 0.1" and len(plain) > 2 and "@" not in "".join(plain)
+    first = plain[0].split(" = ")
+    moved = f"{first[0]} = {float(first[1].split()[0]) + 1.0!r} +- {first[1].split('+- ')[1]}"
+    known.write_text("\n".join([f"# measured-on: numpy 0.1, {release}", cause, moved, *plain[1:]]) + "\n")
+    assert main([*measure, "--out", str(tmp_path / "m2")]) == 0
+    lines = known.read_text().splitlines()
+    assert lines[:len(plain) + 2] == [f"# measured-on: numpy 0.1, {release}", cause, moved, *plain[1:]]
+    assert lines[len(plain) + 2:] == [plain[0].replace("fake-release ", f"fake-release@{release} ", 1)]
+
+    run = ["run", "--engines", "fake-release", "--cases", *CASES, *adapter, *QUIET, "--readings", "none"]
+    assert main([*run, "--out", str(tmp_path / "a")]) == 0
+    assert {r["status"] for r in _rows(tmp_path / "a").values()} <= {"deviation", "pass"}
+    known.write_text("\n".join(["# measured-on: numpy 0.1", cause, moved, *plain[1:]]) + "\n")
+    assert main([*run, "--out", str(tmp_path / "b")]) == 0
+    failed = [r for r in _rows(tmp_path / "b").values() if r["status"] == "fail"]
+    assert len(failed) == 1 and failed[0]["reason"].startswith(deviations.CHANGED)
+    assert failed[0]["reason"].endswith(f"; bands measured on numpy 0.1, this run {release}")
+    capsys.readouterr()
+
+
 def test_the_report_says_which_engines_ran_another_release_than_their_bands(tmp_path):
     from physval.readings.site import engine_page
     from tests.test_harness import _rows, _write_report
@@ -267,7 +359,7 @@ def test_the_report_says_which_engines_ran_another_release_than_their_bands(tmp_
 def test_known_writes_the_release_of_the_engines_package_and_none_for_the_reference():
     from importlib import metadata
 
-    from physval.commands.known import _release
+    from adapters.registry import installed_release as _release
     from tests.fakes import FakeAdapter
     adapter = FakeAdapter()
     adapter.package, adapter.supported = "numpy", ">=1"

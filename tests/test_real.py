@@ -18,6 +18,7 @@ from adapters.base import Settings
 from cases import cube_toss as ct
 from physval.cli import main
 from physval.readings import real
+from tests.helpers import skip_if_not_installed
 
 pytestmark = pytest.mark.skipif(not registry.available("mujoco"), reason="the slice runs on MuJoCo")
 
@@ -217,7 +218,10 @@ def test_the_mujoco_tunable_reaches_the_engine():
     ({"nope": {"mu": 0.2}}, "'nope' is not an engine"),
 ])
 def test_bad_parameter_files_stop_before_any_work(params, message, tmp_path, capsys):
-    """Each bad value gives one line naming engine, parameter and the allowed range, exit 2."""
+    """Each bad value gives one line naming engine, parameter and the allowed range, exit 2
+    (on an installed PyBullet: `all` leaves it out on Python 3.12 and later, and the command
+    then stops first at the missing engine)."""
+    skip_if_not_installed("pybullet")
     path = tmp_path / "params.json"
     path.write_text(json.dumps(params))
     assert _cli("--engines", "pybullet", "--params", str(path), "--out", str(tmp_path / "out")) == 2

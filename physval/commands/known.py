@@ -14,8 +14,11 @@ unless a `# band: WHY` line under the entry says why it is wider. The cause on t
 line and its `# band:` reason stay as the person who measured it wrote them. Without
 `--write` it only says what would change. It also lists failing checks no entry covers
 (write an entry with its cause) and entries that no longer cover anything (remove or
-narrow them). With --write over an engine's own file and no --cases, the file's
-`# measured-on: PACKAGE RELEASE` line names the release installed (the one its bands now hold for).
+narrow them). With --write over an engine's own file, the file's `# measured-on: PACKAGE RELEASE[, RELEASE...]`
+line names the releases its bands hold for: the first its plain band lines, each further one
+its own `ENGINE@RELEASE` lines where it differs. Measured on a release the line lists after
+the first (or, over all families, one it does not list yet: it is added), only that
+release's own lines are written; on the first, the plain ones.
 A file that inherits another engine's entries (`inherit: ENGINE`) gets its own entries'
 bands only; the inherited ones are that engine's, measured with `physval known ENGINE`.
 With --write over an engine's own file, its `# families-measured:` line adds the families
@@ -27,13 +30,15 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from dataclasses import replace
 from fnmatch import fnmatchcase
 from pathlib import Path
 
 
 from adapters.planting import Planted
+from adapters.registry import installed_release
 from cases.relations import RELATIONS
-from physval.core.deviations import deviating, measured_bands
+from physval.core.deviations import Band, deviating, measured_bands
 from physval.commands import options
 from physval.core import deviations
 from physval.core import COLUMNS, Job
@@ -83,16 +88,27 @@ def _in_place(old: list, new: list, keep) -> list:
     return out + list(fresh.values())
 
 
-def _release(adapter) -> str | None:
-    """The installed release of the adapter's engine package; None for the reference (part of
-    physval) or a package not installed as a distribution."""
-    from importlib import metadata
-    if adapter.supported is None or not getattr(adapter, "package", None):
-        return None
-    try:
-        return metadata.version(adapter.package)
-    except metadata.PackageNotFoundError:
-        return None
+def _plain_lines(entry, new: list, release, keep, measured) -> list:
+    """An entry's bands where the plain band lines were measured (the file's first release, or
+    a file that names none): those `_in_place`, and the further releases' lines as they were."""
+    return (_in_place([b for b in entry.bands if not b.release], new, keep)
+            + [b for b in entry.bands if b.release])
+
+
+def _release_lines(entry, new: list, release: str, keep, measured) -> list:
+    """An entry's bands where a further release was measured: the plain lines and other
+    releases' lines as they were, and this release's own lines where it differs from the
+    plain band (another value, or `passes` where the check `measured` now is within its
+    tolerance), in place of its lines of the checks measured again."""
+    plain = {b.key: b for b in entry.bands if not b.release}
+    fresh = {b.key for b in new}
+    own = [replace(b, release=release) for b in new
+           if b.key not in plain or not plain[b.key].holds(b.value, b.raises)]
+    own += [Band(b.engine, b.variant, b.metric, release=release, passes=True)
+            for b in plain.values() if measured(b) and b.key not in fresh]
+    mine = [b for b in entry.bands if b.release == release]
+    return ([b for b in entry.bands if b.release != release]
+            + _in_place(mine, own, lambda b: not measured(b)))
 
 
 def _refuse_a_borrowed_file(engine: str, adapter) -> None:
@@ -131,6 +147,13 @@ def run(args) -> int:
             print(f"{engine}: no known-deviation file ({path})")
             continue
         entries = [e for e in deviations.parse(path) if e.applies_to(engine)]
+        # the release measured here, and whether its bands are a further release's lines
+        # (ENGINE@RELEASE where they differ from the plain ones) or the plain ones
+        release = None if args.file else installed_release(adapter)
+        recorded = None if args.file else deviations.measured_releases(path)
+        further = (recorded is not None and release is not None and release != recorded[1][0]
+                   and (release in recorded[1] or args.cases is None))
+        here = [e.on_release(release if further else None) for e in entries]  # the bands that judge this release
         for fam_name in dict.fromkeys(e.family for e in entries):
             if fam_name not in families:
                 print(f"{engine}: {path.name}: no family {fam_name!r}", file=sys.stderr)
@@ -162,36 +185,42 @@ def run(args) -> int:
                 return 130
             repeats.append(({j.key: res.rows[j.key] for j in jobs}, raised))
         rows_by_job = repeats[0][0]
-        measured = measured_bands(engine, entries, repeats)
+        measured = measured_bands(engine, here, repeats)
         new = measured.bands
         ran = {(j.family, j.variant.id) for j in jobs}
         # bands of checks this run did not measure (other engines, unselected variants) stay;
         # a band of a variant its family no longer has goes (a grid changed since it was measured)
         exists = {(name, v.id) for name, fam in families.items() for v in fam.all_variants}
-        bands_of = {e.line: _in_place(e.bands, new[e.line],
-                                      lambda b, e=e: (e.family, b.variant) in exists
-                                      and (b.engine != engine or (e.family, b.variant) not in ran))
+        written = _release_lines if further else _plain_lines
+        bands_of = {e.line: written(e, new[e.line], release,
+                                    lambda b, e=e: (e.family, b.variant) in exists
+                                    and (b.engine != engine or (e.family, b.variant) not in ran),
+                                    lambda b, e=e: b.engine == engine and (e.family, b.variant) in ran)
                     for e in entries}
-        print(f"{engine}: {path}")
-        for e in entries:
+        print(f"{engine}: {path}" + (f" (release {release}: its own lines where it differs from "
+                                     f"{recorded[1][0]}'s)" if further else ""))
+        on = f" on {adapter.package} {release}" if further else ""
+        for e in here:
             before = {(b.variant, b.metric): b for b in e.bands if b.engine == engine and (e.family, b.variant) in ran}
-            after = {(b.variant, b.metric): b for b in new[e.line]}
+            # a further release: the bands that will judge it (its own lines where written, else the plain ones)
+            now = replace(e, bands=tuple(bands_of[e.line])).on_release(release).bands if further else new[e.line]
+            after = {(b.variant, b.metric): b for b in now if b.engine == engine and (e.family, b.variant) in ran}
             moved = [k for k in after if k in before and not before[k].holds(after[k].value, after[k].raises)]
             if not any(f == e.family and fnmatchcase(v, e.variant) for f, v in ran):
                 print(f"  line {e.line} {e.pattern}: none of its variants ran here (not selected; in the "
                       "full grid: --full; on demand: --on-demand)")
                 continue
             if not after and before:
-                print(f"  line {e.line} {e.pattern}: no check deviates any more: remove or narrow the entry")
+                print(f"  line {e.line} {e.pattern}: no check deviates any more{on}: remove or narrow the entry")
             elif not after:
-                print(f"  line {e.line} {e.pattern}: matches no deviating check on {engine}")
+                print(f"  line {e.line} {e.pattern}: matches no deviating check on {engine}{on}")
             redrawn = [k for k in after if k in before and before[k].text() != after[k].text()]
             if set(after) != set(before) or redrawn:
                 changed += 1
-                print(f"  line {e.line} {e.pattern}: {len(before)} -> {len(after)} bands"
+                print(f"  line {e.line} {e.pattern}: {len(before)} -> {len(after)} bands{on}"
                       + (f", {len(redrawn)} re-measured" if redrawn else "")
                       + (f", {len(moved)} moved out of their band" if moved else ""))
-        for e, b, _ in measured.too_wide(entries):
+        for e, b, _ in measured.too_wide(here):
             over = b.spread_tolerances(measured.tolerance[(b.variant, b.metric)])
             print(f"  line {e.line} {e.pattern}: [{b.variant}]:{b.metric} = {b.describe()} is {over:.3g} tolerances "
                   f"wide over {args.repeat} repeats (beyond its rounding floor): if that spread is the engine's own, write '    # band: WHY' "
@@ -206,16 +235,17 @@ def run(args) -> int:
         # the entries the file inherits (`inherit: ENGINE`) cover their checks too: that engine's file records them
         inherited = [] if args.file else [d for d in resolver.known(engine) if d.inherited_from]
         loose = [r for rows in rows_by_job.values() for r in rows
-                 if deviating(r) and deviations.find(entries + inherited, r["case"], r["variant"], r["metric"]) is None]
+                 if deviating(r) and deviations.find(here + inherited, r["case"], r["variant"], r["metric"]) is None]
         for r in loose:
             print(f"  unrecorded: {r['case']}[{r['variant']}]:{r['metric']} measured {float(r['measured']):.6g}, "
                   f"expected {float(r['expected']):.6g}: write an entry with its cause")
         if args.write:
             text = deviations.rewrite(path, bands_of)
-            release = None if args.file else _release(adapter)
-            if release is not None and args.cases is None:  # every band measured again: on this release
+            if further and release not in recorded[1]:  # every band measured on a release of its own
+                text = deviations.with_measured_on(text, adapter.package, *recorded[1], release)
+            elif release is not None and recorded is None and args.cases is None:  # every band, on this release
                 text = deviations.with_measured_on(text, adapter.package, release)
-            elif release is not None and deviations.measured_on(path) not in (None, (adapter.package, release)):
+            elif not further and recorded is not None and release is not None and release != recorded[1][0]:
                 print(f"  {path.name} keeps its '# measured-on:' line: only the --cases were measured on "
                       f"{adapter.package} {release}")
             if not args.file:  # the families this run measured join those measured before

@@ -116,10 +116,24 @@ class Resolver:
             # engine's entries, their bands as this engine's
             mine = [d.recorded_as(recorded, engine) for d in deviations.load([own]) if d.applies_to(recorded)]
             if own is not None and Path(own).exists():  # then those it inherits (deviations.inherited)
-                mine += deviations.inherited(own, engine, self._off_default_families(engine))
+                mine = self._on_release(engine, own, mine) + self._on_release(
+                    engine, deviations.inherited_file(own),
+                    deviations.inherited(own, engine, self._off_default_families(engine)))
             users = [replace(d, user=True) for d in deviations.load(self.ctx.known_files) if d.applies_to(engine)]
             self._known[engine] = [replace(d, options=self.ctx.options) for d in mine + users]
         return self._known[engine]
+
+    def _on_release(self, engine: str, own: Path | None, entries: list[deviations.Deviation]) -> list[deviations.Deviation]:
+        """The engine's own (and inherited) entries with the bands of the release installed
+        (deviations.Deviation.on_release): a further release of the file's `# measured-on:`
+        line has band lines of its own where it differs; on a release the line does not
+        name, the first release's bands, with a note that says so in each verdict they fail."""
+        recorded = deviations.measured_releases(own)
+        if recorded is None:
+            return entries
+        release = registry.installed_release(self.adapter(engine))
+        off = deviations.other_release(recorded, release) if release else None
+        return [d.on_release(release, off or "") for d in entries]
 
     def _off_default_families(self, engine: str):
         """Whether a family lies outside the engine's default families (Adapter.default_tags;

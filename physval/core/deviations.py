@@ -50,17 +50,29 @@ where they differ, an inherited band judges a value it did not measure, and the 
 fails ("known deviation changed"). `physval known` writes this file's own entries only.
 An inherited entry cites the engine's file and says whose it is ("as pybullet (inherit):").
 
-A file records the engine release its bands were measured on, machine-readably, in one
+A file records the engine releases its bands were measured on, machine-readably, in one
 header line (`physval known --write` writes it):
 
-    # measured-on: drake 1.51.1
+    # measured-on: drake 1.51.1, 1.58.0
 
-The bands hold for that release. A run on another release (Python 3.12 resolves Drake 1.58.0,
-where 3.11 gets 1.51.1) is judged by them all the same, and its report says so beside the
-engine ("bands measured on drake 1.51.1, this run 1.58.0": `release_notes`): a `fail` of a
-recorded deviation there may be the release's, not a regression of physval. A band line
-names no release, so a file holds one release's bands; `physval known ENGINE --write` on
-the other release measures them there and moves the header with them.
+Its plain band lines hold for the first release. Each further release was measured over
+the same checks too, and its bands are the plain ones but where a band line names it
+(`ENGINE@RELEASE`): there the release measured another value, or none (`passes`: on that
+release the check is within its tolerance):
+
+    resting_blocks[*]:*  # point contact: the stack sinks
+        drake [n=4]:drift = 0.00123 +- 1.2e-08
+        drake@1.58.0 [n=4]:drift = 0.00125 +- 1.2e-08
+        drake@1.58.0 [n=5]:drift = passes
+
+(Python 3.12 resolves Drake 1.58.0 where 3.11 gets 1.51.1, its last release there: both are
+installs users make.) A run judges its checks by the bands of the release it runs
+(`Deviation.on_release`). A run on a release the header does not name is judged by the
+first release's bands all the same, its report says so beside the engine ("bands measured
+on drake 1.51.1, this run 1.60.0": `release_notes`), and so does each `fail` of a recorded
+deviation there: it may be the release's, not a regression of physval. `physval known
+ENGINE --write` on such a release (over all its families) measures it and adds it to the
+header, writing band lines of its own only where they differ.
 
 A wider band needs its reason written under the entry, as a `# band:` line:
 
@@ -92,11 +104,12 @@ CHANGED = "known deviation changed"
 VANISHED = "known deviation vanished"
 
 _ENTRY = re.compile(r"^(?:(?P<engines>[^\s\[#]+)\s+)?(?P<family>\w+)\[(?P<variant>.*)\]:(?P<metric>\S+)\s*#\s*(?P<reason>\S.*)$")
-_BAND = re.compile(r"^\s+(?P<engine>\S+)\s+\[(?P<variant>.*)\]:(?P<metric>[^\s=]+)\s*=\s*(?P<rest>\S.*?)\s*(?:#.*)?$")
+_BAND = re.compile(r"^\s+(?P<engine>[^\s@]+)(?:@(?P<release>\S+))?\s+\[(?P<variant>.*)\]:(?P<metric>[^\s=]+)\s*=\s*(?P<rest>\S.*?)\s*(?:#.*)?$")
 _VALUE = re.compile(r"^(?P<value>\S+)\s*\+-\s*(?P<width>\S+)$")
 _RAISES = re.compile(r"^raises\s+(?P<exc>[\w.]+)$")
+PASSES = "passes"  # a release's band line for a check within its tolerance on that release
 _BAND_REASON = re.compile(r"^\s*#\s*band:\s*(?P<why>.*?)\s*$")
-_MEASURED_ON = re.compile(r"^#\s*measured-on:\s*(?P<package>\S+)\s+(?P<release>\S+)\s*$")
+_MEASURED_ON = re.compile(r"^#\s*measured-on:\s*(?P<package>\S+)\s+(?P<releases>[^\s,]+(?:\s*,\s*[^\s,]+)*)\s*$")
 _FAMILIES_MEASURED = re.compile(r"^#\s*families-measured:(?P<names>.*)$")
 _INHERIT = re.compile(r"^inherit:\s*(?P<engine>[^\s#]+)\s*(?:#.*)?$")
 
@@ -149,7 +162,8 @@ def band_of(values: list[float], tolerance: float) -> tuple[float, float]:
 @dataclass(frozen=True)
 class Band:
     """One check's recorded deviation: its measured value +- width, or the exception its
-    run raises."""
+    run raises; `release`: the further release of the file's header it was measured on
+    ("" for the first), where `passes` says the check is within its tolerance there."""
     engine: str
     variant: str
     metric: str
@@ -157,24 +171,38 @@ class Band:
     width: float = 0.0
     raises: str | None = None
     line: int = 0
+    release: str = ""
+    passes: bool = False
+
+    @property
+    def key(self) -> tuple[str, str, str]:
+        return self.engine, self.variant, self.metric
 
     def holds(self, measured: float | None = None, exception: str | None = None) -> bool:
+        if self.passes:
+            return False
         if self.raises is not None:
             return exception == self.raises
         return (exception is None and measured is not None and math.isfinite(measured)
                 and abs(measured - self.value) <= self.width)
 
     def describe(self) -> str:
+        if self.passes:
+            return PASSES
         return f"raises {self.raises}" if self.raises else f"{self.value:.6g} +- {self.width:.2g}"
 
     def text(self) -> str:
-        what = f"raises {self.raises}" if self.raises else f"{self.value!r} +- {self.width:.{WIDTH_DIGITS}g}"
-        return f"    {self.engine} [{self.variant}]:{self.metric} = {what}"
+        if self.passes:
+            what = PASSES
+        else:
+            what = f"raises {self.raises}" if self.raises else f"{self.value!r} +- {self.width:.{WIDTH_DIGITS}g}"
+        at = f"@{self.release}" if self.release else ""
+        return f"    {self.engine}{at} [{self.variant}]:{self.metric} = {what}"
 
     def tolerances(self, tolerance: float) -> float:
         """The band's half-width in tolerances of its check (`tolerance` in the check's units);
         0 for a band of an exception, NaN where the tolerance is 0 or not finite."""
-        if self.raises is not None:
+        if self.raises is not None or self.passes:
             return 0.0
         return self.width / tolerance if tolerance > 0 and math.isfinite(tolerance) else math.nan
 
@@ -185,7 +213,7 @@ class Band:
         a share of rounding and the value is large, as for a broken invariance (the
         invariance battery's checks promise round-off, 1e-11 of scale, and a turned run that
         parted measures 0.1 of it: its floor is 1e-10)."""
-        if self.raises is not None:
+        if self.raises is not None or self.passes:
             return 0.0
         beyond = max(self.width - ROUNDING * abs(self.value), 0.0)
         return beyond / tolerance if tolerance > 0 and math.isfinite(tolerance) else math.nan
@@ -206,6 +234,8 @@ class Deviation:
     options: tuple[str, ...] = ()  # the --cases-dir and --adapter options of the run that read it
     band_reason: str = ""  # why its bands may be wider than one tolerance (its `# band:` line)
     inherited_from: str = ""  # the engine whose entry and bands this is, read through an `inherit:` line
+    off_release: str = ""  # `other_release`'s note where the run's release is none its file was measured on
+    other_releases: tuple[str, ...] = ()  # the releases whose own band lines `on_release` left out
 
     @property
     def cause(self) -> str:
@@ -245,6 +275,19 @@ class Deviation:
                 return b
         return None
 
+    def on_release(self, release: str | None, off_release: str = "") -> "Deviation":
+        """This entry with the bands that hold on `release` (None: the file's first): the
+        plain ones, but where a band line names that release (its value, or no band where
+        it `passes`); band lines of other releases go. `off_release`: the note that the run's
+        release is none the file was measured on (`other_release`), for its verdicts' reasons."""
+        if not off_release and not any(b.release for b in self.bands):
+            return self
+        own = {b.key: b for b in self.bands if b.release and b.release == release}
+        bands = [own.pop(b.key, b) for b in self.bands if not b.release] + list(own.values())
+        others = tuple(dict.fromkeys(b.release for b in self.bands if b.release and b.release != release))
+        return replace(self, bands=tuple(b for b in bands if not b.passes), off_release=off_release,
+                       other_releases=others)
+
     @property
     def pattern(self) -> str:
         engines = "" if self.engines == "*" else f"{self.engines} "
@@ -270,6 +313,8 @@ def parse(path: Path | str) -> list[Deviation]:
     """Every entry of one file, with its bands."""
     path = Path(path)
     out: list[Deviation] = []
+    recorded = measured_releases(path)
+    further = recorded[1][1:] if recorded else ()
     for i, raw in enumerate(_text(path).splitlines(), start=1):
         line = raw.rstrip()
         if (why := _BAND_REASON.match(line)) is not None:
@@ -290,9 +335,18 @@ def parse(path: Path | str) -> list[Deviation]:
             if not m or not out:
                 raise DeviationFileError(f"{path}:{i}: a band line reads '    ENGINE [VARIANT]:METRIC = VALUE +- "
                                          f"WIDTH' (or '= raises EXCEPTION') under an entry, got {raw!r}")
-            rest = m["rest"]
-            if (r := _RAISES.match(rest)) is not None:
-                band = Band(m["engine"], m["variant"], m["metric"], raises=r["exc"], line=i)
+            rest, release = m["rest"], m["release"] or ""
+            if release and release not in further:
+                raise DeviationFileError(f"{path}:{i}: {m['engine']}@{release}: a band line names a release only "
+                                         f"if the '# measured-on:' line lists it after the first (plain band lines "
+                                         f"hold for the first), got {', '.join(recorded[1]) if recorded else 'none'}")
+            if rest == PASSES:
+                if not release:
+                    raise DeviationFileError(f"{path}:{i}: '= {PASSES}' is a further release's line "
+                                             f"(ENGINE@RELEASE) for a check within its tolerance there, got {raw!r}")
+                band = Band(m["engine"], m["variant"], m["metric"], line=i, release=release, passes=True)
+            elif (r := _RAISES.match(rest)) is not None:
+                band = Band(m["engine"], m["variant"], m["metric"], raises=r["exc"], line=i, release=release)
             elif (v := _VALUE.match(rest)) is not None:
                 try:
                     value, width = float(v["value"]), float(v["width"])
@@ -300,7 +354,7 @@ def parse(path: Path | str) -> list[Deviation]:
                     raise DeviationFileError(f"{path}:{i}: value and width must be numbers, got {rest!r}") from None
                 if not (math.isfinite(value) and math.isfinite(width) and width >= 0):
                     raise DeviationFileError(f"{path}:{i}: value and width must be finite, width >= 0: {rest!r}")
-                band = Band(m["engine"], m["variant"], m["metric"], value, width, line=i)
+                band = Band(m["engine"], m["variant"], m["metric"], value, width, line=i, release=release)
             else:
                 raise DeviationFileError(f"{path}:{i}: expected 'VALUE +- WIDTH' or 'raises EXCEPTION', got {rest!r}")
             entry = out[-1]
@@ -331,14 +385,15 @@ def _text(path: Path) -> str:
         raise DeviationFileError(f"{path}: cannot be read ({exc.strerror or exc})") from None
 
 
-def measured_on(path: Path | str | None) -> tuple[str, str] | None:
-    """(package, release) of the file's `# measured-on: PACKAGE RELEASE` header line: the
-    engine release its bands were measured on; None if the file has none (or is missing)."""
+def measured_releases(path: Path | str | None) -> tuple[str, tuple[str, ...]] | None:
+    """(package, releases) of the file's `# measured-on: PACKAGE RELEASE[, RELEASE...]`
+    header line: the engine releases its bands were measured on, the first the one its plain
+    band lines hold for; None if the file has none (or is missing)."""
     if path is None or not Path(path).exists():
         return None
     for raw in _text(Path(path)).splitlines():
         if (m := _MEASURED_ON.match(raw.strip())) is not None:
-            return m["package"], m["release"]
+            return m["package"], tuple(r.strip() for r in m["releases"].split(","))
     return None
 
 
@@ -368,6 +423,13 @@ def with_families_measured(text: str, families) -> str:
         on = next((i for i, raw in enumerate(lines) if _MEASURED_ON.match(raw.strip())), -1)
         lines.insert(on + 1, header)
     return "\n".join(lines) + "\n"
+
+
+def measured_on(path: Path | str | None) -> tuple[str, str] | None:
+    """(package, release) of the first release the file's `# measured-on:` line names: the
+    one its plain band lines hold for; None if the file names none (or is missing)."""
+    recorded = measured_releases(path)
+    return None if recorded is None else (recorded[0], recorded[1][0])
 
 
 def inherits(path: Path | str | None) -> str | None:
@@ -405,16 +467,18 @@ def inherited(path: Path | str, engine: str, outside) -> list[Deviation]:
             for d in parse(other) if d.applies_to(source) and outside(d.family)]
 
 
-def other_release(recorded: tuple[str, str] | None, version: str) -> str | None:
-    """"bands measured on drake 1.51.1, this run 1.58.0" if the engine's version string
-    (`Adapter.version()`: "1.58.0", "pyb2d3 0.11.1", "7.3.1 (Munk2D ...)") does not name the
-    release its bands were measured on; None if it does, or if the file records none."""
+def other_release(recorded: tuple[str, tuple[str, ...] | str] | None, version: str) -> str | None:
+    """"bands measured on drake 1.51.1, this run 1.60.0" if the engine's version string
+    (`Adapter.version()`: "1.58.0", "pyb2d3 0.11.1", "7.3.1 (Munk2D ...)") names none of the
+    releases its bands were measured on (`recorded`: (package, release or releases)); None
+    if it names one, or if the file records none."""
     if recorded is None or version in ("", "unknown"):
         return None
-    package, release = recorded
-    if release in re.findall(r"[\w.+!-]+", version):
+    package, releases = recorded[0], recorded[1]
+    releases = (releases,) if isinstance(releases, str) else tuple(releases)
+    if set(releases) & set(re.findall(r"[\w.+!-]+", version)):
         return None
-    return f"bands measured on {package} {release}, this run {version}"
+    return f"bands measured on {package} {' and '.join(releases)}, this run {version}"
 
 
 def release_notes(df, resolver) -> dict[str, str]:
@@ -426,16 +490,16 @@ def release_notes(df, resolver) -> dict[str, str]:
             path = resolver.adapter(engine).deviations_file()
         except Exception:  # an engine that is gone since the run: nothing to compare
             continue
-        if (note := other_release(measured_on(path), str(version))) is not None:
+        if (note := other_release(measured_releases(path), str(version))) is not None:
             notes[engine] = note
     return notes
 
 
-def with_measured_on(text: str, package: str, release: str) -> str:
-    """`text` of a deviation file with its `# measured-on:` header line naming this release
-    (replaced where it is, or put first)."""
+def with_measured_on(text: str, package: str, *releases: str) -> str:
+    """`text` of a deviation file with its `# measured-on:` header line naming these releases,
+    the first the one its plain band lines hold for (replaced where it is, or put first)."""
     lines = text.splitlines()
-    header = f"# measured-on: {package} {release}"
+    header = f"# measured-on: {package} {', '.join(releases)}"
     at = next((i for i, raw in enumerate(lines) if _MEASURED_ON.match(raw.strip())), None)
     if at is None:
         lines.insert(0, header)
@@ -479,8 +543,9 @@ def find(deviations: list[Deviation], family: str, variant: str, metric: str) ->
 
 def rewrite(path: Path, bands_of: dict[int, list[Band]]) -> str:
     """The text of `path` with each entry's band lines replaced by `bands_of[entry line]`
-    (entries not in `bands_of` keep theirs); comments, causes and `# band:` reasons are kept
-    as written, a reason right under its entry."""
+    (entries not in `bands_of` keep theirs; a band parsed from the file, `line` > 0, is
+    written as its line reads); comments, causes and `# band:` reasons are kept as written,
+    a reason right under its entry."""
     lines = _text(Path(path)).splitlines()
     entry_at = [bool(raw.strip()) and not raw.lstrip().startswith("#") and not raw[:1].isspace()
                 and _ENTRY.match(raw.rstrip()) is not None for raw in lines]
@@ -500,7 +565,9 @@ def rewrite(path: Path, bands_of: dict[int, list[Band]]) -> str:
             current = i
             if i in bands_of:
                 below = lines[i:next((j for j in range(i, len(lines)) if entry_at[j]), len(lines))]
-                out += [r for r in below if _BAND_REASON.match(r)] + [b.text() for b in bands_of[i]]
+                # a band kept from the file keeps its line as written (a width of more digits stays)
+                out += [r for r in below if _BAND_REASON.match(r)] + [
+                    lines[b.line - 1] if b.line and _BAND.match(lines[b.line - 1]) else b.text() for b in bands_of[i]]
     return "\n".join(out) + "\n"
 
 
@@ -594,7 +661,7 @@ def stale_entries(df, resolver) -> list[str]:
                     notes.append(f"{engine}: `{e.pattern}` ({e.where}) matched no check in this run")
                 continue
             bands = [b for b in e.bands if b.engine == engine]
-            if not bands:
+            if not bands and not e.other_releases:  # an entry of another release's checks only is not stale
                 notes.append(f"{engine}: `{e.pattern}` ({e.where}) records no band: `{e.remeasure(engine)}`")
             passing = [b for b in bands if judged.get((e.family, b.variant, b.metric)) == "pass"]
             if passing:

@@ -59,7 +59,7 @@ def judge(c: Check, value: float, engine: str, variant: str, entry: deviations.D
             # way the measurement moved (decision 8), or a fault that moves a known deviation onto the closed form
             # (a 2 mm contact offset on Drake's sinking stacks) would pass
             return dict(fields, status="fail", reason=f"{vanished} but outside the band: the engine or its mapping "
-                                                      f"changed (`{entry.remeasure(engine)}`)")
+                                                      f"changed (`{entry.remeasure(engine)}`){_release_of(entry)}")
         return dict(fields, status="pass")
     if entry is None:
         return dict(fields, status="fail", reason=outside)
@@ -79,7 +79,13 @@ def judge(c: Check, value: float, engine: str, variant: str, entry: deviations.D
             f"expected {c.expected:.6g}: {outside}]"))
     return dict(fields, status="fail", reason=(
         f"{CHANGED}: recorded {band.describe()}, measured {value:.6g} {c.unit} "
-        f"({where}: {entry.cause})"))
+        f"({where}: {entry.cause}){_release_of(entry)}"))
+
+
+def _release_of(entry: deviations.Deviation) -> str:
+    """Where a recorded band judged a release it was not measured on, the note that says so
+    ("; bands measured on drake 1.51.1, this run 1.60.0"): the fail may be the release's."""
+    return f"; {entry.off_release}" if entry.off_release else ""
 
 
 def blank_row(case: str, variant, engine: str, check: Check, **fields) -> dict:

@@ -234,6 +234,17 @@ def test_lemke_accepts_a_basis_whose_artificial_variable_rounded_to_zero():
     assert by_lemke == pytest.approx(by_pgs, abs=1e-9)
 
 
+def test_lemke_or_retry_catches_every_failed_attempt_and_then_raises():
+    """An LCP without a solution (w = -z - 1 >= 0 for no z >= 0): the in-place pass and every
+    retry end in ray termination, each counted in the tally, and only then does LemkeFailure
+    leave. Regression: on Python 3.12 (numba 0.68) the first attempt's failure escaped its
+    try in compiled code, uncounted, and the world step that called it crashed the process."""
+    tally = np.zeros(lemke.TALLY, dtype=np.int64)
+    with pytest.raises(lemke.LemkeFailure):
+        lemke.lemke_or_retry(np.array([[-1.0]]), np.array([-1.0]), tally)
+    assert list(tally) == [1] * lemke.TALLY
+
+
 def test_known_deviation_strong_friction_makes_the_lcp_ambiguous():
     """Finding: one contact between two turning bodies, separating at 0.54 m/s while
     sliding at 4.2 m/s, mu = 0.97. gamma = 0 solves the LCP (PGS's answer, from zero); so
