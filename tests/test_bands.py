@@ -318,20 +318,21 @@ def test_known_writes_a_further_releases_own_lines_and_a_run_on_it_judges_by_the
     measure = ["known", "fake-release", "--cases", *CASES, *adapter, *QUIET, "--write"]
     assert main([*measure, "--out", str(tmp_path / "m1")]) == 0  # only --cases: the plain lines, the header stays
     assert "keeps its '# measured-on:' line" in capsys.readouterr().out
-    header, cause, *plain = known.read_text().splitlines()
-    assert header == "# measured-on: numpy 0.1" and len(plain) > 2 and "@" not in "".join(plain)
+    header, families, cause, *plain = known.read_text().splitlines()
+    assert header == "# measured-on: numpy 0.1" and families == "# families-measured: central_impact"
+    assert len(plain) > 2 and "@" not in "".join(plain)
     first = plain[0].split(" = ")
     moved = f"{first[0]} = {float(first[1].split()[0]) + 1.0!r} +- {first[1].split('+- ')[1]}"
-    known.write_text("\n".join([f"# measured-on: numpy 0.1, {release}", cause, moved, *plain[1:]]) + "\n")
+    known.write_text("\n".join([f"# measured-on: numpy 0.1, {release}", families, cause, moved, *plain[1:]]) + "\n")
     assert main([*measure, "--out", str(tmp_path / "m2")]) == 0
     lines = known.read_text().splitlines()
-    assert lines[:len(plain) + 2] == [f"# measured-on: numpy 0.1, {release}", cause, moved, *plain[1:]]
-    assert lines[len(plain) + 2:] == [plain[0].replace("fake-release ", f"fake-release@{release} ", 1)]
+    assert lines[:len(plain) + 3] == [f"# measured-on: numpy 0.1, {release}", families, cause, moved, *plain[1:]]
+    assert lines[len(plain) + 3:] == [plain[0].replace("fake-release ", f"fake-release@{release} ", 1)]
 
     run = ["run", "--engines", "fake-release", "--cases", *CASES, *adapter, *QUIET, "--readings", "none"]
     assert main([*run, "--out", str(tmp_path / "a")]) == 0
     assert {r["status"] for r in _rows(tmp_path / "a").values()} <= {"deviation", "pass"}
-    known.write_text("\n".join(["# measured-on: numpy 0.1", cause, moved, *plain[1:]]) + "\n")
+    known.write_text("\n".join(["# measured-on: numpy 0.1", families, cause, moved, *plain[1:]]) + "\n")
     assert main([*run, "--out", str(tmp_path / "b")]) == 0
     failed = [r for r in _rows(tmp_path / "b").values() if r["status"] == "fail"]
     assert len(failed) == 1 and failed[0]["reason"].startswith(deviations.CHANGED)
