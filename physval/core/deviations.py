@@ -389,12 +389,8 @@ def measured_releases(path: Path | str | None) -> tuple[str, tuple[str, ...]] | 
     """(package, releases) of the file's `# measured-on: PACKAGE RELEASE[, RELEASE...]`
     header line: the engine releases its bands were measured on, the first the one its plain
     band lines hold for; None if the file has none (or is missing)."""
-    if path is None or not Path(path).exists():
-        return None
-    for raw in _text(Path(path)).splitlines():
-        if (m := _MEASURED_ON.match(raw.strip())) is not None:
-            return m["package"], tuple(r.strip() for r in m["releases"].split(","))
-    return None
+    m = _header(path, _MEASURED_ON)
+    return None if m is None else (m["package"], tuple(r.strip() for r in m["releases"].split(",")))
 
 
 def families_measured(path: Path | str | None) -> frozenset[str] | None:
@@ -403,26 +399,17 @@ def families_measured(path: Path | str | None) -> frozenset[str] | None:
     and bands, the others passed); None if the file has none (or is missing). A configuration
     whose default run leaves families out (Adapter.default_tags) meets the rest only when
     named, so its file says which it was measured on (tests/test_bands.py)."""
-    if path is None or not Path(path).exists():
-        return None
-    for raw in _text(Path(path)).splitlines():
-        if (m := _FAMILIES_MEASURED.match(raw.strip())) is not None:
-            return frozenset(m["names"].split())
-    return None
+    m = _header(path, _FAMILIES_MEASURED)
+    return None if m is None else frozenset(m["names"].split())
 
 
 def with_families_measured(text: str, families) -> str:
     """`text` of a deviation file with its `# families-measured:` header line naming
     `families` (sorted; replaced where it is, or put after the `# measured-on:` line, else first)."""
     lines = text.splitlines()
-    header = "# families-measured: " + " ".join(sorted(families))
-    at = next((i for i, raw in enumerate(lines) if _FAMILIES_MEASURED.match(raw.strip())), None)
-    if at is not None:
-        lines[at] = header
-    else:
-        on = next((i for i, raw in enumerate(lines) if _MEASURED_ON.match(raw.strip())), -1)
-        lines.insert(on + 1, header)
-    return "\n".join(lines) + "\n"
+    on = _line_of(lines, _MEASURED_ON)
+    return _with_header(lines, _FAMILIES_MEASURED, "# families-measured: " + " ".join(sorted(families)),
+                        0 if on is None else on + 1)
 
 
 def measured_on(path: Path | str | None) -> tuple[str, str] | None:
@@ -435,12 +422,8 @@ def measured_on(path: Path | str | None) -> tuple[str, str] | None:
 def inherits(path: Path | str | None) -> str | None:
     """The engine named by the file's `inherit: ENGINE` line (whose entries the
     configuration shares off its default families), or None (no line, or no file)."""
-    if path is None or not Path(path).exists():
-        return None
-    for raw in _text(Path(path)).splitlines():
-        if (m := _INHERIT.match(raw.rstrip())) is not None:
-            return m["engine"]
-    return None
+    m = _header(path, _INHERIT)
+    return None if m is None else m["engine"]
 
 
 def inherited_file(path: Path | str | None) -> Path | None:
@@ -498,11 +481,30 @@ def release_notes(df, resolver) -> dict[str, str]:
 def with_measured_on(text: str, package: str, *releases: str) -> str:
     """`text` of a deviation file with its `# measured-on:` header line naming these releases,
     the first the one its plain band lines hold for (replaced where it is, or put first)."""
-    lines = text.splitlines()
-    header = f"# measured-on: {package} {', '.join(releases)}"
-    at = next((i for i, raw in enumerate(lines) if _MEASURED_ON.match(raw.strip())), None)
+    return _with_header(text.splitlines(), _MEASURED_ON, f"# measured-on: {package} {', '.join(releases)}", 0)
+
+
+def _header(path: Path | str | None, pattern: re.Pattern):
+    """The match of the file's first line that `pattern` matches (stripped of its
+    surrounding spaces), or None (no such line, or no file)."""
+    if path is None or not Path(path).exists():
+        return None
+    lines = _text(Path(path)).splitlines()
+    at = _line_of(lines, pattern)
+    return None if at is None else pattern.match(lines[at].strip())
+
+
+def _line_of(lines: list[str], pattern: re.Pattern) -> int | None:
+    """The index of the first of `lines` that `pattern` matches (stripped), or None."""
+    return next((i for i, raw in enumerate(lines) if pattern.match(raw.strip())), None)
+
+
+def _with_header(lines: list[str], pattern: re.Pattern, header: str, where: int) -> str:
+    """The text of `lines` with `header` in place of the line `pattern` matches, or inserted
+    at index `where` where none does."""
+    at = _line_of(lines, pattern)
     if at is None:
-        lines.insert(0, header)
+        lines.insert(where, header)
     else:
         lines[at] = header
     return "\n".join(lines) + "\n"
