@@ -29,7 +29,8 @@ from reference_impl import geometry, gjk
 from reference_impl.config import Config
 from reference_impl.contact import contact_arrays, new_contacts
 from reference_impl.rigid_body import RigidBody
-from reference_impl.world import Material, Saved, World, formulation as find_formulation
+from reference_impl.world import (Material, Saved, World, compile_half, formulation as find_formulation,
+                                  uncompiled_halves)
 
 DEFAULT = Config()  # the engine's stated defaults (iterations: DEFAULT.iterations)
 
@@ -131,6 +132,17 @@ class ReferenceAdapter(Adapter):
         return Config(formulation=self.formulation, params={**self.params, **_compliance_params(scene)},
                       iterations=settings.iterations or DEFAULT.iterations)
 
+    def uncompiled(self) -> list:
+        """The halves of the step (reference_impl/world.py) numba's cache lacks for this
+        formulation: ("begin",), the same for every formulation, and ("end", formulation,
+        params) and ("end_joints", ...), this one's."""
+        mine = (self.formulation, tuple(sorted(self.params.items())))
+        return [(half,) if half == "begin" else (half, *mine)
+                for half in uncompiled_halves(Config(formulation=self.formulation, params=self.params))]
+
+    def compile_part(self, part) -> None:
+        compile_half(part_config(part), part[0])
+
     def build(self, scene: Scene, settings: Settings) -> Simulation:
         reason = self.capabilities.cannot_run(scene)
         if reason:
@@ -212,6 +224,11 @@ def reference_world(scene: Scene, config: Config) -> World:
     if reason:
         raise Unsupported(f"formulation {config.formulation!r}: {reason}")
     return world
+
+
+def part_config(part: tuple) -> Config:
+    """The Config a part of ReferenceAdapter.uncompiled compiles under."""
+    return Config(formulation=part[1], params=dict(part[2])) if len(part) > 1 else Config()
 
 
 class ReferenceSimulation(Simulation):

@@ -144,14 +144,19 @@ def compiling_seconds() -> float:
     return _clock.seconds
 
 
-def cached(function) -> bool:
+def cached(function, *args) -> bool:
     """Whether compiled code of the njit `function` for this text of the package is on disk
-    (its cache index lists a compiled version): a call then loads it and compiles nothing
-    new for those argument types. True without compilation (nothing to compile)."""
+    (its cache index lists a compiled version; with `args`, one for their types): a call
+    then loads it and compiles nothing new for those argument types. True without
+    compilation (nothing to compile)."""
     if not JIT:
         return True
     try:
-        return bool(function._cache._cache_file._load_index())
+        index = function._cache._cache_file._load_index()
+        if not args:
+            return bool(index)
+        types = tuple(_types.unliteral(numba.typeof(a)) for a in args)
+        return function._cache._index_key(types, function.targetctx.codegen()) in index
     except (AttributeError, OSError, EOFError, ValueError):
         return False
 

@@ -21,11 +21,11 @@ from typing import NamedTuple
 import numpy as np
 
 from reference_impl.broadphase import pairs as candidate_pairs
-from reference_impl.compiled import int_dict, njit, overload, structure
+from reference_impl.compiled import cached, int_dict, njit, overload, structure
 from reference_impl.config import Config
 from reference_impl.contact import (MASS, RB_D, Contact, ContactArrays, Contacts, apply, compact, contact_arrays,
                                     new_contacts, prepare, velocity)
-from reference_impl.geometry import MAX_PAIR_POINTS, narrow_phase, new_points
+from reference_impl.geometry import MAX_PAIR_POINTS, Plane, Sphere, narrow_phase, new_points
 from reference_impl.joints import (KINDS as JOINT_KINDS, STATIC, Joints, new_joints, perpendicular,
                                    prepare as prepare_joints)
 from reference_impl.rigid_body import (Bodies, BodyArrays, RigidBody, integrate_position, new_bodies, speed_bound,
@@ -391,6 +391,46 @@ class World:
             a, b = self.bodies[i].name, self.bodies[j].name
             out[(a, b) if a <= b else (b, a)] = P
         return out
+
+
+# --- compiling ahead -----------------------------------------------------------------------
+# A world's first step compiles `begin`, then its formulation's `end` (or `end_joints`), one
+# after the other: on a fresh install about 75 s of numba, then 9-48 s a formulation, all
+# in one process while any other that needs them waits for its cache (compiled.py). Named
+# apart, the halves compile in separate processes at once, each into numba's cache.
+
+def _sample_world(config: Config, joints: bool) -> World:
+    """A ball on the ground (with `joints`, hinged to the world): the smallest world whose
+    step calls what the worlds of `config` call; its arrays have their types."""
+    world = World(config=config)
+    world.add(RigidBody("ground", Plane(), static=True))
+    ball = world.add(RigidBody("ball", Sphere(0.1), 1.0, (0.004, 0.004, 0.004), x=(0.0, 0.0, 0.1)))
+    if joints:
+        world.join("revolute", ball, anchor=(0.0, 0.0, 0.3))
+    return world
+
+
+def _half(config: Config, half: str) -> tuple:
+    """(compiled function, *its arguments) of one half of a sample world's step."""
+    world = _sample_world(config, half == "end_joints")
+    state = world._build()
+    return (begin, state, 1e-3) if half == "begin" else (world._end, world._stepper, 1e-3)
+
+
+def uncompiled_halves(config: Config) -> list[str]:
+    """The halves of a step under `config` that numba's cache does not hold yet, of
+    "begin" (every formulation's), "end" and, for a formulation with joint rows,
+    "end_joints" (compile_half compiles one)."""
+    halves = ["begin", "end"] + (["end_joints"] if getattr(formulation(config.formulation), "JOINT_KINDS", None)
+                                 else [])
+    return [h for h in halves if not cached(*_half(config, h))]
+
+
+def compile_half(config: Config, half: str) -> None:
+    """Compile one half of the step under `config` (uncompiled_halves) into numba's cache:
+    call it once on a sample world."""
+    function, *args = _half(config, half)
+    function(*args)
 
 
 @njit

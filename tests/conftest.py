@@ -201,6 +201,33 @@ def in_worker_order(items) -> None:
     items[:] = grouped + jobs + rest
 
 
+def pytest_collection_finish(session):
+    """In each pytest-xdist worker, before its first test: what the battery's engines compile
+    on first use and the cache lacks (Adapter.uncompiled: on a fresh clone, the reference's
+    step, several minutes of numba), each part by the first worker that claims it (a file in
+    the session's shared folder), as `physval run` has its workers do (session.compile_ahead).
+    Otherwise each formulation's first job compiled its parts one after the other while the
+    other worker, at a job of the same formulation, waited for the cache. A part that fails
+    is left to the tests that need it."""
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        return
+    import hashlib
+    from physval.core import Context
+    from physval.core.session import compile_part, uncompiled_parts
+    engines = [job.engine for item in session.items if (job := _job_of(item)) is not None]
+    claims = Path(os.environ["PHYSVAL_TEST_ROWS"])
+    for engine, part in uncompiled_parts(engines, Context()):
+        claim = claims / f"compiling-{hashlib.sha256(repr(part).encode()).hexdigest()[:16]}"
+        try:
+            os.close(os.open(claim, os.O_CREAT | os.O_EXCL))
+        except FileExistsError:
+            continue  # another worker's
+        try:
+            compile_part((Context(), engine, part))
+        except Exception:  # noqa: BLE001 - the tests that need it fail with the reason
+            pass
+
+
 def _job_of(item):
     params = getattr(item, "callspec", None)
     return params.params.get("job", params.params.get("conformance_job")) if params else None

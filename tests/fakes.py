@@ -78,6 +78,32 @@ class OtherFake(FakeAdapter):
         super().__init__("fake-2")
 
 
+class CompilingFake(FakeAdapter):
+    """A stand-in engine, `fake-compiling` (`--adapter tests/fakes.py:CompilingFake`), that
+    compiles on first use as the reference does on a fresh install: two parts, named with
+    the folder (`folder`, set where the parts are asked for) each writes `started-<part>` in
+    as it begins and `done-<part>` as it ends, after it saw the other part begin (or 60 s)."""
+    folder = ""
+
+    def __init__(self):
+        super().__init__("fake-compiling")
+
+    def uncompiled(self):
+        return [(self.folder, part) for part in ("a", "b")] if self.folder else []
+
+    def compile_part(self, part):
+        import os
+        import time
+        from pathlib import Path
+        folder, name = Path(part[0]), part[1]
+        (folder / f"started-{name}").write_text(str(os.getpid()))
+        other = folder / f"started-{'b' if name == 'a' else 'a'}"
+        deadline = time.monotonic() + 60
+        while not other.exists() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        (folder / f"done-{name}").write_text(str(other.exists()))
+
+
 class OnDemandFake(FakeAdapter):
     """A stand-in engine too slow for any default run, `fake-slow` (`--adapter
     tests/fakes.py:OnDemandFake`): every run is left out unless --on-demand."""

@@ -202,7 +202,7 @@ def _run(args, after: dict) -> int:
     t_jobs = time.monotonic()
     use = run_streams([main, *wide_readings.values()], ctx, Execution.of(args))
     res = main.results
-    phases = cost.Phases(planning_s=t_jobs - started, pool_s=use.wall_s, workers=use.workers,
+    phases = cost.Phases(planning_s=t_jobs - started, ahead_s=use.ahead_s, pool_s=use.wall_s, workers=use.workers,
                          jobs=main.spent.jobs, job_s=main.spent.job_s, compile_s=main.spent.compile_s,
                          run_s=main.spent.run_s,
                          stepping_s=main.spent.stepping_s,
@@ -233,7 +233,9 @@ def _run(args, after: dict) -> int:
     t_report = time.monotonic() - phases.report_started
     total = time.monotonic() - started
     print(f"{len(df)} checks: {status_counts(df)} ({res.ran} runs now, {res.reused} reused; {total:.1f} s: "
-          f"{phases.planning_s:.1f} s planning, {use.wall_s:.1f} s jobs and readings on {use.workers} workers "
+          f"{phases.planning_s:.1f} s planning, "
+          + (f"{use.ahead_s:.1f} s compiling ahead, " if use.ahead_s else "")
+          + f"{use.wall_s:.1f} s jobs and readings on {use.workers} workers "
           f"({_overhead_ms(phases):.1f} ms a job outside jobs, {_overhead_cpu_ms(phases):.1f} ms of CPU), "
           f"{t_report:.1f} s report)")
     print(f"wrote {out / 'results.csv'}, {out / KNOBS_FILE}, {out / 'report.md'}, {out / 'report.html'}, {out / 'plots'}/")

@@ -140,11 +140,14 @@ def _seconds(value) -> float:
 class PoolUse:
     """The executor's whole run: `wall_s` from its start to its last result, on `workers`
     workers (`started`: worker processes started, replacements included; `worker_cpu_s`:
-    their CPU, user + system, as they reported it; local workers only)."""
+    their CPU, user + system, as they reported it; local workers only), except what they
+    compiled ahead of the jobs (compile_ahead): `ahead_s` of wall time, `ahead_cpu_s` of CPU."""
     wall_s: float = 0.0
     workers: int = 0
     started: int = 0
     worker_cpu_s: float = 0.0
+    ahead_s: float = 0.0
+    ahead_cpu_s: float = 0.0
 
 
 def _waves(plan):
@@ -233,6 +236,9 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
         if queue:
             with sigterm_as_ctrl_c(), (contextlib.nullcontext(executor) if executor is not None else make_executor(
                     ctx, execution.workers, execution.scheduler, execution.job_timeout, execution.start_method)) as ex:
+                t_ahead = time.monotonic()
+                use.ahead_cpu_s = sum(r.timing.cpu_s for r in compile_ahead(queue, ctx, execution, ex) if r.timing)
+                use.ahead_s = time.monotonic() - t_ahead
                 for outcome in ex.run(queue):
                     key = outcome.job.key
                     rows = [{**r, **outcome.extra} for r in outcome.rows]
@@ -245,7 +251,7 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
                             advance(s, st["rows"])
                     bar.update(outcome.job.test_id)
                 use.started = getattr(ex, "started", 0)
-                use.worker_cpu_s = getattr(ex, "worker_cpu_s", 0.0)
+                use.worker_cpu_s = getattr(ex, "worker_cpu_s", 0.0) - use.ahead_cpu_s
     except KeyboardInterrupt as exc:
         why = "SIGTERM" if isinstance(exc, Terminated) else "SIGINT"
         for s in streams:
@@ -255,9 +261,46 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
                 if st is not None:
                     st["gen"].close()
     finally:
-        use.wall_s = time.monotonic() - t0
+        use.wall_s = time.monotonic() - t0 - use.ahead_s
         bar.close()
     return use
+
+
+def compile_ahead(jobs, ctx: Context, execution: "Execution", executor) -> list[CallResult]:
+    """What the engines of `jobs` compile on first use and have not compiled yet
+    (Adapter.uncompiled: the reference's numba code on a fresh install, minutes of it), part
+    by part on the executor's workers at once, before the jobs: otherwise each engine's
+    first job compiles its parts one after the other while every other worker that needs
+    them waits for the cache. A part that fails is left to the jobs, which report it. With
+    one local worker, or one part, nothing goes ahead (nothing would run beside it).
+    Returns the calls' results (their timing)."""
+    if execution.workers < 2 and not execution.scheduler:
+        return []
+    parts = uncompiled_parts([j.engine for j in jobs], ctx)
+    if len(parts) < 2:
+        return []
+    return map_calls(compile_part, [(ctx, engine, part) for engine, part in parts], ctx, execution, "compiling",
+                     executor)
+
+
+def uncompiled_parts(engines, ctx: Context) -> list[tuple]:
+    """(engine, part) for each part the `engines` compile on first use and have not
+    compiled yet (Adapter.uncompiled), a part that several engines share once."""
+    resolver = ctx.resolver()
+    parts = {}
+    for engine in dict.fromkeys(engines):
+        try:
+            for part in resolver.adapter(engine).uncompiled():
+                parts.setdefault(part, engine)
+        except Exception:  # noqa: BLE001 - the engine's jobs report what is wrong with it
+            continue
+    return [(engine, part) for part, engine in parts.items()]
+
+
+def compile_part(item) -> None:
+    """Compile (ctx, engine, part), one of uncompiled_parts, in this process (a worker)."""
+    ctx, engine, part = item
+    ctx.resolver().adapter(engine).compile_part(part)
 
 
 def judge_again(ctx: Context):

@@ -307,6 +307,7 @@ def _text_table(df: pd.DataFrame) -> str:
 class Phases:
     """The run's wall-clock phases and its workers' use, as physval run measured them."""
     planning_s: float = 0.0     # start to the first job handed out (imports, plan, store)
+    ahead_s: float = 0.0        # then the workers compiling ahead of the jobs (session.compile_ahead)
     pool_s: float = 0.0         # the workers' phase: first job to last result
     report_started: float = math.nan  # time.monotonic() when the report began
     workers: int = 1
@@ -340,6 +341,10 @@ def measure(rows, phases: Phases | None = None) -> pd.DataFrame:
         out += [
             ("planning", phases.planning_s, "wall", math.nan, "imports, the plan, the results store; the workers "
                                                                 "start meanwhile"),
+            *([("compiling ahead", phases.ahead_s, "wall", math.nan,
+                f"on {phases.workers} workers before the jobs, side by side, what the run's engines compile on "
+                "first use and the cache lacked (the reference's step: the first run after an install or an edit "
+                "of reference_impl)")] if phases.ahead_s else []),
             ("jobs and readings", phases.pool_s, "wall", n, f"on {phases.workers} workers: {available:.1f} "
                                                             "worker-seconds"),
             ("stepping", phases.stepping_s, "worker", phases.jobs, "the engines' own steps in the run's jobs"),

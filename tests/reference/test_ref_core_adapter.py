@@ -130,3 +130,40 @@ def test_a_saved_world_continues_bit_for_bit_in_a_freshly_built_one():
     cold.restore_state(saved._replace(features={}, contacts=contact_arrays(new_contacts(0)),
                                       pairs=np.zeros((0, 2), np.int64), impulses=np.zeros(0)))
     assert not np.array_equal(_stack_of_two(cold, 25), on)
+
+
+def test_the_step_halves_compiled_ahead_have_the_types_of_every_battery_world():
+    """What the harness compiles ahead on a fresh install (ReferenceAdapter.uncompiled: the
+    halves of a sample world's step, reference_impl.world.compile_half) is what the worlds
+    of every family's variants then call: the same argument types, so their first step
+    loads the halves and compiles nothing."""
+    from numba import typeof
+
+    from adapters.base import Unsupported
+    from adapters.reference_engine import part_config
+    from adapters.registry import engine_names, get
+    from cases.registry import builtin_families
+    from physval.core.jobs import scene_of
+    from reference_impl.compiled import JIT
+    from reference_impl.world import _half
+    if not JIT:
+        pytest.skip("compiled code only (numba installed, NUMBA_DISABLE_JIT unset)")
+    built = 0
+    for engine in (n for n in engine_names() if n.startswith("reference")):
+        adapter = get(engine)
+        for family in builtin_families().values():
+            for variant in family.variants[:2]:
+                scene = scene_of(family, variant)
+                try:
+                    world = adapter.world_of(scene, Settings(dt=DT))
+                except Unsupported:
+                    continue
+                state = world._build()
+                half = "end_joints" if world.joints else "end"
+                # the config compile_part compiles under (the adapter's, without the scene's)
+                config = part_config((half, adapter.formulation, tuple(sorted(adapter.params.items()))))
+                sample_state, sample_stepper = _half(config, "begin")[1], _half(config, half)[1]
+                assert typeof(state) == typeof(sample_state), f"{engine} {variant.test_id}: begin"
+                assert typeof(world._stepper) == typeof(sample_stepper), f"{engine} {variant.test_id}: {half}"
+                built += 1
+    assert built > 300, built

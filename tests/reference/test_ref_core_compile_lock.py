@@ -130,3 +130,17 @@ def test_the_compile_clock_counts_a_compile_and_not_a_compiled_call(tmp_path, mo
     first = compiling_seconds()
     assert clocked.twice(2.5) == 5.0
     assert first > before and compiling_seconds() == first
+
+
+def test_cached_tells_whether_the_cache_holds_a_function_for_those_argument_types(tmp_path, monkeypatch):
+    """compiled.cached(function, *args): true once a call compiled it for the types of
+    `args` (a float), still false for other types (an int), as the reference's step halves
+    are asked per formulation (world.uncompiled_halves)."""
+    from reference_impl.compiled import cached
+    (tmp_path / "asked.py").write_text(TINY)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import importlib
+    asked = importlib.import_module("asked")
+    assert not cached(asked.twice) and not cached(asked.twice, 1.5)
+    assert asked.twice(1.5) == 3.0
+    assert cached(asked.twice, 2.5) and cached(asked.twice) and not cached(asked.twice, 2)
