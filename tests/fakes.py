@@ -80,16 +80,23 @@ class OtherFake(FakeAdapter):
 
 class CompilingFake(FakeAdapter):
     """A stand-in engine, `fake-compiling` (`--adapter tests/fakes.py:CompilingFake`), that
-    compiles on first use as the reference does on a fresh install: two parts, named with
-    the folder (`folder`, set where the parts are asked for) each writes `started-<part>` in
-    as it begins and `done-<part>` as it ends, after it saw the other part begin (or 60 s)."""
-    folder = ""
+    compiles on first use as the reference does on a fresh install: while the folder
+    `folder()` exists, two parts, each writing `started-<part>` in it as it begins and
+    `done-<part>` as it ends, after it saw the other part begin (or 60 s)."""
 
     def __init__(self):
         super().__init__("fake-compiling")
 
+    @staticmethod
+    def folder():
+        """In the session's cache folder, which the workers see too (tests/conftest.py)."""
+        import os
+        import tempfile
+        from pathlib import Path
+        return Path(os.environ.get("PHYSVAL_CACHE_DIR", tempfile.gettempdir())) / "fake-compiling"
+
     def uncompiled(self):
-        return [(self.folder, part) for part in ("a", "b")] if self.folder else []
+        return [(str(self.folder()), part) for part in ("a", "b")] if self.folder().is_dir() else []
 
     def compile_part(self, part):
         import os

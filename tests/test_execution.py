@@ -503,32 +503,35 @@ def test_streams_share_one_executor_waves_follow_their_rows_and_a_job_two_stream
 
 
 @pytest.mark.parametrize("workers", [1, 2])
-def test_what_an_engine_compiles_on_first_use_compiles_on_every_worker_at_once_before_the_jobs(tmp_path, workers):
+def test_what_an_engine_compiles_on_first_use_compiles_on_every_worker_at_once_before_the_jobs(workers):
     """An engine's parts to compile on first use (the reference on a fresh install: its
     step's halves, Adapter.uncompiled) go to the workers before the jobs, one part a worker
     at once (each part waits to see the other begin); with one worker nothing goes ahead
     (nothing would run beside it) and the jobs compile what they need."""
+    import shutil
     from physval.core import Context, Job
     from physval.core.session import Execution, Stream, run_streams
     from tests.fakes import CompilingFake
     ctx = Context(adapters=(f"{ROOT / 'tests' / 'fakes.py'}:CompilingFake",))
-    adapter = ctx.resolver().adapter("fake-compiling")
-    type(adapter).folder = str(tmp_path)  # the parts it names carry the folder to the workers
+    folder = CompilingFake.folder()
+    folder.mkdir()
     try:
         fam = ctx.resolver().family("central_impact")
         seen = []
         jobs = Stream([Job(fam.name, v, "fake-compiling") for v in fam.variants[:3]],
-                      on_outcome=lambda o: seen.append(sorted(p.name for p in tmp_path.iterdir())))
-        run_streams([jobs], ctx, Execution(workers=workers, progress=False))
+                      on_outcome=lambda o: seen.append(sorted(p.name for p in folder.iterdir())))
+        use = run_streams([jobs], ctx, Execution(workers=workers, progress=False))
+        done = {name: (folder / f"done-{name}").read_text() for name in "ab" if (folder / f"done-{name}").exists()}
+        started = {(folder / f"started-{name}").read_text() for name in "ab" if (folder / f"started-{name}").exists()}
     finally:
-        type(adapter).folder = CompilingFake.folder
+        shutil.rmtree(folder)
     assert len(seen) == 3 and not jobs.results.interrupted
     if workers == 1:
-        assert seen[0] == []
+        assert seen[0] == [] and use.ahead_s == 0.0
     else:
         assert seen[0] == ["done-a", "done-b", "started-a", "started-b"]  # both, before the first job's rows
-        assert (tmp_path / "done-a").read_text() == (tmp_path / "done-b").read_text() == "True"  # at once
-        assert (tmp_path / "started-a").read_text() != (tmp_path / "started-b").read_text()  # two workers
+        assert done == {"a": "True", "b": "True"} and len(started) == 2  # at once, in two workers
+        assert use.ahead_s > 0.0
 
 
 def test_an_engine_is_asked_its_version_once_per_process():

@@ -8,9 +8,10 @@ import collections
 import contextlib
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
+from adapters.base import Adapter
 from physval.core.context import Context
 from physval.core.executor import DEFAULT_JOB_TIMEOUT, make_executor
 from physval.core.jobs import Call, CallResult, Job, rejudge
@@ -237,8 +238,10 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
             with sigterm_as_ctrl_c(), (contextlib.nullcontext(executor) if executor is not None else make_executor(
                     ctx, execution.workers, execution.scheduler, execution.job_timeout, execution.start_method)) as ex:
                 t_ahead = time.monotonic()
-                use.ahead_cpu_s = sum(r.timing.cpu_s for r in compile_ahead(queue, ctx, execution, ex) if r.timing)
-                use.ahead_s = time.monotonic() - t_ahead
+                compiled = compile_ahead(queue, ctx, execution, ex)
+                if compiled:
+                    use.ahead_s = time.monotonic() - t_ahead
+                    use.ahead_cpu_s = sum(r.timing.cpu_s for r in compiled if r.timing)
                 for outcome in ex.run(queue):
                     key = outcome.job.key
                     rows = [{**r, **outcome.extra} for r in outcome.rows]
@@ -273,14 +276,34 @@ def compile_ahead(jobs, ctx: Context, execution: "Execution", executor) -> list[
     first job compiles its parts one after the other while every other worker that needs
     them waits for the cache. A part that fails is left to the jobs, which report it. With
     one local worker, or one part, nothing goes ahead (nothing would run beside it).
-    Returns the calls' results (their timing)."""
+    Returns the compiling calls' results (their timing; none: nothing went ahead)."""
     if execution.workers < 2 and not execution.scheduler:
         return []
-    parts = uncompiled_parts([j.engine for j in jobs], ctx)
+    resolver = ctx.resolver()
+    engines = [e for e in dict.fromkeys(j.engine for j in jobs) if _compiles(resolver, e)]
+    if not engines:
+        return []
+    # asked in a worker: the answer loads what it takes (the reference's world builders, ~1 s
+    # from the cache), which that worker's jobs need anyway, while the other workers start
+    (asked,) = map_calls(_uncompiled, [(ctx, engines)], ctx, replace(execution, progress=False), executor=executor)
+    parts = asked.value or []
     if len(parts) < 2:
         return []
     return map_calls(compile_part, [(ctx, engine, part) for engine, part in parts], ctx, execution, "compiling",
                      executor)
+
+
+def _compiles(resolver, engine: str) -> bool:
+    """Whether `engine`'s adapter says what it compiles on first use (Adapter.uncompiled)."""
+    try:
+        return type(resolver.adapter(engine)).uncompiled is not Adapter.uncompiled
+    except Exception:  # noqa: BLE001 - the engine's jobs report what is wrong with it
+        return False
+
+
+def _uncompiled(item) -> list[tuple]:
+    ctx, engines = item
+    return uncompiled_parts(engines, ctx)
 
 
 def uncompiled_parts(engines, ctx: Context) -> list[tuple]:
