@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from cases.family import CaseFamily, Catch, Check
-from cases.observables import drift, rotations, window_mean, window_samples
+from cases.observables import rest_drift, rotations, window_mean, window_samples
 from cases.scene import Body, Box, Cylinder, Material, Scene, ground, quat_about_y
 
 R = 0.05      # radius, m
@@ -68,15 +68,10 @@ def observe(traj, p) -> dict:
     # cosine between an axis now and the same axis at the start
     cosines = np.einsum("nij,ij->nj", axis, start)
     turned = float(np.arccos(np.clip(cosines.min(), -1.0, 1.0)))
-    x = traj.pos("cylinder")
-    # along the ground from where it was put, over the whole run (a walk while the contact
-    # starts up, then rest, is a drift too); in every direction from SETTLED on (before it
-    # a soft contact's sag is the start-up's, which `lowest` judges)
-    walk = float(np.max(np.linalg.norm(x[:, :2] - x[0, :2], axis=1)))
     return {"tilt": turned,
-            "lowest": float(x[window_samples(traj, SETTLED), 2].min()),
+            "lowest": float(traj.pos("cylinder")[window_samples(traj, SETTLED), 2].min()),
             "support_force": window_mean(traj, traj.force("ground", "cylinder"), SETTLED),
-            "drift": max(walk, drift(traj, ["cylinder"], SETTLED))}
+            "drift": rest_drift(traj, ["cylinder"], SETTLED)}  # its sag before SETTLED: `lowest` judges it
 
 
 def expect(p, dt) -> list[Check]:

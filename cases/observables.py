@@ -230,6 +230,15 @@ def drift(traj: Trajectory, names, t0: float) -> float:
     return out
 
 
+def rest_drift(traj: Trajectory, names, settled: float) -> float:
+    """How far bodies put down at rest move, m: along the ground from where they were put,
+    over the whole run (a walk while the contacts start up, then rest, is a drift too), and
+    in any direction from `settled` on (before it, a contact's sag into its solver's
+    stabilising depth is the start-up's, which a penetration or height check judges)."""
+    walk = max(float(np.max(np.linalg.norm(traj.pos(n)[:, :2] - traj.pos(n)[0, :2], axis=1))) for n in names)
+    return max(walk, drift(traj, names, settled))
+
+
 def time_to_collapse(traj: Trajectory, names, sideways: float, down: float) -> float:
     """Time at which the first of the named bodies is more than `sideways` (horizontally)
     from where it started, or more than `down` below it; the end of the run if none ever
@@ -269,8 +278,8 @@ def deepest_overlap(traj: Trajectory, scene, t0: float, samples: int = 20) -> fl
 def stack_readings(traj: Trajectory, names: list[str], half: float, settled: float) -> dict:
     """What a resting stack of boxes (half-height `half`, `names` bottom to top, on the
     ground z = 0) shows from time `settled` on: the mean normal force below each box
-    (`force_below_box<k>`), the deepest mean overlap of any interface (`penetration`) and
-    the farthest any box moved (`drift`)."""
+    (`force_below_box<k>`), the deepest mean overlap of any interface (`penetration`); and
+    the farthest any box moved (`drift`: along the ground over the whole run, rest_drift)."""
     below = ["ground"] + list(names)
     out = {}
     depth = []
@@ -280,7 +289,7 @@ def stack_readings(traj: Trajectory, names: list[str], half: float, settled: flo
         top_below = np.zeros_like(bottom) if k == 0 else traj.pos(below[k])[:, 2] + half
         depth.append(window_mean(traj, top_below - bottom, settled))
     out["penetration"] = max(depth)
-    out["drift"] = drift(traj, names, settled)
+    out["drift"] = rest_drift(traj, names, settled)
     return out
 
 
