@@ -534,6 +534,19 @@ def test_what_an_engine_compiles_on_first_use_compiles_on_every_worker_at_once_b
         assert use.ahead_s > 0.0
 
 
+def test_the_jobs_progress_counts_its_time_from_the_end_of_the_compiling(capsys):
+    """The jobs' progress line, begun before the workers compiled ahead (minutes on a fresh
+    install), tells the jobs' time and time left from when they began (Progress.restart):
+    it said 'about 1507042 s left' after the first job of a cold default run."""
+    from physval.core.session import Progress
+    bar = Progress(2, "run")
+    bar.start -= 180.0  # the compiling ahead
+    bar.restart()
+    bar.update()
+    bar.update()
+    assert capsys.readouterr().err.strip().splitlines()[-1] == "physval: run: 2/2 jobs, 0 s, about 0 s left"
+
+
 def test_an_engine_is_asked_its_version_once_per_process():
     """A job's rows carry the engine's version; most adapters read it from the installed
     distribution's metadata (6 ms of CPU, up to 60 ms of disk a call on a loaded machine):

@@ -58,6 +58,12 @@ class Progress:
             self.bar.total = self.total
             self.bar.refresh()
 
+    def restart(self) -> None:
+        """Its clock from now (nothing done yet): the time before was spent on something else."""
+        self.start = self.last = time.monotonic()
+        if self.bar is not None:
+            self.bar.reset(total=self.total)
+
     def update(self, what: str = "") -> None:
         self.done += 1
         if not self.enabled or not self.total:
@@ -242,6 +248,7 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
                 if compiled:
                     use.ahead_s = time.monotonic() - t_ahead
                     use.ahead_cpu_s = sum(r.timing.cpu_s for r in compiled if r.timing)
+                    bar.restart()  # its time left from the jobs' pace, not the compiling's
                 for outcome in ex.run(queue):
                     key = outcome.job.key
                     rows = [{**r, **outcome.extra} for r in outcome.rows]
