@@ -283,7 +283,8 @@ def compile_ahead(jobs, ctx: Context, execution: "Execution", executor) -> list[
     first job compiles its parts one after the other while every other worker that needs
     them waits for the cache. A part that fails is left to the jobs, which report it. With
     one local worker, or one part, nothing goes ahead (nothing would run beside it).
-    Returns the compiling calls' results (their timing; none: nothing went ahead)."""
+    Returns the calls' results, the question's and the compiling's (their timing; none:
+    nothing went ahead)."""
     if execution.workers < 2 and not execution.scheduler:
         return []
     resolver = ctx.resolver()
@@ -296,8 +297,8 @@ def compile_ahead(jobs, ctx: Context, execution: "Execution", executor) -> list[
     parts = asked.value or []
     if len(parts) < 2:
         return []
-    return map_calls(compile_part, [(ctx, engine, part) for engine, part in parts], ctx, execution, "compiling",
-                     executor)
+    return [asked, *map_calls(compile_part, [(ctx, engine, part) for engine, part in parts], ctx, execution,
+                              "compiling", executor)]
 
 
 def _compiles(resolver, engine: str) -> bool:
