@@ -136,9 +136,11 @@ class ReferenceAdapter(Adapter):
         """The halves of the step (reference_impl/world.py) numba's cache lacks for this
         formulation: ("begin",), the same for every formulation, and ("end", formulation,
         params) and ("end_joints", ...), this one's."""
-        mine = (self.formulation, tuple(sorted(self.params.items())))
-        return [(half,) if half == "begin" else (half, *mine)
-                for half in uncompiled_halves(Config(formulation=self.formulation, params=self.params))]
+        return [self.part(half) for half in uncompiled_halves(Config(formulation=self.formulation, params=self.params))]
+
+    def part(self, half: str) -> tuple:
+        """The part (uncompiled) that compiles `half` of this formulation's step (part_config)."""
+        return (half,) if half == "begin" else (half, self.formulation, tuple(sorted(self.params.items())))
 
     def compile_part(self, part) -> None:
         compile_half(part_config(part), part[0])

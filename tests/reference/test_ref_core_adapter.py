@@ -161,7 +161,7 @@ def test_the_step_halves_compiled_ahead_have_the_types_of_every_battery_world():
                 state = world._build()
                 half = "end_joints" if world.joints else "end"
                 # the config compile_part compiles under (the adapter's, without the scene's)
-                config = part_config((half, adapter.formulation, tuple(sorted(adapter.params.items()))))
+                config = part_config(adapter.part(half))
                 sample_state, sample_stepper = _half(config, "begin")[1], _half(config, half)[1]
                 assert typeof(state) == typeof(sample_state), f"{engine} {variant.test_id}: begin"
                 assert typeof(world._stepper) == typeof(sample_stepper), f"{engine} {variant.test_id}: {half}"
