@@ -460,9 +460,9 @@ class Adapter(ABC):
         """What this engine's first run in a process compiles that its cache does not hold
         yet (a just-in-time compiler's work on a fresh install), as parts that compile
         apart, each hashable and picklable (the same part of two configurations is equal):
-        the harness has its workers compile them at once (`compile_part`) before the jobs,
-        where the first jobs would compile them one after the other while the other workers
-        wait for the cache. Default: none."""
+        the harness has its workers compile them at once (`compile_part`) before this
+        engine's jobs, where its first jobs would compile them one after the other while the
+        other workers wait for the cache. Default: none."""
         return []
 
     def compile_part(self, part) -> None:

@@ -205,7 +205,7 @@ def pytest_collection_finish(session):
     """In each pytest-xdist worker, before its first test: what the battery's engines compile
     on first use and the cache lacks (Adapter.uncompiled: on a fresh clone, the reference's
     step, several minutes of numba), each part by the first worker that claims it (a file in
-    the session's shared folder), as `physval run` has its workers do (session.compile_ahead).
+    the session's shared folder), as `physval run` has its workers do (physval.core.ahead).
     Otherwise each formulation's first job compiled its parts one after the other while the
     other worker, at a job of the same formulation, waited for the cache. A part that fails
     is left to the tests that need it."""
@@ -213,7 +213,7 @@ def pytest_collection_finish(session):
         return
     import hashlib
     from physval.core import Context
-    from physval.core.session import compile_part, uncompiled_parts
+    from physval.core.ahead import compile_part, uncompiled_parts
     engines = [job.engine for item in session.items if (job := _job_of(item)) is not None]
     claims = Path(os.environ["PHYSVAL_TEST_ROWS"])
     for engine, part in uncompiled_parts(engines, Context()):

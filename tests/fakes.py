@@ -82,7 +82,8 @@ class CompilingFake(FakeAdapter):
     """A stand-in engine, `fake-compiling` (`--adapter tests/fakes.py:CompilingFake`), that
     compiles on first use as the reference does on a fresh install: while the folder
     `folder()` exists, two parts, each writing `started-<part>` in it as it begins and
-    `done-<part>` as it ends, after it saw the other part begin (or 60 s)."""
+    `done-<part>` as it ends, after it saw the other part begin (or 60 s); part b also
+    stays open while the folder holds a file `hold` (or 60 s)."""
 
     def __init__(self):
         super().__init__("fake-compiling")
@@ -107,6 +108,8 @@ class CompilingFake(FakeAdapter):
         other = folder / f"started-{'b' if name == 'a' else 'a'}"
         deadline = time.monotonic() + 60
         while not other.exists() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        while name == "b" and (folder / "hold").exists() and time.monotonic() < deadline:
             time.sleep(0.01)
         (folder / f"done-{name}").write_text(str(other.exists()))
 

@@ -505,7 +505,7 @@ def test_streams_share_one_executor_waves_follow_their_rows_and_a_job_two_stream
 @pytest.mark.parametrize("workers", [1, 2])
 def test_what_an_engine_compiles_on_first_use_compiles_on_every_worker_at_once_before_the_jobs(workers):
     """An engine's parts to compile on first use (the reference on a fresh install: its
-    step's halves, Adapter.uncompiled) go to the workers before the jobs, one part a worker
+    step's halves, Adapter.uncompiled) go to the workers before its jobs, one part a worker
     at once (each part waits to see the other begin); with one worker nothing goes ahead
     (nothing would run beside it) and the jobs compile what they need."""
     import shutil
@@ -532,6 +532,37 @@ def test_what_an_engine_compiles_on_first_use_compiles_on_every_worker_at_once_b
         assert seen[0] == ["done-a", "done-b", "started-a", "started-b"]  # both, before the first job's rows
         assert done == {"a": "True", "b": "True"} and len(started) == 2  # at once, in two workers
         assert use.ahead_s > 0.0
+
+
+def test_other_engines_jobs_run_beside_a_part_compiling_and_its_engines_jobs_wait_for_it():
+    """The parts go to the head of the job queue, not before it: while a part compiles
+    (part b, held open until another engine's job has finished), the workers left run the
+    other engines' jobs; the compiling engine's jobs wait until both of its parts are in."""
+    import shutil
+    from physval.core import Context, Job
+    from physval.core.session import Execution, Stream, run_streams
+    from tests.fakes import CompilingFake
+    ctx = Context(adapters=(f"{ROOT / 'tests' / 'fakes.py'}:CompilingFake", f"{ROOT / 'tests' / 'fakes.py'}:OtherFake"))
+    folder = CompilingFake.folder()
+    folder.mkdir()
+    (folder / "hold").touch()
+    seen = []
+
+    def saw(outcome):
+        seen.append((outcome.job.engine, (folder / "done-b").exists()))
+        (folder / "hold").unlink(missing_ok=True)  # another engine's job finished: part b may end
+
+    try:
+        fam = ctx.resolver().family("central_impact")
+        jobs = [Job(fam.name, v, engine) for engine in ("fake-compiling", "fake-2") for v in fam.variants[:3]]
+        stream = Stream(jobs, on_outcome=saw)
+        use = run_streams([stream], ctx, Execution(workers=3, progress=False))
+    finally:
+        shutil.rmtree(folder)
+    assert not stream.results.interrupted and len(seen) == 6
+    assert seen[0] == ("fake-2", False)  # beside part b, before it was done
+    assert all(done for engine, done in seen if engine == "fake-compiling")
+    assert use.ahead_s > 0.0
 
 
 def test_the_jobs_progress_counts_its_time_from_the_end_of_the_compiling(capsys):

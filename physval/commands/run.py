@@ -234,9 +234,9 @@ def _run(args, after: dict) -> int:
     total = time.monotonic() - started
     print(f"{len(df)} checks: {status_counts(df)} ({res.ran} runs now, {res.reused} reused; {total:.1f} s: "
           f"{phases.planning_s:.1f} s planning, "
-          + (f"{use.ahead_s:.1f} s compiling ahead, " if use.ahead_s else "")
-          + f"{use.wall_s:.1f} s jobs and readings on {use.workers} workers "
-          f"({_overhead_ms(phases):.1f} ms a job outside jobs, {_overhead_cpu_ms(phases):.1f} ms of CPU), "
+          + f"{use.wall_s:.1f} s jobs and readings on {use.workers} workers ("
+          + (f"{use.ahead_s:.1f} worker-s of it compiling ahead; " if use.ahead_s else "")
+          + f"{_overhead_ms(phases):.1f} ms a job outside jobs, {_overhead_cpu_ms(phases):.1f} ms of CPU), "
           f"{t_report:.1f} s report)")
     print(f"wrote {out / 'results.csv'}, {out / KNOBS_FILE}, {out / 'report.md'}, {out / 'report.html'}, {out / 'plots'}/")
     from physval.readings import junit as junit_report
@@ -260,7 +260,7 @@ def junit_beside(junit: Path | None, out: Path) -> None:
 
 def _overhead_ms(p) -> float:
     n = p.jobs + p.reading_jobs
-    return 1e3 * (p.pool_s * p.workers - p.job_s - p.reading_s) / n if n else 0.0
+    return 1e3 * p.outside_s / n if n else 0.0
 
 
 def _overhead_cpu_ms(p) -> float:

@@ -8,10 +8,10 @@ import collections
 import contextlib
 import sys
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Callable
 
-from adapters.base import Adapter
+from physval.core.ahead import Ahead
 from physval.core.context import Context
 from physval.core.executor import DEFAULT_JOB_TIMEOUT, make_executor
 from physval.core.jobs import Call, CallResult, Job, rejudge
@@ -40,6 +40,7 @@ class Progress:
 
     def __init__(self, total: int, label: str, enabled: bool = True):
         self.total, self.label, self.done = 0, label, 0
+        self.done_before = 0  # done before the pace's clock started (restart)
         self.start = self.last = time.monotonic()
         self.tty = enabled and sys.stderr.isatty()
         self.enabled = enabled
@@ -59,10 +60,12 @@ class Progress:
             self.bar.refresh()
 
     def restart(self) -> None:
-        """Its clock from now (nothing done yet): the time before was spent on something else."""
+        """Its pace from now: the time before went mostly to something else (compiling)."""
         self.start = self.last = time.monotonic()
+        self.done_before = self.done
         if self.bar is not None:
             self.bar.reset(total=self.total)
+            self.bar.update(self.done)
 
     def update(self, what: str = "") -> None:
         self.done += 1
@@ -76,7 +79,7 @@ class Progress:
         step = max(1, self.total // 10)
         if self.done % step == 0 or now - self.last > 60 or self.done == self.total:
             self.last = now
-            rate = (now - self.start) / self.done
+            rate = (now - self.start) / max(1, self.done - self.done_before)
             left = rate * (self.total - self.done)
             print(f"physval: {self.label}: {self.done}/{self.total} jobs, {now - self.start:.0f} s, "
                   f"about {left:.0f} s left", file=sys.stderr, flush=True)
@@ -147,8 +150,9 @@ def _seconds(value) -> float:
 class PoolUse:
     """The executor's whole run: `wall_s` from its start to its last result, on `workers`
     workers (`started`: worker processes started, replacements included; `worker_cpu_s`:
-    their CPU, user + system, as they reported it; local workers only), except what they
-    compiled ahead of the jobs (compile_ahead): `ahead_s` of wall time, `ahead_cpu_s` of CPU."""
+    their CPU, user + system, as they reported it; local workers only), of which what they
+    compiled ahead of the jobs beside them (physval.core.ahead): `ahead_s` of worker time,
+    `ahead_cpu_s` of CPU."""
     wall_s: float = 0.0
     workers: int = 0
     started: int = 0
@@ -181,6 +185,7 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
     finished: dict[str, tuple] = {}         # job key -> (outcome, rows) of a job run in this call
     bar = Progress(0, streams[0].label if streams else "run", execution.progress)
     use = PoolUse(workers=execution.workers)
+    ahead: Ahead | None = None
 
     def advance(s: Stream, rows: dict | None) -> None:
         """Send `s` its finished wave and queue its next (waves its store holds whole are
@@ -215,11 +220,13 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
             fresh = [j for j in todo if j.key not in waiting]  # (the others: queued for another stream)
             for j in todo:
                 waiting.setdefault(j.key, []).append(s)
+            bar.grow(len(fresh))
+            if ahead is not None:  # an engine still compiling: its jobs wait for its parts
+                fresh = ahead.hold(fresh)
             if s.first:
                 queue.extendleft(reversed(fresh))
             else:
                 queue.extend(fresh)
-            bar.grow(len(fresh))
             return
 
     def deliver(s: Stream, outcome, rows: list) -> None:
@@ -243,13 +250,13 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
         if queue:
             with sigterm_as_ctrl_c(), (contextlib.nullcontext(executor) if executor is not None else make_executor(
                     ctx, execution.workers, execution.scheduler, execution.job_timeout, execution.start_method)) as ex:
-                t_ahead = time.monotonic()
-                compiled = compile_ahead(queue, ctx, execution, ex)
-                if compiled:
-                    use.ahead_s = time.monotonic() - t_ahead
-                    use.ahead_cpu_s = sum(r.timing.cpu_s for r in compiled if r.timing)
-                    bar.restart()  # its time left from the jobs' pace, not the compiling's
+                ahead = Ahead.start(queue, ctx, beside=execution.workers > 1 or bool(execution.scheduler))
                 for outcome in ex.run(queue):
+                    if ahead is not None and ahead.owns(outcome):
+                        ahead.arrived(outcome, queue)
+                        if not ahead.compiling:
+                            bar.restart()  # its time left from the jobs' pace, not the compiling's
+                        continue
                     key = outcome.job.key
                     rows = [{**r, **outcome.extra} for r in outcome.rows]
                     finished[key] = (outcome, rows)
@@ -261,7 +268,8 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
                             advance(s, st["rows"])
                     bar.update(outcome.job.test_id)
                 use.started = getattr(ex, "started", 0)
-                use.worker_cpu_s = getattr(ex, "worker_cpu_s", 0.0) - use.ahead_cpu_s
+                # (what they compiled ahead is not the jobs' overhead: Cost has it on its own line)
+                use.worker_cpu_s = getattr(ex, "worker_cpu_s", 0.0) - (ahead.cpu_s if ahead is not None else 0.0)
     except KeyboardInterrupt as exc:
         why = "SIGTERM" if isinstance(exc, Terminated) else "SIGINT"
         for s in streams:
@@ -271,67 +279,11 @@ def run_streams(streams: list[Stream], ctx: Context = Context(), execution: "Exe
                 if st is not None:
                     st["gen"].close()
     finally:
-        use.wall_s = time.monotonic() - t0 - use.ahead_s
+        use.wall_s = time.monotonic() - t0
+        if ahead is not None:
+            use.ahead_s, use.ahead_cpu_s = ahead.worker_s, ahead.cpu_s
         bar.close()
     return use
-
-
-def compile_ahead(jobs, ctx: Context, execution: "Execution", executor) -> list[CallResult]:
-    """What the engines of `jobs` compile on first use and have not compiled yet
-    (Adapter.uncompiled: the reference's numba code on a fresh install, minutes of it), part
-    by part on the executor's workers at once, before the jobs: otherwise each engine's
-    first job compiles its parts one after the other while every other worker that needs
-    them waits for the cache. A part that fails is left to the jobs, which report it. With
-    one local worker, or one part, nothing goes ahead (nothing would run beside it).
-    Returns the calls' results, the question's and the compiling's (their timing; none:
-    nothing went ahead)."""
-    if execution.workers < 2 and not execution.scheduler:
-        return []
-    resolver = ctx.resolver()
-    engines = [e for e in dict.fromkeys(j.engine for j in jobs) if _compiles(resolver, e)]
-    if not engines:
-        return []
-    # asked in a worker: the answer loads what it takes (the reference's world builders, ~1 s
-    # from the cache), which that worker's jobs need anyway, while the other workers start
-    (asked,) = map_calls(_uncompiled, [(ctx, engines)], ctx, replace(execution, progress=False), executor=executor)
-    parts = asked.value or []
-    if len(parts) < 2:
-        return []
-    return [asked, *map_calls(compile_part, [(ctx, engine, part) for engine, part in parts], ctx, execution,
-                              "compiling", executor)]
-
-
-def _compiles(resolver, engine: str) -> bool:
-    """Whether `engine`'s adapter says what it compiles on first use (Adapter.uncompiled)."""
-    try:
-        return type(resolver.adapter(engine)).uncompiled is not Adapter.uncompiled
-    except Exception:  # noqa: BLE001 - the engine's jobs report what is wrong with it
-        return False
-
-
-def _uncompiled(item) -> list[tuple]:
-    ctx, engines = item
-    return uncompiled_parts(engines, ctx)
-
-
-def uncompiled_parts(engines, ctx: Context) -> list[tuple]:
-    """(engine, part) for each part the `engines` compile on first use and have not
-    compiled yet (Adapter.uncompiled), a part that several engines share once."""
-    resolver = ctx.resolver()
-    parts = {}
-    for engine in dict.fromkeys(engines):
-        try:
-            for part in resolver.adapter(engine).uncompiled():
-                parts.setdefault(part, engine)
-        except Exception:  # noqa: BLE001 - the engine's jobs report what is wrong with it
-            continue
-    return [(engine, part) for part, engine in parts.items()]
-
-
-def compile_part(item) -> None:
-    """Compile (ctx, engine, part), one of uncompiled_parts, in this process (a worker)."""
-    ctx, engine, part = item
-    ctx.resolver().adapter(engine).compile_part(part)
 
 
 def judge_again(ctx: Context):

@@ -307,8 +307,8 @@ def _text_table(df: pd.DataFrame) -> str:
 class Phases:
     """The run's wall-clock phases and its workers' use, as physval run measured them."""
     planning_s: float = 0.0     # start to the first job handed out (imports, plan, store)
-    ahead_s: float = 0.0        # then the workers compiling ahead of the jobs (session.compile_ahead)
     pool_s: float = 0.0         # the workers' phase: first job to last result
+    ahead_s: float = 0.0        # of the workers' time in it, compiling ahead beside the jobs (physval.core.ahead)
     report_started: float = math.nan  # time.monotonic() when the report began
     workers: int = 1
     jobs: int = 0               # the run's jobs run now
@@ -322,6 +322,12 @@ class Phases:
     job_cpu_s: float = math.nan     # of it, in the jobs (the run's and the readings'): the rest is per-job overhead
     later: tuple = ()               # (job, why) of the runs left for --on-demand (physval.core.plan)
 
+    @property
+    def outside_s(self) -> float:
+        """The workers' time in their phase outside any job or compiling (starting, idle,
+        results in transit)."""
+        return self.pool_s * self.workers - self.job_s - self.reading_s - self.ahead_s
+
 
 COST_COLUMNS = ["kind", "name", "seconds", "of", "jobs", "steps", "us_per_step", "note"]
 
@@ -334,19 +340,19 @@ def measure(rows, phases: Phases | None = None) -> pd.DataFrame:
     out = []
     if phases is not None:
         available = phases.pool_s * phases.workers
-        outside = available - phases.job_s - phases.reading_s
+        outside = phases.outside_s
         n = phases.jobs + phases.reading_jobs
 
         report_s = time.monotonic() - phases.report_started if math.isfinite(phases.report_started) else math.nan
         out += [
             ("planning", phases.planning_s, "wall", math.nan, "imports, the plan, the results store; the workers "
                                                                 "start meanwhile"),
-            *([("compiling ahead", phases.ahead_s, "wall", math.nan,
-                f"on {phases.workers} workers before the jobs, side by side, what the run's engines compile on "
-                "first use and the cache lacked (the reference's step: the first run after an install or an edit "
-                "of reference_impl)")] if phases.ahead_s else []),
             ("jobs and readings", phases.pool_s, "wall", n, f"on {phases.workers} workers: {available:.1f} "
                                                             "worker-seconds"),
+            *([("compiling ahead", phases.ahead_s, "worker", math.nan,
+                "the workers compiling, side by side and beside the other engines' jobs, what the run's engines "
+                "compile on first use and the cache lacked (the reference's step: the first run after an install "
+                "or an edit of reference_impl); that engine's jobs wait for it")] if phases.ahead_s else []),
             ("stepping", phases.stepping_s, "worker", phases.jobs, "the engines' own steps in the run's jobs"),
             ("recording", phases.run_s - phases.stepping_s, "worker", phases.jobs,
              "each step's state (and contact forces where read) copied out, blow-up checks"),
@@ -361,9 +367,9 @@ def measure(rows, phases: Phases | None = None) -> pd.DataFrame:
              "the engine-wide readings' jobs run now (cached per engine version)"),
             ("overhead", outside, "worker", n, f"workers outside any job (starting, idle, results in transit): "
                                                f"{_ms(outside, n)} per job"),
-            ("all but stepping", available - phases.stepping_s - phases.reading_s, "worker", phases.jobs,
+            ("all but stepping", outside + phases.job_s - phases.stepping_s, "worker", phases.jobs,
              f"the workers' time in the run beyond its steps (recording, the rest of the jobs, overhead): "
-             f"{_ms(available - phases.stepping_s - phases.reading_s, phases.jobs)} per job"),
+             f"{_ms(outside + phases.job_s - phases.stepping_s, phases.jobs)} per job"),
             ("report", report_s, "wall", math.nan, "the report's sections, plots and pages before this one"),
             ("CPU of the workers", phases.worker_cpu_s, "cpu", n, "user + system, their start included"),
             ("CPU outside any job", phases.worker_cpu_s - phases.job_cpu_s, "cpu", n,
