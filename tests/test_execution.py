@@ -578,6 +578,18 @@ def test_the_jobs_progress_counts_its_time_from_the_end_of_the_compiling(capsys)
     assert capsys.readouterr().err.strip().splitlines()[-1] == "physval: run: 2/2 jobs, 0 s, about 0 s left"
 
 
+def test_the_progress_after_the_compiling_paces_only_the_jobs_done_since(capsys):
+    """Jobs of other engines finish while the reference compiles beside them: the time
+    left after the compiling comes from the jobs done since it ended, not from all."""
+    from physval.core.session import Progress
+    bar = Progress(4, "run")
+    bar.update()  # beside the compiling
+    bar.restart()
+    bar.start -= 10.0  # then one job in the 10 s since
+    bar.update()
+    assert capsys.readouterr().err.strip().splitlines()[-1] == "physval: run: 2/4 jobs, 10 s, about 20 s left"
+
+
 def test_an_engine_is_asked_its_version_once_per_process():
     """A job's rows carry the engine's version; most adapters read it from the installed
     distribution's metadata (6 ms of CPU, up to 60 ms of disk a call on a loaded machine):
