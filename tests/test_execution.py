@@ -503,7 +503,7 @@ def test_streams_share_one_executor_waves_follow_their_rows_and_a_job_two_stream
 
 
 @pytest.mark.parametrize("workers", [1, 2])
-def test_what_an_engine_compiles_on_first_use_compiles_on_every_worker_at_once_before_the_jobs(workers):
+def test_what_an_engine_compiles_on_first_use_compiles_on_every_worker_at_once_before_its_jobs(workers):
     """An engine's parts to compile on first use (the reference on a fresh install: its
     step's halves, Adapter.uncompiled) go to the workers before its jobs, one part a worker
     at once (each part waits to see the other begin); with one worker nothing goes ahead
