@@ -35,7 +35,8 @@ from importlib import metadata
 import numpy as np
 
 from adapters.base import Settings, Simulation, Unsupported
-from adapters.mujoco_engine import CONTACT_STEPS, MuJoCoAdapter, MuJoCoSimulation, float32_capabilities, geom_bodies
+from adapters.mujoco_engine import (CONTACT_STEPS, MuJoCoAdapter, MuJoCoPortTreeSimulation, MuJoCoSimulation,
+                                    float32_capabilities, geom_bodies)
 from cases.scene import Scene
 
 # mujoco-mjx installs into MuJoCo's package (mujoco/mjx) and jax (~1 s to import) comes with
@@ -176,6 +177,14 @@ class MjxSimulation(MuJoCoSimulation):
         self._mx = self._dx = None
 
 
+class MjxTreeSimulation(MjxSimulation, MuJoCoPortTreeSimulation):
+    """A scene with joints or loads on MJX: stepped as MjxSimulation a step at a time (the
+    scans' rows are qpos and qvel, not the tree's states), its states read through MuJoCo
+    C's kinematics of MJX's qpos and qvel."""
+
+    run = None
+
+
 class MjxAdapter(MuJoCoAdapter):
     name = "mujoco-mjx"
     package = "mujoco-mjx"
@@ -183,11 +192,8 @@ class MjxAdapter(MuJoCoAdapter):
     supported = ">=3.17.0,<4"
     packages = ("mujoco-mjx", "mujoco")
     # MuJoCo C's (float32_capabilities): JAX's default floats, single precision for qpos, qvel and
-    # every operation; the MJX read-out carries no joints or loads
-    capabilities = float32_capabilities(
-        why_not=(("joint", "the MuJoCo adapter's joint tree reads states through MuJoCo C's mj_kinematics "
-                           "(MuJoCoTreeSimulation); the MJX read-out decodes free and planar bodies from qpos only"),
-                 ("load", "loads are MuJoCo C's xfrc_applied, not copied into the MJX data")))
+    # every operation; joints and loads as MuJoCo C's model has them
+    capabilities = float32_capabilities()
     # Runs only when asked (--on-demand): a step that reads forces or contact points costs
     # 1-4 ms of Python dispatch and copying (25 us in the scans of a run that reads neither), a
     # new model shape 8-12 s of compiling; central_impact alone took 1276 s of wall time on
@@ -213,4 +219,4 @@ class MjxAdapter(MuJoCoAdapter):
         reason = missing_collision(model, scene)
         if reason:
             raise Unsupported(reason)
-        return MjxSimulation(scene, model, knobs, iterations)
+        return (MjxTreeSimulation if scene.joints or scene.loads else MjxSimulation)(scene, model, knobs, iterations)

@@ -1114,6 +1114,21 @@ class MuJoCoTreeSimulation(MuJoCoSimulation):
         return out
 
 
+class MuJoCoPortTreeSimulation(MuJoCoTreeSimulation):
+    """MuJoCoTreeSimulation for a port of MuJoCo's pipeline (MuJoCo Warp, MJX) that steps
+    the MjData's copy in its own arrays: the start state and the loads go to the port with
+    the MjData (xfrc_applied is part of it), and each read first copies the port's qpos and
+    qvel (self._qpos, self._qvel, which the port binds) back into the MjData that MuJoCo C's
+    kinematics reads."""
+
+    run = None
+
+    def write_state(self, out: np.ndarray) -> None:
+        self._data.qpos[:] = self._qpos
+        self._data.qvel[:] = self._qvel
+        super().write_state(out)
+
+
 class MuJoCoAdapter(Adapter):
     name = "mujoco"
     package = "mujoco"
@@ -1220,12 +1235,10 @@ class MuJoCoAdapter(Adapter):
             raise Unsupported(f"MuJoCo rejects the scene: {exc}") from None
 
 
-def float32_capabilities(why_not: tuple[tuple[str, str], ...]) -> Capabilities:
+def float32_capabilities(why_not: tuple[tuple[str, str], ...] = ()) -> Capabilities:
     """The capabilities of a single-precision port of MuJoCo's pipeline (MuJoCo Warp, MJX),
-    which builds MuJoCo C's model (MuJoCoAdapter.model) and reads forces and contact points
-    as MuJoCo C does: MuJoCo C's, with 32-bit floats, Settings.iterations capping the
-    Newton solver's iterations (no sub-steps), and none of what the ports' read-out does
-    not carry: joints, loads, threads and saved states; `why_not` says why for each."""
-    return replace(MuJoCoAdapter.capabilities, float_bits=32, substeps=False, modes=frozenset(),
-                   joints=frozenset(), joint_limits=False, joint_friction=False, limit_restitution=False,
-                   coordinates=None, loads=False, why_not=why_not)
+    which builds MuJoCo C's model (MuJoCoAdapter.model) and reads forces, contact points and
+    a joint tree's states as MuJoCo C does (MuJoCoPortTreeSimulation): MuJoCo C's, with
+    32-bit floats, Settings.iterations capping the Newton solver's iterations (no
+    sub-steps), and no threads or saved states; `why_not` says why for what a port lacks."""
+    return replace(MuJoCoAdapter.capabilities, float_bits=32, substeps=False, modes=frozenset(), why_not=why_not)

@@ -37,7 +37,8 @@ import numpy as np
 
 from adapters.base import Settings, Simulation, Unsupported
 from adapters.lazy import require
-from adapters.mujoco_engine import CONTACT_STEPS, MuJoCoAdapter, MuJoCoSimulation, float32_capabilities
+from adapters.mujoco_engine import (CONTACT_STEPS, MuJoCoAdapter, MuJoCoPortTreeSimulation, MuJoCoSimulation,
+                                    float32_capabilities)
 from cases.scene import Scene
 
 # warp (~4 s to import, it loads its runtime) and mujoco_warp are imported when a scene is
@@ -166,6 +167,11 @@ class MuJoCoWarpSimulation(MuJoCoSimulation):
         self._wm = self._wd = self._graph = None
 
 
+class MuJoCoWarpTreeSimulation(MuJoCoWarpSimulation, MuJoCoPortTreeSimulation):
+    """A scene with joints or loads on MuJoCo Warp: stepped as MuJoCoWarpSimulation, its
+    states read through MuJoCo C's kinematics of Warp's qpos and qvel."""
+
+
 class MuJoCoWarpAdapter(MuJoCoAdapter):
     name = "mujoco-warp"
     package = "mujoco-warp"
@@ -176,11 +182,8 @@ class MuJoCoWarpAdapter(MuJoCoAdapter):
     supported = ">=3.13.0,<5"
     packages = ("mujoco-warp", "mujoco")
     # MuJoCo C's (float32_capabilities): qpos, qvel, masses and every kernel's arithmetic in
-    # single precision; the Warp read-out carries no joints or loads
-    capabilities = float32_capabilities(
-        why_not=(("joint", "the MuJoCo adapter's joint tree reads states through MuJoCo C's mj_kinematics "
-                           "(MuJoCoTreeSimulation); the Warp read-out decodes free and planar bodies from qpos only"),
-                 ("load", "loads are MuJoCo C's xfrc_applied, not copied into the Warp data")))
+    # single precision; joints and loads as MuJoCo C's model has them
+    capabilities = float32_capabilities()
 
     # A default run (and the default test suite) runs the core families and the conformance
     # battery on it; named (`--engines mujoco-warp`, `pytest --engine mujoco-warp`) every family.
@@ -199,5 +202,6 @@ class MuJoCoWarpAdapter(MuJoCoAdapter):
         return f"{metadata.version('mujoco-warp')} (warp {metadata.version('warp-lang')}, {self.device})"
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
-        return MuJoCoWarpSimulation(scene, *self.model(scene, settings), device=self.device)
+        kind = MuJoCoWarpTreeSimulation if scene.joints or scene.loads else MuJoCoWarpSimulation
+        return kind(scene, *self.model(scene, settings), device=self.device)
 
