@@ -100,6 +100,7 @@ import numpy as np
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.combination import RULES as COMBINE, per_body_values
+from adapters.joints import joint_tree
 from cases import rotations
 from adapters.lazy import require
 from adapters.warp_support import init_warp
@@ -201,11 +202,34 @@ def reduced_mass(a: Body, b: Body) -> float:
     return a.mass * b.mass / (a.mass + b.mass)
 
 
-# Newton's models are built from the scene's free bodies; the scene's joints (Newton's
-# add_joint_revolute and the like, which each of its solvers treats its own way) are not mapped.
-NEWTON_NO_JOINTS = (("joint", "the adapter builds every body on a free joint; Newton's own joints (add_joint_*) "
-                              "are not mapped, and each of its solvers treats them its own way"),
-                    ("load", "the adapter sets no body forces (State.body_f stays zero)"))
+# The scene's joints as Newton's own (add_joint_revolute and the like, NewtonSimulation._add_joints),
+# each solver treating them its own way: XPBD, VBD and Kamino as constraints between maximal
+# coordinates, the semi-implicit solver as penalty springs, Featherstone and SolverMuJoCo in the
+# tree's joint coordinates; loads as State.body_f. Limits with Newton's own limit stiffness and
+# damping (limit_ke, limit_kd: no coefficient of restitution at a limit); a joint's `friction`
+# is not mapped (each solver reads it its own way: MuJoCo's frictionloss, another's damping).
+NEWTON_JOINTS = dict(joints=frozenset({"revolute", "prismatic", "ball", "fixed"}), joint_limits=True, loads=True)
+NEWTON_JOINTS_NOT = (("limit_restitution", "Newton's joint limits take a stiffness and a damping (limit_ke, limit_kd), "
+                                           "no coefficient of restitution"),
+                     ("joint_friction", "not mapped: Newton's joint `friction` means something else in each solver"))
+
+
+# SolverSemiImplicit holds a joint by penalty springs of one global stiffness and damping
+# (joint_attach_ke 1e4, joint_attach_kd 1e2), on the joint's rotation as on its point: on a 1 kg
+# ball of radius 0.05 m (I = 1e-3 kg m^2) hinged 0.5 m from its pivot, at dt = 1e-3, that is a
+# rotational spring-damper of kd dt / I = 100, which the explicit step cannot integrate: the
+# pendulum is NaN within 0.5 s, limited or not (measured, Newton 1.8.0). No mapping of the two
+# gains to a scene's masses is made: its joints are not built.
+SEMI_IMPLICIT_JOINTS = (("joint", "SolverSemiImplicit's joints are penalty springs of one global stiffness and damping "
+                                  "(joint_attach_ke, joint_attach_kd), which its explicit step cannot integrate on the "
+                                  "scenes' small inertias (a 1 kg, 5 cm ball on a 0.5 m hinge at dt = 1e-3 turns NaN "
+                                  "within 0.5 s, measured): not mapped"),)
+
+
+def coordinates_of(solver: str) -> str:
+    """How the solver represents a jointed body (adapters.base.COORDINATES)."""
+    return "reduced" if solver in GENERALIZED else "maximal"
+
 
 class NewtonAdapter(Adapter):
     package = "newton"
@@ -244,7 +268,8 @@ class NewtonAdapter(Adapter):
             impact_model="simultaneous" if solver in ("xpbd", "kamino") else "compliant",
             contact_torques=frozenset({"rolling_resistance", "torsional_friction"}) if solver == "xpbd" else frozenset(),
             float_bits=32,
-            why_not=NEWTON_NO_JOINTS,
+            why_not=(SEMI_IMPLICIT_JOINTS if solver == "semi-implicit" else ()) + NEWTON_JOINTS_NOT,
+            **(dict(loads=True) if solver == "semi-implicit" else dict(coordinates=coordinates_of(solver), **NEWTON_JOINTS)),
         )
         self.tunables = {}
         if penalty:
@@ -264,7 +289,9 @@ class NewtonAdapter(Adapter):
         self.capabilities = Capabilities(
             dimensions=frozenset({3}),  # 2D scenes would need planar joints: not adapted
             shapes=frozenset({"sphere", "box", "plane"}),
-            why_not=NEWTON_MUJOCO_SHAPES + NEWTON_NO_JOINTS,
+            why_not=NEWTON_MUJOCO_SHAPES + NEWTON_JOINTS_NOT,
+            coordinates=coordinates_of("mujoco"),
+            **NEWTON_JOINTS,
             native_restitution=False,  # e mapped onto the pair's solref, as MuJoCo's adapter does
             static_kinetic=False,
             contact_forces=True,
@@ -390,8 +417,11 @@ class NewtonSimulation(Simulation):
         self._index: dict[str, int] = {}
         self._still: list[int] = []  # bodies held from rotating (maximal-coordinate solvers)
         self._shape_body: list[str] = []
+        self._jointed = bool(scene.joints or scene.loads)
         for body in scene.bodies:
             self._add(newton, builder, body, shape[body.name], solver)
+        if self._jointed:
+            self._add_joints(newton, builder, scene, solver)
         if solver == "mujoco":
             self._add_pairs(builder, mujoco[1])
         if solver == "vbd":
@@ -447,8 +477,15 @@ class NewtonSimulation(Simulation):
                 qd[i, 3:] = body.angular_velocity
         self._s0.body_q.assign(q)
         self._s0.body_qd.assign(qd)
-        if solver in GENERALIZED:  # it steps the joint coordinates
+        if solver in GENERALIZED or self._jointed:  # the joint coordinates of the start poses and velocities
             newton.eval_ik(model, self._s0, self._s0.joint_q, self._s0.joint_qd)
+        self._loads = None  # the scene's loads as body_f rows (world force at the centre of mass, torque)
+        if scene.loads:
+            f = np.zeros((model.body_count, 6), dtype=np.float32)
+            for load in scene.loads:
+                f[self._index[load.body]] += np.concatenate([load.force, load.torque])
+            self._loads = wp.array(f, dtype=wp.spatial_vector, device="cpu")
+            self.knobs["loads"] = "State.body_f (world force at the centre of mass, then torque), set after each clear"
         if solver == "mujoco":  # MuJoCo's collision detection: its contacts exported into these
             self._pipeline = None
             self._contacts = newton.Contacts(self._solver.get_max_contact_count(), 0, device="cpu")
@@ -464,7 +501,7 @@ class NewtonSimulation(Simulation):
         self._rows = [self._index[n] for n in self._order]
         if solver == "mujoco":
             from adapters.mujoco_engine import model_effects
-            self.effects = model_effects(self._solver.mj_model, mujoco[1])
+            self.effects = model_effects(self._solver.mj_model, mujoco[1]) | self._joint_effects(scene)
         else:
             self.effects = self._built_effects(scene, shape, solver)
 
@@ -540,7 +577,10 @@ class NewtonSimulation(Simulation):
         else:
             i1, i2, i3 = body.principal_inertia
             inertia = wp.mat33(i1, 0.0, 0.0, 0.0, i2, 0.0, 0.0, 0.0, i3)
-            if body.rotates or solver not in GENERALIZED:
+            if self._jointed:  # a link; its joint (free or the scene's) comes with the tree (_add_joints)
+                where = builder.add_link(xform=xform, mass=body.mass, inertia=inertia, lock_inertia=True,
+                                         label=body.name)
+            elif body.rotates or solver not in GENERALIZED:
                 where = builder.add_body(xform=xform, mass=body.mass, inertia=inertia, lock_inertia=True,
                                          label=body.name)
                 record["joint"] = "free"
@@ -586,6 +626,78 @@ class NewtonSimulation(Simulation):
         self._shape_body.append(body.name)
         self.knobs["bodies"][body.name] = record
 
+    def _add_joints(self, newton, builder, scene: Scene, solver: str) -> None:
+        """The scene's joints on the links (_add): one articulation a tree (adapters.joints.
+        joint_tree), its root's joint first (the scene's joint to the world or a static
+        body, else a free joint) and its children after their parents, as Newton wants an
+        articulation's joints (contiguous, parents first); the joints that close a loop after
+        every articulation, in none (Newton's loop joints: constraints of the maximal-coordinate
+        solvers, CONNECT or WELD equalities in SolverMuJoCo; Featherstone has none). The two
+        bodies of every joint do not collide (the scene's rule), also with a static parent."""
+        for body in scene.dynamic_bodies:
+            if not body.rotates:
+                raise Unsupported(f"body {body.name!r} held from rotating (rotates=False) in a scene with joints or "
+                                  "loads: not mapped (its sliders would need the tree's frames)")
+        tree, closing = joint_tree(scene)
+        if closing and solver == "featherstone":
+            j, joint = closing[0]
+            raise Unsupported(f"joints[{j}] closes a loop: SolverFeatherstone steps tree coordinates and has no "
+                              "loop constraints")
+        self.knobs["joints"] = {}
+
+        def root(name: str) -> str:
+            while name in tree and tree[name].parent is not None:
+                name = tree[name].parent
+            return name
+        for body in scene.dynamic_bodies:
+            if body.name in tree and tree[body.name].parent is not None:
+                continue  # hangs in another body's tree
+            if body.name in tree:
+                joints = [self._joint(newton, builder, scene, tree[body.name].index)]
+            else:
+                joints = [builder.add_joint_free(self._index[body.name], label=f"{body.name}:free")]
+                self.knobs["joints"][body.name] = "free"
+            joints += [self._joint(newton, builder, scene, tj.index) for name, tj in tree.items()
+                       if tj.parent is not None and root(name) == body.name]
+            builder.add_articulation(joints, label=body.name)
+        for j, _ in closing:
+            self._joint(newton, builder, scene, j)
+        shape_of = {name: i for i, name in enumerate(self._shape_body)}
+        for joint in scene.joints:
+            if joint.parent is not None:
+                builder.shape_collision_filter_pairs.append(tuple(sorted((shape_of[joint.body], shape_of[joint.parent]))))
+
+    def _joint(self, newton, builder, scene: Scene, j: int) -> int:
+        """Scene joint j as Newton's joint of its kind. Its frame is world-aligned at the
+        anchor at the start, given in each body's frame (parent_xform, child_xform; the
+        world's or a static parent's: the world frame), so the joint's coordinate is 0 at the
+        start, as the scene's limits count it, and its axis is the scene's world axis."""
+        wp, joint = self._wp, scene.joints[j]
+        anchor = np.asarray(joint.anchor, float)
+
+        def frame(name: str | None):
+            body = None if name is None else scene.body(name)
+            if body is None or body.static:
+                return wp.transform(wp.vec3(*anchor), wp.quat_identity()), -1
+            q = rotations.conjugate(np.asarray(body.orientation, float) / np.linalg.norm(body.orientation))
+            p = rotations.rotate(q[None, :], (anchor - np.asarray(body.position, float))[None, :])[0]
+            return wp.transform(wp.vec3(*p), wp.quat(*_quat_xyzw(q))), self._index[name]
+        parent_xform, parent = frame(joint.parent)
+        child_xform, child = frame(joint.body)
+        spec = dict(parent_xform=parent_xform, child_xform=child_xform, label=f"joints[{j}]")
+        record = {"kind": joint.kind, "parent": joint.parent or "world", "anchor": anchor.tolist()}
+        if joint.kind in ("revolute", "prismatic"):
+            spec["axis"] = wp.vec3(*joint.unit_axis)
+            record["axis"] = list(joint.unit_axis)
+            if joint.limits is not None:  # Newton's limit stiffness and damping left at its defaults
+                spec.update(limit_lower=float(joint.limits[0]), limit_upper=float(joint.limits[1]))
+                record["limits"] = list(joint.limits)
+            add = builder.add_joint_revolute if joint.kind == "revolute" else builder.add_joint_prismatic
+        else:
+            add = builder.add_joint_ball if joint.kind == "ball" else builder.add_joint_fixed
+        self.knobs["joints"][f"joints[{j}]"] = record
+        return add(parent, child, **spec)
+
     def _built_effects(self, scene: Scene, shape: dict, solver: str) -> frozenset[str]:
         """What the built model simulates, from the values given to Newton and its rules."""
         fx = set()
@@ -608,6 +720,15 @@ class NewtonSimulation(Simulation):
                 fx.add("restitution")  # mapped onto the damper
         if any(b.dynamic and b.rotates for b in scene.bodies):
             fx.add("rotation")
+        return frozenset(fx) | self._joint_effects(scene)
+
+    def _joint_effects(self, scene: Scene) -> frozenset[str]:
+        """The joints, limits and loads the model was given (_add_joints, the start state)."""
+        fx = {"joint"} if scene.joints else set()
+        if any(j.limits is not None for j in scene.joints):
+            fx.add("limit")
+        if self._loads is not None:
+            fx.add("load")
         return frozenset(fx)
 
     # --- the contract -------------------------------------------------------------------
@@ -626,6 +747,7 @@ class NewtonSimulation(Simulation):
                 if self._pipeline is not None:  # Kamino: Newton's collision detection, recorded with the step
                     a.clear_forces()
                     self._pipeline.collide(a, self._contacts)
+                self._load(a)
                 self._solver.step(a, b, self._control, self._contacts, self._dt, observables=self._observables)
             finally:
                 graphs.append(wp.capture_end("cpu"))
@@ -645,6 +767,7 @@ class NewtonSimulation(Simulation):
             return
         s0 = self._s0
         s0.clear_forces()
+        self._load(s0)
         if self._pipeline is not None:
             self._pipeline.collide(s0, self._contacts)
         if self._observables is not None:
@@ -652,6 +775,11 @@ class NewtonSimulation(Simulation):
         else:
             self._solver.step(s0, self._s1, self._control, self._contacts, self._dt)
         self._s0, self._s1 = self._s1, s0
+
+    def _load(self, state) -> None:
+        """The scene's loads into the state's body_f (cleared before each step)."""
+        if self._loads is not None:
+            self._wp.copy(state.body_f, self._loads)
 
     def body_order(self) -> list[str]:
         return list(self._order)

@@ -70,15 +70,30 @@ def _anchor_of(state: np.ndarray, body: Body) -> np.ndarray:
     return state[:3] + rotate(state[None, 3:7], local)[0]
 
 
+# Engines that miss this check for a reason measured outside it (a finding, not the mapping's
+# fault): the failure is expected, and a pass would say the finding is gone (strict).
+FINDINGS = {
+    "newton-featherstone": "Newton 1.8.0's SolverFeatherstone does not keep this free pair's momentum: P goes from "
+                           "(0.31, 0.205, 0.29) to (0.295, -1.107, 1.268) N s in 0.1 s (MuJoCo 0.29004, XPBD 0.28999 "
+                           "in z), so the relative rate after one step is 1.4833 for 1.5; its kinematics are the "
+                           "scene's (the anchor 5e-8 m), and the rate tends to 1.5 as dt -> 0 (1.49983 at 1e-5 s)",
+}
+
+
 @pytest.mark.parametrize("dim", [3, 2])
-@pytest.mark.parametrize("engine", _chain_engines())
+@pytest.mark.parametrize("engine", [pytest.param(e, marks=pytest.mark.xfail(strict=True, reason=FINDINGS[e]))
+                                    if e in FINDINGS else e for e in _chain_engines()])
 def test_a_two_body_chain_maps_the_axis_and_the_start_rate(engine, dim):
     """The start state is the scene's (every position, orientation and velocity, 1e-9: the
     engines' own kinematics in float64); after one step of 1 ms the arm's angular velocity
     relative to the root lies along the axis (1e-9 rad/s off it) and is the start rate to
     the step's change (the joint's reaction turns the pair by O(dt): 1e-2), and the anchor is
-    one point of both bodies (1e-9 m: the tree holds it exactly)."""
+    one point of both bodies (1e-9 m: the tree holds it exactly). In float32 (MuJoCo Warp,
+    MJX, Newton) each of these values of order 1 carries a rounding of 6e-8 per operation,
+    and the anchor is put together from two bodies' positions and orientations: 1e-6 allows
+    a dozen roundings and stays 1e4 below what a wrong axis or anchor gives."""
     adapter = adapter_or_skip(engine)
+    tol = 1e-9 if adapter.capabilities.float_bits == 64 else 1e-6
     if dim not in adapter.capabilities.dimensions:
         pytest.skip(f"{engine}: no {dim}D scenes")
     scene = _chain(dim)
@@ -91,7 +106,7 @@ def test_a_two_body_chain_maps_the_axis_and_the_start_rate(engine, dim):
     start = sim.states()
     for body in scene.bodies:
         row = np.concatenate([body.position, body.orientation, body.velocity, body.angular_velocity])
-        np.testing.assert_allclose(start[body.name], row, rtol=0, atol=1e-9, err_msg=f"{engine}: {body.name}")
+        np.testing.assert_allclose(start[body.name], row, rtol=0, atol=tol, err_msg=f"{engine}: {body.name}")
     sim.step()
     after = sim.states()
     sim.close()
@@ -99,7 +114,7 @@ def test_a_two_body_chain_maps_the_axis_and_the_start_rate(engine, dim):
     w_rel = after["arm"][10:13] - after["root"][10:13]
     q_root = after["root"][3:7] * [1.0, -1.0, -1.0, -1.0]   # the axis turns with the root
     w_local = rotate(q_root[None], w_rel[None])[0]
-    assert np.linalg.norm(np.cross(w_local, axis)) < 1e-9
+    assert np.linalg.norm(np.cross(w_local, axis)) < tol
     assert w_local @ axis == pytest.approx(RATE, rel=1e-2)
     arm, root = scene.body("arm"), scene.body("root")
-    np.testing.assert_allclose(_anchor_of(after["arm"], arm), _anchor_of(after["root"], root), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(_anchor_of(after["arm"], arm), _anchor_of(after["root"], root), rtol=0, atol=tol)

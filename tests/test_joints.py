@@ -474,7 +474,17 @@ def test_an_engine_that_declares_joint_friction_stops_the_slider(engine):
 
 # --- an impact with a pivot: the hinged rod on its stop ------------------------------------
 
-@pytest.mark.parametrize("engine", engines_declaring(lambda c: "revolute" in c.joints))
+# A finding this check shows (strict: a pass says it is gone); its cause is recorded with the
+# family's deviations (adapters/xfails/newton-featherstone.txt, hinged_rod_stop)
+STOP_FINDINGS = {
+    "newton-featherstone": "Newton 1.8.0's SolverFeatherstone with penalty contact: the plastic rod turns 37.1 deg "
+                           "against the stop at 30 deg (MuJoCo, XPBD, Kamino: within the 0.05 rad this test allows)",
+}
+
+
+@pytest.mark.parametrize("engine", [pytest.param(e, marks=pytest.mark.xfail(strict=True, reason=STOP_FINDINGS[e]))
+                                    if e in STOP_FINDINGS else e
+                                    for e in engines_declaring(lambda c: "revolute" in c.joints)])
 def test_a_hinged_body_is_stopped_by_a_static_body(engine):
     """The hinged rod of cases/hinged_rod_stop.py, plastic (e = 0), at dt = 1e-3: its face
     meets the fixed ball at theta_c = 30 deg, and it may not turn past that by more than
