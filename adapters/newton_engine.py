@@ -204,8 +204,8 @@ def reduced_mass(a: Body, b: Body) -> float:
 
 # The scene's joints as Newton's own (add_joint_revolute and the like, NewtonSimulation._add_joints),
 # each solver treating them its own way: XPBD, VBD and Kamino as constraints between maximal
-# coordinates, the semi-implicit solver as penalty springs, Featherstone and SolverMuJoCo in the
-# tree's joint coordinates; loads as State.body_f. Limits with Newton's own limit stiffness and
+# coordinates, Featherstone and SolverMuJoCo in the tree's joint coordinates (the semi-implicit
+# solver's penalty joints are not built: SEMI_IMPLICIT_JOINTS); loads as State.body_f. Limits with Newton's own limit stiffness and
 # damping (limit_ke, limit_kd: no coefficient of restitution at a limit); a joint's `friction`
 # is not mapped (each solver reads it its own way: MuJoCo's frictionloss, another's damping).
 NEWTON_JOINTS = dict(joints=frozenset({"revolute", "prismatic", "ball", "fixed"}), joint_limits=True, loads=True)
