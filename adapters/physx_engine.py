@@ -81,6 +81,26 @@ two 0.1 m balls are reported at 5 mm apart and not at 1 cm), so points up to tha
 come with a positive gap. Setting it would move every family's contacts: it is recorded, not
 changed.
 
+Joints (`PhysXSimulation._joint`) are UsdPhysics joints in the same layer, which PhysX
+builds as standalone PxD6Joints: maximal coordinates, each body keeping its six and the
+joint constraint rows between them, solved with the contacts. A revolute joint is a
+`PhysicsRevoluteJoint`, a prismatic one a `PhysicsPrismaticJoint`, a ball a
+`PhysicsSphericalJoint` (no cone limit) and a fixed one a `PhysicsFixedJoint`; body0 is the
+parent and body1 the body, and a parent that is the world or a static body is no body0 (a
+static body is no actor of the joint; its frame is the world's). Both local frames sit at
+the anchor with their z axis on the scene's axis (`physics:axis` "Z"), so the joint's
+coordinate is body1's turn (slide) relative to body0, 0 at the start; limits are hard,
+a hinge's in degrees. Measured on an oblique axis between turned bodies, pushed by a load
+each way: the hinge stops at +0.5000 and -0.2000 rad, the slider at +0.3000 and -0.1000 m,
+its limits. Jointed bodies do not collide: `physics:collisionEnabled` 0 leaves a dynamic
+pair out (measured: a slider pushed into its parent passes through it; with 1 it stops at
+the face under 141 N), and a static partner, which the joint does not reach, through the
+body's `PhysicsFilteredPairsAPI` (without it the pair collided, 142 N). A joint's dry
+friction is its drive at rate 0 bounded by the friction (FRICTION_DAMPING); its restitution
+at a limit `physxLimit:<axis>:restitution` at bounce threshold 0, taken by PGS only
+(TGS_LIMIT_RESTITUTION). Loads are PhysX's external force (at the centre of mass) and the
+torque lanes of its wrench, written through tensor bindings before every step.
+
 2D scenes are embedded in the x-z plane on PhysX's own locks: every dynamic body has its y
 translation locked (`lockedPosAxis` = 2) and its rotations about x and z (`lockedRotAxis`
 = 5; 7 where it may not turn at all), so it slides in the plane and turns about y; a disc is
@@ -527,25 +547,27 @@ class PhysXSimulation(Simulation):
         import warnings
 
         from ovphysx.types import TensorType
-        acting = [load for load in scene.loads if load.acts]
+        totals: dict[str, np.ndarray] = {}  # each loaded body's force and torque, summed over its loads
+        for load in scene.loads:
+            if load.acts:
+                totals[load.body] = totals.get(load.body, np.zeros(6)) + np.concatenate([load.force, load.torque])
         out = []
-        for kind, lanes, values in ((TensorType.RIGID_BODY_FORCE, slice(0, 3), lambda load: load.force),
-                                    (TensorType.RIGID_BODY_WRENCH, slice(3, 6), lambda load: load.torque)):
-            rows = [load for load in acting if any(values(load))]
+        for kind, lanes in ((TensorType.RIGID_BODY_FORCE, slice(0, 3)), (TensorType.RIGID_BODY_WRENCH, slice(3, 6))):
+            rows = [name for name, total in totals.items() if np.any(total[lanes])]
             if not rows:
                 continue
             with warnings.catch_warnings():  # the tensor-binding API is deprecated since ovphysx 0.6.0
                 warnings.simplefilter("ignore", DeprecationWarning)
-                binding = self._physx.create_tensor_binding(prim_paths=[self._paths[load.body] for load in rows],
+                binding = self._physx.create_tensor_binding(prim_paths=[self._paths[name] for name in rows],
                                                             tensor_type=kind, raise_if_empty=True)
             data = np.zeros(binding.shape, np.float32)
             row_of = {path: i for i, path in enumerate(binding.prim_paths)}
-            for load in rows:
-                data[row_of[self._paths[load.body]], lanes] = values(load)
+            for name in rows:
+                data[row_of[self._paths[name]], lanes] = totals[name][lanes]
             out.append((binding, data))
-        for load in acting:
-            self.knobs.setdefault("loads", {})[load.body] = {
-                "RIGID_BODY_FORCE": list(load.force), "RIGID_BODY_WRENCH torque": list(load.torque),
+        for name, total in totals.items():
+            self.knobs.setdefault("loads", {})[name] = {
+                "RIGID_BODY_FORCE": total[:3].tolist(), "RIGID_BODY_WRENCH torque": total[3:].tolist(),
                 "when": "before each step_sync (PhysX clears them after it)"}
         return out
 
