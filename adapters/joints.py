@@ -1,7 +1,8 @@
-"""What the reduced-coordinate adapters share about a scene's joints: the kinematic tree they
-hang the jointed bodies on (DART's skeleton, PyBullet's multibody, Drake's MultibodyPlant),
-the joints that would close a loop in it, and each tree joint's start rate (the joint
-velocity that the scene's start velocities of both bodies give)."""
+"""What the adapters share about a scene's joints: for the reduced-coordinate ones the
+kinematic tree they hang the jointed bodies on (DART's skeleton, PyBullet's multibody,
+Drake's MultibodyPlant), the joints that would close a loop in it, and each tree joint's
+start rate (the joint velocity that the scene's start velocities of both bodies give); for
+all, a joint's frame in a body's frame at the start (local_frame)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -139,7 +140,16 @@ def closing_ball_points(scene: Scene, closing: list[tuple[int, Joint]], constrai
 
 
 def _in_frame(body: Body, point: np.ndarray) -> np.ndarray:
-    """A world point in the body's frame at its start pose: turned by the conjugate of its
-    orientation (w, x, y, z)."""
+    """A world point in the body's frame at its start pose."""
+    return local_frame(body, point, np.array([1.0, 0.0, 0.0, 0.0]))[0]
+
+
+def local_frame(body: Body | None, point, turn) -> tuple[np.ndarray, np.ndarray]:
+    """A world frame at the start, its origin `point` and its orientation `turn` (w, x, y, z),
+    in the body's frame at its start pose: the point turned by the conjugate of the body's
+    orientation, and that conjugate times `turn`. The world (None): the frame as given."""
+    point, turn = np.asarray(point, float), np.asarray(turn, float)
+    if body is None:
+        return point, turn
     q = rotations.conjugate(np.asarray(body.orientation, float) / np.linalg.norm(body.orientation))
-    return rotations.rotate(q[None, :], (point - np.asarray(body.position, float))[None, :])[0]
+    return rotations.rotate(q, point - np.asarray(body.position, float)), rotations.multiply(q, turn)

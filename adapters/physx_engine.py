@@ -81,6 +81,26 @@ two 0.1 m balls are reported at 5 mm apart and not at 1 cm), so points up to tha
 come with a positive gap. Setting it would move every family's contacts: it is recorded, not
 changed.
 
+Joints (`PhysXSimulation._joint`) are UsdPhysics joints in the same layer, which PhysX
+builds as standalone PxD6Joints: maximal coordinates, each body keeping its six and the
+joint constraint rows between them, solved with the contacts. A revolute joint is a
+`PhysicsRevoluteJoint`, a prismatic one a `PhysicsPrismaticJoint`, a ball a
+`PhysicsSphericalJoint` (no cone limit) and a fixed one a `PhysicsFixedJoint`; body0 is the
+parent and body1 the body, and a parent that is the world or a static body is no body0 (a
+static body is no actor of the joint; its frame is the world's). Both local frames sit at
+the anchor with their z axis on the scene's axis (`physics:axis` "Z"), so the joint's
+coordinate is body1's turn (slide) relative to body0, 0 at the start; limits are hard,
+a hinge's in degrees. Measured on an oblique axis between turned bodies, pushed by a load
+each way: the hinge stops at +0.5000 and -0.2000 rad, the slider at +0.3000 and -0.1000 m,
+its limits. Jointed bodies do not collide: `physics:collisionEnabled` 0 leaves a dynamic
+pair out (measured: a slider pushed into its parent passes through it; with 1 it stops at
+the face under 141 N), and a static partner, which the joint does not reach, through the
+body's `PhysicsFilteredPairsAPI` (without it the pair collided, 142 N). A joint's dry
+friction is its drive at rate 0 bounded by the friction (FRICTION_DAMPING); its restitution
+at a limit `physxLimit:<axis>:restitution` at bounce threshold 0, taken by PGS only
+(TGS_LIMIT_RESTITUTION). Loads are PhysX's external force (at the centre of mass) and the
+torque lanes of its wrench, written through tensor bindings before every step.
+
 2D scenes are embedded in the x-z plane on PhysX's own locks: every dynamic body has its y
 translation locked (`lockedPosAxis` = 2) and its rotations about x and z (`lockedRotAxis`
 = 5; 7 where it may not turn at all), so it slides in the plane and turns about y; a disc is
@@ -94,6 +114,7 @@ import itertools
 import math
 import os
 import tempfile
+from dataclasses import replace
 from importlib import metadata
 
 import numpy as np
@@ -101,9 +122,10 @@ import numpy as np
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
 from adapters.frames import require_turn_about_y, state_row, xyzw_to_wxyz, z_to
+from adapters.joints import local_frame
 from adapters.lazy import require
 from adapters.solids import embedded_half_depth, polygon_prism
-from cases.scene import Body, Hull, Plane, Scene, pair_key
+from cases.scene import Body, Hull, Joint, Plane, Scene, pair_key
 from cases.trajectory import ContactPoint
 
 require("ovphysx")  # not installed: ImportError now, so the registry reports it
@@ -133,6 +155,24 @@ MESH_WELD_TOLERANCE = 0.0
 # has 4 points and a body of the geometry families touches a few others; a step that reports
 # more raises rather than drop points.
 POINTS_PER_PAIR = 16
+# The scene's joints as UsdPhysics joints, each a standalone PxD6Joint in PhysX (maximal
+# coordinates; PhysXSimulation._joint). A revolute joint's limit, limit tuning and drive are
+# its "angular" instance, a prismatic joint's its "linear" one.
+JOINT_PRIMS = {"revolute": "PhysicsRevoluteJoint", "prismatic": "PhysicsPrismaticJoint",
+               "ball": "PhysicsSphericalJoint", "fixed": "PhysicsFixedJoint"}
+AXIS_INSTANCES = {"revolute": "angular", "prismatic": "linear"}
+# A joint's dry friction is the joint's drive held at rate 0 (damping only) with its force
+# (torque) bounded by the friction: PhysX bounds a drive by a force, not an impulse (measured:
+# rail_slide's slider decelerates at 4.9050 m/s^2 = mu g and stops at 0.4067 m, its
+# closed form less v_0 dt / 2; a load of 0.9 times the friction holds a slider and a hinge,
+# 1.5 times accelerates them at 0.5 F / m, TGS and PGS alike). The damping is far stiffer
+# than the bound (1e4 and 1e9 gave the same slide), so the joint sticks when it can.
+FRICTION_DAMPING = 1e9
+# TGS takes no restitution at a joint's limit (measured on limit_impact's rod, dt = 0.2 ms:
+# e = 0 and 0.5 give the same rates bit for bit at 4, 16 and 64 position iterations and at
+# dt / 10; PGS rebounds at e times the rate it meets the limit with).
+TGS_LIMIT_RESTITUTION = ("PhysX's TGS solver takes no restitution at a joint limit: physxLimit:<axis>:restitution "
+                         "0 and 0.5 give the same rebound bit for bit (measured; PGS, \"physx-pgs\", takes it)")
 _STAGES = itertools.count(1)
 _loaded = None
 
@@ -185,9 +225,13 @@ class PhysXAdapter(Adapter):
         contact_geometry=True,  # each reported point's place, normal and separation (module notes)
         iterations=True,        # position iterations a step
         float_bits=32,          # PhysX stores poses and velocities in single precision
-        why_not=(("joint", "the adapter's USD layer holds rigid bodies only; PhysX's joints (UsdPhysics "
-                           "RevoluteJoint and the like) are not written"),
-                 ("load", "the adapter writes no forces into the USD layer")),
+        # the scene's joints as UsdPhysics joints, standalone PxD6Joints (PhysXSimulation._joint)
+        joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
+        joint_limits=True,
+        joint_friction=True,      # the joint's drive at rate 0, bounded by the friction (FRICTION_DAMPING)
+        limit_restitution=True,   # PhysxLimitAPI's restitution; PGS only (TGS_LIMIT_RESTITUTION, __init__)
+        coordinates="maximal",
+        loads=True,  # external force and wrench tensor bindings written before each step (PhysX clears them)
     )
 
     def __init__(self, name: str = "physx", solver: str = "TGS", ccd: bool = False):
@@ -197,6 +241,9 @@ class PhysXAdapter(Adapter):
             raise ValueError(f"solver = {solver!r}: must be one of {', '.join(SOLVERS)}")
         self.name, self.solver = name, solver
         self.ccd = self.continuous_collision(ccd)
+        if solver == "TGS":
+            self.capabilities = replace(self.capabilities, limit_restitution=False,
+                                        why_not=self.capabilities.why_not + (("limit_restitution", TGS_LIMIT_RESTITUTION),))
 
     def version(self) -> str:
         return metadata.version("ovphysx")
@@ -261,8 +308,11 @@ class PhysXSimulation(Simulation):
                  f'        uint physxScene:timeStepsPerSecond = {round(1.0 / self._dt)}',
                  '    }']
         self._planar = scene.dimension == 2
+        self._filtered = self._static_partners(scene)
         for body in scene.bodies:
             lines += self._body(body, {k: v[body.name] for k, v in mats.items()})
+        for j in range(len(scene.joints)):
+            lines += self._joint(scene, j)
         lines.append('}')
         fd, self._file = tempfile.mkstemp(suffix=".usda", prefix="physval-physx-")
         with os.fdopen(fd, "w") as f:
@@ -295,6 +345,7 @@ class PhysXSimulation(Simulation):
             for name, row in zip(self._order, self._rows):
                 self.knobs["bodies"][name].update(contactOffset=float(offsets[0][row]), restOffset=float(offsets[1][row]))
         self._stepped = False
+        self._loads = self._load_bindings(scene)
         self.effects = self._built_effects(scene, gravity, mats)
 
     @staticmethod
@@ -314,6 +365,9 @@ class PhysXSimulation(Simulation):
         else:
             position, orientation = body.position, body.orientation
         apis = ["PhysicsRigidBodyAPI", "PhysicsMassAPI", "PhysxRigidBodyAPI", "PhysxContactReportAPI"] if body.dynamic else []
+        partners = self._filtered.get(body.name, [])
+        if partners:  # the static bodies it is jointed to (_static_partners)
+            apis.append("PhysicsFilteredPairsAPI")
         out = [f'    def Material "{name}Mat" (prepend apiSchemas = ["PhysicsMaterialAPI", "PhysxMaterialAPI"])', '    {',
                f'        float physics:staticFriction = {mat["staticFriction"]!r}',
                f'        float physics:dynamicFriction = {mat["dynamicFriction"]!r}',
@@ -325,6 +379,9 @@ class PhysXSimulation(Simulation):
                f'        double3 xformOp:translate = {_v(position)}',
                f'        quatd xformOp:orient = {_v(orientation)}',
                '        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:orient"]']
+        if partners:
+            out.append(f'        rel physics:filteredPairs = [{", ".join(f"<{p}>" for p in partners)}]')
+            record["filteredPairs"] = partners
         if body.dynamic:
             ix, iy, iz = body.principal_inertia
             w = np.degrees(np.asarray(body.angular_velocity if body.rotates else (0.0, 0.0, 0.0), float))
@@ -399,6 +456,121 @@ class PhysXSimulation(Simulation):
         self.knobs["bodies"][body.name] = record
         return out
 
+    def _static_partners(self, scene: Scene) -> dict[str, list[str]]:
+        """Each dynamic body's static joint partners' collider prims. A joint to a static body
+        is a joint to the world (no body0: a static body is no PhysX actor of the joint), so
+        the joint's own collision filter (physics:collisionEnabled false, PhysX's
+        PxConstraintFlag::eCOLLISION_ENABLED off) cannot reach the static collider: the
+        body's PhysicsFilteredPairsAPI leaves the pair out (cases.scene.Joint: jointed bodies
+        do not collide)."""
+        static = {b.name for b in scene.bodies if b.static}
+        out: dict[str, list[str]] = {}
+        for joint in scene.joints:
+            if joint.parent in static:
+                out.setdefault(joint.body, []).append(self._paths[joint.parent] + "/Geom")
+        return out
+
+    def _joint(self, scene: Scene, j: int) -> list[str]:
+        """Scene joint j as a UsdPhysics joint: body0 the parent (none for the world or a
+        static body, whose local frame is then the world's), body1 the body. Both local
+        frames sit at the anchor with their z axis on the scene's axis (physics:axis "Z"), so
+        the joint's coordinate is 0 at the start and counts body1's turn (slide) relative to
+        body0 about (along) the axis, as the scene's limits do; a revolute joint's limits in
+        degrees (the UsdPhysics unit), every bound written (an unwritten one would lock the
+        joint at 0: ovphysx's PhysicsRevoluteJoint notes). The two bodies do not collide
+        (collisionEnabled false), and the joint stays a standalone PxJoint
+        (excludeFromArticulation)."""
+        joint = scene.joints[j]
+        parent = None if joint.parent is None or scene.body(joint.parent).static else scene.body(joint.parent)
+        on_axis = z_to(joint.unit_axis)
+        record: dict = {"prim": JOINT_PRIMS[joint.kind], "body0": "world" if parent is None else parent.name,
+                        "body1": joint.body, "collisionEnabled": False, "excludeFromArticulation": True}
+        body_lines = []
+        for side, body in ((0, parent), (1, scene.body(joint.body))):
+            position, orientation = local_frame(body, joint.anchor, on_axis)
+            if body is not None:
+                body_lines.append(f'        rel physics:body{side} = <{self._paths[body.name]}>')
+            body_lines += [f'        point3f physics:localPos{side} = {_v(position)}',
+                           f'        quatf physics:localRot{side} = {_v(orientation)}']
+            record.update({f"localPos{side}": position.tolist(), f"localRot{side}": orientation.tolist()})
+        axis_lines, apis = self._joint_axis(joint, record)
+        self.knobs.setdefault("joints", {})[f"joints[{j}]"] = record
+        header = f'    def {JOINT_PRIMS[joint.kind]} "J{j}"' + (f' (prepend apiSchemas = {apis!r})'.replace("'", '"')
+                                                                if apis else '')
+        return [header, '    {', *body_lines, '        bool physics:collisionEnabled = 0',
+                '        uniform bool physics:excludeFromArticulation = 1', *axis_lines, '    }']
+
+    @staticmethod
+    def _joint_axis(joint: Joint, record: dict) -> tuple[list[str], list[str]]:
+        """The joint's axis, limits and limit tuning lines and the API schemas they need."""
+        if joint.kind == "ball":  # no cone limit (-1: free; an unwritten one would be a zero cone)
+            record.update(coneAngle0Limit=-1.0, coneAngle1Limit=-1.0)
+            return ['        float physics:coneAngle0Limit = -1', '        float physics:coneAngle1Limit = -1'], []
+        if joint.kind == "fixed":
+            return [], []
+        lower, upper = joint.limits if joint.limits is not None else (-math.inf, math.inf)
+        if joint.kind == "revolute":
+            lower, upper = math.degrees(lower), math.degrees(upper)
+        record.update(axis="Z", lowerLimit=lower, upperLimit=upper)
+        if joint.limits is not None:
+            record["limits"] = list(joint.limits)
+        lines = ['        uniform token physics:axis = "Z"', f'        float physics:lowerLimit = {lower!r}',
+                 f'        float physics:upperLimit = {upper!r}']
+        apis = []
+        instance = AXIS_INSTANCES[joint.kind]
+        if joint.limits is not None:  # the limit's restitution, bouncing at every closing speed (threshold 0)
+            apis.append(f"PhysxLimitAPI:{instance}")
+            lines += [f'        float physxLimit:{instance}:restitution = {float(joint.limit_e)!r}',
+                      f'        float physxLimit:{instance}:bounceThreshold = 0',
+                      f'        float physxLimit:{instance}:stiffness = 0', f'        float physxLimit:{instance}:damping = 0']
+            record["PhysxLimitAPI"] = {"restitution": joint.limit_e, "bounceThreshold": 0.0, "stiffness": 0.0,
+                                       "damping": 0.0}
+            if joint.limit_e > 0:
+                record["limitRestitution"] = joint.limit_e
+        if joint.friction > 0:  # dry friction: a velocity drive at rate 0, its force bounded by the friction
+            apis.append(f"PhysicsDriveAPI:{instance}")
+            lines += [f'        uniform token drive:{instance}:physics:type = "force"',
+                      f'        float drive:{instance}:physics:stiffness = 0',
+                      f'        float drive:{instance}:physics:damping = {FRICTION_DAMPING!r}',
+                      f'        float drive:{instance}:physics:targetVelocity = 0',
+                      f'        float drive:{instance}:physics:maxForce = {float(joint.friction)!r}']
+            record["friction"] = {"drive": "force, target velocity 0", "damping": FRICTION_DAMPING,
+                                  "maxForce": joint.friction}
+        return lines, apis
+
+    def _load_bindings(self, scene: Scene) -> list:
+        """The scene's constant loads as PhysX's external force (at the centre of mass) and
+        wrench (its torque lanes; its force lanes 0, so its point does not matter) tensor
+        bindings, one row a loaded body, written before every step: PhysX clears them after
+        each (measured: a force written once moved a body for one step only, 0.0005 m/s of
+        1 N on 2 kg at dt = 1 ms after 100 steps)."""
+        import warnings
+
+        from ovphysx.types import TensorType
+        totals: dict[str, np.ndarray] = {}  # each loaded body's force and torque, summed over its loads
+        for load in scene.loads:
+            if load.acts:
+                totals[load.body] = totals.get(load.body, np.zeros(6)) + np.concatenate([load.force, load.torque])
+        out = []
+        for kind, lanes in ((TensorType.RIGID_BODY_FORCE, slice(0, 3)), (TensorType.RIGID_BODY_WRENCH, slice(3, 6))):
+            rows = [name for name, total in totals.items() if np.any(total[lanes])]
+            if not rows:
+                continue
+            with warnings.catch_warnings():  # the tensor-binding API is deprecated since ovphysx 0.6.0
+                warnings.simplefilter("ignore", DeprecationWarning)
+                binding = self._physx.create_tensor_binding(prim_paths=[self._paths[name] for name in rows],
+                                                            tensor_type=kind, raise_if_empty=True)
+            data = np.zeros(binding.shape, np.float32)
+            row_of = {path: i for i, path in enumerate(binding.prim_paths)}
+            for name in rows:
+                data[row_of[self._paths[name]], lanes] = totals[name][lanes]
+            out.append((binding, data))
+        for name, total in totals.items():
+            self.knobs.setdefault("loads", {})[name] = {
+                "RIGID_BODY_FORCE": total[:3].tolist(), "RIGID_BODY_WRENCH torque": total[3:].tolist(),
+                "when": "before each step_sync (PhysX clears them after it)"}
+        return out
+
     def _built_effects(self, scene: Scene, gravity, mats) -> frozenset[str]:
         fx = set()
         if np.any(gravity != 0.0):
@@ -411,6 +583,17 @@ class PhysXSimulation(Simulation):
                 fx.add("friction")
         if any(b.rotates for b in scene.dynamic_bodies):
             fx.add("rotation")
+        joints = self.knobs.get("joints", {}).values()
+        if joints:
+            fx.add("joint")
+        if any("limitRestitution" in r for r in joints):
+            fx.add("limit_restitution")
+        if any("limits" in r for r in joints):
+            fx.add("limit")
+        if any("friction" in r for r in joints):
+            fx.add("joint_friction")
+        if self._loads:
+            fx.add("load")
         return frozenset(fx)
 
     # --- stepping and reading -------------------------------------------------------------
@@ -436,6 +619,8 @@ class PhysXSimulation(Simulation):
         return np.asarray(self._start[name], float)
 
     def step(self) -> None:
+        for binding, data in self._loads:  # cleared by each step (_load_bindings)
+            binding.write(data)
         self._physx.step_sync(self._dt)
         self._stepped = True
 
@@ -447,6 +632,9 @@ class PhysXSimulation(Simulation):
                                                             "angularVelocity"], scope=self._scope.ALL) as r:
             out = [g.tensors[0].numpy()[self._rows].copy() for g in r.groups]
         return tuple(out)
+
+    def body_order(self) -> list[str]:
+        return list(self._order)  # known without a read (also after close)
 
     def states(self) -> dict[str, np.ndarray]:
         p, q, v, w = self._state()
@@ -500,6 +688,9 @@ class PhysXSimulation(Simulation):
         if self._binding is not None:
             self._binding.destroy()
             self._binding = None
+        for binding, _ in getattr(self, "_loads", []):
+            binding.destroy()
+        self._loads = []
         physx.wait_task(physx.detach_ovstage())
         self._stage.destroy()
         physx.destroy()
