@@ -100,7 +100,7 @@ import numpy as np
 
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, Unsupported
 from adapters.combination import RULES as COMBINE, per_body_values
-from adapters.joints import joint_tree
+from adapters.joints import joint_tree, local_frame
 from cases import rotations
 from adapters.lazy import require
 from adapters.warp_support import init_warp
@@ -676,12 +676,9 @@ class NewtonSimulation(Simulation):
         anchor = np.asarray(joint.anchor, float)
 
         def frame(name: str | None):
-            body = None if name is None else scene.body(name)
-            if body is None or body.static:
-                return wp.transform(wp.vec3(*anchor), wp.quat_identity()), -1
-            q = rotations.conjugate(np.asarray(body.orientation, float) / np.linalg.norm(body.orientation))
-            p = rotations.rotate(q[None, :], (anchor - np.asarray(body.position, float))[None, :])[0]
-            return wp.transform(wp.vec3(*p), wp.quat(*_quat_xyzw(q))), self._index[name]
+            body = None if name is None or scene.body(name).static else scene.body(name)
+            p, q = local_frame(body, anchor, (1.0, 0.0, 0.0, 0.0))
+            return wp.transform(wp.vec3(*p), wp.quat(*_quat_xyzw(q))), -1 if body is None else self._index[name]
         parent_xform, parent = frame(joint.parent)
         child_xform, child = frame(joint.body)
         spec = dict(parent_xform=parent_xform, child_xform=child_xform, label=f"joints[{j}]")
