@@ -230,23 +230,22 @@ def test_lemke_leaves_the_3d_grasp_to_on_demand_and_runs_the_other_jointed_famil
 
 
 def test_the_float32_ports_of_mujoco_declare_mujoco_cs_capabilities_in_single_precision():
-    """MJX and MuJoCo Warp build MuJoCo C's model: their capabilities (float32_capabilities,
-    which needs neither port installed) are MuJoCo C's but for 32-bit floats, and no joints,
-    loads, threads or saved states, each with the port's reason; a port installed declares
-    exactly those."""
+    """MJX and MuJoCo Warp build MuJoCo C's model and read its joint tree's states through
+    MuJoCo C's kinematics: their capabilities (float32_capabilities, which needs neither port
+    installed) are MuJoCo C's, joints and loads included, but for 32-bit floats and no
+    threads or saved states; a port installed declares exactly those."""
     from dataclasses import fields
     from adapters.mujoco_engine import MuJoCoAdapter, float32_capabilities
-    why = (("joint", "no joints here"), ("load", "no loads here"))
+    why = (("threads", "no thread pool here"),)
     port, c = float32_capabilities(why), MuJoCoAdapter.capabilities
     changed = {f.name for f in fields(port) if getattr(port, f.name) != getattr(c, f.name)}
-    assert changed == {"float_bits", "modes", "joints", "joint_limits", "joint_friction", "limit_restitution",
-                       "coordinates", "loads", "why_not"}
-    assert port.float_bits == 32 and not port.joints and not port.loads and not port.modes and port.why_not == why
+    assert changed == {"float_bits", "modes", "why_not"}
+    assert port.float_bits == 32 and not port.modes and port.why_not == why
+    assert port.joints == c.joints and port.loads and port.coordinates == "reduced"
     assert port.contact_laws == c.contact_laws and port.contact_torques == c.contact_torques
     for name in ("mujoco-mjx", "mujoco-warp"):
         try:
             adapter = registry.get(name)
         except registry.EngineError:
             continue  # not installed: the registry lists it so (physval list --engines)
-        assert adapter.capabilities == float32_capabilities(adapter.capabilities.why_not)
-        assert dict(adapter.capabilities.why_not).keys() == {"joint", "load"}
+        assert adapter.capabilities == float32_capabilities()
