@@ -3,8 +3,9 @@ virtual environment, run from a folder outside the repository through the `physv
 console script. Every command line the README, the documentation's pages (docs/) and the
 plug-in example's README show is run as written; a command whose full run takes minutes or
 hours is narrowed only by options appended to it (fewer engines, fewer cases, a shorter
-fit), never rewritten. A shown line that this file does not know fails the first test, so
-the documentation cannot grow a command nobody ran.
+fit), never rewritten, and one that still costs more than its share of the suite runs with
+`pytest -m slow` (Narrowed.slow says why). A shown line that this file does not know fails
+the first test, so the documentation cannot grow a command nobody ran.
 
 The environment sees the site packages of the environment the tests run in (the engines and
 numpy, which pip would otherwise download again; in a virtual environment, as the README's
@@ -48,6 +49,7 @@ class Narrowed:
     after: str = ""
     where: str = "user"
     needs: tuple[str, ...] = ()  # engines it runs on (skipped if one is not installed here)
+    slow: str = ""  # why the line runs with `pytest -m slow` only (it costs more than its share of the suite)
 
 
 REAL_QUICK = "--engines mujoco --limit 2 --horizon 0.15 --generations 0 --popsize 2 --bootstrap 10"
@@ -83,7 +85,9 @@ NARROWED = {
     "physval bench step": Narrowed("--engines mujoco", needs=("mujoco",)),
     "physval bench sweep-workers": Narrowed("--engines mujoco", needs=("mujoco",)),
     "physval bench pgs": Narrowed(),
-    "physval bench compile": Narrowed("--engines reference-hooke"),
+    "physval bench compile": Narrowed("--engines reference-hooke", slow=(
+        "a cold compile of the reference's step in a numba cache of its own, by design: 82 CPU-s of the "
+        "suite's budget for one line; the lines above run the wheel's reference from the session's cache")),
     "physval bench narrow": Narrowed("--engines mujoco", needs=("mujoco",)),
     "physval bench faults": Narrowed('--engines mujoco --cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
     "physval bench run": Narrowed('--engines mujoco --cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
@@ -315,7 +319,8 @@ _done: set[str] = set()
 _ran: dict[tuple[tuple[str, ...], str], subprocess.CompletedProcess] = {}
 
 
-@pytest.mark.parametrize("line", [line for line in ALL_LINES if line in NARROWED])
+@pytest.mark.parametrize("line", [pytest.param(line, marks=[pytest.mark.slow] if NARROWED[line].slow else [])
+                                  for line in ALL_LINES if line in NARROWED])
 def test_a_readme_command_works_from_the_installed_wheel(installed, line, tmp_path):
     missing = _missing_engines(installed, NARROWED[line].needs)
     if missing:
