@@ -4,6 +4,7 @@ package (examples/physval-engine-example/tests/test_battery.py), with no physval
 checkout on the path."""
 from __future__ import annotations
 
+import functools
 import os
 import re
 import shutil
@@ -23,6 +24,7 @@ FILES = ["tests/test_cases.py", "tests/test_bulk_reads.py", "tests/test_box2d_ra
          "tests/test_harness.py"]
 
 
+@functools.cache  # the whole collection, asked by each engine's test, made once (ONE_WORKER: one process)
 def _collect(*args: str) -> tuple[list[str], str]:
     proc = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q", "-p", "no:cacheprovider", *args],
                           cwd=ROOT, capture_output=True, text=True, timeout=300)
@@ -40,7 +42,7 @@ RELATION = f"(-({'|'.join(r.name for r in RELATIONS)}))?"  # the invariance batt
               r"|tests/test_bulk_reads\.py::test_\w+\[box2d-[23]D\]|tests/test_box2d_rapier_mapping\.py::test_box2d_\w+.*"),
 ])
 def test_pytest_engine_keeps_that_engines_tests_only(engine, kept):
-    every, _ = _collect(*FILES)
+    every = list(_collect(*FILES)[0])
     ids, summary = _collect("--engine", engine, *FILES)
     assert ids and all(re.fullmatch(kept, i) for i in ids), [i for i in ids if not re.fullmatch(kept, i)][:5]
     assert sorted(ids) == sorted(i for i in every if re.fullmatch(kept, i)), "every test of the engine is kept"
