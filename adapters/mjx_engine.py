@@ -24,8 +24,9 @@ on the model's sizes only, so scenes of the same shape share it within a process
 persistent cache, `JAX_COMPILATION_CACHE_DIR`, which physval points into its cache folder
 (physval.core.store.engine_caches) unless it is set already.
 
-Contacts are read through `mjx.get_data_into` into the MjData the base class reads
-(MuJoCoSimulation._contacts): the contacts MJX solved, in MuJoCo C's layout.
+Contacts are read in MuJoCo C's layout (MuJoCoSimulation._contacts): the contacts MJX solved,
+from MJX's own arrays (elliptic cone) or through `mjx.get_data_into` (pyramidal, whose forces
+MuJoCo C decodes).
 """
 from __future__ import annotations
 
@@ -36,7 +37,7 @@ import numpy as np
 
 from adapters.base import Settings, Simulation, Unsupported
 from adapters.mujoco_engine import (CONTACT_STEPS, MuJoCoAdapter, MuJoCoPortTreeSimulation, MuJoCoSimulation,
-                                    float32_capabilities, geom_bodies)
+                                    float32_capabilities, geom_bodies, port_contacts)
 from cases.scene import Scene
 
 # mujoco-mjx installs into MuJoCo's package (mujoco/mjx) and jax (~1 s to import) comes with
@@ -158,8 +159,22 @@ class MjxSimulation(MuJoCoSimulation):
             i += 1
 
     def _contacts(self):
-        """The last step's contacts, copied into the MjData in MuJoCo C's layout (ncon,
-        contact.*, efc_force) when first asked for after a step."""
+        """The last step's contacts in MuJoCo C's layout (ncon, contact.*, efc_force) when
+        first asked for after a step. With the elliptic cone, from MJX's own arrays: the
+        contacts get_data_into would export (dist <= 0), each with all its rows
+        (port_contacts). get_data_into itself deletes every row whose Jacobian is zero and
+        renumbers the rest, so a planar (2D) scene's contacts kept 2 of their 3 rows (the
+        tangent out of the plane moves nothing) and the read-out took another contact's row
+        for the third (IndexError past the last). The pyramidal cone's forces are decoded
+        by MuJoCo C (mj_contactForce) from the MjData get_data_into fills."""
+        if self._elliptic:
+            import jax
+            c = jax.device_get(self._dx._impl.contact)
+            keep = np.flatnonzero(c.dist <= 0)
+            dim = c.dim[keep]
+            rows = c.efc_address[keep][:, None] + np.arange(max(int(dim.max()), 1) if len(keep) else 1)
+            return port_contacts(rows, dim, np.asarray(self._dx._impl.efc_force), c.geom[keep],
+                                 c.frame[keep].reshape(-1, 9), c.pos[keep], c.dist[keep], np.zeros(len(keep)))
         if not self._pulled:
             self._mjx.get_data_into(self._data, self._model, self._dx)
             # get_data_into copies the contacts MJX solved (dist <= 0, each with its rows) but

@@ -48,6 +48,7 @@ import math
 import re
 from dataclasses import replace
 from importlib import metadata
+from types import SimpleNamespace
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -1242,3 +1243,21 @@ def float32_capabilities(why_not: tuple[tuple[str, str], ...] = ()) -> Capabilit
     32-bit floats, Settings.iterations capping the Newton solver's iterations (no
     sub-steps), and no threads or saved states; `why_not` says why for what a port lacks."""
     return replace(MuJoCoAdapter.capabilities, float_bits=32, substeps=False, modes=frozenset(), why_not=why_not)
+
+
+def port_contacts(rows: np.ndarray, dim: np.ndarray, force: np.ndarray, geom: np.ndarray, frame: np.ndarray,
+                  pos: np.ndarray, dist: np.ndarray, adhesion: np.ndarray) -> SimpleNamespace:
+    """A port's solved contacts (MuJoCo Warp, MJX) in the layout the base class reads from an
+    MjData (ncon, contact.*, efc_force): each contact's rows contiguous from its efc_address
+    and padded with zeros to the widest contact. `rows[i, j]`: the index in the port's
+    `force` of contact i's row j (row 0 < 0: the contact has no rows); `frame` (n, 9)."""
+    n = len(dim)
+    width = max(int(dim.max()), 1) if n else 1
+    solved = rows[:, 0] >= 0 if n else np.zeros(0, bool)
+    efc = np.where(np.arange(width) < dim[:, None], force[np.maximum(rows[:, :width], 0)], 0.0) if n \
+        else np.zeros((0, width))
+    return SimpleNamespace(
+        ncon=n, efc_force=efc.ravel(),
+        contact=SimpleNamespace(efc_address=np.where(solved, np.arange(n) * width, -1), exclude=np.zeros(n, int),
+                                adhesion=adhesion, dim=dim, geom=geom, frame=frame.astype(float),
+                                pos=pos.astype(float), dist=dist.astype(float)))

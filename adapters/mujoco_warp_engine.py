@@ -30,7 +30,6 @@ off, does not exist there): the flag is cleared before the model goes to Warp
 from __future__ import annotations
 
 import os
-from types import SimpleNamespace
 from importlib import metadata
 
 import numpy as np
@@ -38,7 +37,7 @@ import numpy as np
 from adapters.base import Settings, Simulation, Unsupported
 from adapters.lazy import require
 from adapters.mujoco_engine import (CONTACT_STEPS, MuJoCoAdapter, MuJoCoPortTreeSimulation, MuJoCoSimulation,
-                                    float32_capabilities)
+                                    float32_capabilities, port_contacts)
 from cases.scene import Scene
 
 # warp (~4 s to import, it loads its runtime) and mujoco_warp are imported when a scene is
@@ -148,19 +147,9 @@ class MuJoCoWarpSimulation(MuJoCoSimulation):
         c = self._wd.contact
         n = min(int(self._wd.nacon.numpy()[0]), self._naconmax)
         keep = np.flatnonzero((c.worldid.numpy()[:n] == 0) & ((c.type.numpy()[:n] & self._exported) != 0))
-        dim = c.dim.numpy()[keep]
-        rows = c.efc_address.numpy()[keep]
-        width = max(int(dim.max()), 1) if len(keep) else 1
-        force = self._wd.efc.force.numpy()[0]
-        solved = rows[:, 0] >= 0
-        efc = np.where(np.arange(width) < dim[:, None], force[np.maximum(rows[:, :width], 0)], 0.0)
-        return SimpleNamespace(
-            ncon=len(keep), efc_force=efc.ravel(),
-            contact=SimpleNamespace(
-                efc_address=np.where(solved, np.arange(len(keep)) * width, -1), exclude=np.zeros(len(keep), int),
-                adhesion=c.adhesion.numpy()[keep], dim=dim, geom=c.geom.numpy()[keep],
-                frame=c.frame.numpy()[keep].reshape(-1, 9).astype(float), pos=c.pos.numpy()[keep].astype(float),
-                dist=c.dist.numpy()[keep].astype(float)))
+        return port_contacts(c.efc_address.numpy()[keep], c.dim.numpy()[keep], self._wd.efc.force.numpy()[0],
+                             c.geom.numpy()[keep], c.frame.numpy()[keep].reshape(-1, 9), c.pos.numpy()[keep],
+                             c.dist.numpy()[keep], c.adhesion.numpy()[keep])
 
     def close(self) -> None:
         super().close()

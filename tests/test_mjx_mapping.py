@@ -65,3 +65,22 @@ def test_every_contact_mjx_solved_carries_its_force_into_the_read_out(adapter):
     cylinder = next(b for b in scene.bodies if b.name == "cylinder")
     weight = -scene.gravity[2] * cylinder.mass
     assert abs(sum(sim.contact_forces().values()) - weight) < 1e-4
+
+
+def test_a_planar_contact_reads_its_three_rows(adapter):
+    # get_data_into deletes each row whose Jacobian is zero: in a 2D (planar) scene a contact's
+    # tangent out of the plane, so each kept 2 of its 3 rows and the read-out, taking three,
+    # ran past the last (IndexError) or read the next contact's normal as a friction force.
+    # A resting square: its weight within resting_blocks' own force tolerance, 1e-3 N (at step
+    # 300 float32's solve of the square, which walks 1.6 mm in 2 s, reads 2.9e-4 N over; the
+    # next contact's normal read as friction would be newtons off), from the pair forces and
+    # from the points, whose friction has nothing out of the plane (y)
+    scene, settings = variant_scene("resting_blocks", "n=1,2D")
+    sim = adapter.build(scene, settings)
+    for _ in range(300):
+        sim.step()
+    box = next(b for b in scene.bodies if b.name == "box0")
+    assert abs(sum(sim.contact_forces().values()) - (-scene.gravity[2] * box.mass)) < 1e-3
+    points = sim.contact_points()
+    assert abs(sum(p.f_n for p in points) - (-scene.gravity[2] * box.mass)) < 1e-3
+    assert all(p.f_t[1] == 0.0 for p in points)
