@@ -58,13 +58,17 @@ def test_every_contact_mjx_solved_carries_its_force_into_the_read_out(adapter):
     # them (MJX has neither): read as they were, a lying cylinder at rest on its two line-end
     # contacts summed 4.905 of its 9.81 N. Its weight within float32's solve (measured
     # 1.4e-6 N off; 1e-4 is seventy times that and 100x below the half that went missing)
-    scene, settings = variant_scene("lying_cylinder", "L=0.5m")
+    sim, weight = _at_rest(adapter, "lying_cylinder", "L=0.5m", "cylinder")
+    assert abs(sum(sim.contact_forces().values()) - weight) < 1e-4
+
+
+def _at_rest(adapter, family: str, variant: str, body: str):
+    """(the simulation of `family`'s `variant` after 300 steps, the weight of `body`)."""
+    scene, settings = variant_scene(family, variant)
     sim = adapter.build(scene, settings)
     for _ in range(300):
         sim.step()
-    cylinder = next(b for b in scene.bodies if b.name == "cylinder")
-    weight = -scene.gravity[2] * cylinder.mass
-    assert abs(sum(sim.contact_forces().values()) - weight) < 1e-4
+    return sim, -scene.gravity[2] * next(b for b in scene.bodies if b.name == body).mass
 
 
 def test_a_planar_contact_reads_its_three_rows(adapter):
@@ -75,12 +79,8 @@ def test_a_planar_contact_reads_its_three_rows(adapter):
     # 300 float32's solve of the square, which walks 1.6 mm in 2 s, reads 2.9e-4 N over; the
     # next contact's normal read as friction would be newtons off), from the pair forces and
     # from the points, whose friction has nothing out of the plane (y)
-    scene, settings = variant_scene("resting_blocks", "n=1,2D")
-    sim = adapter.build(scene, settings)
-    for _ in range(300):
-        sim.step()
-    box = next(b for b in scene.bodies if b.name == "box0")
-    assert abs(sum(sim.contact_forces().values()) - (-scene.gravity[2] * box.mass)) < 1e-3
+    sim, weight = _at_rest(adapter, "resting_blocks", "n=1,2D", "box0")
+    assert abs(sum(sim.contact_forces().values()) - weight) < 1e-3
     points = sim.contact_points()
-    assert abs(sum(p.f_n for p in points) - (-scene.gravity[2] * box.mass)) < 1e-3
+    assert abs(sum(p.f_n for p in points) - weight) < 1e-3
     assert all(p.f_t[1] == 0.0 for p in points)
