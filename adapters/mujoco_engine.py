@@ -1253,9 +1253,8 @@ def port_contacts(rows: np.ndarray, dim: np.ndarray, force: np.ndarray, geom: np
     `force` of contact i's row j (row 0 < 0: the contact has no rows); `frame` (n, 9)."""
     n = len(dim)
     width = max(int(dim.max()), 1) if n else 1
-    solved = rows[:, 0] >= 0 if n else np.zeros(0, bool)
-    efc = np.where(np.arange(width) < dim[:, None], force[np.maximum(rows[:, :width], 0)], 0.0) if n \
-        else np.zeros((0, width))
+    solved = rows[:, 0] >= 0
+    efc = np.where(np.arange(width) < dim[:, None], force[np.maximum(rows[:, :width], 0)], 0.0)
     return SimpleNamespace(
         ncon=n, efc_force=efc.ravel(),
         contact=SimpleNamespace(efc_address=np.where(solved, np.arange(n) * width, -1), exclude=np.zeros(n, int),
