@@ -676,7 +676,8 @@ class NewtonSimulation(Simulation):
         anchor = np.asarray(joint.anchor, float)
 
         def frame(name: str | None):
-            body = None if name is None or scene.body(name).static else scene.body(name)
+            body = None if name is None else scene.body(name)
+            body = None if body is None or body.static else body  # the world, or a static body: world frame
             p, q = local_frame(body, anchor, (1.0, 0.0, 0.0, 0.0))
             return wp.transform(wp.vec3(*p), wp.quat(*_quat_xyzw(q))), -1 if body is None else self._index[name]
         parent_xform, parent = frame(joint.parent)

@@ -87,7 +87,7 @@ NARROWED = {
     "physval bench pgs": Narrowed(),
     "physval bench compile": Narrowed("--engines reference-hooke", slow=(
         "a cold compile of the reference's step in a numba cache of its own, by design: 82 CPU-s of the "
-        "suite's budget for one line; the lines above run the wheel's reference from the session's cache")),
+        "suite's budget for one line; the other lines run the wheel's reference from the session's cache")),
     "physval bench narrow": Narrowed("--engines mujoco", needs=("mujoco",)),
     "physval bench faults": Narrowed('--engines mujoco --cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
     "physval bench run": Narrowed('--engines mujoco --cases "central_impact[drop,e=0.5]"', needs=("mujoco",)),
