@@ -23,6 +23,15 @@ Mapping (each setting recorded in `knobs`):
   `_geom`). One entity a body, because Genesis skips collisions inside one entity between
   bodies that touch in its start pose (enable_neutral_collision) and between parent and
   child (the world and its bodies);
+- joints: the bodies a scene's joints connect are one entity a tree (with the bodies a loop's
+  closing joint ties to it), written as the MuJoCo adapter writes its kinematic tree
+  (reduced coordinates: each body's frame, inertia and joint, a loop's closing joint an
+  <equality><connect>), then dressed for Genesis (`_tree`): every geom collides, a limit's
+  and a joint's dry-friction rows get the spring-damper of the limit's restitution (Genesis
+  gives both the joint's solreflimit). No rotor inertia: Genesis adds an armature of 0.1 to
+  every revolute or prismatic joint a file leaves at 0 (MJCF_OPTIONS), which the slides of a
+  body held from rotating had too before it was turned off. A load is an external wrench,
+  which Genesis applies for one step: applied again before every step;
 - a plane is Genesis' own (gs.morphs.Plane: an MJCF plane in the world body collides with
   nothing, measured), its friction and sol_params set once built; another static body an
   MJCF body without joints (welded to the world, a link of its own);
@@ -59,10 +68,14 @@ from importlib import metadata
 
 import numpy as np
 
+import xml.etree.ElementTree as ET
+
 from adapters.base import Adapter, Capabilities, Settings, Simulation, Unsupported
 from adapters.combination import per_body_values
+from adapters.joints import joint_tree, start_rate
 from adapters.lazy import require
-from adapters.mujoco_engine import CONTACT_STEPS, SOLIMP, _element, _geom, _joints, contact_spring_damper
+from adapters.mujoco_engine import (CONTACT_STEPS, SOLIMP, _element, _geom, _import_mujoco, _joints, _loop_xml,
+                                    _tree_body_xml, contact_spring_damper)
 from cases.scene import Body, Plane, Scene, pair_key
 
 # genesis (~14 s of CPU to import: torch and its kernels' Python) is imported when a scene is
@@ -80,6 +93,14 @@ ITERATIONS = 25  # Genesis' default cap of the constraint solver's iterations (R
 # cone and the Newton solver, 'convex' otherwise)
 CONFIGURATIONS = {"signorini": {"friction_cone": "elliptic", "contact_resolution": "signorini"},
                   "defaults": {"friction_cone": "pyramidal", "contact_resolution": "convex"}}
+
+
+# How an MJCF file becomes an entity: its geoms as written (no convexification), and no rotor
+# inertia added to its joints: Genesis gives every revolute or prismatic joint whose armature
+# the file leaves at 0 a default armature of 0.1 (kg m^2 or kg; morphs.MJCF.default_armature),
+# which adds to the body's mass along a slide and to its moment about a hinge (measured: a
+# pendulum of I_p = 0.251 kg m^2 swung 1.18x slower, sqrt(0.351 / 0.251))
+MJCF_OPTIONS = {"convexify": False, "default_armature": None}
 
 
 def _init():
@@ -123,9 +144,14 @@ class GenesisAdapter(Adapter):
         impact_model="compliant",
         float_bits=64,
         why_not=(("hull", "not mapped by this adapter (a Genesis mesh morph is convexified with its own tools)"),
-                 ("mesh", "not mapped by this adapter"),
-                 ("joint", "the adapter builds no scene joints"),
-                 ("load", "the adapter applies no external forces")),
+                 ("mesh", "not mapped by this adapter")),
+        # joints as the MuJoCo adapter's kinematic tree in MJCF (one entity a tree), parsed by Genesis
+        joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
+        joint_limits=True,
+        joint_friction=True,
+        limit_restitution=True,  # e at a limit onto the limit row's spring-damper, as a contact's
+        coordinates="reduced",
+        loads=True,
     )
     # A default run runs the core families and the conformance battery on it; named
     # (`--engines genesis`) every family. Every process pays Genesis' import (~14 s of CPU)
@@ -143,8 +169,14 @@ class GenesisAdapter(Adapter):
 
     def release_requirements(self, release: str) -> list[str]:
         """genesis-world imports torch without declaring it: a release's environment gets the
-        torch the `genesis` extra names beside it."""
-        return [f"genesis-world=={release}", "torch>=2.13.0"]
+        torch installed here, the same build (a CPU build stays one: PyPI's default torch
+        brings CUDA, 5.3 GB more; pip must reach where it came from), else the one the
+        `genesis` extra names."""
+        try:
+            torch = f"torch=={metadata.version('torch')}"
+        except metadata.PackageNotFoundError:
+            torch = "torch>=2.13.0"
+        return [f"genesis-world=={release}", torch]
 
     def build(self, scene: Scene, settings: Settings) -> Simulation:
         reason = self.capabilities.cannot_run(scene)
@@ -157,8 +189,46 @@ class GenesisAdapter(Adapter):
         return GenesisSimulation(scene, settings, CONFIGURATIONS[self.configuration], es.pop() if es else 0.0)
 
 
-def _mjcf(inner: str) -> str:
-    return f'<mujoco><compiler angle="radian" inertiafromgeom="false"/><worldbody>{inner}</worldbody></mujoco>'
+def _mjcf(inner: str, outer: str = "") -> str:
+    return (f'<mujoco><compiler angle="radian" inertiafromgeom="false"/><worldbody>{inner}</worldbody>'
+            f'{outer}</mujoco>')
+
+
+def _text(value) -> str:
+    """An MJCF attribute's text: a vector's numbers space-separated (each float's shortest repr)."""
+    return " ".join(map(str, value)) if isinstance(value, (list, tuple)) else str(value)
+
+
+def _children(scene: Scene, tree: dict) -> dict[str, list[Body]]:
+    """Each tree parent's jointed children (adapters.joints.joint_tree), in scene order: the
+    order _tree_body_xml writes them in, and so their dofs' order in the entity."""
+    out: dict[str, list[Body]] = {}
+    for body in scene.dynamic_bodies:
+        if body.name in tree and tree[body.name].parent is not None:
+            out.setdefault(tree[body.name].parent, []).append(body)
+    return out
+
+
+def _tree_groups(scene: Scene) -> list[list[str]]:
+    """The dynamic bodies the scene's joints connect, in groups that share a joint (a tree,
+    with the bodies a loop's closing joint ties to it): each group one Genesis entity, since
+    an MJCF file's equality constraints hold its own bodies only. Scene order in each."""
+    static = {b.name for b in scene.bodies if b.static}
+    root = {}
+
+    def find(name: str) -> str:
+        while root.setdefault(name, name) != name:
+            name = root[name]
+        return name
+    for joint in scene.joints:
+        a = find(joint.body)
+        if joint.parent is not None and joint.parent not in static:
+            root[find(joint.parent)] = a
+    groups: dict[str, list[str]] = {}
+    for body in scene.dynamic_bodies:
+        if body.name in root:
+            groups.setdefault(find(body.name), []).append(body.name)
+    return list(groups.values())
 
 
 class GenesisSimulation(Simulation):
@@ -177,6 +247,7 @@ class GenesisSimulation(Simulation):
                      iterations=self.iterations, use_hibernation=False)
         self.knobs = {
             "gs.init": {"backend": "cpu", "precision": "64"},
+            "morphs.MJCF": dict(MJCF_OPTIONS),
             "SimOptions": {"dt": self._dt, "substeps": 1, "gravity": list(gravity)},
             "RigidOptions": {**{k: (v.name if hasattr(v, "name") else v) for k, v in rigid.items()},
                              # left None: what Genesis resolves it to with this cone and solver
@@ -190,17 +261,32 @@ class GenesisSimulation(Simulation):
                            "mixing": "mean of the two geoms' (all alike)"},
             "friction": {"per_body": mu, "rule": "max of the two geoms'", "floor": FRICTION_FLOOR,
                          "frictionless_pairs_get": FRICTION_FLOOR},
-            "geom": {}, "joint": {}, "inertial": {},
+            "geom": {}, "joint": {}, "inertial": {}, "left_out": {},
         }
-        self._scene = g.Scene(sim_options=g.options.SimOptions(dt=self._dt, substeps=1, gravity=gravity),
-                              rigid_options=g.options.RigidOptions(**rigid), show_viewer=False)
-        self._order: list[str] = []
         self._entities = {}
         self._q0 = {}
         planes = []
+        mus = {b.name: max(mu.get(b.name, FRICTION_FLOOR), FRICTION_FLOOR) for b in scene.bodies}
+        groups = _tree_groups(scene) if scene.joints else []
+        grouped = {name for group in groups for name in group}
+        if any(a.name in group and b.name in group for a, b in scene.contact_pairs() for group in groups):
+            rigid["enable_self_collision"] = True  # a pair inside one tree's entity (Genesis skips parent-child pairs)
+            self.knobs["RigidOptions"]["enable_self_collision"] = True
+        self._scene = g.Scene(sim_options=g.options.SimOptions(dt=self._dt, substeps=1, gravity=gravity),
+                              rigid_options=g.options.RigidOptions(**rigid), show_viewer=False)
         with tempfile.TemporaryDirectory(prefix="physval-genesis-") as folder:
+            for group in groups:  # each tree of jointed bodies one entity; its geoms carry their own friction
+                path = os.path.join(folder, f"tree{len(self._entities)}.xml")
+                with open(path, "w") as f:
+                    f.write(self._tree(scene, group, mus, sol))
+                entity = self._scene.add_entity(g.morphs.MJCF(file=path, **MJCF_OPTIONS),
+                                                material=g.materials.Rigid(needs_coup=False))
+                for name in group:
+                    self._entities[name] = entity
             for body in scene.bodies:
-                body_mu = max(mu.get(body.name, FRICTION_FLOOR), FRICTION_FLOOR)
+                if body.name in grouped:
+                    continue
+                body_mu = mus[body.name]
                 if isinstance(body.shape, Plane):  # Genesis' own plane (an MJCF plane in the world collides with nothing)
                     n = np.asarray(body.shape.normal, float)
                     morph = g.morphs.Plane(pos=tuple(body.shape.offset * n), normal=tuple(n))
@@ -212,12 +298,11 @@ class GenesisSimulation(Simulation):
                     path = os.path.join(folder, f"{len(self._entities)}.xml")
                     with open(path, "w") as f:
                         f.write(_mjcf(self._body(body, body_mu, sol)))
-                    morph = g.morphs.MJCF(file=path, convexify=False)
+                    morph = g.morphs.MJCF(file=path, **MJCF_OPTIONS)
                 self._entities[body.name] = self._scene.add_entity(
                     morph, material=g.materials.Rigid(friction=body_mu, needs_coup=False))
-                if not body.static:
-                    self._order.append(body.name)
             self._scene.build()
+        self._order = [b.name for b in scene.dynamic_bodies]
         for name in planes:  # the plane's solver parameters, as the MJCF geoms carry theirs
             for geom in self._entities[name].geoms:
                 geom.set_sol_params(np.asarray(sol))
@@ -225,6 +310,14 @@ class GenesisSimulation(Simulation):
         self._solver = self._scene.sim.rigid_solver
         self._links = [self._entities[n].get_link(n).idx for n in self._order]
         self._mass = np.array([b.mass for b in scene.dynamic_bodies])
+        # loads: Genesis applies an external wrench over one step, so each step applies them again
+        self._loads = [(self._entities[ld.body].get_link(ld.body).idx, np.asarray(ld.force, float),
+                        np.asarray(ld.torque, float)) for ld in scene.loads]
+        if self._loads:
+            self.knobs["loads"] = {ld.body: {"force": list(ld.force), "torque": list(ld.torque),
+                                             "applied": "apply_links_external_wrench before every step, at the "
+                                                        "link origin (its centre of mass), world frame"}
+                                   for ld in scene.loads}
         self._start(scene)
         self._link_body = {self._entities[n].get_link(n).idx: n for n in self._order}
         for body in scene.bodies:
@@ -262,15 +355,80 @@ class GenesisSimulation(Simulation):
         self.knobs["inertial"][body.name] = inertial
         return _element("body", frame, joint_xml + _element("inertial", inertial) + _element("geom", geom))
 
+    def _tree(self, scene: Scene, group: list[str], mus: dict, sol: list[float]) -> str:
+        """A group of jointed bodies (_tree_groups) as MJCF: the MuJoCo adapter's kinematic
+        tree (each body's frame, inertia and joint; a loop's closing joint an equality
+        <connect>), dressed for Genesis, which collides geoms by contype/conaffinity and reads
+        solver parameters in their positive (timeconst, dampratio) form only: every geom
+        collides, with its body's friction and the contacts' sol_params; a joint's limit and
+        dry-friction rows (Genesis gives both the joint's solreflimit) the spring-damper of
+        the limit's restitution (e = 0 where it has none), as a contact's (solver_params)."""
+        _import_mujoco()  # its quaternion product places a child in its parent's frame (Genesis needs mujoco too)
+        tree, closing = joint_tree(scene)
+        parents = {name: (tj.parent, tj.joint) for name, tj in tree.items()}
+        children = _children(scene, tree)
+        for name in group:
+            if not scene.body(name).rotates:
+                raise Unsupported(f"body {name!r} held from rotating (rotates=False) in a tree of joints: not mapped "
+                                  "(its slides would need the tree's frames)")
+        roots = [scene.body(n) for n in group if parents.get(n, (None,))[0] is None]
+        bodies = "".join(_tree_body_xml(scene, b, parents, children, self.knobs, {}, CONTACT_STEPS, self._dt)
+                         for b in roots)
+        loops = [(j, joint) for j, joint in closing if joint.body in group]
+        if loops:
+            self.knobs.setdefault("loop", {})
+        xml = ET.fromstring(_mjcf(bodies, _loop_xml(scene, loops, self.knobs, self._dt, frozenset())))
+        for geom in xml.iter("geom"):
+            name = geom.get("name")
+            dressed = {"contype": 1, "conaffinity": 1, "condim": 3, "friction": [mus[name], 0, 0],
+                       "solref": sol[:2], "solimp": sol[2:]}
+            geom.attrib.update({k: _text(v) for k, v in dressed.items()})
+            self.knobs["geom"][name].update(dressed)
+        for joint in xml.iter("joint"):
+            body = joint.get("name").rsplit(":", 1)[0]
+            spec, j = self.knobs["joint"][body], tree[body].joint
+            if j.limits is not None or j.friction > 0:
+                row = solver_params(j.limit_e if j.limits is not None else 0.0, CONTACT_STEPS, self._dt)
+                limit = {"solreflimit": row[:2], "solimplimit": row[2:]}
+                for k in ("solreffriction", "solimpfriction"):  # Genesis reads the limit's for friction rows
+                    joint.attrib.pop(k, None)
+                    spec.pop(k, None)
+                joint.attrib.update({k: _text(v) for k, v in limit.items()})
+                spec.update(limit)
+        return ET.tostring(xml, encoding="unicode")
+
     def _start(self, scene: Scene) -> None:
         """The scene's start velocities: a free joint's dofs are (v, w), w in the world frame;
-        slide joints' dofs v along x, y, z."""
-        for body in scene.dynamic_bodies:
+        slide joints' dofs v along x, y, z; a tree's dofs in its MJCF order (each body in the
+        order written, depth first: a free root's (v, w), a joint's start rate)."""
+        tree, _ = joint_tree(scene)
+        written = {}  # entity -> its dofs' start velocities in order
+        for body in self._written(scene, tree):
             entity = self._entities[body.name]
-            v = list(body.velocity) + (list(body.angular_velocity) if body.rotates else [])
+            tj = tree.get(body.name)
+            if tj is not None:
+                v = list(start_rate(scene, tj))
+            else:
+                v = list(body.velocity) + (list(body.angular_velocity) if body.rotates else [])
+            written.setdefault(entity, []).extend(v)
+        for entity, v in written.items():
             if any(v):
                 entity.set_dofs_velocity(np.asarray(v, float))
         self._forces_cache = None
+
+    def _written(self, scene: Scene, tree: dict) -> list[Body]:
+        """The dynamic bodies in the order their entities' dofs come: a body alone, or a
+        tree's bodies depth first from its roots (as _tree_body_xml writes them)."""
+        out, children = [], _children(scene, tree)
+
+        def visit(body: Body) -> None:
+            out.append(body)
+            for child in children.get(body.name, ()):
+                visit(child)
+        for body in scene.dynamic_bodies:
+            if body.name not in tree or tree[body.name].parent is None:
+                visit(body)
+        return out
 
     def _built_effects(self, scene: Scene, gravity, contact: bool, e: float) -> frozenset[str]:
         fx = set()
@@ -281,11 +439,34 @@ class GenesisSimulation(Simulation):
             fx.add("friction")  # every Genesis contact has friction rows, mu >= FRICTION_FLOOR
             if e > 0 and "restitution" in scene.effects:
                 fx.add("restitution")
-        if any(j == "free" for j in self.knobs["joint"].values()):
+        joints = [j for j in self.knobs["joint"].values() if isinstance(j, dict)]  # the trees' (a slide's: a list)
+        if any(j == "free" for j in self.knobs["joint"].values()) or any(j.get("type") in ("hinge", "ball")
+                                                                         for j in joints):
             fx.add("rotation")
+        if joints:
+            fx.add("joint")
+        if any(j.get("limited") == "true" for j in joints):
+            fx.add("limit")
+            # a limit row damped less than the plastic one (b = 1/dt) bounces
+            if any(self._limit_restitution(j) for j in joints):
+                fx.add("limit_restitution")
+        if any(j.get("frictionloss", 0) > 0 for j in joints):
+            fx.add("joint_friction")
+        if self._loads:
+            fx.add("load")
         return frozenset(fx)
 
+    def _limit_restitution(self, joint: dict) -> bool:
+        """Whether a tree joint's limit row bounces: damped less than the plastic row's
+        b = 1/dt (Genesis: b = 2 / (dmax timeconst))."""
+        if joint.get("limited") != "true":
+            return False
+        timeconst, dmax = joint["solreflimit"][0], joint["solimplimit"][1]
+        return 2.0 / (dmax * timeconst) < (1.0 - 1e-9) / self._dt
+
     def step(self) -> None:
+        for link, force, torque in self._loads:
+            self._solver.apply_links_external_wrench(force, torque, [link])
         self._scene.step()
         self._forces_cache = None
 

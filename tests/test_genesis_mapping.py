@@ -1,7 +1,8 @@
 """Genesis' adapter: the registry names its extra when Genesis is missing; the sol_params it
 writes are the MuJoCo adapter's contact spring-damper in Genesis' own form; a built scene
 has the scene's mass, rolls as a rigid ball does, reports its weight as the contact force,
-and declares the friction rows Genesis cannot leave out."""
+and declares the friction rows Genesis cannot leave out; joints carry no rotor inertia Genesis
+would add, loads act every step, and a tree's start velocities are the scene's."""
 from __future__ import annotations
 
 import importlib.util
@@ -77,17 +78,62 @@ def test_a_ball_sliding_on_the_ground_rolls_at_five_sevenths_and_weighs_m_g():
         assert abs(s[11] - s[7] / r) < 2e-3 * s[7] / r, s
         (force,) = sim.contact_forces().values()
         assert abs(force - m * g) < 1e-3 * m * g
-        assert "friction" in sim.effects and sim.knobs["RigidOptions"]["friction_cone"] == "pyramidal"
+        assert "friction" in sim.effects and sim.knobs["RigidOptions"]["friction_cone"] == "elliptic"
     finally:
         sim.close()
 
 
 @pytest.mark.skipif(not INSTALLED, reason="Genesis is not installed (extra 'genesis')")
-def test_a_release_environment_gets_the_torch_genesis_does_not_declare():
+def test_a_release_environment_gets_the_torch_installed_here(monkeypatch):
+    """genesis-world imports torch without declaring it: a release's environment gets this
+    environment's torch, the same build (a CPU build stays one: PyPI's default torch brings
+    CUDA, 5.3 GB more), and the extra's where torch is not installed here."""
     import tomllib
+    from importlib import metadata
     from pathlib import Path
     from packaging.requirements import Requirement
+    import adapters.genesis_engine as genesis_engine
+    genesis = registry.get("genesis")
+    assert genesis.release_requirements("1.4.4") == ["genesis-world==1.4.4", f"torch=={metadata.version('torch')}"]
     extra = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())["project"][
         "optional-dependencies"]["genesis"]
     torch = next(r for r in extra if Requirement(r).name == "torch")
-    assert registry.get("genesis").release_requirements("1.4.4") == ["genesis-world==1.4.4", torch]
+
+    def version(name):
+        if name == "torch":
+            raise metadata.PackageNotFoundError(name)
+        return metadata.version(name)
+    monkeypatch.setattr(genesis_engine.metadata, "version", version)
+    assert genesis.release_requirements("1.4.4") == ["genesis-world==1.4.4", torch]
+
+
+@pytest.mark.slow  # Genesis' import (~14 s of CPU) and a scene's kernels (~9 s with a full cache)
+@pytest.mark.skipif(not INSTALLED, reason="Genesis is not installed (extra 'genesis')")
+def test_a_pulled_slider_accelerates_at_f_over_m_and_a_hinged_body_starts_at_its_rate():
+    """Joints and loads. Genesis gives every revolute or prismatic joint an MJCF file leaves
+    at armature 0 a rotor inertia of 0.1 unless told not to (adapters.genesis_engine.
+    MJCF_OPTIONS); and it applies an external wrench for one step only. A 1 kg slider pulled
+    with 2 N along a frictionless rail, no gravity, is at F t / m = 0.2 m/s after 0.1 s (with
+    the armature 0.2 / 1.1; with the load applied once, 2e-3): to round-off, as a constant
+    acceleration integrates exactly. A rod hinged to the world that starts turning at w reads
+    back its start velocity w x (x - anchor) before any step (the tree's dofs in the order
+    the adapter wrote them)."""
+    from adapters.base import Settings
+    from cases.scene import Body, Joint, Load, Scene, ball, cube
+    w, anchor, x = 3.0, (5.0, 0.0, 1.0), (5.0, 0.0, 0.5)
+    rod_v = (w * (x[2] - anchor[2]), 0.0, 0.0)  # (0, w, 0) x (0, 0, -0.5) = (-1.5, 0, 0)
+    scene = Scene(bodies=(Body("slider", ball(0.05), mass=1.0, position=(0, 0, 1)),
+                          Body("rod", cube(0.05), mass=2.0, position=x, velocity=rod_v, angular_velocity=(0, w, 0))),
+                  gravity=(0, 0, 0), joints=(Joint("prismatic", "slider", None, anchor=(0, 0, 1), axis=(1, 0, 0)),
+                                             Joint("revolute", "rod", None, anchor=anchor, axis=(0, 1, 0))),
+                  loads=(Load("slider", force=(2.0, 0, 0)),))
+    sim = registry.get("genesis").build(scene, Settings(dt=1e-3))
+    try:
+        rod = sim.states()["rod"]
+        assert max(abs(rod[7:10] - rod_v).max(), abs(rod[10:13] - (0, w, 0)).max()) < 1e-12, rod
+        for _ in range(100):
+            sim.step()
+        assert abs(sim.states()["slider"][7] - 0.2) < 1e-12
+        assert {"joint", "load"} <= sim.effects and sim.knobs["morphs.MJCF"]["default_armature"] is None
+    finally:
+        sim.close()
