@@ -264,7 +264,7 @@ class GenesisSimulation(Simulation):
             "geom": {}, "joint": {}, "inertial": {}, "left_out": {},
         }
         self._entities = {}
-        self._q0 = {}
+        self._q0 = {}  # a body held from rotating: its orientation (its link's frame stays world-aligned)
         planes = []
         mus = {b.name: max(mu.get(b.name, FRICTION_FLOOR), FRICTION_FLOOR) for b in scene.bodies}
         groups = _tree_groups(scene) if scene.joints else []
@@ -309,6 +309,7 @@ class GenesisSimulation(Simulation):
                 geom.set_friction(self.knobs["geom"][name]["friction"])
         self._solver = self._scene.sim.rigid_solver
         self._links = [self._entities[n].get_link(n).idx for n in self._order]
+        self._held = [i for i, n in enumerate(self._order) if n in self._q0]
         self._mass = np.array([b.mass for b in scene.dynamic_bodies])
         # loads: Genesis applies an external wrench over one step, so each step applies them again
         self._loads = [(self._entities[ld.body].get_link(ld.body).idx, np.asarray(ld.force, float),
@@ -344,6 +345,7 @@ class GenesisSimulation(Simulation):
             self.knobs["joint"][body.name] = "free"
         else:  # a world-aligned frame that slides; the geom and the inertia carry the orientation
             frame = {"name": body.name, "pos": list(body.position)}
+            self._q0[body.name] = np.asarray(body.orientation, float)
             geom["quat"] = list(body.orientation)
             joint = [{"name": f"{body.name}:{t}{i}", "type": t, "axis": list(axis), "damping": 0, "stiffness": 0,
                       "armature": 0, "frictionloss": 0, "limited": "false"} for i, (t, axis) in enumerate(joints)]
@@ -476,6 +478,8 @@ class GenesisSimulation(Simulation):
         quat = s.get_links_quat(self._links).numpy()
         vel = s.get_links_vel(self._links).numpy()
         ang = s.get_links_ang(self._links).numpy()
+        for i in self._held:  # the link turns not at all: the body keeps the orientation its geom carries
+            quat[i] = self._q0[self._order[i]]
         return np.concatenate([pos, quat, vel, ang], axis=1)  # (bodies, 13): the trajectory layout
 
     def states(self) -> dict[str, np.ndarray]:

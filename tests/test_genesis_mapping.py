@@ -137,3 +137,25 @@ def test_a_pulled_slider_accelerates_at_f_over_m_and_a_hinged_body_starts_at_its
         assert {"joint", "load"} <= sim.effects and sim.knobs["morphs.MJCF"]["default_armature"] is None
     finally:
         sim.close()
+
+
+@pytest.mark.slow  # Genesis' import and a scene's kernels
+@pytest.mark.skipif(not INSTALLED, reason="Genesis is not installed (extra 'genesis')")
+def test_a_body_held_from_rotating_keeps_its_turned_orientation():
+    """A body held from rotating slides on three world-axis slide joints in a world-aligned
+    frame, its geom and inertia turned to the body's orientation: Genesis' link never turns,
+    so the adapter reports the body's own orientation (it read the link's identity before);
+    exactly, as it never changes."""
+    import math
+    import numpy as np
+    from adapters.base import Settings
+    from cases.scene import Body, Material, Scene, cube, ground
+    q = (math.cos(0.25), 0.0, 0.0, math.sin(0.25))  # 0.5 rad about z
+    scene = Scene(bodies=(ground(), Body("box", cube(0.1), mass=1.0, position=(0, 0, 0.1), orientation=q,
+                                         rotates=False)), gravity=(0, 0, -9.81), material=Material(mu_s=0.5, e=0.0))
+    sim = registry.get("genesis").build(scene, Settings(dt=1e-3))
+    try:
+        sim.step()
+        assert np.array_equal(sim.states()["box"][3:7], q)
+    finally:
+        sim.close()
