@@ -17,8 +17,10 @@ Its contact-resolution choices are configurations (adapters/registry.py):
 
 Mapping (each setting recorded in `knobs`):
 - every dynamic body is an entity of its own, written as MJCF and parsed by Genesis
-  (gs.morphs.MJCF): the scene's mass and principal inertia (<inertial>, never from the
-  geoms), a free joint for a body that rotates, three world-axis slide joints for one that
+  (gs.morphs.MJCF): its geom the MuJoCo adapter's (a hull a mesh geom of its corners, whose
+  convex hull MuJoCo's compiler gives Genesis, not convexified again; a static triangle mesh
+  the MuJoCo adapter's triangle prisms, each convex), the scene's mass and principal
+  inertia (<inertial>, never from the geoms), a free joint for a body that rotates, three world-axis slide joints for one that
   does not, no joint damping, armature or friction (the MuJoCo adapter's `_joints` and
   `_geom`). One entity a body, because Genesis skips collisions inside one entity between
   bodies that touch in its start pose (enable_neutral_collision) and between parent and
@@ -75,8 +77,8 @@ from adapters.combination import per_body_values
 from adapters.joints import joint_tree, start_rate
 from adapters.lazy import require
 from adapters.mujoco_engine import (CONTACT_STEPS, SOLIMP, _element, _geom, _import_mujoco, _joints, _loop_xml,
-                                    _tree_body_xml, contact_spring_damper)
-from cases.scene import Body, Plane, Scene, pair_key
+                                    _mesh_geoms, _tree_body_xml, contact_spring_damper)
+from cases.scene import Body, Mesh, Plane, Scene, pair_key
 
 # genesis (~14 s of CPU to import: torch and its kernels' Python) is imported when a scene is
 # first built (adapters/lazy.py)
@@ -136,15 +138,13 @@ class GenesisAdapter(Adapter):
     supported = ">=1.4.5,<1.5"
     capabilities = Capabilities(
         dimensions=frozenset({3}),
-        shapes=frozenset({"sphere", "box", "plane", "capsule", "cylinder"}),
+        shapes=frozenset({"sphere", "box", "plane", "capsule", "cylinder", "hull", "mesh"}),
         native_restitution=False,  # e mapped onto the contact spring-damper (sol_params), as MuJoCo
         static_kinetic=False,
         contact_forces=True,
         iterations=True,  # the constraint solver's iteration cap
         impact_model="compliant",
         float_bits=64,
-        why_not=(("hull", "not mapped by this adapter (a Genesis mesh morph is convexified with its own tools)"),
-                 ("mesh", "not mapped by this adapter")),
         # joints as the MuJoCo adapter's kinematic tree in MJCF (one entity a tree), parsed by Genesis
         joints=frozenset({"revolute", "prismatic", "ball", "fixed"}),
         joint_limits=True,
@@ -189,8 +189,11 @@ class GenesisAdapter(Adapter):
         return GenesisSimulation(scene, settings, CONFIGURATIONS[self.configuration], es.pop() if es else 0.0)
 
 
-def _mjcf(inner: str, outer: str = "") -> str:
-    return (f'<mujoco><compiler angle="radian" inertiafromgeom="false"/><worldbody>{inner}</worldbody>'
+def _mjcf(inner: str, outer: str = "", meshes: dict | None = None) -> str:
+    """An MJCF file of a worldbody's content, what follows it, and the <mesh> assets its
+    geoms name (the MuJoCo adapter's, vertices inline)."""
+    assets = "<asset>" + "".join(_element("mesh", m) for m in meshes.values()) + "</asset>" if meshes else ""
+    return (f'<mujoco><compiler angle="radian" inertiafromgeom="false"/>{assets}<worldbody>{inner}</worldbody>'
             f'{outer}</mujoco>')
 
 
@@ -297,7 +300,8 @@ class GenesisSimulation(Simulation):
                 else:
                     path = os.path.join(folder, f"{len(self._entities)}.xml")
                     with open(path, "w") as f:
-                        f.write(_mjcf(self._body(body, body_mu, sol)))
+                        meshes: dict[str, dict] = {}
+                        f.write(_mjcf(self._body(body, body_mu, sol, meshes), meshes=meshes))
                     morph = g.morphs.MJCF(file=path, **MJCF_OPTIONS)
                 self._entities[body.name] = self._scene.add_entity(
                     morph, material=g.materials.Rigid(friction=body_mu, needs_coup=False))
@@ -327,13 +331,19 @@ class GenesisSimulation(Simulation):
                     self._link_body[link.idx] = body.name
         self.effects = self._built_effects(scene, gravity, contact, e)
 
-    def _body(self, body: Body, mu: float, sol: list[float]) -> str:
-        """A scene body as MJCF: its geom (the MuJoCo adapter's `_geom`) with friction and
-        sol_params, in a frame with its inertia and joints, or in the world if static."""
-        geom = {"name": body.name, **_geom(body, list(body.orientation) if body.static else [1, 0, 0, 0]),
-                "friction": [mu, 0, 0], "solref": None, "solimp": None, "condim": 3}
+    def _body(self, body: Body, mu: float, sol: list[float], meshes: dict) -> str:
+        """A scene body as MJCF: its geom (the MuJoCo adapter's `_geom`; a hull a mesh geom of
+        its corners, whose convex hull MuJoCo's compiler gives Genesis) with friction and
+        sol_params, in a frame with its inertia and joints, or in the world if static (a
+        static triangle mesh as the MuJoCo adapter's triangle prisms, each convex)."""
         tc, zeta, *imp = sol
-        geom.update(solref=[tc, zeta], solimp=imp)
+        contact = {"friction": [mu, 0, 0], "solref": [tc, zeta], "solimp": imp, "condim": 3}
+        if isinstance(body.shape, Mesh):  # static (the scene allows no other): the prisms in world coordinates
+            geoms, record = _mesh_geoms(body, meshes)
+            self.knobs["geom"][body.name] = {**record, **contact}
+            return _element("body", {"name": body.name}, "".join(_element("geom", {**g, **contact}) for g in geoms))
+        geom = {"name": body.name, **_geom(body, list(body.orientation) if body.static else [1, 0, 0, 0],
+                                           meshes=meshes), **contact}
         if body.static:  # a body without joints: welded to the world, a link of its own
             self.knobs["geom"][body.name] = geom
             return _element("body", {"name": body.name, "pos": list(body.position)}, _element("geom", geom))
@@ -374,12 +384,13 @@ class GenesisSimulation(Simulation):
                 raise Unsupported(f"body {name!r} held from rotating (rotates=False) in a tree of joints: not mapped "
                                   "(its slides would need the tree's frames)")
         roots = [scene.body(n) for n in group if parents.get(n, (None,))[0] is None]
-        bodies = "".join(_tree_body_xml(scene, b, parents, children, self.knobs, {}, CONTACT_STEPS, self._dt)
+        meshes: dict[str, dict] = {}
+        bodies = "".join(_tree_body_xml(scene, b, parents, children, self.knobs, meshes, CONTACT_STEPS, self._dt)
                          for b in roots)
         loops = [(j, joint) for j, joint in closing if joint.body in group]
         if loops:
             self.knobs.setdefault("loop", {})
-        xml = ET.fromstring(_mjcf(bodies, _loop_xml(scene, loops, self.knobs, self._dt, frozenset())))
+        xml = ET.fromstring(_mjcf(bodies, _loop_xml(scene, loops, self.knobs, self._dt, frozenset()), meshes))
         for geom in xml.iter("geom"):
             name = geom.get("name")
             dressed = {"contype": 1, "conaffinity": 1, "condim": 3, "friction": [mus[name], 0, 0],
