@@ -20,8 +20,9 @@ Mapping (each setting recorded in `knobs`):
   (gs.morphs.MJCF): its geom the MuJoCo adapter's (a hull a mesh geom of its corners, whose
   convex hull MuJoCo's compiler gives Genesis, not convexified again; a static triangle mesh
   the MuJoCo adapter's triangle prisms, each convex), the scene's mass and principal
-  inertia (<inertial>, never from the geoms), a free joint for a body that rotates, three world-axis slide joints for one that
-  does not, no joint damping, armature or friction (the MuJoCo adapter's `_joints` and
+  inertia (<inertial>, never from the geoms), a free joint for a body that rotates, three
+  world-axis slide joints for one that does not (its orientation read as its start one: the
+  link never turns), no joint damping, armature or friction (the MuJoCo adapter's `_joints` and
   `_geom`). One entity a body, because Genesis skips collisions inside one entity between
   bodies that touch in its start pose (enable_neutral_collision) and between parent and
   child (the world and its bodies);
@@ -290,7 +291,7 @@ class GenesisSimulation(Simulation):
                 if body.name in grouped:
                     continue
                 body_mu = mus[body.name]
-                if isinstance(body.shape, Plane):  # Genesis' own plane (an MJCF plane in the world collides with nothing)
+                if isinstance(body.shape, Plane):  # Genesis' own (an MJCF plane in the world collides with nothing)
                     n = np.asarray(body.shape.normal, float)
                     morph = g.morphs.Plane(pos=tuple(body.shape.offset * n), normal=tuple(n))
                     self.knobs["geom"][body.name] = {"type": "gs.morphs.Plane", "pos": list(body.shape.offset * n),
