@@ -847,3 +847,27 @@ def test_the_preload_loads_the_reference_step_only_where_it_is_compiled_already(
     before, loaded, left = done.stdout.split()
     assert loaded == before, "loaded where cached, not compiled where not"
     assert left == "False", "the workers forked from the server do not carry the request"
+
+
+# A job whose rows moved with BLAS's thread count (physval/__init__.py): Lemke on the pinch
+# grasp's degenerate contact set, where the rounding of the tableau's sums picks the vertex
+_THREADS_JOB = '''
+import physval
+from physval.core import Context
+from physval.core.jobs import Job, execute
+resolver = Context().resolver()
+variant = next(v for v in resolver.family("pinch_grasp").variants if v.id == "2muF/mg=0.8")
+rows = execute(Job("pinch_grasp", variant, "reference-lemke"), resolver).rows
+print(repr(sorted((r["metric"], r["measured"]) for r in rows)))
+'''
+
+
+def test_a_jobs_rows_do_not_depend_on_the_blas_threads_the_machine_would_give():
+    """The same job in two processes whose environment asks OpenBLAS for 2 threads and for
+    1 (a machine's default is a thread per core): the same measurements to the last bit
+    (with 2 threads, before physval set one: a sliding acceleration 0.013 m/s^2 apart)."""
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    procs = [subprocess.Popen([sys.executable, "-c", _THREADS_JOB], cwd=ROOT, stdout=subprocess.PIPE, text=True,
+                              env={**env, "OPENBLAS_NUM_THREADS": n}) for n in ("2", "1")]
+    outs = [p.communicate(timeout=600)[0] for p in procs]
+    assert all(p.returncode == 0 for p in procs) and outs[0] and outs[0] == outs[1], outs
