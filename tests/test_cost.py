@@ -288,3 +288,19 @@ def test_a_jobs_rows_carry_the_seconds_it_spent_compiling_the_reference(monkeypa
     for engine, seconds in (("mujoco", 2.5), ("reference", 0.0)):
         rows = perform(Job(fam.name, variant, engine, fam.dt_for(variant.params)), resolver).rows
         assert rows and {r["compile_s"] for r in rows} == {seconds}, engine
+
+
+def test_a_variant_priced_apart_is_measured_again_by_the_cost_table_writer(tmp_path):
+    """`physval bench run` writes the table from a default run, which leaves a variant priced
+    apart for --on-demand: measured_apart runs it on its own, so its price is measured afresh
+    (the earlier table's 125 s for a Lemke grasp stayed for good; it runs in 2-7 s now)."""
+    import os
+    from physval.readings.bench import measured_apart
+    apart = pd.DataFrame([{"engine": "reference", "case": "central_impact", "variant": "drop,e=0.5", "jobs": 1,
+                           "steps": 1, "stepping_s": 99.0, "job_s": 99.0}])
+    env = {**os.environ, "PHYSVAL_CACHE_DIR": str(tmp_path / "cache")}
+    again = measured_apart(apart, 1, tmp_path / "runs", env)
+    assert list(zip(again.engine, again.case, again.variant)) == [("reference", "central_impact", "drop,e=0.5")]
+    assert 0 < again.job_s.iloc[0] < 99.0 and again.steps.iloc[0] > 1
+    table = cost.merged(again, apart)  # under half the per-job limit: priced with its family again
+    assert list(table.variant) == [""] and table.job_s.iloc[0] == again.job_s.iloc[0]

@@ -714,7 +714,8 @@ def default_run(workers: int, out: Path, args: tuple[str, ...] = ()) -> pd.DataF
     new --out). One row per part of the run's time (its cost.csv: phases, CPU, engines),
     the two states side by side, and the whole command's wall time and budget. The warm
     run's per-family costs are written to `out`/costs.csv with the shipped table's variants
-    priced apart that it left for --on-demand (physval's shipped cost table,
+    priced apart measured again after it (a run leaves them for --on-demand, so without
+    this their first price stayed for good: physval's shipped cost table,
     physval/readings/costs.csv, is a copy of it)."""
     import os
     import subprocess
@@ -738,13 +739,47 @@ def default_run(workers: int, out: Path, args: tuple[str, ...] = ()) -> pd.DataF
             parts[state] = part[part.kind != "later"]  # its times, not the runs it left for --on-demand
             if state == "warm":
                 from physval.core.store import read_results
-                measured = cost.uncompiled(cost.per_job(read_results(folder / "results.csv")).dropna(subset=["job_s"]))
-                # with the shipped table's variants priced apart on the engines measured, which
-                # a run does not measure again (over the per-job limit: left for --on-demand)
+                measured = measured_jobs(read_results(folder / "results.csv"))
+                # the shipped table's variants priced apart on the engines measured: the run
+                # left them for --on-demand (over the per-job limit), so they run here, warm
                 shipped = cost.load_table()
                 apart = shipped[(shipped.variant != "") & shipped.engine.isin(set(measured.engine))]
-                cost.write_table(cost.merged(measured, apart), Path(out) / "costs.csv")
+                again = measured_apart(apart, workers, Path(tmp) / "apart", env)
+                cost.write_table(cost.merged(pd.concat([measured, again], ignore_index=True), apart),
+                                 Path(out) / "costs.csv")
     return run_table(parts, wall, workers)
+
+
+def measured_jobs(rows) -> pd.DataFrame:
+    """A run's jobs that price the table (physval.readings.cost: per_job, none that compiled)."""
+    from physval.readings import cost
+    return cost.uncompiled(cost.per_job(rows).dropna(subset=["job_s"]))
+
+
+def measured_apart(apart: pd.DataFrame, workers: int, folder: Path, env: dict) -> pd.DataFrame:
+    """The variants of `apart` (a cost table's rows priced apart) run again with --on-demand,
+    an engine's at a time on `workers` workers in the caches of `env`, to price them afresh
+    (a job under half the per-job limit then runs in the default run again): each job's
+    time less numba's part (a fresh worker's first job of a formulation loads its compiled
+    code: 0.1-0.3 s), which would otherwise leave the one job of a variant unpriced. A run
+    that fails leaves its variants at their earlier price."""
+    import subprocess
+    import sys
+    from physval.core.store import read_results
+    from physval.readings import cost
+    found = []
+    for engine, rows in apart.groupby("engine", sort=False):
+        out = folder / engine
+        cases = [f"{c}[{v}]" for c, v in zip(rows.case, rows.variant)]
+        done = subprocess.run([sys.executable, "-m", "physval", "run", "--engines", engine, "--cases", *cases,
+                               "--on-demand", "--workers", str(workers), "--quiet", "--out", str(out)],
+                              env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        if done.returncode in (0, 1) and (out / "results.csv").is_file():
+            jobs = cost.per_job(read_results(out / "results.csv")).dropna(subset=["job_s"])
+            jobs = jobs.assign(job_s=jobs.job_s - jobs.compile_s.fillna(0.0), compile_s=0.0)
+            asked = set(zip(rows.case, rows.variant))
+            found.append(jobs[[(c, v) in asked for c, v in zip(jobs.case, jobs.variant)]])
+    return pd.concat(found, ignore_index=True) if found else measured_jobs([])
 
 
 def run_table(parts: dict[str, pd.DataFrame], wall: dict[str, float], workers: int) -> pd.DataFrame:
