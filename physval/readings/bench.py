@@ -740,10 +740,11 @@ def default_run(workers: int, out: Path, args: tuple[str, ...] = ()) -> pd.DataF
             if state == "warm":
                 from physval.core.store import read_results
                 measured = measured_jobs(read_results(folder / "results.csv"))
-                # the shipped table's variants priced apart on the engines measured: the run
-                # left them for --on-demand (over the per-job limit), so they run here, warm
+                # the shipped table's variants priced apart on the engines and families measured:
+                # the run left them for --on-demand (over the per-job limit), so they run here, warm
                 shipped = cost.load_table()
-                apart = shipped[(shipped.variant != "") & shipped.engine.isin(set(measured.engine))]
+                apart = shipped[(shipped.variant != "") & shipped.engine.isin(set(measured.engine))
+                                & shipped.case.isin(set(measured.case))]
                 again = measured_apart(apart, workers, Path(tmp) / "apart", env)
                 cost.write_table(cost.merged(pd.concat([measured, again], ignore_index=True), apart),
                                  Path(out) / "costs.csv")
