@@ -739,7 +739,7 @@ def default_run(workers: int, out: Path, args: tuple[str, ...] = ()) -> pd.DataF
             parts[state] = part[part.kind != "later"]  # its times, not the runs it left for --on-demand
             if state == "warm":
                 from physval.core.store import read_results
-                measured = measured_jobs(read_results(folder / "results.csv"))
+                measured = cost.uncompiled(cost.per_job(read_results(folder / "results.csv")).dropna(subset=["job_s"]))
                 # the shipped table's variants priced apart on the engines and families measured:
                 # the run left them for --on-demand (over the per-job limit), so they run here, warm
                 shipped = cost.load_table()
@@ -749,12 +749,6 @@ def default_run(workers: int, out: Path, args: tuple[str, ...] = ()) -> pd.DataF
                 cost.write_table(cost.merged(pd.concat([measured, again], ignore_index=True), apart),
                                  Path(out) / "costs.csv")
     return run_table(parts, wall, workers)
-
-
-def measured_jobs(rows) -> pd.DataFrame:
-    """A run's jobs that price the table (physval.readings.cost: per_job, none that compiled)."""
-    from physval.readings import cost
-    return cost.uncompiled(cost.per_job(rows).dropna(subset=["job_s"]))
 
 
 def measured_apart(apart: pd.DataFrame, workers: int, folder: Path, env: dict) -> pd.DataFrame:
@@ -780,7 +774,7 @@ def measured_apart(apart: pd.DataFrame, workers: int, folder: Path, env: dict) -
             jobs = jobs.assign(job_s=jobs.job_s - jobs.compile_s.fillna(0.0), compile_s=0.0)
             asked = set(zip(rows.case, rows.variant))
             found.append(jobs[[(c, v) in asked for c, v in zip(jobs.case, jobs.variant)]])
-    return pd.concat(found, ignore_index=True) if found else measured_jobs([])
+    return pd.concat(found, ignore_index=True) if found else cost.per_job([])
 
 
 def run_table(parts: dict[str, pd.DataFrame], wall: dict[str, float], workers: int) -> pd.DataFrame:
