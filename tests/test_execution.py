@@ -769,6 +769,46 @@ def test_a_change_in_one_user_family_runs_that_family_again_only(tmp_path, capsy
     assert counts == [2, 0, 1, 1]
 
 
+# --- resuming: an engine's key covers its own engine code, not every engine's ----------------
+
+def test_an_edit_of_one_engines_code_runs_that_engines_jobs_again_only(tmp_path, capsys, monkeypatch):
+    """An engine's cache key covers the harness, the families and the engine code its adapter
+    runs (store.engine_code): an edit of MuJoCo's adapter runs MuJoCo's jobs again and keeps
+    the reference's; one of a reference formulation that only a name imports (pgs.py: the
+    world imports it by name) the reference's; one of the scene vocabulary every job (before:
+    any edit of the project ran every job again). The edits are made where the fingerprint
+    reads each file."""
+    from physval.core import store
+    edited: set[Path] = set()
+    read = Path.read_bytes
+    monkeypatch.setattr(Path, "read_bytes", lambda f: read(f) + (b"\n# edited\n" * (f.resolve() in edited)))
+    argv = ["run", "--cases", "central_impact[drop,e=0.5]", "--engines", "reference-pgs,mujoco", "--readings", "none",
+            "--workers", "1", "--out", str(tmp_path / "out")]
+    counts = []
+    for edit in (None, None, "adapters/mujoco_engine.py", "reference_impl/pgs.py", "cases/scene.py"):
+        if edit:
+            edited.add(store.ROOT / edit)
+        assert main(argv) == 0
+        counts.append(_to_run(capsys.readouterr().err))
+    assert counts == [2, 0, 1, 1, 2]
+
+
+def test_no_module_but_the_named_ones_imports_engine_code():
+    """store.engine_code covers what an engine runs only if no other module of the project
+    (the harness, the families, the adapters' shared helpers) imports engine code: an edit
+    of it would then change other engines' rows under keys that did not change. The modules
+    that do (store.IMPORTS_ENGINE_CODE) make no job's rows."""
+    from physval.core import store
+    importing = {}
+    for f in store.project_files():
+        if store._is_engine_code(f):
+            continue
+        found = [m for m in store._imports(f, f.stat().st_mtime_ns) if store._is_engine_code(m)]
+        if found:
+            importing[str(f.relative_to(store.ROOT))] = found
+    assert sorted(importing) == sorted(store.IMPORTS_ENGINE_CODE), importing
+
+
 def test_a_read_only_remount_mid_run_is_one_line_keeps_the_rows_and_resumes(tmp_path, monkeypatch, capsys):
     """The file system turns read-only before the third job's write (as a remount does): exit
     74 with one line naming it, the two finished jobs kept, and the same command runs the

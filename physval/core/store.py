@@ -4,8 +4,10 @@ again recomputes none of them.
 
 Each row carries its job's key, the number of rows the job wrote (so a job cut short by a
 kill is recognised and run again) and a cache key: the fingerprint of the code that
-produced it (every source file of physval, cases, adapters, reference_impl; a plug-in's or
---adapter's own source and the user modules it imports) with the engine's version, and for
+produced it (every source file of physval, cases and adapters but other engines' code: the
+engine's own adapter module, with the engine code it imports, reference_impl for the
+reference's formulations (ENGINE_CODE); a plug-in's or --adapter's own source and the user
+modules it imports) with the engine's version, and for
 a family from a user's --cases-dir the fingerprint of its own file and of the user modules
 that file imports; then, after KNOWN_PART, the fingerprint of the engine's known-deviation
 files (its own and the --known files). A row whose code part differs from the current one
@@ -20,6 +22,7 @@ from __future__ import annotations
 import ast
 import contextlib
 import csv
+import fnmatch
 import functools
 import hashlib
 import io
@@ -136,14 +139,62 @@ class StoreError(ValueError):
 ROOT = Path(__file__).resolve().parents[2]
 
 
+# Engine code: an engine's adapter module, and the reference's formulations (one unit: its
+# world imports a formulation by name, which no import statement shows). An engine's cache key
+# covers the project's other source files and only the engine code its adapter imports
+# (engine_code): an edit of one engine's adapter runs that engine's jobs again (and those of
+# the engines whose adapters import it: MuJoCo's is MuJoCo Warp's, MJX's, Genesis' and
+# Newton's), an edit of reference_impl the reference's formulations', not every job. No other
+# module imports engine code, but for these, whose use of it makes no job's rows
+# (tests/test_execution.py holds the project to that):
+ENGINE_CODE = ("adapters/*_engine.py", "reference_impl/*.py")
+ENGINE_PACKAGES = ("reference_impl",)
+IMPORTS_ENGINE_CODE = {
+    "physval/core/preload.py": "loads the reference's compiled step into a worker before its jobs (speed)",
+    "physval/readings/bench.py": "times the reference's solvers and narrow phase (`physval bench`)",
+    "physval/readings/oracle.py": "solves the reference's contact problems with Pinocchio's (`physval bench oracle`)",
+}
+
+
+def _is_engine_code(f: Path) -> bool:
+    f = f.resolve()
+    return f.is_relative_to(ROOT) and any(fnmatch.fnmatchcase(str(f.relative_to(ROOT)), g) for g in ENGINE_CODE)
+
+
+def project_files() -> list[Path]:
+    """Every source file of the project's packages."""
+    return [f for pkg in PACKAGES for f in sorted((ROOT / pkg).rglob("*.py"))]
+
+
 def fingerprint(extra_files=()) -> str:
-    """SHA-256 (16 hex digits) of the project's source files and `extra_files` (the
-    known-deviation files are not source: they change verdicts, not measurements, and
-    have their own part of the cache key, KNOWN_PART)."""
-    files = []
-    for pkg in PACKAGES:
-        files += sorted((ROOT / pkg).rglob("*.py"))
-    return digest(files + [Path(f) for f in extra_files])
+    """SHA-256 (16 hex digits) of the project's source files but engine code (ENGINE_CODE),
+    and `extra_files` (the known-deviation files are not source: they change verdicts, not
+    measurements, and have their own part of the cache key, KNOWN_PART)."""
+    return digest([f for f in project_files() if not _is_engine_code(f)] + [Path(f) for f in extra_files])
+
+
+def engine_code(adapter) -> list[Path]:
+    """The engine code (ENGINE_CODE) that `adapter` runs: the modules of its class and of the
+    classes it derives from, of the adapters it wraps (`inner`: a planted fault's), and,
+    transitively, the engine code and the user modules they import (a plug-in's subclass of
+    a built-in adapter takes that adapter's module)."""
+    starts, a = [], adapter
+    while a is not None:
+        starts += [getattr(sys.modules.get(c.__module__), "__file__", None) for c in type(a).__mro__]
+        a = getattr(a, "inner", None)
+    seen, todo, out = set(), [Path(f).resolve() for f in starts if f], []
+    while todo:
+        f = todo.pop()
+        if f in seen or not f.is_file():
+            continue
+        seen.add(f)
+        if _is_engine_code(f):
+            out.append(f)
+            package = f.parent.relative_to(ROOT)
+            todo += sorted(f.parent.glob("*.py")) if str(package) in ENGINE_PACKAGES else []
+        if _is_engine_code(f) or _user_module(f):
+            todo += [m.resolve() for m in _imports(f, f.stat().st_mtime_ns) if m.suffix == ".py"]
+    return sorted(out)
 
 
 KNOWN_PART = "|known="  # a cache key: the code's part, then this, then the known deviations' part
@@ -368,7 +419,7 @@ def engine_key_of(ctx) -> Callable[[str], str]:
         except Exception:
             return f"{fp}:not installed{known}"
         own = [f for f in user_sources(adapter_sources(adapter)) if f.is_file() and not _in_project(f)]
-        return f"{fp}{'+' + digest(own) if own else ''}:{resolver.version(e)}{known}"
+        return f"{fp}.{digest(engine_code(adapter))}{'+' + digest(own) if own else ''}:{resolver.version(e)}{known}"
     return find
 
 
@@ -434,6 +485,8 @@ def _module_file(name: str) -> Path | None:
         found = getattr(module, "__file__", None)
         return Path(found) if found else None
     top, *rest = name.split(".")
+    if top in PACKAGES:  # this project's, wherever the path finds it (an editable install's finder)
+        return _submodule(ROOT / top / "__init__.py", rest)
     for folder in sys.path:
         base = Path(folder or ".") / top
         for candidate in (base / "__init__.py", base.with_suffix(".py")):
