@@ -793,6 +793,31 @@ def test_an_edit_of_one_engines_code_runs_that_engines_jobs_again_only(tmp_path,
     assert counts == [2, 0, 1, 1, 2]
 
 
+def test_an_engines_code_is_what_its_adapter_runs(tmp_path, restored_imports):
+    """store.engine_code: a built-in adapter's module and the engine modules it imports,
+    reference_impl whole for the reference, a planted fault's inner adapter's, and a user's
+    adapter's imports of a built-in one's module (a helper, not a base class)."""
+    from adapters.planting import Planted
+    from physval.core import store
+    from physval.core.context import Context
+    from physval.faults import Gravity
+    resolver = Context().resolver()
+
+    def code(adapter):
+        return {str(f.relative_to(store.ROOT)) for f in store.engine_code(adapter)}
+    assert code(resolver.adapter("mujoco")) == {"adapters/mujoco_engine.py"}
+    reference = code(resolver.adapter("reference-pgs"))
+    assert "adapters/reference_engine.py" in reference and "reference_impl/pgs.py" in reference
+    assert {f"reference_impl/{f.name}" for f in (store.ROOT / "reference_impl").glob("*.py")} <= reference
+    assert code(Planted(resolver.adapter("pymunk"), Gravity())) == {"adapters/pymunk_engine.py"}
+    (tmp_path / "i33_helped_engine.py").write_text(
+        "from adapters.mujoco_engine import CONTACT_STEPS\nfrom tests.fakes import FakeAdapter\n\n"
+        "class Helped(FakeAdapter):\n    steps = CONTACT_STEPS\n")
+    sys.path.insert(0, str(tmp_path))
+    import i33_helped_engine
+    assert code(i33_helped_engine.Helped()) == {"adapters/mujoco_engine.py"}
+
+
 def test_no_module_but_the_named_ones_imports_engine_code():
     """store.engine_code covers what an engine runs only if no other module of the project
     (the harness, the families, the adapters' shared helpers) imports engine code: an edit

@@ -176,13 +176,16 @@ def fingerprint(extra_files=()) -> str:
 def engine_code(adapter) -> list[Path]:
     """The engine code (ENGINE_CODE) that `adapter` runs: the modules of its class and of the
     classes it derives from, of the adapters it wraps (`inner`: a planted fault's), and,
-    transitively, the engine code and the user modules they import (a plug-in's subclass of
-    a built-in adapter takes that adapter's module)."""
+    transitively, the engine code, the user modules and an outside adapter's own package
+    import (a plug-in's subclass of a built-in adapter takes that adapter's module, as does
+    one that imports a helper of it)."""
     starts, a = [], adapter
     while a is not None:
-        starts += [getattr(sys.modules.get(c.__module__), "__file__", None) for c in type(a).__mro__]
+        starts += [Path(f) for c in type(a).__mro__ if (f := getattr(sys.modules.get(c.__module__), "__file__", None))]
+        starts += [f for f in adapter_sources(a) if f.is_file() and not _in_project(f)]
         a = getattr(a, "inner", None)
-    seen, todo, out = set(), [Path(f).resolve() for f in starts if f], []
+    first = {f.resolve() for f in starts}
+    seen, todo, out = set(), sorted(first), []
     while todo:
         f = todo.pop()
         if f in seen or not f.is_file():
@@ -192,7 +195,7 @@ def engine_code(adapter) -> list[Path]:
             out.append(f)
             package = f.parent.relative_to(ROOT)
             todo += sorted(f.parent.glob("*.py")) if str(package) in ENGINE_PACKAGES else []
-        if _is_engine_code(f) or _user_module(f):
+        if _is_engine_code(f) or f in first and not _in_project(f) or _user_module(f):
             todo += [m.resolve() for m in _imports(f, f.stat().st_mtime_ns) if m.suffix == ".py"]
     return sorted(out)
 
