@@ -136,6 +136,38 @@ def test_a_job_measured_over_the_per_job_limit_waits_for_on_demand_and_its_famil
     assert not plan({"pinch_grasp": variants}, ["reference-lemke"], resolver, False, price=price)[1]
 
 
+def test_a_finished_job_is_not_held_back_by_its_measured_cost(tmp_path, monkeypatch, capsys):
+    """A job whose rows the run's store holds costs the run nothing, so the per-job limit
+    spares it: measured over the limit in one run (the engine's import in a fresh worker, a
+    loaded machine), it stays in the next and its rows are reused, not dropped from the store
+    and the report (Genesis' 2D impacts, measured at 15-25 s a job beside a test suite, left
+    the next run's report and were stepped again by the one after)."""
+    from physval.core import Context
+    from physval.core.plan import plan
+    resolver = Context().resolver()
+    variants = list(resolver.family("pinch_grasp").variants)
+    slow = variants[-1]
+    price = cost.pricer(resolver, cost.Model.of(_grasp_table(slow.id, 60.0), "a test"))
+    key = next(j.key for j in plan({"pinch_grasp": variants}, ["reference-lemke"], resolver, False, on_demand=True)[0]
+               if j.variant.id == slow.id)
+    jobs, later = plan({"pinch_grasp": variants}, ["reference-lemke"], resolver, False, price=price,
+                       finished=frozenset({key}))
+    assert not later and {j.variant.id for j in jobs} == {v.id for v in variants}
+    # through the command: a job in --out, priced at 60 s by the model, is reused, not left out
+    out = tmp_path / "out"
+    argv = ["run", "--cases", "central_impact[drop,e=0.5]", "--engines", "reference", "--readings", "none",
+            "--workers", "1", "--out", str(out)]
+    assert main(argv) == 0
+    capsys.readouterr()
+    table = pd.DataFrame([{"engine": "reference", "case": "central_impact", "variant": "drop,e=0.5", "jobs": 1,
+                           "steps": 100, "stepping_s": 59.9, "job_s": 60.0}])
+    monkeypatch.setattr(cost, "model_for", lambda out: cost.Model.of(table, "a test"))
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "0 to run" in err and "on-demand" not in err, err
+    assert len(list(csv.DictReader(open(out / "results.csv")))) > 0
+
+
 def test_the_per_job_limit_has_hysteresis_so_a_job_measured_near_it_stays_in_or_out():
     """A job measured between L/2 and L (Lemke's grasp at mu 1.02: 7.6 s a job in a quiet run,
     17.1 s in a loaded one) moves in or out of the default run only across that band: a new

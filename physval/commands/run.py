@@ -163,17 +163,19 @@ def _run(args, after: dict) -> int:
     from physval.readings import cost
     model = cost.model_for(out)  # before the store drops the rows of changed code: their times still count
     price = cost.pricer(resolver, model)  # a job measured over the per-job limit waits for --on-demand
+    keys = cache_keys(ctx, engines)
+    store = RowStore(out / "results.csv", COLUMNS, knobs_file=out / KNOBS_FILE)
+    reused = store.load(keys.of_row, rewrite=not args.plan)
+    finished = frozenset(store.rows) | frozenset(store.verdicts_stale)  # spared by the per-job limit
     jobs, later = plan(chosen, engines, resolver, args.engines is not None, args.dt, args.iterations, args.on_demand,
-                       price)
+                       price, finished)
     battery = relation_jobs(relations, engines, resolver, args.engines is not None,
-                            chosen if args.cases is not None else None, args.dt, args.iterations, args.on_demand, price)
+                            chosen if args.cases is not None else None, args.dt, args.iterations, args.on_demand, price,
+                            finished)
     jobs += battery
     if traj_dir is not None:
         from physval.core.trajectories import with_saving
         jobs = [with_saving(j, traj_dir) for j in jobs]
-    keys = cache_keys(ctx, engines)
-    store = RowStore(out / "results.csv", COLUMNS, knobs_file=out / KNOBS_FILE)
-    reused = store.load(keys.of_row, rewrite=not args.plan)
     from physval.core.session import judge_again
     rejudged = store.rejudge(jobs, judge_again(ctx), keys.of_job, write=not args.plan)  # known deviations edited
     reused += rejudged

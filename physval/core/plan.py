@@ -1,7 +1,9 @@
 """Which jobs a run holds: each selected variant on each selected engine, less what the one
 rule of this module (`leaves_out`) leaves out: families outside an engine's default tags,
 runs the engine declares on demand outside them, and runs whose measured cost passes the
-per-job limit (with hysteresis: `over_the_limit`).
+per-job limit (with hysteresis: `over_the_limit`), unless the run's store holds them finished:
+a finished job costs nothing (`finished`: a measurement's load or an engine's import that put a
+job over the limit in one run would otherwise drop its rows from the next, and its report).
 """
 from __future__ import annotations
 
@@ -74,19 +76,22 @@ def leaves_out(adapter, tags: frozenset[str], scene, *, named: bool = False, on_
     return None
 
 
-def priced(price: Price | None, job: Job) -> dict:
-    """leaves_out's `cost` and `apart` of `job` by `price` (none: not measured)."""
-    if price is None:
+def priced(price: Price | None, job: Job, finished: frozenset = frozenset()) -> dict:
+    """leaves_out's `cost` and `apart` of `job` by `price` (none: not measured, or `finished`
+    holds its key: its rows are in the run's store, and taking it costs nothing)."""
+    if price is None or job.key in finished:
         return {}
     cost, apart = price(job)
     return {"cost": cost, "apart": apart}
 
 
 def plan(chosen: dict, engines: list[str], resolver, engines_named: bool, dt=None, iterations=None,
-         on_demand: bool = False, price: Price | None = None) -> tuple[list[Job], list[tuple[Job, str]]]:
+         on_demand: bool = False, price: Price | None = None,
+         finished: frozenset = frozenset()) -> tuple[list[Job], list[tuple[Job, str]]]:
     """(jobs to run, (job, why) of those left out until --on-demand), by `leaves_out`;
     `price`: a job's measured cost and whether it is priced apart
-    (physval.readings.cost.pricer), for the per-job limit."""
+    (physval.readings.cost.pricer), for the per-job limit, which spares the jobs whose keys
+    `finished` holds (the run's store has their rows)."""
     jobs, later = [], []
     for name, variants in chosen.items():
         fam = resolver.family(name)
@@ -104,7 +109,7 @@ def plan(chosen: dict, engines: list[str], resolver, engines_named: bool, dt=Non
                 if leaves_out(adapter, fam.tags, scene, named=engines_named, on_demand=True):
                     continue  # not in this run, even on demand
                 why = None if on_demand else leaves_out(adapter, fam.tags, scene, named=engines_named,
-                                                        **priced(price, job))
+                                                        **priced(price, job, finished))
                 if why:
                     later.append((job, why))
                     continue
@@ -113,7 +118,8 @@ def plan(chosen: dict, engines: list[str], resolver, engines_named: bool, dt=Non
 
 
 def relation_jobs(names: list[str], engines: list[str], resolver, engines_named: bool, chosen: dict | None = None,
-                  dt=None, iterations=None, on_demand: bool = False, price: Price | None = None) -> list[Job]:
+                  dt=None, iterations=None, on_demand: bool = False, price: Price | None = None,
+                  finished: frozenset = frozenset()) -> list[Job]:
     """Jobs of the invariance relations `names` (cases.relations): on every variant of
     `chosen` (family name -> variants) where given, else on each relation's default scenes
     (Relation.scenes: from each group, the first an engine can represent). A relation without
@@ -155,6 +161,6 @@ def relation_jobs(names: list[str], engines: list[str], resolver, engines_named:
                     job = Job(fam, v, eng, dt, iterations, relation=relation.name)
                     if relation.applies(scene_of(fam, v)) is None and (adapter is None or not leaves_out(
                             adapter, resolver.family(fam).tags, scene_of(fam, v), named=engines_named,
-                            on_demand=on_demand, **priced(price, job))):
+                            on_demand=on_demand, **priced(price, job, finished))):
                         jobs.append(job)
     return jobs
