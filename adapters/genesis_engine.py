@@ -79,6 +79,7 @@ from adapters.joints import joint_tree, start_rate
 from adapters.lazy import require
 from adapters.mujoco_engine import (CONTACT_STEPS, SOLIMP, _element, _geom, _import_mujoco, _joints, _loop_xml,
                                     _mesh_geoms, _tree_body_xml, contact_spring_damper)
+from cases import rotations
 from cases.scene import Body, Mesh, Plane, Scene, pair_key
 
 # genesis (~14 s of CPU to import: torch and its kernels' Python) is imported when a scene is
@@ -139,8 +140,10 @@ class GenesisAdapter(Adapter):
     # 1.x changes contact semantics every minor release (issue 40), so the next minor is not promised
     supported = ">=1.3.3,<1.5"
     capabilities = Capabilities(
-        dimensions=frozenset({3}),
-        shapes=frozenset({"sphere", "box", "plane", "capsule", "cylinder", "hull", "mesh"}),
+        # 2D: the MuJoCo adapter's planar joints (slides along x and z, a hinge about y)
+        dimensions=frozenset({2, 3}),
+        shapes=frozenset({"sphere", "box", "plane", "capsule", "cylinder", "hull", "mesh", "circle", "rect",
+                          "polygon"}),
         native_restitution=False,  # e mapped onto the contact spring-damper (sol_params), as MuJoCo
         static_kinetic=False,
         contact_forces=True,
@@ -269,7 +272,9 @@ class GenesisSimulation(Simulation):
             "geom": {}, "joint": {}, "inertial": {}, "left_out": {},
         }
         self._entities = {}
-        self._q0 = {}  # a body held from rotating: its orientation (its link's frame stays world-aligned)
+        # a body on slides (held from rotating, or in 2D): its orientation, which its geom and inertia
+        # carry (its link's frame starts world-aligned and turns only about a 2D body's hinge)
+        self._q0 = {}
         planes = []
         mus = {b.name: max(mu.get(b.name, FRICTION_FLOOR), FRICTION_FLOOR) for b in scene.bodies}
         groups = _tree_groups(scene) if scene.joints else []
@@ -303,7 +308,7 @@ class GenesisSimulation(Simulation):
                     path = os.path.join(folder, f"{len(self._entities)}.xml")
                     with open(path, "w") as f:
                         meshes: dict[str, dict] = {}
-                        f.write(_mjcf(self._body(body, body_mu, sol, meshes), meshes=meshes))
+                        f.write(_mjcf(self._body(body, body_mu, sol, meshes, scene.dimension), meshes=meshes))
                     morph = g.morphs.MJCF(file=path, **MJCF_OPTIONS)
                 self._entities[body.name] = self._scene.add_entity(
                     morph, material=g.materials.Rigid(friction=body_mu, needs_coup=False))
@@ -315,7 +320,7 @@ class GenesisSimulation(Simulation):
                 geom.set_friction(self.knobs["geom"][name]["friction"])
         self._solver = self._scene.sim.rigid_solver
         self._links = [self._entities[n].get_link(n).idx for n in self._order]
-        self._held = [i for i, n in enumerate(self._order) if n in self._q0]
+        self._slid = [(i, self._q0[n], scene.body(n).rotates) for i, n in enumerate(self._order) if n in self._q0]
         self._mass = np.array([b.mass for b in scene.dynamic_bodies])
         # loads: Genesis applies an external wrench over one step, so each step applies them again
         self._loads = [(self._entities[ld.body].get_link(ld.body).idx, np.asarray(ld.force, float),
@@ -333,7 +338,7 @@ class GenesisSimulation(Simulation):
                     self._link_body[link.idx] = body.name
         self.effects = self._built_effects(scene, gravity, contact, e)
 
-    def _body(self, body: Body, mu: float, sol: list[float], meshes: dict) -> str:
+    def _body(self, body: Body, mu: float, sol: list[float], meshes: dict, dimension: int) -> str:
         """A scene body as MJCF: its geom (the MuJoCo adapter's `_geom`; a hull a mesh geom of
         its corners, whose convex hull MuJoCo's compiler gives Genesis) with friction and
         sol_params, in a frame with its inertia and joints, or in the world if static (a
@@ -349,13 +354,13 @@ class GenesisSimulation(Simulation):
         if body.static:  # a body without joints: welded to the world, a link of its own
             self.knobs["geom"][body.name] = geom
             return _element("body", {"name": body.name, "pos": list(body.position)}, _element("geom", geom))
-        joints = _joints(body, 3)
+        joints = _joints(body, dimension)
         if joints == "free":
             frame = {"name": body.name, "pos": list(body.position), "quat": list(body.orientation)}
             joint_xml = _element("freejoint", {"name": f"{body.name}:free"})
             inertial = {"pos": [0, 0, 0], "quat": [1, 0, 0, 0]}
             self.knobs["joint"][body.name] = "free"
-        else:  # a world-aligned frame that slides; the geom and the inertia carry the orientation
+        else:  # a world-aligned frame that slides (in 2D, turns about y); the geom and the inertia carry the orientation
             frame = {"name": body.name, "pos": list(body.position)}
             self._q0[body.name] = np.asarray(body.orientation, float)
             geom["quat"] = list(body.orientation)
@@ -414,8 +419,9 @@ class GenesisSimulation(Simulation):
 
     def _start(self, scene: Scene) -> None:
         """The scene's start velocities: a free joint's dofs are (v, w), w in the world frame;
-        slide joints' dofs v along x, y, z; a tree's dofs in its MJCF order (each body in the
-        order written, depth first: a free root's (v, w), a joint's start rate)."""
+        slide and hinge joints' dofs v and w along their world axes (x, y, z; in 2D x, z, then
+        the turn about y); a tree's dofs in its MJCF order (each body in the order written,
+        depth first: a free root's (v, w), a joint's start rate)."""
         tree, _ = joint_tree(scene)
         written = {}  # entity -> its dofs' start velocities in order
         for body in self._written(scene, tree):
@@ -423,8 +429,11 @@ class GenesisSimulation(Simulation):
             tj = tree.get(body.name)
             if tj is not None:
                 v = list(start_rate(scene, tj))
+            elif self.knobs["joint"][body.name] == "free":
+                v = list(body.velocity) + list(body.angular_velocity)
             else:
-                v = list(body.velocity) + (list(body.angular_velocity) if body.rotates else [])
+                v = [float(np.dot(body.velocity if j["type"] == "slide" else body.angular_velocity, j["axis"]))
+                     for j in self.knobs["joint"][body.name]]
             written.setdefault(entity, []).extend(v)
         for entity, v in written.items():
             if any(v):
@@ -455,8 +464,9 @@ class GenesisSimulation(Simulation):
             if e > 0 and "restitution" in scene.effects:
                 fx.add("restitution")
         joints = [j for j in self.knobs["joint"].values() if isinstance(j, dict)]  # the trees' (a slide's: a list)
+        slid = [j for spec in self.knobs["joint"].values() if isinstance(spec, list) for j in spec]
         if any(j == "free" for j in self.knobs["joint"].values()) or any(j.get("type") in ("hinge", "ball")
-                                                                         for j in joints):
+                                                                         for j in joints + slid):
             fx.add("rotation")
         if joints:
             fx.add("joint")
@@ -491,8 +501,8 @@ class GenesisSimulation(Simulation):
         quat = s.get_links_quat(self._links).numpy()
         vel = s.get_links_vel(self._links).numpy()
         ang = s.get_links_ang(self._links).numpy()
-        for i in self._held:  # the link turns not at all: the body keeps the orientation its geom carries
-            quat[i] = self._q0[self._order[i]]
+        for i, q0, turns in self._slid:  # the link's turn (a 2D body's, about y) after the one its geom carries
+            quat[i] = rotations.multiply(quat[i], q0) if turns else q0
         return np.concatenate([pos, quat, vel, ang], axis=1)  # (bodies, 13): the trajectory layout
 
     def states(self) -> dict[str, np.ndarray]:

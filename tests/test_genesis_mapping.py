@@ -186,3 +186,32 @@ def test_a_cube_given_as_a_hull_rests_on_a_mesh_ground_with_its_weight():
         assert abs(force - m * g) < 1e-3 * m * g, force
     finally:
         sim.close()
+
+
+@pytest.mark.slow  # Genesis' import (~14 s of CPU) and a scene's kernels (~9 s with a full cache)
+@pytest.mark.skipif(not INSTALLED, reason="Genesis is not installed (extra 'genesis')")
+def test_a_planar_body_moves_and_turns_in_its_plane_from_its_start_state():
+    """2D: the MuJoCo adapter's planar joints (slides along x and z, a hinge about y) in
+    Genesis' MJCF. A rectangle tilted 30 deg about y, launched at (1, 0, 0.5) m/s turning at
+    2 rad/s, no gravity and nothing to touch, is after 0.1 s where constant velocities put it,
+    turned by 0.2 rad more (the link's turn after the orientation its geom carries), with its
+    start velocities: to round-off (the joints integrate a constant rate exactly)."""
+    import numpy as np
+    from adapters.base import Settings
+    from cases import rotations
+    from cases.scene import Body, Rect, Scene, quat_about_y
+    q0 = np.asarray(quat_about_y(np.radians(30.0)))
+    scene = Scene(bodies=(Body("r", Rect((0.2, 0.1)), mass=1.0, position=(0, 0, 1), orientation=tuple(q0),
+                               velocity=(1.0, 0.0, 0.5), angular_velocity=(0.0, 2.0, 0.0)),), gravity=(0, 0, 0), dimension=2)
+    sim = registry.get("genesis").build(scene, Settings(dt=1e-3))
+    try:
+        for _ in range(100):
+            sim.step()
+        s = sim.states()["r"]
+        np.testing.assert_allclose(s[0:3], (0.1, 0.0, 1.05), atol=1e-9)
+        turned = rotations.multiply(quat_about_y(0.2), q0)
+        assert min(np.abs(s[3:7] - turned).max(), np.abs(s[3:7] + turned).max()) < 1e-9, (s[3:7], turned)
+        np.testing.assert_allclose(s[7:13], (1.0, 0.0, 0.5, 0.0, 2.0, 0.0), atol=1e-9)
+        assert "rotation" in sim.effects
+    finally:
+        sim.close()
