@@ -818,6 +818,23 @@ def test_an_engines_code_is_what_its_adapter_runs(tmp_path, restored_imports):
     assert code(i33_helped_engine.Helped()) == {"adapters/mujoco_engine.py"}
 
 
+def test_rows_measured_on_another_machine_run_again(tmp_path, capsys, monkeypatch):
+    """A cache key holds the machine's id (store.machine_id): a result folder from another
+    machine (the project's committed reports/, a copied folder) is run again, not reused as
+    this machine's measurements (its times, results that can hang on the floating-point
+    hardware); on the machine that measured it, it is reused. The id is made once and kept."""
+    from physval.core import store
+    assert store.machine_id() == store.machine_id() == (store.cache_dir() / "machine").read_text().strip()
+    argv = ["run", *R[:-1], "--out", str(tmp_path / "out")]  # not --quiet: _to_run reads the progress
+    counts = []
+    for machine in (None, None, "0123456789abcdef"):
+        if machine:
+            monkeypatch.setattr(store, "machine_id", lambda: machine)
+        assert main(argv) == 0
+        counts.append(_to_run(capsys.readouterr().err))
+    assert counts == [1, 0, 1]
+
+
 def test_no_module_but_the_named_ones_imports_engine_code():
     """store.engine_code covers what an engine runs only if no other module of the project
     (the harness, the families, the adapters' shared helpers) imports engine code: an edit

@@ -7,7 +7,8 @@ kill is recognised and run again) and a cache key: the fingerprint of the code t
 produced it (every source file of physval, cases and adapters but other engines' code: the
 engine's own adapter module, with the engine code it imports, reference_impl for the
 reference's formulations (ENGINE_CODE); a plug-in's or --adapter's own source and the user
-modules it imports) with the engine's version, and for
+modules it imports) with the engine's version and the machine's id (machine_id: rows are
+reused only on the machine that measured them), and for
 a family from a user's --cases-dir the fingerprint of its own file and of the user modules
 that file imports; then, after KNOWN_PART, the fingerprint of the engine's known-deviation
 files (its own and the --known files). A row whose code part differs from the current one
@@ -422,7 +423,8 @@ def engine_key_of(ctx) -> Callable[[str], str]:
         except Exception:
             return f"{fp}:not installed{known}"
         own = [f for f in user_sources(adapter_sources(adapter)) if f.is_file() and not _in_project(f)]
-        return f"{fp}.{digest(engine_code(adapter))}{'+' + digest(own) if own else ''}:{resolver.version(e)}{known}"
+        return (f"{fp}.{digest(engine_code(adapter))}{'+' + digest(own) if own else ''}:{resolver.version(e)}"
+                f"@{machine_id()}{known}")
     return find
 
 
@@ -570,6 +572,37 @@ def engine_caches() -> None:
     """Point every engine cache of ENGINE_CACHES into cache_dir(), unless already set."""
     for variable, folder in ENGINE_CACHES.items():
         os.environ.setdefault(variable, str(cache_dir() / folder))
+
+
+@functools.cache
+def machine_id() -> str:
+    """This machine's id, a random one kept in physval's cache folder (cache_dir): part of
+    every cache key, so that a job's rows are reused only where they were measured. Rows
+    hold measurements of the machine (its times, and results that can hang on its
+    floating-point hardware and thread counts), so the rows of a result folder that came
+    from elsewhere (the project's committed reports/, a copied folder) are run again, not
+    taken for this machine's. Made once, atomically (the first process to link its file
+    wins); where the cache folder cannot be written, the host's name."""
+    import uuid
+    path = cache_dir() / "machine"
+    try:
+        return path.read_text().strip()
+    except OSError:
+        pass
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".machine.{os.getpid()}")
+        tmp.write_text(uuid.uuid4().hex[:16] + "\n")
+        try:
+            os.link(tmp, path)
+        except FileExistsError:
+            pass
+        finally:
+            tmp.unlink()
+        return path.read_text().strip()
+    except OSError:
+        import platform
+        return platform.node() or "unknown"
 
 
 def cache_dir() -> Path:
