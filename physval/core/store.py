@@ -421,7 +421,7 @@ def engine_key_of(ctx) -> Callable[[str], str]:
         try:
             adapter = resolver.adapter(e)
         except Exception:
-            return f"{fp}:not installed{known}"
+            return f"{fp}:not installed@{machine_id()}{known}"
         own = [f for f in user_sources(adapter_sources(adapter)) if f.is_file() and not _in_project(f)]
         return (f"{fp}.{digest(engine_code(adapter))}{'+' + digest(own) if own else ''}:{resolver.version(e)}"
                 f"@{machine_id()}{known}")
