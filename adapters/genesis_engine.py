@@ -406,6 +406,8 @@ class GenesisSimulation(Simulation):
             self.knobs["geom"][name].update(dressed)
         for joint in xml.iter("joint"):
             body = joint.get("name").rsplit(":", 1)[0]
+            if body not in tree:  # a 2D root's planar joints: no scene joint, no limit
+                continue
             spec, j = self.knobs["joint"][body], tree[body].joint
             if j.limits is not None or j.friction > 0:
                 row = solver_params(j.limit_e if j.limits is not None else 0.0, CONTACT_STEPS, self._dt)
@@ -431,9 +433,9 @@ class GenesisSimulation(Simulation):
                 v = list(start_rate(scene, tj))
             elif self.knobs["joint"][body.name] == "free":
                 v = list(body.velocity) + list(body.angular_velocity)
-            else:
-                v = [float(np.dot(body.velocity if j["type"] == "slide" else body.angular_velocity, j["axis"]))
-                     for j in self.knobs["joint"][body.name]]
+            else:  # slides and a 2D hinge along world axes, in the order the file has them
+                v = [float(np.dot(body.velocity if kind == "slide" else body.angular_velocity, axis))
+                     for kind, axis in _joints(body, scene.dimension)]
             written.setdefault(entity, []).extend(v)
         for entity, v in written.items():
             if any(v):
