@@ -140,7 +140,7 @@ def test_a_finished_job_is_not_held_back_by_its_measured_cost(tmp_path, monkeypa
     """A job whose rows the run's store holds costs the run nothing, so the per-job limit
     spares it: measured over the limit in one run (the engine's import in a fresh worker, a
     loaded machine), it stays in the next and its rows are reused, not dropped from the store
-    and the report (Genesis' 2D impacts, measured at 15-25 s a job beside a test suite, left
+    and the report (Genesis' 2D impacts, measured at 14.5-64 s a job beside a test suite, left
     the next run's report and were stepped again by the one after)."""
     from physval.core import Context
     from physval.core.plan import plan
