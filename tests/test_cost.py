@@ -266,32 +266,39 @@ def test_one_rule_says_what_a_run_leaves_out_and_why():
     assert leaves_out(plain, other, slide, cost=PER_JOB_LIMIT_S + 1, on_demand=True) is None
 
 
-def test_a_job_that_compiled_the_reference_prices_nothing_and_the_earlier_price_stays(tmp_path):
+def test_a_job_that_compiled_the_reference_or_started_its_engine_prices_nothing_and_the_earlier_price_stays(
+        tmp_path):
     """The last run's jobs price the next run, except those that spent time compiling the
-    reference (compile_s > 0: a first run after installing or editing reference_impl): a
-    family's price is its uncompiled jobs', and a variant priced apart whose job compiled
-    keeps the table's earlier price (its compile would put it over the per-job limit)."""
+    reference (compile_s > 0: a first run after installing or editing reference_impl) and
+    those that were their engine's first in their worker (first_in_worker: the engine's
+    import and kernel compiles): a family's price is its other jobs', and a variant priced
+    apart whose job compiled keeps the table's earlier price (its compile would put it over
+    the per-job limit)."""
     table = pd.DataFrame([{"engine": "e", "case": "c", "variant": "", "jobs": 2, "steps": 200, "stepping_s": 1.0,
                            "job_s": 1.2},
                           {"engine": "e", "case": "c", "variant": "slow", "jobs": 1, "steps": 100,
                            "stepping_s": 9.9, "job_s": 10.0}])
     with open(tmp_path / "results.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, ["job", "engine", "case", "variant", "steps", "wall_s", "job_s", "compile_s"])
+        w = csv.DictWriter(fh, ["job", "engine", "case", "variant", "steps", "wall_s", "job_s", "compile_s",
+                                "first_in_worker"])
         w.writeheader()
         w.writerows([{"job": "a", "engine": "e", "case": "c", "variant": "v1", "steps": 100, "wall_s": 95.0,
-                      "job_s": 96.0, "compile_s": 95.2},   # compiled in its first step
+                      "job_s": 96.0, "compile_s": 95.2, "first_in_worker": 0},   # compiled in its first step
                      {"job": "b", "engine": "e", "case": "c", "variant": "v2", "steps": 100, "wall_s": 0.5,
-                      "job_s": 0.6, "compile_s": 0.0},
+                      "job_s": 0.6, "compile_s": 0.0, "first_in_worker": 0},
                      {"job": "c", "engine": "e", "case": "c", "variant": "slow", "steps": 100, "wall_s": 40.0,
-                      "job_s": 41.0, "compile_s": 31.0}])
+                      "job_s": 41.0, "compile_s": 31.0, "first_in_worker": 0},
+                     {"job": "d", "engine": "e", "case": "c", "variant": "v3", "steps": 100, "wall_s": 0.5,
+                      "job_s": 14.6, "compile_s": 0.0, "first_in_worker": 1}])  # the engine's import
     import unittest.mock as mock
     with mock.patch.object(cost, "load_table", return_value=table):
         model = cost.model_for(tmp_path)
     assert model.predict("e", "c", 100, "v1") == (pytest.approx(0.6), "family")
     assert model.predict("e", "c", 100, "slow") == (pytest.approx(10.0), "variant")
     jobs = cost.per_job(pd.read_csv(tmp_path / "results.csv"))
-    assert list(cost.uncompiled(jobs).job) == ["b"]
-    assert list(cost.uncompiled(jobs.drop(columns="compile_s")).job) == ["a", "b", "c"], "rows from before compile_s"
+    assert list(cost.priceable(jobs).job) == ["b"]
+    assert list(cost.priceable(jobs.drop(columns=["compile_s", "first_in_worker"])).job) == ["a", "b", "c", "d"], \
+        "rows from before compile_s and first_in_worker"
 
 
 def test_a_jobs_rows_carry_the_seconds_it_spent_compiling_the_reference(monkeypatch):
@@ -320,6 +327,22 @@ def test_a_jobs_rows_carry_the_seconds_it_spent_compiling_the_reference(monkeypa
     for engine, seconds in (("mujoco", 2.5), ("reference", 0.0)):
         rows = perform(Job(fam.name, variant, engine, fam.dt_for(variant.params)), resolver).rows
         assert rows and {r["compile_s"] for r in rows} == {seconds}, engine
+
+
+def test_the_first_job_of_an_engine_in_a_process_is_marked_as_such(monkeypatch):
+    """perform marks the rows of the first job of each engine it runs (first_in_worker 1:
+    its time holds the engine's start), and those of the engine's later jobs 0."""
+    from physval.core import Context
+    import physval.core.jobs as jobs_module
+    monkeypatch.setattr(jobs_module, "_engines_started", set())
+    resolver = Context().resolver()
+    fam = resolver.family("central_impact")
+    marks = []
+    for engine, variant in (("reference", fam.variants[0]), ("mujoco", fam.variants[0]),
+                            ("reference", fam.variants[1]), ("mujoco", fam.variants[1])):
+        rows = jobs_module.perform(jobs_module.Job(fam.name, variant, engine, fam.dt_for(variant.params)), resolver).rows
+        marks.append({r["first_in_worker"] for r in rows})
+    assert marks == [{1}, {1}, {0}, {0}]
 
 
 def test_a_variant_priced_apart_is_measured_again_by_the_cost_table_writer(tmp_path):

@@ -126,12 +126,20 @@ def compiling_s() -> float:
     return compiled.compiling_seconds() if compiled is not None else 0.0
 
 
+# the engines whose jobs this process has run (perform): a job of one not in it pays the engine's start
+_engines_started: set[str] = set()
+
+
 def perform(task, resolver: Resolver, waited_s: float = 0.0):
     """Run a Job or a Task (-> Outcome) or a Call (-> CallResult) in this process, with its Timing;
-    a Job's rows get its time, `job_s`, and of it numba's compiling of the reference's code,
-    `compile_s`. Never raises but on Ctrl-C: whatever else the
+    a Job's rows get its time, `job_s`, of it numba's compiling of the reference's code,
+    `compile_s`, and `first_in_worker` (1: the first job of its engine this process ran, whose
+    time holds the engine's start: its imports, a kernel cache's load or compile; 0 otherwise).
+    Never raises but on Ctrl-C: whatever else the
     code it runs raises, an exit (SystemExit) included, is the task's error (a Job's rows
     say it), so a worker lives on to take the next task."""
+    engine = getattr(task, "engine", None)
+    first = engine is not None and engine not in _engines_started
     wall0, cpu0, compile0 = time.perf_counter(), time.process_time(), compiling_s()
     try:
         if isinstance(task, Job):
@@ -149,7 +157,9 @@ def perform(task, resolver: Resolver, waited_s: float = 0.0):
     if isinstance(result, Outcome):
         compiled = compiling_s() - compile0
         for r in result.rows:
-            r["job_s"], r["compile_s"] = result.timing.wall_s, compiled
+            r["job_s"], r["compile_s"], r["first_in_worker"] = result.timing.wall_s, compiled, int(first)
+    if engine is not None:
+        _engines_started.add(engine)
     return result
 
 

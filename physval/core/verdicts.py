@@ -30,11 +30,13 @@ STATUSES = ("pass", "fail", "deviation", "unsupported", "unstable", "error")
 COLUMNS = ["case", "variant", "params", "engine", "engine_version", "dt", "iterations", "effects",
            "effects_simulated", "metric", "unit", "expected", "measured", "abs_error", "rel_error",
            "tolerance", "tolerance_kind", "tolerance_reason", "measures", "status", "reason", "known_deviation",
-           "band", "wall_s", "sim_s", "steps", "job_s", "compile_s", "knobs"]
+           "band", "wall_s", "sim_s", "steps", "job_s", "compile_s", "first_in_worker", "knobs"]
 # wall_s: stepping alone; job_s: the job's whole time in its worker (building the scene and the
 # engine, stepping, recording, observing, judging): what the run's cost model reads; compile_s:
 # of job_s, numba getting the reference's code ready (compiling it on a first run after an install
-# or an edit of reference_impl), which the cost model leaves out (physval.readings.cost.uncompiled)
+# or an edit of reference_impl); first_in_worker: 1 where the job was its engine's first in its
+# worker, so that job_s holds the engine's start (imports, kernel compiles). The cost model leaves
+# out the jobs of either kind (physval.readings.cost.priceable)
 
 
 def judge(c: Check, value: float, engine: str, variant: str, entry: deviations.Deviation | None,
@@ -125,7 +127,7 @@ def contract_problems(path) -> list[str]:
                 found.append(f"{where}: params {row['params']!r} is not a JSON object")
             numbers = {}
             for col in ("dt", "expected", "measured", "abs_error", "rel_error", "tolerance", "wall_s", "sim_s", "job_s",
-                        "compile_s"):
+                        "compile_s", "first_in_worker"):
                 try:
                     numbers[col] = float(row[col]) if row[col] != "" else math.nan
                 except ValueError:

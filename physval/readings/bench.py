@@ -739,7 +739,7 @@ def default_run(workers: int, out: Path, args: tuple[str, ...] = ()) -> pd.DataF
             parts[state] = part[part.kind != "later"]  # its times, not the runs it left for --on-demand
             if state == "warm":
                 from physval.core.store import read_results
-                measured = cost.uncompiled(cost.per_job(read_results(folder / "results.csv")).dropna(subset=["job_s"]))
+                measured = cost.priceable(cost.per_job(read_results(folder / "results.csv")).dropna(subset=["job_s"]))
                 # the shipped table's variants priced apart on the engines and families measured:
                 # the run left them for --on-demand (over the per-job limit), so they run here, warm
                 shipped = cost.load_table()

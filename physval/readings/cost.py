@@ -44,32 +44,40 @@ BUDGET_WORKERS = 2     # ... on 2 cores (decision 10)
 
 # --- measured per-job costs ------------------------------------------------------------------
 
-PER_JOB_COLUMNS = ("job", "engine", "case", "variant", "steps", "wall_s", "job_s", "compile_s")
+PER_JOB_COLUMNS = ("job", "engine", "case", "variant", "steps", "wall_s", "job_s", "compile_s", "first_in_worker")
 
 
 def per_job(rows) -> pd.DataFrame:
     """One row per job of a run's rows (results.csv or a store's): its key, engine, family,
-    variant, steps, stepping time (wall_s), whole time (job_s; NaN in rows written before
-    physval recorded it) and of it, numba's compiling (compile_s; NaN in rows written before
-    physval recorded it)."""
+    variant, steps, stepping time (wall_s), whole time (job_s), of it numba's compiling
+    (compile_s), and whether it was its engine's first job in its worker (first_in_worker);
+    each NaN in rows written before physval recorded it."""
     df = pd.DataFrame(list(rows)) if not isinstance(rows, pd.DataFrame) else rows
     if not len(df) or "job" not in df:
         return pd.DataFrame(columns=list(PER_JOB_COLUMNS))
     df = df.drop_duplicates("job")
     out = pd.DataFrame({"job": df["job"], "engine": df["engine"], "case": df["case"],
                         "variant": df["variant"].fillna("").astype(str) if "variant" in df else ""})
-    for col in ("steps", "wall_s", "job_s", "compile_s"):
+    for col in ("steps", "wall_s", "job_s", "compile_s", "first_in_worker"):
         out[col] = pd.to_numeric(df[col], errors="coerce") if col in df else math.nan
     return out.reset_index(drop=True)
 
 
-def uncompiled(jobs: pd.DataFrame) -> pd.DataFrame:
-    """The measured jobs (per_job) that spent none of their time getting the reference's
-    compiled code ready: a job that compiled it (the first run after installing physval or
-    editing reference_impl: minutes of numba for a formulation's first jobs) or waited for
-    another process compiling it measured numba, not what it costs the next run, so it
-    prices nothing (the table's earlier price for it stays)."""
-    return jobs[~(jobs.compile_s > 0)] if "compile_s" in jobs else jobs
+def priceable(jobs: pd.DataFrame) -> pd.DataFrame:
+    """The measured jobs (per_job) whose time is what they cost the next run. Left out, so
+    that they price nothing (the table's earlier price for them stays): a job that spent
+    time getting the reference's compiled code ready (compile_s > 0: the first run after
+    installing physval or editing reference_impl, minutes of numba for a formulation's first
+    jobs, or a wait for another process compiling it), and a job that was its engine's
+    first in its worker (first_in_worker: its time holds the engine's start, e.g. Genesis'
+    import, 14 s, or Warp's kernels compiled into an empty cache, 10-60 s): priced at that,
+    it could go over the per-job limit and leave the next run that finds its rows stale."""
+    keep = pd.Series(True, index=jobs.index)
+    if "compile_s" in jobs:
+        keep &= ~(jobs.compile_s > 0)
+    if "first_in_worker" in jobs:
+        keep &= ~(jobs.first_in_worker > 0)
+    return jobs[keep]
 
 
 def per_family(jobs: pd.DataFrame, apart: frozenset = frozenset()) -> pd.DataFrame:
@@ -176,7 +184,7 @@ def model_for(out: Path | None) -> Model:
             last = per_job(pd.read_csv(path, usecols=lambda c: c in PER_JOB_COLUMNS))
         except (OSError, ValueError, KeyError):
             last = per_job([])
-        last = uncompiled(last.dropna(subset=["job_s"]))
+        last = priceable(last.dropna(subset=["job_s"]))
         if len(last):
             both = merged(last, table)
             source = f"the last run in {out}" + (" and the shipped table"
