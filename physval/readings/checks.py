@@ -13,8 +13,8 @@ from physval.core.verdicts import STATUSES
 from physval.report import fmt, md_table
 
 STATUS_MARK = dict(zip(STATUSES, ("pass", "FAIL", "dev", "n/a", "UNSTABLE", "ERROR")))
-NUMERIC = ("expected", "measured", "abs_error", "rel_error", "tolerance", "wall_s", "sim_s", "job_s", "compile_s", "first_in_worker",
-           "dt")
+NUMERIC = ("expected", "measured", "abs_error", "rel_error", "tolerance", "wall_s", "sim_s", "job_s", "compile_s",
+           "first_in_worker", "dt")
 FORMULATION_PREFIX = "reference-"  # the reference's other formulations, summarised apart from the engines
 
 
