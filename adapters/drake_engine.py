@@ -164,13 +164,16 @@ ENGINE_CONSTANTS = {
 }
 
 _APPROXIMATIONS = ("lagged", "sap", "similar", "tamsi")  # DiscreteContactApproximation.k<Name>
-# Why drake-cenic runs only when asked (--on-demand), measured over its default families (251
-# jobs, one worker, on a loaded machine): 1771 job-s, where drake-sap's whole default run takes
-# 37 (a quiet run); resting stacks cost most (resting_blocks 460 job-s for SAP's 14, stack_forces
-# 154 for 1.1), while impacts cost as SAP's side by side (central_impact 21.6 for 16.2,
-# bounce_series 25.9 for 41.0). Its known deviations are not yet recorded.
-CENIC_ON_DEMAND = ("CENIC at its default accuracy costs 10-150x drake-sap's job-seconds on resting stacks "
-                   "(resting_blocks 460 s for 14); run with --on-demand")
+# Why drake-cenic runs only when asked (--on-demand): the default run's budget (3 minutes on 2
+# cores, already exceeded). Measured with drake 1.51.1, 2 workers, two repeats of `physval known
+# drake-cenic --on-demand`: its 272 jobs took 133-151 job-s; the 71 of the families its Drake
+# siblings run in a default run (central_impact, conformance, hertz_impact, incline_threshold,
+# newtons_cradle, resting_blocks), 45-56 job-s, where drake-sap's 75 take 15.3, drake-lagged's
+# 17.3 and drake-hydro's 29.7: resting stacks cost it most (resting_blocks 32-38 job-s, SAP's 7.0).
+# (An earlier measurement, 1771 job-s for 251 jobs on one loaded worker, no longer holds.)
+CENIC_ON_DEMAND = ("CENIC at its default accuracy costs 1.5-3.6x the other Drake configurations' job-seconds "
+                   "on the families they run by default (resting_blocks 32-38 s for drake-sap's 7.0), "
+                   "over the default run's budget; run with --on-demand")
 # a continuous plant (time_step 0) integrated by CENIC (SimulatorConfig integration_scheme)
 CONTINUOUS = ("cenic",)
 # The approximations whose solver takes a plant's constraints (AddBallConstraint): SAP's
