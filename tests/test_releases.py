@@ -203,3 +203,14 @@ def test_a_site_packages_on_the_import_path_is_installed_code_not_the_users(tmp_
     finally:
         store._installed_folders.cache_clear()
     assert found == {"my_adapter.py", "helper.py"}
+
+
+@pytest.mark.parametrize("extra, forwarded", [([], False), (["--on-demand"], True)])
+def test_on_demand_reaches_each_releases_run(extra, forwarded, tmp_path):
+    """drake-cenic runs only on demand: without --on-demand reaching each release's `physval
+    run`, its reading across releases would run nothing."""
+    from physval.cli import parser
+    from physval.commands.versions import run_command
+    argv = ["versions", "drake", "1.51.1", "1.58.0@3.12", "--engines", "drake-cenic", *extra]
+    words = run_command(parser(argv).parse_args(argv), ["drake-cenic"], tmp_path)
+    assert ("--on-demand" in words) is forwarded and words[:3] == ["-m", "physval", "run"]

@@ -50,6 +50,9 @@ def add_parser(sub) -> None:
                           "default: all of them)")
     vs.add_argument("--dt", type=options.positive_float, metavar="DT", help="time step in s for every case")
     vs.add_argument("--iterations", type=options.positive_int, metavar="N", help="solver iterations")
+    vs.add_argument("--on-demand", action="store_true",
+                    help="also the runs the engine declares too slow for a default run, in each release (drake-cenic "
+                         "runs only so: physval versions drake 1.51.1 1.58.0@3.12 --engines drake-cenic --on-demand)")
     vs.add_argument("--save-trajectories", action="store_true",
                     help="save every job's trajectory (OUT/ENGINE/RELEASE/trajectories/) and find where the releases "
                          "part")
@@ -131,6 +134,8 @@ def run_command(args, engines: list[str], out: Path) -> list[str]:
     for flag, value in (("--dt", args.dt), ("--iterations", args.iterations), ("--start-method", args.start_method)):
         if value is not None:
             words += [flag, str(value)]
+    if args.on_demand:
+        words.append("--on-demand")
     if args.save_trajectories:
         words += ["--save-trajectories", str((out / "trajectories").resolve())]
     return words + (["--quiet"] if args.quiet else [])
