@@ -164,16 +164,13 @@ ENGINE_CONSTANTS = {
 }
 
 _APPROXIMATIONS = ("lagged", "sap", "similar", "tamsi")  # DiscreteContactApproximation.k<Name>
-# Why drake-cenic runs only when asked (--on-demand): the default run's budget (3 minutes on 2
-# cores, already exceeded). Measured with drake 1.51.1, 2 workers, two repeats of `physval known
-# drake-cenic --on-demand`: its 272 jobs took 133-151 job-s; the 71 of the families its Drake
-# siblings run in a default run (central_impact, conformance, hertz_impact, incline_threshold,
-# newtons_cradle, resting_blocks), 45-56 job-s, where drake-sap's 75 take 15.3, drake-lagged's
-# 17.3 and drake-hydro's 29.7: resting stacks cost it most (resting_blocks 32-38 job-s, SAP's 7.0).
-# (An earlier measurement, 1771 job-s for 251 jobs on one loaded worker, no longer holds.)
-CENIC_ON_DEMAND = ("CENIC at its default accuracy costs 1.5-3.6x the other Drake configurations' job-seconds "
-                   "on the families they run by default (resting_blocks 32-38 s for drake-sap's 7.0), "
-                   "over the default run's budget; run with --on-demand")
+# drake-cenic's cost, measured with drake 1.51.1 on 2 workers (two repeats of `physval known
+# drake-cenic --on-demand`): its 272 jobs over every family took 133-151 job-s, none over the
+# per-job limit; the 71 of the core families and the conformance battery, which it runs in a
+# default run as its Drake siblings do, 45-56 job-s, where drake-sap's 75 take 15.3,
+# drake-lagged's 17.3 and drake-hydro's 29.7: resting stacks cost it most (resting_blocks 32-38
+# job-s, SAP's 7.0). (An earlier measurement, 1771 job-s for 251 jobs on one loaded worker, which
+# kept it on demand only, no longer holds.)
 # a continuous plant (time_step 0) integrated by CENIC (SimulatorConfig integration_scheme)
 CONTINUOUS = ("cenic",)
 # The approximations whose solver takes a plant's constraints (AddBallConstraint): SAP's
@@ -1109,11 +1106,9 @@ class DrakeAdapter(Adapter):
         self.approximation, self.contact_model = approximation, contact_model
         self.name = name or ("drake-hydro" if contact_model == "hydroelastic" else f"drake-{approximation}")
         # Drake steps 0.1-0.8 ms a body: in a default run the other contact models and
-        # approximations take the core families and the conformance battery (like the
+        # approximations (CENIC's continuous plant too) take the core families and the conformance battery (like the
         # reference's formulations); named, they run everything
         self.default_tags = None if self.name == "drake" else frozenset({"core", "conformance"})
-        if approximation in CONTINUOUS:
-            self.default_tags = frozenset()  # on demand only (on_demand)
         point = contact_model == "point"
         self.capabilities = Capabilities(
             dimensions=frozenset({2, 3}),
@@ -1158,11 +1153,6 @@ class DrakeAdapter(Adapter):
             tunables["accuracy"] = Tunable(1e-8, 0.5, ACCURACY, "CENIC's error target (SimulatorConfig.accuracy)",
                                            sweep=ACCURACIES)
         self.tunables = tunables
-
-    def on_demand(self, scene: Scene) -> str | None:
-        if self.approximation in CONTINUOUS:
-            return CENIC_ON_DEMAND
-        return None
 
     def version(self) -> str:
         return metadata.version("drake")

@@ -88,6 +88,8 @@ SLOW_IN_THE_SUITE = {
     ("reference-newton-coulomb", "bounce_series*"): "the pairwise loop over 40 bounces: 4-5 s each",
     ("reference-newton-coulomb", "stack_forces*"): "all 200 pairwise sweeps a step on a resting stack: 1-4 s each",
     ("reference-newton-coulomb", "stack_strike*"): "all 200 pairwise sweeps a step on a resting stack: 1-2 s each",
+    # CENIC integrates a rocking stack to its accuracy target: 32-38 of its 45-56 job-s in a default run
+    ("drake-cenic", "resting_blocks*"): "CENIC shortens its steps on the rocking point-contact stack: 1-14 s each",
     # MuJoCo Warp steps MuJoCo's own model (tests/test_mujoco_warp_mapping.py; `physval parity`):
     # its conformance battery stays in the suite, its core families (53 jobs, 1-2 min on 2 cores
     # with Warp's per-process start) run with -m slow and in every `physval run`

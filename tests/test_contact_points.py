@@ -36,20 +36,34 @@ G, M, HALF, DT = 9.81, 1.0, 0.1, 1e-3
 TAGS = frozenset({"core"})
 
 
-def _engines():
+# Engines whose reported forces are known not to be the step's impulses, with the measurement.
+NOT_IMPULSES = {
+    "drake-cenic": "Drake's contact results of the continuous plant are the force at the step's end state (CENIC takes "
+                   "steps of its own within one dt where the contact is stiff), not the step's impulse: over 100 steps "
+                   "of the sliding box they add to 1.39 N s of normal impulse where its momentum and weight show 0.98 "
+                   "(0.41 N s in z, tolerance 1e-4)",
+}
+
+
+def _engines(known: dict[str, str] | None = None):
+    """The engines that report contact points, each a param (slow where a default run leaves
+    the scene out; a strict xfail where `known` gives the measured reason it fails)."""
     out = []
     for name in registry.engine_names():
         if name.startswith("reference-") or not registry.available(name):
             continue
         adapter = registry.get(name)
         if adapter.capabilities.contact_points:
-            # an engine whose default run leaves such a scene out (drake-cenic: on demand only; a
-            # continuous-collision configuration: the swept families only) is tested with
+            # an engine whose default run leaves such a scene out (a continuous-collision
+            # configuration: the swept families only) is tested with
             # `pytest -m slow`, as its runs are (physval.core.plan.leaves_out)
             dim = 3 if 3 in adapter.capabilities.dimensions else 2
             scene = Scene((ground(), Body("box", cube(HALF, dim), mass=M, position=(0.0, 0.0, HALF))),
                           material=Material(e=0.0, mu_s=0.5), dimension=dim)
-            out.append(pytest.param(name, marks=[pytest.mark.slow]) if leaves_out(adapter, TAGS, scene) else name)
+            marks = [pytest.mark.slow] if leaves_out(adapter, TAGS, scene) else []
+            if name in (known or {}):
+                marks.append(pytest.mark.xfail(strict=True, reason=known[name]))
+            out.append(pytest.param(name, marks=marks))
     return out
 
 
@@ -90,7 +104,7 @@ def test_a_resting_box_carries_its_weight_without_friction(engine):
     assert np.linalg.norm(friction) <= 1e-2 * M * G
 
 
-@pytest.mark.parametrize("engine", _engines())
+@pytest.mark.parametrize("engine", _engines(NOT_IMPULSES))
 def test_the_forces_of_a_sliding_box_account_for_its_momentum(engine):
     mu, speed, angle, steps = 0.5, 2.0, math.radians(30.0), 100
     dim = 3 if 3 in registry.get(engine).capabilities.dimensions else 2

@@ -207,8 +207,9 @@ def test_a_site_packages_on_the_import_path_is_installed_code_not_the_users(tmp_
 
 @pytest.mark.parametrize("extra, forwarded", [([], False), (["--on-demand"], True)])
 def test_on_demand_reaches_each_releases_run(extra, forwarded, tmp_path):
-    """drake-cenic runs only on demand: without --on-demand reaching each release's `physval
-    run`, its reading across releases would run nothing."""
+    """Newton's solvers run their families beyond the core ones on demand: without
+    --on-demand reaching each release's `physval run`, a reading across releases would leave
+    them out."""
     from physval.cli import parser
     from physval.commands.versions import run_command
     argv = ["versions", "drake", "1.51.1", "1.58.0@3.12", "--engines", "drake-cenic", *extra]

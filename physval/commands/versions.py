@@ -51,8 +51,8 @@ def add_parser(sub) -> None:
     vs.add_argument("--dt", type=options.positive_float, metavar="DT", help="time step in s for every case")
     vs.add_argument("--iterations", type=options.positive_int, metavar="N", help="solver iterations")
     vs.add_argument("--on-demand", action="store_true",
-                    help="also the runs the engine declares too slow for a default run, in each release (drake-cenic "
-                         "runs only so: physval versions drake 1.51.1 1.58.0@3.12 --engines drake-cenic --on-demand)")
+                    help="also the runs the engine declares too slow for a default run, in each release (Newton's "
+                         "solvers beyond their core families)")
     vs.add_argument("--save-trajectories", action="store_true",
                     help="save every job's trajectory (OUT/ENGINE/RELEASE/trajectories/) and find where the releases "
                          "part")
