@@ -549,3 +549,16 @@ def test_a_fit_limit_for_no_engine_of_the_run_stops_before_any_work(tmp_path, ca
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line == "physval: error: --fit-limit mujco=60: 'mujco' matches none of this run's engines (mujoco)"
     assert not (tmp_path / "out").exists()
+
+
+def test_a_toss_is_priced_by_one_that_was_not_its_workers_first():
+    """A worker's first toss of an engine holds the engine's start (Genesis: 17 CPU s for a
+    2 s toss), which priced the scoring of slow engines at many times their cost: a toss is
+    priced by the later ones, or by the least where none is known to be later (read back
+    from the store, which does not keep the mark)."""
+    from physval.readings.real import toss_cost
+    rows = [{"elapsed_cpu": 17.0, "first_in_worker": 1}, {"elapsed_cpu": 2.0, "first_in_worker": 0},
+            {"elapsed_cpu": 2.4, "first_in_worker": 0}, {"elapsed_cpu": 16.5, "first_in_worker": 1}]
+    assert toss_cost(rows) == pytest.approx(2.2)
+    assert toss_cost([{"elapsed_cpu": 17.0, "first_in_worker": math.nan},
+                      {"elapsed_cpu": 2.0, "first_in_worker": math.nan}]) == 2.0

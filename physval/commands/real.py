@@ -23,7 +23,7 @@ from physval.core.session import Execution
 from physval.readings.real import (BATCH, BOOTSTRAP, DEFAULT_OUT, DT, FIT_LIMIT, GENERATIONS, NEUTRAL, NEUTRAL_GRID,
                                    MIN_FIT_TOSSES, POPSIZE, SCORE_LIMIT, SUBSTEPS, TOSSES, Runner, _cost, _flight,
                                    engine_version, engines_3d, fit, fitted_names, noise_rows, nominal, parameter_space,
-                                   rounded, sensitivity, simulate_many, write_report)
+                                   rounded, sensitivity, simulate_many, toss_cost, write_report)
 
 
 EPILOG = """examples:
@@ -246,12 +246,15 @@ def run(args) -> int:
         runner.store(engine)  # each engine's store read (or refused) before any work
     for engine in engines:
         t0 = time.perf_counter()
-        nom = simulate_many(engine, nominal(engine, ctx, family), test[:1], runner=runner, keep=True, **common)
+        # priced from one toss more than there are workers: at least one runs in a worker
+        # that has started the engine already (toss_cost)
+        probe = test[:max(1, runner.execution.workers or 1) + 1]
+        nom = simulate_many(engine, nominal(engine, ctx, family), probe, runner=runner, keep=True, **common)
         if nom[0]["status"] == "unsupported":
             skipped[engine] = nom[0]["message"]
             say(f"  {engine}: unsupported ({nom[0]['message']})")
             continue
-        per_toss = nom[0]["elapsed_cpu"]
+        per_toss = toss_cost(nom)
         scored = test
         if per_toss * len(test) > args.score_limit:
             every = math.ceil(per_toss * len(test) / args.score_limit)
@@ -259,7 +262,9 @@ def run(args) -> int:
             subsets[engine] = (f"one toss costs {per_toss:.2g} CPU s: scored on one test toss in {every} "
                                f"({len(scored)} of {len(test)}; --score-limit {args.score_limit:g} s)")
             say(f"  {engine}: {subsets[engine]}")
-        nom += simulate_many(engine, nominal(engine, ctx, family), scored[1:], runner=runner, keep=True, **common)
+        nom = [r for r in nom if r["toss"] in scored] + simulate_many(
+            engine, nominal(engine, ctx, family), [t for t in scored if t not in probe], runner=runner, keep=True,
+            **common)
         params = None
         if engine in given:
             params = given[engine]

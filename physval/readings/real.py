@@ -451,7 +451,8 @@ def _read(batch: Batch, row: dict, cached: bool) -> dict:
     out = {"engine": batch.engine, "toss": int(row["toss"]), "status": row["status"],
            "message": row.get("message") or "", "steps": int(row.get("steps") or 0), "cached": cached,
            "params": row.get("params") or json.dumps(dict(batch.params), sort_keys=True),
-           **{k: _number(row.get(k)) for k in ("sim_time", "wall", "cpu", "elapsed", "elapsed_cpu")}}
+           **{k: _number(row.get(k)) for k in ("sim_time", "wall", "cpu", "elapsed", "elapsed_cpu")},
+           "first_in_worker": _number(row.get("first_in_worker"))}  # NaN where the store read it back
     if out["status"] != "unsupported":
         out.update({m: _number(row.get(m)) for m in metric_names() + ["loss"]})
         face = row.get("same_face")
@@ -532,6 +533,15 @@ class Runner:
             raise Terminated() if stopped == "SIGTERM" else KeyboardInterrupt()
         return [[_read(b, r, b.key in held[b.engine]) for r in streams[b.engine].results.rows[b.key]]
                 for b in batches]
+
+
+def toss_cost(rows: list[dict]) -> float:
+    """CPU seconds one toss costs an engine, from simulated tosses' rows: the median of those
+    that were not their engine's first in their worker (a worker's first holds the engine's
+    start: its import, its kernels compiled; Genesis' first toss took 17 CPU s where later
+    ones took 2), else the least of them all."""
+    later = [r["elapsed_cpu"] for r in rows if r.get("first_in_worker") == 0]
+    return float(np.median(later)) if later else float(min(r["elapsed_cpu"] for r in rows))
 
 
 def _chunks(ids, size: int) -> list[tuple[int, ...]]:
