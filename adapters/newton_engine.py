@@ -62,7 +62,7 @@ every shape of density 0 and margin 0, the body's mass and inertia the scene's
 (compute_inertia False on meshes). newton-mujoco keeps to spheres, boxes and planes: its
 contact is the MuJoCo adapter's pairs, whose geoms for the other shapes (a triangle prism per
 mesh triangle, a mesh geom per hull) Newton's conversion is not checked to reproduce
-(NEWTON_MUJOCO_SHAPES). 2D scenes (and so polygons) are not adapted.
+(NEWTON_MUJOCO_SHAPES). 2D scenes: each body on a D6 joint to the world (slides along x and z, turns about y), a circle a sphere, a rect a box and a polygon a prism as deep along y as they are wide (as the MuJoCo adapter makes them); not on SolverMuJoCo (its pairs would need the MuJoCo adapter's planar model checked against Newton's conversion) nor Kamino (its model takes no such joint) nor VBD (its joint moves a free body off its path), nor with joints or loads.
 
 Float32. Warp stores positions, orientations and velocities in single precision.
 
@@ -104,7 +104,8 @@ from adapters.joints import joint_tree, local_frame
 from cases import rotations
 from adapters.lazy import require
 from adapters.warp_support import init_warp
-from cases.scene import Body, Box, Plane, Scene, Sphere, pair_key
+from adapters.solids import polygon_prism
+from cases.scene import Body, Box, Circle, Plane, Polygon, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
 
 require("newton")
@@ -252,8 +253,13 @@ class NewtonAdapter(Adapter):
             self._init_mujoco()
             return
         self.capabilities = Capabilities(
-            dimensions=frozenset({3}),  # 2D scenes would need planar joints: not adapted
-            shapes=SHAPES,
+            # a 2D body on a D6 joint to the world (NewtonSimulation._add); Kamino's model takes no
+            # such joint: its conversion counts -1 joint coordinates for it and Warp refuses the
+            # array (newton 1.8.0, measured). VBD's joint moves a free 2D body off its path (a 1 s
+            # free fall from rest 0.10 m short of g t^2/2 = 4.9 m, a spin of 3 rad/s 3.6e-3 off,
+            # measured): 3D scenes only there too
+            dimensions=frozenset({3}) if solver in ("kamino", "vbd") else frozenset({2, 3}),
+            shapes=SHAPES | {"circle", "rect", "polygon"},
             native_restitution=solver in RESTITUTION,
             static_kinetic=False,  # one mu per shape
             contact_forces=not penalty,
@@ -334,6 +340,9 @@ class NewtonAdapter(Adapter):
         reason = self.capabilities.cannot_run(scene)
         if reason:
             raise Unsupported(reason)
+        if scene.dimension == 2 and (scene.joints or scene.loads):
+            raise Unsupported("a 2D scene with joints or loads: its bodies stand on planar D6 joints to the world, "
+                              "a tree's root would need one of its own (not mapped)")
         if self.solver == "mujoco":  # MuJoCo's own model of the scene: its pairs and options
             from adapters.mujoco_engine import MuJoCoAdapter
             tuning = self.options_in_force(settings)
@@ -418,6 +427,7 @@ class NewtonSimulation(Simulation):
         self._still: list[int] = []  # bodies held from rotating (maximal-coordinate solvers)
         self._shape_body: list[str] = []
         self._jointed = bool(scene.joints or scene.loads)
+        self._planar = scene.dimension == 2
         for body in scene.bodies:
             self._add(newton, builder, body, shape[body.name], solver)
         if self._jointed:
@@ -477,7 +487,7 @@ class NewtonSimulation(Simulation):
                 qd[i, 3:] = body.angular_velocity
         self._s0.body_q.assign(q)
         self._s0.body_qd.assign(qd)
-        if solver in GENERALIZED or self._jointed:  # the joint coordinates of the start poses and velocities
+        if solver in GENERALIZED or self._jointed or self._planar:  # the joints' start coordinates and rates
             newton.eval_ik(model, self._s0, self._s0.joint_q, self._s0.joint_qd)
         self._loads = None  # the scene's loads as body_f rows (world force at the centre of mass, torque)
         if scene.loads:
@@ -580,6 +590,19 @@ class NewtonSimulation(Simulation):
             if self._jointed:  # a link; its joint (free or the scene's) comes with the tree (_add_joints)
                 where = builder.add_link(xform=xform, mass=body.mass, inertia=inertia, lock_inertia=True,
                                          label=body.name)
+            elif self._planar:  # a 2D body: slides along world x and z and turns about world y
+                where = builder.add_link(xform=xform, mass=body.mass, inertia=inertia, lock_inertia=True,
+                                         label=body.name)
+                dof = newton.ModelBuilder.JointDofConfig
+                # the joint frame is the body's start pose, turned about y only: its x and z span the plane
+                joint = builder.add_joint_d6(-1, where, linear_axes=[dof(axis=newton.Axis.X), dof(axis=newton.Axis.Z)],
+                                             angular_axes=[dof(axis=newton.Axis.Y)] if body.rotates else [],
+                                             parent_xform=xform)
+                builder.add_articulation([joint])
+                record["joint"] = "d6 to the world: linear x, z" + (", angular y" if body.rotates else "")
+                if not body.rotates and solver not in GENERALIZED:  # a joint without an angular axis
+                    self._still.append(where)  # holds it only as well as the solver projects it: XPBD
+                    record["inverse_inertia"] = 0.0  # 7e-4 rad/s, semi-implicit 4.3 rad/s (measured)
             elif body.rotates or solver not in GENERALIZED:
                 where = builder.add_body(xform=xform, mass=body.mass, inertia=inertia, lock_inertia=True,
                                          label=body.name)
@@ -599,7 +622,7 @@ class NewtonSimulation(Simulation):
         if isinstance(s, Plane):
             builder.add_shape_plane(plane=(*s.normal, -s.offset), width=0.0, length=0.0, cfg=cfg, label=body.name)
             record["plane"] = {"normal": list(s.normal), "offset": s.offset}
-        elif isinstance(s, Sphere):
+        elif isinstance(s, (Sphere, Circle)):  # a circle: the sphere whose section in y = 0 it is
             builder.add_shape_sphere(where, xform=None if where >= 0 else xform, radius=s.radius, cfg=cfg,
                                      label=body.name)
             record["sphere"] = s.radius
@@ -608,6 +631,11 @@ class NewtonSimulation(Simulation):
             builder.add_shape_box(where, xform=None if where >= 0 else xform, hx=hx, hy=hy, hz=hz, cfg=cfg,
                                   label=body.name)
             record["box"] = list(s.half_extents)
+        elif isinstance(s, Rect):  # a rect: a box as deep along y as it is wide
+            a, c = s.half_extents
+            builder.add_shape_box(where, xform=None if where >= 0 else xform, hx=a, hy=a, hz=c, cfg=cfg,
+                                  label=body.name)
+            record["box"] = [a, a, c]
         elif s.kind in ("capsule", "cylinder"):  # along body z, Newton's own axis
             add = builder.add_shape_capsule if s.kind == "capsule" else builder.add_shape_cylinder
             add(where, xform=None if where >= 0 else xform, radius=s.radius, half_height=s.half_length, cfg=cfg,
@@ -615,13 +643,18 @@ class NewtonSimulation(Simulation):
             record[s.kind] = {"radius": s.radius, "half_height": s.half_length}
             if s.kind == "cylinder":  # straight-sided (barrel_radius 0, Newton's default)
                 record["cylinder"]["barrel_radius"] = 0.0
-        else:  # hull: a convex mesh of its corners and faces; mesh: a static triangle mesh
-            vertices, triangles = (s.vertices, s.faces) if s.kind == "hull" else (s.vertices, s.triangles)
+        else:  # hull: a convex mesh of its corners and faces; mesh: a static triangle mesh; a
+            # polygon: its prism, as deep along y as it is wide (adapters.solids)
+            if isinstance(s, Polygon):
+                vertices, triangles = polygon_prism(s.corners, float(np.ptp(s.corners[:, 0])) / 2.0)
+            else:
+                vertices, triangles = (s.vertices, s.faces) if s.kind == "hull" else (s.vertices, s.triangles)
             mesh = newton.Mesh(np.asarray(vertices, np.float32), np.asarray(triangles, np.int32).ravel(),
                                compute_inertia=False, maxhullvert=len(vertices))  # the body's mass, not the mesh's
-            add = builder.add_shape_convex_hull if s.kind == "hull" else builder.add_shape_mesh
+            convex = s.kind in ("hull", "polygon")
+            add = builder.add_shape_convex_hull if convex else builder.add_shape_mesh
             add(where, xform=None if where >= 0 else xform, mesh=mesh, cfg=cfg, label=body.name)
-            record["convex_mesh" if s.kind == "hull" else "triangle_mesh"] = {
+            record["convex_mesh" if convex else "triangle_mesh"] = {
                 "vertices": len(vertices), "triangles": len(triangles), "compute_inertia": False}
         self._shape_body.append(body.name)
         self.knobs["bodies"][body.name] = record
