@@ -8,10 +8,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from adapters import registry
 from adapters.base import Settings
 from cases import rotations
 from cases.scene import Body, Material, Rect, Scene, ground, quat_about_y
+from tests.helpers import adapter_or_skip
 
 pytestmark = [pytest.mark.engine("newton-*"), pytest.mark.slow]
 
@@ -40,10 +40,7 @@ def _joint_axes(sim, name: str):
 
 @pytest.mark.parametrize("engine", sorted(FLIGHT))
 def test_a_planar_body_flies_and_turns_in_its_plane(engine):
-    try:
-        adapter = registry.get(engine)
-    except registry.EngineError as exc:
-        pytest.skip(str(exc))
+    adapter = adapter_or_skip(engine)
     q0 = np.asarray(quat_about_y(np.radians(30.0)))
     scene = Scene(bodies=(Body("r", Rect((0.2, 0.1)), mass=1.0, position=(0, 0, 1), orientation=tuple(q0),
                                velocity=(1.0, 0.0, 0.5), angular_velocity=(0.0, 2.0, 0.0)),),
@@ -57,16 +54,15 @@ def test_a_planar_body_flies_and_turns_in_its_plane(engine):
     at, rate = FLIGHT[engine]
     np.testing.assert_allclose(s[0:3], (0.1, 0.0, 1.05), atol=at)
     turned = rotations.multiply(quat_about_y(0.2), q0)
+    # the orientation's components, as the position: float32 rounding of a turn of 0.2 rad
+    # (measured 3.9e-8 on Featherstone, 1.5e-6 on XPBD); a turn about another axis is 0.1 off
     assert min(np.abs(s[3:7] - turned).max(), np.abs(s[3:7] + turned).max()) < at * 10, (s[3:7], turned)
     np.testing.assert_allclose(s[7:13], (1.0, 0.0, 0.5, 0.0, 2.0, 0.0), atol=rate)
 
 
 @pytest.mark.parametrize("engine", sorted(FLIGHT))
 def test_a_planar_box_slides_at_mu_g_in_its_plane(engine):
-    try:
-        adapter = registry.get(engine)
-    except registry.EngineError as exc:
-        pytest.skip(str(exc))
+    adapter = adapter_or_skip(engine)
     scene = Scene(bodies=(ground(), Body("r", Rect((0.1, 0.1)), mass=1.0, position=(0, 0, 0.1), velocity=(2.0, 0, 0))),
                   gravity=(0, 0, -G), material=Material(e=0.0, mu_s=MU), dimension=2)
     rows = []
