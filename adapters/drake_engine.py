@@ -1106,8 +1106,8 @@ class DrakeAdapter(Adapter):
         self.approximation, self.contact_model = approximation, contact_model
         self.name = name or ("drake-hydro" if contact_model == "hydroelastic" else f"drake-{approximation}")
         # Drake steps 0.1-0.8 ms a body: in a default run the other contact models and
-        # approximations (CENIC's continuous plant too) take the core families and the conformance battery (like the
-        # reference's formulations); named, they run everything
+        # approximations (CENIC's continuous plant too) take the core families and the
+        # conformance battery (like the reference's formulations); named, they run everything
         self.default_tags = None if self.name == "drake" else frozenset({"core", "conformance"})
         point = contact_model == "point"
         self.capabilities = Capabilities(

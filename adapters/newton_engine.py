@@ -62,7 +62,12 @@ every shape of density 0 and margin 0, the body's mass and inertia the scene's
 (compute_inertia False on meshes). newton-mujoco keeps to spheres, boxes and planes: its
 contact is the MuJoCo adapter's pairs, whose geoms for the other shapes (a triangle prism per
 mesh triangle, a mesh geom per hull) Newton's conversion is not checked to reproduce
-(NEWTON_MUJOCO_SHAPES). 2D scenes: each body on a D6 joint to the world (slides along x and z, turns about y), a circle a sphere, a rect a box and a polygon a prism as deep along y as they are wide (as the MuJoCo adapter makes them); not on SolverMuJoCo (its pairs would need the MuJoCo adapter's planar model checked against Newton's conversion) nor Kamino (its model takes no such joint) nor VBD (its joint moves a free body off its path), nor with joints or loads.
+(NEWTON_MUJOCO_SHAPES). 2D scenes: each body on a D6 joint to the world (slides along x and
+z, turns about y), a circle a sphere, a rect a box and a polygon a prism as deep along y as
+they are wide (as the MuJoCo adapter makes them); not on SolverMuJoCo (its pairs would need
+the MuJoCo adapter's planar model checked against Newton's conversion), Kamino (its model
+takes no such joint) or VBD (its joint moves a free body off its path), nor with joints or
+loads.
 
 Float32. Warp stores positions, orientations and velocities in single precision.
 
@@ -600,9 +605,12 @@ class NewtonSimulation(Simulation):
                                              parent_xform=xform)
                 builder.add_articulation([joint])
                 record["joint"] = "d6 to the world: linear x, z" + (", angular y" if body.rotates else "")
-                if not body.rotates and solver not in GENERALIZED:  # a joint without an angular axis
-                    self._still.append(where)  # holds it only as well as the solver projects it: XPBD
-                    record["inverse_inertia"] = 0.0  # 7e-4 rad/s, semi-implicit 4.3 rad/s (measured)
+                if not body.rotates and solver not in GENERALIZED:
+                    # a joint without an angular axis holds the body only as well as the solver
+                    # projects it (a held 2D body spun 7e-4 rad/s on XPBD, 4.3 on the
+                    # semi-implicit solver, measured): no inverse inertia either, as in 3D
+                    self._still.append(where)
+                    record["inverse_inertia"] = 0.0
             elif body.rotates or solver not in GENERALIZED:
                 where = builder.add_body(xform=xform, mass=body.mass, inertia=inertia, lock_inertia=True,
                                          label=body.name)
