@@ -96,7 +96,7 @@ from adapters.combination import per_body_values
 from adapters.joints import TreeJoint, closing_ball_points, joint_tree, start_rate
 from adapters.frames import about_y_many, state_row
 from adapters.lazy import require
-from adapters.solids import polygon_prism, triangle_normals, triangle_prisms
+from adapters.solids import polygon_prism, triangle_normals, triangle_prisms, width_half_depth
 from cases import rotations
 from cases.scene import Body, Box, Capsule, Circle, Cylinder, Hull, Mesh, Plane, Polygon, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
@@ -852,7 +852,7 @@ def _convex_points(s) -> tuple[np.ndarray, np.ndarray]:
     along y as it is wide (a Rect's box is as deep as it is wide)."""
     if isinstance(s, Hull):
         return np.asarray(s.vertices, float), s.faces
-    return polygon_prism(s.corners, float(np.ptp(s.corners[:, 0])) / 2.0)
+    return polygon_prism(s.corners, width_half_depth(s.corners))
 
 
 def _shape_record(body: Body, hydro: bool) -> dict:

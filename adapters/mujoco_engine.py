@@ -57,7 +57,7 @@ from adapters.base import Adapter, Capabilities, Settings, Simulation, Tunable, 
 from adapters.lazy import require
 from adapters.joints import closing_ball_points, joint_tree
 from adapters.frames import about_y_many
-from adapters.solids import polygon_prism, triangle_prisms
+from adapters.solids import polygon_prism, triangle_prisms, width_half_depth
 from cases import rotations
 from cases.scene import (Body, Box, Capsule, Circle, Cylinder, Hull, Joint, Mesh, Plane, Polygon, Rect, Scene, Sphere,
                          pair_key)
@@ -360,7 +360,7 @@ def _geom(body: Body, quat, ground: str = "plane", meshes: dict | None = None) -
     if isinstance(s, Hull):
         return {"type": "mesh", "mesh": _mesh_asset(meshes, body.name, s.vertices), "quat": list(quat)}
     if isinstance(s, Polygon):
-        half_depth = float(np.ptp(s.corners[:, 0])) / 2.0
+        half_depth = width_half_depth(s.corners)
         return {"type": "mesh", "mesh": _mesh_asset(meshes, body.name, polygon_prism(s.corners, half_depth)[0]),
                 "quat": list(quat)}
     raise Unsupported(f"shape {s.kind} has no MuJoCo geom in this adapter")

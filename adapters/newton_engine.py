@@ -109,7 +109,7 @@ from adapters.joints import joint_tree, local_frame
 from cases import rotations
 from adapters.lazy import require
 from adapters.warp_support import init_warp
-from adapters.solids import polygon_prism
+from adapters.solids import polygon_prism, width_half_depth
 from cases.scene import Body, Box, Circle, Plane, Polygon, Rect, Scene, Sphere, pair_key
 from cases.trajectory import ContactPoint
 
@@ -654,7 +654,7 @@ class NewtonSimulation(Simulation):
         else:  # hull: a convex mesh of its corners and faces; mesh: a static triangle mesh; a
             # polygon: its prism, as deep along y as it is wide (adapters.solids)
             if isinstance(s, Polygon):
-                vertices, triangles = polygon_prism(s.corners, float(np.ptp(s.corners[:, 0])) / 2.0)
+                vertices, triangles = polygon_prism(s.corners, width_half_depth(s.corners))
             else:
                 vertices, triangles = (s.vertices, s.faces) if s.kind == "hull" else (s.vertices, s.triangles)
             mesh = newton.Mesh(np.asarray(vertices, np.float32), np.asarray(triangles, np.int32).ravel(),

@@ -41,6 +41,12 @@ def embedded_half_depth(corners) -> float:
     return float(np.abs(np.asarray(corners, dtype=float)).max())
 
 
+def width_half_depth(corners) -> float:
+    """Half the depth along y of a 2D polygon's prism as deep as it is wide (its extent along
+    x), as a Rect's box is as deep as it is wide: the MuJoCo, Drake and Newton adapters' rule."""
+    return float(np.ptp(np.asarray(corners, dtype=float)[:, 0])) / 2.0
+
+
 def cylinder_prism(radius: float, half_length: float, sides: int) -> np.ndarray:
     """The corners (2 sides, 3) of the regular prism inscribed in a cylinder along z: each
     end's corners on its rim at angles 2 pi k / sides from +x, the end at z = -half_length
