@@ -86,7 +86,7 @@ def _arrays(contacts: list[Contact]):
             np.array([c.n for c in contacts], dtype=float).reshape(C, 3))
 
 
-@njit
+@njit(inline=True)
 def terms_of(a, b, r_a, r_b, n, bodies, u, F, T):
     """lcp_terms for contacts given as arrays (row j: contact j; frictionless)."""
     C = len(a)
@@ -122,7 +122,7 @@ def contact_forces(contacts: list[Contact], bodies: Bodies, u: np.ndarray, F: np
                      np.asarray(T, dtype=float), np.zeros(TALLY, np.int64))
 
 
-@njit
+@njit(inline=True)
 def forces_of(a, b, r_a, r_b, n, bodies, u, F, T, tally) -> ContactForces:
     """contact_forces for contacts given as arrays, counting Lemke's retries into `tally`."""
     A, rhs = terms_of(a, b, r_a, r_b, n, bodies, u, F, T)

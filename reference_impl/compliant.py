@@ -82,7 +82,7 @@ def integrate(rows: Rows, bodies: Bodies, u: np.ndarray, a_ext: np.ndarray, xi: 
                     np.array([law.r for law in laws], dtype=float), float(h), int(n))
 
 
-@njit
+@njit(inline=True)
 def substeps(rows, bodies, u, a_ext, xi, H, r, h, n) -> Substeps:
     """integrate, with each contact's law as H[c] xi^r[c]."""
     J = jacobian(rows, len(bodies.m_inv))          # dense: (C, 6N), few contacts

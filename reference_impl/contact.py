@@ -227,7 +227,7 @@ def normal_target(e, depth, vn0, dt, slop) -> float:
     return -gap / dt
 
 
-@njit
+@njit(inline=True)
 def prepare(contacts, bodies, dt, beta, slop, stick_speed, fixed_tangents=False, threshold=0.0) -> None:
     """Each contact's rows (the normal, then its tangents: fixed while it sticks, the
     first along the slip while it slides, note 001, t = normalize(v_rel,t)), its approach

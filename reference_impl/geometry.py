@@ -563,7 +563,7 @@ def _clip_feature(k, nodes, features) -> int:
     return found
 
 
-@njit
+@njit(inline=True)
 def box_box(bodies, a, b, margin, features, out, k) -> int:
     """Separating axis test over the face normals of both boxes (3 + 3) and the 9 edge
     cross products (2 + 2 face normals for rects, no edges); the axis of least overlap
@@ -630,7 +630,7 @@ def _routine(bodies, first, second, margin, features, out, k) -> int:
     return -1
 
 
-@njit
+@njit(inline=True)
 def narrow_phase(bodies, i, j, margin, features, out, k):
     """(first, second, count): bodies i and j in the order the normals point (first to
     second) and the number of contact points (0 if apart by more than margin) written

@@ -372,7 +372,7 @@ def _affine_gap(W, simplex, n, row):
     return abs(p[0] * nx + p[1] * ny + p[2] * nz) / norm if norm > 0 else 0.0
 
 
-@njit
+@njit(inline=True)
 def epa(A, B, W, SA, SB, simplex, n, used):
     """(depth, n, a, b): the least penetration of the overlapping cores, its direction n
     (from A to B: moving B by depth n separates them) and the deepest points a of A and
@@ -458,7 +458,7 @@ def epa(A, B, W, SA, SB, simplex, n, used):
     return depth, nb.copy(), a, b
 
 
-@njit
+@njit(inline=True)
 def separation(A, B):
     """(depth, n, a, b) of two convex shapes, rounded: depth > 0 overlapping, < 0 the gap;
     n the unit normal from A to B; a, b the closest (or deepest) points of the rounded
@@ -915,7 +915,7 @@ def _put_all(out, k, P, depths, ids, count, n, base):
         out.depth[k + t], out.feature[k + t] = depths[t], base + ids[t]
 
 
-@njit
+@njit(inline=True)
 def convex_convex(bodies, a, b, margin, features, out, k) -> int:
     """Two convex bodies by GJK (EPA when they overlap) and clipping on their features."""
     P, depths, ids = np.empty((MANIFOLD, 3)), np.empty(MANIFOLD), np.empty(MANIFOLD, np.int64)
@@ -924,7 +924,7 @@ def convex_convex(bodies, a, b, margin, features, out, k) -> int:
     return count
 
 
-@njit
+@njit(inline=True)
 def plane_convex(bodies, p, s, margin, features, out, k) -> int:
     """A convex body s on plane p: its feature along -n (its points within margin of its
     lowest), each at its own depth below the plane; the deepest four spanning the most area."""
@@ -952,7 +952,7 @@ def plane_convex(bodies, p, s, margin, features, out, k) -> int:
     return count
 
 
-@njit
+@njit(inline=True)
 def mesh_convex(bodies, mesh, s, margin, features, out, k) -> int:
     """A convex body s against a static mesh: the triangles under its box (the tree),
     each a convex shape for GJK (normals from the triangle to s); all their points

@@ -77,7 +77,7 @@ def gauss_seidel(rows, bodies, b, iterations, tolerance, sigma, gamma0, warm) ->
     return PGSResult(gamma, du[:N].copy(), sweeps, change)
 
 
-@njit
+@njit(inline=True)
 def _sweeps(Ja, Jb, Wa, Wb, ia, ib, normal, mu, rhs, sg, dg, inv_diag, g, v, iterations, tolerance):
     """The sweeps, in place on g (gamma) and v (du per body, row N the static world):
     (sweeps done, largest velocity correction of the last sweep)."""

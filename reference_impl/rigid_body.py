@@ -190,7 +190,7 @@ def _assign(M, rows) -> None:
             M[i, j] = rows[i][j]
 
 
-@njit
+@njit(inline=True)
 def integrate_position(bodies, i, dt) -> None:
     """x += dt (v + vp); q turned by the step's rotation (w_mid + wp), normalised; then
     w = I'^-1 L with the world angular momentum L = I w kept (note 001, dL/dt = T: no

@@ -174,7 +174,7 @@ def _solve(contacts, bodies, settings, links) -> int:
     return stages
 
 
-@njit
+@njit(inline=True)
 def iterate(a, b, J, K, mass, P, n_tangents, n_rolling, n_torsion, target, mu, rolling, torsion, bias,
             v, w, vp, wp, warm, pyramid, iterations, position_iterations, tolerance, links=None):
     """Steps 1 (the warm start's impulses), 2 and 3 of the module docstring, in place on

@@ -187,7 +187,7 @@ def solve(contacts, bodies, dt, settings) -> int:
     return IMPULSES
 
 
-@njit
+@njit(inline=True)
 def pairwise_loop(a, b, point, n, ra_n, rb_n, tangents, n_tangents, e, mu_s, mu_k, depth, target,
                   x, inv_mass, inv_I, v, w, Pn, Pt, iterations, tolerance, slop):
     """The sweeps of solve, in place on the bodies' v, w and the contacts' impulses Pn, Pt

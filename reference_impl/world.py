@@ -608,7 +608,7 @@ def finish(state, dt) -> int:
     return ran
 
 
-@njit
+@njit(inline=True)
 def _two_phase(contacts, bodies, dt, settings, phases) -> int:
     """The two-phase law of Phases: the formulation solves with every bouncing contact's
     target (> 0) set to 0; then each of them is pushed up to its target by normal impulses
@@ -637,7 +637,7 @@ def _two_phase(contacts, bodies, dt, settings, phases) -> int:
     return ran
 
 
-@njit
+@njit(inline=True)
 def collide(bodies, previous, features, materials, material_of, dt, phases, joined):
     """Contacts up to phases.margin apart, plus the step each body may travel (so a
     contact this step will make is seen now: contact.normal_target), with their rows, and
