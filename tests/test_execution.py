@@ -502,6 +502,15 @@ def test_streams_share_one_executor_waves_follow_their_rows_and_a_job_two_stream
     assert all(r["job_s"] > 0 for o in outcomes for r in o.rows)
 
 
+# The compiling fake finds its folder through PHYSVAL_CACHE_DIR in the workers: spawned workers
+# see this process's environment and path as they are now, where a fork server that an earlier
+# test of this pytest process started keeps the environment it started with. Both tests below
+# failed once in a whole `pytest -n 2` (no part compiled ahead: the workers did not see the
+# folder) and passed alone; a test that starts the fork server under another PHYSVAL_CACHE_DIR
+# before them makes both fail so under forkserver, and both pass under spawn (measured).
+FRESH_WORKERS = "spawn"
+
+
 @pytest.mark.parametrize("workers", [1, 2])
 def test_what_an_engine_compiles_on_first_use_compiles_on_every_worker_at_once_before_its_jobs(workers):
     """An engine's parts to compile on first use (the reference on a fresh install: its
@@ -520,7 +529,7 @@ def test_what_an_engine_compiles_on_first_use_compiles_on_every_worker_at_once_b
         seen = []
         jobs = Stream([Job(fam.name, v, "fake-compiling") for v in fam.variants[:3]],
                       on_outcome=lambda o: seen.append(sorted(p.name for p in folder.iterdir())))
-        use = run_streams([jobs], ctx, Execution(workers=workers, progress=False))
+        use = run_streams([jobs], ctx, Execution(workers=workers, progress=False, start_method=FRESH_WORKERS))
         done = {name: (folder / f"done-{name}").read_text() for name in "ab" if (folder / f"done-{name}").exists()}
         started = {(folder / f"started-{name}").read_text() for name in "ab" if (folder / f"started-{name}").exists()}
     finally:
@@ -556,7 +565,7 @@ def test_other_engines_jobs_run_beside_a_part_compiling_and_its_engines_jobs_wai
         fam = ctx.resolver().family("central_impact")
         jobs = [Job(fam.name, v, engine) for engine in ("fake-compiling", "fake-2") for v in fam.variants[:3]]
         stream = Stream(jobs, on_outcome=saw)
-        use = run_streams([stream], ctx, Execution(workers=3, progress=False))
+        use = run_streams([stream], ctx, Execution(workers=3, progress=False, start_method=FRESH_WORKERS))
     finally:
         shutil.rmtree(folder)
     assert not stream.results.interrupted and len(seen) == 6
