@@ -592,39 +592,30 @@ class NewtonSimulation(Simulation):
         else:
             i1, i2, i3 = body.principal_inertia
             inertia = wp.mat33(i1, 0.0, 0.0, 0.0, i2, 0.0, 0.0, 0.0, i3)
-            if self._jointed:  # a link; its joint (free or the scene's) comes with the tree (_add_joints)
-                where = builder.add_link(xform=xform, mass=body.mass, inertia=inertia, lock_inertia=True,
-                                         label=body.name)
-            elif self._planar:  # a 2D body: slides along world x and z and turns about world y
-                where = builder.add_link(xform=xform, mass=body.mass, inertia=inertia, lock_inertia=True,
-                                         label=body.name)
+            # a joint to the world of given axes: a 2D body's (slides along world x and z, turns
+            # about world y), or, on Featherstone and MuJoCo, which move the joint coordinates, a
+            # body held from rotating (three sliders); a scene's joints come with its tree (_add_joints)
+            d6 = not self._jointed and (self._planar or (not body.rotates and solver in GENERALIZED))
+            add = builder.add_link if self._jointed or d6 else builder.add_body
+            where = add(xform=xform, mass=body.mass, inertia=inertia, lock_inertia=True, label=body.name)
+            if d6:
                 dof = newton.ModelBuilder.JointDofConfig
-                # the joint frame is the body's start pose, turned about y only: its x and z span the plane
-                joint = builder.add_joint_d6(-1, where, linear_axes=[dof(axis=newton.Axis.X), dof(axis=newton.Axis.Z)],
-                                             angular_axes=[dof(axis=newton.Axis.Y)] if body.rotates else [],
+                linear = (newton.Axis.X, newton.Axis.Z) if self._planar else (newton.Axis.X, newton.Axis.Y, newton.Axis.Z)
+                angular = [dof(axis=newton.Axis.Y)] if self._planar and body.rotates else []
+                # the joint frame is the body's start pose: in 2D, turned about y only, its x and z span the plane
+                joint = builder.add_joint_d6(-1, where, linear_axes=[dof(axis=a) for a in linear], angular_axes=angular,
                                              parent_xform=xform)
                 builder.add_articulation([joint])
-                record["joint"] = "d6 to the world: linear x, z" + (", angular y" if body.rotates else "")
-                if not body.rotates and solver not in GENERALIZED:
-                    # a joint without an angular axis holds the body only as well as the solver
-                    # projects it (a held 2D body spun 7e-4 rad/s on XPBD, 4.3 on the
-                    # semi-implicit solver, measured): no inverse inertia either, as in 3D
-                    self._still.append(where)
-                    record["inverse_inertia"] = 0.0
-            elif body.rotates or solver not in GENERALIZED:
-                where = builder.add_body(xform=xform, mass=body.mass, inertia=inertia, lock_inertia=True,
-                                         label=body.name)
+                record["joint"] = (("d6 to the world: linear x, z" + (", angular y" if body.rotates else ""))
+                                   if self._planar else "d6, three linear axes")
+            elif not self._jointed:
                 record["joint"] = "free"
-                if not body.rotates:
-                    self._still.append(where)
-                    record["inverse_inertia"] = 0.0  # held from rotating
-            else:  # Featherstone and MuJoCo move the joint coordinates: three sliders, no rotation
-                where = builder.add_link(xform=xform, mass=body.mass, inertia=inertia, lock_inertia=True,
-                                         label=body.name)
-                axes = [newton.ModelBuilder.JointDofConfig(axis=a) for a in (newton.Axis.X, newton.Axis.Y, newton.Axis.Z)]
-                joint = builder.add_joint_d6(-1, where, linear_axes=axes, parent_xform=xform)
-                builder.add_articulation([joint])
-                record["joint"] = "d6, three linear axes"
+            if not self._jointed and not body.rotates and solver not in GENERALIZED:
+                # held from rotating: a joint without an angular axis holds the body only as well
+                # as the solver projects it (a held 2D body spun 7e-4 rad/s on XPBD, 4.3 on the
+                # semi-implicit solver, measured): no inverse inertia
+                self._still.append(where)
+                record["inverse_inertia"] = 0.0
             self._index[body.name] = where
             record.update(type="dynamic", mass=body.mass, principal_inertia=[i1, i2, i3])
         if isinstance(s, Plane):
