@@ -359,3 +359,19 @@ def test_a_variant_priced_apart_is_measured_again_by_the_cost_table_writer(tmp_p
     assert 0 < again.job_s.iloc[0] < 99.0 and again.steps.iloc[0] > 1
     table = cost.merged(again, apart)  # under half the per-job limit: priced with its family again
     assert list(table.variant) == [""] and table.job_s.iloc[0] == again.job_s.iloc[0]
+
+
+def test_the_cost_section_states_the_engines_own_steps_as_the_floor():
+    """Decision 10: the run's Cost section says how much of the budget the engines' own steps
+    take before anything physval does; the reference's formulations are physval's own code,
+    so they are not part of that floor."""
+    rows = [{"job": "a", "engine": "drake", "case": "c", "variant": "v", "steps": 100, "wall_s": 300.0, "job_s": 320.0},
+            {"job": "b", "engine": "mujoco", "case": "c", "variant": "v", "steps": 100, "wall_s": 60.0, "job_s": 61.0},
+            {"job": "c", "engine": "reference-lemke", "case": "c", "variant": "v", "steps": 100, "wall_s": 500.0,
+             "job_s": 510.0},
+            {"job": "d", "engine": "reference", "case": "c", "variant": "v", "steps": 100, "wall_s": 40.0,
+             "job_s": 41.0}]
+    df = cost.measure(rows, cost.Phases(workers=2))
+    (floor,) = df[(df.kind == "phase") & (df.name == "engines' own steps")].itertuples()
+    assert floor.seconds == 360.0 and floor.jobs == 2
+    assert "3.0 min of wall time on 2 cores" in floor.note and "100% of the default run's budget" in floor.note

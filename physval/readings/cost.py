@@ -346,6 +346,7 @@ def measure(rows, phases: Phases | None = None) -> pd.DataFrame:
     in workers (every job of the run, a reused one with the time it took then)."""
     import time
     out = []
+    jobs = per_job(rows)
     if phases is not None:
         available = phases.pool_s * phases.workers
         outside = phases.outside_s
@@ -362,6 +363,7 @@ def measure(rows, phases: Phases | None = None) -> pd.DataFrame:
                 "compile on first use and the cache lacked (the reference's step: the first run after an install "
                 "or an edit of reference_impl); that engine's jobs wait for it")] if phases.ahead_s else []),
             ("stepping", phases.stepping_s, "worker", phases.jobs, "the engines' own steps in the run's jobs"),
+            floor_row(jobs),
             ("recording", phases.run_s - phases.stepping_s, "worker", phases.jobs,
              "each step's state (and contact forces where read) copied out, blow-up checks"),
             ("rest of the jobs", phases.job_s - phases.run_s, "worker", phases.jobs,
@@ -396,7 +398,6 @@ def measure(rows, phases: Phases | None = None) -> pd.DataFrame:
                                           "jobs": left.runs, "steps": math.nan, "us_per_step": math.nan,
                                           "note": left.families + ": " + left.why})[COST_COLUMNS]],
                        ignore_index=True)
-    jobs = per_job(rows)
     stepped = jobs[jobs.steps > 0]
     if len(jobs):
         g = jobs.groupby("engine", sort=False)
@@ -408,6 +409,26 @@ def measure(rows, phases: Phases | None = None) -> pd.DataFrame:
         eng = eng.sort_values("seconds", ascending=False, kind="stable", na_position="last")
         df = pd.concat([df, eng], ignore_index=True) if len(df) else eng.reset_index(drop=True)
     return df
+
+
+def is_reference(engine: str) -> bool:
+    """A formulation of the reference (reference_impl: physval's own code, which physval can make faster)."""
+    return engine == "reference" or engine.startswith("reference-")
+
+
+def floor_row(jobs: pd.DataFrame) -> tuple:
+    """The Cost section's floor (decision 10: where an engine's own stepping is the floor,
+    the report says so with figures): the steps of every engine but the reference's
+    formulations, summed over all the run's jobs (those it reused at the time they took),
+    against the default run's budget. No speed-up of physval's own code goes under it."""
+    theirs = jobs[~jobs.engine.map(is_reference)] if len(jobs) else jobs
+    seconds = float(theirs.wall_s.sum()) if len(theirs) else 0.0
+    budget = BUDGET_S * BUDGET_WORKERS
+    return ("engines' own steps", seconds, "worker", len(theirs),
+            f"the steps of every engine but the reference's formulations (physval's own code), over all the run's "
+            f"jobs: {_minutes(seconds / BUDGET_WORKERS)} of wall time on {BUDGET_WORKERS} cores before anything "
+            f"else, {seconds / budget:.0%} of the default run's budget ({_minutes(BUDGET_S)}): the floor no "
+            "speed-up of physval's code goes under")
 
 
 def measured(rows, phases: Phases | None, out: Path) -> pd.DataFrame:
