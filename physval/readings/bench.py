@@ -250,10 +250,11 @@ def compile_cost(engines: list[str], ctx: Context, execution: Execution) -> pd.D
     process (StepTimes); and the repeated run's mean step compiled and with
     NUMBA_DISABLE_JIT=1 (the same code as Python)."""
     import tempfile
+    from physval.readings.cost import is_reference
     resolver = ctx.resolver()
     out = []
     for e in engines:
-        if not e.startswith("reference"):
+        if not is_reference(e):
             continue  # numba compiles the reference's formulations only
         job = _compile_job(e, resolver.adapter(e), resolver)
         if job is None:
