@@ -84,3 +84,27 @@ def test_a_planar_contact_reads_its_three_rows(adapter):
     points = sim.contact_points()
     assert abs(sum(p.f_n for p in points) - weight) < 1e-3
     assert all(p.f_t[1] == 0.0 for p in points)
+
+
+def test_a_process_drops_its_compiled_programs_only_past_its_share_of_the_map_limit(adapter, monkeypatch):
+    """A worker that had run ~140 MJX jobs held 40-47 thousand memory mappings of Linux's 65530
+    and died in XLA's compiler (adapters/mjx_engine.py, MAPS_SHARE): past the share a new
+    scene first drops JAX's compiled programs, below it they stay loaded (a shape met again
+    costs nothing). Judged on a counting stand-in for JAX, at shares the process is surely
+    past (0) and surely under (the limit ten times over)."""
+    from pathlib import Path
+    from adapters import mjx_engine
+    if not Path("/proc/self/maps").exists():
+        pytest.skip("no /proc/self/maps: the memory-map limit is Linux's")
+    cleared = []
+    fake = type("Jax", (), {"clear_caches": staticmethod(lambda: cleared.append(1))})
+    monkeypatch.setattr(mjx_engine, "MAPS_SHARE", 10.0)
+    mjx_engine._release_programs_if_crowded(fake)
+    assert cleared == []
+    monkeypatch.setattr(mjx_engine, "MAPS_SHARE", 0.0)
+    mjx_engine._release_programs_if_crowded(fake)
+    assert cleared == [1]
+    import jax  # and a scene's simulation asks before its model goes to JAX
+    monkeypatch.setattr(jax, "clear_caches", lambda: cleared.append(2))
+    adapter.build(*variant_scene("central_impact", "drop,e=0.5"))
+    assert cleared == [1, 2]
