@@ -475,9 +475,10 @@ def _named_only():
 def test_a_configuration_run_by_name_was_measured_on_every_family_it_can_represent(engine):
     """A default run gives such a configuration its default families only, so a family added
     since its bands were measured meets it first in a named run (`physval run --engines
-    drake-sap`), where a check that misses without an entry is an unexplained `fail`. Its
-    file's `# families-measured:` line (written by `physval known ENGINE --write`) names the
-    families it was measured on: every family it can represent in a named run must be there."""
+    drake-sap`, with --on-demand for a configuration whose every run waits for it, as MJX's),
+    where a check that misses without an entry is an unexplained `fail`. Its file's
+    `# families-measured:` line (written by `physval known ENGINE --write`) names the families
+    it was measured on: every family it can represent in a named run must be there."""
     from cases.registry import builtin_families
     from physval.core.plan import leaves_out
     from adapters import registry
@@ -486,7 +487,8 @@ def test_a_configuration_run_by_name_was_measured_on_every_family_it_can_represe
     listed = deviations.families_measured(path)
     runs = {name for name, fam in builtin_families().items()
             if any(adapter.capabilities.cannot_run(scene := fam.scene(v.params), fam.needs_of(v.params)) is None
-                   and leaves_out(adapter, fam.tags, scene, named=True) is None for v in fam.variants)}
+                   and leaves_out(adapter, fam.tags, scene, named=True, on_demand=True) is None
+                   for v in fam.variants)}
     missing = sorted(runs - (listed or set()))
     if listed is None and missing:
         pytest.skip(f"{path.name} has no '# families-measured:' line yet: `physval known {engine} --write` records it")
