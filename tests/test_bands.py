@@ -204,6 +204,37 @@ def test_known_rewrites_bands_where_they_stand_in_the_file(tmp_path):
     assert [key(b) for b in again] == [key(b) for b in shuffled]
 
 
+def test_known_writes_nothing_into_a_file_edited_while_it_measured(tmp_path, monkeypatch, capsys):
+    """`known --write` puts each entry's bands under the line it read the entry at: a line
+    added above while the jobs ran would put them under another entry (13 lines off, seen on
+    MJX's file). It writes nothing then, says so on one line with exit 1, and the same
+    command again writes from the stored rows, under the entry."""
+    from physval.commands import known as command
+    known = tmp_path / "known.txt"
+    entry = ("fake-history central_impact[e=0.5,m=1:*]:*  # the fake engine lets the spheres pass through\n"
+             "    # band: the fake engine's history: each scene starts faster\n")
+    known.write_text(entry)
+    measured = command.run_stored
+
+    def edited_beside(*args, **kwargs):
+        out = measured(*args, **kwargs)
+        if not known.read_text().startswith("#"):
+            known.write_text("# a line added while the jobs ran\n" + known.read_text())
+        return out
+    monkeypatch.setattr(command, "run_stored", edited_beside)
+    measure = ["known", "fake-history", "--file", str(known), "--cases", *CASES, *HISTORY, *QUIET, "--write",
+               "--out", str(tmp_path / "m")]
+    assert main(measure) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "changed while fake-history was measured: nothing written" in err[0]
+    assert known.read_text() == "# a line added while the jobs ran\n" + entry
+    monkeypatch.undo()
+    assert main(measure) == 0
+    lines = known.read_text().splitlines()
+    assert lines[:3] == ["# a line added while the jobs ran", *entry.splitlines()]
+    assert len(lines) > 3 and all(b.startswith("    fake-history [") for b in lines[3:])
+
+
 # --- the release a file's bands were measured on ------------------------------------------
 
 def test_every_engine_file_but_the_references_names_the_release_it_was_measured_on():

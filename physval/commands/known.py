@@ -14,7 +14,8 @@ unless a `# band: WHY` line under the entry says why it is wider. The cause on t
 line and its `# band:` reason stay as the person who measured it wrote them. Without
 `--write` it only says what would change. It also lists failing checks no entry covers
 (write an entry with its cause) and entries that no longer cover anything (remove or
-narrow them). With --write over an engine's own file, the file's `# measured-on: PACKAGE RELEASE[, RELEASE...]`
+narrow them). A file edited while its engine's jobs ran is not written (exit 1): the same
+command again writes from the stored rows. With --write over an engine's own file, the file's `# measured-on: PACKAGE RELEASE[, RELEASE...]`
 line names the releases its bands hold for: the first its plain band lines, each further one
 its own `ENGINE@RELEASE` lines where it differs. Measured on a release the line lists after
 the first (or, over all families, one it does not list yet: it is added), only that
@@ -157,7 +158,7 @@ def run(args) -> int:
     # every variant the engines can run (or the --cases), so that failing checks no entry
     # covers show up too; with a user's file, only the families it names
     selected = options.cases_of(args, resolver, full=args.full)
-    changed = 0
+    changed = unwritten = 0
     from physval.readings import cost
     price = cost.pricer(resolver, cost.model_for(None))  # a run measured over the per-job limit: --on-demand
     for engine in engines:
@@ -166,6 +167,7 @@ def run(args) -> int:
         if path is None or not path.exists():
             print(f"{engine}: no known-deviation file ({path})")
             continue
+        as_read = path.read_bytes()  # the bands go in by the line numbers of this text
         entries = [e for e in deviations.parse(path) if e.applies_to(engine)]
         # the release measured here, and whether its bands are a further release's lines
         # (ENGINE@RELEASE where they differ from the plain ones) or the plain ones
@@ -259,6 +261,13 @@ def run(args) -> int:
         for r in loose:
             print(f"  unrecorded: {r['case']}[{r['variant']}]:{r['metric']} measured {float(r['measured']):.6g}, "
                   f"expected {float(r['expected']):.6g}: write an entry with its cause")
+        if args.write and path.read_bytes() != as_read:
+            # an edit made while the jobs ran moved the entries' lines: written by the old
+            # numbers, bands would land under other entries (measured: 13 lines off)
+            print(f"physval known: {path} changed while {engine} was measured: nothing written to it; the "
+                  f"same command again writes from the stored rows in {out} (no job runs again)", file=sys.stderr)
+            unwritten += 1
+            continue
         if args.write:
             text = deviations.rewrite(path, bands_of)
             if further and release not in recorded[1]:  # every band measured on a release of its own
@@ -275,4 +284,4 @@ def run(args) -> int:
             write_atomic(path, text)
     if not args.write and changed:
         print("(nothing written: add --write to record these bands)")
-    return 0
+    return 1 if unwritten else 0
