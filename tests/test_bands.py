@@ -102,6 +102,18 @@ def test_repeats_that_spread_widen_the_band_and_repeats_that_disagree_on_raising
     assert raised.raises == "RuntimeError"
 
 
+def test_a_repeat_that_gave_no_value_records_no_band_and_says_so():
+    """A worker that died (no exception, an error row with no value) in one repeat left MJX's
+    check without a band and without a word, and the next run failed on it."""
+    died = {"case": "fam", "variant": "c", "metric": "v", "expected": 1.0, "measured": math.nan,
+            "tolerance": CHECK.tolerance, "tolerance_kind": "abs", "status": "error",
+            "reason": "the worker process running this job died: killed by signal SIGSEGV (11)"}
+    first, second = ({"j3": [_row("c", 1.5)]}, {}), ({"j3": [died]}, {})
+    measured = deviations.measured_bands("eng", [_entry()], [first, second])
+    assert measured.bands[1] == [] and len(measured.unsteady) == 1
+    assert "1 of 2 repeats gave no value (error: the worker process running this job died" in measured.unsteady[0]
+
+
 def _rows(out: Path) -> dict:
     with open(out / "results.csv", newline="") as f:
         return {(r["variant"], r["metric"]): r for r in csv.DictReader(f)}

@@ -635,6 +635,10 @@ def measured_bands(engine: str, entries: list[Deviation], repeats: list[tuple[di
             value, width = band_of([float(row["measured"]) for row in judged], tol)
             out.bands[entry.line].append(Band(engine, variant, metric, value, width))
             out.tolerance[(variant, metric)] = tol
+        elif any(deviating(row) for row in judged):  # a repeat without a value (its worker died, say)
+            lost = next(row for _, row in runs if not any(row is j for j in judged))
+            out.unsteady.append(f"{r['case']}[{variant}]:{metric}: {len(runs) - len(judged)} of {len(runs)} repeats "
+                                f"gave no value ({lost['status']}: {str(lost['reason'])[:80]}): no band recorded")
     return out
 
 
