@@ -533,10 +533,10 @@ def test_a_configuration_run_by_name_was_measured_on_every_family_it_can_represe
                    and leaves_out(adapter, fam.tags, scene, named=True, on_demand=True) is None
                    for v in fam.variants)}
     missing = sorted(runs - (listed or set()))
-    if listed is None and missing:
-        pytest.skip(f"{path.name} has no '# families-measured:' line yet: `physval known {engine} --write` records it")
+    assert listed is not None, (f"{path.name} has no '# families-measured:' line: `physval known {engine} "
+                                "--on-demand --write` measures the families and records them")
     assert not missing, (f"{path.name}: a run naming {engine} takes {', '.join(missing)}, never measured on it: "
-                         f"physval known {engine} --write --cases {' '.join(missing)}")
+                         f"physval known {engine} --on-demand --write --cases {' '.join(missing)}")
 
 
 def test_the_families_measured_line_joins_what_known_ran_and_parses_as_a_comment(tmp_path):
