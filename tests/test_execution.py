@@ -961,3 +961,35 @@ def test_a_jobs_rows_do_not_depend_on_the_blas_threads_the_machine_would_give():
                               env={**os.environ, "OPENBLAS_NUM_THREADS": n}) for n in ("2", "1")]
     outs = [p.communicate(timeout=600)[0] for p in procs]
     assert all(p.returncode == 0 for p in procs) and outs[0] and outs[0] == outs[1], outs
+
+
+_KERNELS = '''
+import ctypes, os
+import physval, numpy
+numpy.ones((2, 2)) @ numpy.ones((2, 2))
+path = next(line.split()[-1] for line in open("/proc/self/maps") if "openblas" in line.lower())
+lib = ctypes.CDLL(path)
+for name in ("scipy_openblas_get_corename64_", "scipy_openblas_get_corename", "openblas_get_corename64_",
+             "openblas_get_corename"):
+    if hasattr(lib, name):
+        getattr(lib, name).restype = ctypes.c_char_p
+        print(getattr(lib, name)().decode())
+        break
+'''
+
+
+def test_numpys_openblas_runs_haswells_kernels_wherever_the_cpu_has_avx2():
+    """OpenBLAS picks its kernels by the CPU: on an AVX-512 machine SkylakeX's, whose sums
+    round otherwise than an AVX2 machine's, and 35 of the suite's chaotic checks left their
+    bands (physval/__init__). A process that imports physval first runs Haswell's kernels on
+    every CPU with AVX2 and FMA, whatever OpenBLAS would pick there."""
+    try:
+        flags = next(line.split(":", 1)[1].split() for line in open("/proc/cpuinfo") if line.startswith("flags"))
+    except (OSError, StopIteration):
+        pytest.skip("no x86 /proc/cpuinfo flags here")
+    if not {"avx2", "fma"} <= set(flags):
+        pytest.skip("this CPU has no AVX2 and FMA: OpenBLAS keeps its own choice")
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_CORETYPE"}
+    out = subprocess.run([sys.executable, "-c", _KERNELS], cwd=ROOT, capture_output=True, text=True, env=env,
+                         timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "Haswell", (out.stdout, out.stderr[-500:])
